@@ -1,0 +1,78 @@
+// Types of the generated budget tables (budgets/budget_table.h): one BoardTable per target board.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <cstring>
+
+namespace qsg::budgets {
+
+// What a fixed-depth queue does when a producer finds it full.
+enum class DropPolicy : std::uint8_t {
+  kDropOldest,  // the oldest element is dropped (counted) to make room: freshness wins (camera frames)
+  kDropNewest,  // the new element is dropped (counted): history wins
+  kCollate,     // the new element is merged into the newest queued one (frontend-to-backend updates)
+};
+
+inline const char* to_string(DropPolicy p) {
+  switch (p) {
+    case DropPolicy::kDropOldest: return "drop_oldest";
+    case DropPolicy::kDropNewest: return "drop_newest";
+    case DropPolicy::kCollate: return "collate";
+  }
+  return "?";
+}
+
+struct ArenaBudget {
+  const char* name;
+  std::size_t bytes;
+};
+
+struct CapacityBudget {
+  const char* arena;
+  const char* name;
+  std::size_t capacity;
+};
+
+// A task runs either at rate_hz of the tick clock, or on every Nth keyframe with an offset (F'-style
+// rate groups: offsets keep slow groups from firing on the same keyframe). Exactly one of the two is set.
+struct TaskBudget {
+  const char* name;
+  double rate_hz;                   // 0 when keyframe-driven
+  std::uint32_t every_n_keyframes;  // 0 when rate-driven
+  std::uint32_t offset;             // keyframe offset, < every_n_keyframes
+  std::uint32_t budget_us;
+  std::uint32_t priority;           // 0 runs first
+};
+
+struct QueueBudget {
+  const char* name;
+  std::uint32_t depth;
+  DropPolicy policy;
+};
+
+struct BoardTable {
+  const char* board;
+  const char* description;
+  const ArenaBudget* arenas;
+  std::size_t num_arenas;
+  const CapacityBudget* capacities;
+  std::size_t num_capacities;
+  const TaskBudget* tasks;
+  std::size_t num_tasks;
+  const QueueBudget* queues;
+  std::size_t num_queues;
+
+  const TaskBudget* find_task(const char* name) const {
+    for (std::size_t i = 0; i < num_tasks; ++i)
+      if (std::strcmp(tasks[i].name, name) == 0) return &tasks[i];
+    return nullptr;
+  }
+  const ArenaBudget* find_arena(const char* name) const {
+    for (std::size_t i = 0; i < num_arenas; ++i)
+      if (std::strcmp(arenas[i].name, name) == 0) return &arenas[i];
+    return nullptr;
+  }
+};
+
+}  // namespace qsg::budgets

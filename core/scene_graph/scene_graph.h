@@ -1,0 +1,262 @@
+// The layered 3D scene graph (objects and agents, places, rooms, buildings) in fixed-capacity stores.
+//
+// Every store is carved from one arena at init(), sized by the board's budget table; after that no operation
+// allocates. The paper's hierarchy rules are enforced on every edge: an edge joins nodes of the same layer
+// (and partition) or of adjacent layers; a node has at most one parent, in the layer directly above
+// (which also makes the children of different parents disjoint).
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+
+#include "core/memory/arena.h"
+#include "core/memory/fixed_hash_map.h"
+#include "core/memory/pool.h"
+#include "core/memory/resource_stats.h"
+#include "core/scene_graph/attributes.h"
+#include "core/scene_graph/node_id.h"
+
+namespace qsg::scene_graph {
+
+enum class NodeKind : std::uint8_t { kObject, kAgent, kPlace, kRoom, kBuilding };
+const char* to_string(NodeKind kind);
+LayerKey layer_of(NodeKind kind, char agent_prefix = kDefaultAgentPrefix);
+
+enum class Status : std::uint8_t {
+  kOk,
+  kDuplicateNode,
+  kDuplicateEdge,
+  kMissingNode,
+  kFull,              // a store is at capacity (counted in its stats)
+  kSelfLoop,
+  kLayersNotAdjacent, // locality rule: edges only within a layer or between adjacent layers
+  kPartitionMismatch, // same layer number, different partitions (e.g. an object and an agent)
+  kParentExists,      // single-parent rule
+  kWrongKind,
+};
+const char* to_string(Status status);
+
+// How many of each thing the graph holds; from the budget table (capacities_from_budget()).
+struct Capacities {
+  std::size_t object_nodes = 0;
+  std::size_t agent_nodes = 0;
+  std::size_t place_nodes = 0;
+  std::size_t room_nodes = 0;
+  std::size_t building_nodes = 0;
+  std::size_t edges = 0;
+  std::size_t adjacency_chunks = 0;  // chunks of kAdjacencyChunkEdges edge references
+  std::size_t mesh_connections = 0;  // object-to-mesh-vertex references, all objects together
+
+  std::size_t nodes() const { return object_nodes + agent_nodes + place_nodes + room_nodes + building_nodes; }
+  void print(std::FILE* out) const;
+};
+
+// The capacities and arena bytes of the board this build targets (budgets/<QSG_BOARD>.json).
+Capacities capacities_from_budget();
+std::size_t arena_bytes_from_budget();
+
+inline constexpr std::size_t kAdjacencyChunkEdges = 15;
+inline constexpr std::size_t kMeshChunkValues = 15;
+
+struct NodeRecord {
+  NodeId id = kNoNode;
+  LayerKey layer;
+  NodeKind kind = NodeKind::kObject;
+  std::uint32_t attributes = memory::kInvalidHandle;  // handle in the pool of its kind
+  std::uint32_t adjacency_head = memory::kInvalidHandle;
+  std::uint32_t degree = 0;
+  NodeId parent = kNoNode;
+  std::uint32_t num_children = 0;
+};
+
+struct EdgeRecord {
+  NodeId source = kNoNode;
+  NodeId target = kNoNode;
+  std::uint32_t source_node = memory::kInvalidHandle;
+  std::uint32_t target_node = memory::kInvalidHandle;
+  EdgeAttributes info;
+};
+
+class SceneGraph {
+ public:
+  SceneGraph() = default;
+  SceneGraph(const SceneGraph&) = delete;
+  SceneGraph& operator=(const SceneGraph&) = delete;
+  ~SceneGraph();
+
+  static memory::ArenaPlan plan(const Capacities& capacities);
+  // Carves every store from one arena of at most `budget_bytes`. Start-up only; false with a reason on error.
+  bool init(const Capacities& capacities, std::size_t budget_bytes, std::string* error);
+  bool initialized() const { return arena_.sealed(); }
+  const Capacities& capacities() const { return capacities_; }
+
+  // Nodes. Attributes are copied in; mesh connections of objects are added with append_mesh_connection().
+  Status add_object(NodeId id, const ObjectAttributes& attributes);
+  Status add_place(NodeId id, const PlaceAttributes& attributes);
+  Status add_room(NodeId id, const RoomAttributes& attributes);
+  Status add_building(NodeId id, const BuildingAttributes& attributes);
+  Status add_agent(NodeId id, char prefix, const AgentAttributes& attributes);
+  // Removes the node, its edges and its mesh connections.
+  bool remove_node(NodeId id);
+
+  // Edges are undirected; (a, b) and (b, a) are the same edge.
+  Status add_edge(NodeId a, NodeId b, const EdgeAttributes& info = {});
+  bool remove_edge(NodeId a, NodeId b);
+  // The rule add_edge() applies to two layers (also used to validate imports before touching the graph).
+  static Status check_layers(const LayerKey& a, const LayerKey& b);
+
+  bool has_node(NodeId id) const { return node_index_.contains(id); }
+  bool has_edge(NodeId a, NodeId b) const;
+  const NodeRecord* node(NodeId id) const;
+  const EdgeRecord* edge(NodeId a, NodeId b) const;
+  EdgeAttributes* edge_info(NodeId a, NodeId b);
+  NodeId parent(NodeId id) const;
+
+  // Typed attribute access; nullptr when the node is absent or of another kind.
+  ObjectAttributes* object(NodeId id) { return typed(id, NodeKind::kObject, objects_); }
+  PlaceAttributes* place(NodeId id) { return typed(id, NodeKind::kPlace, places_); }
+  RoomAttributes* room(NodeId id) { return typed(id, NodeKind::kRoom, rooms_); }
+  BuildingAttributes* building(NodeId id) { return typed(id, NodeKind::kBuilding, buildings_); }
+  AgentAttributes* agent(NodeId id) { return typed(id, NodeKind::kAgent, agents_); }
+  const ObjectAttributes* object(NodeId id) const { return const_cast<SceneGraph*>(this)->object(id); }
+  const PlaceAttributes* place(NodeId id) const { return const_cast<SceneGraph*>(this)->place(id); }
+  const RoomAttributes* room(NodeId id) const { return const_cast<SceneGraph*>(this)->room(id); }
+  const BuildingAttributes* building(NodeId id) const { return const_cast<SceneGraph*>(this)->building(id); }
+  const AgentAttributes* agent(NodeId id) const { return const_cast<SceneGraph*>(this)->agent(id); }
+
+  // Object mesh connections (indices of mesh vertices). False when the pool is full (counted).
+  bool append_mesh_connection(NodeId object_id, std::uint32_t vertex);
+  void clear_mesh_connections(NodeId object_id);
+  std::size_t num_mesh_connections(NodeId object_id) const;
+  template <typename Fn>
+  void for_each_mesh_connection(NodeId object_id, Fn&& fn) const;
+
+  // Iteration. fn must not add or remove nodes or edges.
+  template <typename Fn>
+  void for_each_node(Fn&& fn) const {  // fn(const NodeRecord&)
+    nodes_.for_each([&](std::uint32_t, const NodeRecord& n) { fn(n); });
+  }
+  template <typename Fn>
+  void for_each_edge(Fn&& fn) const {  // fn(const EdgeRecord&)
+    edges_.for_each([&](std::uint32_t, const EdgeRecord& e) { fn(e); });
+  }
+  template <typename Fn>
+  void for_each_neighbor(NodeId id, Fn&& fn) const;  // fn(NodeId neighbour, const EdgeRecord&)
+  template <typename Fn>
+  void for_each_child(NodeId id, Fn&& fn) const;  // fn(NodeId child)
+
+  std::size_t num_nodes() const { return nodes_.size(); }
+  std::size_t num_nodes(NodeKind kind) const;
+  std::size_t num_edges() const { return edges_.size(); }
+  std::size_t num_layer_edges(bool interlayer) const;
+
+  // Empties the graph; capacities and stores stay.
+  void clear();
+
+  // Usage of every store, for telemetry and tests: fn(const memory::ResourceStats&).
+  template <typename Fn>
+  void for_each_resource(Fn&& fn) const {
+    fn(arena_.stats());
+    fn(nodes_.stats());
+    fn(node_index_.stats());
+    fn(objects_.stats());
+    fn(agents_.stats());
+    fn(places_.stats());
+    fn(rooms_.stats());
+    fn(buildings_.stats());
+    fn(edges_.stats());
+    fn(edge_index_.stats());
+    fn(adjacency_.stats());
+    fn(mesh_chunks_.stats());
+  }
+
+ private:
+  struct EdgeKey {
+    NodeId lo;
+    NodeId hi;
+    friend bool operator==(const EdgeKey& a, const EdgeKey& b) { return a.lo == b.lo && a.hi == b.hi; }
+  };
+  struct EdgeKeyHash {
+    std::uint64_t operator()(const EdgeKey& k) const { return memory::mix64(k.lo ^ memory::mix64(k.hi)); }
+  };
+  struct AdjacencyChunk {
+    std::uint32_t edges[kAdjacencyChunkEdges];
+    std::uint32_t next;
+  };
+  struct MeshChunk {
+    std::uint32_t values[kMeshChunkValues];
+    std::uint32_t next;
+  };
+  static EdgeKey key_of(NodeId a, NodeId b) { return a < b ? EdgeKey{a, b} : EdgeKey{b, a}; }
+
+  template <typename Attr>
+  Status add_node(NodeId id, NodeKind kind, const LayerKey& layer, memory::Pool<Attr>& pool, const Attr& attributes);
+  template <typename Attr>
+  Attr* typed(NodeId id, NodeKind kind, memory::Pool<Attr>& pool) {
+    const std::uint32_t* h = node_index_.find(id);
+    if (h == nullptr || nodes_[*h].kind != kind) return nullptr;
+    return &pool[nodes_[*h].attributes];
+  }
+  bool adjacency_push(NodeRecord& node, std::uint32_t edge);
+  void adjacency_remove(NodeRecord& node, std::uint32_t edge);
+  void remove_edge_handle(std::uint32_t edge);
+  void release_attributes(const NodeRecord& node);
+
+  Capacities capacities_;
+  memory::Arena arena_;
+  memory::Pool<NodeRecord> nodes_{"scene_graph.nodes"};
+  memory::FixedHashMap<NodeId, std::uint32_t, memory::U64Hash> node_index_{"scene_graph.node_index"};
+  memory::Pool<ObjectAttributes> objects_{"scene_graph.objects"};
+  memory::Pool<AgentAttributes> agents_{"scene_graph.agents"};
+  memory::Pool<PlaceAttributes> places_{"scene_graph.places"};
+  memory::Pool<RoomAttributes> rooms_{"scene_graph.rooms"};
+  memory::Pool<BuildingAttributes> buildings_{"scene_graph.buildings"};
+  memory::Pool<EdgeRecord> edges_{"scene_graph.edges"};
+  memory::FixedHashMap<EdgeKey, std::uint32_t, EdgeKeyHash> edge_index_{"scene_graph.edge_index"};
+  memory::Pool<AdjacencyChunk> adjacency_{"scene_graph.adjacency_chunks"};
+  memory::Pool<MeshChunk> mesh_chunks_{"scene_graph.mesh_chunks"};
+};
+
+template <typename Fn>
+void SceneGraph::for_each_neighbor(NodeId id, Fn&& fn) const {
+  const std::uint32_t* h = node_index_.find(id);
+  if (h == nullptr) return;
+  const NodeRecord& n = nodes_[*h];
+  std::uint32_t remaining = n.degree;
+  // The head chunk holds the newest (degree - 1) % k + 1 references; the rest are full.
+  std::uint32_t in_chunk = remaining == 0 ? 0 : (remaining - 1) % kAdjacencyChunkEdges + 1;
+  for (std::uint32_t c = n.adjacency_head; c != memory::kInvalidHandle && remaining > 0; c = adjacency_[c].next) {
+    for (std::uint32_t i = 0; i < in_chunk; ++i) {
+      const EdgeRecord& e = edges_[adjacency_[c].edges[i]];
+      fn(e.source == id ? e.target : e.source, e);
+    }
+    remaining -= in_chunk;
+    in_chunk = kAdjacencyChunkEdges;
+  }
+}
+
+template <typename Fn>
+void SceneGraph::for_each_child(NodeId id, Fn&& fn) const {
+  const NodeRecord* n = node(id);
+  if (n == nullptr || n->num_children == 0) return;
+  for_each_neighbor(id, [&](NodeId other, const EdgeRecord&) {
+    const NodeRecord* o = node(other);
+    if (o != nullptr && o->parent == id) fn(other);
+  });
+}
+
+template <typename Fn>
+void SceneGraph::for_each_mesh_connection(NodeId object_id, Fn&& fn) const {
+  const ObjectAttributes* o = object(object_id);
+  if (o == nullptr) return;
+  std::uint32_t remaining = o->mesh_connections.size;
+  for (std::uint32_t c = o->mesh_connections.head; c != memory::kInvalidHandle && remaining > 0;
+       c = mesh_chunks_[c].next) {
+    const std::uint32_t n = remaining < kMeshChunkValues ? remaining : static_cast<std::uint32_t>(kMeshChunkValues);
+    for (std::uint32_t i = 0; i < n; ++i) fn(mesh_chunks_[c].values[i]);
+    remaining -= n;
+  }
+}
+
+}  // namespace qsg::scene_graph

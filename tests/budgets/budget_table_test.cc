@@ -1,0 +1,121 @@
+// Consistency of every board's budget table: capacities fit their arenas, every task has a budget, queues are sane.
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <set>
+#include <string>
+
+#include "budgets/budget_table.h"
+#include "core/scene_graph/scene_graph.h"
+
+namespace qsg::budgets {
+namespace {
+
+template <typename Ns>
+scene_graph::Capacities scene_graph_capacities() {
+  scene_graph::Capacities c;
+  c.object_nodes = Ns::kObjectNodes;
+  c.agent_nodes = Ns::kAgentNodes;
+  c.place_nodes = Ns::kPlaceNodes;
+  c.room_nodes = Ns::kRoomNodes;
+  c.building_nodes = Ns::kBuildingNodes;
+  c.edges = Ns::kEdges;
+  c.adjacency_chunks = Ns::kAdjacencyChunks;
+  c.mesh_connections = Ns::kMeshConnections;
+  return c;
+}
+// Namespaces cannot be template arguments; wrap each board's constants in a struct.
+struct HostSimSceneGraph {
+#define QSG_BUDGET_FIELDS(board)                                                     \
+  static constexpr std::size_t kObjectNodes = board::scene_graph::kObjectNodes;         \
+  static constexpr std::size_t kAgentNodes = board::scene_graph::kAgentNodes;           \
+  static constexpr std::size_t kPlaceNodes = board::scene_graph::kPlaceNodes;           \
+  static constexpr std::size_t kRoomNodes = board::scene_graph::kRoomNodes;             \
+  static constexpr std::size_t kBuildingNodes = board::scene_graph::kBuildingNodes;     \
+  static constexpr std::size_t kEdges = board::scene_graph::kEdges;                     \
+  static constexpr std::size_t kAdjacencyChunks = board::scene_graph::kAdjacencyChunks; \
+  static constexpr std::size_t kMeshConnections = board::scene_graph::kMeshConnections; \
+  static constexpr std::size_t kArenaBytes = board::scene_graph::kArenaBytes;
+  QSG_BUDGET_FIELDS(host_sim)
+};
+struct XavierNxSceneGraph {
+  QSG_BUDGET_FIELDS(xavier_nx)
+};
+#undef QSG_BUDGET_FIELDS
+
+template <typename T>
+void expect_scene_graph_fits(const char* board) {
+  const scene_graph::Capacities c = scene_graph_capacities<T>();
+  const std::size_t planned = scene_graph::SceneGraph::plan(c).total_bytes();
+  EXPECT_LE(planned, T::kArenaBytes) << board << ": scene_graph capacities need " << planned
+                                     << " bytes, its arena allows " << T::kArenaBytes;
+  // Every node can have its parent edge and a few more: adjacency chunks cover at least one per edge end / 15.
+  EXPECT_GE(c.adjacency_chunks * scene_graph::kAdjacencyChunkEdges, c.edges) << board;
+  EXPECT_GT(c.building_nodes, 0u) << board;
+}
+
+TEST(BudgetTableTest, EveryArenaHoldsItsCapacities) {
+  expect_scene_graph_fits<HostSimSceneGraph>("host_sim");
+  expect_scene_graph_fits<XavierNxSceneGraph>("xavier_nx");
+}
+
+TEST(BudgetTableTest, EveryBoardIsInTheGeneratedList) {
+  std::set<std::string> boards;
+  for (const BoardTable* t : kAllBoards) boards.insert(t->board);
+  EXPECT_EQ(boards.count("host_sim"), 1u);
+  EXPECT_EQ(boards.count("xavier_nx"), 1u);
+}
+
+TEST(BudgetTableTest, EveryTaskHasABudgetAndOneCadence) {
+  for (const BoardTable* t : kAllBoards) {
+    ASSERT_GT(t->num_tasks, 0u) << t->board;
+    for (std::size_t i = 0; i < t->num_tasks; ++i) {
+      const TaskBudget& task = t->tasks[i];
+      SCOPED_TRACE(std::string(t->board) + "." + task.name);
+      EXPECT_GT(task.budget_us, 0u) << "every task needs a time budget";
+      const bool rate = task.rate_hz > 0.0;
+      const bool keyframe = task.every_n_keyframes > 0;
+      EXPECT_NE(rate, keyframe) << "exactly one of rate_hz and every_n_keyframes";
+      if (keyframe) {
+        EXPECT_LT(task.offset, task.every_n_keyframes);
+      }
+      if (rate) {
+        EXPECT_LE(task.budget_us, 1e6 / task.rate_hz) << "budget longer than the task's period";
+      }
+    }
+    EXPECT_NE(t->find_task("frontend"), nullptr) << t->board << " must schedule the frontend";
+    EXPECT_NE(t->find_task("reconstruction"), nullptr) << t->board;
+  }
+}
+
+TEST(BudgetTableTest, BoardsDeclareTheSameTasksArenasAndQueues) {
+  const BoardTable& ref = *kAllBoards[0];
+  for (const BoardTable* t : kAllBoards) {
+    ASSERT_EQ(t->num_tasks, ref.num_tasks) << t->board;
+    ASSERT_EQ(t->num_arenas, ref.num_arenas) << t->board;
+    ASSERT_EQ(t->num_capacities, ref.num_capacities) << t->board;
+    ASSERT_EQ(t->num_queues, ref.num_queues) << t->board;
+    for (std::size_t i = 0; i < t->num_tasks; ++i) EXPECT_STREQ(t->tasks[i].name, ref.tasks[i].name) << t->board;
+    for (std::size_t i = 0; i < t->num_queues; ++i) {
+      EXPECT_STREQ(t->queues[i].name, ref.queues[i].name) << t->board;
+      EXPECT_GT(t->queues[i].depth, 0u) << t->board << "." << t->queues[i].name;
+    }
+    for (std::size_t i = 0; i < t->num_capacities; ++i) {
+      EXPECT_STREQ(t->capacities[i].name, ref.capacities[i].name) << t->board;
+      EXPECT_NE(t->find_arena(t->capacities[i].arena), nullptr) << t->board << ": capacity in an undeclared arena";
+    }
+  }
+}
+
+TEST(BudgetTableTest, ActiveBoardIsTheConfiguredOne) {
+  EXPECT_GT(active::scene_graph::kArenaBytes, 0u);
+  EXPECT_GE(active::tasks::frontend::kEveryNKeyframes, 1u);
+}
+
+TEST(BudgetTableTest, XavierRunsTheFrontendEveryFifthKeyframeAsThePaper) {
+  EXPECT_EQ(xavier_nx::tasks::frontend::kEveryNKeyframes, 5u);
+  EXPECT_EQ(host_sim::tasks::frontend::kEveryNKeyframes, 1u);
+}
+
+}  // namespace
+}  // namespace qsg::budgets

@@ -1,0 +1,32 @@
+// The allocation hook itself must be able to fail a test.
+#include "tests/support/allocation_counter.h"
+
+#include <gtest/gtest.h>
+#include <gtest/gtest-spi.h>
+
+#include <memory>
+#include <vector>
+
+namespace qsg::testing {
+namespace {
+
+TEST(AllocationCounterTest, CountsOperatorNew) {
+  AllocationCounter counter;
+  auto p = std::make_unique<int>(3);
+  std::vector<double> v(100);
+  EXPECT_GE(counter.allocations(), 2u);
+  EXPECT_GE(counter.bytes(), sizeof(int) + 100 * sizeof(double));
+}
+
+TEST(AllocationCounterTest, MacroFailsWhenRegionAllocates) {
+  EXPECT_NONFATAL_FAILURE(EXPECT_NO_ALLOCATIONS({ std::vector<int> v(10); }), "steady-state region allocated");
+}
+
+TEST(AllocationCounterTest, MacroPassesWhenRegionDoesNotAllocate) {
+  int x = 0;
+  EXPECT_NO_ALLOCATIONS({ for (int i = 0; i < 10; ++i) x += i; });
+  EXPECT_EQ(x, 45);
+}
+
+}  // namespace
+}  // namespace qsg::testing

@@ -1,0 +1,192 @@
+// Scene graph: layers, hierarchy rules, edges, removal, mesh connections, capacity and allocation behaviour.
+#include "core/scene_graph/scene_graph.h"
+
+#include <gtest/gtest.h>
+
+#include <map>
+#include <random>
+#include <set>
+#include <vector>
+
+#include "tests/scene_graph/test_graph.h"
+#include "tests/support/allocation_counter.h"
+
+namespace qsg::scene_graph {
+namespace {
+
+using testing::make_graph;
+using testing::place_at;
+
+const NodeId kP0 = make_node_id('p', 0);
+const NodeId kP1 = make_node_id('p', 1);
+const NodeId kP2 = make_node_id('p', 2);
+const NodeId kO0 = make_node_id('O', 0);
+const NodeId kR0 = make_node_id('R', 0);
+const NodeId kR1 = make_node_id('R', 1);
+const NodeId kB0 = make_node_id('B', 0);
+const NodeId kA0 = make_node_id('a', 0);
+
+TEST(SceneGraphTest, NodesLandOnTheirSparkDsgLayers) {
+  auto g = make_graph();
+  ASSERT_EQ(g->add_place(kP0, place_at(0, 0, 1)), Status::kOk);
+  ASSERT_EQ(g->add_object(kO0, ObjectAttributes{}), Status::kOk);
+  ASSERT_EQ(g->add_room(kR0, RoomAttributes{}), Status::kOk);
+  ASSERT_EQ(g->add_building(kB0, BuildingAttributes{}), Status::kOk);
+  ASSERT_EQ(g->add_agent(kA0, 'a', AgentAttributes{}), Status::kOk);
+  EXPECT_EQ(g->node(kO0)->layer.layer, 2);
+  EXPECT_EQ(g->node(kA0)->layer.layer, 2);
+  EXPECT_EQ(g->node(kA0)->layer.partition, 'a');
+  EXPECT_EQ(g->node(kP0)->layer.layer, 3);
+  EXPECT_EQ(g->node(kR0)->layer.layer, 4);
+  EXPECT_EQ(g->node(kB0)->layer.layer, 5);
+  EXPECT_EQ(g->add_place(kP0, place_at(1, 1, 1)), Status::kDuplicateNode);
+  EXPECT_EQ(g->num_nodes(), 5u);
+  EXPECT_NE(g->place(kP0), nullptr);
+  EXPECT_EQ(g->room(kP0), nullptr) << "typed access checks the kind";
+}
+
+TEST(SceneGraphTest, HierarchyRulesAreEnforced) {
+  auto g = make_graph();
+  g->add_place(kP0, place_at(0, 0, 1));
+  g->add_place(kP1, place_at(1, 0, 1));
+  g->add_object(kO0, ObjectAttributes{});
+  g->add_room(kR0, RoomAttributes{});
+  g->add_room(kR1, RoomAttributes{});
+  g->add_building(kB0, BuildingAttributes{});
+  g->add_agent(kA0, 'a', AgentAttributes{});
+
+  EXPECT_EQ(g->add_edge(kP0, kP0), Status::kSelfLoop);
+  EXPECT_EQ(g->add_edge(kP0, make_node_id('p', 99)), Status::kMissingNode);
+  EXPECT_EQ(g->add_edge(kO0, kR0), Status::kLayersNotAdjacent) << "locality: objects (2) to rooms (4)";
+  EXPECT_EQ(g->add_edge(kO0, kA0), Status::kPartitionMismatch);
+  ASSERT_EQ(g->add_edge(kP0, kP1, {0.5, true}), Status::kOk);
+  EXPECT_EQ(g->add_edge(kP1, kP0), Status::kDuplicateEdge) << "undirected";
+  ASSERT_EQ(g->add_edge(kR0, kP0), Status::kOk);
+  EXPECT_EQ(g->parent(kP0), kR0);
+  EXPECT_EQ(g->add_edge(kP0, kR1), Status::kParentExists) << "single parent";
+  ASSERT_EQ(g->add_edge(kO0, kP0), Status::kOk);
+  EXPECT_EQ(g->parent(kO0), kP0);
+  ASSERT_EQ(g->add_edge(kB0, kR0), Status::kOk);
+  ASSERT_EQ(g->add_edge(kA0, kP1), Status::kOk);
+  EXPECT_EQ(g->parent(kA0), kP1);
+  EXPECT_EQ(g->num_layer_edges(true), 4u);
+  EXPECT_EQ(g->num_layer_edges(false), 1u);
+  EXPECT_DOUBLE_EQ(g->edge(kP1, kP0)->info.weight, 0.5);
+
+  std::set<NodeId> children;
+  g->for_each_child(kP0, [&](NodeId c) { children.insert(c); });
+  EXPECT_EQ(children, (std::set<NodeId>{kO0}));
+
+  // Removing the parent edge frees the child for a new parent.
+  EXPECT_TRUE(g->remove_edge(kP0, kR0));
+  EXPECT_EQ(g->parent(kP0), kNoNode);
+  EXPECT_EQ(g->add_edge(kP0, kR1), Status::kOk);
+}
+
+TEST(SceneGraphTest, AdjacencyMatchesReferenceUnderRandomEdits) {
+  auto g = make_graph();
+  constexpr int kN = 60;
+  for (int i = 0; i < kN; ++i) ASSERT_EQ(g->add_place(make_node_id('p', i), place_at(i, 0, 1)), Status::kOk);
+  std::map<NodeId, std::set<NodeId>> reference;
+  std::mt19937 rng(3);
+  for (int step = 0; step < 20000; ++step) {
+    const NodeId a = make_node_id('p', rng() % kN);
+    const NodeId b = make_node_id('p', rng() % kN);
+    if (a == b) continue;
+    if (rng() % 2 == 0) {
+      const Status s = g->add_edge(a, b);
+      const bool had = reference[a].count(b) != 0;
+      ASSERT_EQ(s, had ? Status::kDuplicateEdge : Status::kOk);
+      reference[a].insert(b);
+      reference[b].insert(a);
+    } else {
+      const bool had = reference[a].count(b) != 0;
+      ASSERT_EQ(g->remove_edge(a, b), had);
+      reference[a].erase(b);
+      reference[b].erase(a);
+    }
+  }
+  std::size_t edge_ends = 0;
+  for (int i = 0; i < kN; ++i) {
+    const NodeId id = make_node_id('p', i);
+    std::set<NodeId> got;
+    g->for_each_neighbor(id, [&](NodeId n, const EdgeRecord&) { EXPECT_TRUE(got.insert(n).second); });
+    EXPECT_EQ(got, reference[id]) << node_label(id);
+    EXPECT_EQ(g->node(id)->degree, reference[id].size());
+    edge_ends += got.size();
+  }
+  EXPECT_EQ(g->num_edges() * 2, edge_ends);
+  // Removing nodes removes their edges and leaves the rest consistent.
+  for (int i = 0; i < kN; i += 3) ASSERT_TRUE(g->remove_node(make_node_id('p', i)));
+  g->for_each_edge([&](const EdgeRecord& e) {
+    EXPECT_TRUE(g->has_node(e.source));
+    EXPECT_TRUE(g->has_node(e.target));
+  });
+}
+
+TEST(SceneGraphTest, ObjectMeshConnectionsSpanChunksAndAreFreed) {
+  auto g = make_graph();
+  ASSERT_EQ(g->add_object(kO0, ObjectAttributes{}), Status::kOk);
+  for (std::uint32_t v = 0; v < 1000; ++v) ASSERT_TRUE(g->append_mesh_connection(kO0, v * 3));
+  std::vector<std::uint32_t> got;
+  g->for_each_mesh_connection(kO0, [&](std::uint32_t v) { got.push_back(v); });
+  ASSERT_EQ(got.size(), 1000u);
+  for (std::uint32_t v = 0; v < 1000; ++v) EXPECT_EQ(got[v], v * 3);
+  std::size_t chunks_in_use = 0;
+  g->for_each_resource([&](const memory::ResourceStats& s) {
+    if (std::string(s.name) == "scene_graph.mesh_chunks") chunks_in_use = s.in_use;
+  });
+  EXPECT_EQ(chunks_in_use, (1000 + kMeshChunkValues - 1) / kMeshChunkValues);
+  ASSERT_TRUE(g->remove_node(kO0));
+  g->for_each_resource([&](const memory::ResourceStats& s) {
+    if (std::string(s.name) == "scene_graph.mesh_chunks") {
+      EXPECT_EQ(s.in_use, 0u);
+    }
+  });
+}
+
+TEST(SceneGraphTest, InitRefusesABudgetTooSmall) {
+  SceneGraph g;
+  std::string error;
+  EXPECT_FALSE(g.init(testing::small_capacities(), 1024, &error));
+  EXPECT_NE(error.find("scene_graph"), std::string::npos);
+  EXPECT_FALSE(g.initialized());
+}
+
+TEST(SceneGraphTest, FullStoreAbortsInTestBuilds) {
+  Capacities c = testing::small_capacities();
+  c.room_nodes = 1;
+  auto g = make_graph(c);
+  ASSERT_EQ(g->add_room(kR0, RoomAttributes{}), Status::kOk);
+  EXPECT_DEATH(g->add_room(kR1, RoomAttributes{}), "scene_graph.rooms' is full");
+}
+
+TEST(SceneGraphTest, SteadyStateUpdatesDoNotAllocate) {
+  auto g = make_graph();
+  // Warm-up is not needed: every store was carved at init().
+  EXPECT_NO_ALLOCATIONS({
+    for (int round = 0; round < 5; ++round) {
+      for (int i = 0; i < 200; ++i) g->add_place(make_node_id('p', i), place_at(i, round, 1.0));
+      for (int i = 1; i < 200; ++i) g->add_edge(make_node_id('p', i - 1), make_node_id('p', i), {1.0, true});
+      g->add_room(kR0, RoomAttributes{});
+      for (int i = 0; i < 200; ++i) g->add_edge(kR0, make_node_id('p', i));
+      g->add_object(kO0, ObjectAttributes{});
+      for (std::uint32_t v = 0; v < 500; ++v) g->append_mesh_connection(kO0, v);
+      for (int i = 0; i < 200; ++i) g->remove_node(make_node_id('p', i));
+      g->remove_node(kR0);
+      g->remove_node(kO0);
+    }
+  });
+  EXPECT_EQ(g->num_nodes(), 0u);
+  EXPECT_EQ(g->num_edges(), 0u);
+}
+
+TEST(SceneGraphTest, BudgetCapacitiesInitialize) {
+  SceneGraph g;
+  std::string error;
+  ASSERT_TRUE(g.init(capacities_from_budget(), arena_bytes_from_budget(), &error)) << error;
+  EXPECT_EQ(g.capacities().object_nodes, capacities_from_budget().object_nodes);
+}
+
+}  // namespace
+}  // namespace qsg::scene_graph
