@@ -1,0 +1,336 @@
+// Ceres implementation of the SE(3) pose-graph optimizer: input checks, residual, gauge fixing and solve.
+#include "core/backend/pose_graph.h"
+
+#include <ceres/autodiff_cost_function.h>
+#include <ceres/loss_function.h>
+#include <ceres/problem.h>
+#include <ceres/solver.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdarg>
+#include <numeric>
+#include <string>
+#include <utility>
+
+#include "core/backend/ceres_compat.h"
+
+namespace qsg::backend {
+namespace {
+
+constexpr int kResidualDim = 6;
+constexpr int kTranslationDim = 3;
+constexpr int kQuaternionDim = 4;
+constexpr int kStateDim = kTranslationDim + kQuaternionDim;
+// A quaternion this short carries no direction to normalize towards.
+constexpr double kMinQuaternionNorm = 1e-6;
+
+using Vector6d = Eigen::Matrix<double, kResidualDim, 1>;
+
+// Tangent-space error of one edge, whitened: [R_from^T (t_to - t_from) - t_meas; 2 vec(q_meas^-1 q_from^-1 q_to)].
+class RelativePoseResidual {
+ public:
+  RelativePoseResidual(const Pose3& measured_from_T_to, const Vector6d& inv_sigma)
+      : measured_t_m_(measured_from_T_to.t_m), measured_q_(measured_from_T_to.q), inv_sigma_(inv_sigma) {}
+
+  template <typename T>
+  bool operator()(const T* t_from_ptr, const T* q_from_ptr, const T* t_to_ptr, const T* q_to_ptr,
+                  T* residual_ptr) const {
+    using Vector3T = Eigen::Matrix<T, 3, 1>;
+    const Eigen::Map<const Vector3T> t_from(t_from_ptr);
+    const Eigen::Map<const Eigen::Quaternion<T>> q_from(q_from_ptr);
+    const Eigen::Map<const Vector3T> t_to(t_to_ptr);
+    const Eigen::Map<const Eigen::Quaternion<T>> q_to(q_to_ptr);
+
+    const Eigen::Quaternion<T> q_from_inv = q_from.conjugate();
+    const Vector3T t_from_to = q_from_inv * (t_to - t_from);
+    // |2 vec(q_err)| = 2 |sin(angle / 2)| whatever the sign of q_err, so q and -q need no special case.
+    const Eigen::Quaternion<T> q_err = measured_q_.template cast<T>().conjugate() * (q_from_inv * q_to);
+
+    Eigen::Map<Eigen::Matrix<T, kResidualDim, 1>> residual(residual_ptr);
+    residual.template head<3>() = t_from_to - measured_t_m_.template cast<T>();
+    residual.template tail<3>() = T(2.0) * q_err.vec();
+    residual = residual.cwiseProduct(inv_sigma_.template cast<T>());
+    return true;
+  }
+
+ private:
+  Eigen::Vector3d measured_t_m_;
+  Eigen::Quaterniond measured_q_;
+  Vector6d inv_sigma_;
+};
+
+std::string format(const char* fmt, ...) __attribute__((format(printf, 1, 2)));
+std::string format(const char* fmt, ...) {
+  char buffer[256];
+  va_list args;
+  va_start(args, fmt);
+  std::vsnprintf(buffer, sizeof(buffer), fmt, args);
+  va_end(args);
+  return buffer;
+}
+
+PoseGraphResult invalid(std::string message) {
+  PoseGraphResult result;
+  result.status = PoseGraphStatus::kInvalidInput;
+  result.message = "invalid input: " + std::move(message);
+  return result;
+}
+
+bool all_finite(const Pose3& pose) { return pose.t_m.allFinite() && pose.q.coeffs().allFinite(); }
+
+// Empty string when the config is usable.
+std::string check_config(const PoseGraphConfig& config) {
+  if (config.max_iterations < 1) return format("max_iterations is %d, must be >= 1", config.max_iterations);
+  if (config.num_threads < 1) return format("num_threads is %d, must be >= 1", config.num_threads);
+  if (config.loop_closure_loss != RobustLoss::kNone &&
+      !(std::isfinite(config.loop_closure_loss_scale_sigma) && config.loop_closure_loss_scale_sigma > 0.0)) {
+    return format("loop_closure_loss_scale_sigma is %g, must be finite and > 0", config.loop_closure_loss_scale_sigma);
+  }
+  return {};
+}
+
+std::string check_edge(std::size_t index, const RelativePoseEdge& edge, std::size_t num_poses) {
+  const char* kind = edge.is_loop_closure ? "loop closure" : "odometry";
+  if (edge.from >= num_poses || edge.to >= num_poses) {
+    return format("edge %zu (%s %u -> %u): pose index out of range, graph has %zu poses", index, kind, edge.from,
+                  edge.to, num_poses);
+  }
+  if (edge.from == edge.to) return format("edge %zu (%s): connects pose %u to itself", index, kind, edge.from);
+  if (!all_finite(edge.measured_from_T_to)) {
+    return format("edge %zu (%s %u -> %u): measurement is not finite", index, kind, edge.from, edge.to);
+  }
+  if (edge.measured_from_T_to.q.norm() < kMinQuaternionNorm) {
+    return format("edge %zu (%s %u -> %u): measured quaternion has zero norm", index, kind, edge.from, edge.to);
+  }
+  const bool sigmas_ok = edge.sigma_t_m.allFinite() && edge.sigma_rot_rad.allFinite() &&
+                         edge.sigma_t_m.minCoeff() > 0.0 && edge.sigma_rot_rad.minCoeff() > 0.0;
+  if (!sigmas_ok) {
+    return format("edge %zu (%s %u -> %u): sigmas must be finite and > 0 (sigma_t_m %g %g %g, sigma_rot_rad %g %g %g)",
+                  index, kind, edge.from, edge.to, edge.sigma_t_m.x(), edge.sigma_t_m.y(), edge.sigma_t_m.z(),
+                  edge.sigma_rot_rad.x(), edge.sigma_rot_rad.y(), edge.sigma_rot_rad.z());
+  }
+  return {};
+}
+
+// Null for kNone: Ceres then applies plain least squares.
+ceres::LossFunction* make_loss(RobustLoss loss, double scale_sigma) {
+  switch (loss) {
+    case RobustLoss::kHuber:
+      return new ceres::HuberLoss(scale_sigma);
+    case RobustLoss::kCauchy:
+      return new ceres::CauchyLoss(scale_sigma);
+    case RobustLoss::kNone:
+      break;
+  }
+  return nullptr;
+}
+
+Vector6d inverse_sigma(const RelativePoseEdge& edge) {
+  Vector6d inv_sigma;
+  inv_sigma << edge.sigma_t_m.cwiseInverse(), edge.sigma_rot_rad.cwiseInverse();
+  return inv_sigma;
+}
+
+// Union-find root with path halving; components decide which pose holds each one's gauge.
+std::uint32_t find_root(std::vector<std::uint32_t>& parent, std::uint32_t i) {
+  while (parent[i] != i) {
+    parent[i] = parent[parent[i]];
+    i = parent[i];
+  }
+  return i;
+}
+
+}  // namespace
+
+const char* to_string(RobustLoss loss) {
+  switch (loss) {
+    case RobustLoss::kNone:
+      return "none";
+    case RobustLoss::kHuber:
+      return "huber";
+    case RobustLoss::kCauchy:
+      return "cauchy";
+  }
+  return "?";
+}
+
+const char* to_string(PoseGraphStatus status) {
+  switch (status) {
+    case PoseGraphStatus::kConverged:
+      return "converged";
+    case PoseGraphStatus::kMaxIterations:
+      return "max_iterations";
+    case PoseGraphStatus::kInvalidInput:
+      return "invalid_input";
+    case PoseGraphStatus::kSolverFailed:
+      return "solver_failed";
+  }
+  return "?";
+}
+
+void PoseGraphConfig::print(std::FILE* out) const {
+  std::fprintf(out,
+               "pose_graph: loop_closure_loss=%s loop_closure_loss_scale_sigma=%g huber_warm_start=%s "
+               "max_iterations=%d fix_first_pose=%s num_threads=%d\n",
+               to_string(loop_closure_loss), loop_closure_loss_scale_sigma, huber_warm_start ? "true" : "false",
+               max_iterations, fix_first_pose ? "true" : "false", num_threads);
+}
+
+void PoseGraphResult::print(std::FILE* out) const {
+  std::fprintf(out,
+               "pose_graph result: status=%s iterations=%d initial_cost=%g final_cost=%g "
+               "loop_closures_downweighted=%u message=\"%s\"\n",
+               to_string(status), iterations, initial_cost, final_cost, num_loop_closures_downweighted,
+               message.c_str());
+}
+
+PoseGraphResult optimize_pose_graph(const PoseGraphConfig& config, std::vector<Pose3>& poses,
+                                    const std::vector<RelativePoseEdge>& edges) {
+  if (std::string error = check_config(config); !error.empty()) return invalid(std::move(error));
+  if (poses.empty()) return invalid("empty graph: no poses");
+  // Indices are uint32 in the edges; a larger graph could not be addressed.
+  if (poses.size() > UINT32_MAX) return invalid(format("%zu poses exceed the uint32 index range", poses.size()));
+  for (std::size_t i = 0; i < poses.size(); ++i) {
+    if (!all_finite(poses[i])) return invalid(format("pose %zu is not finite", i));
+    if (poses[i].q.norm() < kMinQuaternionNorm) return invalid(format("pose %zu has a zero-norm quaternion", i));
+  }
+  for (std::size_t i = 0; i < edges.size(); ++i) {
+    if (std::string error = check_edge(i, edges[i], poses.size()); !error.empty()) return invalid(std::move(error));
+  }
+
+  // Solve on a copy so a failed solve leaves the caller's poses as they were.
+  const std::size_t num_poses = poses.size();
+  std::vector<double> state(num_poses * kStateDim);
+  auto t_block = [&state](std::size_t i) { return &state[i * kStateDim]; };
+  auto q_block = [&state](std::size_t i) { return &state[i * kStateDim + kTranslationDim]; };
+  for (std::size_t i = 0; i < num_poses; ++i) {
+    Eigen::Map<Eigen::Vector3d>(t_block(i)) = poses[i].t_m;
+    Eigen::Map<Eigen::Quaterniond>(q_block(i)) = poses[i].q.normalized();
+  }
+
+  PoseGraphResult result;
+  if (edges.empty()) {
+    for (std::size_t i = 0; i < num_poses; ++i) poses[i].q.normalize();
+    result.status = PoseGraphStatus::kConverged;
+    result.message = "no edges: nothing to optimize";
+    return result;
+  }
+
+  // One loss shared by every loop closure, wrapped so the warm start can swap it between solves. Declared before
+  // the problem, which only borrows it.
+  const double scale_sigma = config.loop_closure_loss_scale_sigma;
+  ceres::LossFunctionWrapper loop_closure_loss(make_loss(config.loop_closure_loss, scale_sigma),
+                                               ceres::TAKE_OWNERSHIP);
+  ceres::LossFunction* const loop_closure_rho =
+      config.loop_closure_loss == RobustLoss::kNone ? nullptr : &loop_closure_loss;
+  ceres::Problem::Options problem_options;
+  problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  ceres::Problem problem(problem_options);
+  std::vector<std::uint32_t> parent(num_poses);
+  std::iota(parent.begin(), parent.end(), 0u);
+  std::vector<bool> in_problem(num_poses, false);
+  auto add_pose = [&](std::uint32_t i) {
+    if (in_problem[i]) return;
+    in_problem[i] = true;
+    problem.AddParameterBlock(t_block(i), kTranslationDim);
+    problem.AddParameterBlock(q_block(i), kQuaternionDim);
+    ceres_compat::set_quaternion_manifold(problem, q_block(i));
+  };
+
+  std::vector<RelativePoseResidual> residuals;
+  residuals.reserve(edges.size());
+  bool has_loop_closure = false;
+  for (const RelativePoseEdge& edge : edges) {
+    has_loop_closure = has_loop_closure || edge.is_loop_closure;
+    add_pose(edge.from);
+    add_pose(edge.to);
+    Pose3 measured = edge.measured_from_T_to;
+    measured.q.normalize();
+    residuals.emplace_back(measured, inverse_sigma(edge));
+    using Cost = ceres::AutoDiffCostFunction<RelativePoseResidual, kResidualDim, kTranslationDim, kQuaternionDim,
+                                             kTranslationDim, kQuaternionDim>;
+    auto* cost = new Cost(new RelativePoseResidual(residuals.back()));
+    problem.AddResidualBlock(cost, edge.is_loop_closure ? loop_closure_rho : nullptr, t_block(edge.from),
+                             q_block(edge.from), t_block(edge.to), q_block(edge.to));
+    const std::uint32_t a = find_root(parent, edge.from);
+    const std::uint32_t b = find_root(parent, edge.to);
+    // The smaller index becomes the root, so each root is its component's lowest-index pose.
+    if (a != b) parent[std::max(a, b)] = std::min(a, b);
+  }
+  if (config.fix_first_pose) {
+    for (std::uint32_t i = 0; i < num_poses; ++i) {
+      if (in_problem[i] && find_root(parent, i) == i) {
+        problem.SetParameterBlockConstant(t_block(i));
+        problem.SetParameterBlockConstant(q_block(i));
+      }
+    }
+  }
+
+  ceres::Solver::Options options;
+  options.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
+  options.max_num_iterations = config.max_iterations;
+  options.num_threads = config.num_threads;
+  options.logging_type = ceres::SILENT;
+  options.minimizer_progress_to_stdout = false;
+  std::string options_error;
+  if (!options.IsValid(&options_error)) {
+    // A Ceres built without any sparse library; dense QR is fine at the sizes the backend sees.
+    options.linear_solver_type = ceres::DENSE_QR;
+    if (!options.IsValid(&options_error)) {
+      result.status = PoseGraphStatus::kSolverFailed;
+      result.message = "solver failed: options rejected: " + options_error;
+      return result;
+    }
+  }
+
+  // Reported under the configured loss, whatever the warm start uses, so initial and final cost compare.
+  problem.Evaluate(ceres::Problem::EvaluateOptions(), &result.initial_cost, nullptr, nullptr, nullptr);
+
+  ceres::Solver::Summary summary;
+  const bool warm_start =
+      config.huber_warm_start && config.loop_closure_loss == RobustLoss::kCauchy && has_loop_closure;
+  if (warm_start) {
+    // Cauchy alone discards a correct closure that starts many sigmas away on a drifted trajectory; convex Huber
+    // pulls every closure in first, then Cauchy lets go of the ones that still disagree.
+    loop_closure_loss.Reset(make_loss(RobustLoss::kHuber, scale_sigma), ceres::TAKE_OWNERSHIP);
+    ceres::Solve(options, &problem, &summary);
+    result.iterations = summary.num_successful_steps + summary.num_unsuccessful_steps;
+    loop_closure_loss.Reset(make_loss(RobustLoss::kCauchy, scale_sigma), ceres::TAKE_OWNERSHIP);
+  }
+  if (!warm_start || summary.IsSolutionUsable()) {
+    ceres::Solve(options, &problem, &summary);
+    result.iterations += summary.num_successful_steps + summary.num_unsuccessful_steps;
+  }
+  result.final_cost = summary.final_cost;
+  const bool state_finite = std::all_of(state.begin(), state.end(), [](double v) { return std::isfinite(v); });
+  if (!summary.IsSolutionUsable() || !state_finite) {
+    result.status = PoseGraphStatus::kSolverFailed;
+    result.message = std::string("solver failed") + (warm_start ? " (Huber warm start or Cauchy solve): " : ": ") +
+                     summary.message;
+    return result;
+  }
+  result.status = summary.termination_type == ceres::NO_CONVERGENCE ? PoseGraphStatus::kMaxIterations
+                                                                     : PoseGraphStatus::kConverged;
+  for (std::size_t i = 0; i < num_poses; ++i) {
+    poses[i].t_m = Eigen::Map<const Eigen::Vector3d>(t_block(i));
+    poses[i].q = Eigen::Map<const Eigen::Quaterniond>(q_block(i)).normalized();
+  }
+  result.edge_residual_sigma.resize(edges.size());
+  for (std::size_t k = 0; k < edges.size(); ++k) {
+    Vector6d r;
+    residuals[k](t_block(edges[k].from), q_block(edges[k].from), t_block(edges[k].to), q_block(edges[k].to),
+                 r.data());
+    result.edge_residual_sigma[k] = r.norm();
+    if (edges[k].is_loop_closure && config.loop_closure_loss != RobustLoss::kNone &&
+        r.norm() > config.loop_closure_loss_scale_sigma) {
+      ++result.num_loop_closures_downweighted;
+    }
+  }
+  result.message = format("%s after %d iterations, cost %.6g -> %.6g: ", to_string(result.status), result.iterations,
+                          result.initial_cost, result.final_cost) +
+                   summary.message;
+  return result;
+}
+
+}  // namespace qsg::backend

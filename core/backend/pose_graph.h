@@ -1,0 +1,103 @@
+// SE(3) pose-graph optimization of the agent layer (odometry and loop-closure edges) for the scene-graph backend.
+//
+// Minimizes sum_ij rho_ij(|W_ij r_ij|^2) over world_T_i (the paper's eq. (pgo) restricted to the agent layer), where
+// r_ij is the tangent-space relative-pose error of edge (i, j) and W_ij = diag(1 / sigma). Odometry is plain least
+// squares; loop closures get a robust rho, Huber then Cauchy, standing in for the paper's GNC outlier rejection.
+// Runs on the backend thread, not the real-time path, so it allocates. This header is Eigen-only; Ceres stays in
+// pose_graph.cc.
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include <cstdint>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+namespace qsg::backend {
+
+// Rigid transform a_T_b: maps a point from frame b into frame a, p_a = q * p_b + t_m.
+struct Pose3 {
+  Eigen::Vector3d t_m = Eigen::Vector3d::Zero();
+  Eigen::Quaterniond q = Eigen::Quaterniond::Identity();
+
+  Pose3 inverse() const {
+    const Eigen::Quaterniond q_inv = q.conjugate();
+    return {q_inv * -t_m, q_inv};
+  }
+  Pose3 operator*(const Pose3& rhs) const { return {t_m + q * rhs.t_m, q * rhs.q}; }
+  Eigen::Vector3d operator*(const Eigen::Vector3d& p) const { return t_m + q * p; }
+};
+
+// a_T_b from world_T_a and world_T_b: the quantity an edge from a to b measures.
+inline Pose3 between(const Pose3& world_T_a, const Pose3& world_T_b) { return world_T_a.inverse() * world_T_b; }
+
+// One relative-pose measurement. The translation error is expressed in the `from` frame, the rotation error
+// (2 * vec(q_measured^-1 * q_estimated), the rotation vector for small angles) in the `to` frame.
+struct RelativePoseEdge {
+  std::uint32_t from = 0;
+  std::uint32_t to = 0;
+  Pose3 measured_from_T_to;
+  Eigen::Vector3d sigma_t_m = Eigen::Vector3d::Constant(0.05);
+  Eigen::Vector3d sigma_rot_rad = Eigen::Vector3d::Constant(0.01);
+  bool is_loop_closure = false;
+};
+
+enum class RobustLoss : std::uint8_t {
+  kNone,    // plain least squares: one wrong loop closure bends the whole map
+  kHuber,   // convex, but a wrong loop closure keeps pulling with a constant force
+  kCauchy,  // redescending: the pull of a residual far beyond the scale fades away
+};
+const char* to_string(RobustLoss loss);
+
+struct PoseGraphConfig {
+  RobustLoss loop_closure_loss = RobustLoss::kCauchy;
+  // Whitened residual norm (in standard deviations, hence dimensionless) where the loop-closure loss stops being
+  // quadratic. Loose, because a correct closure starts far from consistent with a drifted trajectory.
+  double loop_closure_loss_scale_sigma = 5.0;
+  // With kCauchy: solve with Huber of the same scale first, then refine with Cauchy from there (a two-step
+  // graduated non-convexity). Without it Cauchy can discard correct closures on a strongly drifted trajectory.
+  bool huber_warm_start = true;
+  int max_iterations = 50;  // per solve; the warm start adds a second solve
+  // Removes the gauge freedom: holds poses[0], and the lowest-index pose of any component not connected to it.
+  bool fix_first_pose = true;
+  int num_threads = 1;
+
+  void print(std::FILE* out) const;
+};
+
+enum class PoseGraphStatus : std::uint8_t {
+  kConverged,      // poses updated
+  kMaxIterations,  // poses updated with the last (improved, usable) iterate
+  kInvalidInput,   // poses untouched; message says which pose, edge or parameter is wrong
+  kSolverFailed,   // poses untouched; message carries the solver's reason
+};
+const char* to_string(PoseGraphStatus status);
+
+struct PoseGraphResult {
+  PoseGraphStatus status = PoseGraphStatus::kInvalidInput;
+  int iterations = 0;  // summed over the warm start and the final solve
+  // Ceres convention: half the sum of the (robustified) squared whitened residuals, under the configured loss.
+  double initial_cost = 0.0;
+  double final_cost = 0.0;
+  // Per edge, in input order: whitened residual norm after the solve (empty unless poses_updated()).
+  std::vector<double> edge_residual_sigma;
+  // Loop closures left beyond loop_closure_loss_scale_sigma: the ones the robust loss is treating as outliers.
+  std::uint32_t num_loop_closures_downweighted = 0;
+  std::string message;
+
+  bool converged() const { return status == PoseGraphStatus::kConverged; }
+  bool poses_updated() const {
+    return status == PoseGraphStatus::kConverged || status == PoseGraphStatus::kMaxIterations;
+  }
+  void print(std::FILE* out) const;
+};
+
+// Optimizes `poses` (world_T_i, indexed by the edges' from/to) in place. Quaternions need not be unit: they are
+// normalized, and written back normalized. On invalid input or solver failure `poses` is left untouched and the
+// result says why; it never aborts or throws on bad data.
+PoseGraphResult optimize_pose_graph(const PoseGraphConfig& config, std::vector<Pose3>& poses,
+                                    const std::vector<RelativePoseEdge>& edges);
+
+}  // namespace qsg::backend

@@ -1,0 +1,409 @@
+// Tests of the SE(3) pose-graph optimizer on a synthetic square loop with known ground truth and seeded drift.
+#include "core/backend/pose_graph.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstring>
+#include <functional>
+#include <limits>
+#include <random>
+#include <string>
+#include <vector>
+
+namespace qsg::backend {
+namespace {
+
+// 4 sides x 10 poses of 0.5 m: big enough to drift visibly, small enough for qemu-aarch64.
+constexpr std::uint32_t kPosesPerSide = 10;
+constexpr std::uint32_t kNumPoses = 4 * kPosesPerSide;
+constexpr double kStep_m = 0.5;
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kDegToRad = kPi / 180.0;
+
+// Odometry drift: a yaw bias per step (the usual culprit of VIO on a turning quadruped) plus a scale bias. Kept
+// small, because a closed loop cannot observe scale: it sets the floor of the corrected trajectory error.
+constexpr double kYawBiasPerStep_rad = 0.4 * kDegToRad;
+constexpr double kYawNoise_rad = 0.2 * kDegToRad;
+constexpr double kScaleBias = 0.005;
+constexpr double kTranslationNoise_m = 0.005;
+constexpr unsigned kSeed = 20240611u;
+
+const Eigen::Vector3d kOdomSigma_m = Eigen::Vector3d::Constant(0.02);
+const Eigen::Vector3d kOdomSigma_rad = Eigen::Vector3d::Constant(0.01);
+const Eigen::Vector3d kLoopSigma_m = Eigen::Vector3d::Constant(0.05);
+const Eigen::Vector3d kLoopSigma_rad = Eigen::Vector3d::Constant(0.01);
+
+Pose3 make_pose(const Eigen::Vector3d& t_m, const Eigen::Quaterniond& q) { return Pose3{t_m, q}; }
+
+Eigen::Quaterniond yaw(double angle_rad) {
+  return Eigen::Quaterniond(Eigen::AngleAxisd(angle_rad, Eigen::Vector3d::UnitZ()));
+}
+
+// Counter-clockwise square starting at the origin facing +x; the step after pose 39 returns to pose 0. A little
+// height and pitch bob (a walking gait) keeps the problem genuinely 3D.
+std::vector<Pose3> square_ground_truth() {
+  std::vector<Pose3> poses;
+  Pose3 planar;
+  for (std::uint32_t i = 0; i < kNumPoses; ++i) {
+    Pose3 pose = planar;
+    pose.t_m.z() += 0.03 * std::sin(0.7 * i);
+    pose.q = pose.q * Eigen::Quaterniond(Eigen::AngleAxisd(0.02 * std::sin(0.5 * i), Eigen::Vector3d::UnitY()));
+    poses.push_back(pose);
+    planar = planar * make_pose(Eigen::Vector3d(kStep_m, 0.0, 0.0), Eigen::Quaterniond::Identity());
+    if ((i + 1) % kPosesPerSide == 0) planar = planar * make_pose(Eigen::Vector3d::Zero(), yaw(kPi / 2.0));
+  }
+  return poses;
+}
+
+RelativePoseEdge make_edge(std::uint32_t from, std::uint32_t to, const Pose3& measured, bool is_loop_closure) {
+  RelativePoseEdge edge;
+  edge.from = from;
+  edge.to = to;
+  edge.measured_from_T_to = measured;
+  edge.sigma_t_m = is_loop_closure ? kLoopSigma_m : kOdomSigma_m;
+  edge.sigma_rot_rad = is_loop_closure ? kLoopSigma_rad : kOdomSigma_rad;
+  edge.is_loop_closure = is_loop_closure;
+  return edge;
+}
+
+// Odometry edges i -> i+1 from ground truth, corrupted by seeded yaw and scale drift.
+std::vector<RelativePoseEdge> drifting_odometry(const std::vector<Pose3>& truth,
+                                               double yaw_bias_per_step_rad = kYawBiasPerStep_rad) {
+  std::mt19937 rng(kSeed);
+  std::normal_distribution<double> yaw_noise(0.0, kYawNoise_rad);
+  std::normal_distribution<double> t_noise(0.0, kTranslationNoise_m);
+  std::vector<RelativePoseEdge> edges;
+  for (std::uint32_t i = 0; i + 1 < truth.size(); ++i) {
+    Pose3 measured = between(truth[i], truth[i + 1]);
+    // One draw per statement: argument evaluation order differs between GCC and clang.
+    Eigen::Vector3d noise_m;
+    for (int axis = 0; axis < 3; ++axis) noise_m[axis] = t_noise(rng);
+    measured.t_m = (1.0 + kScaleBias) * measured.t_m + noise_m;
+    measured.q = measured.q * yaw(yaw_bias_per_step_rad + yaw_noise(rng));
+    edges.push_back(make_edge(i, i + 1, measured, false));
+  }
+  return edges;
+}
+
+// Dead reckoning: what the frontend hands the backend before any loop closure.
+std::vector<Pose3> chain_odometry(const Pose3& start, const std::vector<RelativePoseEdge>& edges) {
+  std::vector<Pose3> poses{start};
+  for (const RelativePoseEdge& edge : edges) {
+    if (!edge.is_loop_closure) poses.push_back(poses.back() * edge.measured_from_T_to);
+  }
+  return poses;
+}
+
+RelativePoseEdge true_loop_closure(const std::vector<Pose3>& truth, std::uint32_t from, std::uint32_t to) {
+  return make_edge(from, to, between(truth[from], truth[to]), true);
+}
+
+// Absolute trajectory error, RMSE of positions. Pose 0 is fixed to ground truth, so no alignment is needed.
+double ate_rmse_m(const std::vector<Pose3>& estimate, const std::vector<Pose3>& truth) {
+  double sum_sq = 0.0;
+  for (std::size_t i = 0; i < truth.size(); ++i) sum_sq += (estimate[i].t_m - truth[i].t_m).squaredNorm();
+  return std::sqrt(sum_sq / static_cast<double>(truth.size()));
+}
+
+double translation_error_m(const Pose3& a, const Pose3& b) { return (a.t_m - b.t_m).norm(); }
+double rotation_error_rad(const Pose3& a, const Pose3& b) { return a.q.angularDistance(b.q); }
+
+TEST(PoseGraph, LoopClosureRemovesDriftOfSquareTrajectory) {
+  const std::vector<Pose3> truth = square_ground_truth();
+  std::vector<RelativePoseEdge> edges = drifting_odometry(truth);
+  std::vector<Pose3> poses = chain_odometry(truth[0], edges);
+  ASSERT_EQ(poses.size(), truth.size());
+  edges.push_back(true_loop_closure(truth, kNumPoses - 1, 0));
+
+  const double ate_before_m = ate_rmse_m(poses, truth);
+  const Pose3 lc_measured = edges.back().measured_from_T_to;
+  const double lc_error_before_m = translation_error_m(between(poses[kNumPoses - 1], poses[0]), lc_measured);
+
+  const PoseGraphConfig config;
+  const PoseGraphResult result = optimize_pose_graph(config, poses, edges);
+  ASSERT_TRUE(result.poses_updated()) << result.message;
+  EXPECT_TRUE(result.converged()) << result.message;
+  EXPECT_GT(result.iterations, 0);
+  EXPECT_LT(result.final_cost, result.initial_cost);
+
+  const double ate_after_m = ate_rmse_m(poses, truth);
+  const Pose3 lc_estimated = between(poses[kNumPoses - 1], poses[0]);
+  std::printf("[ pose graph ] square loop: ATE before %.4f m, after %.4f m (%.1fx); loop-closure error before %.3f m, "
+              "after %.4f m / %.3f deg; %d iterations\n",
+              ate_before_m, ate_after_m, ate_before_m / ate_after_m, lc_error_before_m,
+              translation_error_m(lc_estimated, lc_measured), rotation_error_rad(lc_estimated, lc_measured) / kDegToRad,
+              result.iterations);
+  ::testing::Test::RecordProperty("ate_before_mm", static_cast<int>(std::lround(ate_before_m * 1000.0)));
+  ::testing::Test::RecordProperty("ate_after_mm", static_cast<int>(std::lround(ate_after_m * 1000.0)));
+
+  // The drift must be real for the test to mean anything.
+  EXPECT_GT(ate_before_m, 0.3);
+  EXPECT_GT(lc_error_before_m, 0.5);
+  EXPECT_LT(ate_after_m * 5.0, ate_before_m);
+  // The closure is enforced to within its own noise model, not merely reduced.
+  EXPECT_LT(translation_error_m(lc_estimated, lc_measured), 0.05);
+  EXPECT_LT(rotation_error_rad(lc_estimated, lc_measured), 1.0 * kDegToRad);
+  ASSERT_EQ(result.edge_residual_sigma.size(), edges.size());
+  EXPECT_LT(result.edge_residual_sigma.back(), config.loop_closure_loss_scale_sigma);
+  EXPECT_EQ(result.num_loop_closures_downweighted, 0u);
+  // The gauge: pose 0 is held exactly.
+  EXPECT_EQ(poses[0].t_m, truth[0].t_m);
+  EXPECT_TRUE(poses[0].q.isApprox(truth[0].q, 1e-12));
+}
+
+// Several correct closures near the start plus one perceptual-aliasing closure that claims the far side of the
+// square (5 m away) is 0.3 m ahead.
+struct OutlierScenario {
+  std::vector<Pose3> truth;
+  std::vector<Pose3> initial;
+  std::vector<RelativePoseEdge> edges;
+  std::size_t wrong_edge = 0;
+};
+
+OutlierScenario outlier_scenario(double yaw_bias_per_step_rad = kYawBiasPerStep_rad) {
+  OutlierScenario s;
+  s.truth = square_ground_truth();
+  s.edges = drifting_odometry(s.truth, yaw_bias_per_step_rad);
+  s.initial = chain_odometry(s.truth[0], s.edges);
+  const std::uint32_t last = kNumPoses - 1;
+  s.edges.push_back(true_loop_closure(s.truth, last, 0));
+  s.edges.push_back(true_loop_closure(s.truth, last, 1));
+  s.edges.push_back(true_loop_closure(s.truth, last - 1, 0));
+  s.edges.push_back(true_loop_closure(s.truth, last - 2, 0));
+  s.wrong_edge = s.edges.size();
+  s.edges.push_back(
+      make_edge(2 * kPosesPerSide + 5, 5, make_pose(Eigen::Vector3d(0.3, 0.0, 0.0), yaw(kPi)), true));
+  return s;
+}
+
+TEST(PoseGraph, RobustLossDownweightsGrosslyWrongLoopClosure) {
+  const OutlierScenario s = outlier_scenario();
+  const RelativePoseEdge& wrong = s.edges[s.wrong_edge];
+  ASSERT_GT(translation_error_m(between(s.truth[wrong.from], s.truth[wrong.to]), wrong.measured_from_T_to), 4.0);
+
+  std::vector<Pose3> robust = s.initial;
+  const PoseGraphConfig config;
+  const PoseGraphResult result = optimize_pose_graph(config, robust, s.edges);
+  ASSERT_TRUE(result.poses_updated()) << result.message;
+
+  // The same graph without the robust loss: the outlier must visibly hurt, or this test proves nothing.
+  std::vector<Pose3> least_squares = s.initial;
+  PoseGraphConfig ls_config;
+  ls_config.loop_closure_loss = RobustLoss::kNone;
+  ASSERT_TRUE(optimize_pose_graph(ls_config, least_squares, s.edges).poses_updated());
+
+  const double ate_initial_m = ate_rmse_m(s.initial, s.truth);
+  const double ate_robust_m = ate_rmse_m(robust, s.truth);
+  const double ate_least_squares_m = ate_rmse_m(least_squares, s.truth);
+  std::printf("[ pose graph ] outlier closure: ATE initial %.4f m, robust (%s) %.4f m, least squares %.4f m; "
+              "wrong closure at %.1f sigma\n",
+              ate_initial_m, to_string(config.loop_closure_loss), ate_robust_m, ate_least_squares_m,
+              result.edge_residual_sigma[s.wrong_edge]);
+
+  EXPECT_LT(ate_robust_m, 0.1);
+  EXPECT_LT(ate_robust_m * 5.0, ate_initial_m);
+  EXPECT_GT(ate_least_squares_m, 3.0 * ate_robust_m);
+  // Only the wrong closure is left outside the loss scale; the correct ones hold.
+  EXPECT_EQ(result.num_loop_closures_downweighted, 1u);
+  EXPECT_GT(result.edge_residual_sigma[s.wrong_edge], 10.0 * config.loop_closure_loss_scale_sigma);
+  for (std::size_t k = s.wrong_edge - 4; k < s.wrong_edge; ++k) {
+    EXPECT_LT(result.edge_residual_sigma[k], config.loop_closure_loss_scale_sigma) << "correct closure " << k;
+  }
+}
+
+// 2 deg/step of yaw drift (80 deg around the loop): the correct closures start ~100 sigma away, where Cauchy alone
+// would treat them as outliers. The Huber warm start must still close the loop and reject only the wrong closure.
+TEST(PoseGraph, HuberWarmStartKeepsCorrectClosuresUnderStrongDrift) {
+  const OutlierScenario s = outlier_scenario(2.0 * kDegToRad);
+  const PoseGraphConfig config;
+  ASSERT_TRUE(config.huber_warm_start);
+  std::vector<Pose3> warm = s.initial;
+  const PoseGraphResult result = optimize_pose_graph(config, warm, s.edges);
+  ASSERT_TRUE(result.poses_updated()) << result.message;
+
+  PoseGraphConfig cold_config;
+  cold_config.huber_warm_start = false;
+  std::vector<Pose3> cold = s.initial;
+  ASSERT_TRUE(optimize_pose_graph(cold_config, cold, s.edges).poses_updated());
+
+  const double ate_initial_m = ate_rmse_m(s.initial, s.truth);
+  const double ate_warm_m = ate_rmse_m(warm, s.truth);
+  const double ate_cold_m = ate_rmse_m(cold, s.truth);
+  std::printf("[ pose graph ] strong drift: ATE initial %.4f m, Huber warm start %.4f m, Cauchy alone %.4f m; "
+              "%d iterations\n",
+              ate_initial_m, ate_warm_m, ate_cold_m, result.iterations);
+  EXPECT_GT(ate_initial_m, 1.5);
+  EXPECT_LT(ate_warm_m, 0.1);
+  EXPECT_EQ(result.num_loop_closures_downweighted, 1u);
+  EXPECT_GT(result.edge_residual_sigma[s.wrong_edge], 10.0 * config.loop_closure_loss_scale_sigma);
+  // Why the warm start exists: from the drifted start Cauchy alone settles next to the odometry.
+  EXPECT_GT(ate_cold_m, 5.0 * ate_warm_m);
+}
+
+std::vector<Pose3> two_pose_graph() { return {Pose3{}, make_pose(Eigen::Vector3d(1.0, 0.0, 0.0), yaw(0.1))}; }
+
+std::vector<RelativePoseEdge> two_pose_edges() {
+  const std::vector<Pose3> poses = two_pose_graph();
+  return {make_edge(0, 1, between(poses[0], poses[1]), false)};
+}
+
+void expect_invalid(const PoseGraphConfig& config, std::vector<Pose3> poses, const std::vector<RelativePoseEdge>& edges,
+                    const char* expected_text) {
+  const std::vector<Pose3> before = poses;
+  const PoseGraphResult result = optimize_pose_graph(config, poses, edges);
+  EXPECT_EQ(result.status, PoseGraphStatus::kInvalidInput) << result.message;
+  EXPECT_FALSE(result.poses_updated());
+  EXPECT_NE(result.message.find(expected_text), std::string::npos)
+      << "message '" << result.message << "' lacks '" << expected_text << "'";
+  ASSERT_EQ(poses.size(), before.size());
+  for (std::size_t i = 0; i < poses.size(); ++i) {
+    // Bitwise equality, NaN included: the caller's poses are never touched on bad input.
+    EXPECT_EQ(0, std::memcmp(poses[i].t_m.data(), before[i].t_m.data(), sizeof(double) * 3)) << "pose " << i;
+    EXPECT_EQ(0, std::memcmp(poses[i].q.coeffs().data(), before[i].q.coeffs().data(), sizeof(double) * 4))
+        << "pose " << i;
+  }
+}
+
+TEST(PoseGraph, InvalidInputIsReportedNotCrashed) {
+  const PoseGraphConfig config;
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const double inf = std::numeric_limits<double>::infinity();
+
+  expect_invalid(config, {}, {}, "empty graph");
+
+  std::vector<RelativePoseEdge> edges = two_pose_edges();
+  edges.push_back(make_edge(1, 7, Pose3{}, true));
+  expect_invalid(config, two_pose_graph(), edges, "edge 1 (loop closure 1 -> 7): pose index out of range");
+
+  edges = two_pose_edges();
+  edges[0].to = 0;
+  expect_invalid(config, two_pose_graph(), edges, "connects pose 0 to itself");
+
+  std::vector<Pose3> poses = two_pose_graph();
+  poses[1].t_m.y() = nan;
+  expect_invalid(config, poses, two_pose_edges(), "pose 1 is not finite");
+
+  poses = two_pose_graph();
+  poses[1].q.coeffs().setZero();
+  expect_invalid(config, poses, two_pose_edges(), "pose 1 has a zero-norm quaternion");
+
+  edges = two_pose_edges();
+  edges[0].measured_from_T_to.q.w() = inf;
+  expect_invalid(config, two_pose_graph(), edges, "measurement is not finite");
+
+  edges = two_pose_edges();
+  edges[0].sigma_rot_rad.z() = 0.0;
+  expect_invalid(config, two_pose_graph(), edges, "sigmas must be finite and > 0");
+
+  PoseGraphConfig bad_config;
+  bad_config.max_iterations = 0;
+  expect_invalid(bad_config, two_pose_graph(), two_pose_edges(), "max_iterations");
+  bad_config = PoseGraphConfig{};
+  bad_config.loop_closure_loss_scale_sigma = -1.0;
+  expect_invalid(bad_config, two_pose_graph(), two_pose_edges(), "loop_closure_loss_scale_sigma");
+}
+
+TEST(PoseGraph, ExactOdometryWithoutLoopClosureLeavesPosesUnchanged) {
+  const std::vector<Pose3> truth = square_ground_truth();
+  std::vector<RelativePoseEdge> edges;
+  for (std::uint32_t i = 0; i + 1 < kNumPoses; ++i) {
+    edges.push_back(make_edge(i, i + 1, between(truth[i], truth[i + 1]), false));
+  }
+  std::vector<Pose3> poses = chain_odometry(truth[0], edges);
+
+  const std::vector<Pose3> before = poses;
+  const PoseGraphResult result = optimize_pose_graph(PoseGraphConfig{}, poses, edges);
+  ASSERT_TRUE(result.converged()) << result.message;
+  EXPECT_LT(result.final_cost, 1e-20);
+  for (std::size_t i = 0; i < poses.size(); ++i) {
+    EXPECT_LT(translation_error_m(poses[i], before[i]), 1e-9) << "pose " << i;
+    EXPECT_LT(rotation_error_rad(poses[i], before[i]), 1e-9) << "pose " << i;
+  }
+}
+
+// q and -q are the same rotation: a measurement handed over with w < 0 must cost nothing (a residual built on
+// coefficient differences would read it as a large error).
+TEST(PoseGraph, NegatedMeasurementQuaternionIsTheSameRotation) {
+  std::vector<Pose3> poses = two_pose_graph();
+  std::vector<RelativePoseEdge> edges = two_pose_edges();
+  edges[0].measured_from_T_to.q.coeffs() *= -1.0;
+  const std::vector<Pose3> before = poses;
+  const PoseGraphResult result = optimize_pose_graph(PoseGraphConfig{}, poses, edges);
+  ASSERT_TRUE(result.converged()) << result.message;
+  EXPECT_LT(result.initial_cost, 1e-20);
+  EXPECT_LT(translation_error_m(poses[1], before[1]), 1e-9);
+  EXPECT_LT(rotation_error_rad(poses[1], before[1]), 1e-9);
+}
+
+TEST(PoseGraph, NonUnitQuaternionsAreNormalized) {
+  std::vector<Pose3> poses = two_pose_graph();
+  std::vector<RelativePoseEdge> edges = two_pose_edges();
+  // The measurement disagrees by 0.02 rad of yaw, so its weight (which a non-unit quaternion would scale) shows in
+  // the cost: 2 sin(0.01) / sigma whitened, in yaw only.
+  constexpr double kYawOffset_rad = 0.02;
+  edges[0].measured_from_T_to.q = edges[0].measured_from_T_to.q * yaw(kYawOffset_rad);
+  edges[0].measured_from_T_to.q.coeffs() *= 0.5;
+  poses[1].q.coeffs() *= 3.0;
+  const double whitened = 2.0 * std::sin(kYawOffset_rad / 2.0) / kOdomSigma_rad.z();
+  const PoseGraphResult result = optimize_pose_graph(PoseGraphConfig{}, poses, edges);
+  ASSERT_TRUE(result.converged()) << result.message;
+  EXPECT_NEAR(result.initial_cost, 0.5 * whitened * whitened, 1e-9);
+  EXPECT_NEAR(poses[1].q.norm(), 1.0, 1e-12);
+  EXPECT_LT(rotation_error_rad(poses[1], make_pose(Eigen::Vector3d::Zero(), yaw(0.1 + kYawOffset_rad))), 1e-6);
+}
+
+// A second, unconnected trajectory keeps its own gauge: its first pose is held, so it cannot drift off.
+TEST(PoseGraph, EachDisconnectedComponentKeepsItsFirstPose) {
+  std::vector<Pose3> poses = two_pose_graph();
+  const Pose3 far_start = make_pose(Eigen::Vector3d(10.0, 5.0, 0.0), yaw(1.0));
+  poses.push_back(far_start);
+  poses.push_back(far_start * make_pose(Eigen::Vector3d(1.0, 0.0, 0.0), yaw(0.0)));
+  std::vector<RelativePoseEdge> edges = two_pose_edges();
+  // The measurement disagrees with the initial guess, so pose 3 must move and pose 2 must not.
+  edges.push_back(make_edge(2, 3, make_pose(Eigen::Vector3d(2.0, 0.0, 0.0), yaw(0.0)), false));
+  const PoseGraphResult result = optimize_pose_graph(PoseGraphConfig{}, poses, edges);
+  ASSERT_TRUE(result.converged()) << result.message;
+  EXPECT_EQ(poses[2].t_m, far_start.t_m);
+  EXPECT_NEAR(translation_error_m(poses[3], far_start * make_pose(Eigen::Vector3d(2.0, 0.0, 0.0), yaw(0.0))), 0.0,
+              1e-6);
+}
+
+std::string print_to_string(const std::function<void(std::FILE*)>& print) {
+  std::FILE* out = std::tmpfile();
+  if (out == nullptr) return "tmpfile failed";
+  print(out);
+  std::rewind(out);
+  char buffer[1024] = {};
+  const std::size_t length = std::fread(buffer, 1, sizeof(buffer) - 1, out);
+  std::fclose(out);
+  return std::string(buffer, length);
+}
+
+TEST(PoseGraph, PrintShowsEffectiveParametersAndOutcome) {
+  const PoseGraphConfig config;
+  const std::string config_text = print_to_string([&](std::FILE* out) { config.print(out); });
+  for (const char* field : {"loop_closure_loss=cauchy", "loop_closure_loss_scale_sigma=5", "huber_warm_start=true",
+                            "max_iterations=50", "fix_first_pose=true", "num_threads=1"}) {
+    EXPECT_NE(config_text.find(field), std::string::npos) << config_text;
+  }
+  std::vector<Pose3> poses;
+  const PoseGraphResult result = optimize_pose_graph(config, poses, {});
+  const std::string result_text = print_to_string([&](std::FILE* out) { result.print(out); });
+  EXPECT_NE(result_text.find("status=invalid_input"), std::string::npos) << result_text;
+  EXPECT_NE(result_text.find("empty graph"), std::string::npos) << result_text;
+}
+
+TEST(PoseGraph, NoEdgesLeavesPosesAsTheyAre) {
+  std::vector<Pose3> poses = two_pose_graph();
+  const PoseGraphResult result = optimize_pose_graph(PoseGraphConfig{}, poses, {});
+  EXPECT_TRUE(result.converged()) << result.message;
+  EXPECT_EQ(result.iterations, 0);
+  EXPECT_EQ(poses[1].t_m, two_pose_graph()[1].t_m);
+  EXPECT_LT(rotation_error_rad(poses[1], two_pose_graph()[1]), 1e-12);
+}
+
+}  // namespace
+}  // namespace qsg::backend
