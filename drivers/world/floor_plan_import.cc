@@ -1,0 +1,314 @@
+// Floor-plan import: occupancy pixels to merged wall boxes, ground-truth regions to room polygons, separator lines
+// over free space to doors.
+#include "drivers/world/floor_plan_import.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <utility>
+#include <vector>
+
+#include <Eigen/Eigenvalues>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "drivers/world/world_geometry.h"
+#include "drivers/world/world_query.h"
+
+namespace qsg::world {
+namespace {
+
+bool to_grey(const cv::Mat& in, cv::Mat* out, std::string* error) {
+  if (in.empty()) {
+    *error = "image is empty";
+    return false;
+  }
+  if (in.depth() != CV_8U) {
+    *error = "image must be 8-bit";
+    return false;
+  }
+  switch (in.channels()) {
+    case 1: *out = in; return true;
+    case 3: cv::cvtColor(in, *out, cv::COLOR_BGR2GRAY); return true;
+    case 4: cv::cvtColor(in, *out, cv::COLOR_BGRA2GRAY); return true;
+    default: *error = "image must have 1, 3 or 4 channels, not " + std::to_string(in.channels()); return false;
+  }
+}
+
+std::string stem_of(const std::string& path) {
+  const std::size_t slash = path.find_last_of('/');
+  std::string name = slash == std::string::npos ? path : path.substr(slash + 1);
+  const std::size_t dot = name.find_last_of('.');
+  return dot == std::string::npos ? name : name.substr(0, dot);
+}
+
+}  // namespace
+
+void FloorPlanConfig::print(std::FILE* out) const {
+  std::fprintf(out,
+               "FloorPlanConfig: resolution_m_per_px=%.4f free_threshold=%d gt_room_threshold=%d min_room_area_px=%d "
+               "wall_height_m=%.2f door_height_m=%.2f contour_epsilon_px=%.2f crop_margin_px=%d "
+               "add_floor_and_ceiling=%d min_door_width_m=%.2f separator_search_px=%d\n",
+               resolution_m_per_px, free_threshold, gt_room_threshold, min_room_area_px, wall_height_m, door_height_m,
+               contour_epsilon_px, crop_margin_px, add_floor_and_ceiling ? 1 : 0, min_door_width_m,
+               separator_search_px);
+}
+
+std::string floor_plan_gt_path(const std::string& occupancy_path) {
+  std::string base = occupancy_path;
+  const std::size_t dot = base.find_last_of('.');
+  const std::size_t slash = base.find_last_of('/');
+  if (dot != std::string::npos && (slash == std::string::npos || dot > slash)) base = base.substr(0, dot);
+  const std::string suffix = "_furnitures";
+  if (base.size() > suffix.size() && base.compare(base.size() - suffix.size(), suffix.size(), suffix) == 0)
+    base.resize(base.size() - suffix.size());
+  return base + "_gt_segmentation.png";
+}
+
+WorldResult import_floor_plan(const cv::Mat& occupancy_in, const cv::Mat& gt_in, const FloorPlanConfig& config,
+                              const std::string& name, FloorPlanStats* stats_out) {
+  using namespace semantics;
+  WorldResult result;
+  FloorPlanStats stats;
+  cv::Mat occ;
+  if (!to_grey(occupancy_in, &occ, &result.error)) {
+    result.error = "occupancy " + result.error;
+    return result;
+  }
+  const double res = config.resolution_m_per_px;
+  if (!(res > 0.0)) {
+    result.error = "resolution_m_per_px must be positive";
+    return result;
+  }
+  const int rows = occ.rows, cols = occ.cols;
+  auto px_x = [&](double col) { return col * res; };
+  auto px_y = [&](double row) { return (rows - row) * res; };
+
+  const cv::Mat free_mask = occ >= config.free_threshold;
+  std::vector<cv::Point> free_points;
+  cv::findNonZero(free_mask, free_points);
+  if (free_points.empty()) {
+    result.error = "occupancy image has no free pixels (none >= " + std::to_string(config.free_threshold) + ")";
+    return result;
+  }
+  cv::Rect crop = cv::boundingRect(free_points);
+  crop.x -= config.crop_margin_px;
+  crop.y -= config.crop_margin_px;
+  crop.width += 2 * config.crop_margin_px;
+  crop.height += 2 * config.crop_margin_px;
+  crop &= cv::Rect(0, 0, cols, rows);
+
+  World& world = result.world;
+  world.name = name;
+
+  // Greedy rectangle merging: take the longest run of unclaimed occupied pixels, grow it downwards while the next
+  // row's span is entirely unclaimed and occupied. Keeps the box count to a few per wall segment.
+  Material wall;
+  wall.label = kWall;
+  wall.color = {{205, 200, 190}};
+  wall.texture = Texture::kNoise;
+  wall.texture_scale_m = 0.3f;
+  cv::Mat claimed = cv::Mat::zeros(rows, cols, CV_8U);
+  const double h = config.wall_height_m;
+  for (int r = crop.y; r < crop.y + crop.height; ++r) {
+    const std::uint8_t* orow = occ.ptr<std::uint8_t>(r);
+    std::uint8_t* crow = claimed.ptr<std::uint8_t>(r);
+    for (int c = crop.x; c < crop.x + crop.width; ++c) {
+      if (orow[c] >= config.free_threshold || crow[c]) continue;
+      ++stats.occupied_px;
+      int w = 1;
+      while (c + w < crop.x + crop.width && orow[c + w] < config.free_threshold && !crow[c + w]) ++w;
+      int hgt = 1;
+      for (; r + hgt < crop.y + crop.height; ++hgt) {
+        const std::uint8_t* o2 = occ.ptr<std::uint8_t>(r + hgt);
+        const std::uint8_t* c2 = claimed.ptr<std::uint8_t>(r + hgt);
+        bool full = true;
+        for (int k = c; k < c + w && full; ++k) full = o2[k] < config.free_threshold && !c2[k];
+        if (!full) break;
+      }
+      for (int rr = r; rr < r + hgt; ++rr) std::fill_n(claimed.ptr<std::uint8_t>(rr) + c, w, std::uint8_t{1});
+      stats.occupied_px += w * hgt - 1;
+      world.add_box(axis_box(px_x(c), px_y(r + hgt), 0.0, px_x(c + w), px_y(r), h), wall);
+      ++stats.wall_boxes;
+      c += w - 1;
+    }
+  }
+  if (config.add_floor_and_ceiling) {
+    Material floor_m, ceiling_m;
+    floor_m.label = kFloor;
+    floor_m.color = {{150, 140, 125}};
+    floor_m.texture = Texture::kChecker;
+    floor_m.texture_scale_m = 0.5f;
+    ceiling_m.label = kCeiling;
+    ceiling_m.color = {{240, 240, 235}};
+    const double x0 = px_x(crop.x), x1 = px_x(crop.x + crop.width);
+    const double y0 = px_y(crop.y + crop.height), y1 = px_y(crop.y);
+    world.add_box(axis_box(x0, y0, -0.1, x1, y1, 0.0), floor_m);
+    world.add_box(axis_box(x0, y0, h, x1, y1, h + 0.1), ceiling_m);
+  }
+
+  if (!gt_in.empty()) {
+    cv::Mat gt;
+    if (!to_grey(gt_in, &gt, &result.error)) {
+      result.error = "ground truth " + result.error;
+      return result;
+    }
+    if (gt.size() != occ.size()) {
+      result.error = "ground truth is " + std::to_string(gt.cols) + "x" + std::to_string(gt.rows) +
+                     " but the occupancy image is " + std::to_string(cols) + "x" + std::to_string(rows);
+      return result;
+    }
+    const cv::Mat white = gt > config.gt_room_threshold;
+    cv::Mat labels, cc_stats, centroids;
+    const int n = cv::connectedComponentsWithStats(white, labels, cc_stats, centroids, 8, CV_32S);
+    stats.gt_regions = n - 1;
+    std::vector<int> room_of_label(static_cast<std::size_t>(n), -1);
+    for (int i = 1; i < n; ++i) {
+      if (cc_stats.at<int>(i, cv::CC_STAT_AREA) < config.min_room_area_px) continue;
+      const cv::Rect box(cc_stats.at<int>(i, cv::CC_STAT_LEFT), cc_stats.at<int>(i, cv::CC_STAT_TOP),
+                         cc_stats.at<int>(i, cv::CC_STAT_WIDTH), cc_stats.at<int>(i, cv::CC_STAT_HEIGHT));
+      // One pixel of padding so the contour of a region touching the border is still closed.
+      const cv::Rect padded = (box + cv::Size(2, 2)) - cv::Point(1, 1);
+      const cv::Rect roi = padded & cv::Rect(0, 0, cols, rows);
+      cv::Mat mask = cv::Mat::zeros(padded.size(), CV_8U);
+      cv::Mat sub = mask(roi - padded.tl());
+      sub.setTo(255, labels(roi) == i);
+      std::vector<std::vector<cv::Point>> contours;
+      cv::findContours(mask, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
+      std::size_t best = 0;
+      double best_area = -1.0;
+      for (std::size_t k = 0; k < contours.size(); ++k) {
+        const double a = std::abs(cv::contourArea(contours[k])) + static_cast<double>(contours[k].size()) * 1e-6;
+        if (a > best_area) {
+          best_area = a;
+          best = k;
+        }
+      }
+      if (contours.empty()) continue;
+      std::vector<cv::Point> approx;
+      cv::approxPolyDP(contours[best], approx, config.contour_epsilon_px, true);
+      Polygon2 poly;
+      auto add_point = [&](double x, double y) {
+        poly.emplace_back(px_x(x + padded.x + 0.5), px_y(y + padded.y + 0.5));
+      };
+      if (approx.size() >= 3 && std::abs(cv::contourArea(approx)) > 0.5) {
+        for (const cv::Point& p : approx) add_point(p.x, p.y);
+      } else {
+        // A sliver: use its rotated bounding rectangle grown to pixel edges.
+        cv::RotatedRect rr = cv::minAreaRect(contours[best]);
+        rr.size.width += 1.0f;
+        rr.size.height += 1.0f;
+        cv::Point2f corners[4];
+        rr.points(corners);
+        for (const cv::Point2f& p : corners) add_point(p.x, p.y);
+      }
+      if (polygon_signed_area(poly) < 0.0) std::reverse(poly.begin(), poly.end());
+      Room room;
+      room.id = static_cast<std::int32_t>(world.rooms.size());
+      room.label = kRoomUnknown;
+      room.footprint_m = {poly};
+      room.floor_z_m = 0.0;
+      room.height_m = h;
+      room.floor_index = 0;
+      room_of_label[static_cast<std::size_t>(i)] = room.id;
+      world.rooms.push_back(room);
+    }
+    stats.rooms = static_cast<int>(world.rooms.size());
+
+    // Doors: separator pixels (not room interior in the ground truth, but free in the occupancy map) with two
+    // different rooms nearby. Pixels are grouped per room pair, then into connected pieces.
+    std::map<std::pair<int, int>, std::vector<cv::Point>> pair_pixels;
+    const int R = std::max(1, config.separator_search_px);
+    for (int r = 0; r < rows; ++r) {
+      const std::uint8_t* g = gt.ptr<std::uint8_t>(r);
+      const std::uint8_t* o = occ.ptr<std::uint8_t>(r);
+      for (int c = 0; c < cols; ++c) {
+        if (g[c] > config.gt_room_threshold || o[c] < config.free_threshold) continue;
+        int found[8];
+        int nfound = 0;
+        for (int dy = -R; dy <= R; ++dy) {
+          const int rr = r + dy;
+          if (rr < 0 || rr >= rows) continue;
+          const int* lrow = labels.ptr<int>(rr);
+          for (int dx = -R; dx <= R; ++dx) {
+            const int cc = c + dx;
+            if (cc < 0 || cc >= cols) continue;
+            const int room = room_of_label[static_cast<std::size_t>(lrow[cc])];
+            if (room < 0) continue;
+            if (std::find(found, found + nfound, room) == found + nfound && nfound < 8) found[nfound++] = room;
+          }
+        }
+        for (int a = 0; a < nfound; ++a)
+          for (int b = a + 1; b < nfound; ++b)
+            pair_pixels[{std::min(found[a], found[b]), std::max(found[a], found[b])}].push_back({c, r});
+      }
+    }
+    for (const auto& [pair, pixels] : pair_pixels) {
+      const cv::Rect box = cv::boundingRect(pixels);
+      cv::Mat mask = cv::Mat::zeros(box.size(), CV_8U);
+      for (const cv::Point& p : pixels) mask.at<std::uint8_t>(p - box.tl()) = 255;
+      cv::Mat piece_labels;
+      const int pieces = cv::connectedComponents(mask, piece_labels, 8, CV_32S);
+      std::vector<std::vector<Eigen::Vector2d>> groups(static_cast<std::size_t>(pieces));
+      for (const cv::Point& p : pixels)
+        groups[static_cast<std::size_t>(piece_labels.at<int>(p - box.tl()))].emplace_back(p.x + 0.5, p.y + 0.5);
+      for (int k = 1; k < pieces; ++k) {
+        const std::vector<Eigen::Vector2d>& pts = groups[static_cast<std::size_t>(k)];
+        Eigen::Vector2d mean = Eigen::Vector2d::Zero();
+        for (const Eigen::Vector2d& p : pts) mean += p;
+        mean /= static_cast<double>(pts.size());
+        Eigen::Matrix2d cov = Eigen::Matrix2d::Zero();
+        for (const Eigen::Vector2d& p : pts) cov += (p - mean) * (p - mean).transpose();
+        const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(cov);
+        const Eigen::Vector2d dir = eig.eigenvectors().col(1);
+        double lo = 1e300, hi = -1e300;
+        for (const Eigen::Vector2d& p : pts) {
+          lo = std::min(lo, (p - mean).dot(dir));
+          hi = std::max(hi, (p - mean).dot(dir));
+        }
+        lo -= 0.5;
+        hi += 0.5;
+        const double length_px = hi - lo;
+        // A doorway is a thin line: its pixel count is a few times its length at most.
+        if (length_px * res < config.min_door_width_m) continue;
+        if (static_cast<double>(pts.size()) > (2.0 * R + 1.0) * length_px) continue;
+        const Eigen::Vector2d a = mean + lo * dir, b = mean + hi * dir;
+        Door door;
+        door.a_m = Eigen::Vector2d(px_x(a.x()), px_y(a.y()));
+        door.b_m = Eigen::Vector2d(px_x(b.x()), px_y(b.y()));
+        door.floor_z_m = 0.0;
+        door.height_m = config.door_height_m;
+        door.room_a = pair.first;
+        door.room_b = pair.second;
+        world.doors.push_back(door);
+      }
+    }
+    stats.doors = static_cast<int>(world.doors.size());
+  }
+  if (stats_out) *stats_out = stats;
+  result.ok = true;
+  return result;
+}
+
+WorldResult import_floor_plan_files(const std::string& occupancy_path, const std::string& gt_path,
+                                    const FloorPlanConfig& config, FloorPlanStats* stats) {
+  WorldResult result;
+  const cv::Mat occ = cv::imread(occupancy_path, cv::IMREAD_GRAYSCALE);
+  if (occ.empty()) {
+    result.error = occupancy_path + ": cannot read the occupancy image";
+    return result;
+  }
+  cv::Mat gt;
+  if (!gt_path.empty()) {
+    gt = cv::imread(gt_path, cv::IMREAD_GRAYSCALE);
+    if (gt.empty()) {
+      result.error = gt_path + ": cannot read the ground-truth image";
+      return result;
+    }
+  }
+  result = import_floor_plan(occ, gt, config, stem_of(occupancy_path), stats);
+  if (!result.ok) result.error = occupancy_path + ": " + result.error;
+  return result;
+}
+
+}  // namespace qsg::world

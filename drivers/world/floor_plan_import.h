@@ -1,0 +1,53 @@
+// Turns a 2D occupancy floor plan (and optionally its ground-truth room segmentation) into a 3D World: occupied
+// pixels become wall boxes, each ground-truth room becomes a Room footprint, thin separator lines become doors.
+#pragma once
+
+#include <cstdio>
+#include <string>
+
+#include <opencv2/core.hpp>
+
+#include "drivers/world/world.h"
+#include "drivers/world/world_result.h"
+
+namespace qsg::world {
+
+struct FloorPlanConfig {
+  double resolution_m_per_px = 0.05;
+  int free_threshold = 250;     // occupancy pixels >= this are free, everything else is occupied
+  int gt_room_threshold = 250;  // ground-truth pixels > this are room interior
+  int min_room_area_px = 101;   // ground-truth regions smaller than this (100 px or fewer) are ignored
+  double wall_height_m = 2.5;
+  double door_height_m = 2.0;
+  double contour_epsilon_px = 1.0;  // polygon simplification tolerance
+  int crop_margin_px = 10;          // occupied pixels farther than this outside the free area's bounds are dropped
+  bool add_floor_and_ceiling = true;
+  double min_door_width_m = 0.4;  // separator pieces shorter than this are not recorded as doors
+  int separator_search_px = 2;    // how far from a separator pixel to look for the rooms it separates
+
+  void print(std::FILE* out) const;
+};
+
+// Statistics of the last import, for logs and tests.
+struct FloorPlanStats {
+  int occupied_px = 0;
+  int wall_boxes = 0;
+  int gt_regions = 0;  // 8-connected white regions before the size filter
+  int rooms = 0;
+  int doors = 0;
+};
+
+// Image pixel (col, row) maps to world x = (col + 0.5) * res, y = (rows - row - 0.5) * res: the image's up is +y.
+// The occupancy image must be 8-bit with 1-4 channels (converted to grey); ground truth may be empty (no rooms).
+WorldResult import_floor_plan(const cv::Mat& occupancy, const cv::Mat& ground_truth, const FloorPlanConfig& config,
+                              const std::string& name = "floor_plan", FloorPlanStats* stats = nullptr);
+
+// Reads the images with cv::imread. gt_path may be empty (no rooms).
+WorldResult import_floor_plan_files(const std::string& occupancy_path, const std::string& gt_path,
+                                    const FloorPlanConfig& config, FloorPlanStats* stats = nullptr);
+
+// The benchmark's ground-truth file for a map: "<dir>/<map>_gt_segmentation.png", with a "_furnitures" suffix of the
+// map name dropped (furnished variants share the plain map's ground truth).
+std::string floor_plan_gt_path(const std::string& occupancy_path);
+
+}  // namespace qsg::world

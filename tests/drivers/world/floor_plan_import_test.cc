@@ -1,0 +1,195 @@
+// Tests of floor-plan import: a small synthetic plan with known rooms and door, error handling, and the six
+// benchmark plans (plain and furnished) against their ground-truth room counts.
+#include "drivers/world/floor_plan_import.h"
+
+#include <gtest/gtest.h>
+
+#include <vector>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "drivers/world/world_file.h"
+#include "drivers/world/world_query.h"
+#include "tests/support/test_data.h"
+
+namespace qsg::world {
+namespace {
+
+// 160x120 px (8 x 6 m): an outer wall, an inner wall at column 80 with a doorway in rows 50-69 (1 m).
+struct SyntheticPlan {
+  cv::Mat occupancy{120, 160, CV_8UC1, cv::Scalar(0)};
+  cv::Mat ground_truth;
+  SyntheticPlan() {
+    cv::rectangle(occupancy, cv::Rect(4, 4, 152, 112), cv::Scalar(255), cv::FILLED);
+    cv::rectangle(occupancy, cv::Rect(78, 4, 4, 112), cv::Scalar(0), cv::FILLED);
+    cv::rectangle(occupancy, cv::Rect(78, 50, 4, 20), cv::Scalar(255), cv::FILLED);
+    ground_truth = occupancy.clone();
+    cv::line(ground_truth, cv::Point(80, 45), cv::Point(80, 75), cv::Scalar(0), 1);  // closes the doorway
+  }
+};
+
+TEST(FloorPlanImport, SyntheticPlanGivesTwoRoomsOneDoorAndWalls) {
+  const SyntheticPlan plan;
+  FloorPlanStats stats;
+  const WorldResult r = import_floor_plan(plan.occupancy, plan.ground_truth, FloorPlanConfig(), "synthetic", &stats);
+  ASSERT_TRUE(r.ok) << r.error;
+  const World& w = r.world;
+  ASSERT_EQ(w.rooms.size(), 2u);
+  EXPECT_EQ(stats.rooms, 2);
+  EXPECT_LE(stats.wall_boxes, 12);  // merged rectangles, not pixels
+  EXPECT_EQ(stats.occupied_px, 120 * 160 - 152 * 112 + 4 * 112 - 4 * 20);
+  for (const Room& room : w.rooms) {
+    ASSERT_EQ(room.footprint_m.size(), 1u);
+    EXPECT_GT(polygon_signed_area(room.footprint_m[0]), 0.0);  // counter-clockwise
+    EXPECT_EQ(room.label, semantics::kRoomUnknown);
+  }
+  // Image up is +y: room 0 (found first in raster order) is the left room; its area is about 3.7 x 5.6 m.
+  EXPECT_NEAR(polygon_signed_area(w.rooms[0].footprint_m[0]), 3.7 * 5.6, 0.6);
+  EXPECT_EQ(room_at(w, 2.0, 3.0, 1.0), 0);
+  EXPECT_EQ(room_at(w, 6.0, 3.0, 1.0), 1);
+  EXPECT_EQ(room_at(w, 2.0, 3.0, 3.0), -1);  // above the ceiling
+  EXPECT_EQ(room_at(w, -1.0, 3.0, 1.0), -1);
+  ASSERT_EQ(w.doors.size(), 1u);
+  const Door& d = w.doors[0];
+  EXPECT_EQ(d.room_a, 0);
+  EXPECT_EQ(d.room_b, 1);
+  EXPECT_NEAR(d.width_m(), 1.0, 0.1);
+  EXPECT_NEAR(0.5 * (d.a_m + d.b_m).x(), 4.025, 0.06);
+  EXPECT_NEAR(0.5 * (d.a_m + d.b_m).y(), 3.0, 0.06);  // rows 50-69 -> y 2.55-3.5
+  // Walls stand where the image is occupied, the doorway is open.
+  const FreeSpaceIndex index(w);
+  EXPECT_FALSE(index.is_free(Eigen::Vector3d(4.0, 1.0, 1.0), 0.0));    // inner wall
+  EXPECT_TRUE(index.is_free(Eigen::Vector3d(4.0, 3.0, 1.0), 0.3));     // doorway
+  EXPECT_FALSE(index.is_free(Eigen::Vector3d(2.0, 3.0, -0.05), 0.0));  // floor
+  EXPECT_FALSE(index.is_free(Eigen::Vector3d(2.0, 3.0, 2.55), 0.0));   // ceiling
+  EXPECT_TRUE(index.is_free(Eigen::Vector3d(2.0, 3.0, 1.25), 1.0));
+}
+
+TEST(FloorPlanImport, ImportedPlanRoundTripsThroughTheWorldFile) {
+  const SyntheticPlan plan;
+  const WorldResult r = import_floor_plan(plan.occupancy, plan.ground_truth, FloorPlanConfig(), "synthetic");
+  ASSERT_TRUE(r.ok) << r.error;
+  const WorldResult back = parse_world_json(world_to_json(r.world), "synthetic.json");
+  ASSERT_TRUE(back.ok) << back.error;
+  std::string diff;
+  EXPECT_TRUE(worlds_equal(r.world, back.world, &diff)) << diff;
+}
+
+TEST(FloorPlanImport, WithoutGroundTruthThereAreNoRooms) {
+  const SyntheticPlan plan;
+  const WorldResult r = import_floor_plan(plan.occupancy, cv::Mat(), FloorPlanConfig());
+  ASSERT_TRUE(r.ok) << r.error;
+  EXPECT_TRUE(r.world.rooms.empty());
+  EXPECT_FALSE(r.world.shapes.empty());
+}
+
+TEST(FloorPlanImport, ColourInputIsConvertedToGrey) {
+  const SyntheticPlan plan;
+  cv::Mat bgr, bgra;
+  cv::cvtColor(plan.occupancy, bgr, cv::COLOR_GRAY2BGR);
+  cv::cvtColor(plan.ground_truth, bgra, cv::COLOR_GRAY2BGRA);
+  const WorldResult r = import_floor_plan(bgr, bgra, FloorPlanConfig());
+  ASSERT_TRUE(r.ok) << r.error;
+  EXPECT_EQ(r.world.rooms.size(), 2u);
+}
+
+TEST(FloorPlanImport, BadInputGivesClearErrors) {
+  const SyntheticPlan plan;
+  WorldResult r = import_floor_plan(cv::Mat(), cv::Mat(), FloorPlanConfig());
+  EXPECT_FALSE(r.ok);
+  EXPECT_NE(r.error.find("empty"), std::string::npos) << r.error;
+  r = import_floor_plan(plan.occupancy, plan.ground_truth(cv::Rect(0, 0, 80, 60)).clone(), FloorPlanConfig());
+  EXPECT_FALSE(r.ok);
+  EXPECT_NE(r.error.find("80x60"), std::string::npos) << r.error;
+  r = import_floor_plan(cv::Mat(10, 10, CV_16UC1, cv::Scalar(0)), cv::Mat(), FloorPlanConfig());
+  EXPECT_FALSE(r.ok);
+  EXPECT_NE(r.error.find("8-bit"), std::string::npos) << r.error;
+  r = import_floor_plan(cv::Mat(10, 10, CV_8UC1, cv::Scalar(0)), cv::Mat(), FloorPlanConfig());
+  EXPECT_FALSE(r.ok);
+  EXPECT_NE(r.error.find("no free pixels"), std::string::npos) << r.error;
+  r = import_floor_plan_files("/nonexistent/plan.png", "", FloorPlanConfig());
+  EXPECT_FALSE(r.ok);
+  EXPECT_NE(r.error.find("/nonexistent/plan.png"), std::string::npos) << r.error;
+}
+
+TEST(FloorPlanImport, GroundTruthPathDropsTheFurnituresSuffix) {
+  EXPECT_EQ(floor_plan_gt_path("/d/ipa/lab_ipa.png"), "/d/ipa/lab_ipa_gt_segmentation.png");
+  EXPECT_EQ(floor_plan_gt_path("/d/ipa/lab_ipa_furnitures.png"), "/d/ipa/lab_ipa_gt_segmentation.png");
+  EXPECT_EQ(floor_plan_gt_path("office_e"), "office_e_gt_segmentation.png");
+}
+
+// Independent reference: 8-connected white regions (> 250) larger than 100 px, by breadth-first flood fill.
+int count_gt_rooms(const cv::Mat& gt) {
+  cv::Mat seen = cv::Mat::zeros(gt.size(), CV_8U);
+  int rooms = 0;
+  std::vector<cv::Point> stack;
+  for (int r = 0; r < gt.rows; ++r)
+    for (int c = 0; c < gt.cols; ++c) {
+      if (gt.at<std::uint8_t>(r, c) <= 250 || seen.at<std::uint8_t>(r, c)) continue;
+      int area = 0;
+      stack.assign(1, cv::Point(c, r));
+      seen.at<std::uint8_t>(r, c) = 1;
+      while (!stack.empty()) {
+        const cv::Point p = stack.back();
+        stack.pop_back();
+        ++area;
+        for (int dy = -1; dy <= 1; ++dy)
+          for (int dx = -1; dx <= 1; ++dx) {
+            const cv::Point q(p.x + dx, p.y + dy);
+            if (q.x < 0 || q.y < 0 || q.x >= gt.cols || q.y >= gt.rows) continue;
+            if (gt.at<std::uint8_t>(q) <= 250 || seen.at<std::uint8_t>(q)) continue;
+            seen.at<std::uint8_t>(q) = 1;
+            stack.push_back(q);
+          }
+      }
+      if (area > 100) ++rooms;
+    }
+  return rooms;
+}
+
+struct BenchmarkMap {
+  const char* name;
+  int rooms;
+};
+
+void PrintTo(const BenchmarkMap& map, std::ostream* os) { *os << map.name << " (" << map.rooms << " rooms)"; }
+
+class BenchmarkFloorPlan : public ::testing::TestWithParam<BenchmarkMap> {};
+
+TEST_P(BenchmarkFloorPlan, RoomCountMatchesGroundTruth) {
+  const BenchmarkMap map = GetParam();
+  const std::string base = std::string("floorplans/ipa/") + map.name;
+  QSG_REQUIRE_SHARED_DATA(plain, base + ".png");
+  QSG_REQUIRE_SHARED_DATA(furnished, base + "_furnitures.png");
+  QSG_REQUIRE_SHARED_DATA(gt, base + "_gt_segmentation.png");
+  EXPECT_EQ(floor_plan_gt_path(plain), gt);
+  EXPECT_EQ(floor_plan_gt_path(furnished), gt);
+  EXPECT_EQ(count_gt_rooms(cv::imread(gt, cv::IMREAD_GRAYSCALE)), map.rooms);
+  for (const std::string& occupancy : {plain, furnished}) {
+    FloorPlanStats stats;
+    const WorldResult r = import_floor_plan_files(occupancy, gt, FloorPlanConfig(), &stats);
+    ASSERT_TRUE(r.ok) << r.error;
+    EXPECT_EQ(static_cast<int>(r.world.rooms.size()), map.rooms) << occupancy;
+    EXPECT_LT(stats.wall_boxes, 5000) << occupancy;
+    EXPECT_GT(stats.doors, 0) << occupancy;
+    for (const Room& room : r.world.rooms) {
+      ASSERT_EQ(room.footprint_m.size(), 1u);
+      EXPECT_GE(room.footprint_m[0].size(), 3u);
+      EXPECT_GT(polygon_signed_area(room.footprint_m[0]), 0.25 * 0.9) << "room " << room.id;
+    }
+    for (const Door& d : r.world.doors) {
+      EXPECT_NE(d.room_a, d.room_b);
+      EXPECT_GE(d.width_m(), FloorPlanConfig().min_door_width_m);
+    }
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Ipa, BenchmarkFloorPlan,
+                         ::testing::Values(BenchmarkMap{"lab_ipa", 10}, BenchmarkMap{"Freiburg52_scan", 10},
+                                           BenchmarkMap{"lab_c_scan", 17}, BenchmarkMap{"lab_intel", 26},
+                                           BenchmarkMap{"office_a", 27}, BenchmarkMap{"office_e", 32}),
+                         [](const ::testing::TestParamInfo<BenchmarkMap>& p) { return std::string(p.param.name); });
+
+}  // namespace
+}  // namespace qsg::world
