@@ -1,0 +1,327 @@
+// The simulated robot in a world: exploration tours, ground-truth skeleton and rooms, the simulated camera.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <memory>
+#include <set>
+
+#include "drivers/sim/exploration.h"
+#include "drivers/sim/ground_truth.h"
+#include "drivers/sim/sim_camera.h"
+#include "drivers/world/building_generator.h"
+#include "drivers/world/world_query.h"
+#include "tests/drivers/rgbd_source_contract.h"
+#include "tests/support/allocation_counter.h"
+
+namespace qsg::sim {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+// A closed box room [0, 4] x [0, 3] x [0, 2.5] with 0.1 m thick walls outside that volume.
+world::World box_room() {
+  world::World w;
+  w.name = "box_room";
+  world::Material wall;
+  wall.label = semantics::kWall;
+  const auto add = [&](Eigen::Vector3d c, Eigen::Vector3d half, semantics::Label label) {
+    world::BoxShape b;
+    b.center_m = c;
+    b.half_extents_m = half;
+    world::Material m = wall;
+    m.label = label;
+    w.add_box(b, m, -1, 0);
+  };
+  add({2, 1.5, -0.05}, {2.2, 1.7, 0.05}, semantics::kFloor);
+  add({2, 1.5, 2.55}, {2.2, 1.7, 0.05}, semantics::kCeiling);
+  add({-0.05, 1.5, 1.25}, {0.05, 1.7, 1.3}, semantics::kWall);
+  add({4.05, 1.5, 1.25}, {0.05, 1.7, 1.3}, semantics::kWall);
+  add({2, -0.05, 1.25}, {2.2, 0.05, 1.3}, semantics::kWall);
+  add({2, 3.05, 1.25}, {2.2, 0.05, 1.3}, semantics::kWall);
+  world::Room room;
+  room.id = 0;
+  room.label = semantics::kOffice;
+  room.footprint_m = {{{0, 0}, {4, 0}, {4, 3}, {0, 3}}};
+  room.height_m = 2.5;
+  w.rooms.push_back(room);
+  return w;
+}
+
+struct Prepared {
+  world::World world;
+  render::RayScene scene;
+  std::unique_ptr<world::FreeSpaceIndex> free_space;
+};
+
+std::unique_ptr<Prepared> prepare(world::World w) {
+  auto p = std::make_unique<Prepared>();
+  p->world = std::move(w);
+  std::string error;
+  EXPECT_TRUE(p->scene.build(p->world, &error)) << error;
+  p->free_space = std::make_unique<world::FreeSpaceIndex>(p->world);
+  return p;
+}
+
+world::World small_building(bool two_floors, std::uint64_t seed) {
+  world::BuildingConfig config;
+  config.num_rooms = two_floors ? 8 : 6;
+  config.two_floors = two_floors;
+  config.seed = seed;
+  return world::generate_building(config);
+}
+
+// Every property a tour must have, whatever the world.
+void expect_valid_tour(const Prepared& p, const ExplorationConfig& config, const ExplorationResult& r) {
+  ASSERT_TRUE(r.ok) << r.error;
+  ASSERT_GT(r.trajectory.size(), 2u);
+  const double dt = 1.0 / config.rate_hz;
+  for (std::size_t k = 1; k < r.trajectory.size(); ++k) {
+    const auto& a = r.trajectory[k - 1];
+    const auto& b = r.trajectory[k];
+    ASSERT_GT(b.time_ns, a.time_ns);
+    EXPECT_LE((b.world_t_body_m - a.world_t_body_m).norm(), config.speed_m_s * dt * 1.01 + 1e-9) << "pose " << k;
+    EXPECT_LE(a.world_R_body.angularDistance(b.world_R_body), config.yaw_rate_rad_s * dt * 1.01 + 1e-9) << "pose " << k;
+  }
+  // The body never comes closer to a surface than its radius (less a grid cell of planning slack).
+  for (std::size_t k = 0; k < r.trajectory.size(); k += 5) {
+    const Eigen::Vector3d cam = r.trajectory[k].world_t_body_m;
+    EXPECT_TRUE(p.free_space->is_free(cam, config.robot_radius_m - config.resolution_m))
+        << "pose " << k << " at " << cam.transpose() << " collides";
+  }
+  if (config.return_to_start) {
+    EXPECT_LT((r.trajectory.front().world_t_body_m - r.trajectory.back().world_t_body_m).norm(), 1e-6);
+  }
+}
+
+TEST(ExplorationTest, VisitsEveryRoomOfAGeneratedBuildingThroughItsDoors) {
+  auto p = prepare(small_building(false, 3));
+  ExplorationConfig config;
+  const ExplorationResult r = plan_exploration(p->world, p->scene, *p->free_space, config);
+  expect_valid_tour(*p, config, r);
+  EXPECT_TRUE(r.unreachable_rooms.empty());
+  std::set<std::int32_t> visited(r.room_order.begin(), r.room_order.end());
+  EXPECT_EQ(visited.size(), p->world.rooms.size());
+  // Room changes happen at doors: where consecutive poses lie in two different rooms, a door joins them nearby.
+  int crossings = 0;
+  for (std::size_t k = 1; k < r.trajectory.size(); ++k) {
+    const Eigen::Vector3d a = r.trajectory[k - 1].world_t_body_m, b = r.trajectory[k].world_t_body_m;
+    const std::int32_t ra = world::room_at(p->world, a.x(), a.y(), a.z()), rb = world::room_at(p->world, b.x(), b.y(), b.z());
+    if (ra < 0 || rb < 0 || ra == rb) continue;
+    ++crossings;
+    double nearest = 1e9;
+    for (const world::Door& d : p->world.doors) {
+      if (!((d.room_a == ra && d.room_b == rb) || (d.room_a == rb && d.room_b == ra))) continue;
+      nearest = std::min(nearest, (0.5 * (d.a_m + d.b_m) - b.head<2>()).norm());
+    }
+    EXPECT_LT(nearest, 0.7) << "room " << ra << " -> " << rb << " away from their doors at " << b.transpose();
+  }
+  EXPECT_GE(crossings, static_cast<int>(p->world.rooms.size()) - 1);
+  // Quadruped camera height above the floor.
+  EXPECT_NEAR(r.trajectory.front().world_t_body_m.z() - p->world.rooms[0].floor_z_m, config.camera_height_m, 0.06);
+}
+
+TEST(ExplorationTest, ReachesBothFloorsByTheStairs) {
+  auto p = prepare(small_building(true, 5));
+  ExplorationConfig config;
+  config.spin_in_rooms = false;
+  const ExplorationResult r = plan_exploration(p->world, p->scene, *p->free_space, config);
+  expect_valid_tour(*p, config, r);
+  std::set<std::int32_t> floors;
+  for (std::int32_t id : r.room_order)
+    for (const world::Room& room : p->world.rooms)
+      if (room.id == id) floors.insert(room.floor_index);
+  EXPECT_EQ(floors.size(), 2u) << "rooms visited on " << floors.size() << " floor(s)";
+  EXPECT_TRUE(r.unreachable_rooms.empty());
+}
+
+TEST(ExplorationTest, HandHeldHeightAndConfigErrors) {
+  auto p = prepare(box_room());
+  ExplorationConfig config;
+  config.camera_height_m = 1.2;
+  const ExplorationResult r = plan_exploration(p->world, p->scene, *p->free_space, config);
+  ASSERT_TRUE(r.ok) << r.error;
+  EXPECT_NEAR(r.trajectory.front().world_t_body_m.z(), 1.2, 0.06);
+  EXPECT_NEAR(r.duration_s, 2 * kPi / config.yaw_rate_rad_s, 0.2) << "one room: a spin in place";
+  config.speed_m_s = -1;
+  EXPECT_NE(plan_exploration(p->world, p->scene, *p->free_space, config).error.find("speed_m_s"), std::string::npos);
+  config = ExplorationConfig{};
+  config.start_room = 42;
+  EXPECT_NE(plan_exploration(p->world, p->scene, *p->free_space, config).error.find("start room 42"), std::string::npos);
+}
+
+TEST(ScriptedTrajectoryTest, FollowsWaypointsAtTheConfiguredSpeed) {
+  ExplorationConfig config;
+  config.rate_hz = 20;
+  const ExplorationResult r = scripted_trajectory({{0, 0, 0.5}, {2, 0, 0.5}, {2, 1, 0.5}}, config);
+  ASSERT_TRUE(r.ok) << r.error;
+  EXPECT_NEAR(r.length_m, 3.0, 1e-9);
+  EXPECT_NEAR((r.trajectory.back().world_t_body_m - Eigen::Vector3d(2, 1, 0.5)).norm(), 0.0, 1e-9);
+  EXPECT_GE(r.duration_s, 3.0 / config.speed_m_s);
+  EXPECT_FALSE(scripted_trajectory({}, config).ok);
+}
+
+TEST(GroundTruthTest, ClearanceMatchesABruteForceTransform) {
+  auto p = prepare(box_room());
+  GroundTruthConfig config;
+  config.voxel_size_m = 0.2;
+  GroundTruth t;
+  std::string error;
+  ASSERT_TRUE(compute_ground_truth(p->world, *p->free_space, config, &t, &error)) << error;
+  std::vector<Eigen::Vector3i> occupied;
+  for (int z = 0; z < t.dims.z(); ++z)
+    for (int y = 0; y < t.dims.y(); ++y)
+      for (int x = 0; x < t.dims.x(); ++x)
+        if (t.voxel_room[t.index(x, y, z)] == kVoxelOccupied) occupied.emplace_back(x, y, z);
+  ASSERT_FALSE(occupied.empty());
+  int checked = 0;
+  for (int z = 0; z < t.dims.z(); ++z)
+    for (int y = 0; y < t.dims.y(); ++y)
+      for (int x = 0; x < t.dims.x(); x += 2) {
+        const std::size_t i = t.index(x, y, z);
+        if (t.voxel_room[i] == kVoxelOccupied) continue;
+        double best = 1e30;
+        for (const Eigen::Vector3i& o : occupied) best = std::min(best, (o - Eigen::Vector3i(x, y, z)).cast<double>().squaredNorm());
+        const double expected = std::min(config.max_clearance_m, std::max(0.0, (std::sqrt(best) - 0.5) * config.voxel_size_m));
+        ASSERT_NEAR(t.clearance_m[i], expected, 1e-5) << x << " " << y << " " << z;
+        ++checked;
+      }
+  EXPECT_GT(checked, 100);
+}
+
+TEST(GroundTruthTest, RoomVoxelsAndSkeletonOfABoxRoom) {
+  auto p = prepare(box_room());
+  GroundTruthConfig config;
+  config.voxel_size_m = 0.1;
+  GroundTruth t;
+  std::string error;
+  ASSERT_TRUE(compute_ground_truth(p->world, *p->free_space, config, &t, &error)) << error;
+  // The room's interior volume: the grid's voxel faces fall on the room's surfaces here, so every interior
+  // voxel is free and no other is.
+  const double interior_voxels = 4.0 * 3.0 * 2.5 / 1e-3;
+  ASSERT_EQ(t.room_free_voxels.size(), 1u);
+  EXPECT_NEAR(static_cast<double>(t.room_free_voxels[0]), interior_voxels, 0.01 * interior_voxels);
+  ASSERT_GT(t.gvd.size(), 100u);
+  for (const GvdVoxel& g : t.gvd) {
+    const Eigen::Vector3d c = g.position_m.cast<double>();
+    double d[6] = {c.x(), 4.0 - c.x(), c.y(), 3.0 - c.y(), c.z(), 2.5 - c.z()};
+    std::sort(d, d + 6);
+    // On the medial axis of a box: the clearance is the distance to the nearest face, and the two nearest
+    // faces are (nearly) equally far.
+    EXPECT_NEAR(g.clearance_m, d[0], 0.02) << c.transpose();
+    EXPECT_LE(d[1] - d[0], config.voxel_size_m + 1e-6) << c.transpose();
+    EXPECT_GE(g.num_basis_points, 2);
+  }
+  EXPECT_LT(t.distance_to_gvd({2.0, 1.5, 1.25}), 0.11) << "the room's centre lies on its skeleton";
+}
+
+TEST(GroundTruthTest, WritesFilesOthersCanRead) {
+  auto p = prepare(small_building(false, 2));
+  GroundTruthConfig config;
+  config.voxel_size_m = 0.2;
+  GroundTruth t;
+  std::string error;
+  ASSERT_TRUE(compute_ground_truth(p->world, *p->free_space, config, &t, &error)) << error;
+  const std::string dir = ::testing::TempDir();
+  replay::Trajectory trajectory(2);
+  trajectory[1].time_ns = 1000000;
+  ASSERT_TRUE(write_ground_truth(dir, p->world, t, trajectory, &error)) << error;
+  std::ifstream ply(dir + "/gvd.ply", std::ios::binary);
+  std::string line;
+  std::size_t vertices = 0;
+  while (std::getline(ply, line) && line != "end_header")
+    if (line.rfind("element vertex ", 0) == 0) vertices = std::stoul(line.substr(15));
+  EXPECT_EQ(vertices, t.gvd.size());
+  std::ifstream bin(dir + "/free_space.bin", std::ios::binary | std::ios::ate);
+  EXPECT_EQ(static_cast<std::size_t>(bin.tellg()), 2 * t.voxel_room.size());
+  std::ifstream objects(dir + "/objects.json");
+  EXPECT_TRUE(objects.good());
+  std::ifstream traj(dir + "/trajectory.txt");
+  EXPECT_TRUE(traj.good());
+  EXPECT_FALSE(compute_ground_truth(p->world, *p->free_space, config, &t, &error, 1000));
+  EXPECT_NE(error.find("coarser"), std::string::npos);
+}
+
+TEST(SimCameraTest, RendersTheWallAheadAtItsDistance) {
+  const world::World w = box_room();
+  ExplorationConfig tc;
+  tc.rate_hz = 10;
+  tc.speed_m_s = 0.5;
+  // Facing +x from x = 1: the wall at x = 4 is 3 m ahead, then 2 m at the end.
+  const ExplorationResult r = scripted_trajectory({{1, 1.5, 1.0}, {2, 1.5, 1.0}}, tc);
+  ASSERT_TRUE(r.ok);
+  SimCamera camera;
+  SimCamera::Config config;
+  config.rate_hz = 5;
+  std::string error;
+  ASSERT_TRUE(camera.init(config, render::Renderer::Config{}, w, r.trajectory, &error)) << error;
+  auto frame = std::make_unique<drivers::RgbdFrame>();
+  std::size_t frames = 0;
+  while (camera.read(*frame, 0) == drivers::ReadStatus::kOk) {
+    Eigen::Isometry3d pose;
+    ASSERT_TRUE(camera.camera_pose(frame->sequence, &pose, nullptr));
+    const int cx = config.intrinsics.width / 2, cy = config.intrinsics.height / 2;
+    const float depth = frame->depth_m[static_cast<std::size_t>(cy * config.intrinsics.width + cx)];
+    // The principal point is half a pixel off the image centre, so allow a millimetre.
+    EXPECT_NEAR(depth, 4.0 - pose.translation().x(), 1e-3) << "frame " << frame->sequence;
+    EXPECT_EQ(frame->labels[static_cast<std::size_t>(cy * config.intrinsics.width + cx)], semantics::kWall);
+    EXPECT_EQ(frame->publish_time_ns - frame->sample_time_ns, config.latency_ns);
+    ++frames;
+  }
+  EXPECT_EQ(frames, camera.num_frames());
+  EXPECT_EQ(camera.read(*frame, 0), drivers::ReadStatus::kEndOfStream);
+}
+
+TEST(SimCameraTest, IsDeterministicAndDoesNotAllocatePerFrame) {
+  const world::World w = small_building(false, 4);
+  auto p = prepare(w);
+  ExplorationConfig tc;
+  const ExplorationResult r = plan_exploration(p->world, p->scene, *p->free_space, tc);
+  ASSERT_TRUE(r.ok) << r.error;
+  SimCamera a, b;
+  SimCamera::Config config;
+  config.intrinsics = {160, 120, 131.25, 131.25, 79.5, 59.5};
+  std::string error;
+  ASSERT_TRUE(a.init(config, render::Renderer::Config{}, w, r.trajectory, &error)) << error;
+  ASSERT_TRUE(b.init(config, render::Renderer::Config{}, w, r.trajectory, &error)) << error;
+  auto fa = std::make_unique<drivers::RgbdFrame>();
+  auto fb = std::make_unique<drivers::RgbdFrame>();
+  ASSERT_EQ(a.read(*fa, 0), drivers::ReadStatus::kOk);  // warm-up
+  EXPECT_NO_ALLOCATIONS({
+    for (int k = 0; k < 5; ++k) a.read(*fa, 0);
+  });
+  for (int k = 0; k < 6; ++k) ASSERT_EQ(b.read(*fb, 0), drivers::ReadStatus::kOk);
+  EXPECT_EQ(fa->sequence, fb->sequence);
+  const std::size_t n = static_cast<std::size_t>(fa->pixels());
+  EXPECT_TRUE(std::equal(fa->depth_m.begin(), fa->depth_m.begin() + n, fb->depth_m.begin()));
+  EXPECT_TRUE(std::equal(fa->rgb.begin(), fa->rgb.begin() + 3 * n, fb->rgb.begin()));
+}
+
+}  // namespace
+}  // namespace qsg::sim
+
+namespace qsg::testing {
+namespace {
+std::shared_ptr<drivers::RgbdSource> make_sim_camera(std::string*) {
+  struct Holder {
+    sim::SimCamera camera;
+  };
+  auto holder = std::make_shared<Holder>();
+  sim::ExplorationConfig tc;
+  const sim::ExplorationResult r = sim::scripted_trajectory({{1, 1.5, 1.0}, {3, 1.5, 1.0}}, tc);
+  world::World w;
+  world::BoxShape wall;
+  wall.center_m = {5, 0, 1};
+  wall.half_extents_m = {0.1, 5, 2};
+  w.add_box(wall, world::Material{});
+  sim::SimCamera::Config config;
+  config.intrinsics = {64, 48, 52.5, 52.5, 31.5, 23.5};
+  std::string error;
+  if (!r.ok || !holder->camera.init(config, render::Renderer::Config{}, w, r.trajectory, &error)) return nullptr;
+  return std::shared_ptr<drivers::RgbdSource>(holder, &holder->camera);
+}
+}  // namespace
+INSTANTIATE_TEST_SUITE_P(SimCamera, RgbdSourceContract,
+                         ::testing::Values(RgbdContractCase{"sim_camera", make_sim_camera, true, 400, false}),
+                         rgbd_contract_case_name);
+}  // namespace qsg::testing
