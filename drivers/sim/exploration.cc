@@ -146,7 +146,8 @@ class Graph {
       }
     }
     while (!open.empty()) {
-      const auto [d, v] = open.top();
+      const double d = open.top().first;
+      const int v = open.top().second;
       open.pop();
       if (d > distance[static_cast<std::size_t>(v)]) continue;
       for_each_neighbor(v, [&](int m, double length) {
@@ -207,7 +208,8 @@ std::vector<int> astar(const Graph& g, int a, int b, const ExplorationConfig& co
   cost[static_cast<std::size_t>(a)] = 0.0;
   open.push({(g.position(a) - goal).norm(), a});
   while (!open.empty()) {
-    const auto [f, v] = open.top();
+    const double f = open.top().first;
+    const int v = open.top().second;
     open.pop();
     if (v == b) break;
     if (f - (g.position(v) - goal).norm() > cost[static_cast<std::size_t>(v)] + 1e-9) continue;  // stale entry

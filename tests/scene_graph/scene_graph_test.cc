@@ -19,7 +19,6 @@ using testing::place_at;
 
 const NodeId kP0 = make_node_id('p', 0);
 const NodeId kP1 = make_node_id('p', 1);
-const NodeId kP2 = make_node_id('p', 2);
 const NodeId kO0 = make_node_id('O', 0);
 const NodeId kR0 = make_node_id('R', 0);
 const NodeId kR1 = make_node_id('R', 1);
@@ -153,12 +152,22 @@ TEST(SceneGraphTest, InitRefusesABudgetTooSmall) {
   EXPECT_FALSE(g.initialized());
 }
 
-TEST(SceneGraphTest, FullStoreAbortsInTestBuilds) {
+TEST(SceneGraphTest, FullStoreAbortsOrRefusesPerBuildPolicy) {
   Capacities c = testing::small_capacities();
   c.room_nodes = 1;
   auto g = make_graph(c);
   ASSERT_EQ(g->add_room(kR0, RoomAttributes{}), Status::kOk);
-  EXPECT_DEATH(g->add_room(kR1, RoomAttributes{}), "scene_graph.rooms' is full");
+  if (memory::kBuildOverflowPolicy == memory::OverflowPolicy::kAbort) {
+    EXPECT_DEATH(g->add_room(kR1, RoomAttributes{}), "scene_graph.rooms' is full");
+  } else {
+    EXPECT_EQ(g->add_room(kR1, RoomAttributes{}), Status::kFull);
+    EXPECT_FALSE(g->has_node(kR1));
+    std::uint64_t failed = 0;
+    g->for_each_resource([&](const memory::ResourceStats& s) {
+      if (std::string(s.name) == "scene_graph.rooms") failed = s.failed;
+    });
+    EXPECT_EQ(failed, 1u);
+  }
 }
 
 TEST(SceneGraphTest, SteadyStateUpdatesDoNotAllocate) {

@@ -217,7 +217,7 @@ TEST(GroundTruthTest, RoomVoxelsAndSkeletonOfABoxRoom) {
 }
 
 TEST(GroundTruthTest, WritesFilesOthersCanRead) {
-  auto p = prepare(small_building(false, 2));
+  auto p = prepare(box_room());
   GroundTruthConfig config;
   config.voxel_size_m = 0.2;
   GroundTruth t;
