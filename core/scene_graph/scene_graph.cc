@@ -73,19 +73,6 @@ namespace {
 std::size_t mesh_chunk_count(const Capacities& c) { return (c.mesh_connections + kMeshChunkValues - 1) / kMeshChunkValues; }
 }  // namespace
 
-SceneGraph::~SceneGraph() {
-  // Pools destroy their live elements before the arena that holds them goes.
-  nodes_.clear();
-  objects_.clear();
-  agents_.clear();
-  places_.clear();
-  rooms_.clear();
-  buildings_.clear();
-  edges_.clear();
-  adjacency_.clear();
-  mesh_chunks_.clear();
-}
-
 memory::ArenaPlan SceneGraph::plan(const Capacities& c) {
   memory::ArenaPlan plan;
   memory::Pool<NodeRecord>::plan(plan, c.nodes());

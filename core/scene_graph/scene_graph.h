@@ -83,7 +83,7 @@ class SceneGraph {
   SceneGraph() = default;
   SceneGraph(const SceneGraph&) = delete;
   SceneGraph& operator=(const SceneGraph&) = delete;
-  ~SceneGraph();
+  ~SceneGraph() = default;  // pools (declared after the arena) release their elements first
 
   static memory::ArenaPlan plan(const Capacities& capacities);
   // Carves every store from one arena of at most `budget_bytes`. Start-up only; false with a reason on error.

@@ -1,11 +1,13 @@
 // Consistency of every board's budget table: capacities fit their arenas, every task has a budget, queues are sane.
 #include <gtest/gtest.h>
 
+#include <cstdio>
 #include <cstring>
 #include <set>
 #include <string>
 
 #include "budgets/budget_table.h"
+#include "core/reconstruction/semantic_tsdf.h"
 #include "core/scene_graph/scene_graph.h"
 
 namespace qsg::budgets {
@@ -57,6 +59,42 @@ void expect_scene_graph_fits(const char* board) {
 TEST(BudgetTableTest, EveryArenaHoldsItsCapacities) {
   expect_scene_graph_fits<HostSimSceneGraph>("host_sim");
   expect_scene_graph_fits<XavierNxSceneGraph>("xavier_nx");
+}
+
+template <typename Ns>
+void expect_reconstruction_fits(const char* board) {
+  reconstruction::Capacities c;
+  c.max_blocks = Ns::kMaxBlocks;
+  c.mesh_vertices = Ns::kMeshVertices;
+  c.mesh_triangles = Ns::kMeshTriangles;
+  c.archive_vertices = Ns::kArchiveVertices;
+  c.archive_triangles = Ns::kArchiveTriangles;
+  const std::size_t planned = reconstruction::SemanticTsdf::plan(c).total_bytes();
+  EXPECT_LE(planned, Ns::kArenaBytes) << board << ": reconstruction capacities need " << planned
+                                      << " bytes, its arena allows " << Ns::kArenaBytes;
+  std::printf("%s reconstruction arena: planned %zu of %zu bytes\n", board, planned, Ns::kArenaBytes);
+  // The paper's budget: the active window's TSDF + semantics within 12 MB.
+  EXPECT_LE(c.max_blocks * reconstruction::kBlockVoxels * sizeof(reconstruction::Voxel), 12u << 20) << board;
+}
+
+#define QSG_RECONSTRUCTION_FIELDS(board)                                                     \
+  static constexpr std::size_t kMaxBlocks = board::reconstruction::kMaxBlocks;               \
+  static constexpr std::size_t kMeshVertices = board::reconstruction::kMeshVertices;         \
+  static constexpr std::size_t kMeshTriangles = board::reconstruction::kMeshTriangles;       \
+  static constexpr std::size_t kArchiveVertices = board::reconstruction::kArchiveVertices;   \
+  static constexpr std::size_t kArchiveTriangles = board::reconstruction::kArchiveTriangles; \
+  static constexpr std::size_t kArenaBytes = board::reconstruction::kArenaBytes;
+struct HostSimReconstruction {
+  QSG_RECONSTRUCTION_FIELDS(host_sim)
+};
+struct XavierNxReconstruction {
+  QSG_RECONSTRUCTION_FIELDS(xavier_nx)
+};
+#undef QSG_RECONSTRUCTION_FIELDS
+
+TEST(BudgetTableTest, ReconstructionArenaHoldsItsCapacities) {
+  expect_reconstruction_fits<HostSimReconstruction>("host_sim");
+  expect_reconstruction_fits<XavierNxReconstruction>("xavier_nx");
 }
 
 TEST(BudgetTableTest, EveryBoardIsInTheGeneratedList) {

@@ -1,0 +1,640 @@
+// Semantic TSDF integration, marching cubes over dirty blocks, the active window and the mesh archive.
+#include "core/reconstruction/semantic_tsdf.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+
+#include "budgets/budget_table.h"
+#include "core/reconstruction/marching_cubes.h"
+
+namespace qsg::reconstruction {
+
+namespace {
+constexpr int kChunkSize = 64;
+constexpr int kCorners = kBlockSide + 1;                   // the block plus the neighbours' first layer
+constexpr int kEdgeCodes = kCorners * kCorners * kCorners * 3;
+constexpr int kMaxChunksPerBlock = (kEdgeCodes + kChunkSize - 1) / kChunkSize;
+constexpr float kSdfQuant = 32767.0f;
+
+inline int edge_code(int x, int y, int z, int axis) { return ((x * kCorners + y) * kCorners + z) * 3 + axis; }
+
+// Global key of a voxel edge: lower voxel (20 bits per axis, offset to unsigned) and axis.
+inline std::uint64_t edge_key(const memory::Index3& block, int code) {
+  const int axis = code % 3;
+  int rest = code / 3;
+  const int z = rest % kCorners;
+  rest /= kCorners;
+  const int y = rest % kCorners;
+  const int x = rest / kCorners;
+  const auto pack = [](std::int32_t v) { return static_cast<std::uint64_t>((v + (1 << 19)) & 0xFFFFF); };
+  return (pack(block.x * kBlockSide + x) << 42) | (pack(block.y * kBlockSide + y) << 22) |
+         (pack(block.z * kBlockSide + z) << 2) | static_cast<std::uint64_t>(axis);
+}
+
+inline bool valid_depth(float d, float min_m, float max_m) { return std::isfinite(d) && d >= min_m && d <= max_m; }
+}  // namespace
+
+struct SemanticTsdf::Block {
+  memory::Index3 index;
+  std::uint32_t frame_stamp = 0;
+  std::uint32_t mesh_stamp = 0;
+  std::uint32_t vertex_head = memory::kInvalidHandle;
+  std::uint32_t triangle_head = memory::kInvalidHandle;
+  std::uint16_t num_vertices = 0;
+  std::uint16_t num_triangles = 0;
+  bool dirty = false;
+  Voxel voxels[kBlockVoxels];
+};
+
+struct SemanticTsdf::VertexChunk {
+  MeshVertex vertices[kChunkSize];
+  std::uint16_t codes[kChunkSize];
+  std::uint32_t next = memory::kInvalidHandle;
+};
+
+struct SemanticTsdf::TriangleChunk {
+  std::uint16_t indices[kChunkSize][3];
+  std::uint32_t next = memory::kInvalidHandle;
+};
+
+struct SemanticTsdf::Scratch {
+  struct Corner {
+    float d;
+    std::uint8_t rgb[3];
+    std::uint8_t observed;
+    semantics::Label label;
+  };
+  Corner corners[kCorners * kCorners * kCorners];
+  std::int16_t code_to_vertex[kEdgeCodes];
+  const VertexChunk* chain[kMaxChunksPerBlock + 1];
+};
+
+// ---------------------------------------------------------------------------------------------------------
+std::string Config::check() const {
+  if (!(voxel_size_m >= 0.02 - 1e-12 && voxel_size_m <= 1.0)) return "voxel_size_m must be in [0.02, 1] m";
+  if (!(truncation_voxels >= 1.0 && truncation_voxels <= 10.0)) return "truncation_voxels must be in [1, 10]";
+  if (!(min_range_m >= 0.0 && max_range_m > min_range_m)) return "need 0 <= min_range_m < max_range_m";
+  if (!(window_radius_m > max_range_m)) return "window_radius_m must exceed max_range_m";
+  if (!(max_weight > 1.0 && max_weight * kWeightScale < 65535.0)) return "max_weight must be in (1, 255]";
+  if (!(archive_resolution_m > 0.0)) return "archive_resolution_m must be positive";
+  return {};
+}
+
+void Config::print(std::FILE* out) const {
+  std::fprintf(out,
+               "reconstruction: voxel_size_m=%.3f truncation_voxels=%.1f range_m=[%.2f, %.2f] window_radius_m=%.1f "
+               "max_weight=%.0f archive_resolution_m=%.3f integrate_labels=%d\n",
+               voxel_size_m, truncation_voxels, min_range_m, max_range_m, window_radius_m, max_weight,
+               archive_resolution_m, integrate_labels ? 1 : 0);
+}
+
+void Counters::print(std::FILE* out) const {
+  std::fprintf(out,
+               "reconstruction: frames=%llu pixels valid=%llu invalid=%llu blocks allocated=%llu archived=%llu "
+               "evicted=%llu refused=%llu meshed=%llu mesh_overflow=%llu archive_overflow=%llu\n",
+               (unsigned long long)frames, (unsigned long long)pixels_valid, (unsigned long long)pixels_invalid,
+               (unsigned long long)blocks_allocated, (unsigned long long)blocks_archived,
+               (unsigned long long)blocks_evicted, (unsigned long long)blocks_refused,
+               (unsigned long long)blocks_meshed, (unsigned long long)mesh_overflow,
+               (unsigned long long)archive_overflow);
+}
+
+Capacities capacities_from_budget() {
+  Capacities c;
+  c.max_blocks = budgets::active::reconstruction::kMaxBlocks;
+  c.mesh_vertices = budgets::active::reconstruction::kMeshVertices;
+  c.mesh_triangles = budgets::active::reconstruction::kMeshTriangles;
+  c.archive_vertices = budgets::active::reconstruction::kArchiveVertices;
+  c.archive_triangles = budgets::active::reconstruction::kArchiveTriangles;
+  return c;
+}
+
+// ---------------------------------------------------------------------------------------------------------
+SemanticTsdf::SemanticTsdf()
+    : blocks_("reconstruction.blocks", memory::OverflowPolicy::kRefuse),
+      block_index_("reconstruction.block_index", memory::OverflowPolicy::kRefuse),
+      vertex_chunks_("reconstruction.vertex_chunks", memory::OverflowPolicy::kRefuse),
+      triangle_chunks_("reconstruction.triangle_chunks", memory::OverflowPolicy::kRefuse),
+      touched_("reconstruction.touched", memory::OverflowPolicy::kRefuse),
+      remesh_("reconstruction.remesh", memory::OverflowPolicy::kRefuse),
+      weld_("reconstruction.weld", memory::OverflowPolicy::kRefuse),
+      archive_vertices_("reconstruction.archive_vertices", memory::OverflowPolicy::kRefuse),
+      archive_triangles_("reconstruction.archive_triangles", memory::OverflowPolicy::kRefuse),
+      archive_index_("reconstruction.archive_index", memory::OverflowPolicy::kRefuse) {}
+
+SemanticTsdf::~SemanticTsdf() {
+  // The pools hold their objects in the arena: destroy them before the arena goes.
+  if (ready_) {
+    blocks_.clear();
+    vertex_chunks_.clear();
+    triangle_chunks_.clear();
+  }
+}
+
+memory::ArenaPlan SemanticTsdf::plan(const Capacities& c) {
+  memory::ArenaPlan plan;
+  memory::Pool<Block>::plan(plan, c.max_blocks);
+  memory::SpatialHash<std::uint32_t>::plan(plan, memory::SpatialHash<std::uint32_t>::slots_for(c.max_blocks));
+  memory::Pool<VertexChunk>::plan(plan, c.mesh_vertices / kChunkSize);
+  memory::Pool<TriangleChunk>::plan(plan, c.mesh_triangles / kChunkSize);
+  memory::ArenaVector<std::uint32_t>::plan(plan, c.max_blocks);
+  memory::ArenaVector<std::uint32_t>::plan(plan, c.max_blocks);
+  using Weld = memory::FixedHashMap<std::uint64_t, std::uint32_t, memory::U64Hash>;
+  Weld::plan(plan, Weld::slots_for(c.mesh_vertices));
+  memory::ArenaVector<MeshVertex>::plan(plan, c.archive_vertices);
+  memory::ArenaVector<MeshTriangle>::plan(plan, c.archive_triangles);
+  memory::SpatialHash<std::uint32_t>::plan(plan, memory::SpatialHash<std::uint32_t>::slots_for(c.archive_vertices));
+  plan.add_array<Scratch>(1);
+  return plan;
+}
+
+bool SemanticTsdf::init(const Config& config, const Capacities& c, std::size_t budget_bytes, std::string* error) {
+  const auto fail = [error](const std::string& why) {
+    if (error != nullptr) *error = "reconstruction: " + why;
+    return false;
+  };
+  if (ready_) return fail("init() called twice");
+  const std::string bad = config.check();
+  if (!bad.empty()) return fail("config: " + bad);
+  if (c.max_blocks == 0 || c.mesh_vertices < kChunkSize || c.mesh_triangles < kChunkSize)
+    return fail("capacities: max_blocks, mesh_vertices and mesh_triangles must be positive (mesh ones >= 64)");
+  config_ = config;
+  capacities_ = c;
+  if (!arena_.create("reconstruction", plan(c), budget_bytes, error)) return false;
+  using Weld = memory::FixedHashMap<std::uint64_t, std::uint32_t, memory::U64Hash>;
+  const bool ok =
+      blocks_.carve(arena_, c.max_blocks) &&
+      block_index_.carve(arena_, memory::SpatialHash<std::uint32_t>::slots_for(c.max_blocks), c.max_blocks) &&
+      vertex_chunks_.carve(arena_, c.mesh_vertices / kChunkSize) &&
+      triangle_chunks_.carve(arena_, c.mesh_triangles / kChunkSize) && touched_.carve(arena_, c.max_blocks) &&
+      remesh_.carve(arena_, c.max_blocks) && weld_.carve(arena_, Weld::slots_for(c.mesh_vertices), c.mesh_vertices) &&
+      archive_vertices_.carve(arena_, c.archive_vertices) && archive_triangles_.carve(arena_, c.archive_triangles) &&
+      archive_index_.carve(arena_, memory::SpatialHash<std::uint32_t>::slots_for(c.archive_vertices),
+                           c.archive_vertices);
+  scratch_ = ok ? arena_.carve_array<Scratch>(1) : nullptr;
+  if (!ok || scratch_ == nullptr || !arena_.seal()) return fail("the arena carve did not match its plan");
+  sdf_scale_ = static_cast<float>(config_.voxel_size_m * config_.truncation_voxels) / kSdfQuant;
+  ready_ = true;
+  return true;
+}
+
+Eigen::Vector3d SemanticTsdf::block_center(const memory::Index3& i) const {
+  const double b = config_.voxel_size_m * kBlockSide;
+  return Eigen::Vector3d((i.x + 0.5) * b, (i.y + 0.5) * b, (i.z + 0.5) * b);
+}
+
+semantics::Label SemanticTsdf::best_label(const Voxel& v) {
+  const LabelVote& a = v.votes[0];
+  const LabelVote& b = v.votes[1];
+  if (a.weight_q == 0 && b.weight_q == 0) return semantics::kVoid;
+  return a.weight_q >= b.weight_q ? a.label : b.label;
+}
+
+const Voxel* SemanticTsdf::voxel_at(const Eigen::Vector3d& p_m) const {
+  if (!ready_) return nullptr;
+  const double s = config_.voxel_size_m;
+  const std::int32_t gx = static_cast<std::int32_t>(std::floor(p_m.x() / s));
+  const std::int32_t gy = static_cast<std::int32_t>(std::floor(p_m.y() / s));
+  const std::int32_t gz = static_cast<std::int32_t>(std::floor(p_m.z() / s));
+  const auto blk = [](std::int32_t g) { return g >= 0 ? g / kBlockSide : (g - kBlockSide + 1) / kBlockSide; };
+  const memory::Index3 bi{blk(gx), blk(gy), blk(gz)};
+  const std::uint32_t* h = block_index_.find(bi);
+  if (h == nullptr) return nullptr;
+  const int lx = gx - bi.x * kBlockSide, ly = gy - bi.y * kBlockSide, lz = gz - bi.z * kBlockSide;
+  return &blocks_[*h].voxels[lx + kBlockSide * (ly + kBlockSide * lz)];
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// Integration
+
+std::uint32_t SemanticTsdf::allocate_block(const memory::Index3& index, const Eigen::Vector3d& robot_m) {
+  if (const std::uint32_t* h = block_index_.find(index)) return *h;
+  if (blocks_.full() && !evict_farthest(robot_m)) {
+    ++counters_.blocks_refused;
+    return memory::kInvalidHandle;
+  }
+  const std::uint32_t h = blocks_.acquire();
+  if (h == memory::kInvalidHandle) return h;
+  if (block_index_.insert(index, h) == nullptr) {
+    blocks_.release(h);
+    ++counters_.blocks_refused;
+    return memory::kInvalidHandle;
+  }
+  blocks_[h].index = index;
+  ++counters_.blocks_allocated;
+  return h;
+}
+
+bool SemanticTsdf::evict_farthest(const Eigen::Vector3d& robot_m) {
+  std::uint32_t best = memory::kInvalidHandle;
+  double best_d2 = -1.0;
+  for (std::uint32_t h = 0; h < blocks_.capacity(); ++h) {
+    if (!blocks_.live(h) || blocks_[h].frame_stamp == frame_stamp_) continue;  // never a block of this frame
+    const double d2 = (block_center(blocks_[h].index) - robot_m).squaredNorm();
+    if (d2 > best_d2) {
+      best_d2 = d2;
+      best = h;
+    }
+  }
+  if (best == memory::kInvalidHandle) return false;
+  if (!logged_eviction_) {
+    std::fprintf(stderr,
+                 "reconstruction: block pool full (%zu blocks): archiving the farthest blocks early "
+                 "(logged once; see counters().blocks_evicted)\n",
+                 blocks_.capacity());
+    logged_eviction_ = true;
+  }
+  archive_block(best);
+  ++counters_.blocks_evicted;
+  return true;
+}
+
+bool SemanticTsdf::integrate(const drivers::RgbdFrame& frame, const Eigen::Isometry3d& world_T_camera) {
+  if (!ready_ || !frame.intrinsics.valid() || !world_T_camera.matrix().allFinite()) return false;
+  ++frame_stamp_;
+  ++counters_.frames;
+  touched_.clear();
+  const drivers::CameraIntrinsics& in = frame.intrinsics;
+  const float min_m = static_cast<float>(config_.min_range_m), max_m = static_cast<float>(config_.max_range_m);
+  const float trunc = static_cast<float>(config_.voxel_size_m * config_.truncation_voxels);
+  const double block_m = config_.voxel_size_m * kBlockSide;
+  const Eigen::Vector3d robot_m = world_T_camera.translation();
+
+  const int n = frame.pixels();
+  std::uint64_t valid = 0;
+  for (int i = 0; i < n; ++i) valid += valid_depth(frame.depth_m[static_cast<std::size_t>(i)], min_m, max_m) ? 1 : 0;
+  counters_.pixels_valid += valid;
+  counters_.pixels_invalid += static_cast<std::uint64_t>(n) - valid;
+
+  // Allocation: pixels on a grid whose spacing spans at most one voxel at maximum range, each allocating the
+  // blocks at the start, middle and end of its truncation band (the band, 2 x truncation, is shorter than a
+  // block, so three samples touch every block it crosses).
+  const int stride = std::max(1, static_cast<int>(config_.voxel_size_m * std::min(in.fx, in.fy) / config_.max_range_m));
+  const Eigen::Matrix3d R = world_T_camera.linear();
+  for (int v = 0; v < in.height; v += stride) {
+    for (int u = 0; u < in.width; u += stride) {
+      const float d = frame.depth_m[static_cast<std::size_t>(v * in.width + u)];
+      if (!valid_depth(d, min_m, max_m)) continue;
+      const Eigen::Vector3d ray((u - in.cx) / in.fx, (v - in.cy) / in.fy, 1.0);
+      const Eigen::Vector3d dir = R * ray;
+      for (int k = -1; k <= 1; ++k) {
+        const Eigen::Vector3d p = robot_m + dir * (d + k * trunc);
+        const memory::Index3 bi{static_cast<std::int32_t>(std::floor(p.x() / block_m)),
+                                static_cast<std::int32_t>(std::floor(p.y() / block_m)),
+                                static_cast<std::int32_t>(std::floor(p.z() / block_m))};
+        const std::uint32_t h = allocate_block(bi, robot_m);
+        if (h == memory::kInvalidHandle) continue;
+        Block& b = blocks_[h];
+        if (b.frame_stamp != frame_stamp_) {
+          b.frame_stamp = frame_stamp_;
+          touched_.push_back(h);
+        }
+      }
+    }
+  }
+  const Eigen::Isometry3d camera_T_world = world_T_camera.inverse();
+  for (std::uint32_t h : touched_) {
+    integrate_block(blocks_[h], frame, camera_T_world);
+    blocks_[h].dirty = true;
+  }
+  return true;
+}
+
+void SemanticTsdf::integrate_block(Block& block, const drivers::RgbdFrame& frame,
+                                   const Eigen::Isometry3d& camera_T_world) {
+  const drivers::CameraIntrinsics& in = frame.intrinsics;
+  const float voxel = static_cast<float>(config_.voxel_size_m);
+  const float trunc = voxel * static_cast<float>(config_.truncation_voxels);
+  const float min_m = static_cast<float>(config_.min_range_m), max_m = static_cast<float>(config_.max_range_m);
+  const float fx = static_cast<float>(in.fx), fy = static_cast<float>(in.fy);
+  const float cx = static_cast<float>(in.cx), cy = static_cast<float>(in.cy);
+  const float max_w = static_cast<float>(config_.max_weight);
+  const float inv_trunc_q = kSdfQuant / trunc;
+  const bool labels = config_.integrate_labels && frame.has_labels;
+  const Eigen::Vector3d origin((block.index.x * kBlockSide + 0.5) * config_.voxel_size_m,
+                               (block.index.y * kBlockSide + 0.5) * config_.voxel_size_m,
+                               (block.index.z * kBlockSide + 0.5) * config_.voxel_size_m);
+  const Eigen::Vector3f p0 = (camera_T_world * origin).cast<float>();
+  const Eigen::Matrix3f step = (camera_T_world.linear() * config_.voxel_size_m).cast<float>();
+  int i = 0;
+  for (int z = 0; z < kBlockSide; ++z) {
+    for (int y = 0; y < kBlockSide; ++y) {
+      Eigen::Vector3f p = p0 + step.col(1) * static_cast<float>(y) + step.col(2) * static_cast<float>(z);
+      for (int x = 0; x < kBlockSide; ++x, ++i, p += step.col(0)) {
+        if (p.z() < min_m || p.z() > max_m + trunc) continue;
+        const float inv_z = 1.0f / p.z();
+        const int u = static_cast<int>(std::lround(fx * p.x() * inv_z + cx));
+        const int v = static_cast<int>(std::lround(fy * p.y() * inv_z + cy));
+        if (u < 0 || v < 0 || u >= in.width || v >= in.height) continue;
+        const std::size_t pix = static_cast<std::size_t>(v * in.width + u);
+        const float d = frame.depth_m[pix];
+        if (!valid_depth(d, min_m, max_m)) continue;
+        float sdf = d - p.z();
+        if (sdf < -trunc) continue;
+        // Full weight in front of the surface and up to one voxel behind it, then falling linearly to zero at
+        // the truncation distance: what lies behind a surface is only guessed.
+        const float w = sdf >= -voxel ? 1.0f : (trunc + sdf) / (trunc - voxel);
+        if (w <= 0.0f) continue;
+        sdf = std::min(sdf, trunc);
+        Voxel& vx = block.voxels[i];
+        const float w_old = static_cast<float>(vx.weight_q) / kWeightScale;
+        const float w_sum = w_old + w;
+        const float sdf_old = static_cast<float>(vx.sdf_q) / inv_trunc_q;
+        const float sdf_new = (sdf_old * w_old + sdf * w) / w_sum;
+        vx.sdf_q = static_cast<std::int16_t>(std::lround(std::max(-1.0f, std::min(1.0f, sdf_new / trunc)) * kSdfQuant));
+        vx.weight_q = static_cast<std::uint16_t>(std::lround(std::min(w_sum, max_w) * kWeightScale));
+        const std::uint8_t* c = &frame.rgb[3 * pix];
+        for (int k = 0; k < 3; ++k)
+          vx.rgb[k] = static_cast<std::uint8_t>(std::lround((vx.rgb[k] * w_old + c[k] * w) / w_sum));
+        if (labels) {
+          const semantics::Label l = frame.labels[pix];
+          const std::uint16_t wq = static_cast<std::uint16_t>(std::max(1L, std::lround(w * kWeightScale)));
+          LabelVote* votes = vx.votes;
+          LabelVote* hit = nullptr;
+          for (int k = 0; k < kLabelPairs; ++k)
+            if (votes[k].weight_q > 0 && votes[k].label == l) hit = &votes[k];
+          if (hit == nullptr)
+            for (int k = 0; k < kLabelPairs && hit == nullptr; ++k)
+              if (votes[k].weight_q == 0) {
+                hit = &votes[k];
+                hit->label = l;
+              }
+          if (hit != nullptr) {
+            hit->weight_q = static_cast<std::uint16_t>(std::min<int>(65535, hit->weight_q + wq));
+          } else {
+            LabelVote* weakest = votes[0].weight_q <= votes[1].weight_q ? &votes[0] : &votes[1];
+            if (weakest->weight_q > wq) {
+              weakest->weight_q = static_cast<std::uint16_t>(weakest->weight_q - wq);
+            } else {
+              weakest->weight_q = static_cast<std::uint16_t>(std::max(1, wq - weakest->weight_q));
+              weakest->label = l;
+            }
+          }
+        }
+      }
+    }
+  }
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// Meshing
+
+void SemanticTsdf::release_mesh(Block& block) {
+  for (std::uint32_t c = block.vertex_head; c != memory::kInvalidHandle;) {
+    const std::uint32_t next = vertex_chunks_[c].next;
+    vertex_chunks_.release(c);
+    c = next;
+  }
+  for (std::uint32_t c = block.triangle_head; c != memory::kInvalidHandle;) {
+    const std::uint32_t next = triangle_chunks_[c].next;
+    triangle_chunks_.release(c);
+    c = next;
+  }
+  block.vertex_head = block.triangle_head = memory::kInvalidHandle;
+  block.num_vertices = block.num_triangles = 0;
+}
+
+void SemanticTsdf::update_mesh() {
+  if (!ready_) return;
+  ++mesh_stamp_;
+  remesh_.clear();
+  // A changed block re-meshes itself and the seven lower neighbours whose cubes read its voxels as their +1 layer.
+  for (std::uint32_t h = 0; h < blocks_.capacity(); ++h) {
+    if (!blocks_.live(h) || !blocks_[h].dirty) continue;
+    const memory::Index3 bi = blocks_[h].index;
+    for (int o = 0; o < 8; ++o) {
+      const memory::Index3 ni{bi.x - (o & 1), bi.y - ((o >> 1) & 1), bi.z - ((o >> 2) & 1)};
+      const std::uint32_t* nh = o == 0 ? &h : block_index_.find(ni);
+      if (nh == nullptr || blocks_[*nh].mesh_stamp == mesh_stamp_) continue;
+      blocks_[*nh].mesh_stamp = mesh_stamp_;
+      remesh_.push_back(*nh);
+    }
+    blocks_[h].dirty = false;
+  }
+  for (std::uint32_t h : remesh_) mesh_block(h);
+}
+
+void SemanticTsdf::mesh_block(std::uint32_t handle) {
+  Block& block = blocks_[handle];
+  release_mesh(block);
+  ++counters_.blocks_meshed;
+  const Block* nb[8];
+  for (int o = 0; o < 8; ++o) {
+    const memory::Index3 ni{block.index.x + (o & 1), block.index.y + ((o >> 1) & 1), block.index.z + ((o >> 2) & 1)};
+    const std::uint32_t* nh = o == 0 ? &handle : block_index_.find(ni);
+    nb[o] = nh == nullptr ? nullptr : &blocks_[*nh];
+  }
+  Scratch& s = *scratch_;
+  for (int x = 0; x < kCorners; ++x)
+    for (int y = 0; y < kCorners; ++y)
+      for (int z = 0; z < kCorners; ++z) {
+        Scratch::Corner& c = s.corners[(x * kCorners + y) * kCorners + z];
+        const Block* b = nb[(x >> 3) | ((y >> 3) << 1) | ((z >> 3) << 2)];
+        const Voxel* v = b == nullptr ? nullptr : &b->voxels[(x & 7) + kBlockSide * ((y & 7) + kBlockSide * (z & 7))];
+        c.observed = v != nullptr && v->weight_q > 0;
+        if (!c.observed) continue;
+        c.d = sdf_m(*v);
+        std::memcpy(c.rgb, v->rgb, 3);
+        c.label = best_label(*v);
+      }
+  std::fill(std::begin(s.code_to_vertex), std::end(s.code_to_vertex), static_cast<std::int16_t>(-1));
+
+  const MarchingCubesTables& mc = marching_cubes_tables();
+  const double voxel = config_.voxel_size_m;
+  std::uint32_t vertex_tail = memory::kInvalidHandle, triangle_tail = memory::kInvalidHandle;
+  bool overflow = false;
+  const auto corner_at = [&s](int x, int y, int z) -> const Scratch::Corner& {
+    return s.corners[(x * kCorners + y) * kCorners + z];
+  };
+  // The vertex on edge (lower corner, axis), created on first use; -1 when the chunk pool is full.
+  const auto vertex_of = [&](int x, int y, int z, int axis) -> int {
+    const int code = edge_code(x, y, z, axis);
+    if (s.code_to_vertex[code] >= 0) return s.code_to_vertex[code];
+    const Scratch::Corner& a = corner_at(x, y, z);
+    const Scratch::Corner& b = corner_at(x + (axis == 0), y + (axis == 1), z + (axis == 2));
+    if (block.num_vertices % kChunkSize == 0) {
+      const std::uint32_t c = vertex_chunks_.acquire();
+      if (c == memory::kInvalidHandle) return -1;
+      if (vertex_tail == memory::kInvalidHandle) block.vertex_head = c;
+      else vertex_chunks_[vertex_tail].next = c;
+      vertex_tail = c;
+    }
+    VertexChunk& chunk = vertex_chunks_[vertex_tail];
+    const int slot = block.num_vertices % kChunkSize;
+    // Computed from global voxel coordinates only, so a neighbour block meshing the same edge gets the same bits.
+    const double t = static_cast<double>(a.d) / (static_cast<double>(a.d) - static_cast<double>(b.d));
+    const double g[3] = {static_cast<double>(block.index.x * kBlockSide + x) + 0.5 + (axis == 0 ? t : 0.0),
+                         static_cast<double>(block.index.y * kBlockSide + y) + 0.5 + (axis == 1 ? t : 0.0),
+                         static_cast<double>(block.index.z * kBlockSide + z) + 0.5 + (axis == 2 ? t : 0.0)};
+    MeshVertex& mv = chunk.vertices[slot];
+    mv.x = static_cast<float>(g[0] * voxel);
+    mv.y = static_cast<float>(g[1] * voxel);
+    mv.z = static_cast<float>(g[2] * voxel);
+    mv.r = static_cast<std::uint8_t>(std::lround(a.rgb[0] + t * (b.rgb[0] - a.rgb[0])));
+    mv.g = static_cast<std::uint8_t>(std::lround(a.rgb[1] + t * (b.rgb[1] - a.rgb[1])));
+    mv.b = static_cast<std::uint8_t>(std::lround(a.rgb[2] + t * (b.rgb[2] - a.rgb[2])));
+    mv.label = std::fabs(a.d) <= std::fabs(b.d) ? a.label : b.label;
+    chunk.codes[slot] = static_cast<std::uint16_t>(code);
+    s.code_to_vertex[code] = static_cast<std::int16_t>(block.num_vertices);
+    ++block.num_vertices;
+    return s.code_to_vertex[code];
+  };
+
+  for (int x = 0; x < kBlockSide && !overflow; ++x)
+    for (int y = 0; y < kBlockSide && !overflow; ++y)
+      for (int z = 0; z < kBlockSide && !overflow; ++z) {
+        int cube = 0;
+        bool complete = true;
+        for (int c = 0; c < 8 && complete; ++c) {
+          const Scratch::Corner& k = corner_at(x + (c & 1), y + ((c >> 1) & 1), z + ((c >> 2) & 1));
+          complete = k.observed != 0;
+          if (complete && k.d < 0.0f) cube |= 1 << c;
+        }
+        if (!complete || mc.edge_mask[static_cast<std::size_t>(cube)] == 0) continue;
+        const auto& tris = mc.triangles[static_cast<std::size_t>(cube)];
+        for (int t = 0; t < mc.num_triangles[static_cast<std::size_t>(cube)] && !overflow; ++t) {
+          int idx[3];
+          for (int k = 0; k < 3; ++k) {
+            const int e = tris[static_cast<std::size_t>(3 * t + k)];
+            const int low = mc.edge_corners[static_cast<std::size_t>(e)][0];
+            idx[k] = vertex_of(x + (low & 1), y + ((low >> 1) & 1), z + ((low >> 2) & 1), e / 4);
+            if (idx[k] < 0) overflow = true;
+          }
+          if (overflow) break;
+          if (block.num_triangles % kChunkSize == 0) {
+            const std::uint32_t c = triangle_chunks_.acquire();
+            if (c == memory::kInvalidHandle) {
+              overflow = true;
+              break;
+            }
+            if (triangle_tail == memory::kInvalidHandle) block.triangle_head = c;
+            else triangle_chunks_[triangle_tail].next = c;
+            triangle_tail = c;
+          }
+          std::uint16_t* dst = triangle_chunks_[triangle_tail].indices[block.num_triangles % kChunkSize];
+          for (int k = 0; k < 3; ++k) dst[k] = static_cast<std::uint16_t>(idx[k]);
+          ++block.num_triangles;
+        }
+      }
+  if (overflow) ++counters_.mesh_overflow;
+}
+
+template <typename Fn>
+void SemanticTsdf::for_each_block_triangle(const Block& block, Fn&& fn) const {
+  // fn(const MeshVertex* v[3], const std::uint16_t codes[3])
+  Scratch& s = *scratch_;
+  int n = 0;
+  for (std::uint32_t c = block.vertex_head; c != memory::kInvalidHandle && n <= kMaxChunksPerBlock;
+       c = vertex_chunks_[c].next)
+    s.chain[n++] = &vertex_chunks_[c];
+  int t = 0;
+  for (std::uint32_t c = block.triangle_head; c != memory::kInvalidHandle; c = triangle_chunks_[c].next) {
+    const TriangleChunk& chunk = triangle_chunks_[c];
+    for (int k = 0; k < kChunkSize && t < block.num_triangles; ++k, ++t) {
+      const MeshVertex* v[3];
+      std::uint16_t codes[3];
+      for (int j = 0; j < 3; ++j) {
+        const int i = chunk.indices[k][j];
+        v[j] = &s.chain[i / kChunkSize]->vertices[i % kChunkSize];
+        codes[j] = s.chain[i / kChunkSize]->codes[i % kChunkSize];
+      }
+      fn(v, codes);
+    }
+  }
+}
+
+void SemanticTsdf::extract_active_mesh(Mesh* out) {
+  out->vertices.clear();
+  out->triangles.clear();
+  if (!ready_) return;
+  weld_.clear();
+  for (std::uint32_t h = 0; h < blocks_.capacity(); ++h) {
+    if (!blocks_.live(h)) continue;
+    const Block& block = blocks_[h];
+    for_each_block_triangle(block, [&](const MeshVertex* const* v, const std::uint16_t* codes) {
+      MeshTriangle tri;
+      for (int j = 0; j < 3; ++j) {
+        bool inserted = false;
+        const std::uint32_t next = static_cast<std::uint32_t>(out->vertices.size());
+        const std::uint32_t* id = weld_.find_or_insert(edge_key(block.index, codes[j]), next, &inserted);
+        if (id == nullptr) return;  // the weld table is as large as the mesh pools: cannot fill first
+        if (inserted) out->vertices.push_back(*v[j]);
+        tri.v[j] = *id;
+      }
+      out->triangles.push_back(tri);
+    });
+  }
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// Window and archive
+
+std::uint32_t SemanticTsdf::archive_vertex(const MeshVertex& v) {
+  const double r = config_.archive_resolution_m;
+  const memory::Index3 key{static_cast<std::int32_t>(std::floor(v.x / r)), static_cast<std::int32_t>(std::floor(v.y / r)),
+                           static_cast<std::int32_t>(std::floor(v.z / r))};
+  if (const std::uint32_t* id = archive_index_.find(key)) return *id;
+  if (archive_vertices_.full()) return memory::kInvalidHandle;
+  const std::uint32_t id = static_cast<std::uint32_t>(archive_vertices_.size());
+  if (archive_index_.insert(key, id) == nullptr) return memory::kInvalidHandle;
+  archive_vertices_.push_back(v);
+  return id;
+}
+
+void SemanticTsdf::archive_block(std::uint32_t handle) {
+  Block& block = blocks_[handle];
+  bool overflow = false;
+  for_each_block_triangle(block, [&](const MeshVertex* const* v, const std::uint16_t*) {
+    MeshTriangle tri;
+    for (int j = 0; j < 3; ++j) {
+      tri.v[j] = archive_vertex(*v[j]);
+      if (tri.v[j] == memory::kInvalidHandle) {
+        overflow = true;
+        return;
+      }
+    }
+    // Compression merged two corners: the triangle collapsed.
+    if (tri.v[0] == tri.v[1] || tri.v[1] == tri.v[2] || tri.v[0] == tri.v[2]) return;
+    if (!archive_triangles_.push_back(tri)) overflow = true;
+  });
+  if (overflow) ++counters_.archive_overflow;
+  release_mesh(block);
+  block_index_.erase(block.index);
+  blocks_.release(handle);
+  ++counters_.blocks_archived;
+}
+
+void SemanticTsdf::update_window(const Eigen::Vector3d& robot_m) {
+  if (!ready_) return;
+  robot_m_ = robot_m;
+  const double r2 = config_.window_radius_m * config_.window_radius_m;
+  for (std::uint32_t h = 0; h < blocks_.capacity(); ++h)
+    if (blocks_.live(h) && (block_center(blocks_[h].index) - robot_m).squaredNorm() > r2) archive_block(h);
+}
+
+bool SemanticTsdf::process(const drivers::RgbdFrame& frame, const Eigen::Isometry3d& world_T_camera) {
+  if (!integrate(frame, world_T_camera)) return false;
+  update_mesh();
+  update_window(world_T_camera.translation());
+  return true;
+}
+
+void SemanticTsdf::extract_archive(Mesh* out) const {
+  out->vertices.assign(archive_vertices_.begin(), archive_vertices_.end());
+  out->triangles.assign(archive_triangles_.begin(), archive_triangles_.end());
+}
+
+void SemanticTsdf::extract_full_mesh(Mesh* out) {
+  Mesh active;
+  extract_active_mesh(&active);
+  extract_archive(out);
+  const std::uint32_t offset = static_cast<std::uint32_t>(out->vertices.size());
+  out->vertices.insert(out->vertices.end(), active.vertices.begin(), active.vertices.end());
+  for (MeshTriangle t : active.triangles) {
+    for (std::uint32_t& i : t.v) i += offset;
+    out->triangles.push_back(t);
+  }
+}
+
+}  // namespace qsg::reconstruction

@@ -1,0 +1,184 @@
+// Layer 1 of the scene graph: a semantic TSDF in a bounded active window around the robot, meshed by marching
+// cubes over dirty blocks, with far blocks archived into a compressed global mesh. Every store is carved from
+// one arena sized by the board's budget table; after init() integration, meshing and archiving never allocate.
+#pragma once
+
+#include <Eigen/Geometry>
+#include <cstdint>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include "core/memory/arena.h"
+#include "core/memory/fixed_hash_map.h"
+#include "core/memory/fixed_vector.h"
+#include "core/memory/pool.h"
+#include "core/semantics/labels.h"
+#include "drivers/sensor_types.h"
+
+namespace qsg::reconstruction {
+
+// 8 voxels per block side (voxblox/nvblox use the same): a block holds 8^3 = 512 voxels (8 KB at 16 bytes a
+// voxel), 0.8 m at 0.1 m voxels — larger than the truncation band (0.3 m), so a depth sample touches at most a
+// few blocks; small enough that a block is mostly surface, the marching-cubes +1 layer (9^3 corners) stays in
+// cache and the hash of a 8 m window holds only a few thousand entries.
+inline constexpr int kBlockSide = 8;
+inline constexpr int kBlockVoxels = kBlockSide * kBlockSide * kBlockSide;
+inline constexpr int kLabelPairs = 2;
+
+// Per-voxel semantics: two (label, weight) pairs — a bounded "heavy hitters" summary of the label histogram.
+// An observation of label l with weight w adds w to l's pair if present, fills an empty pair otherwise, and
+// otherwise decrements the weakest pair by w, replacing it by (l, leftover) when its weight reaches zero
+// (Misra-Gries). The stored winner is the label of maximum accumulated evidence (the MAP label of the
+// count-based Dirichlet posterior) whenever it carries more than a third of the evidence; never a histogram.
+struct LabelVote {
+  semantics::Label label = semantics::kVoid;
+  std::uint16_t weight_q = 0;  // weight * kWeightScale
+};
+
+// 16 bytes: quantised distance (fraction of the truncation distance), weight, colour and two label pairs.
+struct Voxel {
+  std::int16_t sdf_q = 0;      // distance / truncation * 32767
+  std::uint16_t weight_q = 0;  // weight * kWeightScale; 0 = unobserved
+  std::uint8_t rgb[3] = {0, 0, 0};
+  std::uint8_t pad = 0;
+  LabelVote votes[kLabelPairs];
+};
+static_assert(sizeof(Voxel) == 16, "keep the voxel at 16 bytes");
+inline constexpr float kWeightScale = 256.0f;
+
+// One mesh vertex: position, colour, label (the most likely label of the voxel nearer to the surface).
+struct MeshVertex {
+  float x = 0, y = 0, z = 0;
+  std::uint8_t r = 0, g = 0, b = 0;
+  semantics::Label label = semantics::kVoid;
+};
+struct MeshTriangle {
+  std::uint32_t v[3] = {0, 0, 0};
+};
+// An indexed mesh for export and tests (heap-backed: extraction is not on the per-frame path).
+struct Mesh {
+  std::vector<MeshVertex> vertices;
+  std::vector<MeshTriangle> triangles;
+};
+
+struct Config {
+  double voxel_size_m = 0.1;
+  double truncation_voxels = 3.0;
+  double min_range_m = 0.1;
+  double max_range_m = 4.5;
+  double window_radius_m = 8.0;     // blocks whose centre is farther from the robot are archived
+  double max_weight = 100.0;        // voxel weights saturate here, so the map can still follow changes
+  double archive_resolution_m = 0.05;  // vertices of the archive closer than this (same cell) are merged
+  bool integrate_labels = true;
+  std::string check() const;  // empty when usable, else the bad field and why
+  void print(std::FILE* out) const;
+};
+
+struct Capacities {
+  std::size_t max_blocks = 1408;
+  std::size_t mesh_vertices = 524288;    // active-window mesh, all blocks together
+  std::size_t mesh_triangles = 1048576;
+  std::size_t archive_vertices = 1048576;
+  std::size_t archive_triangles = 2097152;
+};
+Capacities capacities_from_budget();
+
+struct Counters {
+  std::uint64_t frames = 0;
+  std::uint64_t pixels_valid = 0;
+  std::uint64_t pixels_invalid = 0;        // depth 0, NaN, inf, below min or beyond max range: not integrated
+  std::uint64_t blocks_allocated = 0;
+  std::uint64_t blocks_archived = 0;       // left the window
+  std::uint64_t blocks_evicted = 0;        // pool full: farthest block archived early
+  std::uint64_t blocks_refused = 0;        // pool full and nothing evictable
+  std::uint64_t blocks_meshed = 0;
+  std::uint64_t mesh_overflow = 0;         // vertices/triangles dropped because the active mesh pools were full
+  std::uint64_t archive_overflow = 0;      // vertices/triangles dropped because the archive was full
+  void print(std::FILE* out) const;
+};
+
+class SemanticTsdf {
+ public:
+  SemanticTsdf();
+  SemanticTsdf(const SemanticTsdf&) = delete;
+  SemanticTsdf& operator=(const SemanticTsdf&) = delete;
+  ~SemanticTsdf();
+
+  static memory::ArenaPlan plan(const Capacities& capacities);
+  // Checks the config and carves every store from one arena of at most budget_bytes. Start-up only.
+  bool init(const Config& config, const Capacities& capacities, std::size_t budget_bytes, std::string* error);
+
+  // Integrates one frame seen from world_T_camera (optical frame: x right, y down, z forward). Labels are used
+  // when frame.has_labels. Marks the touched blocks dirty. False (nothing integrated) for a bad frame.
+  bool integrate(const drivers::RgbdFrame& frame, const Eigen::Isometry3d& world_T_camera);
+  // Re-runs marching cubes over the blocks changed since the last call (and the neighbours that read them).
+  void update_mesh();
+  // Archives (mesh into the global mesh) and frees every block farther than the window radius from robot_m.
+  void update_window(const Eigen::Vector3d& robot_m);
+  // integrate + update_mesh + update_window around the camera: the per-frame call.
+  bool process(const drivers::RgbdFrame& frame, const Eigen::Isometry3d& world_T_camera);
+
+  // The active window's mesh, welded across blocks (one vertex per voxel edge), only referenced vertices.
+  void extract_active_mesh(Mesh* out);
+  // The archive (global mesh of everything that left the window).
+  void extract_archive(Mesh* out) const;
+  // Archive + active window (archives a copy of the active mesh through the same compression, not in place).
+  void extract_full_mesh(Mesh* out);
+
+  // Voxel at a world point (nullptr when its block is not allocated). Distances in metres via sdf_m().
+  const Voxel* voxel_at(const Eigen::Vector3d& p_m) const;
+  float sdf_m(const Voxel& v) const { return static_cast<float>(v.sdf_q) * sdf_scale_; }
+  static semantics::Label best_label(const Voxel& v);
+
+  const Config& config() const { return config_; }
+  const Capacities& capacities() const { return capacities_; }
+  const Counters& counters() const { return counters_; }
+  std::size_t active_blocks() const { return blocks_.size(); }
+  std::size_t archive_vertices() const { return archive_vertices_.size(); }
+  std::size_t archive_triangles() const { return archive_triangles_.size(); }
+  // Bytes of the active window's voxel storage (TSDF + semantics), fixed at init.
+  std::size_t window_bytes() const { return capacities_.max_blocks * sizeof(Voxel) * kBlockVoxels; }
+  std::size_t arena_bytes() const { return arena_.capacity_bytes(); }
+
+  struct Block;
+  struct VertexChunk;
+  struct TriangleChunk;
+  struct Scratch;
+
+ private:
+  std::uint32_t allocate_block(const memory::Index3& index, const Eigen::Vector3d& robot_m);
+  bool evict_farthest(const Eigen::Vector3d& robot_m);
+  void integrate_block(Block& block, const drivers::RgbdFrame& frame, const Eigen::Isometry3d& camera_T_world);
+  void mesh_block(std::uint32_t handle);
+  void release_mesh(Block& block);
+  void archive_block(std::uint32_t handle);
+  template <typename Fn>
+  void for_each_block_triangle(const Block& block, Fn&& fn) const;
+  std::uint32_t archive_vertex(const MeshVertex& v);
+  Eigen::Vector3d block_center(const memory::Index3& index) const;
+
+  Config config_;
+  Capacities capacities_;
+  Counters counters_;
+  memory::Arena arena_;
+  memory::Pool<Block> blocks_;
+  memory::SpatialHash<std::uint32_t> block_index_;
+  memory::Pool<VertexChunk> vertex_chunks_;
+  memory::Pool<TriangleChunk> triangle_chunks_;
+  memory::ArenaVector<std::uint32_t> touched_;   // blocks integrated this frame
+  memory::ArenaVector<std::uint32_t> remesh_;    // blocks to mesh this update
+  memory::FixedHashMap<std::uint64_t, std::uint32_t, memory::U64Hash> weld_;  // voxel edge -> output vertex
+  memory::ArenaVector<MeshVertex> archive_vertices_;
+  memory::ArenaVector<MeshTriangle> archive_triangles_;
+  memory::SpatialHash<std::uint32_t> archive_index_;  // quantised position -> archive vertex
+  Scratch* scratch_ = nullptr;  // marching-cubes working set of one block (carved, reused)
+  float sdf_scale_ = 0.0f;   // metres per sdf_q unit
+  std::uint32_t frame_stamp_ = 0;
+  std::uint32_t mesh_stamp_ = 0;
+  bool logged_eviction_ = false;
+  bool ready_ = false;
+  Eigen::Vector3d robot_m_ = Eigen::Vector3d::Zero();
+};
+
+}  // namespace qsg::reconstruction
