@@ -7,7 +7,9 @@
 #include <set>
 
 #include "drivers/replay/tum_replay.h"
+#include "drivers/sim/drifting_odometry.h"
 #include "drivers/sim/exploration.h"
+#include "drivers/sim/fault_plan.h"
 #include "drivers/sim/ground_truth.h"
 #include "drivers/sim/sim_camera.h"
 #include "drivers/world/building_generator.h"
@@ -347,6 +349,55 @@ TEST(SimCameraTest, TumReplayOfARenderedSequenceReproducesItsFrames) {
     EXPECT_TRUE(std::equal(f.labels.begin(), f.labels.begin() + n, back->labels.begin())) << "frame " << k;
   }
   EXPECT_EQ(replay.read(*back, 0), drivers::ReadStatus::kEndOfStream);
+}
+
+TEST(SimCameraTest, FaultPlanOnTheSimulatedCameraAndOdometry) {
+  const world::World w = box_room();
+  ExplorationConfig tc;
+  const ExplorationResult r = scripted_trajectory({{1, 1.5, 1.0}, {3, 1.5, 1.0}}, tc);
+  ASSERT_TRUE(r.ok);
+  SimCamera camera;
+  SimCamera::Config config;
+  config.intrinsics = {80, 60, 65.6, 65.6, 39.5, 29.5};
+  std::string error;
+  ASSERT_TRUE(camera.init(config, render::Renderer::Config{}, w, r.trajectory, &error)) << error;
+  FaultPlan plan;
+  ASSERT_TRUE(parse_fault_plan_text("at 2 drop\nat 4 depth_nan rect=10,10,20,20\nat 6 unplug reads=2\n", "plan", &plan,
+                                    &error))
+      << error;
+  FaultInjectingRgbdSource faulty(camera, plan);
+  auto frame = std::make_unique<drivers::RgbdFrame>();
+  int delivered = 0, disconnected = 0;
+  bool saw_nan_frame = false, saw_reconnect = false;
+  for (int k = 0; k < 40; ++k) {
+    const drivers::ReadStatus s = faulty.read(*frame, 0);
+    if (s == drivers::ReadStatus::kEndOfStream) break;
+    if (s == drivers::ReadStatus::kDisconnected) ++disconnected;
+    if (s != drivers::ReadStatus::kOk) continue;
+    ++delivered;
+    EXPECT_NE(frame->sequence, 2u) << "frame 2 was to be dropped";
+    if (frame->flags & drivers::kFrameInvalidDepthRegion) {
+      saw_nan_frame = true;
+      EXPECT_TRUE(std::isnan(frame->depth_m[static_cast<std::size_t>(15 * 80 + 15)]));
+    }
+    if (frame->flags & drivers::kFrameAfterReconnect) saw_reconnect = true;
+  }
+  EXPECT_TRUE(saw_nan_frame);
+  EXPECT_TRUE(saw_reconnect);
+  EXPECT_EQ(disconnected, 2);
+  EXPECT_EQ(delivered, static_cast<int>(camera.num_frames()) - 1);
+  EXPECT_EQ(faulty.counters().dropped, 1u);
+  EXPECT_EQ(faulty.counters().disconnects, 1u);
+
+  DriftingOdometry odometry(r.trajectory, DriftingOdometry::Config{});
+  FaultPlan odo_plan;
+  ASSERT_TRUE(parse_fault_plan_text("at 3 backwards back_ms=5\n", "odo", &odo_plan, &error)) << error;
+  FaultInjectingOdometrySource faulty_odometry(odometry, odo_plan);
+  drivers::OdometrySample sample;
+  bool flagged = false;
+  while (faulty_odometry.read(sample, 0) == drivers::ReadStatus::kOk) flagged |= (sample.flags & drivers::kFrameTimestampBackwards) != 0;
+  EXPECT_TRUE(flagged);
+  EXPECT_EQ(faulty_odometry.counters().timestamps_backwards, 1u);
 }
 
 }  // namespace
