@@ -2,6 +2,8 @@
 // noise-free depth; vertex distances to the true surfaces, vertex labels and coverage of the observed surface.
 #include <gtest/gtest.h>
 
+#include <cstdint>
+
 #include <cmath>
 #include <memory>
 #include <unordered_map>
@@ -70,8 +72,10 @@ Eigen::Isometry3d camera_pose(const Eigen::Vector3d& p, double yaw, double pitch
 
 struct CellHash {
   std::size_t operator()(const Eigen::Vector3i& c) const {
-    return static_cast<std::size_t>(c.x() * 73856093) ^ static_cast<std::size_t>(c.y() * 19349663) ^
-           static_cast<std::size_t>(c.z() * 83492791);
+    // Unsigned arithmetic: signed overflow is undefined (UBSan flags it).
+    return (static_cast<std::size_t>(static_cast<std::uint32_t>(c.x())) * 73856093u) ^
+           (static_cast<std::size_t>(static_cast<std::uint32_t>(c.y())) * 19349663u) ^
+           (static_cast<std::size_t>(static_cast<std::uint32_t>(c.z())) * 83492791u);
   }
 };
 
