@@ -6,56 +6,25 @@
 #include <string>
 #include <vector>
 
+#include "bench/frozen_frames.h"
 #include "core/reconstruction/semantic_tsdf.h"
-#include "drivers/render/renderer.h"
-#include "drivers/sim/exploration.h"
-#include "drivers/world/building_generator.h"
-#include "drivers/world/world_query.h"
 
 namespace {
 
 using namespace qsg;
 
-struct Frames {
-  std::vector<std::unique_ptr<drivers::RgbdFrame>> frames;
-  std::vector<Eigen::Isometry3d> poses;
-};
-
-// Frozen frames: rendered once per resolution, the first `count` poses of the tour every 3rd sample (10 Hz).
-const Frames& frames(int width, int height) {
-  static std::unique_ptr<Frames> cache[2];
-  const int slot = width == 640 ? 0 : 1;
-  if (cache[slot]) return *cache[slot];
-  cache[slot] = std::make_unique<Frames>();
-  world::BuildingConfig bc;
-  bc.num_rooms = 6;
-  bc.seed = 4;
-  const world::World w = world::generate_building(bc);
-  render::RayScene scene;
-  std::string error;
-  scene.build(w, &error);
-  world::FreeSpaceIndex free_space(w);
-  const sim::ExplorationResult tour = sim::plan_exploration(w, scene, free_space, sim::ExplorationConfig{});
-  render::Renderer renderer;
-  if (!tour.ok || !renderer.init(render::Renderer::Config{}, w, &error)) return *cache[slot];
-  const double f = 525.0 * width / 640.0;
-  const drivers::CameraIntrinsics in{width, height, f, f, (width - 1) / 2.0, (height - 1) / 2.0};
-  for (std::size_t k = 0; k < tour.trajectory.size() && cache[slot]->frames.size() < 60; k += 3) {
-    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-    T.linear() = tour.trajectory[k].world_R_body.toRotationMatrix() * sim::body_R_optical();
-    T.translation() = tour.trajectory[k].world_t_body_m;
-    auto frame = std::make_unique<drivers::RgbdFrame>();
-    if (!renderer.render(T, in, k, *frame, &error)) continue;
-    cache[slot]->frames.push_back(std::move(frame));
-    cache[slot]->poses.push_back(T);
-  }
-  return *cache[slot];
+// Frozen frames, rendered once per resolution.
+const bench::FrozenFrames& frames(int width, int height) {
+  static std::unique_ptr<bench::FrozenFrames> cache[2];
+  std::unique_ptr<bench::FrozenFrames>& slot = cache[width == 640 ? 0 : 1];
+  if (!slot) slot = bench::render_frozen_frames(width, height);
+  return *slot;
 }
 
 void BM_IntegrateAndMesh(benchmark::State& state) {
   const int width = static_cast<int>(state.range(0));
   const double voxel = static_cast<double>(state.range(1)) / 100.0;
-  const Frames& data = frames(width, width * 3 / 4);
+  const bench::FrozenFrames& data = frames(width, width * 3 / 4);
   if (data.frames.empty()) {
     state.SkipWithError("no frames rendered");
     return;

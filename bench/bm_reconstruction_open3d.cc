@@ -10,11 +10,8 @@
 #include <string>
 #include <vector>
 
+#include "bench/frozen_frames.h"
 #include "core/reconstruction/semantic_tsdf.h"
-#include "drivers/render/renderer.h"
-#include "drivers/sim/exploration.h"
-#include "drivers/world/building_generator.h"
-#include "drivers/world/world_query.h"
 #include "open3d/camera/PinholeCameraIntrinsic.h"
 #include "open3d/geometry/Image.h"
 #include "open3d/geometry/RGBDImage.h"
@@ -32,38 +29,17 @@ constexpr double kTruncationVoxels = 3.0;
 constexpr double kMaxRangeM = 4.5;
 
 struct Frames {
-  drivers::CameraIntrinsics intrinsics;
-  std::vector<std::unique_ptr<drivers::RgbdFrame>> frames;
-  std::vector<Eigen::Isometry3d> poses;                       // world_T_camera (optical)
+  std::unique_ptr<bench::FrozenFrames> ours;
   std::vector<std::shared_ptr<open3d::geometry::RGBDImage>> open3d_images;  // the same frames, converted once
 };
 
-// Frozen frames, rendered once: the same building, tour and sampling as bm_reconstruction (every 3rd pose of
-// the exploration tour, 10 Hz, first 60 frames) at 640x480. Conversion to Open3D images is done here, untimed.
+// The frozen frames of bm_reconstruction at 640x480, plus their conversion to Open3D images (untimed).
 const Frames& frames() {
   static std::unique_ptr<Frames> cache;
   if (cache) return *cache;
   cache = std::make_unique<Frames>();
-  world::BuildingConfig bc;
-  bc.num_rooms = 6;
-  bc.seed = 4;
-  const world::World w = world::generate_building(bc);
-  render::RayScene scene;
-  std::string error;
-  scene.build(w, &error);
-  world::FreeSpaceIndex free_space(w);
-  const sim::ExplorationResult tour = sim::plan_exploration(w, scene, free_space, sim::ExplorationConfig{});
-  render::Renderer renderer;
-  if (!tour.ok || !renderer.init(render::Renderer::Config{}, w, &error)) return *cache;
-  const double f = 525.0 * kWidth / 640.0;
-  cache->intrinsics = drivers::CameraIntrinsics{kWidth, kHeight, f, f, (kWidth - 1) / 2.0, (kHeight - 1) / 2.0};
-  for (std::size_t k = 0; k < tour.trajectory.size() && cache->frames.size() < 60; k += 3) {
-    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-    T.linear() = tour.trajectory[k].world_R_body.toRotationMatrix() * sim::body_R_optical();
-    T.translation() = tour.trajectory[k].world_t_body_m;
-    auto frame = std::make_unique<drivers::RgbdFrame>();
-    if (!renderer.render(T, cache->intrinsics, k, *frame, &error)) continue;
-
+  cache->ours = bench::render_frozen_frames(kWidth, kHeight);
+  for (const auto& frame : cache->ours->frames) {
     open3d::geometry::Image depth;
     depth.Prepare(kWidth, kHeight, 1, 4);
     open3d::geometry::Image color;
@@ -81,14 +57,13 @@ const Frames& frames() {
     // Depth already in metres (scale 1); beyond 4.5 m is dropped like our max_range_m; colour kept as RGB8.
     cache->open3d_images.push_back(
         open3d::geometry::RGBDImage::CreateFromColorAndDepth(color, depth, 1.0, kMaxRangeM, false));
-    cache->frames.push_back(std::move(frame));
-    cache->poses.push_back(T);
   }
   return *cache;
 }
 
 void BM_Ours_IntegrateAndMesh(benchmark::State& state) {
-  const Frames& data = frames();
+  const Frames& all = frames();
+  const bench::FrozenFrames& data = *all.ours;
   if (data.frames.empty()) {
     state.SkipWithError("no frames rendered");
     return;
@@ -115,8 +90,9 @@ void BM_Ours_IntegrateAndMesh(benchmark::State& state) {
 }
 
 void BM_Open3d_IntegrateAndExtract(benchmark::State& state) {
-  const Frames& data = frames();
-  if (data.open3d_images.empty()) {
+  const Frames& all = frames();
+  const bench::FrozenFrames& data = *all.ours;
+  if (all.open3d_images.empty()) {
     state.SkipWithError("no frames rendered");
     return;
   }
@@ -128,20 +104,21 @@ void BM_Open3d_IntegrateAndExtract(benchmark::State& state) {
   std::size_t triangles = 0;
   for (auto _ : state) {
     // Open3D's extrinsic is world -> camera.
-    volume.Integrate(*data.open3d_images[k], intrinsic, data.poses[k].inverse().matrix());
+    volume.Integrate(*all.open3d_images[k], intrinsic, data.poses[k].inverse().matrix());
     const std::shared_ptr<open3d::geometry::TriangleMesh> mesh = volume.ExtractTriangleMesh();
     triangles = mesh->triangles_.size();
     benchmark::DoNotOptimize(triangles);
-    k = (k + 1) % data.open3d_images.size();
+    k = (k + 1) % all.open3d_images.size();
   }
-  state.counters["frames"] = static_cast<double>(data.open3d_images.size());
+  state.counters["frames"] = static_cast<double>(all.open3d_images.size());
   state.counters["triangles"] = static_cast<double>(triangles);
   state.counters["volume_units"] = static_cast<double>(volume.volume_units_.size());
 }
 
 // Times one pass over the frozen frames with each system, back to back, and reports Open3D / ours.
 void BM_Ratio_Open3dOverOurs(benchmark::State& state) {
-  const Frames& data = frames();
+  const Frames& all = frames();
+  const bench::FrozenFrames& data = *all.ours;
   if (data.frames.empty()) {
     state.SkipWithError("no frames rendered");
     return;
@@ -173,8 +150,8 @@ void BM_Ratio_Open3dOverOurs(benchmark::State& state) {
       tsdf->update_mesh();
     }
     auto t1 = std::chrono::steady_clock::now();
-    for (std::size_t k = 0; k < data.open3d_images.size(); ++k) {
-      volume.Integrate(*data.open3d_images[k], intrinsic, data.poses[k].inverse().matrix());
+    for (std::size_t k = 0; k < all.open3d_images.size(); ++k) {
+      volume.Integrate(*all.open3d_images[k], intrinsic, data.poses[k].inverse().matrix());
       const std::shared_ptr<open3d::geometry::TriangleMesh> mesh = volume.ExtractTriangleMesh();
       benchmark::DoNotOptimize(mesh->triangles_.size());
     }

@@ -1,0 +1,57 @@
+// Frozen input for the Layer 1 benchmarks: frames rendered once by the simulated camera along the exploration
+// tour of a small generated building (6 rooms, seed 4, 10 Hz), so every reconstruction benchmark and its peers
+// integrate the same frames.
+#pragma once
+
+#include <Eigen/Geometry>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "drivers/sim/exploration.h"
+#include "drivers/sim/sim_camera.h"
+#include "drivers/world/building_generator.h"
+#include "drivers/world/world_query.h"
+
+namespace qsg::bench {
+
+struct FrozenFrames {
+  drivers::CameraIntrinsics intrinsics;
+  std::vector<std::unique_ptr<drivers::RgbdFrame>> frames;
+  std::vector<Eigen::Isometry3d> poses;  // world_T_camera (optical frame)
+};
+
+// The first `count` frames at width x height (fx = 525 scaled from 640 px); empty when the world or tour fails.
+inline std::unique_ptr<FrozenFrames> render_frozen_frames(int width, int height, std::size_t count = 60) {
+  auto out = std::make_unique<FrozenFrames>();
+  world::BuildingConfig bc;
+  bc.num_rooms = 6;
+  bc.seed = 4;
+  const world::World w = world::generate_building(bc);
+  render::RayScene scene;
+  std::string error;
+  if (!scene.build(w, &error)) return out;
+  const world::FreeSpaceIndex free_space(w);
+  const sim::ExplorationResult tour = sim::plan_exploration(w, scene, free_space, sim::ExplorationConfig{});
+  if (!tour.ok) return out;
+  sim::SimCamera camera;
+  sim::SimCamera::Config config;
+  const double f = 525.0 * width / 640.0;
+  config.intrinsics = {width, height, f, f, (width - 1) / 2.0, (height - 1) / 2.0};
+  config.rate_hz = 10.0;
+  if (!camera.init(config, render::Renderer::Config{}, w, tour.trajectory, &error)) return out;
+  out->intrinsics = config.intrinsics;
+  while (out->frames.size() < count) {
+    auto frame = std::make_unique<drivers::RgbdFrame>();
+    const drivers::ReadStatus status = camera.read(*frame, 0);
+    if (status == drivers::ReadStatus::kEndOfStream) break;
+    if (status != drivers::ReadStatus::kOk) continue;
+    Eigen::Isometry3d pose;
+    camera.camera_pose(frame->sequence, &pose, nullptr);
+    out->poses.push_back(pose);
+    out->frames.push_back(std::move(frame));
+  }
+  return out;
+}
+
+}  // namespace qsg::bench
