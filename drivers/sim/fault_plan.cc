@@ -505,128 +505,103 @@ bool FaultScheduler::take_reconnect() {
 
 // ---------------------------------------------------------------------------------------------------------------
 
-FaultInjectingRgbdSource::FaultInjectingRgbdSource(drivers::RgbdSource& inner, const FaultPlan& plan)
-    : inner_(inner), scheduler_(plan) {
-  counters_ = merge(own_, inner_.counters());
+void FaultInjector::refresh(const drivers::DriverCounters& inner) {
+  own_.disconnects = scheduler_.disconnects();
+  counters_ = merge(own_, inner);
 }
 
-drivers::ReadStatus FaultInjectingRgbdSource::finish(drivers::ReadStatus status) {
-  own_.disconnects = scheduler_.disconnects();
-  counters_ = merge(own_, inner_.counters());
+drivers::ReadStatus FaultInjector::finish(drivers::ReadStatus status, const drivers::DriverCounters& inner) {
+  refresh(inner);
   return status;
+}
+
+// What the scheduler needs to place random depth faults: frames have depth of their own size, odometry none.
+struct DepthShape {
+  bool has_depth;
+  int width;
+  int height;
+};
+DepthShape depth_shape(const drivers::RgbdFrame& f) { return {true, f.width(), f.height()}; }
+DepthShape depth_shape(const drivers::OdometrySample&) { return {false, 0, 0}; }
+
+template <typename Source, typename Message, typename Extra>
+drivers::ReadStatus FaultInjector::read(Source& inner, Message& message, std::int64_t timeout_ns, Extra&& apply_extra) {
+  for (int attempt = 0; attempt < kMaxDropsPerRead; ++attempt) {
+    const drivers::ReadStatus before = scheduler_.before_read();
+    if (before != drivers::ReadStatus::kOk) {
+      if (before == drivers::ReadStatus::kTimeout) ++own_.stalls;
+      return finish(before, inner.counters());
+    }
+    const drivers::ReadStatus status = inner.read(message, timeout_ns);
+    if (status != drivers::ReadStatus::kOk) return finish(status, inner.counters());
+    const DepthShape shape = depth_shape(message);
+    const FaultScheduler::FrameFaults faults =
+        scheduler_.on_frame(message.sequence, shape.has_depth, shape.width, shape.height);
+    if (faults.drop) {
+      ++own_.dropped;
+      gap_pending_ = true;
+      continue;
+    }
+    if (faults.wrong_size) {
+      ++own_.bad_frames;
+      gap_pending_ = true;
+      return finish(drivers::ReadStatus::kBadFrame, inner.counters());
+    }
+    if (faults.late_ns > 0) {
+      message.publish_time_ns += faults.late_ns;
+      message.flags |= drivers::kFrameLate;
+      ++own_.late;
+    }
+    if (faults.back_ns > 0) {
+      const std::int64_t reference = have_last_ ? last_sample_time_ns_ : message.sample_time_ns;
+      message.sample_time_ns = std::min(message.sample_time_ns, reference - faults.back_ns);
+      message.flags |= drivers::kFrameTimestampBackwards;
+      ++own_.timestamps_backwards;
+    }
+    apply_extra(message, faults, own_);
+    if (gap_pending_ || (have_last_ && message.sequence != last_sequence_ + 1)) message.flags |= drivers::kFrameSequenceGap;
+    if (scheduler_.take_reconnect()) {
+      message.flags |= drivers::kFrameAfterReconnect;
+      ++own_.reconnects;
+    }
+    gap_pending_ = false;
+    have_last_ = true;
+    last_sequence_ = message.sequence;
+    last_sample_time_ns_ = message.sample_time_ns;
+    ++own_.delivered;
+    return finish(drivers::ReadStatus::kOk, inner.counters());
+  }
+  ++own_.stalls;  // every frame this read saw was dropped: to the consumer, nothing arrived in time
+  return finish(drivers::ReadStatus::kTimeout, inner.counters());
+}
+
+FaultInjectingRgbdSource::FaultInjectingRgbdSource(drivers::RgbdSource& inner, const FaultPlan& plan)
+    : inner_(inner), injector_(plan) {
+  injector_.refresh(inner_.counters());
 }
 
 drivers::ReadStatus FaultInjectingRgbdSource::read(drivers::RgbdFrame& frame, std::int64_t timeout_ns) {
-  for (int attempt = 0; attempt < kMaxDropsPerRead; ++attempt) {
-    const drivers::ReadStatus before = scheduler_.before_read();
-    if (before != drivers::ReadStatus::kOk) {
-      if (before == drivers::ReadStatus::kTimeout) ++own_.stalls;
-      return finish(before);
-    }
-    const drivers::ReadStatus status = inner_.read(frame, timeout_ns);
-    if (status != drivers::ReadStatus::kOk) return finish(status);
-    const FaultScheduler::FrameFaults faults = scheduler_.on_frame(frame.sequence, true, frame.width(), frame.height());
-    if (faults.drop) {
-      ++own_.dropped;
-      gap_pending_ = true;
-      continue;
-    }
-    if (faults.wrong_size) {
-      ++own_.bad_frames;
-      gap_pending_ = true;
-      return finish(drivers::ReadStatus::kBadFrame);
-    }
-    if (faults.late_ns > 0) {
-      frame.publish_time_ns += faults.late_ns;
-      frame.flags |= drivers::kFrameLate;
-      ++own_.late;
-    }
-    if (faults.back_ns > 0) {
-      const std::int64_t reference = have_last_ ? last_sample_time_ns_ : frame.sample_time_ns;
-      frame.sample_time_ns = std::min(frame.sample_time_ns, reference - faults.back_ns);
-      frame.flags |= drivers::kFrameTimestampBackwards;
-      ++own_.timestamps_backwards;
-    }
-    if (faults.depth) {
-      const float value = faults.depth_kind == FaultKind::kDepthNan    ? std::numeric_limits<float>::quiet_NaN()
-                          : faults.depth_kind == FaultKind::kDepthZero ? 0.0f
-                                                                       : 65535.0f * frame.depth_scale_m;
-      fill_depth(frame.depth_m.data(), frame.width(), frame.height(), faults.rect, value);
-      frame.flags |= drivers::kFrameInvalidDepthRegion;
-      ++own_.invalid_depth_frames;
-    }
-    if (gap_pending_ || (have_last_ && frame.sequence != last_sequence_ + 1)) frame.flags |= drivers::kFrameSequenceGap;
-    if (scheduler_.take_reconnect()) {
-      frame.flags |= drivers::kFrameAfterReconnect;
-      ++own_.reconnects;
-    }
-    gap_pending_ = false;
-    have_last_ = true;
-    last_sequence_ = frame.sequence;
-    last_sample_time_ns_ = frame.sample_time_ns;
-    ++own_.delivered;
-    return finish(drivers::ReadStatus::kOk);
-  }
-  ++own_.stalls;  // every frame this read saw was dropped: to the consumer, nothing arrived in time
-  return finish(drivers::ReadStatus::kTimeout);
+  return injector_.read(inner_, frame, timeout_ns,
+                        [](drivers::RgbdFrame& f, const FaultScheduler::FrameFaults& faults, drivers::DriverCounters& own) {
+                          if (!faults.depth) return;
+                          const float value = faults.depth_kind == FaultKind::kDepthNan
+                                                  ? std::numeric_limits<float>::quiet_NaN()
+                                              : faults.depth_kind == FaultKind::kDepthZero ? 0.0f
+                                                                                           : 65535.0f * f.depth_scale_m;
+                          fill_depth(f.depth_m.data(), f.width(), f.height(), faults.rect, value);
+                          f.flags |= drivers::kFrameInvalidDepthRegion;
+                          ++own.invalid_depth_frames;
+                        });
 }
 
 FaultInjectingOdometrySource::FaultInjectingOdometrySource(drivers::OdometrySource& inner, const FaultPlan& plan)
-    : inner_(inner), scheduler_(plan) {
-  counters_ = merge(own_, inner_.counters());
-}
-
-drivers::ReadStatus FaultInjectingOdometrySource::finish(drivers::ReadStatus status) {
-  own_.disconnects = scheduler_.disconnects();
-  counters_ = merge(own_, inner_.counters());
-  return status;
+    : inner_(inner), injector_(plan) {
+  injector_.refresh(inner_.counters());
 }
 
 drivers::ReadStatus FaultInjectingOdometrySource::read(drivers::OdometrySample& sample, std::int64_t timeout_ns) {
-  for (int attempt = 0; attempt < kMaxDropsPerRead; ++attempt) {
-    const drivers::ReadStatus before = scheduler_.before_read();
-    if (before != drivers::ReadStatus::kOk) {
-      if (before == drivers::ReadStatus::kTimeout) ++own_.stalls;
-      return finish(before);
-    }
-    const drivers::ReadStatus status = inner_.read(sample, timeout_ns);
-    if (status != drivers::ReadStatus::kOk) return finish(status);
-    const FaultScheduler::FrameFaults faults = scheduler_.on_frame(sample.sequence, false, 0, 0);
-    if (faults.drop) {
-      ++own_.dropped;
-      gap_pending_ = true;
-      continue;
-    }
-    if (faults.wrong_size) {
-      ++own_.bad_frames;
-      gap_pending_ = true;
-      return finish(drivers::ReadStatus::kBadFrame);
-    }
-    if (faults.late_ns > 0) {
-      sample.publish_time_ns += faults.late_ns;
-      sample.flags |= drivers::kFrameLate;
-      ++own_.late;
-    }
-    if (faults.back_ns > 0) {
-      const std::int64_t reference = have_last_ ? last_sample_time_ns_ : sample.sample_time_ns;
-      sample.sample_time_ns = std::min(sample.sample_time_ns, reference - faults.back_ns);
-      sample.flags |= drivers::kFrameTimestampBackwards;
-      ++own_.timestamps_backwards;
-    }
-    if (gap_pending_ || (have_last_ && sample.sequence != last_sequence_ + 1)) sample.flags |= drivers::kFrameSequenceGap;
-    if (scheduler_.take_reconnect()) {
-      sample.flags |= drivers::kFrameAfterReconnect;
-      ++own_.reconnects;
-    }
-    gap_pending_ = false;
-    have_last_ = true;
-    last_sequence_ = sample.sequence;
-    last_sample_time_ns_ = sample.sample_time_ns;
-    ++own_.delivered;
-    return finish(drivers::ReadStatus::kOk);
-  }
-  ++own_.stalls;
-  return finish(drivers::ReadStatus::kTimeout);
+  return injector_.read(inner_, sample, timeout_ns,
+                        [](drivers::OdometrySample&, const FaultScheduler::FrameFaults&, drivers::DriverCounters&) {});
 }
 
 }  // namespace qsg::sim

@@ -141,6 +141,32 @@ class FaultScheduler {
   FaultTally tally_{};
 };
 
+// The state and read loop both decorators share: stalls and unplugs before a read, then drops, wrong sizes, late
+// and backwards times, sequence gaps and reconnect flags on what the inner source delivered.
+class FaultInjector {
+ public:
+  explicit FaultInjector(const FaultPlan& plan) : scheduler_(plan) {}
+  // Reads `message` from `inner` with the plan's faults. `apply_extra(message, faults, own_counters)` applies what
+  // only one message kind has (depth regions on frames). Defined in fault_plan.cc, for the two decorators.
+  template <typename Source, typename Message, typename Extra>
+  drivers::ReadStatus read(Source& inner, Message& message, std::int64_t timeout_ns, Extra&& apply_extra);
+  const drivers::DriverCounters& counters() const { return counters_; }
+  const FaultTally& tally() const { return scheduler_.tally(); }
+  // Folds the inner source's counts in (also before the first read).
+  void refresh(const drivers::DriverCounters& inner);
+
+ private:
+  drivers::ReadStatus finish(drivers::ReadStatus status, const drivers::DriverCounters& inner);
+
+  FaultScheduler scheduler_;
+  drivers::DriverCounters own_;       // faults injected here, and delivered
+  drivers::DriverCounters counters_;  // own_ + the inner source's fault counts
+  bool have_last_ = false;
+  bool gap_pending_ = false;
+  std::uint64_t last_sequence_ = 0;
+  std::int64_t last_sample_time_ns_ = 0;
+};
+
 // Decorators: same interface as the inner source, faults injected per the plan, every fault counted in
 // counters() (the inner source's counts folded in; delivered = frames this decorator delivered) and per kind in
 // injected(). A drop skips the frame and the read goes on to the next one; the next delivered frame carries
@@ -151,20 +177,12 @@ class FaultInjectingRgbdSource : public drivers::RgbdSource {
   const char* name() const override { return "fault_injecting_rgbd"; }
   drivers::CameraIntrinsics intrinsics() const override { return inner_.intrinsics(); }
   drivers::ReadStatus read(drivers::RgbdFrame& frame, std::int64_t timeout_ns) override;
-  const drivers::DriverCounters& counters() const override { return counters_; }
-  const FaultTally& injected() const { return scheduler_.tally(); }
+  const drivers::DriverCounters& counters() const override { return injector_.counters(); }
+  const FaultTally& injected() const { return injector_.tally(); }
 
  private:
-  drivers::ReadStatus finish(drivers::ReadStatus status);
-
   drivers::RgbdSource& inner_;
-  FaultScheduler scheduler_;
-  drivers::DriverCounters own_;       // faults injected here, and delivered
-  drivers::DriverCounters counters_;  // own_ + the inner source's fault counts
-  bool have_last_ = false;
-  bool gap_pending_ = false;
-  std::uint64_t last_sequence_ = 0;
-  std::int64_t last_sample_time_ns_ = 0;
+  FaultInjector injector_;
 };
 
 class FaultInjectingOdometrySource : public drivers::OdometrySource {
@@ -172,20 +190,12 @@ class FaultInjectingOdometrySource : public drivers::OdometrySource {
   FaultInjectingOdometrySource(drivers::OdometrySource& inner, const FaultPlan& plan);
   const char* name() const override { return "fault_injecting_odometry"; }
   drivers::ReadStatus read(drivers::OdometrySample& sample, std::int64_t timeout_ns) override;
-  const drivers::DriverCounters& counters() const override { return counters_; }
-  const FaultTally& injected() const { return scheduler_.tally(); }
+  const drivers::DriverCounters& counters() const override { return injector_.counters(); }
+  const FaultTally& injected() const { return injector_.tally(); }
 
  private:
-  drivers::ReadStatus finish(drivers::ReadStatus status);
-
   drivers::OdometrySource& inner_;
-  FaultScheduler scheduler_;
-  drivers::DriverCounters own_;
-  drivers::DriverCounters counters_;
-  bool have_last_ = false;
-  bool gap_pending_ = false;
-  std::uint64_t last_sequence_ = 0;
-  std::int64_t last_sample_time_ns_ = 0;
+  FaultInjector injector_;
 };
 
 }  // namespace qsg::sim
