@@ -205,6 +205,39 @@ const Voxel* SemanticTsdf::voxel_at(const Eigen::Vector3d& p_m) const {
   return &blocks_[*h].voxels[lx + kBlockSide * (ly + kBlockSide * lz)];
 }
 
+bool SemanticTsdf::block_view(std::uint32_t handle, BlockView* out) const {
+  if (!ready_ || handle >= blocks_.capacity() || !blocks_.live(handle)) return false;
+  const Block& b = blocks_[handle];
+  out->index = b.index;
+  out->integrated_stamp = b.frame_stamp;
+  out->meshed_stamp = b.mesh_stamp;
+  out->voxels = b.voxels;
+  out->num_vertices = b.num_vertices;
+  return true;
+}
+
+std::uint32_t SemanticTsdf::find_block(const memory::Index3& index) const {
+  if (!ready_) return memory::kInvalidHandle;
+  const std::uint32_t* h = block_index_.find(index);
+  return h == nullptr ? memory::kInvalidHandle : *h;
+}
+
+bool SemanticTsdf::next_block_vertex(std::uint32_t handle, VertexCursor* cursor, MeshVertex* vertex,
+                                     std::uint64_t* key) const {
+  if (!ready_ || handle >= blocks_.capacity() || !blocks_.live(handle)) return false;
+  const Block& b = blocks_[handle];
+  if (cursor->index >= b.num_vertices) return false;
+  if (cursor->index == 0) cursor->chunk = b.vertex_head;
+  else if (cursor->index % kChunkSize == 0) cursor->chunk = vertex_chunks_[cursor->chunk].next;
+  if (cursor->chunk == memory::kInvalidHandle) return false;
+  const VertexChunk& chunk = vertex_chunks_[cursor->chunk];
+  const int slot = static_cast<int>(cursor->index % kChunkSize);
+  *vertex = chunk.vertices[slot];
+  if (key != nullptr) *key = edge_key(b.index, chunk.codes[slot]);
+  ++cursor->index;
+  return true;
+}
+
 // ---------------------------------------------------------------------------------------------------------
 // Integration
 

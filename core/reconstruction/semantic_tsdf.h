@@ -131,6 +131,36 @@ class SemanticTsdf {
   float sdf_m(const Voxel& v) const { return static_cast<float>(v.sdf_q) * sdf_scale_; }
   static semantics::Label best_label(const Voxel& v);
 
+  // Read access for the frontend (places, objects). A view is valid until the next integrate(), update_mesh()
+  // or update_window(); none of these calls allocate.
+  struct BlockView {
+    memory::Index3 index;                 // voxel (x, y, z) of the block is global voxel index * kBlockSide + (x, y, z)
+    std::uint32_t integrated_stamp = 0;   // frame_stamp() of the last frame integrated into the block
+    std::uint32_t meshed_stamp = 0;       // mesh_stamp() of the block's last marching-cubes run
+    const Voxel* voxels = nullptr;        // kBlockVoxels; voxel (x, y, z) at x + kBlockSide * (y + kBlockSide * z)
+    std::uint32_t num_vertices = 0;
+  };
+  struct VertexCursor {
+    std::uint32_t chunk = memory::kInvalidHandle;
+    std::uint32_t index = 0;
+  };
+  std::uint32_t block_slots() const { return static_cast<std::uint32_t>(blocks_.capacity()); }  // handles < this
+  bool block_view(std::uint32_t handle, BlockView* out) const;  // false for a free slot
+  std::uint32_t find_block(const memory::Index3& index) const;  // handle, or kInvalidHandle when not active
+  template <typename Fn>
+  void for_each_block(Fn&& fn) const {  // fn(std::uint32_t handle, const BlockView&)
+    BlockView view;
+    for (std::uint32_t h = 0; h < block_slots(); ++h)
+      if (block_view(h, &view)) fn(h, view);
+  }
+  // The block's mesh vertices one by one (start with a default cursor); false at the end. key is the vertex's
+  // global voxel-edge key: a vertex on a block border appears in both blocks with the same key, and keeps it
+  // while the surface is re-meshed.
+  bool next_block_vertex(std::uint32_t handle, VertexCursor* cursor, MeshVertex* vertex, std::uint64_t* key) const;
+  std::uint32_t frame_stamp() const { return frame_stamp_; }
+  std::uint32_t mesh_stamp() const { return mesh_stamp_; }
+  double block_size_m() const { return config_.voxel_size_m * kBlockSide; }
+
   const Config& config() const { return config_; }
   const Capacities& capacities() const { return capacities_; }
   const Counters& counters() const { return counters_; }
