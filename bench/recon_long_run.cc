@@ -125,10 +125,7 @@ std::size_t window_bytes_in_use(const reconstruction::SemanticTsdf& tsdf) {
   return tsdf.active_blocks() * sizeof(reconstruction::Voxel) * reconstruction::kBlockVoxels;
 }
 
-std::size_t archive_bytes(const reconstruction::SemanticTsdf& tsdf) {
-  return tsdf.archive_vertices() * sizeof(reconstruction::MeshVertex) +
-         tsdf.archive_triangles() * sizeof(reconstruction::MeshTriangle);
-}
+std::size_t archive_bytes(const reconstruction::SemanticTsdf& tsdf) { return tsdf.archive_bytes(); }
 
 }  // namespace
 

@@ -2,8 +2,13 @@
 #include "core/reconstruction/semantic_tsdf.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <condition_variable>
 #include <cstring>
+#include <mutex>
+#include <thread>
+#include <unordered_map>
 
 #include "budgets/budget_table.h"
 #include "core/reconstruction/marching_cubes.h"
@@ -16,6 +21,9 @@ constexpr int kCorners = kBlockSide + 1;                   // the block plus the
 constexpr int kEdgeCodes = kCorners * kCorners * kCorners * 3;
 constexpr int kMaxChunksPerBlock = (kEdgeCodes + kChunkSize - 1) / kChunkSize;
 constexpr float kSdfQuant = 32767.0f;
+// Archived triangles per chunk: a surface block holds ~50-150 triangles at 0.1 m, so 32 wastes little on
+// blocks that only graze a surface.
+constexpr int kArchiveChunk = 32;
 
 inline int edge_code(int x, int y, int z, int axis) { return ((x * kCorners + y) * kCorners + z) * 3 + axis; }
 
@@ -58,6 +66,77 @@ struct SemanticTsdf::TriangleChunk {
   std::uint32_t next = memory::kInvalidHandle;
 };
 
+struct SemanticTsdf::ArchiveChunk {
+  MeshTriangle triangles[kArchiveChunk];
+  std::uint32_t next = memory::kInvalidHandle;
+  std::uint32_t count = 0;
+};
+
+// Integration threads: long-lived, started by init(); a job hands out block indices through one atomic counter,
+// the caller works too, and run() returns when every index is done. Nothing allocates per job.
+class SemanticTsdf::Workers {
+ public:
+  using Job = void (*)(void* context, std::uint32_t index);
+  explicit Workers(int extra_threads) {
+    threads_.reserve(static_cast<std::size_t>(extra_threads));
+    for (int i = 0; i < extra_threads; ++i) threads_.emplace_back([this] { loop(); });
+  }
+  ~Workers() {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      stop_ = true;
+    }
+    start_.notify_all();
+    for (std::thread& t : threads_) t.join();
+  }
+  void run(Job job, void* context, std::uint32_t count) {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      job_ = job;
+      context_ = context;
+      count_ = count;
+      next_.store(0, std::memory_order_relaxed);
+      busy_ = static_cast<int>(threads_.size());
+      ++generation_;
+    }
+    start_.notify_all();
+    work();
+    std::unique_lock<std::mutex> lock(mutex_);
+    done_.wait(lock, [this] { return busy_ == 0; });
+  }
+
+ private:
+  void work() {
+    for (std::uint32_t i = next_.fetch_add(1, std::memory_order_relaxed); i < count_;
+         i = next_.fetch_add(1, std::memory_order_relaxed))
+      job_(context_, i);
+  }
+  void loop() {
+    std::uint64_t seen = 0;
+    for (;;) {
+      {
+        std::unique_lock<std::mutex> lock(mutex_);
+        start_.wait(lock, [&] { return stop_ || generation_ != seen; });
+        if (stop_) return;
+        seen = generation_;
+      }
+      work();
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (--busy_ == 0) done_.notify_one();
+    }
+  }
+  std::vector<std::thread> threads_;
+  std::mutex mutex_;
+  std::condition_variable start_, done_;
+  Job job_ = nullptr;
+  void* context_ = nullptr;
+  std::uint32_t count_ = 0;
+  std::atomic<std::uint32_t> next_{0};
+  int busy_ = 0;
+  std::uint64_t generation_ = 0;
+  bool stop_ = false;
+};
+
 struct SemanticTsdf::Scratch {
   struct Corner {
     float d;
@@ -78,26 +157,31 @@ std::string Config::check() const {
   if (!(window_radius_m > max_range_m)) return "window_radius_m must exceed max_range_m";
   if (!(max_weight > 1.0 && max_weight * kWeightScale < 65535.0)) return "max_weight must be in (1, 255]";
   if (!(archive_resolution_m > 0.0)) return "archive_resolution_m must be positive";
+  if (!(archive_max_resolution_m >= archive_resolution_m))
+    return "archive_max_resolution_m must be at least archive_resolution_m";
+  if (integration_threads < 1 || integration_threads > 8) return "integration_threads must be in [1, 8]";
   return {};
 }
 
 void Config::print(std::FILE* out) const {
   std::fprintf(out,
                "reconstruction: voxel_size_m=%.3f truncation_voxels=%.1f range_m=[%.2f, %.2f] window_radius_m=%.1f "
-               "max_weight=%.0f archive_resolution_m=%.3f integrate_labels=%d\n",
+               "max_weight=%.0f archive_resolution_m=%.3f (max %.3f) integrate_labels=%d integration_threads=%d\n",
                voxel_size_m, truncation_voxels, min_range_m, max_range_m, window_radius_m, max_weight,
-               archive_resolution_m, integrate_labels ? 1 : 0);
+               archive_resolution_m, archive_max_resolution_m, integrate_labels ? 1 : 0, integration_threads);
 }
 
 void Counters::print(std::FILE* out) const {
   std::fprintf(out,
                "reconstruction: frames=%llu pixels valid=%llu invalid=%llu blocks allocated=%llu archived=%llu "
-               "evicted=%llu refused=%llu meshed=%llu mesh_overflow=%llu archive_overflow=%llu\n",
+               "evicted=%llu refused=%llu meshed=%llu mesh_overflow=%llu archive_overflow=%llu archive_replaced=%llu "
+               "archive_compactions=%llu archive_coarsenings=%llu\n",
                (unsigned long long)frames, (unsigned long long)pixels_valid, (unsigned long long)pixels_invalid,
                (unsigned long long)blocks_allocated, (unsigned long long)blocks_archived,
                (unsigned long long)blocks_evicted, (unsigned long long)blocks_refused,
                (unsigned long long)blocks_meshed, (unsigned long long)mesh_overflow,
-               (unsigned long long)archive_overflow);
+               (unsigned long long)archive_overflow, (unsigned long long)archive_replaced,
+               (unsigned long long)archive_compactions, (unsigned long long)archive_coarsenings);
 }
 
 Capacities capacities_from_budget() {
@@ -120,17 +204,27 @@ SemanticTsdf::SemanticTsdf()
       remesh_("reconstruction.remesh", memory::OverflowPolicy::kRefuse),
       weld_("reconstruction.weld", memory::OverflowPolicy::kRefuse),
       archive_vertices_("reconstruction.archive_vertices", memory::OverflowPolicy::kRefuse),
-      archive_triangles_("reconstruction.archive_triangles", memory::OverflowPolicy::kRefuse),
-      archive_index_("reconstruction.archive_index", memory::OverflowPolicy::kRefuse) {}
+      archive_chunks_("reconstruction.archive_chunks", memory::OverflowPolicy::kRefuse),
+      archive_blocks_("reconstruction.archive_blocks", memory::OverflowPolicy::kRefuse),
+      archive_index_("reconstruction.archive_index", memory::OverflowPolicy::kRefuse),
+      archive_remap_("reconstruction.archive_remap", memory::OverflowPolicy::kRefuse) {}
 
 SemanticTsdf::~SemanticTsdf() {
   // The pools hold their objects in the arena: destroy them before the arena goes.
+  delete workers_;
   if (ready_) {
     blocks_.clear();
     vertex_chunks_.clear();
     triangle_chunks_.clear();
+    archive_chunks_.clear();
   }
 }
+
+namespace {
+std::size_t archive_chunk_count(const Capacities& c) { return c.archive_triangles / kArchiveChunk; }
+// A block's triangles need at least one chunk, so there are never more archived blocks than chunks.
+std::size_t archive_block_count(const Capacities& c) { return archive_chunk_count(c); }
+}  // namespace
 
 memory::ArenaPlan SemanticTsdf::plan(const Capacities& c) {
   memory::ArenaPlan plan;
@@ -143,8 +237,10 @@ memory::ArenaPlan SemanticTsdf::plan(const Capacities& c) {
   using Weld = memory::FixedHashMap<std::uint64_t, std::uint32_t, memory::U64Hash>;
   Weld::plan(plan, Weld::slots_for(c.mesh_vertices));
   memory::ArenaVector<MeshVertex>::plan(plan, c.archive_vertices);
-  memory::ArenaVector<MeshTriangle>::plan(plan, c.archive_triangles);
+  memory::Pool<ArchiveChunk>::plan(plan, archive_chunk_count(c));
+  memory::SpatialHash<ArchiveEntry>::plan(plan, memory::SpatialHash<ArchiveEntry>::slots_for(archive_block_count(c)));
   memory::SpatialHash<std::uint32_t>::plan(plan, memory::SpatialHash<std::uint32_t>::slots_for(c.archive_vertices));
+  memory::ArenaVector<std::uint32_t>::plan(plan, c.archive_vertices);
   plan.add_array<Scratch>(1);
   return plan;
 }
@@ -157,8 +253,10 @@ bool SemanticTsdf::init(const Config& config, const Capacities& c, std::size_t b
   if (ready_) return fail("init() called twice");
   const std::string bad = config.check();
   if (!bad.empty()) return fail("config: " + bad);
-  if (c.max_blocks == 0 || c.mesh_vertices < kChunkSize || c.mesh_triangles < kChunkSize)
-    return fail("capacities: max_blocks, mesh_vertices and mesh_triangles must be positive (mesh ones >= 64)");
+  if (c.max_blocks == 0 || c.mesh_vertices < kChunkSize || c.mesh_triangles < kChunkSize ||
+      c.archive_triangles < kArchiveChunk || c.archive_vertices == 0)
+    return fail("capacities: max_blocks, mesh_vertices, mesh_triangles (>= 64), archive_vertices and "
+                "archive_triangles (>= 32) must be positive");
   config_ = config;
   capacities_ = c;
   if (!arena_.create("reconstruction", plan(c), budget_bytes, error)) return false;
@@ -169,12 +267,18 @@ bool SemanticTsdf::init(const Config& config, const Capacities& c, std::size_t b
       vertex_chunks_.carve(arena_, c.mesh_vertices / kChunkSize) &&
       triangle_chunks_.carve(arena_, c.mesh_triangles / kChunkSize) && touched_.carve(arena_, c.max_blocks) &&
       remesh_.carve(arena_, c.max_blocks) && weld_.carve(arena_, Weld::slots_for(c.mesh_vertices), c.mesh_vertices) &&
-      archive_vertices_.carve(arena_, c.archive_vertices) && archive_triangles_.carve(arena_, c.archive_triangles) &&
+      archive_vertices_.carve(arena_, c.archive_vertices) &&
+      archive_chunks_.carve(arena_, archive_chunk_count(c)) &&
+      archive_blocks_.carve(arena_, memory::SpatialHash<ArchiveEntry>::slots_for(archive_block_count(c)),
+                            archive_block_count(c)) &&
       archive_index_.carve(arena_, memory::SpatialHash<std::uint32_t>::slots_for(c.archive_vertices),
-                           c.archive_vertices);
+                           c.archive_vertices) &&
+      archive_remap_.carve(arena_, c.archive_vertices);
   scratch_ = ok ? arena_.carve_array<Scratch>(1) : nullptr;
   if (!ok || scratch_ == nullptr || !arena_.seal()) return fail("the arena carve did not match its plan");
   sdf_scale_ = static_cast<float>(config_.voxel_size_m * config_.truncation_voxels) / kSdfQuant;
+  archive_resolution_m_ = config_.archive_resolution_m;
+  if (config_.integration_threads > 1) workers_ = new Workers(config_.integration_threads - 1);
   ready_ = true;
   return true;
 }
@@ -327,11 +431,34 @@ bool SemanticTsdf::integrate(const drivers::RgbdFrame& frame, const Eigen::Isome
     }
   }
   const Eigen::Isometry3d camera_T_world = world_T_camera.inverse();
-  for (std::uint32_t h : touched_) {
-    integrate_block(blocks_[h], frame, camera_T_world);
-    blocks_[h].dirty = true;
+  const std::uint32_t count = static_cast<std::uint32_t>(touched_.size());
+  if (workers_ == nullptr || count < 2) {
+    integrate_range(frame, camera_T_world, 0, count);
+  } else {
+    // Blocks are independent (a block's voxels are written by its own job only), so the result is the same
+    // bits as on one thread. Jobs of 4 blocks keep the shared counter cold.
+    struct Context {
+      SemanticTsdf* self;
+      const drivers::RgbdFrame* frame;
+      const Eigen::Isometry3d* camera_T_world;
+      std::uint32_t count;
+    } context{this, &frame, &camera_T_world, count};
+    constexpr std::uint32_t kPerJob = 4;
+    workers_->run(
+        [](void* c, std::uint32_t job) {
+          const Context& ctx = *static_cast<const Context*>(c);
+          ctx.self->integrate_range(*ctx.frame, *ctx.camera_T_world, job * kPerJob,
+                                    std::min(ctx.count, (job + 1) * kPerJob));
+        },
+        &context, (count + kPerJob - 1) / kPerJob);
   }
+  for (std::uint32_t h : touched_) blocks_[h].dirty = true;
   return true;
+}
+
+void SemanticTsdf::integrate_range(const drivers::RgbdFrame& frame, const Eigen::Isometry3d& camera_T_world,
+                                   std::uint32_t begin, std::uint32_t end) {
+  for (std::uint32_t i = begin; i < end; ++i) integrate_block(blocks_[touched_[i]], frame, camera_T_world);
 }
 
 void SemanticTsdf::integrate_block(Block& block, const drivers::RgbdFrame& frame,
@@ -603,10 +730,14 @@ void SemanticTsdf::extract_active_mesh(Mesh* out) {
 // ---------------------------------------------------------------------------------------------------------
 // Window and archive
 
+memory::Index3 SemanticTsdf::archive_cell(const MeshVertex& v) const {
+  const double r = archive_resolution_m_;
+  return {static_cast<std::int32_t>(std::floor(v.x / r)), static_cast<std::int32_t>(std::floor(v.y / r)),
+          static_cast<std::int32_t>(std::floor(v.z / r))};
+}
+
 std::uint32_t SemanticTsdf::archive_vertex(const MeshVertex& v) {
-  const double r = config_.archive_resolution_m;
-  const memory::Index3 key{static_cast<std::int32_t>(std::floor(v.x / r)), static_cast<std::int32_t>(std::floor(v.y / r)),
-                           static_cast<std::int32_t>(std::floor(v.z / r))};
+  const memory::Index3 key = archive_cell(v);
   if (const std::uint32_t* id = archive_index_.find(key)) return *id;
   if (archive_vertices_.full()) return memory::kInvalidHandle;
   const std::uint32_t id = static_cast<std::uint32_t>(archive_vertices_.size());
@@ -615,22 +746,173 @@ std::uint32_t SemanticTsdf::archive_vertex(const MeshVertex& v) {
   return id;
 }
 
+std::size_t SemanticTsdf::archive_bytes() const {
+  return archive_vertices_.size() * sizeof(MeshVertex) + archive_chunks_.size() * sizeof(ArchiveChunk);
+}
+
+bool SemanticTsdf::append_archive_triangle(ArchiveEntry& entry, const MeshTriangle& tri) {
+  if (entry.head == memory::kInvalidHandle || archive_chunks_[entry.tail].count == kArchiveChunk) {
+    const std::uint32_t c = archive_chunks_.acquire();
+    if (c == memory::kInvalidHandle) return false;
+    if (entry.head == memory::kInvalidHandle) entry.head = c;
+    else archive_chunks_[entry.tail].next = c;
+    entry.tail = c;
+  }
+  ArchiveChunk& chunk = archive_chunks_[entry.tail];
+  chunk.triangles[chunk.count++] = tri;
+  ++entry.count;
+  ++archive_triangle_count_;
+  return true;
+}
+
+// Keeps the triangles of one archived block for which keep(MeshTriangle&) is true (keep may rewrite them),
+// compacting the chain in place and releasing the chunks it no longer needs. Every chunk but the tail is full,
+// so the writer never overtakes the reader.
+template <typename Keep>
+void SemanticTsdf::filter_archive(ArchiveEntry& entry, Keep&& keep) {
+  std::uint32_t write_chunk = entry.head, write_slot = 0, kept = 0;
+  for (std::uint32_t c = entry.head; c != memory::kInvalidHandle; c = archive_chunks_[c].next) {
+    const std::uint32_t count = archive_chunks_[c].count;
+    for (std::uint32_t i = 0; i < count; ++i) {
+      MeshTriangle t = archive_chunks_[c].triangles[i];
+      if (!keep(t)) continue;
+      if (write_slot == kArchiveChunk) {
+        write_chunk = archive_chunks_[write_chunk].next;
+        write_slot = 0;
+      }
+      archive_chunks_[write_chunk].triangles[write_slot++] = t;
+      ++kept;
+    }
+  }
+  std::uint32_t free_from = entry.head;
+  if (kept == 0) {
+    entry.head = entry.tail = memory::kInvalidHandle;
+  } else {
+    archive_chunks_[write_chunk].count = write_slot;
+    free_from = archive_chunks_[write_chunk].next;
+    archive_chunks_[write_chunk].next = memory::kInvalidHandle;
+    entry.tail = write_chunk;
+  }
+  while (free_from != memory::kInvalidHandle) {
+    const std::uint32_t next = archive_chunks_[free_from].next;
+    archive_chunks_.release(free_from);
+    free_from = next;
+  }
+  archive_triangle_count_ -= entry.count - kept;
+  entry.count = kept;
+}
+
+// Re-merges the archive's vertices on a grid of `resolution_m`, dropping vertices no triangle uses and the
+// triangles that collapse. Runs only when the archive is full, in place, in the stores it already has.
+void SemanticTsdf::compact_archive(double resolution_m) {
+  const std::size_t n = archive_vertices_.size();
+  archive_remap_.clear();
+  for (std::size_t i = 0; i < n; ++i) archive_remap_.push_back(memory::kInvalidHandle);
+  archive_blocks_.for_each([&](const memory::Index3&, ArchiveEntry& e) {
+    for (std::uint32_t c = e.head; c != memory::kInvalidHandle; c = archive_chunks_[c].next)
+      for (std::uint32_t i = 0; i < archive_chunks_[c].count; ++i)
+        for (std::uint32_t v : archive_chunks_[c].triangles[i].v) archive_remap_[v] = 0;
+  });
+  archive_index_.clear();
+  archive_resolution_m_ = resolution_m;
+  std::uint32_t next = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (archive_remap_[i] == memory::kInvalidHandle) continue;
+    bool inserted = false;
+    const std::uint32_t* id = archive_index_.find_or_insert(archive_cell(archive_vertices_[i]), next, &inserted);
+    if (inserted) archive_vertices_[next++] = archive_vertices_[i];  // next <= i: in place
+    archive_remap_[i] = *id;
+  }
+  while (archive_vertices_.size() > next) archive_vertices_.pop_back();
+  archive_blocks_.for_each([&](const memory::Index3&, ArchiveEntry& e) {
+    filter_archive(e, [&](MeshTriangle& t) {
+      for (std::uint32_t& v : t.v) v = archive_remap_[v];
+      return t.v[0] != t.v[1] && t.v[1] != t.v[2] && t.v[0] != t.v[2];
+    });
+  });
+}
+
+bool SemanticTsdf::make_archive_room(bool need_chunk) {
+  // First the free option: vertices no triangle uses any more (revisits replace triangles, not vertices).
+  const std::size_t vertices_before = archive_vertices_.size();
+  compact_archive(archive_resolution_m_);
+  ++counters_.archive_compactions;
+  const bool vertices_ok = archive_vertices_.size() + archive_vertices_.capacity() / 8 <= archive_vertices_.capacity();
+  if (!need_chunk && vertices_ok) return true;
+  // Then a coarser archive: the mesh stays complete, its detail halves.
+  const double coarser = archive_resolution_m_ * 2.0;
+  if (coarser > config_.archive_max_resolution_m + 1e-9) {
+    if (counters_.archive_overflow == 0)
+      std::fprintf(stderr,
+                   "reconstruction: archive full at its coarsest resolution (%.3f m, %zu of %zu vertices, %zu "
+                   "triangles); refusing new archived triangles (see counters().archive_overflow)\n",
+                   archive_resolution_m_, archive_vertices_.size(), archive_vertices_.capacity(),
+                   archive_triangle_count_);
+    return archive_vertices_.size() < vertices_before;
+  }
+  const std::size_t triangles_before = archive_triangle_count_;
+  compact_archive(coarser);
+  ++counters_.archive_coarsenings;
+  std::fprintf(stderr,
+               "reconstruction: archive full; merge cell %.3f -> %.3f m: %zu -> %zu vertices, %zu -> %zu triangles\n",
+               coarser / 2.0, coarser, vertices_before, archive_vertices_.size(), triangles_before,
+               archive_triangle_count_);
+  return true;
+}
+
+bool SemanticTsdf::covered_by_block(const Block& block, const MeshVertex* const* corners) const {
+  // The voxel holding the triangle's centroid is one of its cube's corners: when this visit observed it, the
+  // visit's own mesh describes that cube (a surface, or free space where something was).
+  const double inv = 1.0 / config_.voxel_size_m;
+  const float c[3] = {(corners[0]->x + corners[1]->x + corners[2]->x) / 3.0f,
+                      (corners[0]->y + corners[1]->y + corners[2]->y) / 3.0f,
+                      (corners[0]->z + corners[1]->z + corners[2]->z) / 3.0f};
+  const std::int32_t base[3] = {block.index.x * kBlockSide, block.index.y * kBlockSide, block.index.z * kBlockSide};
+  int local[3];
+  for (int k = 0; k < 3; ++k)
+    local[k] = std::clamp(static_cast<int>(std::floor(c[k] * inv)) - base[k], 0, kBlockSide - 1);
+  return block.voxels[local[0] + kBlockSide * (local[1] + kBlockSide * local[2])].weight_q > 0;
+}
+
 void SemanticTsdf::archive_block(std::uint32_t handle) {
   Block& block = blocks_[handle];
-  bool overflow = false;
-  for_each_block_triangle(block, [&](const MeshVertex* const* v, const std::uint16_t*) {
-    MeshTriangle tri;
-    for (int j = 0; j < 3; ++j) {
-      tri.v[j] = archive_vertex(*v[j]);
-      if (tri.v[j] == memory::kInvalidHandle) {
-        overflow = true;
-        return;
+  ArchiveEntry* entry = archive_blocks_.find(block.index);
+  if (entry != nullptr) {
+    // A revisit: what this visit observed replaces what the archive held there; the rest stays.
+    const std::size_t before = entry->count;
+    filter_archive(*entry, [&](MeshTriangle& t) {
+      const MeshVertex* corners[3] = {&archive_vertices_[t.v[0]], &archive_vertices_[t.v[1]],
+                                      &archive_vertices_[t.v[2]]};
+      return !covered_by_block(block, corners);
+    });
+    counters_.archive_replaced += before - entry->count;
+  } else if (block.num_triangles > 0) {
+    entry = archive_blocks_.insert(block.index, ArchiveEntry{});
+  }
+  bool overflow = entry == nullptr && block.num_triangles > 0;
+  bool tried_room = false;
+  if (entry != nullptr) {
+    for_each_block_triangle(block, [&](const MeshVertex* const* v, const std::uint16_t*) {
+      for (int attempt = 0; attempt < 2; ++attempt) {
+        MeshTriangle tri;
+        bool ok = true;
+        for (int j = 0; j < 3 && ok; ++j) {
+          tri.v[j] = archive_vertex(*v[j]);
+          ok = tri.v[j] != memory::kInvalidHandle;
+        }
+        if (ok) {
+          // Compression merged two corners: the triangle collapsed.
+          if (tri.v[0] == tri.v[1] || tri.v[1] == tri.v[2] || tri.v[0] == tri.v[2]) return;
+          if (append_archive_triangle(*entry, tri)) return;
+        }
+        // Full: make room once per block (compaction re-numbers vertices, so the triangle is re-mapped).
+        if (tried_room || attempt == 1) break;
+        tried_room = true;
+        if (!make_archive_room(/*need_chunk=*/ok)) break;
       }
-    }
-    // Compression merged two corners: the triangle collapsed.
-    if (tri.v[0] == tri.v[1] || tri.v[1] == tri.v[2] || tri.v[0] == tri.v[2]) return;
-    if (!archive_triangles_.push_back(tri)) overflow = true;
-  });
+      overflow = true;
+    });
+  }
   if (overflow) ++counters_.archive_overflow;
   release_mesh(block);
   block_index_.erase(block.index);
@@ -654,18 +936,71 @@ bool SemanticTsdf::process(const drivers::RgbdFrame& frame, const Eigen::Isometr
 }
 
 void SemanticTsdf::extract_archive(Mesh* out) const {
-  out->vertices.assign(archive_vertices_.begin(), archive_vertices_.end());
-  out->triangles.assign(archive_triangles_.begin(), archive_triangles_.end());
+  out->vertices.clear();
+  out->triangles.clear();
+  if (!ready_) return;
+  // Only the vertices some triangle uses (a revisit can leave unused ones until the next compaction).
+  std::vector<std::uint32_t> remap(archive_vertices_.size(), memory::kInvalidHandle);
+  archive_blocks_.for_each([&](const memory::Index3&, const ArchiveEntry& e) {
+    for (std::uint32_t c = e.head; c != memory::kInvalidHandle; c = archive_chunks_[c].next)
+      for (std::uint32_t i = 0; i < archive_chunks_[c].count; ++i) {
+        MeshTriangle t = archive_chunks_[c].triangles[i];
+        for (std::uint32_t& v : t.v) {
+          if (remap[v] == memory::kInvalidHandle) {
+            remap[v] = static_cast<std::uint32_t>(out->vertices.size());
+            out->vertices.push_back(archive_vertices_[v]);
+          }
+          v = remap[v];
+        }
+        out->triangles.push_back(t);
+      }
+  });
 }
 
 void SemanticTsdf::extract_full_mesh(Mesh* out) {
+  out->vertices.clear();
+  out->triangles.clear();
+  if (!ready_) return;
+  // The archive, less what an active block has observed again (the active mesh stands for it now)...
+  std::vector<std::uint32_t> remap(archive_vertices_.size(), memory::kInvalidHandle);
+  const auto emit_archived = [&](std::uint32_t v) {
+    if (remap[v] == memory::kInvalidHandle) {
+      remap[v] = static_cast<std::uint32_t>(out->vertices.size());
+      out->vertices.push_back(archive_vertices_[v]);
+    }
+    return remap[v];
+  };
+  archive_blocks_.for_each([&](const memory::Index3& index, const ArchiveEntry& e) {
+    const std::uint32_t* active = block_index_.find(index);
+    for (std::uint32_t c = e.head; c != memory::kInvalidHandle; c = archive_chunks_[c].next)
+      for (std::uint32_t i = 0; i < archive_chunks_[c].count; ++i) {
+        MeshTriangle t = archive_chunks_[c].triangles[i];
+        const MeshVertex* corners[3] = {&archive_vertices_[t.v[0]], &archive_vertices_[t.v[1]],
+                                        &archive_vertices_[t.v[2]]};
+        if (active != nullptr && covered_by_block(blocks_[*active], corners)) continue;
+        for (std::uint32_t& v : t.v) v = emit_archived(v);
+        out->triangles.push_back(t);
+      }
+  });
+  // ...then the active mesh through the archive's own vertex merge, so a vertex on the border between an
+  // archived and an active block is one vertex: no seam.
   Mesh active;
   extract_active_mesh(&active);
-  extract_archive(out);
-  const std::uint32_t offset = static_cast<std::uint32_t>(out->vertices.size());
-  out->vertices.insert(out->vertices.end(), active.vertices.begin(), active.vertices.end());
+  std::unordered_map<memory::Index3, std::uint32_t, memory::Index3Hash> fresh;
+  std::vector<std::uint32_t> active_to_out(active.vertices.size());
+  for (std::size_t i = 0; i < active.vertices.size(); ++i) {
+    const memory::Index3 cell = archive_cell(active.vertices[i]);
+    if (const std::uint32_t* id = archive_index_.find(cell)) {
+      active_to_out[i] = emit_archived(*id);
+      continue;
+    }
+    const auto it = fresh.emplace(cell, static_cast<std::uint32_t>(out->vertices.size()));
+    if (it.second) out->vertices.push_back(active.vertices[i]);
+    active_to_out[i] = it.first->second;
+  }
   for (MeshTriangle t : active.triangles) {
-    for (std::uint32_t& i : t.v) i += offset;
+    for (std::uint32_t& v : t.v) v = active_to_out[v];
+    if (t.v[0] == t.v[1] || t.v[1] == t.v[2] || t.v[0] == t.v[2]) continue;
     out->triangles.push_back(t);
   }
 }

@@ -70,6 +70,10 @@ struct Config {
   double window_radius_m = 8.0;     // blocks whose centre is farther from the robot are archived
   double max_weight = 100.0;        // voxel weights saturate here, so the map can still follow changes
   double archive_resolution_m = 0.05;  // vertices of the archive closer than this (same cell) are merged
+  // When the archive fills it first drops unreferenced vertices, then doubles its merge cell up to this size
+  // (coarser but complete), and only then refuses triangles (counted).
+  double archive_max_resolution_m = 0.4;
+  int integration_threads = 1;        // 1 = on the caller's thread; 2..8 = the caller plus long-lived workers
   bool integrate_labels = true;
   std::string check() const;  // empty when usable, else the bad field and why
   void print(std::FILE* out) const;
@@ -95,6 +99,9 @@ struct Counters {
   std::uint64_t blocks_meshed = 0;
   std::uint64_t mesh_overflow = 0;         // vertices/triangles dropped because the active mesh pools were full
   std::uint64_t archive_overflow = 0;      // vertices/triangles dropped because the archive was full
+  std::uint64_t archive_replaced = 0;      // archived triangles replaced by a revisit's re-observation
+  std::uint64_t archive_compactions = 0;   // archive full: unreferenced vertices dropped
+  std::uint64_t archive_coarsenings = 0;   // archive full: merge cell doubled
   void print(std::FILE* out) const;
 };
 
@@ -123,7 +130,9 @@ class SemanticTsdf {
   void extract_active_mesh(Mesh* out);
   // The archive (global mesh of everything that left the window).
   void extract_archive(Mesh* out) const;
-  // Archive + active window (archives a copy of the active mesh through the same compression, not in place).
+  // Archive + active window: archived triangles an active block has re-observed are left out, and the active
+  // mesh goes through the archive's vertex merge (a copy, not in place), so archived and active parts share
+  // their border vertices.
   void extract_full_mesh(Mesh* out);
 
   // Voxel at a world point (nullptr when its block is not allocated). Distances in metres via sdf_m().
@@ -166,7 +175,11 @@ class SemanticTsdf {
   const Counters& counters() const { return counters_; }
   std::size_t active_blocks() const { return blocks_.size(); }
   std::size_t archive_vertices() const { return archive_vertices_.size(); }
-  std::size_t archive_triangles() const { return archive_triangles_.size(); }
+  std::size_t archive_triangles() const { return archive_triangle_count_; }
+  std::size_t archive_blocks() const { return archive_blocks_.size(); }
+  double archive_resolution_m() const { return archive_resolution_m_; }  // grows when the archive fills
+  // Bytes the archive's stores hold for what it keeps (vertices + triangle chunks in use).
+  std::size_t archive_bytes() const;
   // Bytes of the active window's voxel storage (TSDF + semantics), fixed at init.
   std::size_t window_bytes() const { return capacities_.max_blocks * sizeof(Voxel) * kBlockVoxels; }
   std::size_t arena_bytes() const { return arena_.capacity_bytes(); }
@@ -175,6 +188,13 @@ class SemanticTsdf {
   struct VertexChunk;
   struct TriangleChunk;
   struct Scratch;
+  struct ArchiveChunk;
+  struct ArchiveEntry {
+    std::uint32_t head = memory::kInvalidHandle;  // chunk chain of the block's archived triangles
+    std::uint32_t tail = memory::kInvalidHandle;
+    std::uint32_t count = 0;
+  };
+  class Workers;
 
  private:
   std::uint32_t allocate_block(const memory::Index3& index, const Eigen::Vector3d& robot_m);
@@ -183,9 +203,18 @@ class SemanticTsdf {
   void mesh_block(std::uint32_t handle);
   void release_mesh(Block& block);
   void archive_block(std::uint32_t handle);
+  bool append_archive_triangle(ArchiveEntry& entry, const MeshTriangle& tri);
+  template <typename Keep>
+  void filter_archive(ArchiveEntry& entry, Keep&& keep);
+  bool make_archive_room(bool need_chunk);
+  void compact_archive(double resolution_m);
+  bool covered_by_block(const Block& block, const MeshVertex* const* corners) const;
+  void integrate_range(const drivers::RgbdFrame& frame, const Eigen::Isometry3d& camera_T_world,
+                       std::uint32_t begin, std::uint32_t end);
   template <typename Fn>
   void for_each_block_triangle(const Block& block, Fn&& fn) const;
   std::uint32_t archive_vertex(const MeshVertex& v);
+  memory::Index3 archive_cell(const MeshVertex& v) const;
   Eigen::Vector3d block_center(const memory::Index3& index) const;
 
   Config config_;
@@ -200,8 +229,13 @@ class SemanticTsdf {
   memory::ArenaVector<std::uint32_t> remesh_;    // blocks to mesh this update
   memory::FixedHashMap<std::uint64_t, std::uint32_t, memory::U64Hash> weld_;  // voxel edge -> output vertex
   memory::ArenaVector<MeshVertex> archive_vertices_;
-  memory::ArenaVector<MeshTriangle> archive_triangles_;
+  memory::Pool<ArchiveChunk> archive_chunks_;
+  memory::SpatialHash<ArchiveEntry> archive_blocks_;  // block index -> its archived triangles
   memory::SpatialHash<std::uint32_t> archive_index_;  // quantised position -> archive vertex
+  memory::ArenaVector<std::uint32_t> archive_remap_;  // compaction's old -> new vertex ids
+  std::size_t archive_triangle_count_ = 0;
+  double archive_resolution_m_ = 0.0;
+  Workers* workers_ = nullptr;  // integration threads beyond the caller's (created by init)
   Scratch* scratch_ = nullptr;  // marching-cubes working set of one block (carved, reused)
   float sdf_scale_ = 0.0f;   // metres per sdf_q unit
   std::uint32_t frame_stamp_ = 0;
