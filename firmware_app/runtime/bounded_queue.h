@@ -38,6 +38,8 @@ class BoundedQueue {
  public:
   // Merges a new element into the newest queued one (collate policy).
   using Collate = void (*)(T& queued, T&& incoming);
+  // Told about every element the policy drops (for example to return a frame buffer to its pool).
+  using OnDrop = void (*)(void* user, T&& dropped);
 
   explicit BoundedQueue(const char* name = "queue") { stats_.name = name; }
   BoundedQueue(const BoundedQueue&) = delete;
@@ -66,17 +68,22 @@ class BoundedQueue {
     {
       std::lock_guard<std::mutex> lock(mutex_);
       ++stats_.pushed;
-      if (closed_) return false;
+      if (closed_) {
+        if (on_drop_ != nullptr) on_drop_(on_drop_user_, std::move(value));
+        return false;
+      }
       if (stats_.size == stats_.depth) {
         switch (stats_.policy) {
           case budgets::DropPolicy::kDropNewest:
             ++stats_.dropped;
+            if (on_drop_ != nullptr) on_drop_(on_drop_user_, std::move(value));
             return false;
           case budgets::DropPolicy::kCollate:
             collate_(slots_[(head_ + stats_.size - 1) % stats_.depth], std::move(value));
             ++stats_.collated;
             return true;
           case budgets::DropPolicy::kDropOldest:
+            if (on_drop_ != nullptr) on_drop_(on_drop_user_, std::move(slots_[head_]));
             head_ = (head_ + 1) % stats_.depth;
             --stats_.size;
             ++stats_.dropped;
@@ -113,6 +120,12 @@ class BoundedQueue {
     ready_.notify_all();
   }
 
+  void set_on_drop(OnDrop on_drop, void* user) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    on_drop_ = on_drop;
+    on_drop_user_ = user;
+  }
+
   QueueStats stats() const {
     std::lock_guard<std::mutex> lock(mutex_);
     return stats_;
@@ -134,6 +147,8 @@ class BoundedQueue {
   std::uint32_t head_ = 0;
   bool closed_ = false;
   Collate collate_ = nullptr;
+  OnDrop on_drop_ = nullptr;
+  void* on_drop_user_ = nullptr;
   QueueStats stats_;
 };
 

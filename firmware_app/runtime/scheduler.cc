@@ -35,6 +35,7 @@ bool Scheduler::init(const SchedulerConfig& config, const budgets::BoardTable& t
   if (table.num_tasks > kMaxTasks) return fail("the table has more than 16 tasks");
   config_ = config;
   clock_ = clock;
+  cost_clock_ = clock;
   tick_period_ns_ = static_cast<std::int64_t>(std::llround(1e9 / config.tick_hz));
   tasks_.clear();
   for (std::size_t i = 0; i < table.num_tasks; ++i) {
@@ -81,10 +82,11 @@ const Scheduler::Task* Scheduler::find(const char* name) const {
   return nullptr;
 }
 
-void Scheduler::run(Task& task, const TaskContext& context) {
-  const std::int64_t start = clock_->now_ns();
+void Scheduler::run(Task& task, std::uint64_t keyframe) {
+  const std::int64_t start = cost_clock_->now_ns();
+  const TaskContext context{start, start + static_cast<std::int64_t>(task.budget.budget_us) * 1000, keyframe};
   if (task.fn != nullptr) task.fn(task.user, context);
-  const std::int64_t end = clock_->now_ns();
+  const std::int64_t end = cost_clock_->now_ns();
   task.stats.record((end - start) / 1000, task.budget.budget_us);
 }
 
@@ -106,7 +108,7 @@ void Scheduler::tick() {
       continue;
     }
     t.stats.slips += static_cast<std::uint64_t>(missed);
-    run(t, TaskContext{now, now + budget_ns, 0});
+    run(t, 0);
     t.next_due_ns += (missed + 1) * t.period_ns;
   }
   ++ticks_;
@@ -127,9 +129,8 @@ void Scheduler::keyframe(std::uint64_t keyframe) {
     }
     if (t.pending && !on_cadence) ++t.stats.slips;
     t.pending = false;
-    const std::int64_t now = clock_->now_ns();
     const std::uint64_t overruns_before = t.stats.overruns;
-    run(t, TaskContext{now, now + static_cast<std::int64_t>(t.budget.budget_us) * 1000, keyframe});
+    run(t, keyframe);
     overran = overran || t.stats.overruns != overruns_before;
   }
 }

@@ -18,8 +18,8 @@ inline constexpr std::size_t kMaxTasks = 16;
 
 // What a task body is told: when it must be done (anytime stages stop there and resume next run).
 struct TaskContext {
-  std::int64_t now_ns = 0;
-  std::int64_t deadline_ns = 0;
+  std::int64_t now_ns = 0;       // on the cost clock (see Scheduler::set_cost_clock)
+  std::int64_t deadline_ns = 0;  // now_ns + the task's budget
   std::uint64_t keyframe = 0;  // keyframe tasks: the keyframe's index
 };
 using TaskFn = void (*)(void* user, const TaskContext& context);
@@ -53,6 +53,9 @@ class Scheduler {
   // Binds a task body; every task of the table must be bound before the first tick (see unbound()).
   bool bind(const char* task_name, TaskFn fn, void* user);
   const char* unbound() const;  // name of the first task without a body, nullptr when all are bound
+  // Measures task costs and deadlines with this clock instead of the cadence clock: a lockstep run (stepped
+  // cadence) can still measure real costs. Tests leave it unset (costs come from the stepped clock).
+  void set_cost_clock(Clock* clock) { cost_clock_ = clock; }
 
   // Runs the rate tasks that are due, in priority order, within one tick period.
   void tick();
@@ -76,10 +79,11 @@ class Scheduler {
   void print_stats(std::FILE* out) const;
 
  private:
-  void run(Task& task, const TaskContext& context);
+  void run(Task& task, std::uint64_t keyframe);
 
   SchedulerConfig config_;
   Clock* clock_ = nullptr;
+  Clock* cost_clock_ = nullptr;
   memory::BoundedArray<Task, kMaxTasks> tasks_;
   std::int64_t tick_period_ns_ = 0;
   std::uint64_t ticks_ = 0;

@@ -23,7 +23,10 @@ TEST(BoundedQueueTest, DropOldestKeepsTheFreshest) {
   BoundedQueue<int> q("frames");
   std::string error;
   ASSERT_TRUE(q.init(3, budgets::DropPolicy::kDropOldest, nullptr, &error)) << error;
+  int dropped_sum = 0;
+  q.set_on_drop([](void* user, int&& v) { *static_cast<int*>(user) += 1000 + v; }, &dropped_sum);
   for (int i = 0; i < 5; ++i) q.push(int{i});
+  EXPECT_EQ(dropped_sum, 1000 + 0 + 1000 + 1) << "the two oldest were handed back";
   const QueueStats s = q.stats();
   EXPECT_EQ(s.dropped, 2u);
   EXPECT_EQ(s.high_water, 3u);

@@ -1,0 +1,188 @@
+// Loading and checking the app's configuration.
+#include "firmware_app/app_config.h"
+
+#include <fstream>
+#include <functional>
+#include <map>
+#include <nlohmann/json.hpp>
+
+namespace qsg::app {
+
+const char* to_string(Driver d) {
+  switch (d) {
+    case Driver::kSim: return "sim";
+    case Driver::kReplay: return "replay";
+    case Driver::kV4l2: return "v4l2";
+  }
+  return "?";
+}
+
+AppConfig::AppConfig() {
+  // The simulated quadruped's defaults: a 12-room building, a 320x240 camera at 10 Hz at 0.5 m height.
+  building.num_rooms = 12;
+  exploration.camera_height_m = 0.5;
+  camera.rate_hz = 10.0;
+  camera.pitch_rad = 0.15;
+}
+
+namespace {
+
+using Json = nlohmann::json;
+// A key's reader: checks the type, assigns; false with a message otherwise.
+using Reader = std::function<bool(const Json&, std::string*)>;
+
+template <typename T>
+Reader number(T* out) {
+  return [out](const Json& v, std::string* why) {
+    if (!v.is_number()) return *why = "expected a number", false;
+    *out = v.get<T>();
+    return true;
+  };
+}
+Reader boolean(bool* out) {
+  return [out](const Json& v, std::string* why) {
+    if (!v.is_boolean()) return *why = "expected true or false", false;
+    *out = v.get<bool>();
+    return true;
+  };
+}
+Reader text(std::string* out) {
+  return [out](const Json& v, std::string* why) {
+    if (!v.is_string()) return *why = "expected a string", false;
+    *out = v.get<std::string>();
+    return true;
+  };
+}
+
+bool read_section(const Json& section, const std::string& prefix, const std::map<std::string, Reader>& keys,
+                  std::string* error) {
+  if (!section.is_object()) return *error = prefix + ": expected an object", false;
+  for (auto it = section.begin(); it != section.end(); ++it) {
+    const auto key = keys.find(it.key());
+    if (key == keys.end()) return *error = prefix + "." + it.key() + ": unknown key", false;
+    std::string why;
+    if (!key->second(it.value(), &why)) return *error = prefix + "." + it.key() + ": " + why, false;
+  }
+  return true;
+}
+
+}  // namespace
+
+bool AppConfig::load(const std::string& path, std::string* error) {
+  std::ifstream in(path);
+  if (!in) return *error = "config '" + path + "': cannot open", false;
+  // Whole-line // comments are allowed (nlohmann-json 3.7 on JetPack 5 cannot skip comments itself).
+  std::string text_without_comments, line;
+  while (std::getline(in, line)) {
+    const std::size_t first = line.find_first_not_of(" \t");
+    if (first != std::string::npos && line.compare(first, 2, "//") == 0) line.clear();
+    text_without_comments += line + "\n";
+  }
+  const Json doc = Json::parse(text_without_comments, nullptr, /*allow_exceptions=*/false);
+  if (doc.is_discarded()) return *error = "config '" + path + "': not valid JSON", false;
+  std::string driver_name = to_string(driver);
+  const std::map<std::string, Reader> top = {
+      {"driver", text(&driver_name)},
+      {"replay_path", text(&replay_path)},
+      {"output_dir", text(&output_dir)},
+      {"duration_s", number(&duration_s)},
+      {"lockstep", boolean(&lockstep)},
+      {"snapshot_interval_s", number(&snapshot_interval_s)},
+      {"telemetry_interval_s", number(&telemetry_interval_s)},
+      {"ground_truth_labels", boolean(&ground_truth_labels)},
+      {"building", [&](const Json& v, std::string* why) {
+         return read_section(v, "building",
+                             {{"seed", number(&building.seed)},
+                              {"num_rooms", number(&building.num_rooms)},
+                              {"two_floors", boolean(&building.two_floors)},
+                              {"furnish", boolean(&building.furnish)}},
+                             why);
+       }},
+      {"exploration", [&](const Json& v, std::string* why) {
+         return read_section(v, "exploration",
+                             {{"camera_height_m", number(&exploration.camera_height_m)},
+                              {"speed_m_s", number(&exploration.speed_m_s)},
+                              {"spin_in_rooms", boolean(&exploration.spin_in_rooms)},
+                              {"return_to_start", boolean(&exploration.return_to_start)}},
+                             why);
+       }},
+      {"camera", [&](const Json& v, std::string* why) {
+         int width = camera.intrinsics.width, height = camera.intrinsics.height;
+         const bool ok = read_section(v, "camera",
+                                      {{"width", number(&width)},
+                                       {"height", number(&height)},
+                                       {"rate_hz", number(&camera.rate_hz)},
+                                       {"pitch_rad", number(&camera.pitch_rad)}},
+                                      why);
+         if (ok && (width != camera.intrinsics.width || height != camera.intrinsics.height)) {
+           const double f = 525.0 * width / 640.0;  // a 58 degree horizontal field of view, RealSense-like
+           camera.intrinsics = {width, height, f, f, 0.5 * width - 0.5, 0.5 * height - 0.5};
+         }
+         return ok;
+       }},
+      {"reconstruction", [&](const Json& v, std::string* why) {
+         return read_section(v, "reconstruction",
+                             {{"voxel_size_m", number(&reconstruction.voxel_size_m)},
+                              {"truncation_voxels", number(&reconstruction.truncation_voxels)},
+                              {"max_range_m", number(&reconstruction.max_range_m)},
+                              {"window_radius_m", number(&reconstruction.window_radius_m)},
+                              {"archive_resolution_m", number(&reconstruction.archive_resolution_m)},
+                              {"integration_threads", number(&reconstruction.integration_threads)}},
+                             why);
+       }},
+      {"keyframes", [&](const Json& v, std::string* why) {
+         return read_section(v, "keyframes",
+                             {{"min_interval_s", number(&keyframes.min_interval_s)},
+                              {"max_interval_s", number(&keyframes.max_interval_s)},
+                              {"min_translation_m", number(&keyframes.min_translation_m)},
+                              {"min_rotation_rad", number(&keyframes.min_rotation_rad)}},
+                             why);
+       }},
+      {"scheduler", [&](const Json& v, std::string* why) {
+         return read_section(v, "scheduler", {{"tick_hz", number(&scheduler.tick_hz)}}, why);
+       }},
+  };
+  std::string why;
+  if (!read_section(doc, "config", top, &why)) return *error = "config '" + path + "': " + why, false;
+  if (driver_name == "sim") driver = Driver::kSim;
+  else if (driver_name == "replay") driver = Driver::kReplay;
+  else if (driver_name == "v4l2") driver = Driver::kV4l2;
+  else return *error = "config '" + path + "': driver: expected sim, replay or v4l2, got '" + driver_name + "'", false;
+  const std::string bad = check();
+  if (!bad.empty()) return *error = "config '" + path + "': " + bad, false;
+  return true;
+}
+
+std::string AppConfig::check() const {
+  if (driver == Driver::kReplay && replay_path.empty()) return "driver replay needs replay_path";
+  if (output_dir.empty()) return "output_dir must not be empty";
+  if (!(duration_s >= 0.0)) return "duration_s must be >= 0";
+  if (!(snapshot_interval_s > 0.0)) return "snapshot_interval_s must be > 0";
+  if (!(telemetry_interval_s > 0.0)) return "telemetry_interval_s must be > 0";
+  if (const std::string b = building.validate(); !b.empty()) return "building: " + b;
+  if (const std::string e = exploration.check(); !e.empty()) return "exploration: " + e;
+  if (const std::string c = camera.check(); !c.empty()) return "camera: " + c;
+  if (const std::string r = reconstruction.check(); !r.empty()) return "reconstruction: " + r;
+  if (const std::string k = keyframes.check(); !k.empty()) return "keyframes: " + k;
+  if (const std::string s = scheduler.check(); !s.empty()) return "scheduler: " + s;
+  return {};
+}
+
+void AppConfig::print(std::FILE* out) const {
+  std::fprintf(out,
+               "app: driver=%s%s%s output_dir=%s duration_s=%.1f lockstep=%d snapshot_interval_s=%.1f "
+               "telemetry_interval_s=%.1f ground_truth_labels=%d\n",
+               to_string(driver), driver == Driver::kReplay ? " replay_path=" : "",
+               driver == Driver::kReplay ? replay_path.c_str() : "", output_dir.c_str(), duration_s, lockstep ? 1 : 0,
+               snapshot_interval_s, telemetry_interval_s, ground_truth_labels ? 1 : 0);
+  if (driver == Driver::kSim) {
+    building.print(out);
+    exploration.print(out);
+    camera.print(out);
+  }
+  reconstruction.print(out);
+  keyframes.print(out);
+  scheduler.print(out);
+}
+
+}  // namespace qsg::app

@@ -1,0 +1,46 @@
+// The app's configuration: one JSON file (firmware_app/config/default.json documents every key) over built-in
+// defaults, then command-line overrides. Behaviour lives here; resources (arena sizes, task budgets, queue
+// depths) live in the board's budget table.
+#pragma once
+
+#include <cstdio>
+#include <string>
+
+#include "core/reconstruction/semantic_tsdf.h"
+#include "drivers/sim/exploration.h"
+#include "drivers/sim/sim_camera.h"
+#include "drivers/world/building_generator.h"
+#include "firmware_app/runtime/keyframe_selector.h"
+#include "firmware_app/runtime/scheduler.h"
+
+namespace qsg::app {
+
+enum class Driver { kSim, kReplay, kV4l2 };
+const char* to_string(Driver d);
+
+struct AppConfig {
+  Driver driver = Driver::kSim;
+  std::string replay_path;              // replay: a TUM RGB-D folder (rgb.txt, depth.txt, groundtruth.txt)
+  std::string output_dir = "qsg_output";
+  double duration_s = 0.0;              // data time to run; 0 = until the source ends
+  bool lockstep = true;                 // stepped clock, one thread; false = wall clock and worker threads
+  double snapshot_interval_s = 10.0;    // scene-graph snapshots by atomic replace (loop time)
+  double telemetry_interval_s = 1.0;
+  bool ground_truth_labels = true;      // sim: the renderer's labels bypass segmentation
+
+  world::BuildingConfig building;
+  sim::ExplorationConfig exploration;
+  sim::SimCamera::Config camera;
+  reconstruction::Config reconstruction;
+  runtime::KeyframeConfig keyframes;
+  runtime::SchedulerConfig scheduler;
+
+  AppConfig();
+  // Reads the keys present in a JSON file over the current values; unknown keys and wrong types are errors
+  // naming the file and the key.
+  bool load(const std::string& path, std::string* error);
+  std::string check() const;
+  void print(std::FILE* out) const;
+};
+
+}  // namespace qsg::app

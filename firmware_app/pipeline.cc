@@ -1,0 +1,358 @@
+// The onboard pipeline: sources, keyframes, reconstruction, frontend, telemetry, snapshots, final outputs.
+#include "firmware_app/pipeline.h"
+
+#include <fcntl.h>
+#include <sys/resource.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+
+#include "budgets/budget_table.h"
+#include "core/reconstruction/ply_writer.h"
+#include "core/scene_graph/spark_dsg_json.h"
+#include "drivers/render/ray_scene.h"
+#include "drivers/world/top_down.h"
+#include "drivers/world/world_query.h"
+
+namespace qsg::app {
+
+namespace {
+constexpr char kAgentPrefix = scene_graph::kDefaultAgentPrefix;
+
+const budgets::QueueBudget* find_queue(const budgets::BoardTable& table, const char* name) {
+  for (std::size_t i = 0; i < table.num_queues; ++i)
+    if (std::strcmp(table.queues[i].name, name) == 0) return &table.queues[i];
+  return nullptr;
+}
+
+double peak_rss_mb() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  return static_cast<double>(usage.ru_maxrss) / 1024.0;
+}
+}  // namespace
+
+bool write_file_atomically(const std::string& path, const std::string& text, std::string* error) {
+  const std::string tmp = path + ".tmp";
+  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd < 0) return *error = tmp + ": " + std::strerror(errno), false;
+  std::size_t done = 0;
+  while (done < text.size()) {
+    const ssize_t n = ::write(fd, text.data() + done, text.size() - done);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) {
+      *error = tmp + ": write failed: " + std::strerror(errno);
+      ::close(fd);
+      ::unlink(tmp.c_str());
+      return false;
+    }
+    done += static_cast<std::size_t>(n);
+  }
+  if (::fsync(fd) != 0 || ::close(fd) != 0) {
+    *error = tmp + ": fsync/close failed: " + std::strerror(errno);
+    ::unlink(tmp.c_str());
+    return false;
+  }
+  if (::rename(tmp.c_str(), path.c_str()) != 0) {
+    *error = path + ": rename failed: " + std::strerror(errno);
+    ::unlink(tmp.c_str());
+    return false;
+  }
+  // The rename itself is durable once the folder is synced.
+  const std::string dir = std::filesystem::path(path).parent_path().string();
+  const int dfd = ::open(dir.empty() ? "." : dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (dfd >= 0) {
+    ::fsync(dfd);
+    ::close(dfd);
+  }
+  return true;
+}
+
+Pipeline::Pipeline() = default;
+Pipeline::~Pipeline() {
+  keyframe_queue_.close();
+  free_frames_.close();
+}
+
+bool Pipeline::init(const AppConfig& config, runtime::Clock* clock, std::string* error) {
+  const auto fail = [error](const std::string& why) {
+    *error = why;
+    return false;
+  };
+  if (const std::string bad = config.check(); !bad.empty()) return fail("config: " + bad);
+  if (clock == nullptr) return fail("pipeline: no clock");
+  config_ = config;
+  clock_ = clock;
+  if (cost_clock_ == nullptr) cost_clock_ = clock;
+  keyframes_ = runtime::KeyframeSelector(config.keyframes);
+  const budgets::BoardTable& table = budgets::active::kTable;
+
+  // Output folder first: a run that cannot write its results should not start.
+  std::error_code ec;
+  std::filesystem::create_directories(config.output_dir, ec);
+  if (ec) return fail("output_dir '" + config.output_dir + "': " + ec.message());
+
+  // Stores, from the board's budget.
+  if (!graph_.init(scene_graph::capacities_from_budget(), scene_graph::arena_bytes_from_budget(), error)) return false;
+  if (!tsdf_.init(config.reconstruction, reconstruction::capacities_from_budget(),
+                  budgets::active::reconstruction::kArenaBytes, error))
+    return false;
+  trajectory_m_.reserve(graph_.capacities().agent_nodes);
+
+  // The source.
+  switch (config.driver) {
+    case Driver::kSim: {
+      world_ = world::generate_building(config.building);
+      render::RayScene scene;
+      if (!scene.build(world_, error)) return false;
+      const world::FreeSpaceIndex free_space(world_);
+      const sim::ExplorationResult tour = sim::plan_exploration(world_, scene, free_space, config.exploration);
+      if (!tour.ok) return fail("exploration: " + tour.error);
+      std::printf("sim: building '%s' with %zu rooms; tour of %zu rooms, %.1f m in %.1f s\n", world_.name.c_str(),
+                  world_.rooms.size(), tour.room_order.size(), tour.length_m, tour.duration_s);
+      render::Renderer::Config rc;
+      rc.seed = config.building.seed;
+      sim_camera_ = std::make_unique<sim::SimCamera>();
+      if (!sim_camera_->init(config.camera, rc, world_, tour.trajectory, error)) return false;
+      camera_ = sim_camera_.get();
+      break;
+    }
+    case Driver::kReplay:
+    case Driver::kV4l2:
+      return fail(std::string("driver '") + to_string(config.driver) +
+                  "' is not wired into the app yet (use sim; see firmware_app/README.md)");
+  }
+
+  // Frame buffers and the keyframe queue, with the depth and drop policy the board declares.
+  const budgets::QueueBudget* frames_budget = find_queue(table, "frames");
+  if (frames_budget == nullptr) return fail(std::string("budget table ") + table.board + ": no 'frames' queue");
+  const int pool = static_cast<int>(frames_budget->depth) + 2;  // + the pending frame + the keyframe in work
+  frames_ = std::make_unique<drivers::RgbdFrame[]>(static_cast<std::size_t>(pool));
+  frame_poses_ = std::make_unique<Eigen::Isometry3d[]>(static_cast<std::size_t>(pool));
+  if (!free_frames_.init(static_cast<std::uint32_t>(pool), budgets::DropPolicy::kDropNewest, nullptr, error) ||
+      !keyframe_queue_.init(frames_budget->depth, frames_budget->policy, nullptr, error))
+    return false;
+  for (int i = 0; i < pool; ++i) free_frames_.push(int{i});
+  keyframe_queue_.set_on_drop([](void* self, int&& index) { static_cast<Pipeline*>(self)->free_frames_.push(int{index}); },
+                              this);
+
+  // The task table.
+  if (!scheduler_.init(config.scheduler, table, clock_, error)) return false;
+  scheduler_.set_cost_clock(cost_clock_);
+  scheduler_.bind("camera_poll", camera_poll_task, this);
+  scheduler_.bind("odometry_poll", odometry_poll_task, this);
+  scheduler_.bind("reconstruction", reconstruction_task, this);
+  scheduler_.bind("frontend", frontend_task, this);
+  scheduler_.bind("heartbeat", heartbeat_task, this);
+  scheduler_.bind("telemetry", telemetry_task, this);
+  if (const char* missing = scheduler_.unbound())
+    return fail(std::string("budget table ") + table.board + ": task '" + missing + "' has no implementation");
+  start_ns_ = clock_->now_ns();
+  next_snapshot_ns_ = start_ns_ + static_cast<std::int64_t>(config.snapshot_interval_s * 1e9);
+  last_telemetry_ns_ = start_ns_;
+  return true;
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// The loop
+
+bool Pipeline::step() {
+  if (done_) return false;
+  const std::int64_t tick_start = clock_->now_ns();
+  const bool duration_over =
+      config_.duration_s > 0.0 && have_offset_ && tick_start - start_ns_ > static_cast<std::int64_t>(config_.duration_s * 1e9);
+  if (stop_requested_.load() || duration_over ||
+      (source_ended_ && pending_frame_ < 0 && keyframe_queue_.stats().size == 0)) {
+    done_ = true;
+    return false;
+  }
+  // The simulator renders outside the measured tasks: its cost is the simulation's, not the robot's.
+  if (sim_camera_ != nullptr) poll_camera();
+  scheduler_.tick();
+  if (keyframe_queue_.try_pop(&current_keyframe_)) {
+    scheduler_.keyframe(keyframe_index_++);
+    free_frames_.push(int{current_keyframe_});
+    current_keyframe_ = -1;
+  }
+  if (tick_start >= next_snapshot_ns_) {
+    std::string error;
+    if (!write_snapshot(&error)) {
+      ++counters_.snapshot_failures;
+      std::fprintf(stderr, "qsg_app: snapshot failed (%s); the run goes on\n", error.c_str());
+    }
+    next_snapshot_ns_ += static_cast<std::int64_t>(config_.snapshot_interval_s * 1e9);
+  }
+  clock_->sleep_until_ns(tick_start + scheduler_.tick_period_ns());
+  return true;
+}
+
+void Pipeline::poll_camera() {
+  if (pending_frame_ < 0 && !source_ended_) {
+    int index = -1;
+    if (!free_frames_.try_pop(&index)) return;  // every buffer is queued: the queue's drop policy decides
+    drivers::RgbdFrame& frame = frames_[static_cast<std::size_t>(index)];
+    const drivers::ReadStatus status = camera_->read(frame, 0);
+    if (status == drivers::ReadStatus::kOk && frame_pose(frame, &frame_poses_[static_cast<std::size_t>(index)])) {
+      ++counters_.frames_read;
+      if (!config_.ground_truth_labels) frame.has_labels = false;
+      if (!have_offset_) {
+        data_offset_ns_ = clock_->now_ns() - frame.sample_time_ns;
+        have_offset_ = true;
+      }
+      pending_frame_ = index;
+    } else {
+      if (status == drivers::ReadStatus::kEndOfStream) source_ended_ = true;
+      else if (status == drivers::ReadStatus::kOk || status == drivers::ReadStatus::kBadFrame) ++counters_.frames_bad;
+      free_frames_.push(int{index});
+    }
+  }
+  if (pending_frame_ < 0) return;
+  const drivers::RgbdFrame& frame = frames_[static_cast<std::size_t>(pending_frame_)];
+  if (data_to_loop_ns(frame.sample_time_ns) > clock_->now_ns()) return;  // not its time yet
+  const int index = pending_frame_;
+  pending_frame_ = -1;
+  if (keyframes_.offer(frame.sample_time_ns, frame_poses_[static_cast<std::size_t>(index)])) {
+    ++counters_.keyframes;
+    keyframe_queue_.push(int{index});  // a full queue hands its oldest keyframe back to the free list
+  } else {
+    free_frames_.push(int{index});
+  }
+}
+
+bool Pipeline::frame_pose(const drivers::RgbdFrame& frame, Eigen::Isometry3d* world_T_camera) const {
+  if (sim_camera_ != nullptr) return sim_camera_->camera_pose(frame.sequence, world_T_camera, nullptr);
+  return false;
+}
+
+double Pipeline::progress() const {
+  if (sim_camera_ == nullptr || sim_camera_->num_frames() == 0) return -1.0;
+  return static_cast<double>(counters_.frames_read) / static_cast<double>(sim_camera_->num_frames());
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// Tasks
+
+void Pipeline::camera_poll_task(void* self, const runtime::TaskContext&) {
+  Pipeline& p = *static_cast<Pipeline*>(self);
+  if (p.sim_camera_ == nullptr) p.poll_camera();
+}
+
+void Pipeline::odometry_poll_task(void*, const runtime::TaskContext&) {
+  // Simulated and replayed runs take the camera's pose with each frame; the odometry driver lands with the
+  // backend's pose graph.
+}
+
+void Pipeline::reconstruction_task(void* self, const runtime::TaskContext& c) {
+  static_cast<Pipeline*>(self)->integrate_keyframe(c);
+}
+
+void Pipeline::frontend_task(void* self, const runtime::TaskContext& c) {
+  static_cast<Pipeline*>(self)->update_frontend(c);
+}
+
+void Pipeline::heartbeat_task(void* self, const runtime::TaskContext&) {
+  Pipeline& p = *static_cast<Pipeline*>(self);
+  p.heartbeat_level_ = !p.heartbeat_level_;
+  ++p.counters_.heartbeat_toggles;
+}
+
+void Pipeline::telemetry_task(void* self, const runtime::TaskContext& c) {
+  Pipeline& p = *static_cast<Pipeline*>(self);
+  if (c.now_ns - p.last_telemetry_ns_ < static_cast<std::int64_t>(p.config_.telemetry_interval_s * 1e9) - 1000000) return;
+  p.print_telemetry(stdout);
+}
+
+void Pipeline::integrate_keyframe(const runtime::TaskContext& c) {
+  if (current_keyframe_ < 0) return;
+  const drivers::RgbdFrame& frame = frames_[static_cast<std::size_t>(current_keyframe_)];
+  const Eigen::Isometry3d& world_T_camera = frame_poses_[static_cast<std::size_t>(current_keyframe_)];
+  if (!tsdf_.process(frame, world_T_camera)) {
+    ++counters_.keyframes_refused;
+    return;
+  }
+  ++counters_.keyframes_integrated;
+  // The agent layer: one node per keyframe, joined to the previous one.
+  scene_graph::AgentAttributes a;
+  a.position_m = world_T_camera.translation();
+  a.world_R_body = Eigen::Quaterniond(world_T_camera.linear());
+  a.timestamp_ns = static_cast<std::uint64_t>(frame.sample_time_ns);
+  a.last_update_time_ns = static_cast<std::uint64_t>(c.now_ns);
+  a.is_active = true;
+  const scene_graph::NodeId id = scene_graph::make_node_id(kAgentPrefix, counters_.agent_nodes);
+  if (graph_.add_agent(id, kAgentPrefix, a) != scene_graph::Status::kOk) {
+    ++counters_.agent_refused;
+    return;
+  }
+  if (counters_.agent_nodes > 0) graph_.add_edge(last_agent_, id);
+  last_agent_ = id;
+  ++counters_.agent_nodes;
+  if (trajectory_m_.size() < trajectory_m_.capacity()) trajectory_m_.push_back(a.position_m);
+}
+
+void Pipeline::update_frontend(const runtime::TaskContext&) { ++counters_.frontend_updates; }
+
+// ---------------------------------------------------------------------------------------------------------
+// Telemetry and outputs
+
+void Pipeline::print_telemetry(std::FILE* out) {
+  const std::int64_t now = clock_->now_ns();
+  const double t_s = static_cast<double>(now - start_ns_) * 1e-9;
+  const double dt_s = static_cast<double>(now - last_telemetry_ns_) * 1e-9;
+  const double kf_per_s = dt_s > 0.0 ? static_cast<double>(counters_.keyframes - last_telemetry_keyframes_) / dt_s : 0.0;
+  last_telemetry_ns_ = now;
+  last_telemetry_keyframes_ = counters_.keyframes;
+  const runtime::TaskStats* recon = scheduler_.stats("reconstruction");
+  const runtime::TaskStats* front = scheduler_.stats("frontend");
+  std::size_t overruns = 0;
+  for (std::size_t i = 0; i < scheduler_.num_tasks(); ++i) overruns += scheduler_.task(i).stats.overruns;
+  const runtime::QueueStats q = keyframe_queue_.stats();
+  const drivers::DriverCounters& d = camera_->counters();
+  std::fprintf(out,
+               "[t=%7.1fs] kf/s=%.1f keyframes=%llu | max_us recon=%lld frontend=%lld overruns=%zu | blocks=%zu/%zu "
+               "archive=%zu tri | graph nodes=%zu | frames queue hw=%u drops=%llu | driver drops=%llu stalls=%llu "
+               "bad=%llu | rss=%.0f MB\n",
+               t_s, kf_per_s, (unsigned long long)counters_.keyframes, (long long)(recon ? recon->max_us : 0),
+               (long long)(front ? front->max_us : 0), overruns, tsdf_.active_blocks(), tsdf_.capacities().max_blocks,
+               tsdf_.archive_triangles(), graph_.num_nodes(), q.high_water, (unsigned long long)q.dropped,
+               (unsigned long long)d.dropped, (unsigned long long)d.stalls, (unsigned long long)d.bad_frames,
+               peak_rss_mb());
+  ++counters_.telemetry_lines;
+}
+
+bool Pipeline::write_snapshot(std::string* error) {
+  if (!write_file_atomically(config_.output_dir + "/scene_graph_snapshot.json", scene_graph::write_spark_dsg_json(graph_),
+                             error))
+    return false;
+  ++counters_.snapshots_written;
+  return true;
+}
+
+bool Pipeline::finish(std::string* error) {
+  const std::string dir = config_.output_dir;
+  if (!write_file_atomically(dir + "/scene_graph.json", scene_graph::write_spark_dsg_json(graph_), error)) return false;
+  reconstruction::Mesh mesh;
+  tsdf_.extract_full_mesh(&mesh);
+  if (!reconstruction::write_ply(dir + "/mesh.ply", mesh, error)) return false;
+  if (!world_.shapes.empty()) {
+    world::TopDownStyle style;
+    world::TopDownFrame frame;
+    cv::Mat image = world::draw_top_down(world_, style, &frame);
+    std::vector<Eigen::Vector3d> places, objects;
+    graph_.for_each_node([&](const scene_graph::NodeRecord& n) {
+      if (n.kind == scene_graph::NodeKind::kPlace) places.push_back(graph_.place(n.id)->position_m);
+      if (n.kind == scene_graph::NodeKind::kObject) objects.push_back(graph_.object(n.id)->position_m);
+    });
+    world::draw_polyline(image, trajectory_m_, frame, cv::Scalar(30, 30, 220), 2);
+    world::draw_points(image, places, frame, cv::Scalar(200, 120, 0), 3);
+    world::draw_points(image, objects, frame, cv::Scalar(0, 160, 0), 4);
+    if (!world::write_png(image, dir + "/top_down.png", error)) return false;
+  }
+  std::printf("outputs: %s/scene_graph.json (%zu nodes), %s/mesh.ply (%zu vertices, %zu triangles), %s/top_down.png\n",
+              dir.c_str(), graph_.num_nodes(), dir.c_str(), mesh.vertices.size(), mesh.triangles.size(), dir.c_str());
+  return true;
+}
+
+}  // namespace qsg::app

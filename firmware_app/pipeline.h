@@ -1,0 +1,128 @@
+// The onboard pipeline behind the tick loop: a camera source feeds keyframes (selected by time and motion) into
+// Layer 1 reconstruction every keyframe and the frontend every Nth keyframe, as the board's task table says;
+// telemetry, heartbeat and scene-graph snapshots run at their own rates. Lockstep mode runs it all on one
+// thread against a stepped clock, deterministically.
+#pragma once
+
+#include <Eigen/Geometry>
+#include <atomic>
+#include <cstdint>
+#include <cstdio>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/reconstruction/semantic_tsdf.h"
+#include "core/scene_graph/scene_graph.h"
+#include "drivers/sim/sim_camera.h"
+#include "drivers/world/world.h"
+#include "firmware_app/app_config.h"
+#include "firmware_app/runtime/bounded_queue.h"
+#include "firmware_app/runtime/clock.h"
+#include "firmware_app/runtime/keyframe_selector.h"
+#include "firmware_app/runtime/scheduler.h"
+
+namespace qsg::app {
+
+// Per-run totals the app prints, tests assert on, and the budget benchmark reports.
+struct PipelineCounters {
+  std::uint64_t frames_read = 0;
+  std::uint64_t frames_bad = 0;           // kBadFrame from the source, or a frame without a usable pose
+  std::uint64_t keyframes = 0;
+  std::uint64_t keyframes_integrated = 0;
+  std::uint64_t keyframes_refused = 0;    // reconstruction rejected the frame (counted, the run goes on)
+  std::uint64_t frontend_updates = 0;
+  std::uint64_t agent_nodes = 0;
+  std::uint64_t agent_refused = 0;
+  std::uint64_t snapshots_written = 0;
+  std::uint64_t snapshot_failures = 0;
+  std::uint64_t heartbeat_toggles = 0;
+  std::uint64_t telemetry_lines = 0;
+};
+
+class Pipeline {
+ public:
+  Pipeline();
+  ~Pipeline();
+  Pipeline(const Pipeline&) = delete;
+  Pipeline& operator=(const Pipeline&) = delete;
+
+  // Builds the world and the tour (sim), every store from the board's budget table, the scheduler from its task
+  // table. All allocation happens here. `clock` must outlive the pipeline; in lockstep it is a SteppedClock.
+  bool init(const AppConfig& config, runtime::Clock* clock, std::string* error);
+  // One tick of the loop: rate tasks, then the keyframe tasks of a keyframe that arrived. False when done.
+  bool step();
+  void request_stop() { stop_requested_.store(true); }
+  bool done() const { return done_; }
+  // Final outputs: scene_graph.json, mesh.ply, top_down.png in the output folder.
+  bool finish(std::string* error);
+
+  const PipelineCounters& counters() const { return counters_; }
+  const runtime::Scheduler& scheduler() const { return scheduler_; }
+  const reconstruction::SemanticTsdf& reconstruction() const { return tsdf_; }
+  const scene_graph::SceneGraph& graph() const { return graph_; }
+  const runtime::KeyframeSelector& keyframe_selector() const { return keyframes_; }
+  runtime::QueueStats frame_queue_stats() const { return keyframe_queue_.stats(); }
+  // Fraction of the source consumed, when the source knows its length (else a negative number).
+  double progress() const;
+  // Wall-clock view of a stage's cost: the scheduler measures with this clock (the loop clock unless set).
+  void set_cost_clock(runtime::Clock* clock) { cost_clock_ = clock; }
+
+  void print_telemetry(std::FILE* out);
+  bool write_snapshot(std::string* error);
+
+ private:
+  static void camera_poll_task(void* self, const runtime::TaskContext& c);
+  static void odometry_poll_task(void* self, const runtime::TaskContext& c);
+  static void reconstruction_task(void* self, const runtime::TaskContext& c);
+  static void frontend_task(void* self, const runtime::TaskContext& c);
+  static void heartbeat_task(void* self, const runtime::TaskContext& c);
+  static void telemetry_task(void* self, const runtime::TaskContext& c);
+  void poll_camera();
+  void integrate_keyframe(const runtime::TaskContext& c);
+  void update_frontend(const runtime::TaskContext& c);
+  std::int64_t data_to_loop_ns(std::int64_t sample_time_ns) const { return sample_time_ns + data_offset_ns_; }
+  bool frame_pose(const drivers::RgbdFrame& frame, Eigen::Isometry3d* world_T_camera) const;
+
+  AppConfig config_;
+  runtime::Clock* clock_ = nullptr;
+  runtime::Clock* cost_clock_ = nullptr;
+  runtime::Scheduler scheduler_;
+  runtime::KeyframeSelector keyframes_;
+
+  world::World world_;
+  std::unique_ptr<sim::SimCamera> sim_camera_;
+  drivers::RgbdSource* camera_ = nullptr;
+
+  // Frame buffers: the camera reads into a free one; keyframes wait in the queue for reconstruction.
+  std::unique_ptr<drivers::RgbdFrame[]> frames_;
+  std::unique_ptr<Eigen::Isometry3d[]> frame_poses_;
+  runtime::BoundedQueue<int> free_frames_{"free_frames"};
+  runtime::BoundedQueue<int> keyframe_queue_{"frames"};
+  int pending_frame_ = -1;        // read from the source, waiting for its time on the loop clock
+  int current_keyframe_ = -1;     // popped for this keyframe's tasks
+  std::int64_t data_offset_ns_ = 0;
+  bool have_offset_ = false;
+  bool source_ended_ = false;
+
+  reconstruction::SemanticTsdf tsdf_;
+  scene_graph::SceneGraph graph_;
+  scene_graph::NodeId last_agent_ = 0;
+  std::vector<Eigen::Vector3d> trajectory_m_;  // keyframe positions for the picture (reserved at init)
+
+  PipelineCounters counters_;
+  std::uint64_t keyframe_index_ = 0;
+  std::int64_t start_ns_ = 0;
+  std::int64_t next_snapshot_ns_ = 0;
+  std::int64_t last_telemetry_ns_ = 0;
+  std::uint64_t last_telemetry_keyframes_ = 0;
+  bool heartbeat_level_ = false;
+  std::atomic<bool> stop_requested_{false};
+  bool done_ = false;
+};
+
+// Writes `text` to `path` so that a reader (or a kill) sees the old file or the new one, never half of one:
+// a temporary file in the same folder, fsync, rename, fsync of the folder.
+bool write_file_atomically(const std::string& path, const std::string& text, std::string* error);
+
+}  // namespace qsg::app
