@@ -67,6 +67,9 @@ class Pipeline {
   double progress() const;
   // Wall-clock view of a stage's cost: the scheduler measures with this clock (the loop clock unless set).
   void set_cost_clock(runtime::Clock* clock) { cost_clock_ = clock; }
+  void set_run_observer(runtime::Scheduler::RunObserver observer, void* user) {
+    scheduler_.set_run_observer(observer, user);
+  }
 
   void print_telemetry(std::FILE* out);
   bool write_snapshot(std::string* error);

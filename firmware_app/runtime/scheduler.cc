@@ -88,6 +88,7 @@ void Scheduler::run(Task& task, std::uint64_t keyframe) {
   if (task.fn != nullptr) task.fn(task.user, context);
   const std::int64_t end = cost_clock_->now_ns();
   task.stats.record((end - start) / 1000, task.budget.budget_us);
+  if (observer_ != nullptr) observer_(observer_user_, static_cast<std::size_t>(&task - tasks_.begin()), (end - start) / 1000);
 }
 
 void Scheduler::tick() {

@@ -56,6 +56,12 @@ class Scheduler {
   // Measures task costs and deadlines with this clock instead of the cadence clock: a lockstep run (stepped
   // cadence) can still measure real costs. Tests leave it unset (costs come from the stepped clock).
   void set_cost_clock(Clock* clock) { cost_clock_ = clock; }
+  // Told every run's exact duration (benchmarks keep the samples for exact percentiles; the loop does not).
+  using RunObserver = void (*)(void* user, std::size_t task_index, std::int64_t duration_us);
+  void set_run_observer(RunObserver observer, void* user) {
+    observer_ = observer;
+    observer_user_ = user;
+  }
 
   // Runs the rate tasks that are due, in priority order, within one tick period.
   void tick();
@@ -84,6 +90,8 @@ class Scheduler {
   SchedulerConfig config_;
   Clock* clock_ = nullptr;
   Clock* cost_clock_ = nullptr;
+  RunObserver observer_ = nullptr;
+  void* observer_user_ = nullptr;
   memory::BoundedArray<Task, kMaxTasks> tasks_;
   std::int64_t tick_period_ns_ = 0;
   std::uint64_t ticks_ = 0;

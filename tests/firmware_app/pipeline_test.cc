@@ -1,0 +1,162 @@
+// The app's pipeline in lockstep on the simulated robot: deterministic, no heap allocation per tick in steady
+// state, every store below its capacity, outputs written atomically and readable.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "core/reconstruction/ply_writer.h"
+#include "core/scene_graph/spark_dsg_json.h"
+#include "firmware_app/pipeline.h"
+#include "tests/support/allocation_counter.h"
+
+namespace qsg::app {
+namespace {
+
+AppConfig small_config(const std::string& name) {
+  AppConfig c;
+  c.output_dir = ::testing::TempDir() + "/qsg_pipeline_" + name;
+  c.building.num_rooms = 4;
+  c.building.seed = 3;
+  c.camera.intrinsics = {160, 120, 131.25, 131.25, 79.5, 59.5};
+  c.snapshot_interval_s = 1e6;  // snapshots serialise the graph (heap): tested separately
+  c.telemetry_interval_s = 1e6;
+  return c;
+}
+
+TEST(PipelineTest, LockstepRunIsAllocationFreeInSteadyStateAndWithinCapacity) {
+  runtime::SteppedClock clock;
+  Pipeline p;
+  std::string error;
+  ASSERT_TRUE(p.init(small_config("steady"), &clock, &error)) << error;
+  // Warm-up: the first keyframes allocate nothing either, but give the stores time to reach steady use.
+  int steps = 0;
+  while (p.counters().keyframes_integrated < 20 && p.step()) ++steps;
+  ASSERT_GE(p.counters().keyframes_integrated, 20u);
+  const std::uint64_t before = p.counters().keyframes_integrated;
+  EXPECT_NO_ALLOCATIONS({
+    for (int k = 0; k < 2000 && p.step(); ++k) {
+    }
+  });
+  EXPECT_GE(p.counters().keyframes_integrated, before + 30) << "the measured steps must include keyframes";
+  EXPECT_EQ(p.counters().keyframes_refused, 0u);
+  EXPECT_EQ(p.counters().agent_refused, 0u);
+  // Every store of the graph and of the reconstruction stayed below capacity, nothing was refused.
+  p.graph().for_each_resource([](const memory::ResourceStats& s) {
+    EXPECT_EQ(s.failed, 0u) << s.name;
+    EXPECT_LE(s.high_water, s.capacity) << s.name;
+  });
+  EXPECT_LT(p.reconstruction().active_blocks(), p.reconstruction().capacities().max_blocks);
+  EXPECT_EQ(p.reconstruction().counters().blocks_refused, 0u);
+  EXPECT_EQ(p.reconstruction().counters().mesh_overflow, 0u);
+  // With the stepped clock as the cost clock nothing overruns: the schedule is exactly the table's.
+  for (std::size_t i = 0; i < p.scheduler().num_tasks(); ++i) {
+    EXPECT_EQ(p.scheduler().task(i).stats.overruns, 0u) << p.scheduler().task(i).budget.name;
+    EXPECT_EQ(p.scheduler().task(i).stats.slips, 0u) << p.scheduler().task(i).budget.name;
+  }
+}
+
+TEST(PipelineTest, TwoLockstepRunsAreIdentical) {
+  std::string error, a, b;
+  for (std::string* out : {&a, &b}) {
+    runtime::SteppedClock clock;
+    Pipeline p;
+    ASSERT_TRUE(p.init(small_config("determinism"), &clock, &error)) << error;
+    for (int k = 0; k < 1500 && p.step(); ++k) {
+    }
+    *out = scene_graph::write_spark_dsg_json(p.graph());
+    *out += std::to_string(p.reconstruction().counters().blocks_meshed) + " " +
+            std::to_string(p.reconstruction().active_blocks());
+  }
+  EXPECT_EQ(a, b);
+}
+
+TEST(PipelineTest, StopWritesFinalOutputsAndSnapshotsReplaceAtomically) {
+  runtime::SteppedClock clock;
+  Pipeline p;
+  std::string error;
+  AppConfig config = small_config("outputs");
+  config.snapshot_interval_s = 2.0;
+  std::filesystem::remove_all(config.output_dir);
+  ASSERT_TRUE(p.init(config, &clock, &error)) << error;
+  for (int k = 0; k < 1200 && p.step(); ++k) {  // 6 s of 200 Hz ticks
+  }
+  p.request_stop();
+  EXPECT_FALSE(p.step());
+  EXPECT_TRUE(p.done());
+  EXPECT_GE(p.counters().snapshots_written, 2u);
+  EXPECT_EQ(p.counters().snapshot_failures, 0u);
+  ASSERT_TRUE(p.finish(&error)) << error;
+  for (const char* name : {"scene_graph.json", "scene_graph_snapshot.json", "mesh.ply", "top_down.png"})
+    EXPECT_TRUE(std::filesystem::exists(config.output_dir + "/" + name)) << name;
+  EXPECT_FALSE(std::filesystem::exists(config.output_dir + "/scene_graph.json.tmp")) << "no temporary file left";
+  // The outputs read back: the graph through the validating importer, the mesh through the PLY reader.
+  scene_graph::SceneGraph graph;
+  ASSERT_TRUE(graph.init(scene_graph::capacities_from_budget(), scene_graph::arena_bytes_from_budget(), &error));
+  const scene_graph::JsonImportResult r =
+      scene_graph::read_spark_dsg_json_file(config.output_dir + "/scene_graph.json", graph);
+  ASSERT_TRUE(r.ok) << r.error;
+  EXPECT_EQ(graph.num_nodes(), p.graph().num_nodes());
+  reconstruction::Mesh mesh;
+  ASSERT_TRUE(reconstruction::read_ply(config.output_dir + "/mesh.ply", &mesh, &error)) << error;
+  EXPECT_GT(mesh.triangles.size(), 1000u);
+}
+
+TEST(PipelineTest, BadConfigAndUnwritableOutputAreClearErrors) {
+  runtime::SteppedClock clock;
+  std::string error;
+  {
+    Pipeline p;
+    AppConfig c = small_config("bad");
+    c.reconstruction.voxel_size_m = 0.001;
+    EXPECT_FALSE(p.init(c, &clock, &error));
+    EXPECT_NE(error.find("voxel_size_m"), std::string::npos) << error;
+  }
+  {
+    Pipeline p;
+    AppConfig c = small_config("unwritable");
+    c.output_dir = "/proc/qsg_cannot_write_here";
+    EXPECT_FALSE(p.init(c, &clock, &error));
+    EXPECT_NE(error.find("output_dir"), std::string::npos) << error;
+  }
+  std::string why;
+  EXPECT_FALSE(write_file_atomically("/proc/qsg_no/x.json", "{}", &why));
+  EXPECT_FALSE(why.empty());
+}
+
+TEST(AppConfigTest, LoadsKnownKeysAndNamesBadOnes) {
+  const std::string dir = ::testing::TempDir();
+  const auto write = [&](const std::string& name, const std::string& text) {
+    std::ofstream(dir + "/" + name) << text;
+    return dir + "/" + name;
+  };
+  AppConfig c;
+  std::string error;
+  ASSERT_TRUE(c.load(write("good.json", "// comment\n{\"duration_s\": 12, \"building\": {\"num_rooms\": 6},"
+                                        " \"camera\": {\"width\": 640, \"height\": 480}}"),
+                     &error))
+      << error;
+  EXPECT_EQ(c.duration_s, 12.0);
+  EXPECT_EQ(c.building.num_rooms, 6);
+  EXPECT_EQ(c.camera.intrinsics.width, 640);
+  EXPECT_NEAR(c.camera.intrinsics.fx, 525.0, 1e-9);
+  EXPECT_FALSE(c.load(write("unknown.json", "{\"building\": {\"rooms\": 6}}"), &error));
+  EXPECT_NE(error.find("building.rooms: unknown key"), std::string::npos) << error;
+  EXPECT_FALSE(c.load(write("type.json", "{\"lockstep\": 1}"), &error));
+  EXPECT_NE(error.find("lockstep: expected true or false"), std::string::npos) << error;
+  EXPECT_FALSE(c.load(write("broken.json", "{\"lockstep\": "), &error));
+  EXPECT_NE(error.find("not valid JSON"), std::string::npos) << error;
+  EXPECT_FALSE(c.load(dir + "/missing.json", &error));
+  EXPECT_NE(error.find("cannot open"), std::string::npos) << error;
+  EXPECT_FALSE(c.load(write("driver.json", "{\"driver\": \"usb\"}"), &error));
+  EXPECT_NE(error.find("driver"), std::string::npos) << error;
+  // The shipped default file loads and equals the built-in defaults where it spells them out.
+  AppConfig shipped;
+  ASSERT_TRUE(shipped.load(std::string(QSG_SOURCE_DIR) + "/firmware_app/config/default.json", &error)) << error;
+  EXPECT_EQ(shipped.building.num_rooms, AppConfig().building.num_rooms);
+  EXPECT_EQ(shipped.camera.intrinsics.width, AppConfig().camera.intrinsics.width);
+}
+
+}  // namespace
+}  // namespace qsg::app
