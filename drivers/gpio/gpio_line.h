@@ -1,0 +1,51 @@
+// The GPIO device class: a chip hands out lines by offset, a line is driven (output) or read (input). Backends:
+// libgpiod (gpiod_chip.h) on the robot and an in-memory chip with scripted inputs (sim_gpio.h) on a desk.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+
+namespace qsg::gpio {
+
+enum class GpioDirection : std::uint8_t { kInput, kOutput };
+const char* to_string(GpioDirection direction);
+
+struct GpioLineRequest {
+  unsigned offset = 0;
+  GpioDirection direction = GpioDirection::kInput;
+  bool initial_high = false;         // outputs: level driven from the moment of the request
+  std::string consumer = "quadsg";   // shown by gpioinfo next to the line
+};
+
+struct GpioCounters {
+  std::uint64_t writes = 0;
+  std::uint64_t reads = 0;
+  std::uint64_t errors = 0;  // calls that failed (see last_error())
+};
+
+// One requested line; released when destroyed. Must not outlive its chip. set() and get() never allocate.
+class GpioLine {
+ public:
+  virtual ~GpioLine() = default;
+  virtual const char* name() const = 0;  // "<chip>:<offset>"
+  virtual GpioDirection direction() const = 0;
+  // Outputs only: drives the line. false (counted, last_error()) on an input or a device error.
+  virtual bool set(bool high) = 0;
+  // Inputs: the level on the pin; outputs: the level the chip reports driving.
+  virtual bool get(bool* high) = 0;
+  virtual const char* last_error() const = 0;
+  virtual const GpioCounters& counters() const = 0;
+};
+
+class GpioChip {
+ public:
+  virtual ~GpioChip() = default;
+  virtual const char* name() const = 0;
+  virtual unsigned num_lines() const = 0;
+  // nullptr with *error naming the chip and offset when the offset is out of range, the line is busy (requested
+  // by this or another process) or the request fails.
+  virtual std::unique_ptr<GpioLine> request(const GpioLineRequest& request, std::string* error) = 0;
+};
+
+}  // namespace qsg::gpio
