@@ -1,0 +1,970 @@
+// Layer 2 objects: incremental per-label Euclidean clustering of mesh vertices into objects, in fixed memory.
+#include "core/objects/object_layer.h"
+
+#include <algorithm>
+#include <cinttypes>
+#include <cmath>
+#include <cstring>
+#include <limits>
+
+#include "budgets/budget_table.h"
+#include "core/reconstruction/semantic_tsdf.h"
+#include "core/scene_graph/scene_graph.h"
+
+namespace qsg::objects {
+
+using memory::kInvalidHandle;
+using scene_graph::NodeId;
+
+struct ObjectLayer::Object {
+  NodeId node = scene_graph::kNoNode;
+  semantics::Label label = semantics::kVoid;
+  bool changed = false;   // waiting in changed_ for the next sync
+  bool in_graph = false;  // a node was added for it
+  double sum[3] = {0, 0, 0};
+  std::uint64_t num_vertices = 0;
+  float lo[3] = {0, 0, 0};
+  float hi[3] = {0, 0, 0};
+  std::uint32_t tracked_head = kInvalidHandle;  // doubly linked through TrackedVertex::obj_prev/obj_next
+  std::uint32_t num_tracked = 0;
+  std::uint32_t key_head = kInvalidHandle;
+  std::uint32_t key_tail = kInvalidHandle;
+  std::uint32_t num_keys = 0;
+  std::uint64_t last_update_ns = 0;
+};
+
+struct ObjectLayer::TrackedVertex {
+  std::uint64_t key = 0;
+  float p[3] = {0, 0, 0};
+  semantics::Label label = semantics::kVoid;
+  std::uint32_t object = kInvalidHandle;
+  std::uint32_t block = kInvalidHandle;
+  std::uint32_t obj_prev = kInvalidHandle;
+  std::uint32_t obj_next = kInvalidHandle;
+  std::uint32_t cell_next = kInvalidHandle;
+  std::uint32_t block_next = kInvalidHandle;
+  std::uint32_t seen = 0;  // stamp of the last update that presented it
+};
+
+struct ObjectLayer::Block {
+  memory::Index3 index;
+  std::uint32_t head = kInvalidHandle;  // tracked vertices owned by the block (singly linked)
+  std::uint32_t count = 0;
+  std::uint32_t presented = 0;  // stamp of the last update that re-meshed it
+};
+
+struct ObjectLayer::Candidate {
+  std::uint64_t key = 0;
+  float p[3] = {0, 0, 0};
+  semantics::Label label = semantics::kVoid;
+  std::uint8_t visited = 0;
+  std::uint32_t cell_next = kInvalidHandle;
+  memory::Index3 block;
+};
+
+namespace {
+
+constexpr int kCellBits = 19;
+constexpr std::int32_t kCellOffset = 1 << (kCellBits - 1);
+constexpr std::uint64_t kCellMask = (std::uint64_t{1} << kCellBits) - 1;
+constexpr std::uint32_t kMaxLinked = 16;  // existing objects one cluster may join in one update
+
+// A grid cell of one label: 19 bits per axis (cells of >= 0.05 m cover +-13 km) and the label on top.
+inline std::uint64_t pack_cell(semantics::Label label, std::int32_t x, std::int32_t y, std::int32_t z) {
+  const auto p = [](std::int32_t v) { return static_cast<std::uint64_t>(v + kCellOffset) & kCellMask; };
+  return (static_cast<std::uint64_t>(label) << (3 * kCellBits)) | (p(x) << (2 * kCellBits)) | (p(y) << kCellBits) |
+         p(z);
+}
+
+inline float dist_sq(const float* a, const float* b) {
+  const float dx = a[0] - b[0], dy = a[1] - b[1], dz = a[2] - b[2];
+  return dx * dx + dy * dy + dz * dz;
+}
+
+bool is_large(semantics::Label l) {
+  using namespace semantics;
+  switch (l) {
+    case kTable: case kCabinet: case kSofa: case kBed: case kChestOfDrawers: case kShower: case kBathtub:
+    case kCounter: case kFireplace: case kShelving: case kGymEquipment: case kSeating: case kFurniture:
+      return true;
+    default:
+      return false;
+  }
+}
+bool is_small(semantics::Label l) {
+  using namespace semantics;
+  switch (l) {
+    case kPicture: case kCushion: case kPlant: case kTowel: case kLighting: case kClothes: case kObjects:
+    case kMirror: case kTvMonitor: case kBoardPanel:
+      return true;
+    default:
+      return false;
+  }
+}
+
+}  // namespace
+
+LabelTable default_label_params() {
+  LabelTable t{};
+  for (semantics::Label l = 0; l < semantics::kNumObjectLabels; ++l) {
+    LabelParams& p = t[l];
+    p.enabled = !semantics::is_structure(l);
+    p.tolerance_m = 0.2;
+    p.min_vertices = is_small(l) ? 8 : (is_large(l) ? 40 : 20);
+    p.max_vertices = is_large(l) ? 200000 : 50000;
+  }
+  return t;
+}
+
+std::string Config::check() const {
+  char buf[160];
+  for (semantics::Label l = 0; l < semantics::kNumObjectLabels; ++l) {
+    const LabelParams& p = labels[l];
+    const char* name = semantics::object_label(l).name;
+    if (p.enabled && semantics::is_structure(l)) {
+      std::snprintf(buf, sizeof(buf), "labels[%u] (%s): a structure label never becomes an object", l, name);
+      return buf;
+    }
+    if (!(p.tolerance_m >= 0.05 && p.tolerance_m <= 2.0)) {
+      std::snprintf(buf, sizeof(buf), "labels[%u] (%s).tolerance_m must be in [0.05, 2] m", l, name);
+      return buf;
+    }
+    if (p.min_vertices < 1 || p.max_vertices < p.min_vertices) {
+      std::snprintf(buf, sizeof(buf), "labels[%u] (%s): need 1 <= min_vertices <= max_vertices", l, name);
+      return buf;
+    }
+  }
+  return {};
+}
+
+void Config::print(std::FILE* out) const {
+  std::fprintf(out, "objects: merge_overlapping=%d; enabled labels (tolerance_m, min..max vertices):",
+               merge_overlapping ? 1 : 0);
+  for (semantics::Label l = 0; l < semantics::kNumObjectLabels; ++l) {
+    const LabelParams& p = labels[l];
+    if (p.enabled)
+      std::fprintf(out, " %s(%.2f,%u..%u)", semantics::object_label(l).name, p.tolerance_m, p.min_vertices,
+                   p.max_vertices);
+  }
+  std::fprintf(out, "\n");
+}
+
+std::string Capacities::check() const {
+  if (cluster_vertices == 0) return "cluster_vertices must be positive";
+  if (tracked_vertices == 0) return "tracked_vertices must be positive";
+  if (vertex_keys < ObjectLayer::kKeysPerChunk) return "vertex_keys must be at least 15";
+  if (tracked_blocks == 0) return "tracked_blocks must be positive";
+  if (objects == 0) return "objects must be positive";
+  if (vertex_keys > std::numeric_limits<std::uint32_t>::max() / 2)
+    return "vertex_keys too large for 32-bit mesh connections";
+  return {};
+}
+
+void Capacities::print(std::FILE* out) const {
+  std::fprintf(out,
+               "objects capacities: cluster_vertices %zu, tracked_vertices %zu, vertex_keys %zu, tracked_blocks %zu, "
+               "objects %zu\n",
+               cluster_vertices, tracked_vertices, vertex_keys, tracked_blocks, objects);
+}
+
+Capacities capacities_from_budget() {
+  namespace b = budgets::active::objects;
+  Capacities c;
+  c.cluster_vertices = b::kClusterVertices;
+  c.tracked_vertices = b::kTrackedVertices;
+  c.vertex_keys = b::kVertexKeys;
+  c.tracked_blocks = b::kTrackedBlocks;
+  c.objects = b::kObjects;
+  return c;
+}
+
+void Counters::print(std::FILE* out) const {
+  std::fprintf(out,
+               "objects: updates=%" PRIu64 " presented=%" PRIu64 " candidates=%" PRIu64 " clusters=%" PRIu64
+               " (too_small=%" PRIu64 " too_large=%" PRIu64 " joined=%" PRIu64 " overlap_merged=%" PRIu64
+               ") objects created=%" PRIu64 " merged=%" PRIu64 " removed=%" PRIu64 " vertices stale=%" PRIu64
+               " released=%" PRIu64 " blocks released=%" PRIu64 " overflow: candidate=%" PRIu64 " tracked=%" PRIu64
+               " key=%" PRIu64 " block=%" PRIu64 " object=%" PRIu64 " graph_node=%" PRIu64
+               " graph_connection=%" PRIu64 "\n",
+               updates, vertices_presented, candidates, clusters, clusters_too_small, clusters_too_large,
+               clusters_joined, clusters_overlap_merged, objects_created, objects_merged, objects_removed,
+               vertices_stale, vertices_released, blocks_released, candidate_overflow, tracked_overflow, key_overflow,
+               block_overflow, object_overflow, graph_node_failures, graph_connection_failures);
+}
+
+// -------------------------------------------------------------------------------------------------------------
+// Every store refuses (counted, logged) rather than aborting: a full store is a degradation the layer reports.
+ObjectLayer::ObjectLayer()
+    : objects_("objects.objects", memory::OverflowPolicy::kRefuse),
+      tracked_("objects.tracked_vertices", memory::OverflowPolicy::kRefuse),
+      tracked_index_("objects.tracked_index", memory::OverflowPolicy::kRefuse),
+      tracked_cells_("objects.tracked_cells", memory::OverflowPolicy::kRefuse),
+      blocks_("objects.blocks", memory::OverflowPolicy::kRefuse),
+      block_index_("objects.block_index", memory::OverflowPolicy::kRefuse),
+      key_chunks_("objects.key_chunks", memory::OverflowPolicy::kRefuse),
+      candidates_("objects.candidates", memory::OverflowPolicy::kRefuse),
+      candidate_index_("objects.candidate_index", memory::OverflowPolicy::kRefuse),
+      candidate_cells_("objects.candidate_cells", memory::OverflowPolicy::kRefuse),
+      order_("objects.order", memory::OverflowPolicy::kRefuse),
+      presented_blocks_("objects.presented_blocks", memory::OverflowPolicy::kRefuse),
+      changed_("objects.changed", memory::OverflowPolicy::kRefuse),
+      removed_nodes_("objects.removed_nodes", memory::OverflowPolicy::kRefuse),
+      synced_("objects.synced", memory::OverflowPolicy::kRefuse) {}
+
+ObjectLayer::~ObjectLayer() = default;
+
+namespace {
+using U64Map = memory::FixedHashMap<std::uint64_t, std::uint32_t, memory::U64Hash>;
+std::size_t key_chunk_count(const Capacities& c) { return (c.vertex_keys + 14) / 15; }
+}  // namespace
+
+memory::ArenaPlan ObjectLayer::plan(const Capacities& c) {
+  memory::ArenaPlan p;
+  memory::Pool<Object>::plan(p, c.objects);
+  memory::Pool<TrackedVertex>::plan(p, c.tracked_vertices);
+  U64Map::plan(p, U64Map::slots_for(c.tracked_vertices));
+  U64Map::plan(p, U64Map::slots_for(c.tracked_vertices));
+  memory::Pool<Block>::plan(p, c.tracked_blocks);
+  memory::SpatialHash<std::uint32_t>::plan(p, memory::SpatialHash<std::uint32_t>::slots_for(c.tracked_blocks));
+  memory::Pool<KeyChunk>::plan(p, key_chunk_count(c));
+  memory::ArenaVector<Candidate>::plan(p, c.cluster_vertices);
+  U64Map::plan(p, U64Map::slots_for(c.cluster_vertices));
+  U64Map::plan(p, U64Map::slots_for(c.cluster_vertices));
+  memory::ArenaVector<std::uint32_t>::plan(p, c.cluster_vertices);
+  memory::ArenaVector<std::uint32_t>::plan(p, c.tracked_blocks);
+  memory::ArenaVector<std::uint32_t>::plan(p, c.objects);
+  memory::ArenaVector<NodeId>::plan(p, c.objects);
+  memory::ArenaVector<NodeId>::plan(p, c.objects);
+  return p;
+}
+
+bool ObjectLayer::init(const Config& config, const Capacities& c, std::size_t budget_bytes, std::string* error) {
+  std::string why = config.check();
+  if (!why.empty()) {
+    if (error != nullptr) *error = "objects config: " + why;
+    return false;
+  }
+  why = c.check();
+  if (!why.empty()) {
+    if (error != nullptr) *error = "objects capacities: " + why;
+    return false;
+  }
+  if (ready_) {
+    if (error != nullptr) *error = "objects: init() called twice";
+    return false;
+  }
+  if (!arena_.create("objects", plan(c), budget_bytes, error)) return false;
+  config_ = config;
+  capacities_ = c;
+  for (semantics::Label l = 0; l < semantics::kNumObjectLabels; ++l) {
+    const double tol = config.labels[l].tolerance_m;
+    inv_tolerance_[l] = static_cast<float>(1.0 / tol);
+    tolerance_sq_[l] = static_cast<float>(tol * tol);
+  }
+  const std::size_t tracked_slots = U64Map::slots_for(c.tracked_vertices);
+  const std::size_t candidate_slots = U64Map::slots_for(c.cluster_vertices);
+  const bool ok = objects_.carve(arena_, c.objects) && tracked_.carve(arena_, c.tracked_vertices) &&
+                  tracked_index_.carve(arena_, tracked_slots, c.tracked_vertices) &&
+                  tracked_cells_.carve(arena_, tracked_slots, c.tracked_vertices) &&
+                  blocks_.carve(arena_, c.tracked_blocks) &&
+                  block_index_.carve(arena_, memory::SpatialHash<std::uint32_t>::slots_for(c.tracked_blocks),
+                                     c.tracked_blocks) &&
+                  key_chunks_.carve(arena_, key_chunk_count(c)) && candidates_.carve(arena_, c.cluster_vertices) &&
+                  candidate_index_.carve(arena_, candidate_slots, c.cluster_vertices) &&
+                  candidate_cells_.carve(arena_, candidate_slots, c.cluster_vertices) &&
+                  order_.carve(arena_, c.cluster_vertices) && presented_blocks_.carve(arena_, c.tracked_blocks) &&
+                  changed_.carve(arena_, c.objects) && removed_nodes_.carve(arena_, c.objects) &&
+                  synced_.carve(arena_, c.objects);
+  if (!ok || !arena_.seal()) {
+    if (error != nullptr) *error = "objects: the arena carve did not match its plan";
+    return false;
+  }
+  ready_ = true;
+  return true;
+}
+
+// ------------------------------------------------------------------------------------------------ cells
+void ObjectLayer::cell_of(semantics::Label label, const float* p, std::int32_t* c) const {
+  const float inv = inv_tolerance_[label];
+  for (int i = 0; i < 3; ++i) c[i] = static_cast<std::int32_t>(std::floor(p[i] * inv));
+}
+
+std::uint64_t ObjectLayer::cell_key(semantics::Label label, const float* p) const {
+  std::int32_t c[3];
+  cell_of(label, p, c);
+  return pack_cell(label, c[0], c[1], c[2]);
+}
+
+void ObjectLayer::cell_insert(U64Map& cells, std::uint64_t cell, std::uint32_t item, std::uint32_t* next_field) {
+  bool inserted = false;
+  std::uint32_t* head = cells.find_or_insert(cell, item, &inserted);
+  if (head == nullptr) {  // cannot happen: the cell map holds one entry per item
+    *next_field = kInvalidHandle;
+    return;
+  }
+  *next_field = inserted ? kInvalidHandle : *head;
+  *head = item;
+}
+
+void ObjectLayer::tracked_cell_remove(std::uint32_t slot) {
+  const TrackedVertex& t = tracked_[slot];
+  const std::uint64_t cell = cell_key(t.label, t.p);
+  std::uint32_t* head = tracked_cells_.find(cell);
+  if (head == nullptr) return;
+  if (*head == slot) {
+    if (t.cell_next == kInvalidHandle) tracked_cells_.erase(cell);
+    else *head = t.cell_next;
+    return;
+  }
+  for (std::uint32_t s = *head; s != kInvalidHandle; s = tracked_[s].cell_next) {
+    if (tracked_[s].cell_next == slot) {
+      tracked_[s].cell_next = t.cell_next;
+      return;
+    }
+  }
+}
+
+// ------------------------------------------------------------------------------------------------ objects
+ObjectView ObjectLayer::view(std::uint32_t h) const {
+  const Object& o = objects_[h];
+  ObjectView v;
+  v.node = o.node;
+  v.label = o.label;
+  if (o.num_vertices > 0) {
+    const double n = static_cast<double>(o.num_vertices);
+    v.centroid_m = Eigen::Vector3d(o.sum[0] / n, o.sum[1] / n, o.sum[2] / n);
+    v.min_m = Eigen::Vector3d(o.lo[0], o.lo[1], o.lo[2]);
+    v.max_m = Eigen::Vector3d(o.hi[0], o.hi[1], o.hi[2]);
+  }
+  v.num_vertices = o.num_vertices;
+  v.num_tracked = o.num_tracked;
+  v.num_keys = o.num_keys;
+  v.last_update_ns = o.last_update_ns;
+  return v;
+}
+
+bool ObjectLayer::visible(std::uint32_t h) const {
+  const Object& o = objects_[h];
+  return o.num_vertices >= config_.labels[o.label].min_vertices;
+}
+
+std::size_t ObjectLayer::num_objects() const {
+  std::size_t n = 0;
+  for (std::uint32_t h = 0; h < objects_.capacity(); ++h) n += objects_.live(h) && visible(h) ? 1 : 0;
+  return n;
+}
+
+std::uint32_t ObjectLayer::find_handle(NodeId node) const {
+  for (std::uint32_t h = 0; h < objects_.capacity(); ++h)
+    if (objects_.live(h) && visible(h) && objects_[h].node == node) return h;
+  return kInvalidHandle;
+}
+
+std::uint32_t ObjectLayer::object_key_head(std::uint32_t h) const { return objects_[h].key_head; }
+
+bool ObjectLayer::find_object(NodeId node, ObjectView* out) const {
+  const std::uint32_t h = find_handle(node);
+  if (h == kInvalidHandle) return false;
+  *out = view(h);
+  return true;
+}
+
+bool ObjectLayer::mesh_vertex_key(std::uint32_t connection, std::uint64_t* key) const {
+  const std::uint32_t chunk = connection / kKeysPerChunk;
+  const std::uint32_t i = connection % kKeysPerChunk;
+  if (!key_chunks_.live(chunk) || i >= key_chunks_[chunk].count) return false;
+  *key = key_chunks_[chunk].keys[i];
+  return true;
+}
+
+void ObjectLayer::mark_changed(std::uint32_t h) {
+  Object& o = objects_[h];
+  o.last_update_ns = time_ns_;
+  if (o.changed) return;
+  // changed_ holds at most one entry per live object, plus stale handles of released ones: compact when full.
+  if (changed_.full()) {
+    std::size_t k = 0;
+    for (std::size_t i = 0; i < changed_.size(); ++i) {
+      const std::uint32_t c = changed_[i];
+      if (objects_.live(c) && objects_[c].changed) changed_[k++] = c;
+    }
+    while (changed_.size() > k) changed_.pop_back();
+  }
+  if (changed_.push_back(h)) o.changed = true;
+}
+
+std::uint32_t ObjectLayer::create_object(semantics::Label label) {
+  const std::uint32_t h = objects_.acquire();
+  if (h == kInvalidHandle) return h;
+  Object& o = objects_[h];
+  o.node = scene_graph::make_node_id(scene_graph::kObjectPrefix, next_object_index_++);
+  o.label = label;
+  for (int i = 0; i < 3; ++i) {
+    o.lo[i] = std::numeric_limits<float>::max();
+    o.hi[i] = -std::numeric_limits<float>::max();
+  }
+  ++counters_.objects_created;
+  ++result_.objects_created;
+  mark_changed(h);
+  return h;
+}
+
+void ObjectLayer::release_keys(std::uint32_t h) {
+  Object& o = objects_[h];
+  for (std::uint32_t c = o.key_head; c != kInvalidHandle;) {
+    const std::uint32_t next = key_chunks_[c].next;
+    key_chunks_.release(c);
+    c = next;
+  }
+  o.key_head = o.key_tail = kInvalidHandle;
+  o.num_keys = 0;
+}
+
+void ObjectLayer::delete_object(std::uint32_t h) {
+  release_keys(h);
+  Object& o = objects_[h];
+  if (o.in_graph && !removed_nodes_.push_back(o.node)) ++counters_.graph_node_failures;
+  objects_.release(h);
+  ++counters_.objects_removed;
+}
+
+void ObjectLayer::merge_objects(std::uint32_t into, std::uint32_t from) {
+  Object& a = objects_[into];
+  Object& b = objects_[from];
+  std::uint32_t last = kInvalidHandle;
+  for (std::uint32_t s = b.tracked_head; s != kInvalidHandle; s = tracked_[s].obj_next) {
+    tracked_[s].object = into;
+    last = s;
+  }
+  if (last != kInvalidHandle) {
+    tracked_[last].obj_next = a.tracked_head;
+    if (a.tracked_head != kInvalidHandle) tracked_[a.tracked_head].obj_prev = last;
+    a.tracked_head = b.tracked_head;
+  }
+  a.num_tracked += b.num_tracked;
+  for (int i = 0; i < 3; ++i) {
+    a.sum[i] += b.sum[i];
+    a.lo[i] = std::min(a.lo[i], b.lo[i]);
+    a.hi[i] = std::max(a.hi[i], b.hi[i]);
+  }
+  a.num_vertices += b.num_vertices;
+  if (b.key_head != kInvalidHandle) {
+    if (a.key_tail == kInvalidHandle) a.key_head = b.key_head;
+    else key_chunks_[a.key_tail].next = b.key_head;
+    a.key_tail = b.key_tail;
+    a.num_keys += b.num_keys;
+  }
+  b.key_head = b.key_tail = kInvalidHandle;
+  b.num_keys = 0;
+  if (b.in_graph && !removed_nodes_.push_back(b.node)) ++counters_.graph_node_failures;
+  objects_.release(from);
+  ++counters_.objects_merged;
+  mark_changed(into);
+}
+
+bool ObjectLayer::append_key(std::uint32_t h, std::uint64_t key) {
+  Object& o = objects_[h];
+  if (o.key_tail == kInvalidHandle || key_chunks_[o.key_tail].count == kKeysPerChunk) {
+    const std::uint32_t c = key_chunks_.acquire();
+    if (c == kInvalidHandle) {
+      ++counters_.key_overflow;
+      return false;
+    }
+    key_chunks_[c].next = kInvalidHandle;
+    key_chunks_[c].count = 0;
+    if (o.key_tail == kInvalidHandle) o.key_head = c;
+    else key_chunks_[o.key_tail].next = c;
+    o.key_tail = c;
+  }
+  KeyChunk& chunk = key_chunks_[o.key_tail];
+  chunk.keys[chunk.count++] = key;
+  ++o.num_keys;
+  return true;
+}
+
+void ObjectLayer::add_to_box(std::uint32_t h, const float* p) {
+  Object& o = objects_[h];
+  for (int i = 0; i < 3; ++i) {
+    o.lo[i] = std::min(o.lo[i], p[i]);
+    o.hi[i] = std::max(o.hi[i], p[i]);
+  }
+}
+
+// ------------------------------------------------------------------------------------------------ tracked
+void ObjectLayer::detach_tracked(std::uint32_t slot, bool subtract_from_object) {
+  TrackedVertex& t = tracked_[slot];
+  tracked_index_.erase(t.key);
+  tracked_cell_remove(slot);
+  const std::uint32_t h = t.object;
+  if (h == kInvalidHandle || !objects_.live(h)) return;
+  Object& o = objects_[h];
+  if (t.obj_prev != kInvalidHandle) tracked_[t.obj_prev].obj_next = t.obj_next;
+  else o.tracked_head = t.obj_next;
+  if (t.obj_next != kInvalidHandle) tracked_[t.obj_next].obj_prev = t.obj_prev;
+  --o.num_tracked;
+  if (subtract_from_object) {
+    for (int i = 0; i < 3; ++i) o.sum[i] -= t.p[i];
+    --o.num_vertices;
+    mark_changed(h);
+    if (o.num_vertices == 0) delete_object(h);
+  } else if (o.num_tracked == 0) {
+    if (!visible(h)) delete_object(h);  // a tentative object that never grew: noise
+    else mark_changed(h);               // left the active window
+  }
+}
+
+void ObjectLayer::unlink_from_block(std::uint32_t slot) {
+  const std::uint32_t b = tracked_[slot].block;
+  if (b == kInvalidHandle || !blocks_.live(b)) return;
+  Block& block = blocks_[b];
+  if (block.head == slot) {
+    block.head = tracked_[slot].block_next;
+  } else {
+    for (std::uint32_t s = block.head; s != kInvalidHandle; s = tracked_[s].block_next) {
+      if (tracked_[s].block_next == slot) {
+        tracked_[s].block_next = tracked_[slot].block_next;
+        break;
+      }
+    }
+  }
+  --block.count;
+}
+
+void ObjectLayer::move_tracked(std::uint32_t slot, const InputVertex& v) {
+  TrackedVertex& t = tracked_[slot];
+  const float p[3] = {v.x, v.y, v.z};
+  if (p[0] == t.p[0] && p[1] == t.p[1] && p[2] == t.p[2]) return;
+  const std::uint64_t old_cell = cell_key(t.label, t.p);
+  const std::uint64_t new_cell = cell_key(t.label, p);
+  if (old_cell != new_cell) tracked_cell_remove(slot);
+  Object& o = objects_[t.object];
+  for (int i = 0; i < 3; ++i) {
+    o.sum[i] += static_cast<double>(p[i]) - static_cast<double>(t.p[i]);
+    t.p[i] = p[i];
+  }
+  add_to_box(t.object, p);
+  if (old_cell != new_cell) cell_insert(tracked_cells_, new_cell, slot, &t.cell_next);
+  mark_changed(t.object);
+}
+
+void ObjectLayer::sweep_block(std::uint32_t b) {
+  Block& block = blocks_[b];
+  std::uint32_t prev = kInvalidHandle;
+  for (std::uint32_t s = block.head; s != kInvalidHandle;) {
+    const std::uint32_t next = tracked_[s].block_next;
+    if (tracked_[s].seen != stamp_) {
+      if (prev == kInvalidHandle) block.head = next;
+      else tracked_[prev].block_next = next;
+      --block.count;
+      detach_tracked(s, true);
+      tracked_.release(s);
+      ++counters_.vertices_stale;
+    } else {
+      prev = s;
+    }
+    s = next;
+  }
+  if (block.count == 0) {
+    block_index_.erase(block.index);
+    blocks_.release(b);
+  }
+}
+
+bool ObjectLayer::register_vertex(std::uint32_t h, const Candidate& c) {
+  std::uint32_t b = kInvalidHandle;
+  if (const std::uint32_t* bh = block_index_.find(c.block)) {
+    b = *bh;
+  } else {
+    b = blocks_.acquire();
+    if (b == kInvalidHandle) {
+      ++counters_.block_overflow;
+      return false;
+    }
+    if (block_index_.insert(c.block, b) == nullptr) {
+      blocks_.release(b);
+      ++counters_.block_overflow;
+      return false;
+    }
+    blocks_[b].index = c.block;
+    blocks_[b].head = kInvalidHandle;
+    blocks_[b].count = 0;
+    blocks_[b].presented = stamp_;
+  }
+  const std::uint32_t slot = tracked_.acquire();
+  if (slot == kInvalidHandle) {
+    ++counters_.tracked_overflow;
+    return false;
+  }
+  if (tracked_index_.insert(c.key, slot) == nullptr) {
+    tracked_.release(slot);
+    ++counters_.tracked_overflow;
+    return false;
+  }
+  TrackedVertex& t = tracked_[slot];
+  t.key = c.key;
+  std::memcpy(t.p, c.p, sizeof(t.p));
+  t.label = c.label;
+  t.object = h;
+  t.block = b;
+  t.seen = stamp_;
+  cell_insert(tracked_cells_, cell_key(c.label, c.p), slot, &t.cell_next);
+  Block& block = blocks_[b];
+  t.block_next = block.head;
+  block.head = slot;
+  ++block.count;
+  Object& o = objects_[h];
+  t.obj_prev = kInvalidHandle;
+  t.obj_next = o.tracked_head;
+  if (o.tracked_head != kInvalidHandle) tracked_[o.tracked_head].obj_prev = slot;
+  o.tracked_head = slot;
+  ++o.num_tracked;
+  for (int i = 0; i < 3; ++i) o.sum[i] += c.p[i];
+  ++o.num_vertices;
+  add_to_box(h, c.p);
+  append_key(h, c.key);
+  return true;
+}
+
+// ------------------------------------------------------------------------------------------------ update
+void ObjectLayer::begin_update(std::uint64_t time_ns) {
+  in_update_ = true;
+  in_block_ = false;
+  if (++stamp_ == 0) stamp_ = 1;
+  time_ns_ = time_ns;
+  result_ = UpdateResult{};
+  candidates_.clear();
+  presented_blocks_.clear();
+}
+
+void ObjectLayer::begin_block(const memory::Index3& block) {
+  if (!ready_ || !in_update_) return;
+  in_block_ = true;
+  current_index_ = block;
+  ++result_.blocks;
+  current_block_ = kInvalidHandle;
+  if (const std::uint32_t* h = block_index_.find(block)) {
+    current_block_ = *h;
+    if (blocks_[*h].presented != stamp_) {
+      blocks_[*h].presented = stamp_;
+      presented_blocks_.push_back(*h);  // cannot overflow: one entry per block record
+    }
+  }
+}
+
+void ObjectLayer::add_vertex(const InputVertex& v) {
+  if (!in_block_) return;
+  if (v.label >= semantics::kNumObjectLabels || !config_.labels[v.label].enabled) return;
+  if (!std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z)) return;
+  ++result_.vertices;
+  ++counters_.vertices_presented;
+  if (const std::uint32_t* s = tracked_index_.find(v.key)) {
+    const std::uint32_t slot = *s;
+    if (tracked_[slot].label == v.label) {
+      if (tracked_[slot].seen != stamp_) {
+        tracked_[slot].seen = stamp_;
+        move_tracked(slot, v);
+      }
+      return;
+    }
+    // The vertex changed label: it leaves its object and is clustered again.
+    unlink_from_block(slot);
+    detach_tracked(slot, true);
+    tracked_.release(slot);
+    ++counters_.vertices_stale;
+  }
+  bool inserted = false;
+  const std::uint32_t next = static_cast<std::uint32_t>(candidates_.size());
+  if (candidate_index_.find_or_insert(v.key, next, &inserted) == nullptr) {
+    ++counters_.candidate_overflow;
+    return;
+  }
+  if (!inserted) return;  // a border duplicate already presented by the neighbouring block
+  Candidate* c = candidates_.emplace_back();
+  if (c == nullptr) {
+    candidate_index_.erase(v.key);
+    ++counters_.candidate_overflow;
+    return;
+  }
+  c->key = v.key;
+  c->p[0] = v.x;
+  c->p[1] = v.y;
+  c->p[2] = v.z;
+  c->label = v.label;
+  c->visited = 0;
+  c->block = current_index_;
+}
+
+void ObjectLayer::release_block(const memory::Index3& index) {
+  if (!ready_) return;
+  const std::uint32_t* bh = block_index_.find(index);
+  if (bh == nullptr) return;
+  const std::uint32_t b = *bh;
+  for (std::uint32_t s = blocks_[b].head; s != kInvalidHandle;) {
+    const std::uint32_t next = tracked_[s].block_next;
+    detach_tracked(s, false);
+    tracked_.release(s);
+    ++counters_.vertices_released;
+    s = next;
+  }
+  block_index_.erase(index);
+  blocks_.release(b);
+  ++counters_.blocks_released;
+}
+
+std::uint32_t ObjectLayer::flood_fill(std::uint32_t seed, std::uint32_t* linked, std::uint32_t max_linked) {
+  std::uint32_t num_linked = 0;
+  const std::size_t begin = order_.size();
+  candidates_[seed].visited = 1;
+  order_.push_back(seed);
+  for (std::size_t k = begin; k < order_.size(); ++k) {
+    const Candidate& c = candidates_[order_[k]];
+    const semantics::Label label = c.label;
+    const float tol_sq = tolerance_sq_[label];
+    std::int32_t cell[3];
+    cell_of(label, c.p, cell);
+    for (int dx = -1; dx <= 1; ++dx)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dz = -1; dz <= 1; ++dz) {
+          const std::uint64_t key = pack_cell(label, cell[0] + dx, cell[1] + dy, cell[2] + dz);
+          if (const std::uint32_t* head = candidate_cells_.find(key)) {
+            for (std::uint32_t j = *head; j != kInvalidHandle; j = candidates_[j].cell_next) {
+              Candidate& o = candidates_[j];
+              if (o.visited == 0 && dist_sq(o.p, c.p) <= tol_sq) {
+                o.visited = 1;
+                order_.push_back(j);
+              }
+            }
+          }
+          if (const std::uint32_t* head = tracked_cells_.find(key)) {
+            for (std::uint32_t s = *head; s != kInvalidHandle; s = tracked_[s].cell_next) {
+              const TrackedVertex& t = tracked_[s];
+              if (dist_sq(t.p, c.p) > tol_sq) continue;
+              bool known = false;
+              for (std::uint32_t i = 0; i < num_linked && !known; ++i) known = linked[i] == t.object;
+              if (!known && num_linked < max_linked) linked[num_linked++] = t.object;
+            }
+          }
+        }
+  }
+  return num_linked;
+}
+
+std::uint32_t ObjectLayer::find_overlapping(semantics::Label label, const Eigen::Vector3d& centroid,
+                                            const Eigen::Vector3d& lo, const Eigen::Vector3d& hi) const {
+  for (std::uint32_t h = 0; h < objects_.capacity(); ++h) {
+    if (!objects_.live(h) || objects_[h].label != label || !visible(h)) continue;
+    const Object& o = objects_[h];
+    const double n = static_cast<double>(o.num_vertices);
+    const Eigen::Vector3d oc(o.sum[0] / n, o.sum[1] / n, o.sum[2] / n);
+    const Eigen::Vector3d olo(o.lo[0], o.lo[1], o.lo[2]);
+    const Eigen::Vector3d ohi(o.hi[0], o.hi[1], o.hi[2]);
+    const bool mine_in_theirs = (centroid.array() >= olo.array()).all() && (centroid.array() <= ohi.array()).all();
+    const bool theirs_in_mine = (oc.array() >= lo.array()).all() && (oc.array() <= hi.array()).all();
+    if (mine_in_theirs || theirs_in_mine) return h;
+  }
+  return kInvalidHandle;
+}
+
+void ObjectLayer::process_cluster(std::uint32_t begin, std::uint32_t end, const std::uint32_t* linked,
+                                  std::uint32_t num_linked) {
+  ++counters_.clusters;
+  ++result_.clusters;
+  std::uint32_t target = kInvalidHandle;
+  bool created = false;
+  if (num_linked > 0) {
+    target = linked[0];  // the largest survives (keeps its node id; smaller tentative ones have none)
+    for (std::uint32_t i = 1; i < num_linked; ++i)
+      if (objects_[linked[i]].num_vertices > objects_[target].num_vertices) target = linked[i];
+    for (std::uint32_t i = 0; i < num_linked; ++i)
+      if (linked[i] != target && objects_.live(linked[i])) merge_objects(target, linked[i]);
+    ++counters_.clusters_joined;
+  } else {
+    const semantics::Label label = candidates_[order_[begin]].label;
+    const LabelParams& params = config_.labels[label];
+    const std::uint32_t size = end - begin;
+    const bool small = size < params.min_vertices;
+    if (small) ++counters_.clusters_too_small;  // kept as a tentative object
+    if (size > params.max_vertices) {
+      ++counters_.clusters_too_large;
+      return;
+    }
+    if (config_.merge_overlapping && !small) {
+      Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+      Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::max());
+      Eigen::Vector3d hi = -lo;
+      for (std::uint32_t k = begin; k < end; ++k) {
+        const Candidate& c = candidates_[order_[k]];
+        const Eigen::Vector3d p(c.p[0], c.p[1], c.p[2]);
+        sum += p;
+        lo = lo.cwiseMin(p);
+        hi = hi.cwiseMax(p);
+      }
+      target = find_overlapping(label, sum / static_cast<double>(size), lo, hi);
+      if (target != kInvalidHandle) ++counters_.clusters_overlap_merged;
+    }
+    if (target == kInvalidHandle) {
+      target = create_object(label);
+      created = true;
+      if (target == kInvalidHandle) {
+        ++counters_.object_overflow;
+        return;
+      }
+    }
+  }
+  for (std::uint32_t k = begin; k < end; ++k) register_vertex(target, candidates_[order_[k]]);
+  if (created && objects_[target].num_vertices == 0) {  // every vertex was refused
+    delete_object(target);
+    return;
+  }
+  mark_changed(target);
+}
+
+UpdateResult ObjectLayer::end_update() {
+  if (!ready_ || !in_update_) return UpdateResult{};
+  in_update_ = false;
+  in_block_ = false;
+  ++counters_.updates;
+  // 1. Tracked vertices of re-meshed blocks that were not presented again: the surface moved.
+  for (const std::uint32_t b : presented_blocks_)
+    if (blocks_.live(b)) sweep_block(b);
+  // 2. Connected components of the candidates (and the objects they touch).
+  for (std::uint32_t i = 0; i < candidates_.size(); ++i)
+    cell_insert(candidate_cells_, cell_key(candidates_[i].label, candidates_[i].p), i, &candidates_[i].cell_next);
+  counters_.candidates += candidates_.size();
+  result_.candidates = static_cast<std::uint32_t>(candidates_.size());
+  order_.clear();
+  std::uint32_t linked[kMaxLinked];
+  for (std::uint32_t i = 0; i < candidates_.size(); ++i) {
+    if (candidates_[i].visited != 0) continue;
+    const std::uint32_t begin = static_cast<std::uint32_t>(order_.size());
+    const std::uint32_t num_linked = flood_fill(i, linked, kMaxLinked);
+    process_cluster(begin, static_cast<std::uint32_t>(order_.size()), linked, num_linked);
+  }
+  // 3. Scratch maps back to empty, in time proportional to what this update used.
+  for (const Candidate& c : candidates_) {
+    candidate_index_.erase(c.key);
+    candidate_cells_.erase(cell_key(c.label, c.p));
+  }
+  candidates_.clear();
+  std::uint32_t changed = 0;
+  for (const std::uint32_t h : changed_)
+    if (objects_.live(h) && objects_[h].changed) ++changed;
+  result_.objects_updated = changed;
+  return result_;
+}
+
+UpdateResult ObjectLayer::update(const reconstruction::SemanticTsdf& tsdf, std::uint64_t time_ns) {
+  if (!ready_) return UpdateResult{};
+  begin_update(time_ns);
+  // Blocks that left the window: their vertices are released (the objects keep their summaries).
+  presented_blocks_.clear();
+  block_index_.for_each([&](const memory::Index3& index, std::uint32_t& handle) {
+    if (tsdf.find_block(index) == kInvalidHandle) presented_blocks_.push_back(handle);
+  });
+  for (const std::uint32_t b : presented_blocks_) release_block(blocks_[b].index);
+  presented_blocks_.clear();
+  const std::uint32_t since = last_mesh_stamp_;
+  tsdf.for_each_block([&](std::uint32_t handle, const reconstruction::SemanticTsdf::BlockView& view) {
+    if (view.meshed_stamp <= since) return;
+    begin_block(view.index);
+    reconstruction::SemanticTsdf::VertexCursor cursor;
+    reconstruction::MeshVertex v;
+    InputVertex in;
+    while (tsdf.next_block_vertex(handle, &cursor, &v, &in.key)) {
+      in.x = v.x;
+      in.y = v.y;
+      in.z = v.z;
+      in.label = v.label;
+      add_vertex(in);
+    }
+  });
+  last_mesh_stamp_ = tsdf.mesh_stamp();
+  return end_update();
+}
+
+// ------------------------------------------------------------------------------------------------ sync
+void ObjectLayer::log_graph_failure(const char* what, std::uint64_t count) const {
+  if ((count & (count - 1)) == 0)
+    std::fprintf(stderr, "qsg: warning: objects: scene graph %s full; %" PRIu64 " failure(s) so far\n", what, count);
+}
+
+namespace {
+std::size_t free_mesh_chunks(const scene_graph::SceneGraph& graph) {
+  std::size_t free_chunks = 0;
+  graph.for_each_resource([&](const memory::ResourceStats& s) {
+    if (std::strcmp(s.name, "scene_graph.mesh_chunks") == 0) free_chunks = s.capacity - s.in_use;
+  });
+  return free_chunks;
+}
+}  // namespace
+
+bool ObjectLayer::sync(scene_graph::SceneGraph* graph) {
+  synced_.clear();
+  if (!ready_ || graph == nullptr || !graph->initialized()) return false;
+  bool ok = true;
+  for (const NodeId id : removed_nodes_) graph->remove_node(id);
+  removed_nodes_.clear();
+  const scene_graph::Capacities& gc = graph->capacities();
+  for (const std::uint32_t h : changed_) {
+    if (!objects_.live(h) || !objects_[h].changed) continue;
+    Object& o = objects_[h];
+    if (!visible(h)) {  // tentative, or shrank below the min count: not (or no longer) in the graph
+      if (o.in_graph) graph->remove_node(o.node);
+      o.in_graph = false;
+      o.changed = false;
+      continue;
+    }
+    const ObjectView v = view(h);
+    scene_graph::ObjectAttributes* a = graph->object(o.node);
+    scene_graph::ObjectAttributes fresh;
+    if (a == nullptr) {
+      if (graph->num_nodes(scene_graph::NodeKind::kObject) >= gc.object_nodes || graph->num_nodes() >= gc.nodes()) {
+        ++counters_.graph_node_failures;
+        log_graph_failure("object store", counters_.graph_node_failures);
+        ok = false;
+        continue;  // stays changed: retried at the next sync
+      }
+      a = &fresh;
+    }
+    a->position_m = v.centroid_m;
+    a->last_update_time_ns = o.last_update_ns;
+    a->is_active = o.num_tracked > 0;
+    char name[32];
+    const int n = std::snprintf(name, sizeof(name), "O(%" PRIu64 ")", scene_graph::node_index(o.node));
+    a->name.assign(name, static_cast<std::size_t>(std::max(0, std::min(n, 31))));
+    a->color = semantics::object_label(o.label).color;
+    a->bounding_box = scene_graph::BoundingBox::aabb(v.min_m, v.max_m);
+    a->semantic_label = o.label;
+    if (a == &fresh) {
+      if (graph->add_object(o.node, fresh) != scene_graph::Status::kOk) {
+        ++counters_.graph_node_failures;
+        log_graph_failure("object store", counters_.graph_node_failures);
+        ok = false;
+        continue;
+      }
+    }
+    o.in_graph = true;
+    graph->clear_mesh_connections(o.node);
+    const std::size_t room = free_mesh_chunks(*graph) * scene_graph::kMeshChunkValues;
+    std::size_t added = 0;
+    for (std::uint32_t c = o.key_head; c != kInvalidHandle && added < room; c = key_chunks_[c].next)
+      for (std::uint32_t i = 0; i < key_chunks_[c].count && added < room; ++i, ++added)
+        graph->append_mesh_connection(o.node, c * kKeysPerChunk + i);
+    if (added < o.num_keys) {
+      counters_.graph_connection_failures += o.num_keys - added;
+      log_graph_failure("mesh-connection pool", counters_.graph_connection_failures);
+      ok = false;
+    }
+    o.changed = false;
+    synced_.push_back(o.node);
+  }
+  std::size_t k = 0;
+  for (std::size_t i = 0; i < changed_.size(); ++i) {
+    const std::uint32_t h = changed_[i];
+    if (objects_.live(h) && objects_[h].changed) changed_[k++] = h;
+  }
+  while (changed_.size() > k) changed_.pop_back();
+  return ok;
+}
+
+}  // namespace qsg::objects

@@ -1,0 +1,283 @@
+// Layer 2 objects: per-label Euclidean clustering of the active window's new mesh vertices into objects (label,
+// centroid, box, mesh-vertex references), merged across updates, synced into the scene graph; fixed memory.
+//
+// How an update works (paper sec. "Layers 2: Objects and Agents", plus what makes it incremental):
+//   - Only vertices of blocks re-meshed since the last update are presented. A vertex is identified by its global
+//     voxel-edge key (border duplicates share it; it survives re-meshing), so a vertex already assigned to an
+//     object keeps its object; only vertices with unseen keys ("candidates") are clustered.
+//   - Candidates of each label are clustered by connected components under distance <= the label's tolerance
+//     (a voxel-hash grid at the tolerance: 27 neighbour cells, no allocation). A cluster that comes within the
+//     tolerance of an existing object's tracked vertex of the same label joins that object (and joins objects it
+//     connects), so an object seen over several updates is the same connected component a single batch would give.
+//   - Any other cluster larger than the label's max vertex count is dropped. One with at least the min count is
+//     merged into an existing object of the same label when one's centroid lies in the other's box (the paper's
+//     rule), else it is new. A smaller one becomes a tentative object: tracked and joinable (an object seen a
+//     little at a time still forms), but invisible (not listed, not in the scene graph) until it reaches the min
+//     count, and deleted when its last vertex leaves the window below it.
+//   - Tracked vertices whose block was re-meshed without them are stale (the surface moved) and leave their
+//     object; tracked vertices of blocks that left the active window are released but stay in the object's
+//     summary (centroid sum, count, box) and in its list of vertex keys.
+#pragma once
+
+#include <Eigen/Core>
+#include <array>
+#include <cstdint>
+#include <cstdio>
+#include <string>
+
+#include "core/memory/arena.h"
+#include "core/memory/fixed_hash_map.h"
+#include "core/memory/fixed_vector.h"
+#include "core/memory/pool.h"
+#include "core/scene_graph/node_id.h"
+#include "core/semantics/labels.h"
+
+namespace qsg::reconstruction {
+class SemanticTsdf;
+}
+namespace qsg::scene_graph {
+class SceneGraph;
+}
+
+namespace qsg::objects {
+
+// Clustering parameters of one label. Structure labels (semantics::is_structure) must stay disabled.
+struct LabelParams {
+  bool enabled = false;
+  double tolerance_m = 0.2;       // two vertices closer than this are in the same cluster
+  std::uint32_t min_vertices = 20;  // smaller clusters are noise (not yet an object)
+  std::uint32_t max_vertices = 50000;  // larger clusters are not one object (e.g. a mislabelled wall)
+};
+
+using LabelTable = std::array<LabelParams, semantics::kNumObjectLabels>;
+// Every non-structure mpcat40 label enabled; tolerance 0.2 m (two 0.1 m voxels: marching-cubes vertices of one
+// surface are at most ~0.17 m apart), minimum cluster sizes by the label's typical size.
+LabelTable default_label_params();
+
+struct Config {
+  LabelTable labels = default_label_params();
+  bool merge_overlapping = true;  // the paper's centroid-in-box merge of clusters not connected to an object
+  std::string check() const;      // empty when usable, else the bad field and why
+  void print(std::FILE* out) const;
+};
+
+struct Capacities {
+  std::size_t cluster_vertices = 65536;   // new (not yet tracked) vertices clustered in one update
+  std::size_t tracked_vertices = 131072;  // object vertices in the active window
+  std::size_t vertex_keys = 262144;       // mesh-vertex keys kept by all objects (their mesh connections)
+  std::size_t tracked_blocks = 2048;      // active-window blocks holding object vertices
+  std::size_t objects = 4096;
+  std::string check() const;
+  void print(std::FILE* out) const;
+};
+Capacities capacities_from_budget();
+
+struct Counters {
+  std::uint64_t updates = 0;
+  std::uint64_t vertices_presented = 0;    // vertices of enabled labels in re-meshed blocks
+  std::uint64_t candidates = 0;            // of which not tracked yet (clustered)
+  std::uint64_t clusters = 0;
+  std::uint64_t clusters_too_small = 0;     // kept as tentative objects
+  std::uint64_t clusters_too_large = 0;
+  std::uint64_t clusters_joined = 0;       // connected to existing objects
+  std::uint64_t clusters_overlap_merged = 0;  // centroid-in-box merges
+  std::uint64_t objects_created = 0;
+  std::uint64_t objects_merged = 0;        // objects absorbed by another object
+  std::uint64_t objects_removed = 0;       // every vertex went stale
+  std::uint64_t vertices_stale = 0;
+  std::uint64_t vertices_released = 0;     // their block left the active window
+  std::uint64_t blocks_released = 0;
+  // Overflows (each also counted and logged by the store that refused):
+  std::uint64_t candidate_overflow = 0;
+  std::uint64_t tracked_overflow = 0;
+  std::uint64_t key_overflow = 0;
+  std::uint64_t block_overflow = 0;
+  std::uint64_t object_overflow = 0;
+  std::uint64_t graph_node_failures = 0;   // scene graph full: object not added (retried on the next sync)
+  std::uint64_t graph_connection_failures = 0;  // scene graph mesh-connection pool full: connections dropped
+  void print(std::FILE* out) const;
+};
+
+// One presented mesh vertex.
+struct InputVertex {
+  std::uint64_t key = 0;  // global voxel-edge key (SemanticTsdf::next_block_vertex)
+  float x = 0, y = 0, z = 0;
+  semantics::Label label = semantics::kVoid;
+};
+
+// Read-only summary of one object.
+struct ObjectView {
+  scene_graph::NodeId node = scene_graph::kNoNode;
+  semantics::Label label = semantics::kVoid;
+  Eigen::Vector3d centroid_m = Eigen::Vector3d::Zero();
+  Eigen::Vector3d min_m = Eigen::Vector3d::Zero();
+  Eigen::Vector3d max_m = Eigen::Vector3d::Zero();
+  std::uint64_t num_vertices = 0;  // in the centroid (tracked now or released with their block)
+  std::uint32_t num_tracked = 0;   // in the active window now
+  std::uint32_t num_keys = 0;      // mesh-vertex references kept
+  std::uint64_t last_update_ns = 0;
+};
+
+// What one update did.
+struct UpdateResult {
+  std::uint32_t blocks = 0;      // re-meshed blocks presented
+  std::uint32_t vertices = 0;    // vertices of enabled labels presented
+  std::uint32_t candidates = 0;  // new vertices clustered
+  std::uint32_t clusters = 0;
+  std::uint32_t objects_created = 0;
+  std::uint32_t objects_updated = 0;  // objects changed (created, grown, merged, shrunk)
+};
+
+class ObjectLayer {
+ public:
+  ObjectLayer();
+  ObjectLayer(const ObjectLayer&) = delete;
+  ObjectLayer& operator=(const ObjectLayer&) = delete;
+  ~ObjectLayer();
+
+  static memory::ArenaPlan plan(const Capacities& capacities);
+  // Checks config and capacities, carves every store from one arena of at most budget_bytes. Start-up only.
+  bool init(const Config& config, const Capacities& capacities, std::size_t budget_bytes, std::string* error);
+  bool initialized() const { return ready_; }
+
+  // The per-update call: releases blocks that left the TSDF's window, presents the vertices of blocks re-meshed
+  // since the last call, clusters, merges. Never allocates.
+  UpdateResult update(const reconstruction::SemanticTsdf& tsdf, std::uint64_t time_ns);
+
+  // The same, one step at a time (tests, replay): begin_update(), then for each re-meshed block begin_block()
+  // followed by all of its vertices, release_block() for blocks that left the window, then end_update().
+  void begin_update(std::uint64_t time_ns);
+  void begin_block(const memory::Index3& block);
+  void add_vertex(const InputVertex& vertex);
+  void release_block(const memory::Index3& block);
+  UpdateResult end_update();
+
+  // Adds new objects to the graph (NodeId prefix 'O'), updates changed ones (attributes and mesh connections),
+  // removes merged or vanished ones. Full graph stores are counted and logged, never fatal; an object that
+  // did not fit is retried on the next sync. False when something did not fit.
+  bool sync(scene_graph::SceneGraph* graph);
+  // Nodes added or updated by the last sync() (e.g. to connect them to their nearest place).
+  const memory::VectorView<scene_graph::NodeId>& synced_nodes() const { return synced_; }
+
+  // The stable mesh-vertex reference behind a scene-graph mesh connection: the vertex's global voxel-edge key
+  // (its position is on that voxel edge; it finds the vertex in the mesh archive). False for an unknown value.
+  bool mesh_vertex_key(std::uint32_t connection, std::uint64_t* key) const;
+
+  // Visible objects (at least their label's min vertex count).
+  template <typename Fn>
+  void for_each_object(Fn&& fn) const {  // fn(const ObjectView&)
+    for (std::uint32_t h = 0; h < objects_.capacity(); ++h)
+      if (objects_.live(h) && visible(h)) fn(view(h));
+  }
+  bool find_object(scene_graph::NodeId node, ObjectView* out) const;
+  // The mesh-vertex keys of an object: fn(std::uint64_t key).
+  template <typename Fn>
+  void for_each_vertex_key(scene_graph::NodeId node, Fn&& fn) const;
+
+  std::size_t num_objects() const;                                 // visible ones
+  std::size_t num_tentative_objects() const { return objects_.size() - num_objects(); }
+  std::size_t num_tracked_vertices() const { return tracked_.size(); }
+  const Config& config() const { return config_; }
+  const Capacities& capacities() const { return capacities_; }
+  const Counters& counters() const { return counters_; }
+  std::size_t arena_bytes() const { return arena_.capacity_bytes(); }
+
+  template <typename Fn>
+  void for_each_resource(Fn&& fn) const {  // fn(const memory::ResourceStats&)
+    fn(arena_.stats());
+    fn(objects_.stats());
+    fn(tracked_.stats());
+    fn(tracked_index_.stats());
+    fn(tracked_cells_.stats());
+    fn(blocks_.stats());
+    fn(block_index_.stats());
+    fn(key_chunks_.stats());
+    fn(candidates_.stats());
+    fn(candidate_index_.stats());
+    fn(candidate_cells_.stats());
+  }
+
+  static constexpr std::uint32_t kKeysPerChunk = 15;
+
+  struct Object;
+  struct TrackedVertex;
+  struct Block;
+  struct KeyChunk {
+    std::uint64_t keys[kKeysPerChunk];
+    std::uint32_t next;
+    std::uint32_t count;
+  };
+  struct Candidate;
+
+ private:
+  ObjectView view(std::uint32_t h) const;
+  bool visible(std::uint32_t h) const;
+  std::uint32_t find_handle(scene_graph::NodeId node) const;  // linear: objects are few, not on the hot path
+  std::uint32_t object_key_head(std::uint32_t h) const;
+  void cell_of(semantics::Label label, const float* p, std::int32_t* c) const;
+  std::uint64_t cell_key(semantics::Label label, const float* p) const;
+  void cell_insert(memory::FixedHashMap<std::uint64_t, std::uint32_t, memory::U64Hash>& cells, std::uint64_t cell,
+                   std::uint32_t item, std::uint32_t* next_field);
+  void tracked_cell_remove(std::uint32_t slot);
+  void detach_tracked(std::uint32_t slot, bool subtract_from_object);
+  void unlink_from_block(std::uint32_t slot);
+  void move_tracked(std::uint32_t slot, const InputVertex& v);
+  void add_to_box(std::uint32_t object, const float* p);
+  void sweep_block(std::uint32_t block);
+  std::uint32_t create_object(semantics::Label label);
+  void merge_objects(std::uint32_t into, std::uint32_t from);
+  void delete_object(std::uint32_t h);
+  void mark_changed(std::uint32_t h);
+  bool register_vertex(std::uint32_t object, const Candidate& c);
+  bool append_key(std::uint32_t object, std::uint64_t key);
+  void release_keys(std::uint32_t object);
+  std::uint32_t flood_fill(std::uint32_t seed, std::uint32_t* linked, std::uint32_t max_linked);
+  void process_cluster(std::uint32_t begin, std::uint32_t end, const std::uint32_t* linked, std::uint32_t num_linked);
+  std::uint32_t find_overlapping(semantics::Label label, const Eigen::Vector3d& centroid, const Eigen::Vector3d& lo,
+                                 const Eigen::Vector3d& hi) const;
+  void log_graph_failure(const char* what, std::uint64_t count) const;
+
+  Config config_;
+  Capacities capacities_;
+  Counters counters_;
+  std::array<float, semantics::kNumObjectLabels> inv_tolerance_{};
+  std::array<float, semantics::kNumObjectLabels> tolerance_sq_{};
+
+  memory::Arena arena_;
+  memory::Pool<Object> objects_;
+  memory::Pool<TrackedVertex> tracked_;
+  memory::FixedHashMap<std::uint64_t, std::uint32_t, memory::U64Hash> tracked_index_;  // vertex key -> slot
+  memory::FixedHashMap<std::uint64_t, std::uint32_t, memory::U64Hash> tracked_cells_;  // (label, cell) -> list
+  memory::Pool<Block> blocks_;
+  memory::SpatialHash<std::uint32_t> block_index_;
+  memory::Pool<KeyChunk> key_chunks_;
+  memory::ArenaVector<Candidate> candidates_;
+  memory::FixedHashMap<std::uint64_t, std::uint32_t, memory::U64Hash> candidate_index_;  // dedupe in one update
+  memory::FixedHashMap<std::uint64_t, std::uint32_t, memory::U64Hash> candidate_cells_;
+  memory::ArenaVector<std::uint32_t> order_;            // candidates in flood-fill order
+  memory::ArenaVector<std::uint32_t> presented_blocks_;  // block records re-meshed this update
+  memory::ArenaVector<std::uint32_t> changed_;           // objects changed since the last sync
+  memory::ArenaVector<scene_graph::NodeId> removed_nodes_;  // nodes to remove at the next sync
+  memory::ArenaVector<scene_graph::NodeId> synced_;
+
+  std::uint32_t stamp_ = 0;           // update counter; a tracked vertex seen this update carries it
+  std::uint32_t current_block_ = memory::kInvalidHandle;  // record of the block being presented (may be absent)
+  memory::Index3 current_index_;
+  bool in_block_ = false;
+  bool in_update_ = false;
+  std::uint32_t last_mesh_stamp_ = 0;  // of the TSDF, at the previous update()
+  std::uint64_t time_ns_ = 0;
+  std::uint64_t next_object_index_ = 0;
+  UpdateResult result_;
+  bool ready_ = false;
+};
+
+template <typename Fn>
+void ObjectLayer::for_each_vertex_key(scene_graph::NodeId node, Fn&& fn) const {
+  const std::uint32_t h = find_handle(node);
+  if (h == memory::kInvalidHandle) return;
+  for (std::uint32_t c = object_key_head(h); c != memory::kInvalidHandle; c = key_chunks_[c].next)
+    for (std::uint32_t i = 0; i < key_chunks_[c].count; ++i) fn(key_chunks_[c].keys[i]);
+}
+
+}  // namespace qsg::objects

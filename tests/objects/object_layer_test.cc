@@ -1,0 +1,518 @@
+// Object clustering on synthetic vertex sets: separation, merging across updates, structure labels, size limits,
+// equality with a brute-force Euclidean clustering, stale and released vertices, full stores, zero allocations.
+#include "core/objects/object_layer.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <memory>
+#include <numeric>
+#include <random>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "budgets/budget_table.h"
+#include "core/scene_graph/scene_graph.h"
+#include "tests/scene_graph/test_graph.h"
+#include "tests/support/allocation_counter.h"
+
+namespace qsg::objects {
+namespace {
+
+using scene_graph::NodeId;
+
+constexpr double kBlockSize = 0.8;
+
+Capacities small_capacities() {
+  Capacities c;
+  c.cluster_vertices = 8192;
+  c.tracked_vertices = 8192;
+  c.vertex_keys = 16384;
+  c.tracked_blocks = 256;
+  c.objects = 64;
+  return c;
+}
+
+std::unique_ptr<ObjectLayer> make_layer(const Config& config = Config{}, const Capacities& c = small_capacities()) {
+  auto layer = std::make_unique<ObjectLayer>();
+  std::string error;
+  EXPECT_TRUE(layer->init(config, c, ObjectLayer::plan(c).total_bytes(), &error)) << error;
+  return layer;
+}
+
+struct Vertex {
+  InputVertex v;
+  memory::Index3 block;
+};
+
+memory::Index3 block_of(double x, double y, double z) {
+  return {static_cast<std::int32_t>(std::floor(x / kBlockSize)), static_cast<std::int32_t>(std::floor(y / kBlockSize)),
+          static_cast<std::int32_t>(std::floor(z / kBlockSize))};
+}
+
+// Points on the surface of an axis-aligned box at `step` spacing, with unique keys from *next_key.
+std::vector<Vertex> box_surface(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, semantics::Label label,
+                                std::uint64_t* next_key, double step = 0.05) {
+  std::vector<Vertex> out;
+  const Eigen::Vector3i n = ((hi - lo) / step).array().round().cast<int>();
+  for (int i = 0; i <= n.x(); ++i)
+    for (int j = 0; j <= n.y(); ++j)
+      for (int k = 0; k <= n.z(); ++k) {
+        const bool surface = i == 0 || j == 0 || k == 0 || i == n.x() || j == n.y() || k == n.z();
+        if (!surface) continue;
+        const Eigen::Vector3d p = lo + Eigen::Vector3d(i, j, k) * step;
+        Vertex v;
+        v.v.key = (*next_key)++;
+        v.v.x = static_cast<float>(p.x());
+        v.v.y = static_cast<float>(p.y());
+        v.v.z = static_cast<float>(p.z());
+        v.v.label = label;
+        v.block = block_of(p.x(), p.y(), p.z());
+        out.push_back(v);
+      }
+  return out;
+}
+
+// Presents the vertices grouped by block, as the TSDF adapter does.
+UpdateResult present(ObjectLayer* layer, const std::vector<Vertex>& vertices, std::uint64_t time_ns = 1) {
+  std::map<std::tuple<int, int, int>, std::vector<const Vertex*>> by_block;
+  for (const Vertex& v : vertices) by_block[{v.block.x, v.block.y, v.block.z}].push_back(&v);
+  layer->begin_update(time_ns);
+  for (const auto& [index, list] : by_block) {
+    layer->begin_block({std::get<0>(index), std::get<1>(index), std::get<2>(index)});
+    for (const Vertex* v : list) layer->add_vertex(v->v);
+  }
+  return layer->end_update();
+}
+
+std::vector<ObjectView> objects_of(const ObjectLayer& layer) {
+  std::vector<ObjectView> out;
+  layer.for_each_object([&](const ObjectView& v) { out.push_back(v); });
+  std::sort(out.begin(), out.end(), [](const ObjectView& a, const ObjectView& b) { return a.centroid_m.x() < b.centroid_m.x(); });
+  return out;
+}
+
+std::vector<Vertex> concat(std::vector<Vertex> a, const std::vector<Vertex>& b) {
+  a.insert(a.end(), b.begin(), b.end());
+  return a;
+}
+
+TEST(ObjectLayerTest, TwoSeparatedChairsBecomeTwoObjectsInTheSceneGraph) {
+  auto layer = make_layer();
+  std::uint64_t key = 1;
+  const auto a = box_surface({0.0, 0.0, 0.0}, {0.5, 0.5, 0.9}, semantics::kChair, &key);
+  const auto b = box_surface({2.0, 0.3, 0.0}, {2.5, 0.8, 0.9}, semantics::kChair, &key);
+  const UpdateResult r = present(layer.get(), concat(a, b), 42);
+  EXPECT_EQ(r.clusters, 2u);
+  EXPECT_EQ(r.objects_created, 2u);
+  const auto objs = objects_of(*layer);
+  ASSERT_EQ(objs.size(), 2u);
+  EXPECT_EQ(objs[0].label, semantics::kChair);
+  EXPECT_LT((objs[0].centroid_m - Eigen::Vector3d(0.25, 0.25, 0.45)).norm(), 0.01);
+  EXPECT_LT((objs[1].centroid_m - Eigen::Vector3d(2.25, 0.55, 0.45)).norm(), 0.01);
+  EXPECT_NEAR(objs[0].min_m.x(), 0.0, 1e-6);
+  EXPECT_NEAR(objs[1].max_m.z(), 0.9, 1e-6);
+  EXPECT_EQ(objs[0].num_vertices, a.size());
+  EXPECT_EQ(objs[1].num_keys, b.size());
+
+  auto graph = scene_graph::testing::make_graph();
+  ASSERT_TRUE(layer->sync(graph.get()));
+  EXPECT_EQ(graph->num_nodes(scene_graph::NodeKind::kObject), 2u);
+  EXPECT_EQ(layer->synced_nodes().size(), 2u);
+  for (const ObjectView& o : objs) {
+    EXPECT_EQ(scene_graph::node_prefix(o.node), 'O');
+    const scene_graph::ObjectAttributes* attr = graph->object(o.node);
+    ASSERT_NE(attr, nullptr);
+    EXPECT_EQ(attr->semantic_label, semantics::kChair);
+    EXPECT_TRUE(attr->position_m.isApprox(o.centroid_m));
+    EXPECT_TRUE(attr->bounding_box.contains(o.centroid_m));
+    EXPECT_TRUE(attr->is_active);
+    EXPECT_EQ(attr->last_update_time_ns, 42u);
+    EXPECT_EQ(graph->num_mesh_connections(o.node), o.num_keys);
+    // Every mesh connection resolves to a key of this object's vertices.
+    std::set<std::uint64_t> keys;
+    layer->for_each_vertex_key(o.node, [&](std::uint64_t k) { keys.insert(k); });
+    EXPECT_EQ(keys.size(), o.num_keys);
+    graph->for_each_mesh_connection(o.node, [&](std::uint32_t c) {
+      std::uint64_t k = 0;
+      ASSERT_TRUE(layer->mesh_vertex_key(c, &k));
+      EXPECT_EQ(keys.count(k), 1u);
+    });
+  }
+  // A second sync without changes touches nothing.
+  ASSERT_TRUE(layer->sync(graph.get()));
+  EXPECT_EQ(layer->synced_nodes().size(), 0u);
+}
+
+TEST(ObjectLayerTest, ChairSplitAcrossTwoUpdatesIsOneObject) {
+  auto layer = make_layer();
+  auto graph = scene_graph::testing::make_graph();
+  std::uint64_t key = 1;
+  // One chair, its left half meshed in one update and its right half (touching it) in the next: the halves'
+  // centroids do not lie in each other's boxes, so only the connection through tracked vertices merges them.
+  // The halves lie in different blocks (the border is at x = 0.8 m), as a re-meshed block presents all of its
+  // vertices.
+  const auto left = box_surface({0.5, 0.0, 0.0}, {0.75, 0.5, 0.7}, semantics::kChair, &key);
+  const auto right = box_surface({0.8, 0.0, 0.0}, {1.1, 0.5, 0.7}, semantics::kChair, &key);
+  present(layer.get(), left, 1);
+  ASSERT_TRUE(layer->sync(graph.get()));
+  ASSERT_EQ(layer->num_objects(), 1u);
+  const NodeId first = objects_of(*layer)[0].node;
+  present(layer.get(), right, 2);
+  ASSERT_TRUE(layer->sync(graph.get()));
+  const auto objs = objects_of(*layer);
+  ASSERT_EQ(objs.size(), 1u);
+  EXPECT_EQ(objs[0].node, first) << "the new half joins the existing node";
+  EXPECT_EQ(objs[0].num_vertices, left.size() + right.size());
+  EXPECT_NEAR(objs[0].min_m.x(), 0.5, 1e-6);
+  EXPECT_NEAR(objs[0].max_m.x(), 1.1, 1e-6);
+  EXPECT_EQ(graph->num_nodes(scene_graph::NodeKind::kObject), 1u);
+  EXPECT_EQ(graph->num_mesh_connections(first), left.size() + right.size());
+  EXPECT_EQ(layer->counters().clusters_joined, 1u);
+}
+
+TEST(ObjectLayerTest, ABridgeBetweenTwoObjectsMergesThemAndRemovesOneNode) {
+  auto layer = make_layer();
+  auto graph = scene_graph::testing::make_graph();
+  std::uint64_t key = 1;
+  // Two sofa parts in blocks x = 0 and x = 2, then a bridge between them in block x = 1.
+  present(layer.get(), concat(box_surface({0.2, 0, 0}, {0.7, 0.5, 0.5}, semantics::kSofa, &key),
+                              box_surface({1.7, 0, 0}, {2.2, 0.5, 0.5}, semantics::kSofa, &key)), 1);
+  // Sofa needs 40 vertices: both boxes have more.
+  ASSERT_EQ(layer->num_objects(), 2u);
+  ASSERT_TRUE(layer->sync(graph.get()));
+  ASSERT_EQ(graph->num_nodes(scene_graph::NodeKind::kObject), 2u);
+  present(layer.get(), box_surface({0.85, 0.2, 0.0}, {1.55, 0.3, 0.1}, semantics::kSofa, &key), 2);
+  ASSERT_EQ(layer->num_objects(), 1u);
+  ASSERT_TRUE(layer->sync(graph.get()));
+  EXPECT_EQ(graph->num_nodes(scene_graph::NodeKind::kObject), 1u);
+  EXPECT_EQ(layer->counters().objects_merged, 1u);
+}
+
+TEST(ObjectLayerTest, OverlappingClustersMergeByThePapersRuleUnlessDisabled) {
+  for (const bool merge : {true, false}) {
+    Config config;
+    config.merge_overlapping = merge;
+    auto layer = make_layer(config);
+    std::uint64_t key = 1;
+    // A table's top rim seen first, then a separate patch at its centre (farther than the tolerance from the
+    // rim): the patch's centroid lies in the rim's box.
+    std::vector<Vertex> rim;
+    for (const Vertex& v : box_surface({0, 0, 0.7}, {1.2, 1.2, 0.75}, semantics::kTable, &key))
+      if (v.v.x < 0.15 || v.v.x > 1.05 || v.v.y < 0.15 || v.v.y > 1.05) rim.push_back(v);
+    present(layer.get(), rim, 1);
+    ASSERT_EQ(layer->num_objects(), 1u);
+    present(layer.get(), box_surface({0.45, 0.45, 0.7}, {0.75, 0.75, 0.75}, semantics::kTable, &key), 2);
+    EXPECT_EQ(layer->num_objects(), merge ? 1u : 2u) << "merge_overlapping=" << merge;
+    EXPECT_EQ(layer->counters().clusters_overlap_merged, merge ? 1u : 0u);
+  }
+}
+
+TEST(ObjectLayerTest, StructureNeverBecomesObjects) {
+  auto layer = make_layer();
+  std::uint64_t key = 1;
+  std::vector<Vertex> all;
+  for (semantics::Label l : {semantics::kWall, semantics::kFloor, semantics::kCeiling, semantics::kDoor,
+                             semantics::kWindow, semantics::kStairs, semantics::kVoid, semantics::kUnlabeled})
+    all = concat(all, box_surface({0.0 + l, 0, 0}, {0.6 + l, 0.6, 0.6}, l, &key));
+  const UpdateResult r = present(layer.get(), all);
+  EXPECT_EQ(r.vertices, 0u) << "structure vertices are not even presented to clustering";
+  EXPECT_EQ(layer->num_objects(), 0u);
+
+  Config bad;
+  bad.labels[semantics::kWall].enabled = true;
+  const std::string why = bad.check();
+  EXPECT_NE(why.find("labels[1] (wall)"), std::string::npos) << why;
+  ObjectLayer rejected;
+  std::string error;
+  EXPECT_FALSE(rejected.init(bad, small_capacities(), 1 << 24, &error));
+  EXPECT_NE(error.find("structure"), std::string::npos) << error;
+}
+
+TEST(ObjectLayerTest, MinAndMaxClusterSizesAreRespected) {
+  Config config;
+  config.labels[semantics::kPlant].min_vertices = 10;
+  config.labels[semantics::kPlant].max_vertices = 30;
+  auto layer = make_layer(config);
+  std::uint64_t key = 1;
+  const auto line = [&](double x0, int n) {  // n vertices 0.1 m apart: one cluster at 0.2 m tolerance
+    std::vector<Vertex> out;
+    for (int i = 0; i < n; ++i) {
+      Vertex v;
+      v.v = InputVertex{key++, static_cast<float>(x0 + 0.1 * i), 0.5f, 0.5f, semantics::kPlant};
+      v.block = block_of(v.v.x, v.v.y, v.v.z);
+      out.push_back(v);
+    }
+    return out;
+  };
+  present(layer.get(), concat(concat(line(0, 9), line(10, 10)), concat(line(20, 30), line(30, 31))));
+  const auto objs = objects_of(*layer);
+  ASSERT_EQ(objs.size(), 2u);
+  EXPECT_EQ(objs[0].num_vertices, 10u);
+  EXPECT_EQ(objs[1].num_vertices, 30u);
+  EXPECT_EQ(layer->counters().clusters_too_small, 1u);
+  EXPECT_EQ(layer->counters().clusters_too_large, 1u);
+}
+
+// Reference: connected components of "distance <= tolerance" among same-label points, by brute force.
+std::vector<int> brute_force_components(const std::vector<Vertex>& pts, double tol) {
+  std::vector<int> parent(pts.size());
+  std::iota(parent.begin(), parent.end(), 0);
+  const auto find = [&](int i) {
+    while (parent[i] != i) i = parent[i] = parent[parent[i]];
+    return i;
+  };
+  for (std::size_t i = 0; i < pts.size(); ++i)
+    for (std::size_t j = i + 1; j < pts.size(); ++j) {
+      if (pts[i].v.label != pts[j].v.label) continue;
+      const float dx = pts[i].v.x - pts[j].v.x, dy = pts[i].v.y - pts[j].v.y, dz = pts[i].v.z - pts[j].v.z;
+      if (dx * dx + dy * dy + dz * dz <= static_cast<float>(tol * tol)) parent[find(static_cast<int>(i))] = find(static_cast<int>(j));
+    }
+  std::vector<int> out(pts.size());
+  for (std::size_t i = 0; i < pts.size(); ++i) out[i] = find(static_cast<int>(i));
+  return out;
+}
+
+// Same partition: a bijection between reference components and objects.
+void expect_same_partition(const ObjectLayer& layer, const std::vector<Vertex>& pts, const std::vector<int>& ref) {
+  std::map<std::uint64_t, NodeId> object_of_key;
+  layer.for_each_object([&](const ObjectView& o) {
+    layer.for_each_vertex_key(o.node, [&](std::uint64_t k) { object_of_key[k] = o.node; });
+  });
+  ASSERT_EQ(object_of_key.size(), pts.size()) << "every point is in exactly one object (min size 1)";
+  std::map<int, NodeId> ref_to_obj;
+  std::map<NodeId, int> obj_to_ref;
+  for (std::size_t i = 0; i < pts.size(); ++i) {
+    const NodeId o = object_of_key.at(pts[i].v.key);
+    const auto a = ref_to_obj.emplace(ref[i], o);
+    const auto b = obj_to_ref.emplace(o, ref[i]);
+    ASSERT_EQ(a.first->second, o) << "reference component split across objects at point " << i;
+    ASSERT_EQ(b.first->second, ref[i]) << "object joins two reference components at point " << i;
+  }
+  EXPECT_EQ(ref_to_obj.size(), layer.num_objects());
+}
+
+TEST(ObjectLayerTest, ClustersEqualBruteForceEuclideanClusteringOnRandomPoints) {
+  Config config;
+  config.merge_overlapping = false;  // the reference is pure connected components
+  for (semantics::Label l : {semantics::kChair, semantics::kTable}) {
+    config.labels[l].min_vertices = 1;
+    config.labels[l].tolerance_m = l == semantics::kChair ? 0.2 : 0.15;
+  }
+  std::mt19937 rng(7);
+  for (int trial = 0; trial < 3; ++trial) {
+    std::uniform_real_distribution<float> ux(0.0f, 4.0f), uz(0.0f, 1.0f);
+    std::vector<Vertex> pts;
+    for (std::uint64_t i = 0; i < 1200; ++i) {
+      Vertex v;
+      v.v = InputVertex{1000 + i, ux(rng), ux(rng), uz(rng), (i % 3 == 0) ? semantics::kTable : semantics::kChair};
+      v.block = block_of(v.v.x, v.v.y, v.v.z);
+      pts.push_back(v);
+    }
+    std::vector<int> ref(pts.size());
+    {
+      std::vector<Vertex> chairs, tables;
+      std::vector<std::size_t> ci, ti;
+      for (std::size_t i = 0; i < pts.size(); ++i) {
+        (pts[i].v.label == semantics::kChair ? chairs : tables).push_back(pts[i]);
+        (pts[i].v.label == semantics::kChair ? ci : ti).push_back(i);
+      }
+      const auto rc = brute_force_components(chairs, 0.2);
+      const auto rt = brute_force_components(tables, 0.15);
+      for (std::size_t i = 0; i < ci.size(); ++i) ref[ci[i]] = static_cast<int>(ci[rc[i]]);
+      for (std::size_t i = 0; i < ti.size(); ++i) ref[ti[i]] = static_cast<int>(ti[rt[i]]);
+    }
+    Capacities caps = small_capacities();
+    caps.objects = 2048;
+    {  // all at once
+      auto layer = make_layer(config, caps);
+      present(layer.get(), pts);
+      expect_same_partition(*layer, pts, ref);
+    }
+    {  // in three updates of disjoint block sets: components across updates must still come out whole
+      auto layer = make_layer(config, caps);
+      for (int part = 0; part < 3; ++part) {
+        std::vector<Vertex> subset;
+        for (const Vertex& v : pts)
+          if (((v.block.x + 2 * v.block.y) % 3 + 3) % 3 == part) subset.push_back(v);
+        present(layer.get(), subset, static_cast<std::uint64_t>(part + 1));
+      }
+      expect_same_partition(*layer, pts, ref);
+    }
+  }
+}
+
+TEST(ObjectLayerTest, StaleVerticesLeaveTheirObjectAndReleasedBlocksKeepTheSummary) {
+  auto layer = make_layer();
+  auto graph = scene_graph::testing::make_graph();
+  std::uint64_t key = 1;
+  const auto chair = box_surface({0.05, 0.05, 0.05}, {0.55, 0.55, 0.75}, semantics::kChair, &key);  // one block
+  present(layer.get(), chair, 1);
+  ASSERT_EQ(layer->num_objects(), 1u);
+  // The block is re-meshed and the top 20 vertices are gone (the surface moved).
+  std::vector<Vertex> fewer(chair.begin(), chair.end() - 20);
+  present(layer.get(), fewer, 2);
+  auto objs = objects_of(*layer);
+  ASSERT_EQ(objs.size(), 1u);
+  EXPECT_EQ(objs[0].num_vertices, fewer.size());
+  EXPECT_EQ(layer->counters().vertices_stale, 20u);
+  // The block leaves the window: the object keeps its centroid and box but is no longer active.
+  const Eigen::Vector3d centroid = objs[0].centroid_m;
+  layer->begin_update(3);
+  layer->release_block(block_of(0.1, 0.1, 0.1));
+  layer->end_update();
+  objs = objects_of(*layer);
+  ASSERT_EQ(objs.size(), 1u);
+  EXPECT_EQ(objs[0].num_tracked, 0u);
+  EXPECT_EQ(objs[0].num_vertices, fewer.size());
+  EXPECT_TRUE(objs[0].centroid_m.isApprox(centroid));
+  EXPECT_EQ(layer->num_tracked_vertices(), 0u);
+  ASSERT_TRUE(layer->sync(graph.get()));
+  EXPECT_FALSE(graph->object(objs[0].node)->is_active);
+  // A re-mesh that drops every vertex of an object removes it (and its node).
+  auto layer2 = make_layer();
+  graph = scene_graph::testing::make_graph();
+  present(layer2.get(), chair, 1);
+  ASSERT_TRUE(layer2->sync(graph.get()));
+  const NodeId node = objects_of(*layer2)[0].node;
+  EXPECT_TRUE(graph->has_node(node));
+  layer2->begin_update(2);
+  layer2->begin_block(block_of(0.1, 0.1, 0.1));
+  layer2->end_update();
+  EXPECT_EQ(layer2->num_objects(), 0u);
+  ASSERT_TRUE(layer2->sync(graph.get()));
+  EXPECT_FALSE(graph->has_node(node));
+}
+
+TEST(ObjectLayerTest, FullStoresAreCountedNotFatal) {
+  Capacities c = small_capacities();
+  c.objects = 1;
+  auto layer = make_layer(Config{}, c);
+  std::uint64_t key = 1;
+  present(layer.get(), concat(box_surface({0, 0, 0}, {0.5, 0.5, 0.9}, semantics::kChair, &key),
+                              box_surface({2, 0, 0}, {2.5, 0.5, 0.9}, semantics::kChair, &key)));
+  EXPECT_EQ(layer->num_objects(), 1u);
+  EXPECT_EQ(layer->counters().object_overflow, 1u);
+
+  // A graph with room for one object and a few mesh connections.
+  auto layer2 = make_layer();
+  present(layer2.get(), concat(box_surface({0, 0, 0}, {0.5, 0.5, 0.9}, semantics::kChair, &key),
+                               box_surface({2, 0, 0}, {2.5, 0.5, 0.9}, semantics::kChair, &key)));
+  scene_graph::Capacities gc = scene_graph::testing::small_capacities();
+  gc.object_nodes = 1;
+  gc.mesh_connections = 60;
+  auto graph = scene_graph::testing::make_graph(gc);
+  EXPECT_FALSE(layer2->sync(graph.get()));
+  EXPECT_EQ(graph->num_nodes(scene_graph::NodeKind::kObject), 1u);
+  EXPECT_EQ(layer2->counters().graph_node_failures, 1u);
+  EXPECT_GT(layer2->counters().graph_connection_failures, 0u);
+  EXPECT_FALSE(layer2->sync(graph.get())) << "the object that did not fit is retried";
+  EXPECT_EQ(layer2->counters().graph_node_failures, 2u);
+}
+
+TEST(ObjectLayerTest, UpdatesAndSyncDoNotAllocateAfterInit) {
+  auto layer = make_layer();
+  auto graph = scene_graph::testing::make_graph();
+  std::uint64_t key = 1;
+  std::vector<std::vector<Vertex>> updates;
+  for (int i = 0; i < 4; ++i)
+    updates.push_back(concat(box_surface({1.0 * i, 0, 0}, {1.0 * i + 0.5, 0.5, 0.9}, semantics::kChair, &key),
+                             box_surface({1.0 * i, 2, 0}, {1.0 * i + 0.3, 2.3, 0.2}, semantics::kPlant, &key)));
+  // Group by block outside the measured region (the test's own std::map allocates).
+  struct Batch {
+    std::vector<memory::Index3> blocks;
+    std::vector<std::vector<InputVertex>> vertices;
+  };
+  std::vector<Batch> batches;
+  for (const auto& u : updates) {
+    Batch b;
+    std::map<std::tuple<int, int, int>, std::vector<InputVertex>> m;
+    for (const Vertex& v : u) m[{v.block.x, v.block.y, v.block.z}].push_back(v.v);
+    for (auto& [k, list] : m) {
+      b.blocks.push_back({std::get<0>(k), std::get<1>(k), std::get<2>(k)});
+      b.vertices.push_back(list);
+    }
+    batches.push_back(std::move(b));
+  }
+  const auto run = [&](const Batch& b, std::uint64_t t) {
+    layer->begin_update(t);
+    for (std::size_t i = 0; i < b.blocks.size(); ++i) {
+      layer->begin_block(b.blocks[i]);
+      for (const InputVertex& v : b.vertices[i]) layer->add_vertex(v);
+    }
+    layer->end_update();
+    layer->sync(graph.get());
+  };
+  run(batches[0], 1);
+  EXPECT_NO_ALLOCATIONS(run(batches[1], 2));
+  EXPECT_NO_ALLOCATIONS(run(batches[2], 3));
+  EXPECT_NO_ALLOCATIONS(run(batches[1], 4));  // a re-mesh of known vertices
+  EXPECT_NO_ALLOCATIONS(layer->release_block(batches[0].blocks[0]));
+  EXPECT_NO_ALLOCATIONS(run(batches[3], 5));
+  EXPECT_EQ(layer->num_objects(), 8u);
+}
+
+TEST(ObjectLayerTest, BadConfigAndCapacitiesAreRejectedClearly) {
+  std::string error;
+  {
+    Config c;
+    c.labels[semantics::kChair].tolerance_m = 0.0;
+    ObjectLayer layer;
+    EXPECT_FALSE(layer.init(c, small_capacities(), 1 << 26, &error));
+    EXPECT_NE(error.find("labels[3] (chair).tolerance_m"), std::string::npos) << error;
+  }
+  {
+    Config c;
+    c.labels[semantics::kTable].min_vertices = 100;
+    c.labels[semantics::kTable].max_vertices = 10;
+    ObjectLayer layer;
+    EXPECT_FALSE(layer.init(c, small_capacities(), 1 << 26, &error));
+    EXPECT_NE(error.find("(table)"), std::string::npos) << error;
+    EXPECT_NE(error.find("min_vertices <= max_vertices"), std::string::npos) << error;
+  }
+  {
+    Capacities caps = small_capacities();
+    caps.objects = 0;
+    ObjectLayer layer;
+    EXPECT_FALSE(layer.init(Config{}, caps, 1 << 26, &error));
+    EXPECT_NE(error.find("objects must be positive"), std::string::npos) << error;
+  }
+  {
+    ObjectLayer layer;
+    EXPECT_FALSE(layer.init(Config{}, small_capacities(), 1024, &error));
+    EXPECT_NE(error.find("objects"), std::string::npos) << error;
+    // Calls on an uninitialised layer are harmless.
+    layer.begin_update(1);
+    layer.begin_block({0, 0, 0});
+    layer.add_vertex(InputVertex{1, 0, 0, 0, semantics::kChair});
+    EXPECT_EQ(layer.end_update().vertices, 0u);
+    EXPECT_FALSE(layer.sync(nullptr));
+  }
+}
+
+TEST(ObjectLayerTest, EveryBoardsBudgetHoldsItsCapacities) {
+  const auto fits = [](const char* board, const Capacities& c, std::size_t bytes) {
+    EXPECT_EQ(c.check(), "") << board;
+    const std::size_t planned = ObjectLayer::plan(c).total_bytes();
+    EXPECT_LE(planned, bytes) << board << ": objects capacities need " << planned << " bytes";
+    std::printf("%s objects arena: planned %zu of %zu bytes\n", board, planned, bytes);
+  };
+  {
+    namespace b = budgets::host_sim::objects;
+    fits("host_sim", Capacities{b::kClusterVertices, b::kTrackedVertices, b::kVertexKeys, b::kTrackedBlocks, b::kObjects},
+         b::kArenaBytes);
+  }
+  {
+    namespace b = budgets::xavier_nx::objects;
+    fits("xavier_nx", Capacities{b::kClusterVertices, b::kTrackedVertices, b::kVertexKeys, b::kTrackedBlocks, b::kObjects},
+         b::kArenaBytes);
+  }
+  const Capacities active = capacities_from_budget();
+  EXPECT_EQ(active.objects, budgets::active::objects::kObjects);
+}
+
+}  // namespace
+}  // namespace qsg::objects
