@@ -138,6 +138,16 @@ bool AppConfig::load(const std::string& path, std::string* error) {
                               {"min_rotation_rad", number(&keyframes.min_rotation_rad)}},
                              why);
        }},
+      {"gpio", [&](const Json& v, std::string* why) {
+         return read_section(v, "gpio",
+                             {{"chip", text(&gpio.chip)},
+                              {"heartbeat_line", number(&gpio.heartbeat_line)},
+                              {"trigger_line", number(&gpio.trigger_line)},
+                              {"pause_line", number(&gpio.pause_line)},
+                              {"trigger_width_s", number(&gpio.trigger_width_s)},
+                              {"pause_debounce_s", number(&gpio.pause_debounce_s)}},
+                             why);
+       }},
       {"scheduler", [&](const Json& v, std::string* why) {
          return read_section(v, "scheduler", {{"tick_hz", number(&scheduler.tick_hz)}}, why);
        }},
@@ -156,6 +166,13 @@ bool AppConfig::load(const std::string& path, std::string* error) {
 std::string AppConfig::check() const {
   if (driver == Driver::kReplay && replay_path.empty()) return "driver replay needs replay_path";
   if (output_dir.empty()) return "output_dir must not be empty";
+  if (gpio.chip.empty()) return "gpio.chip must not be empty (\"sim\" for the simulated chip)";
+  for (int line : {gpio.heartbeat_line, gpio.trigger_line, gpio.pause_line})
+    if (line < -1 || line > 1023) return "gpio lines must be -1 (unused) or an offset in [0, 1023]";
+  if ((gpio.heartbeat_line >= 0 && (gpio.heartbeat_line == gpio.trigger_line || gpio.heartbeat_line == gpio.pause_line)) ||
+      (gpio.trigger_line >= 0 && gpio.trigger_line == gpio.pause_line))
+    return "gpio: heartbeat_line, trigger_line and pause_line must differ";
+  if (!(gpio.trigger_width_s > 0.0 && gpio.pause_debounce_s >= 0.0)) return "gpio: bad trigger width or debounce";
   if (!(duration_s >= 0.0)) return "duration_s must be >= 0";
   if (!(snapshot_interval_s > 0.0)) return "snapshot_interval_s must be > 0";
   if (!(telemetry_interval_s > 0.0)) return "telemetry_interval_s must be > 0";
@@ -180,6 +197,9 @@ void AppConfig::print(std::FILE* out) const {
     exploration.print(out);
     camera.print(out);
   }
+  std::fprintf(out, "gpio: chip=%s heartbeat_line=%d trigger_line=%d pause_line=%d trigger_width_s=%.4f pause_debounce_s=%.3f\n",
+               gpio.chip.c_str(), gpio.heartbeat_line, gpio.trigger_line, gpio.pause_line, gpio.trigger_width_s,
+               gpio.pause_debounce_s);
   reconstruction.print(out);
   keyframes.print(out);
   scheduler.print(out);

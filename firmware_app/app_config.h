@@ -28,6 +28,17 @@ struct AppConfig {
   double telemetry_interval_s = 1.0;
   bool ground_truth_labels = true;      // sim: the renderer's labels bypass segmentation
 
+  // GPIO: "sim" (an in-memory chip) or a libgpiod chip ("gpiochip0", "/dev/gpiochip0", a label). Lines by
+  // offset; -1 leaves a function unused.
+  struct Gpio {
+    std::string chip = "sim";
+    int heartbeat_line = 0;   // toggled by the heartbeat task
+    int trigger_line = 1;     // pulsed once per camera frame taken
+    int pause_line = -1;      // high = paused: frames are read and dropped (counted), nothing is integrated
+    double trigger_width_s = 0.001;
+    double pause_debounce_s = 0.02;
+  } gpio;
+
   world::BuildingConfig building;
   sim::ExplorationConfig exploration;
   sim::SimCamera::Config camera;

@@ -13,6 +13,8 @@
 #include "budgets/budget_table.h"
 #include "core/reconstruction/ply_writer.h"
 #include "core/scene_graph/spark_dsg_json.h"
+#include "drivers/gpio/gpiod_chip.h"
+#include "drivers/gpio/sim_gpio.h"
 #include "drivers/render/ray_scene.h"
 #include "drivers/world/top_down.h"
 #include "drivers/world/world_query.h"
@@ -118,9 +120,19 @@ bool Pipeline::init(const AppConfig& config, runtime::Clock* clock, std::string*
       sim_camera_ = std::make_unique<sim::SimCamera>();
       if (!sim_camera_->init(config.camera, rc, world_, tour.trajectory, error)) return false;
       camera_ = sim_camera_.get();
+      prefetch_outside_tasks_ = true;
       break;
     }
-    case Driver::kReplay:
+    case Driver::kReplay: {
+      replay::TumReplay::Config rc;
+      rc.require_groundtruth = true;  // the pose of each frame comes from groundtruth.txt
+      replay_ = std::make_unique<replay::TumReplay>();
+      if (!replay_->open(config.replay_path, rc, error)) return false;
+      std::printf("replay: %s, %zu frames\n", config.replay_path.c_str(), replay_->size());
+      camera_ = replay_.get();
+      prefetch_outside_tasks_ = true;
+      break;
+    }
     case Driver::kV4l2:
       return fail(std::string("driver '") + to_string(config.driver) +
                   "' is not wired into the app yet (use sim; see firmware_app/README.md)");
@@ -139,6 +151,8 @@ bool Pipeline::init(const AppConfig& config, runtime::Clock* clock, std::string*
   keyframe_queue_.set_on_drop([](void* self, int&& index) { static_cast<Pipeline*>(self)->free_frames_.push(int{index}); },
                               this);
 
+  if (!init_gpio(error)) return false;
+
   // The task table.
   if (!scheduler_.init(config.scheduler, table, clock_, error)) return false;
   scheduler_.set_cost_clock(cost_clock_);
@@ -156,6 +170,42 @@ bool Pipeline::init(const AppConfig& config, runtime::Clock* clock, std::string*
   return true;
 }
 
+bool Pipeline::init_gpio(std::string* error) {
+  const AppConfig::Gpio& g = config_.gpio;
+  if (g.chip == "sim") {
+    gpio_chip_ = std::make_unique<gpio::SimGpioChip>();
+  } else {
+    std::unique_ptr<gpio::GpiodChip> chip = gpio::GpiodChip::open(g.chip, error);
+    if (chip == nullptr) return false;
+    gpio_chip_ = std::move(chip);
+  }
+  const auto request = [&](int offset, gpio::GpioDirection direction, std::unique_ptr<gpio::GpioLine>* line) {
+    if (offset < 0) return true;
+    gpio::GpioLineRequest r;
+    r.offset = static_cast<unsigned>(offset);
+    r.direction = direction;
+    r.consumer = "qsg_app";
+    *line = gpio_chip_->request(r, error);
+    return *line != nullptr;
+  };
+  if (!request(g.heartbeat_line, gpio::GpioDirection::kOutput, &heartbeat_line_) ||
+      !request(g.trigger_line, gpio::GpioDirection::kOutput, &trigger_line_) ||
+      !request(g.pause_line, gpio::GpioDirection::kInput, &pause_line_))
+    return false;
+  if (heartbeat_line_) heartbeat_ = std::make_unique<gpio::Heartbeat>(*heartbeat_line_);
+  if (trigger_line_) {
+    gpio::TriggerPulse::Config tc;
+    tc.width_ns = static_cast<std::int64_t>(g.trigger_width_s * 1e9);
+    trigger_ = std::make_unique<gpio::TriggerPulse>(*trigger_line_, tc);
+  }
+  if (pause_line_) {
+    gpio::PauseSwitch::Config pc;
+    pc.debounce_ns = static_cast<std::int64_t>(g.pause_debounce_s * 1e9);
+    pause_ = std::make_unique<gpio::PauseSwitch>(*pause_line_, pc);
+  }
+  return true;
+}
+
 // ---------------------------------------------------------------------------------------------------------
 // The loop
 
@@ -169,8 +219,11 @@ bool Pipeline::step() {
     done_ = true;
     return false;
   }
+  if (auto* sim_chip = dynamic_cast<gpio::SimGpioChip*>(gpio_chip_.get())) sim_chip->set_time_ns(tick_start);
+  if (trigger_ && !trigger_->update(tick_start)) ++counters_.gpio_failures;
+  if (pause_ && !pause_->update(tick_start)) ++counters_.gpio_failures;
   // The simulator renders outside the measured tasks: its cost is the simulation's, not the robot's.
-  if (sim_camera_ != nullptr) poll_camera();
+  if (prefetch_outside_tasks_) poll_camera();
   scheduler_.tick();
   if (keyframe_queue_.try_pop(&current_keyframe_)) {
     scheduler_.keyframe(keyframe_index_++);
@@ -214,6 +267,13 @@ void Pipeline::poll_camera() {
   if (data_to_loop_ns(frame.sample_time_ns) > clock_->now_ns()) return;  // not its time yet
   const int index = pending_frame_;
   pending_frame_ = -1;
+  if (trigger_ && !trigger_->active() && !trigger_->fire(clock_->now_ns())) ++counters_.gpio_failures;
+  ++counters_.triggers;
+  if (paused()) {
+    ++counters_.frames_paused;
+    free_frames_.push(int{index});
+    return;
+  }
   if (keyframes_.offer(frame.sample_time_ns, frame_poses_[static_cast<std::size_t>(index)])) {
     ++counters_.keyframes;
     keyframe_queue_.push(int{index});  // a full queue hands its oldest keyframe back to the free list
@@ -224,10 +284,18 @@ void Pipeline::poll_camera() {
 
 bool Pipeline::frame_pose(const drivers::RgbdFrame& frame, Eigen::Isometry3d* world_T_camera) const {
   if (sim_camera_ != nullptr) return sim_camera_->camera_pose(frame.sequence, world_T_camera, nullptr);
+  if (replay_ != nullptr) {
+    replay::StampedPose pose;
+    if (!replay_->ground_truth_at(frame.sample_time_ns, &pose)) return false;
+    *world_T_camera = pose.world_T_body();
+    return true;
+  }
   return false;
 }
 
 double Pipeline::progress() const {
+  if (replay_ != nullptr && replay_->size() > 0)
+    return static_cast<double>(replay_->position()) / static_cast<double>(replay_->size());
   if (sim_camera_ == nullptr || sim_camera_->num_frames() == 0) return -1.0;
   return static_cast<double>(counters_.frames_read) / static_cast<double>(sim_camera_->num_frames());
 }
@@ -237,7 +305,7 @@ double Pipeline::progress() const {
 
 void Pipeline::camera_poll_task(void* self, const runtime::TaskContext&) {
   Pipeline& p = *static_cast<Pipeline*>(self);
-  if (p.sim_camera_ == nullptr) p.poll_camera();
+  if (!p.prefetch_outside_tasks_) p.poll_camera();
 }
 
 void Pipeline::odometry_poll_task(void*, const runtime::TaskContext&) {
@@ -255,8 +323,9 @@ void Pipeline::frontend_task(void* self, const runtime::TaskContext& c) {
 
 void Pipeline::heartbeat_task(void* self, const runtime::TaskContext&) {
   Pipeline& p = *static_cast<Pipeline*>(self);
-  p.heartbeat_level_ = !p.heartbeat_level_;
-  ++p.counters_.heartbeat_toggles;
+  if (p.heartbeat_ == nullptr) return;
+  if (p.heartbeat_->toggle()) ++p.counters_.heartbeat_toggles;
+  else ++p.counters_.gpio_failures;
 }
 
 void Pipeline::telemetry_task(void* self, const runtime::TaskContext& c) {
@@ -313,12 +382,12 @@ void Pipeline::print_telemetry(std::FILE* out) {
   std::fprintf(out,
                "[t=%7.1fs] kf/s=%.1f keyframes=%llu | max_us recon=%lld frontend=%lld overruns=%zu | blocks=%zu/%zu "
                "archive=%zu tri | graph nodes=%zu | frames queue hw=%u drops=%llu | driver drops=%llu stalls=%llu "
-               "bad=%llu | rss=%.0f MB\n",
+               "bad=%llu | gpio fail=%llu%s | rss=%.0f MB\n",
                t_s, kf_per_s, (unsigned long long)counters_.keyframes, (long long)(recon ? recon->max_us : 0),
                (long long)(front ? front->max_us : 0), overruns, tsdf_.active_blocks(), tsdf_.capacities().max_blocks,
                tsdf_.archive_triangles(), graph_.num_nodes(), q.high_water, (unsigned long long)q.dropped,
                (unsigned long long)d.dropped, (unsigned long long)d.stalls, (unsigned long long)d.bad_frames,
-               peak_rss_mb());
+               (unsigned long long)counters_.gpio_failures, paused() ? " PAUSED" : "", peak_rss_mb());
   ++counters_.telemetry_lines;
 }
 

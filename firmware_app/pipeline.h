@@ -14,6 +14,9 @@
 
 #include "core/reconstruction/semantic_tsdf.h"
 #include "core/scene_graph/scene_graph.h"
+#include "drivers/gpio/gpio_devices.h"
+#include "drivers/gpio/gpio_line.h"
+#include "drivers/replay/tum_replay.h"
 #include "drivers/sim/sim_camera.h"
 #include "drivers/world/world.h"
 #include "firmware_app/app_config.h"
@@ -37,6 +40,9 @@ struct PipelineCounters {
   std::uint64_t snapshots_written = 0;
   std::uint64_t snapshot_failures = 0;
   std::uint64_t heartbeat_toggles = 0;
+  std::uint64_t gpio_failures = 0;        // heartbeat, trigger or pause line calls that failed (counted, run goes on)
+  std::uint64_t triggers = 0;
+  std::uint64_t frames_paused = 0;        // read while the pause switch was on: dropped
   std::uint64_t telemetry_lines = 0;
 };
 
@@ -62,6 +68,9 @@ class Pipeline {
   const reconstruction::SemanticTsdf& reconstruction() const { return tsdf_; }
   const scene_graph::SceneGraph& graph() const { return graph_; }
   const runtime::KeyframeSelector& keyframe_selector() const { return keyframes_; }
+  // The GPIO chip (the simulated one unless the config names a libgpiod chip), for tests and telemetry.
+  gpio::GpioChip* gpio_chip() { return gpio_chip_.get(); }
+  bool paused() const { return pause_ != nullptr && pause_->paused(); }
   runtime::QueueStats frame_queue_stats() const { return keyframe_queue_.stats(); }
   // Fraction of the source consumed, when the source knows its length (else a negative number).
   double progress() const;
@@ -82,6 +91,7 @@ class Pipeline {
   static void heartbeat_task(void* self, const runtime::TaskContext& c);
   static void telemetry_task(void* self, const runtime::TaskContext& c);
   void poll_camera();
+  bool init_gpio(std::string* error);
   void integrate_keyframe(const runtime::TaskContext& c);
   void update_frontend(const runtime::TaskContext& c);
   std::int64_t data_to_loop_ns(std::int64_t sample_time_ns) const { return sample_time_ns + data_offset_ns_; }
@@ -95,7 +105,9 @@ class Pipeline {
 
   world::World world_;
   std::unique_ptr<sim::SimCamera> sim_camera_;
+  std::unique_ptr<replay::TumReplay> replay_;
   drivers::RgbdSource* camera_ = nullptr;
+  bool prefetch_outside_tasks_ = false;  // sim and replay: producing a frame is the simulator's cost, not the robot's
 
   // Frame buffers: the camera reads into a free one; keyframes wait in the queue for reconstruction.
   std::unique_ptr<drivers::RgbdFrame[]> frames_;
@@ -119,7 +131,11 @@ class Pipeline {
   std::int64_t next_snapshot_ns_ = 0;
   std::int64_t last_telemetry_ns_ = 0;
   std::uint64_t last_telemetry_keyframes_ = 0;
-  bool heartbeat_level_ = false;
+  std::unique_ptr<gpio::GpioChip> gpio_chip_;
+  std::unique_ptr<gpio::GpioLine> heartbeat_line_, trigger_line_, pause_line_;
+  std::unique_ptr<gpio::Heartbeat> heartbeat_;
+  std::unique_ptr<gpio::TriggerPulse> trigger_;
+  std::unique_ptr<gpio::PauseSwitch> pause_;
   std::atomic<bool> stop_requested_{false};
   bool done_ = false;
 };
