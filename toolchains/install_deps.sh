@@ -6,9 +6,10 @@
 #
 #   --native  (default) compiler, CMake, Ninja and the -dev packages of the host build (Eigen, OpenCV, Ceres,
 #             libgpiod, libv4l, nanoflann, yaml-cpp, nlohmann-json, GoogleTest, Google Benchmark), ccache.
-#   --cross   also the aarch64 tools (GCC cross compiler, clang + lld, qemu-user, mmdebstrap) and both arm64
-#             sysroots under build/sysroots/: bookworm-arm64 (arm64 CI tests) and bullseye-arm64 (Xavier
-#             deploy), built by toolchains/make_sysroot.sh (itself a no-op when a sysroot is up to date).
+#   --cross   also the aarch64 tools (GCC cross compiler, clang + lld, qemu-user, mmdebstrap; qemu-system-arm,
+#             kmod and cpio for the VM stage) and both arm64 sysroots under build/sysroots/: bookworm-arm64
+#             (arm64 CI tests) and bullseye-arm64 (Xavier deploy), built by toolchains/make_sysroot.sh (itself
+#             a no-op when a sysroot is up to date).
 set -euo pipefail
 
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
@@ -29,7 +30,15 @@ packages=(cmake ninja-build g++ git pkg-config ccache
           nlohmann-json3-dev libgtest-dev libbenchmark-dev)
 if (( cross )); then
   packages+=(g++-aarch64-linux-gnu binutils-aarch64-linux-gnu qemu-user mmdebstrap clang lld)
+  # The VM stage (toolchains/vm/): qemu-system-arm boots Debian's arm64 kernel, depmod (kmod) resolves the
+  # modules vivid needs, cpio packs the initramfs. The arm64 kernel and busybox are .debs that
+  # toolchains/vm/fetch_kernel.sh downloads through its own apt state, so the host needs no arm64 dpkg
+  # architecture (an arm64 busybox-static installed on the host would replace /bin/busybox).
+  packages+=(qemu-system-arm kmod cpio)
 fi
+# Installed without their recommends: qemu-system-arm's (GUI, EFI firmware, block backends) are about 60
+# packages that a headless -kernel boot never uses.
+no_recommends=" qemu-system-arm "
 
 missing=()
 for p in "${packages[@]}"; do
@@ -51,7 +60,17 @@ else
   apt_opts=(-o DPkg::Lock::Timeout=600 -o Acquire::Retries=3)
   start=$SECONDS
   "${sudo[@]}" env DEBIAN_FRONTEND=noninteractive apt-get "${apt_opts[@]}" update -q
-  "${sudo[@]}" env DEBIAN_FRONTEND=noninteractive apt-get "${apt_opts[@]}" install -y -q "${missing[@]}"
+  with=() without=()
+  for p in "${missing[@]}"; do
+    if [[ "$no_recommends" == *" $p "* ]]; then without+=("$p"); else with+=("$p"); fi
+  done
+  if (( ${#with[@]} )); then
+    "${sudo[@]}" env DEBIAN_FRONTEND=noninteractive apt-get "${apt_opts[@]}" install -y -q "${with[@]}"
+  fi
+  if (( ${#without[@]} )); then
+    "${sudo[@]}" env DEBIAN_FRONTEND=noninteractive apt-get "${apt_opts[@]}" install -y -q --no-install-recommends \
+      "${without[@]}"
+  fi
   echo "install_deps: apt-get update + install took $((SECONDS - start)) s"
 fi
 

@@ -94,16 +94,18 @@ void BM_segmentation(benchmark::State& state) {
   std::string error;
   s.seg.segment(*s.frame, &error);  // one frame at this thread count before timing
   double pre_ms = 0.0, forward_ms = 0.0, post_ms = 0.0, max_ms = 0.0;
-  std::int64_t forward_allocs = 0, our_allocs = 0;
+  std::int64_t forward_allocs = 0, forward_bytes = 0, our_allocs = 0;
   for (auto _ : state) {
     const Clock::time_point t0 = Clock::now();
     const std::int64_t a0 = qsg::bench::heap_allocations();
     s.seg.preprocess(*s.frame);
     const Clock::time_point t1 = Clock::now();
     const std::int64_t a1 = qsg::bench::heap_allocations();
+    const std::int64_t b1 = qsg::bench::heap_allocated_bytes();
     const float* logits = s.seg.forward(&error);
     const Clock::time_point t2 = Clock::now();
     const std::int64_t a2 = qsg::bench::heap_allocations();
+    forward_bytes += qsg::bench::heap_allocated_bytes() - b1;
     if (logits == nullptr) {
       state.SkipWithError(error.c_str());
       break;
@@ -126,6 +128,7 @@ void BM_segmentation(benchmark::State& state) {
   state.counters["mean_ms"] = (pre_ms + forward_ms + post_ms) / n;
   state.counters["max_ms"] = max_ms;
   state.counters["forward_allocs_per_frame"] = qsg::bench::heap_allocations() < 0 ? -1.0 : forward_allocs / n;
+  state.counters["forward_alloc_bytes_per_frame"] = qsg::bench::heap_allocations() < 0 ? -1.0 : forward_bytes / n;
   state.counters["our_allocs_per_frame"] = qsg::bench::heap_allocations() < 0 ? -1.0 : our_allocs / n;
   state.SetItemsProcessed(state.iterations());
 }
@@ -151,7 +154,8 @@ void BM_segmentation_preprocess(benchmark::State& state) {
 // (0 = argmax only, no softmax).
 void BM_segmentation_postprocess(benchmark::State& state) {
   std::string json = R"({"network": "synthetic21", "classes": [)";
-  for (int c = 0; c < 21; ++c) json += std::string(c ? "," : "") + R"({"name": "k)" + std::to_string(c) + R"(", "label": "chair"})";
+  for (int c = 0; c < 21; ++c)
+    json += std::string(c ? "," : "") + R"({"name": "k)" + std::to_string(c) + R"(", "label": "chair"})";
   LabelMap map;
   std::string error;
   LogitsDecoder decoder;

@@ -7,5 +7,6 @@
 namespace qsg::bench {
 
 std::int64_t heap_allocations();
+std::int64_t heap_allocated_bytes();  // requested bytes, summed (realloc counts its new size)
 
 }  // namespace qsg::bench
