@@ -1,0 +1,91 @@
+// Semantic segmentation of RGB-D frames with an ONNX network through OpenCV DNN: preprocess into a reused input
+// blob, one forward pass, decode the logits into mpcat40 labels in RgbdFrame::labels.
+//
+// Allocation: our pre- and post-processing do not allocate after init(). OpenCV's forward() does (blob headers,
+// layer bookkeeping); init() runs one warm-up pass so its buffers exist before the first frame. The per-frame
+// count is measured in tests/segmentation and bench/segmentation and stated in core/segmentation/README.md.
+#pragma once
+
+#include <cstdint>
+#include <cstdio>
+#include <memory>
+#include <string>
+
+#include "core/segmentation/label_map.h"
+#include "core/segmentation/logits_decoder.h"
+#include "core/segmentation/preprocess.h"
+#include "core/semantics/labels.h"
+#include "drivers/sensor_types.h"
+
+namespace qsg::segmentation {
+
+// OpenCV DNN backend and target; CUDA only works with an OpenCV built with it (Jetson), else OpenCV falls back.
+enum class DnnBackend { kOpenCv, kCuda };
+enum class DnnTarget { kCpu, kCuda, kCudaFp16 };
+const char* dnn_backend_name(DnnBackend backend);
+const char* dnn_target_name(DnnTarget target);
+
+struct Config {
+  std::string model_path;        // ONNX file
+  int input_width_px = 384;      // network input size (espnetv2_s2_pascal384: 384 x 384)
+  int input_height_px = 384;
+  Normalization normalization;   // defaults: RGB, 1/255, ImageNet mean/std (MODELS.md for ESPNetv2 PASCAL)
+  int num_classes = 21;          // the network's output channels (PASCAL VOC: 20 classes + background)
+  // Softmax probability of the winning class below which a pixel is low_confidence_label (0: argmax only, saves
+  // ~3 ms). 0.5 = the winner must outweigh all others together; on the TUM desk frame it drops 3.6 % of pixels,
+  // mostly object borders (0.8 would drop 32 %: this network's outputs are not peaked).
+  float min_confidence = 0.5f;
+  semantics::Label low_confidence_label = semantics::kUnlabeled;
+  DnnBackend backend = DnnBackend::kOpenCv;
+  DnnTarget target = DnnTarget::kCpu;
+  std::string check() const;  // empty when usable, else the bad field and why
+  void print(std::FILE* out) const;
+};
+
+struct Counters {
+  std::uint64_t frames = 0;              // frames labelled
+  std::uint64_t bad_frames = 0;          // refused: invalid intrinsics or not initialised
+  std::uint64_t forward_errors = 0;      // OpenCV threw or returned an unexpected output
+  std::uint64_t low_confidence_pixels = 0;  // at network resolution, summed over frames
+};
+
+class Segmenter {
+ public:
+  Segmenter();
+  ~Segmenter();
+  Segmenter(const Segmenter&) = delete;
+  Segmenter& operator=(const Segmenter&) = delete;
+
+  // Loads the model, checks that it outputs config.num_classes planes that the label map covers, sizes every
+  // buffer and runs one warm-up pass. False with *error naming the file (model or label map) on any problem.
+  bool init(const Config& config, const LabelMap& label_map, std::string* error);
+  bool ready() const { return ready_; }
+
+  // Labels frame.rgb (frame.width() x frame.height()) into frame.labels and sets has_labels. False (has_labels
+  // untouched) when not ready, the frame's intrinsics are invalid or OpenCV fails; *error (optional) says why.
+  bool segment(drivers::RgbdFrame& frame, std::string* error = nullptr);
+
+  // The stages of segment(), exposed for tests and benchmarks.
+  const float* preprocess(const drivers::RgbdFrame& frame);  // the network input blob (NCHW floats)
+  const float* forward(std::string* error);                   // logits (NCHW floats) of the current blob
+  const float* last_logits() const;                           // logits of the last forward(), or nullptr
+  LogitsDecoder& decoder() { return decoder_; }
+
+  const Config& config() const { return config_; }
+  const Counters& counters() const { return counters_; }
+  // Output shape found at init: classes, height, width.
+  int output_classes() const { return decoder_.num_classes(); }
+  int output_height_px() const { return decoder_.logits_height_px(); }
+  int output_width_px() const { return decoder_.logits_width_px(); }
+
+ private:
+  struct Impl;  // keeps OpenCV out of this header
+  std::unique_ptr<Impl> impl_;
+  Config config_;
+  Preprocessor preprocessor_;
+  LogitsDecoder decoder_;
+  Counters counters_;
+  bool ready_ = false;
+};
+
+}  // namespace qsg::segmentation
