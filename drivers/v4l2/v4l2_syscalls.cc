@@ -65,6 +65,8 @@ const char* fourcc_to_string(std::uint32_t fourcc, char out[5]) {
     out[i] = (c >= 32 && c < 127) ? c : '?';
   }
   out[4] = '\0';
+  // Codes padded with spaces ("Z16 ", "Y10 ") print without them.
+  for (int i = 3; i > 0 && out[i] == ' '; --i) out[i] = '\0';
   return out;
 }
 
