@@ -1,0 +1,1457 @@
+// Incremental ESDF + GVD over the active window (raise and lower waves with per-parent dependent lists), the
+// theta-SMA test, places sparsification into connected spatial-hash clusters, and the scene-graph mirror.
+#include "core/places/places.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <iterator>
+
+#include "budgets/budget_table.h"
+
+namespace qsg::places {
+
+namespace {
+constexpr std::uint32_t kNoRef = 0xFFFFFFFFu;
+constexpr std::uint32_t kNoCluster = 0xFFFFFFFFu;
+constexpr std::uint32_t kSplitPending = 0xFFFFFFFEu;  // member of a cluster being split, not yet reassigned
+constexpr float kUnreached = std::numeric_limits<float>::max();
+constexpr float kEps = 1e-4f;
+constexpr int kMaxBasis = 8;
+
+// Voxel states, from the TSDF: seeds are fixed (their distance is the TSDF's), free voxels take their distance
+// from wavefronts, occupied (behind a surface) and unobserved voxels stop them. The TSDF only allocates blocks
+// around surfaces, so free space far from surfaces is known here through carving: rays from the robot to the
+// surfaces it has just seen mark the voxels they cross (kCarved), which are free unless the TSDF says otherwise.
+enum : std::uint8_t { kFree = 0, kSeed = 1, kOccupied = 2, kUnobserved = 3 };
+enum : std::uint8_t {
+  kInLower = 1,
+  kInRaise = 2,
+  kAffected = 4,
+  kEval = 8,
+  kGvd = 16,
+  kGvdChanged = 32,
+  kVisited = 64,
+  kCarved = 128,
+};
+enum : std::uint8_t { kLive = 0, kRemoved = 1, kLeft = 2 };  // cluster states; the last two await sync()
+enum Phase : int { kIdle = 0, kSeedPhase, kRaisePhase, kLowerPhase, kGvdExpand, kGvdEval, kSparsify, kFinalize };
+enum ListId : int { kDirtyList = 0, kRaiseList = 1, kAffectedList = 2, kEvalList = 3, kChangedList = 4, kNumLists };
+
+struct Offset {
+  int dx, dy, dz;
+  int block_slot;  // index in Block::nbr of the neighbour block in this direction (13 = self)
+};
+// The 26 neighbours in a fixed order (determinism: every wave visits them in this order).
+struct Offsets {
+  Offset o[26];
+  Offsets() {
+    int n = 0;
+    for (int dz = -1; dz <= 1; ++dz)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx)
+          if (dx != 0 || dy != 0 || dz != 0) o[n++] = {dx, dy, dz, (dx + 1) + 3 * (dy + 1) + 9 * (dz + 1)};
+  }
+};
+const Offsets kOffsets;
+
+inline std::int32_t floor_div(std::int32_t a, std::int32_t b) { return a >= 0 ? a / b : -((-a + b - 1) / b); }
+inline memory::Index3 add(const memory::Index3& a, int dx, int dy, int dz) { return {a.x + dx, a.y + dy, a.z + dz}; }
+inline float dist_vox(const memory::Index3& a, const memory::Index3& b) {
+  const float x = static_cast<float>(a.x - b.x), y = static_cast<float>(a.y - b.y), z = static_cast<float>(a.z - b.z);
+  return std::sqrt(x * x + y * y + z * z);
+}
+inline int chebyshev(const memory::Index3& a, const memory::Index3& b) {
+  return std::max(std::abs(a.x - b.x), std::max(std::abs(a.y - b.y), std::abs(a.z - b.z)));
+}
+inline std::uint32_t make_ref(std::uint32_t handle, int local) { return handle * kBlockVoxels + static_cast<std::uint32_t>(local); }
+}  // namespace
+
+struct Places::Voxel {
+  float distance_m = kUnreached;
+  std::uint32_t parent = kNoRef;        // the seed this distance comes from (a seed is its own parent)
+  std::uint32_t prev = kNoRef;          // doubly linked list of the voxels sharing a parent, headed by the seed
+  std::uint32_t next = kNoRef;
+  std::uint32_t cluster = kNoCluster;   // place cluster of a GVD voxel
+  std::uint32_t cluster_next = kNoRef;  // next member of the cluster
+  std::uint8_t state = kUnobserved;
+  std::uint8_t flags = 0;
+  std::uint8_t num_basis = 0;
+  std::uint8_t pad = 0;
+};
+
+struct Places::Block {
+  memory::Index3 index;
+  std::uint32_t nbr[27];  // handles of the 26 neighbour blocks (cached so waves rarely touch the hash)
+  std::uint32_t tsdf_stamp[kMaxVoxelFactor * kMaxVoxelFactor * kMaxVoxelFactor];
+  std::uint8_t tsdf_seen[kMaxVoxelFactor * kMaxVoxelFactor * kMaxVoxelFactor];
+  std::uint8_t dying = 0;
+  Voxel voxels[kBlockVoxels];
+};
+
+struct Places::Cluster {
+  memory::Index3 cell;
+  scene_graph::NodeId node = scene_graph::kNoNode;
+  std::uint32_t head = kNoRef;
+  std::uint32_t count = 0;
+  std::uint32_t rep = kNoRef;
+  std::uint8_t state = kLive;
+  std::uint8_t dirty = 0;       // needs finalize (split check, representative, edges)
+  std::uint8_t sync_dirty = 0;  // the scene graph's copy is out of date
+  std::uint8_t synced = 0;      // the node exists in the scene graph
+  std::uint8_t num_basis = 0;
+  std::uint8_t num_edges = 0;
+  float clearance_m = 0.0f;
+  Eigen::Vector3d position_m = Eigen::Vector3d::Zero();
+  std::uint32_t edge_to[kMaxClusterEdges];
+  float edge_weight[kMaxClusterEdges];
+  memory::BoundedArray<scene_graph::PlaceMeshConnection, scene_graph::kMaxPlaceConnections> connections;
+};
+
+// A fixed list of voxel refs (or dirty-block entries) with a usage counter.
+struct Places::List {
+  std::uint32_t* data = nullptr;
+  std::size_t size = 0;
+  std::size_t capacity = 0;
+  std::size_t high_water = 0;
+  std::uint64_t failed = 0;
+  const char* name = "";
+  bool push(std::uint32_t v) {
+    if (size == capacity) {
+      ++failed;
+      return false;
+    }
+    data[size++] = v;
+    if (size > high_water) high_water = size;
+    return true;
+  }
+  void clear() { size = 0; }
+};
+
+// ---------------------------------------------------------------------------------------------------------
+std::string Config::check() const {
+  if (voxel_factor < 1 || voxel_factor > kMaxVoxelFactor) return "voxel_factor must be 1 or 2";
+  if (!(max_distance_m > 0.0 && max_distance_m <= 20.0)) return "max_distance_m must be in (0, 20] m";
+  if (!(min_clearance_m >= 0.0 && min_clearance_m < max_distance_m))
+    return "min_clearance_m must be in [0, max_distance_m)";
+  if (!(min_basis_angle_rad > 0.0 && min_basis_angle_rad <= 3.14159266)) return "min_basis_angle_rad must be in (0, pi]";
+  if (min_basis_points < 2 || min_basis_points > kMaxBasis) return "min_basis_points must be in [2, 8]";
+  if (!(place_resolution_m > 0.0 && place_resolution_m <= 20.0)) return "place_resolution_m must be in (0, 20] m";
+  if (!(window_radius_m > 0.0)) return "window_radius_m must be positive";
+  if (!(slab_below_m >= 0.0 && slab_above_m >= 0.0 && slab_below_m + slab_above_m > 0.0))
+    return "slab_below_m and slab_above_m must be >= 0 and not both 0";
+  if (!(min_tsdf_weight >= 0.0)) return "min_tsdf_weight must be >= 0";
+  return {};
+}
+
+void Config::print(std::FILE* out) const {
+  std::fprintf(out,
+               "places: voxel_factor=%d max_distance_m=%.2f min_clearance_m=%.2f min_basis_angle_deg=%.1f "
+               "min_basis_points=%d place_resolution_m=%.2f window_radius_m=%.1f slab_m=[-%.1f, +%.1f] "
+               "min_tsdf_weight=%.2f\n",
+               voxel_factor, max_distance_m, min_clearance_m, min_basis_angle_rad * 180.0 / 3.14159265358979,
+               min_basis_points, place_resolution_m, window_radius_m, slab_below_m, slab_above_m, min_tsdf_weight);
+}
+
+void Capacities::print(std::FILE* out) const {
+  std::fprintf(out, "places capacities: max_blocks=%zu place_nodes=%zu inactive_cells=%zu\n", max_blocks, place_nodes,
+               inactive_cells);
+}
+
+void Counters::print(std::FILE* out) const {
+  std::fprintf(out,
+               "places: updates=%llu cycles=%llu tsdf_blocks_read=%llu voxels updated=%llu raised=%llu blocks "
+               "allocated=%llu freed=%llu refused=%llu gvd_voxels=%llu places=%llu merged=%llu split=%llu "
+               "refused clusters=%llu edges=%llu graph=%llu\n",
+               (unsigned long long)updates, (unsigned long long)cycles, (unsigned long long)tsdf_blocks_read,
+               (unsigned long long)voxels_updated, (unsigned long long)voxels_raised,
+               (unsigned long long)blocks_allocated, (unsigned long long)blocks_freed,
+               (unsigned long long)blocks_refused, (unsigned long long)gvd_voxels, (unsigned long long)places,
+               (unsigned long long)clusters_merged, (unsigned long long)clusters_split,
+               (unsigned long long)clusters_refused, (unsigned long long)edges_refused,
+               (unsigned long long)graph_refused);
+}
+
+Capacities capacities_from_budget() {
+  Capacities c;
+  c.max_blocks = budgets::active::places::kMaxBlocks;
+  c.place_nodes = budgets::active::places::kPlaceNodes;
+  c.inactive_cells = budgets::active::places::kInactiveCells;
+  return c;
+}
+std::size_t arena_bytes_from_budget() { return budgets::active::places::kArenaBytes; }
+
+// ---------------------------------------------------------------------------------------------------------
+Places::Places()
+    : blocks_("places.blocks", memory::OverflowPolicy::kRefuse),
+      block_index_("places.block_index", memory::OverflowPolicy::kRefuse),
+      clusters_("places.clusters", memory::OverflowPolicy::kRefuse),
+      inactive_("places.inactive_cells", memory::OverflowPolicy::kRefuse) {}
+
+Places::~Places() {
+  if (ready_) {
+    blocks_.clear();
+    clusters_.clear();
+  }
+}
+
+namespace {
+std::size_t list_capacity(const Capacities& c, int which) {
+  return which == kDirtyList ? c.max_blocks * kMaxVoxelFactor * kMaxVoxelFactor * kMaxVoxelFactor
+                             : c.max_blocks * kBlockVoxels;
+}
+}  // namespace
+
+memory::ArenaPlan Places::plan(const Capacities& c) {
+  memory::ArenaPlan plan;
+  memory::Pool<Block>::plan(plan, c.max_blocks);
+  memory::SpatialHash<std::uint32_t>::plan(plan, memory::SpatialHash<std::uint32_t>::slots_for(c.max_blocks));
+  memory::Pool<Cluster>::plan(plan, c.place_nodes);
+  memory::SpatialHash<scene_graph::NodeId>::plan(plan, memory::SpatialHash<scene_graph::NodeId>::slots_for(c.inactive_cells));
+  plan.add_array<List>(kNumLists);
+  for (int i = 0; i < kNumLists; ++i) plan.add_array<std::uint32_t>(list_capacity(c, i));
+  plan.add_array<std::uint32_t>(c.max_blocks * kBlockVoxels);  // lower-wave ring
+  return plan;
+}
+
+bool Places::init(const Config& config, const Capacities& c, std::size_t budget_bytes, std::string* error) {
+  const auto fail = [error](const std::string& why) {
+    if (error != nullptr) *error = "places: " + why;
+    return false;
+  };
+  if (ready_) return fail("init() called twice");
+  const std::string bad = config.check();
+  if (!bad.empty()) return fail("config: " + bad);
+  if (c.max_blocks == 0 || c.place_nodes == 0 || c.inactive_cells == 0)
+    return fail("capacities: max_blocks, place_nodes and inactive_cells must be positive");
+  if (c.max_blocks > (kNoRef / kBlockVoxels) - 1) return fail("capacities: max_blocks too large for 32-bit voxel refs");
+  config_ = config;
+  capacities_ = c;
+  if (!arena_.create("places", plan(c), budget_bytes, error)) return false;
+  bool ok = blocks_.carve(arena_, c.max_blocks) &&
+            block_index_.carve(arena_, memory::SpatialHash<std::uint32_t>::slots_for(c.max_blocks), c.max_blocks) &&
+            clusters_.carve(arena_, c.place_nodes) &&
+            inactive_.carve(arena_, memory::SpatialHash<scene_graph::NodeId>::slots_for(c.inactive_cells),
+                            c.inactive_cells);
+  lists_ = ok ? arena_.carve_array<List>(kNumLists) : nullptr;
+  ok = ok && lists_ != nullptr;
+  static const char* const kNames[kNumLists] = {"places.dirty_tsdf_blocks", "places.raise_list",
+                                                "places.affected_list", "places.gvd_eval_list",
+                                                "places.gvd_changed_list"};
+  for (int i = 0; ok && i < kNumLists; ++i) {
+    lists_[i].capacity = list_capacity(c, i);
+    lists_[i].name = kNames[i];
+    lists_[i].data = arena_.carve_array<std::uint32_t>(lists_[i].capacity);
+    ok = lists_[i].data != nullptr;
+  }
+  lower_capacity_ = c.max_blocks * kBlockVoxels;
+  lower_ring_ = ok ? arena_.carve_array<std::uint32_t>(lower_capacity_) : nullptr;
+  if (!ok || lower_ring_ == nullptr || !arena_.seal()) return fail("the arena carve did not match its plan");
+  cos_theta_ = static_cast<float>(std::cos(config_.min_basis_angle_rad));
+  ready_ = true;
+  return true;
+}
+
+memory::ResourceStats Places::lower_queue_stats() const {
+  memory::ResourceStats s;
+  s.name = "places.lower_queue";
+  s.unit = "voxels";
+  s.capacity = lower_capacity_;
+  s.in_use = lower_size_;
+  s.high_water = lower_high_water_;
+  return s;
+}
+
+memory::ResourceStats Places::list_stats(int which) const {
+  memory::ResourceStats s;
+  if (lists_ == nullptr) return s;
+  const List& l = lists_[which];
+  s.name = l.name;
+  s.unit = which == kDirtyList ? "blocks" : "voxels";
+  s.capacity = l.capacity;
+  s.in_use = l.size;
+  s.high_water = l.high_water;
+  s.failed = l.failed;
+  return s;
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// Geometry
+
+Places::Voxel& Places::vox(std::uint32_t ref) { return blocks_[ref / kBlockVoxels].voxels[ref % kBlockVoxels]; }
+const Places::Voxel& Places::vox(std::uint32_t ref) const {
+  return blocks_[ref / kBlockVoxels].voxels[ref % kBlockVoxels];
+}
+
+memory::Index3 Places::coords(std::uint32_t ref) const {
+  const memory::Index3& b = blocks_[ref / kBlockVoxels].index;
+  const int i = static_cast<int>(ref % kBlockVoxels);
+  return {b.x * kBlockSide + (i & 7), b.y * kBlockSide + ((i >> 3) & 7), b.z * kBlockSide + (i >> 6)};
+}
+
+std::uint32_t Places::neighbor(std::uint32_t ref, int dx, int dy, int dz) const {
+  const std::uint32_t h = ref / kBlockVoxels;
+  const int i = static_cast<int>(ref % kBlockVoxels);
+  const int x = (i & 7) + dx, y = ((i >> 3) & 7) + dy, z = (i >> 6) + dz;
+  const int bx = x < 0 ? -1 : (x >= kBlockSide ? 1 : 0);
+  const int by = y < 0 ? -1 : (y >= kBlockSide ? 1 : 0);
+  const int bz = z < 0 ? -1 : (z >= kBlockSide ? 1 : 0);
+  const std::uint32_t nb = (bx | by | bz) == 0 ? h : blocks_[h].nbr[(bx + 1) + 3 * (by + 1) + 9 * (bz + 1)];
+  if (nb == memory::kInvalidHandle) return kNoRef;
+  return make_ref(nb, (x & 7) + kBlockSide * ((y & 7) + kBlockSide * (z & 7)));
+}
+
+std::uint32_t Places::find_voxel(const memory::Index3& g) const {
+  const memory::Index3 b{floor_div(g.x, kBlockSide), floor_div(g.y, kBlockSide), floor_div(g.z, kBlockSide)};
+  const std::uint32_t* h = block_index_.find(b);
+  if (h == nullptr) return kNoRef;
+  return make_ref(*h, (g.x - b.x * kBlockSide) + kBlockSide * ((g.y - b.y * kBlockSide) + kBlockSide * (g.z - b.z * kBlockSide)));
+}
+
+Eigen::Vector3d Places::center_m(const memory::Index3& g) const {
+  return Eigen::Vector3d((g.x + 0.5) * voxel_m_, (g.y + 0.5) * voxel_m_, (g.z + 0.5) * voxel_m_);
+}
+
+bool Places::block_in_window(const memory::Index3& b) const {
+  const double side = voxel_m_ * kBlockSide;
+  const Eigen::Vector3d c((b.x + 0.5) * side, (b.y + 0.5) * side, (b.z + 0.5) * side);
+  if ((c - cycle_robot_m_).squaredNorm() > config_.window_radius_m * config_.window_radius_m) return false;
+  const double z0 = b.z * side, z1 = z0 + side;
+  return z1 > cycle_robot_m_.z() - config_.slab_below_m && z0 < cycle_robot_m_.z() + config_.slab_above_m;
+}
+
+memory::Index3 Places::cell_of(std::uint32_t ref) const {
+  const Eigen::Vector3d p = center_m(coords(ref)) / config_.place_resolution_m;
+  return {static_cast<std::int32_t>(std::floor(p.x())), static_cast<std::int32_t>(std::floor(p.y())),
+          static_cast<std::int32_t>(std::floor(p.z()))};
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// Worklists
+
+void Places::push_lower(std::uint32_t ref) {
+  Voxel& v = vox(ref);
+  if ((v.flags & kInLower) != 0 || blocks_[ref / kBlockVoxels].dying) return;
+  // Each voxel is queued at most once (flag), so the ring holding one slot per voxel never overflows.
+  v.flags |= kInLower;
+  lower_ring_[(lower_head_ + lower_size_) % lower_capacity_] = ref;
+  ++lower_size_;
+  if (lower_size_ > lower_high_water_) lower_high_water_ = lower_size_;
+}
+
+void Places::push_raise(std::uint32_t ref) {
+  Voxel& v = vox(ref);
+  if ((v.flags & kInRaise) != 0 || blocks_[ref / kBlockVoxels].dying) return;
+  v.flags |= kInRaise;
+  lists_[kRaiseList].push(ref);
+}
+
+void Places::mark_affected(std::uint32_t ref) {
+  Voxel& v = vox(ref);
+  if ((v.flags & kAffected) != 0 || blocks_[ref / kBlockVoxels].dying) return;
+  v.flags |= kAffected;
+  lists_[kAffectedList].push(ref);
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// Parent lists
+
+void Places::set_parent(std::uint32_t ref, std::uint32_t parent, float distance_m) {
+  Voxel& v = vox(ref);
+  if (v.parent != parent) {
+    clear_parent(ref);
+    if (parent != ref) {
+      Voxel& p = vox(parent);
+      v.prev = parent;
+      v.next = p.next;
+      if (p.next != kNoRef) vox(p.next).prev = ref;
+      p.next = ref;
+    }
+    v.parent = parent;
+  }
+  v.distance_m = distance_m;
+}
+
+void Places::clear_parent(std::uint32_t ref) {
+  Voxel& v = vox(ref);
+  if (v.parent == kNoRef) return;
+  if (v.parent != ref) {
+    if (v.prev != kNoRef) vox(v.prev).next = v.next;
+    if (v.next != kNoRef) vox(v.next).prev = v.prev;
+    v.prev = kNoRef;
+    v.next = kNoRef;
+  }
+  v.parent = kNoRef;
+  v.distance_m = kUnreached;
+}
+
+// Every voxel whose distance came from this seed is reset and queued for the raise wave, which hands the hole
+// back to the neighbours that still have valid parents (FIESTA-style: exact, no stale distances remain).
+void Places::raise_dependents(std::uint32_t seed_ref, bool include_seed) {
+  Voxel& s = vox(seed_ref);
+  std::uint32_t d = s.next;
+  while (d != kNoRef) {
+    Voxel& dv = vox(d);
+    const std::uint32_t next = dv.next;
+    dv.parent = kNoRef;
+    dv.prev = kNoRef;
+    dv.next = kNoRef;
+    dv.distance_m = kUnreached;
+    push_raise(d);
+    mark_affected(d);
+    ++counters_.voxels_raised;
+    d = next;
+  }
+  s.next = kNoRef;
+  if (include_seed) {
+    s.parent = kNoRef;
+    s.distance_m = kUnreached;
+  }
+}
+
+void Places::apply_state(std::uint32_t ref, std::uint8_t state, float seed_m) {
+  Voxel& v = vox(ref);
+  const std::uint8_t old = v.state;
+  if (state == kSeed) {
+    if (old == kSeed) {
+      if (std::fabs(seed_m - v.distance_m) < kEps) return;
+      // Reset and refill the dependents: exact whichever way the seed moved (a dependent reached through a
+      // voxel that has since taken another parent would otherwise keep a stale distance).
+      raise_dependents(ref, false);
+      v.distance_m = seed_m;
+    } else {
+      clear_parent(ref);
+      v.state = kSeed;
+      set_parent(ref, ref, seed_m);
+    }
+    push_lower(ref);
+    mark_affected(ref);
+    ++counters_.voxels_updated;
+    return;
+  }
+  if (state == old) return;
+  if (old == kSeed) raise_dependents(ref, true);
+  else clear_parent(ref);
+  v.state = state;
+  v.distance_m = kUnreached;
+  mark_affected(ref);
+  ++counters_.voxels_updated;
+  if (state == kFree) push_raise(ref);  // refilled from its neighbours
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// Blocks
+
+// Classifies the ESDF voxels covered by one TSDF block (sub-block `sub` of the ESDF block). An ESDF voxel
+// averages its factor^3 TSDF voxels (its centre is their common corner, where the mean is the TSDF's trilinear
+// value): unobserved when none is observed (free if carved), free at the truncation distance, a seed inside the
+// band (and on a zero crossing), occupied behind the surface.
+void Places::seed_sub_block(const reconstruction::SemanticTsdf& tsdf, std::uint32_t handle, int sub, bool carve) {
+  const int f = config_.voxel_factor;
+  Block& b = blocks_[handle];
+  const int sx = sub % f, sy = (sub / f) % f, sz = sub / (f * f);
+  const memory::Index3 tb{b.index.x * f + sx, b.index.y * f + sy, b.index.z * f + sz};
+  const std::uint32_t th = tsdf.find_block(tb);
+  reconstruction::SemanticTsdf::BlockView view;
+  if (th == memory::kInvalidHandle || !tsdf.block_view(th, &view)) return;  // archived or never seen: keep
+  b.tsdf_stamp[sub] = view.integrated_stamp;
+  b.tsdf_seen[sub] = 1;
+  // Only a block the latest frame touched was seen from (about) the robot's position.
+  carve = carve && view.integrated_stamp == tsdf.frame_stamp();
+  ++counters_.tsdf_blocks_read;
+  const int n = kBlockSide / f;  // ESDF voxels per side of the TSDF block
+  const std::uint16_t min_w = static_cast<std::uint16_t>(
+      std::min(65535.0, std::floor(config_.min_tsdf_weight * reconstruction::kWeightScale)));
+  const float clamp_m = tsdf_trunc_m_ * 0.999f;
+  for (int ez = 0; ez < n; ++ez)
+    for (int ey = 0; ey < n; ++ey)
+      for (int ex = 0; ex < n; ++ex) {
+        int observed = 0, positive = 0;
+        float sum = 0.0f;
+        for (int kz = 0; kz < f; ++kz)
+          for (int ky = 0; ky < f; ++ky)
+            for (int kx = 0; kx < f; ++kx) {
+              const int tx = ex * f + kx, ty = ey * f + ky, tz = ez * f + kz;
+              const reconstruction::Voxel& tv =
+                  view.voxels[tx + reconstruction::kBlockSide * (ty + reconstruction::kBlockSide * tz)];
+              if (tv.weight_q <= min_w) continue;
+              const float s = tsdf.sdf_m(tv);
+              sum += s;
+              ++observed;
+              positive += s > 0.0f ? 1 : 0;
+            }
+        const int local = (sx * n + ex) + kBlockSide * ((sy * n + ey) + kBlockSide * (sz * n + ez));
+        const std::uint32_t ref = make_ref(handle, local);
+        std::uint8_t state = (vox(ref).flags & kCarved) != 0 ? kFree : kUnobserved;
+        float seed = 0.0f;
+        if (observed > 0) {
+          const float mean = sum / static_cast<float>(observed);
+          if (mean >= clamp_m) {
+            state = kFree;
+          } else if (mean > 0.0f) {
+            state = kSeed;
+            seed = mean;
+          } else if (positive > 0) {
+            // A zero crossing inside the voxel: the surface itself, a seed at distance 0 (the TSDF's projective
+            // distances overestimate at grazing angles, so the band alone can miss a surface seen obliquely).
+            state = kSeed;
+          } else {
+            state = kOccupied;
+          }
+        }
+        apply_state(ref, state, seed);
+        // Seen from the robot in the latest frame: the space between holds nothing.
+        if (carve && (state == kSeed || (state == kFree && observed > 0))) carve_ray(tsdf, ref);
+      }
+}
+
+// Marks the voxels between the robot and a voxel it has just observed as free (stops at anything the TSDF
+// knows as occupied). Samples the segment every half voxel; allocates blocks on the way inside the window.
+void Places::carve_ray(const reconstruction::SemanticTsdf& tsdf, std::uint32_t target) {
+  const memory::Index3 goal = coords(target);
+  const Eigen::Vector3d b = center_m(goal);
+  const Eigen::Vector3d a = cycle_robot_m_;
+  const double len = (b - a).norm();
+  const int steps = static_cast<int>(std::ceil(len / (0.5 * voxel_m_)));
+  memory::Index3 last{std::numeric_limits<std::int32_t>::min(), 0, 0};
+  for (int i = 0; i < steps; ++i) {
+    const Eigen::Vector3d p = (a + (b - a) * (static_cast<double>(i) / steps)) / voxel_m_;
+    const memory::Index3 g{static_cast<std::int32_t>(std::floor(p.x())), static_cast<std::int32_t>(std::floor(p.y())),
+                           static_cast<std::int32_t>(std::floor(p.z()))};
+    if (g == last) continue;
+    last = g;
+    if (g == goal) break;
+    ++units_;
+    std::uint32_t ref = find_voxel(g);
+    if (ref == kNoRef) {
+      const memory::Index3 blk{floor_div(g.x, kBlockSide), floor_div(g.y, kBlockSide), floor_div(g.z, kBlockSide)};
+      if (allocate_block(tsdf, blk, true) == memory::kInvalidHandle) continue;
+      ref = find_voxel(g);
+      if (ref == kNoRef) continue;
+    }
+    Voxel& v = vox(ref);
+    if (v.state == kOccupied) break;
+    if ((v.flags & kCarved) != 0) continue;
+    v.flags |= kCarved;
+    if (v.state == kUnobserved) apply_state(ref, kFree, 0.0f);
+  }
+}
+
+std::uint32_t Places::allocate_block(const reconstruction::SemanticTsdf& tsdf, const memory::Index3& index,
+                                     bool read_tsdf) {
+  if (const std::uint32_t* h = block_index_.find(index)) return *h;
+  if (!block_in_window(index)) return memory::kInvalidHandle;
+  const std::uint32_t h = blocks_.acquire();
+  if (h == memory::kInvalidHandle) {
+    ++counters_.blocks_refused;
+    return h;
+  }
+  if (block_index_.insert(index, h) == nullptr) {
+    blocks_.release(h);
+    ++counters_.blocks_refused;
+    return memory::kInvalidHandle;
+  }
+  Block& b = blocks_[h];
+  b.index = index;
+  for (int k = 0; k < 27; ++k) b.nbr[k] = memory::kInvalidHandle;
+  b.nbr[13] = h;
+  std::fill(std::begin(b.tsdf_stamp), std::end(b.tsdf_stamp), 0u);
+  std::fill(std::begin(b.tsdf_seen), std::end(b.tsdf_seen), std::uint8_t{0});
+  b.dying = 0;
+  for (const Offset& o : kOffsets.o) {
+    const std::uint32_t* n = block_index_.find(add(index, o.dx, o.dy, o.dz));
+    if (n == nullptr) continue;
+    b.nbr[o.block_slot] = *n;
+    blocks_[*n].nbr[26 - o.block_slot] = h;
+  }
+  ++counters_.blocks_allocated;
+  const int f = config_.voxel_factor;
+  if (read_tsdf)
+    for (int sub = 0; sub < f * f * f; ++sub) seed_sub_block(tsdf, h, sub, false);
+  // Wavefronts of the neighbours flow into the new block: queue their valid voxels along its faces.
+  for (int local = 0; local < kBlockVoxels; ++local) {
+    const int x = local & 7, y = (local >> 3) & 7, z = local >> 6;
+    if (x != 0 && x != 7 && y != 0 && y != 7 && z != 0 && z != 7) continue;
+    const std::uint32_t ref = make_ref(h, local);
+    for (const Offset& o : kOffsets.o) {
+      const std::uint32_t n = neighbor(ref, o.dx, o.dy, o.dz);
+      if (n == kNoRef || n / kBlockVoxels == h) continue;
+      const Voxel& nv = vox(n);
+      if ((nv.state == kFree || nv.state == kSeed) && nv.parent != kNoRef) push_lower(n);
+    }
+  }
+  return h;
+}
+
+// Called for every dying block before any is released: detaches its voxels from lists, parents and clusters.
+void Places::evict_block_voxels(std::uint32_t handle) {
+  for (int local = 0; local < kBlockVoxels; ++local) {
+    const std::uint32_t ref = make_ref(handle, local);
+    Voxel& v = vox(ref);
+    if (v.cluster != kNoCluster) {
+      const std::uint32_t c = v.cluster;
+      cluster_remove_voxel(c, ref);
+      if (clusters_[c].count == 0) retire_cluster(c, kLeft);
+      else clusters_[c].dirty = 1;
+    }
+    if ((v.flags & kGvd) != 0 && counters_.gvd_voxels > 0) --counters_.gvd_voxels;
+    if (v.state == kSeed) {
+      // Dependents outside the dying blocks lose their parent: raise them like a vanished seed.
+      std::uint32_t d = v.next;
+      while (d != kNoRef) {
+        Voxel& dv = vox(d);
+        const std::uint32_t next = dv.next;
+        dv.parent = kNoRef;
+        dv.prev = kNoRef;
+        dv.next = kNoRef;
+        dv.distance_m = kUnreached;
+        push_raise(d);  // no-op for dying blocks
+        mark_affected(d);
+        d = next;
+      }
+      v.next = kNoRef;
+      v.parent = kNoRef;
+    } else {
+      clear_parent(ref);
+    }
+    v.flags = 0;
+  }
+}
+
+void Places::release_block(std::uint32_t handle) {
+  Block& b = blocks_[handle];
+  for (const Offset& o : kOffsets.o) {
+    const std::uint32_t n = b.nbr[o.block_slot];
+    if (n != memory::kInvalidHandle) blocks_[n].nbr[26 - o.block_slot] = memory::kInvalidHandle;
+  }
+  block_index_.erase(b.index);
+  blocks_.release(handle);
+  ++counters_.blocks_freed;
+}
+
+void Places::begin_cycle(const reconstruction::SemanticTsdf& tsdf, const Eigen::Vector3d& robot_m) {
+  cycle_robot_m_ = robot_m;
+  voxel_m_ = tsdf.config().voxel_size_m * config_.voxel_factor;
+  tsdf_voxel_m_ = tsdf.config().voxel_size_m;
+  tsdf_trunc_m_ = static_cast<float>(tsdf.config().voxel_size_m * tsdf.config().truncation_voxels);
+  // Blocks that left the window: detach all of them first (parents may sit in another dying block), then free.
+  bool any = false;
+  blocks_.for_each([&](std::uint32_t, Block& b) {
+    b.dying = block_in_window(b.index) ? 0 : 1;
+    any = any || b.dying;
+  });
+  if (any) {
+    for (std::uint32_t h = 0; h < blocks_.capacity(); ++h)
+      if (blocks_.live(h) && blocks_[h].dying) evict_block_voxels(h);
+    for (std::uint32_t h = 0; h < blocks_.capacity(); ++h)
+      if (blocks_.live(h) && blocks_[h].dying) release_block(h);
+  }
+  // TSDF blocks integrated since they were last read.
+  List& dirty = lists_[kDirtyList];
+  dirty.clear();
+  const int f = config_.voxel_factor;
+  tsdf.for_each_block([&](std::uint32_t, const reconstruction::SemanticTsdf::BlockView& view) {
+    ++units_;
+    const memory::Index3 e{floor_div(view.index.x, f), floor_div(view.index.y, f), floor_div(view.index.z, f)};
+    if (!block_in_window(e)) return;
+    std::uint32_t h = memory::kInvalidHandle;
+    if (const std::uint32_t* found = block_index_.find(e)) h = *found;
+    else h = allocate_block(tsdf, e, false);  // its TSDF blocks are read (and carved to) in the seed phase
+    if (h == memory::kInvalidHandle) return;
+    const int sub = (view.index.x - e.x * f) + f * ((view.index.y - e.y * f) + f * (view.index.z - e.z * f));
+    const Block& b = blocks_[h];
+    if (!b.tsdf_seen[sub] || b.tsdf_stamp[sub] != view.integrated_stamp)
+      dirty.push(h * static_cast<std::uint32_t>(kMaxVoxelFactor * kMaxVoxelFactor * kMaxVoxelFactor) +
+                 static_cast<std::uint32_t>(sub));
+  });
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// Waves
+
+void Places::raise_step(std::uint32_t ref) {
+  Voxel& v = vox(ref);
+  v.flags &= static_cast<std::uint8_t>(~kInRaise);
+  if ((v.state == kFree || v.state == kSeed) && v.parent != kNoRef) push_lower(ref);
+  for (const Offset& o : kOffsets.o) {
+    const std::uint32_t n = neighbor(ref, o.dx, o.dy, o.dz);
+    if (n == kNoRef) continue;
+    const Voxel& nv = vox(n);
+    if ((nv.state == kFree || nv.state == kSeed) && nv.parent != kNoRef) push_lower(n);
+  }
+}
+
+void Places::lower_step(const reconstruction::SemanticTsdf& tsdf, std::uint32_t ref) {
+  Voxel& v = vox(ref);
+  v.flags &= static_cast<std::uint8_t>(~kInLower);
+  if ((v.state != kFree && v.state != kSeed) || v.parent == kNoRef) return;
+  const std::uint32_t parent = v.parent;
+  const memory::Index3 pc = coords(parent);
+  const float pd = vox(parent).distance_m;
+  const memory::Index3 g = coords(ref);
+  const float max_d = static_cast<float>(config_.max_distance_m);
+  const float s = static_cast<float>(voxel_m_);
+  for (const Offset& o : kOffsets.o) {
+    const memory::Index3 gn = add(g, o.dx, o.dy, o.dz);
+    const float cand = pd + dist_vox(gn, pc) * s;
+    if (cand > max_d) continue;
+    std::uint32_t n = neighbor(ref, o.dx, o.dy, o.dz);
+    if (n == kNoRef) {
+      // The wavefront reaches space no ESDF block holds yet: allocate it inside the window.
+      const memory::Index3 nb{floor_div(gn.x, kBlockSide), floor_div(gn.y, kBlockSide), floor_div(gn.z, kBlockSide)};
+      if (allocate_block(tsdf, nb, true) == memory::kInvalidHandle) continue;
+      n = neighbor(ref, o.dx, o.dy, o.dz);
+      if (n == kNoRef) continue;
+    }
+    Voxel& nv = vox(n);
+    if (nv.state != kFree) continue;
+    if (cand + kEps < nv.distance_m) {
+      set_parent(n, parent, cand);
+      push_lower(n);
+      mark_affected(n);
+      ++counters_.voxels_updated;
+    }
+  }
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// GVD
+
+// The number of basis points of a voxel (0 when it cannot be on the GVD). Following the brushfire GVD of Lau et
+// al., a voxel is where wavefronts meet when a neighbour's parent is a different obstacle (not adjacent to this
+// voxel's parent) and this voxel is at least as close to being equidistant from both parents as the neighbour
+// is (so the GVD is one voxel thick, both voxels only on exact ties). The theta-SMA keeps a basis point only when
+// it makes an angle >= theta with every other basis point seen from the voxel.
+int Places::evaluate_gvd(std::uint32_t ref, std::uint32_t* basis_parents, int max_parents) const {
+  const Voxel& v = vox(ref);
+  if (v.state != kFree || v.parent == kNoRef || v.distance_m < static_cast<float>(config_.min_clearance_m)) return 0;
+  const memory::Index3 g = coords(ref);
+  const memory::Index3 pv = coords(v.parent);
+  const float pv_d = vox(v.parent).distance_m;
+  const float s = static_cast<float>(voxel_m_);
+  const Eigen::Vector3f a(static_cast<float>(pv.x - g.x), static_cast<float>(pv.y - g.y), static_cast<float>(pv.z - g.z));
+  const float la = a.norm();
+  if (la <= 0.0f) return 0;
+  Eigen::Vector3f dirs[kMaxBasis];
+  std::uint32_t parents[kMaxBasis];
+  int count = 1;
+  dirs[0] = a / la;
+  parents[0] = v.parent;
+  for (const Offset& o : kOffsets.o) {
+    const std::uint32_t n = neighbor(ref, o.dx, o.dy, o.dz);
+    if (n == kNoRef) continue;
+    const Voxel& nv = vox(n);
+    if ((nv.state != kFree && nv.state != kSeed) || nv.parent == kNoRef || nv.parent == v.parent) continue;
+    const memory::Index3 pn = coords(nv.parent);
+    if (chebyshev(pn, pv) <= 1) continue;
+    const Eigen::Vector3f b(static_cast<float>(pn.x - g.x), static_cast<float>(pn.y - g.y), static_cast<float>(pn.z - g.z));
+    const float lb = b.norm();
+    if (lb <= 0.0f || a.dot(b) > la * lb * cos_theta_) continue;
+    if (nv.state == kFree) {
+      const float s_vn = vox(nv.parent).distance_m + lb * s - v.distance_m;
+      const float s_nv = pv_d + dist_vox(add(g, o.dx, o.dy, o.dz), pv) * s - nv.distance_m;
+      if (s_vn > s_nv + 1e-5f) continue;  // the neighbour is nearer the bisector: it is the GVD voxel
+    }
+    const Eigen::Vector3f u = b / lb;
+    bool distinct = true;
+    for (int k = 0; k < count && distinct; ++k) distinct = u.dot(dirs[k]) <= cos_theta_;
+    if (distinct && count < kMaxBasis) {
+      dirs[count] = u;
+      parents[count] = nv.parent;
+      ++count;
+    }
+  }
+  for (int k = 0; k < count && k < max_parents; ++k) basis_parents[k] = parents[k];
+  return count;
+}
+
+void Places::gvd_step(std::uint32_t ref) {
+  Voxel& v = vox(ref);
+  v.flags &= static_cast<std::uint8_t>(~kEval);
+  const int nb = evaluate_gvd(ref, nullptr, 0);
+  const bool is = nb >= config_.min_basis_points;
+  const bool was = (v.flags & kGvd) != 0;
+  const std::uint8_t basis = static_cast<std::uint8_t>(is ? nb : 0);
+  if (is == was && basis == v.num_basis) return;
+  if (is && !was) {
+    v.flags |= kGvd;
+    ++counters_.gvd_voxels;
+  } else if (!is && was) {
+    v.flags &= static_cast<std::uint8_t>(~kGvd);
+    if (counters_.gvd_voxels > 0) --counters_.gvd_voxels;
+  }
+  v.num_basis = basis;
+  if ((v.flags & kGvdChanged) == 0) {
+    v.flags |= kGvdChanged;
+    lists_[kChangedList].push(ref);
+  }
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// Places sparsification
+
+std::uint32_t Places::new_cluster(const memory::Index3& cell) {
+  const std::uint32_t h = clusters_.acquire();
+  if (h == memory::kInvalidHandle) return h;
+  Cluster& c = clusters_[h];
+  c.cell = cell;
+  // Back in a cell a place left when it went out of the window: the inactive node comes back to life.
+  if (const scene_graph::NodeId* old = inactive_.find(cell)) {
+    c.node = *old;
+    c.synced = 1;
+    inactive_.erase(cell);
+    ++counters_.reactivated;
+  } else {
+    c.node = scene_graph::make_node_id(scene_graph::kPlacePrefix, next_node_index_++);
+  }
+  ++clusters_live_;
+  counters_.places = clusters_live_;
+  return h;
+}
+
+void Places::cluster_add_voxel(std::uint32_t cluster, std::uint32_t ref) {
+  Voxel& v = vox(ref);
+  Cluster& c = clusters_[cluster];
+  v.cluster = cluster;
+  v.cluster_next = c.head;
+  c.head = ref;
+  ++c.count;
+}
+
+void Places::cluster_remove_voxel(std::uint32_t cluster, std::uint32_t ref) {
+  Cluster& c = clusters_[cluster];
+  std::uint32_t* link = &c.head;
+  while (*link != kNoRef && *link != ref) link = &vox(*link).cluster_next;
+  if (*link == ref) {
+    *link = vox(ref).cluster_next;
+    --c.count;
+  }
+  Voxel& v = vox(ref);
+  v.cluster = kNoCluster;
+  v.cluster_next = kNoRef;
+  if (c.rep == ref) c.rep = kNoRef;
+}
+
+void Places::drop_edge(std::uint32_t cluster, std::uint32_t other) {
+  Cluster& c = clusters_[cluster];
+  for (int k = 0; k < c.num_edges; ++k) {
+    if (c.edge_to[k] != other) continue;
+    --c.num_edges;
+    c.edge_to[k] = c.edge_to[c.num_edges];
+    c.edge_weight[k] = c.edge_weight[c.num_edges];
+    c.sync_dirty = 1;
+    return;
+  }
+}
+
+// A cluster without voxels: its node is removed (kRemoved) or kept inactive (kLeft, left the window) by the next
+// sync(); the slot waits for that sync unless the node never reached the graph.
+void Places::retire_cluster(std::uint32_t cluster, std::uint8_t state) {
+  Cluster& c = clusters_[cluster];
+  for (int k = 0; k < c.num_edges; ++k) drop_edge(c.edge_to[k], cluster);
+  c.num_edges = 0;
+  // Members (a merge moves them first) are detached by the caller; clear what is left.
+  for (std::uint32_t r = c.head; r != kNoRef;) {
+    Voxel& v = vox(r);
+    const std::uint32_t next = v.cluster_next;
+    v.cluster = kNoCluster;
+    v.cluster_next = kNoRef;
+    r = next;
+  }
+  c.head = kNoRef;
+  c.count = 0;
+  c.rep = kNoRef;
+  c.dirty = 0;
+  c.state = state;
+  if (clusters_live_ > 0) --clusters_live_;
+  counters_.places = clusters_live_;
+  if (state == kLeft && c.synced) inactive_.insert(c.cell, c.node);  // refused (counted) when full
+  if (!c.synced) clusters_.release(cluster);
+}
+
+void Places::merge_clusters(std::uint32_t into, std::uint32_t from) {
+  Cluster& a = clusters_[into];
+  Cluster& b = clusters_[from];
+  std::uint32_t tail = kNoRef;
+  for (std::uint32_t r = b.head; r != kNoRef; r = vox(r).cluster_next) {
+    vox(r).cluster = into;
+    tail = r;
+  }
+  if (tail != kNoRef) {
+    vox(tail).cluster_next = a.head;
+    a.head = b.head;
+    a.count += b.count;
+  }
+  b.head = kNoRef;
+  b.count = 0;
+  retire_cluster(from, kRemoved);
+  a.dirty = 1;
+  ++counters_.clusters_merged;
+}
+
+// One updated GVD voxel through the paper's Algorithm "Places Sparsification": join a cluster of the same
+// hash cell that it touches, or start one; merge the other clusters of the same cell it touches. Edges between
+// clusters of different cells are rebuilt from the GVD adjacency when the touched clusters are finalized.
+void Places::sparsify_step(std::uint32_t ref) {
+  Voxel& v = vox(ref);
+  v.flags &= static_cast<std::uint8_t>(~kGvdChanged);
+  const bool gvd = (v.flags & kGvd) != 0;
+  if (gvd && v.cluster == kNoCluster) {
+    const memory::Index3 cell = cell_of(ref);
+    std::uint32_t c = kNoCluster;
+    for (const Offset& o : kOffsets.o) {
+      const std::uint32_t n = neighbor(ref, o.dx, o.dy, o.dz);
+      if (n == kNoRef) continue;
+      const Voxel& nv = vox(n);
+      if ((nv.flags & kGvd) == 0 || nv.cluster >= kSplitPending) continue;
+      if (clusters_[nv.cluster].cell == cell) {
+        c = nv.cluster;
+        break;
+      }
+    }
+    if (c == kNoCluster) {
+      c = new_cluster(cell);
+      if (c == memory::kInvalidHandle) {
+        ++counters_.clusters_refused;
+        return;
+      }
+    }
+    cluster_add_voxel(c, ref);
+    for (const Offset& o : kOffsets.o) {
+      const std::uint32_t n = neighbor(ref, o.dx, o.dy, o.dz);
+      if (n == kNoRef) continue;
+      const Voxel& nv = vox(n);
+      if ((nv.flags & kGvd) == 0 || nv.cluster >= kSplitPending || nv.cluster == c) continue;
+      if (clusters_[nv.cluster].cell == cell) merge_clusters(c, nv.cluster);
+    }
+    clusters_[c].dirty = 1;
+  } else if (gvd) {
+    if (v.cluster < kSplitPending) clusters_[v.cluster].dirty = 1;
+  } else if (v.cluster < kSplitPending) {
+    const std::uint32_t c = v.cluster;
+    cluster_remove_voxel(c, ref);
+    if (clusters_[c].count == 0) retire_cluster(c, kRemoved);
+    else clusters_[c].dirty = 1;
+  }
+}
+
+// A cluster that lost voxels may have fallen apart: its first voxel's component keeps the node, every other
+// connected component becomes a new cluster (so each place is one connected piece of the GVD graph).
+void Places::split_cluster(const reconstruction::SemanticTsdf& tsdf, std::uint32_t cluster) {
+  Cluster& c = clusters_[cluster];
+  if (c.count <= 1) return;
+  List& stack = lists_[kAffectedList];  // empty in this phase: used as scratch
+  List& pending = lists_[kEvalList];
+  stack.clear();
+  pending.clear();
+  std::uint32_t visited = 1;
+  vox(c.head).flags |= kVisited;
+  stack.push(c.head);
+  while (stack.size > 0) {
+    const std::uint32_t r = stack.data[--stack.size];
+    for (const Offset& o : kOffsets.o) {
+      const std::uint32_t n = neighbor(r, o.dx, o.dy, o.dz);
+      if (n == kNoRef) continue;
+      Voxel& nv = vox(n);
+      if (nv.cluster != cluster || (nv.flags & kVisited) != 0) continue;
+      nv.flags |= kVisited;
+      ++visited;
+      stack.push(n);
+    }
+  }
+  if (visited == c.count) {
+    for (std::uint32_t r = c.head; r != kNoRef; r = vox(r).cluster_next)
+      vox(r).flags &= static_cast<std::uint8_t>(~kVisited);
+    return;
+  }
+  // Keep the visited component; park the rest.
+  std::uint32_t* link = &c.head;
+  while (*link != kNoRef) {
+    Voxel& v = vox(*link);
+    if ((v.flags & kVisited) != 0) {
+      v.flags &= static_cast<std::uint8_t>(~kVisited);
+      link = &v.cluster_next;
+    } else {
+      const std::uint32_t r = *link;
+      *link = v.cluster_next;
+      v.cluster = kSplitPending;
+      v.cluster_next = kNoRef;
+      --c.count;
+      pending.push(r);
+    }
+  }
+  if (c.rep != kNoRef && vox(c.rep).cluster != cluster) c.rep = kNoRef;
+  for (std::size_t i = 0; i < pending.size; ++i) {
+    const std::uint32_t start = pending.data[i];
+    if (vox(start).cluster != kSplitPending) continue;
+    const std::uint32_t nc = new_cluster(c.cell);
+    if (nc == memory::kInvalidHandle) {
+      ++counters_.clusters_refused;
+      for (std::size_t k = i; k < pending.size; ++k)
+        if (vox(pending.data[k]).cluster == kSplitPending) vox(pending.data[k]).cluster = kNoCluster;
+      break;
+    }
+    ++counters_.clusters_split;
+    stack.clear();
+    cluster_add_voxel(nc, start);
+    stack.push(start);
+    while (stack.size > 0) {
+      const std::uint32_t r = stack.data[--stack.size];
+      for (const Offset& o : kOffsets.o) {
+        const std::uint32_t n = neighbor(r, o.dx, o.dy, o.dz);
+        if (n == kNoRef || vox(n).cluster != kSplitPending) continue;
+        cluster_add_voxel(nc, n);
+        stack.push(n);
+      }
+    }
+    finalize_cluster(tsdf, nc, false);
+  }
+  stack.clear();
+  pending.clear();
+}
+
+void Places::pick_representative(std::uint32_t cluster) {
+  Cluster& c = clusters_[cluster];
+  std::uint32_t best = kNoRef;
+  for (std::uint32_t r = c.head; r != kNoRef; r = vox(r).cluster_next) {
+    if (best == kNoRef) {
+      best = r;
+      continue;
+    }
+    const Voxel& v = vox(r);
+    const Voxel& b = vox(best);
+    if (v.num_basis > b.num_basis || (v.num_basis == b.num_basis && (v.distance_m > b.distance_m ||
+                                                                     (v.distance_m == b.distance_m && r < best))))
+      best = r;
+  }
+  c.rep = best;
+  if (best == kNoRef) return;
+  c.position_m = center_m(coords(best));
+  c.clearance_m = vox(best).distance_m;
+  c.num_basis = vox(best).num_basis;
+}
+
+// Each basis point of the representative voxel connects to the nearest mesh vertex of the TSDF block holding the
+// surface point behind it (the seed continued by its own distance, away from the place), else of the seed's block.
+void Places::compute_mesh_connections(const reconstruction::SemanticTsdf& tsdf, std::uint32_t cluster) {
+  Cluster& c = clusters_[cluster];
+  c.connections.clear();
+  if (c.rep == kNoRef) return;
+  std::uint32_t parents[scene_graph::kMaxPlaceConnections];
+  const int n = std::min<int>(evaluate_gvd(c.rep, parents, static_cast<int>(scene_graph::kMaxPlaceConnections)),
+                              static_cast<int>(scene_graph::kMaxPlaceConnections));
+  const double block_m = tsdf.block_size_m();
+  const Eigen::Vector3d place = center_m(coords(c.rep));
+  const auto block_of = [block_m](const Eigen::Vector3d& p) {
+    return memory::Index3{static_cast<std::int32_t>(std::floor(p.x() / block_m)),
+                          static_cast<std::int32_t>(std::floor(p.y() / block_m)),
+                          static_cast<std::int32_t>(std::floor(p.z() / block_m))};
+  };
+  for (int k = 0; k < n; ++k) {
+    const Eigen::Vector3d seed = center_m(coords(parents[k]));
+    const Eigen::Vector3d dir = (seed - place).normalized();
+    const Eigen::Vector3d surface = seed + dir * static_cast<double>(vox(parents[k]).distance_m);
+    // The block holding the surface point, else the seed's, else any neighbour of the surface's block (the
+    // surface may sit in a block without vertices of its own when it lies on a block border).
+    const memory::Index3 sb = block_of(surface);
+    memory::Index3 candidates[29];
+    int num = 0;
+    candidates[num++] = sb;
+    candidates[num++] = block_of(seed);
+    for (const Offset& o : kOffsets.o) candidates[num++] = add(sb, o.dx, o.dy, o.dz);
+    bool connected = false;
+    for (int ci = 0; ci < num && !connected; ++ci) {
+      const memory::Index3& tb = candidates[ci];
+      const std::uint32_t th = tsdf.find_block(tb);
+      if (th == memory::kInvalidHandle) continue;
+      reconstruction::SemanticTsdf::VertexCursor cursor;
+      reconstruction::MeshVertex mv;
+      double best_d2 = std::numeric_limits<double>::max();
+      std::uint32_t best = 0, index = 0;
+      bool found = false;
+      while (tsdf.next_block_vertex(th, &cursor, &mv, nullptr)) {
+        const double d2 = (Eigen::Vector3d(mv.x, mv.y, mv.z) - surface).squaredNorm();
+        if (d2 < best_d2) {
+          best_d2 = d2;
+          best = index;
+          found = true;
+        }
+        ++index;
+      }
+      if (!found) continue;
+      scene_graph::PlaceMeshConnection pc;
+      pc.block = tb;
+      pc.vertex = best;
+      pc.voxel_pos_m = seed;
+      c.connections.push_back(pc);
+      connected = true;
+    }
+  }
+}
+
+// Edges from the GVD adjacency: cluster A joins cluster B when a voxel of A touches a voxel of B; the weight is
+// the smallest clearance among the voxels through which the GVD passes from A to B (the touching pairs).
+void Places::recompute_edges(std::uint32_t cluster) {
+  Cluster& c = clusters_[cluster];
+  std::uint32_t to[kMaxClusterEdges];
+  float weight[kMaxClusterEdges];
+  int n = 0;
+  for (std::uint32_t r = c.head; r != kNoRef; r = vox(r).cluster_next) {
+    const Voxel& v = vox(r);
+    for (const Offset& o : kOffsets.o) {
+      const std::uint32_t nr = neighbor(r, o.dx, o.dy, o.dz);
+      if (nr == kNoRef) continue;
+      const Voxel& nv = vox(nr);
+      if ((nv.flags & kGvd) == 0 || nv.cluster >= kSplitPending || nv.cluster == cluster) continue;
+      const float w = std::min(v.distance_m, nv.distance_m);
+      int k = 0;
+      while (k < n && to[k] != nv.cluster) ++k;
+      if (k < n) {
+        weight[k] = std::min(weight[k], w);
+      } else if (n < kMaxClusterEdges) {
+        to[n] = nv.cluster;
+        weight[n] = w;
+        ++n;
+      } else {
+        ++counters_.edges_refused;
+      }
+    }
+  }
+  // Drop the edges that are gone (from both ends), then write the others into both ends.
+  for (int k = c.num_edges - 1; k >= 0; --k) {
+    const std::uint32_t other = c.edge_to[k];
+    bool kept = false;
+    for (int j = 0; j < n && !kept; ++j) kept = to[j] == other;
+    if (!kept) drop_edge(other, cluster);
+  }
+  int kept = 0;
+  for (int j = 0; j < n; ++j) {
+    Cluster& o = clusters_[to[j]];
+    int k = 0;
+    while (k < o.num_edges && o.edge_to[k] != cluster) ++k;
+    if (k == o.num_edges) {
+      if (o.num_edges == kMaxClusterEdges) {
+        ++counters_.edges_refused;
+        continue;  // keep the edge lists symmetric
+      }
+      o.edge_to[k] = cluster;
+      ++o.num_edges;
+      o.edge_weight[k] = weight[j];
+      o.sync_dirty = 1;
+    } else if (o.edge_weight[k] != weight[j]) {
+      o.edge_weight[k] = weight[j];
+      o.sync_dirty = 1;
+    }
+    c.edge_to[kept] = to[j];
+    c.edge_weight[kept] = weight[j];
+    ++kept;
+  }
+  c.num_edges = static_cast<std::uint8_t>(kept);
+}
+
+void Places::finalize_cluster(const reconstruction::SemanticTsdf& tsdf, std::uint32_t cluster, bool split_check) {
+  clusters_[cluster].dirty = 0;
+  if (split_check) split_cluster(tsdf, cluster);
+  pick_representative(cluster);
+  compute_mesh_connections(tsdf, cluster);
+  recompute_edges(cluster);
+  clusters_[cluster].sync_dirty = 1;
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// The anytime cycle
+
+UpdateResult Places::update(const reconstruction::SemanticTsdf& tsdf, const Eigen::Vector3d& robot_m,
+                            const Deadline& deadline) {
+  UpdateResult result;
+  if (!ready_) return result;
+  ++counters_.updates;
+  units_ = 0;
+  const std::uint32_t every = deadline.check_every == 0 ? 1 : deadline.check_every;
+  // At least one unit of work per call, so repeated calls always finish a cycle.
+  const auto expired = [&]() {
+    if (units_ == 0) return false;
+    if (units_ >= deadline.max_work_units) return true;
+    return deadline.expired != nullptr && units_ % every == 0 && deadline.expired(deadline.context);
+  };
+  const auto run_list = [&](int which, auto&& step) {
+    List& l = lists_[which];
+    while (cursor_ < l.size) {
+      if (expired()) return false;
+      step(l.data[cursor_++]);
+      ++units_;
+    }
+    l.clear();
+    cursor_ = 0;
+    return true;
+  };
+  for (;;) {
+    switch (phase_) {
+      case kIdle:
+        begin_cycle(tsdf, robot_m);
+        ++units_;
+        cursor_ = 0;
+        phase_ = kSeedPhase;
+        break;
+      case kSeedPhase:
+        if (!run_list(kDirtyList, [&](std::uint32_t e) {
+              constexpr std::uint32_t kSubs = kMaxVoxelFactor * kMaxVoxelFactor * kMaxVoxelFactor;
+              seed_sub_block(tsdf, e / kSubs, static_cast<int>(e % kSubs), true);
+            }))
+          return {false, units_};
+        phase_ = kRaisePhase;
+        break;
+      case kRaisePhase:
+        if (!run_list(kRaiseList, [&](std::uint32_t r) { raise_step(r); })) return {false, units_};
+        phase_ = kLowerPhase;
+        break;
+      case kLowerPhase:
+        while (lower_size_ > 0) {
+          if (expired()) return {false, units_};
+          const std::uint32_t r = lower_ring_[lower_head_];
+          lower_head_ = (lower_head_ + 1) % lower_capacity_;
+          --lower_size_;
+          lower_step(tsdf, r);
+          ++units_;
+        }
+        lower_head_ = 0;
+        phase_ = kGvdExpand;
+        break;
+      case kGvdExpand:
+        if (!run_list(kAffectedList, [&](std::uint32_t r) {
+              Voxel& v = vox(r);
+              v.flags &= static_cast<std::uint8_t>(~kAffected);
+              // A GVD voxel whose distance moved changes its place's clearance or an edge weight.
+              if ((v.flags & (kGvd | kGvdChanged)) == kGvd) {
+                v.flags |= kGvdChanged;
+                lists_[kChangedList].push(r);
+              }
+              if ((v.flags & kEval) == 0) {
+                v.flags |= kEval;
+                lists_[kEvalList].push(r);
+              }
+              for (const Offset& o : kOffsets.o) {
+                const std::uint32_t n = neighbor(r, o.dx, o.dy, o.dz);
+                if (n == kNoRef || (vox(n).flags & kEval) != 0) continue;
+                vox(n).flags |= kEval;
+                lists_[kEvalList].push(n);
+              }
+            }))
+          return {false, units_};
+        phase_ = kGvdEval;
+        break;
+      case kGvdEval:
+        if (!run_list(kEvalList, [&](std::uint32_t r) { gvd_step(r); })) return {false, units_};
+        phase_ = kSparsify;
+        break;
+      case kSparsify:
+        if (!run_list(kChangedList, [&](std::uint32_t r) { sparsify_step(r); })) return {false, units_};
+        phase_ = kFinalize;
+        break;
+      case kFinalize:
+        while (cursor_ < clusters_.capacity()) {
+          if (expired()) return {false, units_};
+          const std::uint32_t h = static_cast<std::uint32_t>(cursor_++);
+          if (clusters_.live(h) && clusters_[h].state == kLive && clusters_[h].dirty) {
+            finalize_cluster(tsdf, h, true);
+            ++units_;
+          } else if ((h & 63) == 0) {
+            ++units_;  // scanning slots costs too, a little
+          }
+        }
+        cursor_ = 0;
+        phase_ = kIdle;
+        ++counters_.cycles;
+        result.complete = true;
+        result.work_units = units_;
+        return result;
+      default:
+        phase_ = kIdle;
+        break;
+    }
+  }
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// Scene graph mirror
+
+SyncResult Places::sync(scene_graph::SceneGraph* graph) {
+  SyncResult r;
+  if (!ready_ || graph == nullptr || !graph->initialized()) {
+    r.status = scene_graph::Status::kMissingNode;
+    return r;
+  }
+  const scene_graph::Capacities& gc = graph->capacities();
+  const auto refuse = [&](const char* what) {
+    ++r.refused;
+    ++counters_.graph_refused;
+    r.status = scene_graph::Status::kFull;
+    const std::uint64_t n = counters_.graph_refused;
+    if ((n & (n - 1)) == 0)  // 1, 2, 4, ...: bounded logging
+      std::fprintf(stderr, "places: scene graph %s store full; refused %llu so far (retried on the next sync)\n",
+                   what, static_cast<unsigned long long>(n));
+  };
+  // Retired clusters: removed places leave the graph, places that left the window stay, inactive.
+  for (std::uint32_t h = 0; h < clusters_.capacity(); ++h) {
+    if (!clusters_.live(h)) continue;
+    Cluster& c = clusters_[h];
+    if (c.state == kRemoved) {
+      if (graph->remove_node(c.node)) ++r.nodes_removed;
+      clusters_.release(h);
+    } else if (c.state == kLeft) {
+      if (scene_graph::PlaceAttributes* p = graph->place(c.node)) {
+        p->is_active = false;
+        ++r.nodes_deactivated;
+      }
+      clusters_.release(h);
+    }
+  }
+  // Nodes first (so every edge finds both ends), then edges.
+  for (std::uint32_t h = 0; h < clusters_.capacity(); ++h) {
+    if (!clusters_.live(h)) continue;
+    Cluster& c = clusters_[h];
+    if (c.state != kLive || !c.sync_dirty || c.rep == kNoRef) continue;
+    scene_graph::PlaceAttributes attrs;
+    attrs.position_m = c.position_m;
+    attrs.is_active = true;
+    attrs.distance_m = c.clearance_m;
+    attrs.num_basis_points = c.num_basis;
+    attrs.mesh_connections = c.connections;
+    if (scene_graph::PlaceAttributes* p = graph->place(c.node)) {
+      attrs.last_update_time_ns = p->last_update_time_ns;
+      *p = attrs;
+      ++r.nodes_updated;
+      c.synced = 1;
+      continue;
+    }
+    // Checked here so a full graph is a counted refusal in every build (the store's own policy may abort).
+    if (graph->num_nodes(scene_graph::NodeKind::kPlace) >= gc.place_nodes || graph->num_nodes() >= gc.nodes()) {
+      refuse("place node");
+      continue;
+    }
+    const scene_graph::Status st = graph->add_place(c.node, attrs);
+    if (st == scene_graph::Status::kOk) {
+      ++r.nodes_added;
+      c.synced = 1;
+    } else {
+      refuse("place node");
+    }
+  }
+  for (std::uint32_t h = 0; h < clusters_.capacity(); ++h) {
+    if (!clusters_.live(h)) continue;
+    Cluster& c = clusters_[h];
+    if (c.state != kLive || !c.sync_dirty || !c.synced) continue;
+    bool complete = true;
+    // Remove graph edges to active places that are no longer neighbours (edges to inactive places stay).
+    for (;;) {
+      scene_graph::NodeId stale[32];
+      int num_stale = 0;
+      graph->for_each_neighbor(c.node, [&](scene_graph::NodeId m, const scene_graph::EdgeRecord&) {
+        if (num_stale == 32 || scene_graph::node_prefix(m) != scene_graph::kPlacePrefix) return;
+        const scene_graph::PlaceAttributes* pm = graph->place(m);
+        if (pm == nullptr || !pm->is_active) return;
+        for (int k = 0; k < c.num_edges; ++k)
+          if (clusters_[c.edge_to[k]].node == m) return;
+        stale[num_stale++] = m;
+      });
+      for (int k = 0; k < num_stale; ++k)
+        if (graph->remove_edge(c.node, stale[k])) ++r.edges_removed;
+      if (num_stale < 32) break;
+    }
+    for (int k = 0; k < c.num_edges; ++k) {
+      const Cluster& o = clusters_[c.edge_to[k]];
+      if (!o.synced) {
+        complete = false;
+        continue;
+      }
+      const double w = c.edge_weight[k];
+      if (scene_graph::EdgeAttributes* info = graph->edge_info(c.node, o.node)) {
+        if (info->weight != w || !info->weighted) {
+          info->weight = w;
+          info->weighted = true;
+          ++r.edges_updated;
+        }
+        continue;
+      }
+      if (graph->num_edges() >= gc.edges) {
+        refuse("edge");
+        complete = false;
+        continue;
+      }
+      scene_graph::EdgeAttributes info;
+      info.weight = w;
+      info.weighted = true;
+      if (graph->add_edge(c.node, o.node, info) == scene_graph::Status::kOk) ++r.edges_added;
+      else {
+        refuse("edge");
+        complete = false;
+      }
+    }
+    if (complete) c.sync_dirty = 0;
+  }
+  return r;
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// Queries
+
+bool Places::distance_at(const Eigen::Vector3d& p_m, float* distance_m) const {
+  if (!ready_) return false;
+  const memory::Index3 g{static_cast<std::int32_t>(std::floor(p_m.x() / voxel_m_)),
+                         static_cast<std::int32_t>(std::floor(p_m.y() / voxel_m_)),
+                         static_cast<std::int32_t>(std::floor(p_m.z() / voxel_m_))};
+  const std::uint32_t ref = find_voxel(g);
+  if (ref == kNoRef) return false;
+  const Voxel& v = vox(ref);
+  if ((v.state != kFree && v.state != kSeed) || v.parent == kNoRef) return false;
+  *distance_m = v.distance_m;
+  return true;
+}
+
+void Places::gvd_voxels(std::vector<GvdVoxelInfo>* out) const {
+  out->clear();
+  if (!ready_) return;
+  blocks_.for_each([&](std::uint32_t h, const Block&) {
+    for (int local = 0; local < kBlockVoxels; ++local) {
+      const std::uint32_t ref = make_ref(h, local);
+      const Voxel& v = vox(ref);
+      if ((v.flags & kGvd) == 0) continue;
+      GvdVoxelInfo info;
+      info.position_m = center_m(coords(ref));
+      info.clearance_m = v.distance_m;
+      info.num_basis_points = v.num_basis;
+      out->push_back(info);
+    }
+  });
+}
+
+void Places::places(std::vector<PlaceInfo>* out) const {
+  out->clear();
+  if (!ready_) return;
+  clusters_.for_each([&](std::uint32_t, const Cluster& c) {
+    if (c.state != kLive) return;
+    PlaceInfo p;
+    p.id = c.node;
+    p.position_m = c.position_m;
+    p.clearance_m = c.clearance_m;
+    p.num_basis_points = c.num_basis;
+    p.num_voxels = c.count;
+    for (int k = 0; k < c.num_edges; ++k) p.edges.emplace_back(clusters_[c.edge_to[k]].node, c.edge_weight[k]);
+    for (std::uint32_t r = c.head; r != kNoRef; r = vox(r).cluster_next) {
+      p.voxel_positions_m.push_back(center_m(coords(r)));
+      p.voxel_clearances_m.push_back(vox(r).distance_m);
+      p.voxel_basis_points.push_back(vox(r).num_basis);
+    }
+    out->push_back(std::move(p));
+  });
+}
+
+std::size_t Places::num_place_edges() const {
+  std::size_t n = 0;
+  clusters_.for_each([&](std::uint32_t, const Cluster& c) {
+    if (c.state == kLive) n += c.num_edges;
+  });
+  return n / 2;
+}
+
+}  // namespace qsg::places

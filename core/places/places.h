@@ -1,0 +1,265 @@
+// Layer 3 of the scene graph: an incremental ESDF and GVD (theta-simplified medial axis) over the active window,
+// seeded from the Layer-1 TSDF, sparsified into a graph of places (the paper's Algorithm "Places Sparsification")
+// and mirrored into the scene graph. Anytime: update() works through a worklist until its deadline and resumes.
+// Every store is carved from one arena sized by the board's budget table; after init() nothing allocates.
+#pragma once
+
+#include <Eigen/Core>
+#include <cstddef>
+#include <cstdint>
+#include <cstdio>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "core/memory/arena.h"
+#include "core/memory/fixed_hash_map.h"
+#include "core/memory/pool.h"
+#include "core/memory/resource_stats.h"
+#include "core/reconstruction/semantic_tsdf.h"
+#include "core/scene_graph/attributes.h"
+#include "core/scene_graph/node_id.h"
+#include "core/scene_graph/scene_graph.h"
+
+namespace qsg::places {
+
+// 8 voxels per ESDF block side, as the TSDF: at the default 0.2 m GVD voxel a block is 1.6 m and covers 2 x 2 x 2
+// TSDF blocks, so one dirty TSDF block maps to exactly one ESDF block.
+inline constexpr int kBlockSide = 8;
+inline constexpr int kBlockVoxels = kBlockSide * kBlockSide * kBlockSide;
+inline constexpr int kMaxVoxelFactor = 2;
+inline constexpr int kMaxClusterEdges = 24;  // place edges kept per place (neighbouring cells of a 3D hash)
+
+struct Config {
+  // GVD voxel = voxel_factor x TSDF voxel (1 or 2). 2 (0.2 m at 0.1 m TSDF voxels) by default: 8x fewer voxels
+  // to propagate and store, while node positions stay well inside the 0.15 m accuracy target (a GVD sheet is
+  // located to half a voxel, 0.1 m), and a 0.8 m door is still 4 voxels wide.
+  int voxel_factor = 2;
+  double max_distance_m = 3.0;       // wavefronts stop here (bounds work in large open or unobserved space)
+  double min_clearance_m = 0.2;      // GVD voxels closer to an obstacle are dropped (unstable near surfaces)
+  double min_basis_angle_rad = 0.785398163;  // theta of the theta-SMA: smallest angle between two basis points
+  int min_basis_points = 2;          // n_b: GVD voxels with fewer basis points are not places
+  double place_resolution_m = 1.0;   // delta_p: side of the spatial-hash cells that cluster GVD voxels
+  double window_radius_m = 7.0;      // ESDF blocks whose centre is farther from the robot are freed; keep it
+                                     // below the TSDF window minus one ESDF block so every read block exists
+  // The ESDF covers a vertical slab around the robot. Space no TSDF block covers is assumed free (the TSDF
+  // allocates blocks only around surfaces), so the slab bounds how far wavefronts leak through unobserved
+  // floors and ceilings.
+  double slab_below_m = 2.0;
+  double slab_above_m = 3.0;
+  double min_tsdf_weight = 0.0;      // TSDF voxels with more weight than this count as observed
+  std::string check() const;         // empty when usable, else the bad field and why
+  void print(std::FILE* out) const;
+};
+
+struct Capacities {
+  std::size_t max_blocks = 512;      // ESDF blocks of kBlockVoxels voxels (the window's free space and surfaces)
+  std::size_t place_nodes = 32768;   // clusters = place nodes alive in the window, plus those awaiting sync()
+  std::size_t inactive_cells = 32768;  // hash cells remembering the inactive node that left them (for revisits)
+  void print(std::FILE* out) const;
+};
+Capacities capacities_from_budget();
+std::size_t arena_bytes_from_budget();
+
+// When to stop: after max_work_units (deterministic, for tests and lockstep runs) or when expired(context) says
+// so (checked every check_every units; e.g. a clock comparison supplied by the scheduler). Never allocates.
+struct Deadline {
+  using Fn = bool (*)(const void* context);
+  std::uint64_t max_work_units = std::numeric_limits<std::uint64_t>::max();
+  Fn expired = nullptr;
+  const void* context = nullptr;
+  std::uint32_t check_every = 64;
+  static Deadline unlimited() { return Deadline{}; }
+  static Deadline work_units(std::uint64_t units) {
+    Deadline d;
+    d.max_work_units = units;
+    return d;
+  }
+};
+
+struct UpdateResult {
+  bool complete = false;          // the cycle finished: the GVD and places reflect the TSDF of the cycle's start
+  std::uint64_t work_units = 0;   // done in this call
+};
+
+struct Counters {
+  std::uint64_t updates = 0;           // update() calls
+  std::uint64_t cycles = 0;            // completed cycles
+  std::uint64_t tsdf_blocks_read = 0;  // dirty TSDF blocks re-seeded
+  std::uint64_t voxels_updated = 0;    // ESDF voxels whose distance or parent changed (lower wave and seeds)
+  std::uint64_t voxels_raised = 0;     // ESDF voxels reset by raise waves
+  std::uint64_t blocks_allocated = 0;
+  std::uint64_t blocks_freed = 0;      // left the window
+  std::uint64_t blocks_refused = 0;    // block pool full: the wavefront stopped there
+  std::uint64_t gvd_voxels = 0;        // current
+  std::uint64_t places = 0;            // current live clusters (active place nodes)
+  std::uint64_t clusters_merged = 0;
+  std::uint64_t clusters_split = 0;
+  std::uint64_t clusters_refused = 0;  // cluster pool full: a GVD voxel stayed without a place
+  std::uint64_t edges_refused = 0;     // a place had kMaxClusterEdges neighbours already
+  std::uint64_t graph_refused = 0;     // sync(): the scene graph's place or edge store was full
+  std::uint64_t reactivated = 0;       // places re-created in a cell an inactive node had left: the node is reused
+  void print(std::FILE* out) const;
+};
+
+// What sync() changed in the scene graph.
+struct SyncResult {
+  scene_graph::Status status = scene_graph::Status::kOk;  // kFull when a node or edge did not fit (retried later)
+  std::size_t nodes_added = 0;
+  std::size_t nodes_updated = 0;
+  std::size_t nodes_removed = 0;
+  std::size_t nodes_deactivated = 0;  // left the window: kept, is_active = false
+  std::size_t edges_added = 0;
+  std::size_t edges_updated = 0;
+  std::size_t edges_removed = 0;
+  std::size_t refused = 0;
+};
+
+// Read-only views for tests and evaluation (heap-backed outputs: not for the real-time path).
+struct GvdVoxelInfo {
+  Eigen::Vector3d position_m;
+  float clearance_m = 0.0f;
+  std::uint8_t num_basis_points = 0;
+};
+struct PlaceInfo {
+  scene_graph::NodeId id = scene_graph::kNoNode;
+  Eigen::Vector3d position_m;
+  double clearance_m = 0.0;
+  std::uint32_t num_basis_points = 0;
+  std::uint32_t num_voxels = 0;
+  std::vector<std::pair<scene_graph::NodeId, double>> edges;  // neighbour, weight (min clearance)
+  std::vector<Eigen::Vector3d> voxel_positions_m;  // the cluster's GVD voxels
+  std::vector<double> voxel_clearances_m;
+  std::vector<std::uint32_t> voxel_basis_points;
+};
+
+class Places {
+ public:
+  Places();
+  Places(const Places&) = delete;
+  Places& operator=(const Places&) = delete;
+  ~Places();
+
+  static memory::ArenaPlan plan(const Capacities& capacities);
+  // Checks the config and carves every store from one arena of at most budget_bytes. Start-up only.
+  bool init(const Config& config, const Capacities& capacities, std::size_t budget_bytes, std::string* error);
+
+  // One step of the cycle: scan the TSDF for blocks integrated since their last read (and free ESDF blocks that
+  // left the window around robot_m), re-seed them, run raise and lower waves, re-test the GVD where parents
+  // changed, and sparsify the changed GVD voxels into places. Stops when the deadline says so and continues from
+  // there on the next call; robot_m is taken at the start of a cycle. Never allocates.
+  UpdateResult update(const reconstruction::SemanticTsdf& tsdf, const Eigen::Vector3d& robot_m,
+                      const Deadline& deadline);
+  // Adds, updates, deactivates and removes only the place nodes and edges that changed since the last sync.
+  SyncResult sync(scene_graph::SceneGraph* graph);
+
+  // ESDF value at a point: false when the voxel is not allocated, not free or not reached by a wavefront.
+  bool distance_at(const Eigen::Vector3d& p_m, float* distance_m) const;
+  void gvd_voxels(std::vector<GvdVoxelInfo>* out) const;
+  void places(std::vector<PlaceInfo>* out) const;
+  bool cycle_in_progress() const { return phase_ != 0; }
+  double voxel_size_m() const { return voxel_m_; }
+  std::size_t num_places() const { return clusters_live_; }
+  std::size_t num_place_edges() const;
+
+  const Config& config() const { return config_; }
+  const Capacities& capacities() const { return capacities_; }
+  const Counters& counters() const { return counters_; }
+  // Usage of every store: fn(const memory::ResourceStats&).
+  template <typename Fn>
+  void for_each_resource(Fn&& fn) const {
+    fn(arena_.stats());
+    fn(blocks_.stats());
+    fn(block_index_.stats());
+    fn(clusters_.stats());
+    fn(inactive_.stats());
+    fn(lower_queue_stats());
+    fn(list_stats(0));
+    fn(list_stats(1));
+    fn(list_stats(2));
+    fn(list_stats(3));
+    fn(list_stats(4));
+  }
+
+  struct Voxel;
+  struct Block;
+  struct Cluster;
+  struct List;
+
+ private:
+  memory::ResourceStats lower_queue_stats() const;
+  memory::ResourceStats list_stats(int which) const;
+
+  // Geometry helpers.
+  Voxel& vox(std::uint32_t ref);
+  const Voxel& vox(std::uint32_t ref) const;
+  memory::Index3 coords(std::uint32_t ref) const;
+  std::uint32_t neighbor(std::uint32_t ref, int dx, int dy, int dz) const;
+  std::uint32_t find_voxel(const memory::Index3& g) const;
+  Eigen::Vector3d center_m(const memory::Index3& g) const;
+  bool block_in_window(const memory::Index3& block) const;
+  memory::Index3 cell_of(std::uint32_t ref) const;
+
+  // ESDF.
+  void begin_cycle(const reconstruction::SemanticTsdf& tsdf, const Eigen::Vector3d& robot_m);
+  std::uint32_t allocate_block(const reconstruction::SemanticTsdf& tsdf, const memory::Index3& index, bool read_tsdf);
+  void evict_block_voxels(std::uint32_t handle);
+  void release_block(std::uint32_t handle);
+  void seed_sub_block(const reconstruction::SemanticTsdf& tsdf, std::uint32_t handle, int sub, bool carve);
+  void carve_ray(const reconstruction::SemanticTsdf& tsdf, std::uint32_t target);
+  void apply_state(std::uint32_t ref, std::uint8_t state, float seed_m);
+  void raise_dependents(std::uint32_t seed_ref, bool include_seed);
+  void set_parent(std::uint32_t ref, std::uint32_t parent, float distance_m);
+  void clear_parent(std::uint32_t ref);
+  void push_lower(std::uint32_t ref);
+  void push_raise(std::uint32_t ref);
+  void mark_affected(std::uint32_t ref);
+  void lower_step(const reconstruction::SemanticTsdf& tsdf, std::uint32_t ref);
+  void raise_step(std::uint32_t ref);
+
+  // GVD.
+  int evaluate_gvd(std::uint32_t ref, std::uint32_t* basis_parents, int max_parents) const;
+  void gvd_step(std::uint32_t ref);
+
+  // Places.
+  void sparsify_step(std::uint32_t ref);
+  std::uint32_t new_cluster(const memory::Index3& cell);
+  void cluster_add_voxel(std::uint32_t cluster, std::uint32_t ref);
+  void cluster_remove_voxel(std::uint32_t cluster, std::uint32_t ref);
+  void merge_clusters(std::uint32_t into, std::uint32_t from);
+  void retire_cluster(std::uint32_t cluster, std::uint8_t state);
+  void drop_edge(std::uint32_t cluster, std::uint32_t other);
+  void finalize_cluster(const reconstruction::SemanticTsdf& tsdf, std::uint32_t cluster, bool split_check);
+  void split_cluster(const reconstruction::SemanticTsdf& tsdf, std::uint32_t cluster);
+  void pick_representative(std::uint32_t cluster);
+  void recompute_edges(std::uint32_t cluster);
+  void compute_mesh_connections(const reconstruction::SemanticTsdf& tsdf, std::uint32_t cluster);
+
+  Config config_;
+  Capacities capacities_;
+  Counters counters_;
+  memory::Arena arena_;
+  memory::Pool<Block> blocks_;
+  memory::SpatialHash<std::uint32_t> block_index_;
+  memory::Pool<Cluster> clusters_;
+  memory::SpatialHash<scene_graph::NodeId> inactive_;  // hash cell -> the inactive node that left it
+  List* lists_ = nullptr;  // [0] dirty TSDF sub-blocks, [1] raise, [2] affected, [3] GVD evaluation, [4] GVD changed
+  std::uint32_t* lower_ring_ = nullptr;
+  std::size_t lower_capacity_ = 0, lower_head_ = 0, lower_size_ = 0, lower_high_water_ = 0;
+
+  // Cycle state (resumable).
+  int phase_ = 0;
+  std::size_t cursor_ = 0;
+  Eigen::Vector3d cycle_robot_m_ = Eigen::Vector3d::Zero();
+  std::uint64_t units_ = 0;
+
+  double voxel_m_ = 0.2;
+  double tsdf_voxel_m_ = 0.1;
+  float tsdf_trunc_m_ = 0.3f;
+  float cos_theta_ = 0.7071f;
+  std::uint64_t next_node_index_ = 0;
+  std::size_t clusters_live_ = 0;
+  bool ready_ = false;
+};
+
+}  // namespace qsg::places

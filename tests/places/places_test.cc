@@ -1,0 +1,513 @@
+// Layer 3 places: ESDF distances, GVD on the medial axis, incremental removal, places graph components, edge
+// weights, inactive nodes, the anytime split and the allocation-free update, on rendered box-room worlds.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <set>
+#include <string>
+#include <tuple>
+#include <vector>
+
+#include "core/places/places.h"
+#include "core/scene_graph/scene_graph.h"
+#include "drivers/sim/ground_truth.h"
+#include "drivers/world/world_query.h"
+#include "tests/places/places_test_world.h"
+#include "tests/support/allocation_counter.h"
+
+namespace qsg::places {
+namespace {
+
+using testing::kHeight;
+using testing::Scanner;
+
+Capacities small_capacities() {
+  Capacities c;
+  c.max_blocks = 160;
+  c.place_nodes = 1024;
+  c.inactive_cells = 1024;
+  return c;
+}
+
+std::unique_ptr<Places> make_places(const Config& config = Config{}, const Capacities& caps = small_capacities()) {
+  auto p = std::make_unique<Places>();
+  std::string error;
+  EXPECT_TRUE(p->init(config, caps, Places::plan(caps).total_bytes(), &error)) << error;
+  return p;
+}
+
+std::unique_ptr<scene_graph::SceneGraph> make_graph(std::size_t place_nodes = 2048) {
+  scene_graph::Capacities c;
+  c.object_nodes = 4;
+  c.agent_nodes = 4;
+  c.place_nodes = place_nodes;
+  c.room_nodes = 4;
+  c.building_nodes = 1;
+  c.edges = 8192;
+  c.adjacency_chunks = 4096;
+  c.mesh_connections = 16;
+  auto g = std::make_unique<scene_graph::SceneGraph>();
+  std::string error;
+  EXPECT_TRUE(g->init(c, scene_graph::SceneGraph::plan(c).total_bytes(), &error)) << error;
+  return g;
+}
+
+void run_to_completion(Places* p, const reconstruction::SemanticTsdf& tsdf, const Eigen::Vector3d& robot) {
+  for (int i = 0; i < 1000; ++i)
+    if (p->update(tsdf, robot, Deadline::unlimited()).complete) return;
+  ADD_FAILURE() << "update() did not complete";
+}
+
+// The places update of every keyframe, with the robot at the camera.
+Scanner::Hook every_frame(Places* p, Scanner* scanner) {
+  return [p, scanner](const Eigen::Vector3d& camera) { run_to_completion(p, scanner->tsdf(), camera); };
+}
+
+// Connected components of the places layer of a scene graph (all place nodes, all place-place edges).
+std::size_t place_components(const scene_graph::SceneGraph& g) {
+  std::vector<scene_graph::NodeId> ids;
+  g.for_each_node([&](const scene_graph::NodeRecord& n) {
+    if (n.kind == scene_graph::NodeKind::kPlace) ids.push_back(n.id);
+  });
+  std::set<scene_graph::NodeId> seen;
+  std::size_t components = 0;
+  for (scene_graph::NodeId start : ids) {
+    if (seen.count(start) != 0) continue;
+    ++components;
+    std::vector<scene_graph::NodeId> stack{start};
+    seen.insert(start);
+    while (!stack.empty()) {
+      const scene_graph::NodeId id = stack.back();
+      stack.pop_back();
+      g.for_each_neighbor(id, [&](scene_graph::NodeId m, const scene_graph::EdgeRecord&) {
+        if (scene_graph::node_prefix(m) == scene_graph::kPlacePrefix && seen.insert(m).second) stack.push_back(m);
+      });
+    }
+  }
+  return components;
+}
+
+// Distance from p to the nearest wall, floor or ceiling of the box room [0, 4] x [0, 3] x [0, kHeight].
+double box_distance(const Eigen::Vector3d& p) {
+  return std::min({p.x(), 4.0 - p.x(), p.y(), 3.0 - p.y(), p.z(), kHeight - p.z()});
+}
+
+struct Mapped {
+  Scanner scanner;
+  std::unique_ptr<Places> places;
+};
+
+// One box room, scanned from two viewpoints, with places updated to completion.
+std::unique_ptr<Mapped> map_box_room(const Config& config = Config{}) {
+  auto m = std::make_unique<Mapped>();
+  std::string error;
+  EXPECT_TRUE(m->scanner.init(testing::rooms_world({4.0}, 3.0, false), 100.0, &error)) << error;
+  m->places = make_places(config);
+  EXPECT_TRUE(m->scanner.spin({1.3, 1.5, 1.2}, 8, every_frame(m->places.get(), &m->scanner)));
+  EXPECT_TRUE(m->scanner.spin({2.7, 1.5, 1.2}, 8, every_frame(m->places.get(), &m->scanner)));
+  return m;
+}
+
+TEST(PlacesTest, EsdfDistancesInABoxRoomMatchTheWalls) {
+  auto m = map_box_room();
+  const double s = m->places->voxel_size_m();
+  std::size_t checked = 0, within = 0;
+  double worst = 0.0;
+  for (double x = 0.1; x < 4.0; x += s)
+    for (double y = 0.1; y < 3.0; y += s)
+      for (double z = 0.1; z < kHeight; z += s) {
+        const Eigen::Vector3d p(x, y, z);
+        const Eigen::Vector3d c = ((p / s).array().floor() + 0.5).matrix() * s;  // the voxel's centre
+        const double truth = box_distance(c);
+        if (truth < 0.35) continue;  // inside the truncation band the TSDF's own distance is used
+        float d = 0.0f;
+        ASSERT_TRUE(m->places->distance_at(p, &d)) << "no distance at " << p.transpose();
+        ++checked;
+        const double err = std::fabs(d - truth);
+        worst = std::max(worst, err);
+        within += err <= s ? 1 : 0;
+      }
+  ASSERT_GT(checked, 500u);
+  EXPECT_EQ(within, checked) << "worst error " << worst << " m";
+  EXPECT_LE(worst, s);
+}
+
+TEST(PlacesTest, GvdOfABoxRoomLiesOnTheMedialAxis) {
+  auto m = map_box_room();
+  std::vector<GvdVoxelInfo> gvd;
+  m->places->gvd_voxels(&gvd);
+  ASSERT_GT(gvd.size(), 50u);
+  const world::World w = testing::rooms_world({4.0}, 3.0, false);
+  const world::FreeSpaceIndex free_space(w);
+  sim::GroundTruth truth;
+  std::string error;
+  ASSERT_TRUE(sim::compute_ground_truth(w, free_space, sim::GroundTruthConfig{}, &truth, &error)) << error;
+  ASSERT_GT(truth.gvd.size(), 100u);
+  double sum = 0.0, worst = 0.0;
+  for (const GvdVoxelInfo& v : gvd) {
+    const double d = truth.distance_to_gvd(v.position_m);
+    sum += d;
+    worst = std::max(worst, d);
+    EXPECT_GE(v.num_basis_points, 2);
+    EXPECT_NEAR(v.clearance_m, box_distance(v.position_m), m->places->voxel_size_m());
+  }
+  const double mean = sum / static_cast<double>(gvd.size());
+  if (std::getenv("QSG_PLACES_DEBUG") != nullptr)
+    for (const GvdVoxelInfo& v : gvd)
+      if (truth.distance_to_gvd(v.position_m) > 0.25)
+        std::printf("far: %.2f %.2f %.2f clear %.2f basis %d true %.2f\n", v.position_m.x(), v.position_m.y(),
+                    v.position_m.z(), v.clearance_m, v.num_basis_points, truth.distance_to_gvd(v.position_m));
+  std::printf("box room: %zu GVD voxels, distance to the true theta-SMA mean %.3f m, max %.3f m (%zu true voxels)\n",
+              gvd.size(), mean, worst, truth.gvd.size());
+  // Half a GVD voxel of discretisation on each side of a sheet lying between voxel centres, and within one voxel.
+  EXPECT_LE(mean, 0.12);
+  EXPECT_LE(worst, m->places->voxel_size_m());
+  // The centre of the room's skeleton is found: the mid-height sheet above the room centre.
+  double nearest = 1e9;
+  for (const GvdVoxelInfo& v : gvd) nearest = std::min(nearest, (v.position_m - Eigen::Vector3d(2.0, 1.5, 1.25)).norm());
+  EXPECT_LE(nearest, 0.35);
+}
+
+// Two rooms joined by a door: one connected free-space region, so one connected places graph. Two closed rooms:
+// two regions, two components.
+std::size_t components_of_two_rooms(bool door, std::size_t* num_places) {
+  Scanner scanner;
+  std::string error;
+  EXPECT_TRUE(scanner.init(testing::rooms_world({3.0, 3.0}, 3.0, door), 100.0, &error)) << error;
+  auto places = make_places();
+  EXPECT_TRUE(scanner.spin({1.5, 1.5, 1.2}, 8, every_frame(places.get(), &scanner)));
+  EXPECT_TRUE(scanner.spin({4.6, 1.5, 1.2}, 8, every_frame(places.get(), &scanner)));
+  if (door) {
+    EXPECT_TRUE(scanner.spin({3.05, 1.5, 1.2}, 4, every_frame(places.get(), &scanner)));
+  }
+  auto graph = make_graph();
+  const SyncResult r = places->sync(graph.get());
+  EXPECT_EQ(r.status, scene_graph::Status::kOk);
+  EXPECT_EQ(r.nodes_added, places->num_places());
+  EXPECT_EQ(graph->num_nodes(scene_graph::NodeKind::kPlace), places->num_places());
+  EXPECT_EQ(graph->num_edges(), places->num_place_edges());
+  *num_places = places->num_places();
+  return place_components(*graph);
+}
+
+TEST(PlacesTest, TwoRoomsAndADoorFormOneConnectedPlacesGraph) {
+  std::size_t n = 0;
+  EXPECT_EQ(components_of_two_rooms(true, &n), 1u);
+  EXPECT_GE(n, 6u);
+}
+
+TEST(PlacesTest, TwoClosedRoomsFormTwoPlacesComponents) {
+  std::size_t n = 0;
+  EXPECT_EQ(components_of_two_rooms(false, &n), 2u);
+  EXPECT_GE(n, 6u);
+}
+
+// The sparsified graph follows the paper's rules: every place is one connected piece of GVD inside one hash
+// cell; two places are joined exactly when their voxels touch, with the smallest clearance of the touching
+// voxels as weight; the node takes the clearance of its voxel with the most basis points.
+TEST(PlacesTest, SparsificationClustersAndEdgeWeightsFollowTheGvd) {
+  auto m = map_box_room();
+  const double s = m->places->voxel_size_m();
+  const double cell = m->places->config().place_resolution_m;
+  std::vector<PlaceInfo> places;
+  m->places->places(&places);
+  ASSERT_GT(places.size(), 4u);
+  const auto touch = [s](const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+    return (a - b).cwiseAbs().maxCoeff() < 1.5 * s;
+  };
+  const auto cell_of = [cell](const Eigen::Vector3d& p) { return (p / cell).array().floor().cast<int>().eval(); };
+  std::size_t edges = 0;
+  for (const PlaceInfo& p : places) {
+    ASSERT_GT(p.num_voxels, 0u);
+    ASSERT_EQ(p.voxel_positions_m.size(), p.num_voxels);
+    // One hash cell, one connected piece of the GVD graph.
+    std::vector<bool> reached(p.num_voxels, false);
+    std::vector<std::size_t> stack{0};
+    reached[0] = true;
+    while (!stack.empty()) {
+      const std::size_t i = stack.back();
+      stack.pop_back();
+      for (std::size_t j = 0; j < p.num_voxels; ++j)
+        if (!reached[j] && touch(p.voxel_positions_m[i], p.voxel_positions_m[j])) {
+          reached[j] = true;
+          stack.push_back(j);
+        }
+    }
+    EXPECT_TRUE(std::all_of(reached.begin(), reached.end(), [](bool b) { return b; })) << "cluster not connected";
+    for (const Eigen::Vector3d& v : p.voxel_positions_m) EXPECT_TRUE((cell_of(v) == cell_of(p.voxel_positions_m[0])).all());
+    // Node from the voxel with the most basis points.
+    const std::uint32_t most = *std::max_element(p.voxel_basis_points.begin(), p.voxel_basis_points.end());
+    EXPECT_EQ(p.num_basis_points, most);
+    EXPECT_GE(p.num_basis_points, 2u);
+    bool rep_found = false;
+    for (std::size_t i = 0; i < p.num_voxels; ++i)
+      rep_found = rep_found || (p.voxel_positions_m[i] == p.position_m && p.voxel_basis_points[i] == most &&
+                                std::fabs(p.voxel_clearances_m[i] - p.clearance_m) < 1e-6);
+    EXPECT_TRUE(rep_found);
+    // Edges: exactly the places whose voxels touch, weighted by the smallest clearance of the touching voxels.
+    for (const PlaceInfo& q : places) {
+      if (q.id == p.id) continue;
+      double expected = 1e9;
+      for (std::size_t i = 0; i < p.num_voxels; ++i)
+        for (std::size_t j = 0; j < q.num_voxels; ++j)
+          if (touch(p.voxel_positions_m[i], q.voxel_positions_m[j]))
+            expected = std::min({expected, p.voxel_clearances_m[i], q.voxel_clearances_m[j]});
+      const auto it = std::find_if(p.edges.begin(), p.edges.end(), [&](const auto& e) { return e.first == q.id; });
+      if (expected == 1e9) {
+        EXPECT_TRUE(it == p.edges.end()) << "edge between places that do not touch";
+        continue;
+      }
+      // Touching places of one cell would have been merged.
+      EXPECT_FALSE((cell_of(p.voxel_positions_m[0]) == cell_of(q.voxel_positions_m[0])).all());
+      ASSERT_TRUE(it != p.edges.end()) << "touching places without an edge";
+      EXPECT_NEAR(it->second, expected, 1e-6);
+      ++edges;
+    }
+  }
+  EXPECT_GT(edges, 0u);
+  // The scene graph mirror carries the same weights.
+  auto graph = make_graph();
+  m->places->sync(graph.get());
+  for (const PlaceInfo& p : places) {
+    const scene_graph::PlaceAttributes* a = graph->place(p.id);
+    ASSERT_NE(a, nullptr);
+    EXPECT_TRUE(a->is_active);
+    EXPECT_NEAR(a->distance_m, p.clearance_m, 1e-6);
+    EXPECT_EQ(a->num_basis_points, p.num_basis_points);
+    EXPECT_GE(a->mesh_connections.size(), 1u);  // basis points on observed surfaces reach a mesh vertex
+    for (const auto& [other, weight] : p.edges) {
+      const scene_graph::EdgeRecord* e = graph->edge(p.id, other);
+      ASSERT_NE(e, nullptr);
+      EXPECT_NEAR(e->info.weight, weight, 1e-6);
+    }
+  }
+}
+
+// Adding a partition wall later: GVD voxels and places that are no longer valid disappear, and the incremental
+// result matches a from-scratch run on the final TSDF.
+TEST(PlacesTest, AnObstacleAddedLaterRemovesInvalidGvdVoxelsAndPlaces) {
+  world::World w = testing::rooms_world({4.0}, 3.0, false);
+  Scanner scanner;
+  std::string error;
+  ASSERT_TRUE(scanner.init(w, 4.0, &error)) << error;  // low max weight: the map follows the change quickly
+  auto places = make_places();
+  const auto hook = every_frame(places.get(), &scanner);
+  ASSERT_TRUE(scanner.spin({1.0, 1.5, 1.2}, 8, hook));
+  ASSERT_TRUE(scanner.spin({3.0, 1.5, 1.2}, 8, hook));
+  auto graph = make_graph();
+  places->sync(graph.get());
+  std::vector<GvdVoxelInfo> before;
+  places->gvd_voxels(&before);
+  // A 0.2 m partition across the room at x = 2, from y = 0 to 2 m, full height.
+  const Eigen::Vector3d lo(1.9, 0.0, 0.0), hi(2.1, 2.0, kHeight);
+  std::size_t inside_before = 0;
+  for (const GvdVoxelInfo& v : before)
+    inside_before += (v.position_m.array() >= lo.array() - 0.1).all() && (v.position_m.array() <= hi.array() + 0.1).all();
+  ASSERT_GT(inside_before, 0u) << "the old skeleton must cross the new wall's place";
+  testing::add_box(&w, lo, hi);
+  ASSERT_TRUE(scanner.set_world(w, &error)) << error;
+  for (int pass = 0; pass < 2; ++pass) {  // from where the partition's end face is seen too
+    ASSERT_TRUE(scanner.spin({1.0, 2.4, 1.2}, 8, hook));
+    ASSERT_TRUE(scanner.spin({3.0, 2.4, 1.2}, 8, hook));
+  }
+  const SyncResult r = places->sync(graph.get());
+  EXPECT_GT(r.nodes_removed, 0u);
+  EXPECT_GT(places->counters().voxels_raised, 0u);
+  std::vector<GvdVoxelInfo> after;
+  places->gvd_voxels(&after);
+  for (const GvdVoxelInfo& v : after) {
+    const bool inside = (v.position_m.array() >= lo.array()).all() && (v.position_m.array() <= hi.array()).all();
+    EXPECT_FALSE(inside) << "GVD voxel inside the new wall at " << v.position_m.transpose();
+  }
+  std::vector<PlaceInfo> now;
+  places->places(&now);
+  for (const PlaceInfo& p : now) {
+    const bool inside = (p.position_m.array() >= lo.array()).all() && (p.position_m.array() <= hi.array()).all();
+    EXPECT_FALSE(inside) << "place inside the new wall at " << p.position_m.transpose();
+    EXPECT_TRUE(graph->has_node(p.id));
+  }
+  EXPECT_EQ(graph->num_nodes(scene_graph::NodeKind::kPlace), now.size());
+  // Against the truth of the changed room: distances as good as in the untouched test, the skeleton on the
+  // new medial axis.
+  const auto truth_distance = [&](const Eigen::Vector3d& p) {
+    const Eigen::Vector3d q = (p - 0.5 * (lo + hi)).cwiseAbs() - 0.5 * (hi - lo);
+    const double box = q.maxCoeff() > 0 ? q.cwiseMax(0.0).norm() : -q.maxCoeff();
+    return std::min(box_distance(p), box);
+  };
+  const double s = places->voxel_size_m();
+  std::size_t checked = 0, bad = 0;
+  for (double x = 0.1; x < 4.0; x += s)
+    for (double y = 0.1; y < 3.0; y += s)
+      for (double z = 0.1; z < kHeight; z += s) {
+        const Eigen::Vector3d c(x, y, z);
+        const double t = truth_distance(c);
+        if (t < 0.35) continue;
+        float d = 0.0f;
+        if (!places->distance_at(c, &d)) {
+          ++bad;
+          continue;
+        }
+        ++checked;
+        if (std::fabs(d - t) > s) {
+          ++bad;
+          if (std::getenv("QSG_PLACES_DEBUG") != nullptr)
+            std::printf("bad %.1f %.1f %.1f esdf %.2f truth %.2f\n", x, y, z, d, t);
+        }
+      }
+  EXPECT_GT(checked, 400u);
+  EXPECT_LE(bad, checked / 100) << "ESDF voxels off by more than one voxel after the change";
+  const world::FreeSpaceIndex free_space(w);
+  sim::GroundTruth truth;
+  ASSERT_TRUE(sim::compute_ground_truth(w, free_space, sim::GroundTruthConfig{}, &truth, &error)) << error;
+  double sum = 0.0;
+  for (const GvdVoxelInfo& v : after) sum += truth.distance_to_gvd(v.position_m);
+  const double mean = sum / static_cast<double>(std::max<std::size_t>(1, after.size()));
+  std::printf("after the change: %zu GVD voxels (%zu before), mean distance to the true theta-SMA %.3f m\n",
+              after.size(), before.size(), mean);
+  EXPECT_LE(mean, 0.12);
+}
+
+TEST(PlacesTest, PlacesThatLeaveTheWindowStayInTheGraphInactive) {
+  Scanner scanner;
+  std::string error;
+  ASSERT_TRUE(scanner.init(testing::rooms_world({3.0, 3.0}, 3.0, true), 100.0, &error)) << error;
+  auto places = make_places();
+  ASSERT_TRUE(scanner.spin({1.5, 1.5, 1.2}, 8, every_frame(places.get(), &scanner)));
+  ASSERT_TRUE(scanner.spin({4.6, 1.5, 1.2}, 8, every_frame(places.get(), &scanner)));
+  auto graph = make_graph();
+  places->sync(graph.get());
+  const std::size_t nodes = graph->num_nodes(scene_graph::NodeKind::kPlace);
+  const std::size_t edges = graph->num_edges();
+  ASSERT_GT(nodes, 4u);
+  // The robot walks 30 m away: every ESDF block leaves the window.
+  run_to_completion(places.get(), scanner.tsdf(), {33.0, 1.5, 1.2});
+  EXPECT_EQ(places->num_places(), 0u);
+  EXPECT_GT(places->counters().blocks_freed, 0u);
+  const SyncResult r = places->sync(graph.get());
+  EXPECT_EQ(r.nodes_deactivated, nodes);
+  EXPECT_EQ(r.nodes_removed, 0u);
+  EXPECT_EQ(graph->num_nodes(scene_graph::NodeKind::kPlace), nodes);
+  EXPECT_EQ(graph->num_edges(), edges);
+  graph->for_each_node([&](const scene_graph::NodeRecord& n) {
+    if (n.kind == scene_graph::NodeKind::kPlace) {
+      EXPECT_FALSE(graph->place(n.id)->is_active);
+    }
+  });
+  places->for_each_resource([](const memory::ResourceStats& s) { EXPECT_EQ(s.failed, 0u) << s.name; });
+}
+
+// The anytime split: the same work cut into many small calls gives exactly the result of one call, also over
+// an incremental second scan.
+TEST(PlacesTest, SplittingTheWorkAcrossCallsGivesTheSameResult) {
+  Scanner scanner;
+  std::string error;
+  ASSERT_TRUE(scanner.init(testing::rooms_world({3.0, 3.0}, 3.0, true), 100.0, &error)) << error;
+  auto whole = make_places();
+  auto split = make_places();
+  const auto compare = [&]() {
+    std::vector<PlaceInfo> a, b;
+    whole->places(&a);
+    split->places(&b);
+    ASSERT_EQ(a.size(), b.size());
+    for (std::size_t i = 0; i < a.size(); ++i) {
+      EXPECT_EQ(a[i].id, b[i].id);
+      EXPECT_EQ(a[i].position_m, b[i].position_m);
+      EXPECT_EQ(a[i].clearance_m, b[i].clearance_m);
+      EXPECT_EQ(a[i].edges, b[i].edges);
+    }
+    std::vector<GvdVoxelInfo> ga, gb;
+    whole->gvd_voxels(&ga);
+    split->gvd_voxels(&gb);
+    ASSERT_EQ(ga.size(), gb.size());
+    for (std::size_t i = 0; i < ga.size(); ++i) EXPECT_EQ(ga[i].position_m, gb[i].position_m);
+  };
+  for (const Eigen::Vector3d& view : {Eigen::Vector3d(1.5, 1.5, 1.2), Eigen::Vector3d(4.6, 1.5, 1.2)}) {
+    int calls = 0;
+    ASSERT_TRUE(scanner.spin(view, 8, [&](const Eigen::Vector3d& camera) {
+      ASSERT_TRUE(whole->update(scanner.tsdf(), camera, Deadline::unlimited()).complete);
+      while (!split->update(scanner.tsdf(), camera, Deadline::work_units(300)).complete) ++calls;
+    }));
+    EXPECT_GT(calls, 50) << "the work should need many small calls";
+    compare();
+  }
+  EXPECT_GT(whole->num_places(), 4u);
+}
+
+// After start-up an update (and a sync) never touches the heap.
+TEST(PlacesTest, UpdateAndSyncDoNotAllocate) {
+  Scanner scanner;
+  std::string error;
+  ASSERT_TRUE(scanner.init(testing::rooms_world({4.0}, 3.0, false), 100.0, &error)) << error;
+  auto places = make_places();
+  auto graph = make_graph();
+  ASSERT_TRUE(scanner.spin({1.3, 1.5, 1.2}, 8, every_frame(places.get(), &scanner)));
+  places->sync(graph.get());
+  const Eigen::Vector3d robot(2.7, 1.5, 1.2);
+  ASSERT_TRUE(scanner.spin(robot, 4));
+  UpdateResult r;
+  EXPECT_NO_ALLOCATIONS(r = places->update(scanner.tsdf(), robot, Deadline::unlimited()));
+  EXPECT_TRUE(r.complete);
+  SyncResult s;
+  EXPECT_NO_ALLOCATIONS(s = places->sync(graph.get()));
+  EXPECT_GT(s.nodes_added + s.nodes_updated, 0u);
+  // With a deadline callback too.
+  ASSERT_TRUE(scanner.spin(robot, 4));
+  int calls = 0;
+  Deadline d;
+  d.check_every = 16;
+  d.context = &calls;
+  d.expired = [](const void* c) { return ++*static_cast<int*>(const_cast<void*>(c)) > 3; };
+  EXPECT_NO_ALLOCATIONS(r = places->update(scanner.tsdf(), robot, d));
+  EXPECT_FALSE(r.complete);
+  EXPECT_GT(calls, 3);
+}
+
+TEST(PlacesTest, FullStoresAreCountedNotFatal) {
+  auto m = map_box_room();
+  auto graph = make_graph(2);
+  const SyncResult r = m->places->sync(graph.get());
+  EXPECT_EQ(r.status, scene_graph::Status::kFull);
+  EXPECT_GT(r.refused, 0u);
+  EXPECT_EQ(graph->num_nodes(scene_graph::NodeKind::kPlace), 2u);
+  EXPECT_GT(m->places->counters().graph_refused, 0u);
+  // A cluster pool of two places: the rest of the GVD stays unclustered, counted.
+  Capacities tiny = small_capacities();
+  tiny.place_nodes = 2;
+  auto places = make_places(Config{}, tiny);
+  ASSERT_TRUE(m->scanner.spin({2.0, 1.5, 1.2}, 8, every_frame(places.get(), &m->scanner)));
+  EXPECT_EQ(places->num_places(), 2u);
+  EXPECT_GT(places->counters().clusters_refused, 0u);
+}
+
+TEST(PlacesTest, BadConfigAndBudgetAreRejectedWithAReason) {
+  Places p;
+  std::string error;
+  Config bad;
+  bad.voxel_factor = 3;
+  EXPECT_FALSE(p.init(bad, small_capacities(), Places::plan(small_capacities()).total_bytes(), &error));
+  EXPECT_NE(error.find("voxel_factor"), std::string::npos) << error;
+  bad = Config{};
+  bad.min_basis_angle_rad = -1.0;
+  EXPECT_FALSE(p.init(bad, small_capacities(), Places::plan(small_capacities()).total_bytes(), &error));
+  EXPECT_NE(error.find("min_basis_angle_rad"), std::string::npos) << error;
+  EXPECT_FALSE(p.init(Config{}, small_capacities(), 1024, &error));
+  EXPECT_NE(error.find("places"), std::string::npos) << error;
+  Capacities zero;
+  zero.max_blocks = 0;
+  EXPECT_FALSE(p.init(Config{}, zero, 1 << 20, &error));
+  EXPECT_NE(error.find("max_blocks"), std::string::npos) << error;
+  EXPECT_TRUE(p.init(Config{}, small_capacities(), Places::plan(small_capacities()).total_bytes(), &error)) << error;
+}
+
+TEST(PlacesTest, TheBudgetTableHoldsTheArena) {
+  const Capacities caps = capacities_from_budget();
+  EXPECT_LE(Places::plan(caps).total_bytes(), arena_bytes_from_budget());
+}
+
+}  // namespace
+}  // namespace qsg::places
