@@ -130,12 +130,34 @@ bool AppConfig::load(const std::string& path, std::string* error) {
                               {"integration_threads", number(&reconstruction.integration_threads)}},
                              why);
        }},
+      {"places", [&](const Json& v, std::string* why) {
+         places::Config& pc = frontend.places;
+         return read_section(v, "places",
+                             {{"voxel_factor", number(&pc.voxel_factor)},
+                              {"max_distance_m", number(&pc.max_distance_m)},
+                              {"min_clearance_m", number(&pc.min_clearance_m)},
+                              {"min_basis_angle_rad", number(&pc.min_basis_angle_rad)},
+                              {"place_resolution_m", number(&pc.place_resolution_m)},
+                              {"window_radius_m", number(&pc.window_radius_m)}},
+                             why);
+       }},
+      {"frontend", [&](const Json& v, std::string* why) {
+         return read_section(v, "frontend", {{"connect_interlayer", boolean(&frontend.connect_interlayer)}}, why);
+       }},
       {"keyframes", [&](const Json& v, std::string* why) {
          return read_section(v, "keyframes",
                              {{"min_interval_s", number(&keyframes.min_interval_s)},
                               {"max_interval_s", number(&keyframes.max_interval_s)},
                               {"min_translation_m", number(&keyframes.min_translation_m)},
                               {"min_rotation_rad", number(&keyframes.min_rotation_rad)}},
+                             why);
+       }},
+      {"segmentation", [&](const Json& v, std::string* why) {
+         return read_section(v, "segmentation",
+                             {{"model_path", text(&segmentation.model_path)},
+                              {"label_map_path", text(&segmentation.label_map_path)},
+                              {"deadline_s", number(&segmentation.deadline_s)},
+                              {"min_confidence", number(&segmentation.min_confidence)}},
                              why);
        }},
       {"gpio", [&](const Json& v, std::string* why) {
@@ -166,6 +188,9 @@ bool AppConfig::load(const std::string& path, std::string* error) {
 std::string AppConfig::check() const {
   if (driver == Driver::kReplay && replay_path.empty()) return "driver replay needs replay_path";
   if (output_dir.empty()) return "output_dir must not be empty";
+  if (!segmentation.model_path.empty() && segmentation.label_map_path.empty())
+    return "segmentation.label_map_path must be set with a model";
+  if (!(segmentation.deadline_s > 0.0)) return "segmentation.deadline_s must be > 0";
   if (gpio.chip.empty()) return "gpio.chip must not be empty (\"sim\" for the simulated chip)";
   for (int line : {gpio.heartbeat_line, gpio.trigger_line, gpio.pause_line})
     if (line < -1 || line > 1023) return "gpio lines must be -1 (unused) or an offset in [0, 1023]";
@@ -180,6 +205,7 @@ std::string AppConfig::check() const {
   if (const std::string e = exploration.check(); !e.empty()) return "exploration: " + e;
   if (const std::string c = camera.check(); !c.empty()) return "camera: " + c;
   if (const std::string r = reconstruction.check(); !r.empty()) return "reconstruction: " + r;
+  if (const std::string f = frontend.check(); !f.empty()) return "frontend: " + f;
   if (const std::string k = keyframes.check(); !k.empty()) return "keyframes: " + k;
   if (const std::string s = scheduler.check(); !s.empty()) return "scheduler: " + s;
   return {};
@@ -197,10 +223,16 @@ void AppConfig::print(std::FILE* out) const {
     exploration.print(out);
     camera.print(out);
   }
+  std::fprintf(out, "segmentation: %s%s%s deadline_s=%.2f min_confidence=%.2f\n",
+               segmentation.model_path.empty() ? "off (no model_path)" : segmentation.model_path.c_str(),
+               segmentation.model_path.empty() ? "" : " label_map=",
+               segmentation.model_path.empty() ? "" : segmentation.label_map_path.c_str(), segmentation.deadline_s,
+               segmentation.min_confidence);
   std::fprintf(out, "gpio: chip=%s heartbeat_line=%d trigger_line=%d pause_line=%d trigger_width_s=%.4f pause_debounce_s=%.3f\n",
                gpio.chip.c_str(), gpio.heartbeat_line, gpio.trigger_line, gpio.pause_line, gpio.trigger_width_s,
                gpio.pause_debounce_s);
   reconstruction.print(out);
+  frontend.print(out);
   keyframes.print(out);
   scheduler.print(out);
 }

@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <string>
 
+#include "core/frontend/frontend.h"
 #include "core/reconstruction/semantic_tsdf.h"
 #include "drivers/sim/exploration.h"
 #include "drivers/sim/sim_camera.h"
@@ -28,6 +29,14 @@ struct AppConfig {
   double telemetry_interval_s = 1.0;
   bool ground_truth_labels = true;      // sim: the renderer's labels bypass segmentation
 
+  // Semantic segmentation (OpenCV DNN) of keyframes without ground-truth labels. Off when model_path is empty.
+  struct Segmentation {
+    std::string model_path;                  // e.g. ../shared/data/models/espnetv2_s2_pascal384.onnx
+    std::string label_map_path = "firmware_app/config/segmentation_pascal_voc.json";
+    double deadline_s = 0.5;                 // a keyframe not started by the worker within this is integrated unlabelled
+    float min_confidence = 0.5f;
+  } segmentation;
+
   // GPIO: "sim" (an in-memory chip) or a libgpiod chip ("gpiochip0", "/dev/gpiochip0", a label). Lines by
   // offset; -1 leaves a function unused.
   struct Gpio {
@@ -43,6 +52,7 @@ struct AppConfig {
   sim::ExplorationConfig exploration;
   sim::SimCamera::Config camera;
   reconstruction::Config reconstruction;
+  frontend::Config frontend;
   runtime::KeyframeConfig keyframes;
   runtime::SchedulerConfig scheduler;
 

@@ -17,12 +17,12 @@
 #include "drivers/gpio/sim_gpio.h"
 #include "drivers/render/ray_scene.h"
 #include "drivers/world/top_down.h"
+#include "firmware_app/graph_picture.h"
 #include "drivers/world/world_query.h"
 
 namespace qsg::app {
 
 namespace {
-constexpr char kAgentPrefix = scene_graph::kDefaultAgentPrefix;
 
 const budgets::QueueBudget* find_queue(const budgets::BoardTable& table, const char* name) {
   for (std::size_t i = 0; i < table.num_queues; ++i)
@@ -75,6 +75,9 @@ bool write_file_atomically(const std::string& path, const std::string& text, std
 
 Pipeline::Pipeline() = default;
 Pipeline::~Pipeline() {
+  segmentation_stop_.store(true);
+  segmentation_queue_.close();
+  if (segmentation_thread_.joinable()) segmentation_thread_.join();
   keyframe_queue_.close();
   free_frames_.close();
 }
@@ -102,6 +105,7 @@ bool Pipeline::init(const AppConfig& config, runtime::Clock* clock, std::string*
   if (!tsdf_.init(config.reconstruction, reconstruction::capacities_from_budget(),
                   budgets::active::reconstruction::kArenaBytes, error))
     return false;
+  if (!frontend_.init(config.frontend, error)) return false;
   trajectory_m_.reserve(graph_.capacities().agent_nodes);
 
   // The source.
@@ -141,7 +145,11 @@ bool Pipeline::init(const AppConfig& config, runtime::Clock* clock, std::string*
   // Frame buffers and the keyframe queue, with the depth and drop policy the board declares.
   const budgets::QueueBudget* frames_budget = find_queue(table, "frames");
   if (frames_budget == nullptr) return fail(std::string("budget table ") + table.board + ": no 'frames' queue");
-  const int pool = static_cast<int>(frames_budget->depth) + 2;  // + the pending frame + the keyframe in work
+  // + the pending frame, the keyframe in work, and the keyframes segmentation may hold (queued, in the worker,
+  // labelled and not yet collected).
+  const budgets::QueueBudget* segmentation_budget = find_queue(table, "segmentation");
+  const int pool = static_cast<int>(frames_budget->depth) + 2 +
+                   (segmentation_budget != nullptr ? static_cast<int>(segmentation_budget->depth) + 2 : 0);
   frames_ = std::make_unique<drivers::RgbdFrame[]>(static_cast<std::size_t>(pool));
   frame_poses_ = std::make_unique<Eigen::Isometry3d[]>(static_cast<std::size_t>(pool));
   if (!free_frames_.init(static_cast<std::uint32_t>(pool), budgets::DropPolicy::kDropNewest, nullptr, error) ||
@@ -151,7 +159,7 @@ bool Pipeline::init(const AppConfig& config, runtime::Clock* clock, std::string*
   keyframe_queue_.set_on_drop([](void* self, int&& index) { static_cast<Pipeline*>(self)->free_frames_.push(int{index}); },
                               this);
 
-  if (!init_gpio(error)) return false;
+  if (!init_gpio(error) || !init_segmentation(error)) return false;
 
   // The task table.
   if (!scheduler_.init(config.scheduler, table, clock_, error)) return false;
@@ -168,6 +176,73 @@ bool Pipeline::init(const AppConfig& config, runtime::Clock* clock, std::string*
   next_snapshot_ns_ = start_ns_ + static_cast<std::int64_t>(config.snapshot_interval_s * 1e9);
   last_telemetry_ns_ = start_ns_;
   return true;
+}
+
+bool Pipeline::init_segmentation(std::string* error) {
+  const AppConfig::Segmentation& sc = config_.segmentation;
+  if (sc.model_path.empty()) return true;
+  segmentation::LabelMap map;
+  if (!map.load(sc.label_map_path, error)) return false;
+  segmentation::Config c;
+  c.model_path = sc.model_path;
+  c.min_confidence = sc.min_confidence;
+  segmenter_ = std::make_unique<segmentation::Segmenter>();
+  if (!segmenter_->init(c, map, error)) return false;
+  const budgets::QueueBudget* q = find_queue(budgets::active::kTable, "segmentation");
+  if (q == nullptr) return *error = std::string("budget table ") + budgets::active::kTable.board + ": no 'segmentation' queue", false;
+  const std::uint32_t pool = static_cast<std::uint32_t>(free_frames_.stats().depth);
+  if (!segmentation_queue_.init(q->depth, q->policy, nullptr, error) ||
+      !labelled_queue_.init(pool, budgets::DropPolicy::kDropNewest, nullptr, error))
+    return false;
+  segmentation_queue_.set_on_drop(
+      [](void* self, int&& index) {
+        Pipeline& p = *static_cast<Pipeline*>(self);
+        --p.segmentation_in_flight_;
+        p.free_frames_.push(int{index});
+      },
+      this);
+  // Lockstep runs segment inline (deterministic); otherwise a long-lived worker does.
+  if (!config_.lockstep) segmentation_thread_ = std::thread([this] { segmentation_worker(); });
+  return true;
+}
+
+bool Pipeline::segment_frame(int index) {
+  drivers::RgbdFrame& frame = frames_[static_cast<std::size_t>(index)];
+  if (segmenter_->segment(frame)) return true;
+  frame.has_labels = false;
+  segmentation_failures_.fetch_add(1);
+  return false;
+}
+
+void Pipeline::segmentation_worker() {
+  int index = -1;
+  while (!segmentation_stop_.load()) {
+    if (!segmentation_queue_.pop_wait(&index, 100000000)) continue;
+    segment_frame(index);
+    labelled_queue_.push(int{index});
+  }
+}
+
+// Labelled keyframes go on to reconstruction; keyframes the worker has not started within the deadline go
+// unlabelled (the worker never touches them again, so there is no race on their buffers).
+void Pipeline::collect_segmented() {
+  int index = -1;
+  while (labelled_queue_.try_pop(&index)) {
+    --segmentation_in_flight_;
+    if (frames_[static_cast<std::size_t>(index)].has_labels) ++counters_.keyframes_segmented;
+    else ++counters_.keyframes_unlabelled;
+    keyframe_queue_.push(int{index});
+  }
+  const std::int64_t now = clock_->now_ns();
+  const std::int64_t deadline_ns = static_cast<std::int64_t>(config_.segmentation.deadline_s * 1e9);
+  while (segmentation_queue_.try_pop_if(
+      [&](const int& i) { return now - data_to_loop_ns(frames_[static_cast<std::size_t>(i)].sample_time_ns) > deadline_ns; },
+      &index)) {
+    --segmentation_in_flight_;
+    frames_[static_cast<std::size_t>(index)].has_labels = false;
+    ++counters_.keyframes_unlabelled;
+    keyframe_queue_.push(int{index});
+  }
 }
 
 bool Pipeline::init_gpio(std::string* error) {
@@ -215,7 +290,7 @@ bool Pipeline::step() {
   const bool duration_over =
       config_.duration_s > 0.0 && have_offset_ && tick_start - start_ns_ > static_cast<std::int64_t>(config_.duration_s * 1e9);
   if (stop_requested_.load() || duration_over ||
-      (source_ended_ && pending_frame_ < 0 && keyframe_queue_.stats().size == 0)) {
+      (source_ended_ && pending_frame_ < 0 && keyframe_queue_.stats().size == 0 && segmentation_in_flight_ == 0)) {
     done_ = true;
     return false;
   }
@@ -225,6 +300,7 @@ bool Pipeline::step() {
   // The simulator renders outside the measured tasks: its cost is the simulation's, not the robot's.
   if (prefetch_outside_tasks_) poll_camera();
   scheduler_.tick();
+  if (segmenter_ != nullptr && !config_.lockstep) collect_segmented();
   if (keyframe_queue_.try_pop(&current_keyframe_)) {
     scheduler_.keyframe(keyframe_index_++);
     free_frames_.push(int{current_keyframe_});
@@ -276,7 +352,12 @@ void Pipeline::poll_camera() {
   }
   if (keyframes_.offer(frame.sample_time_ns, frame_poses_[static_cast<std::size_t>(index)])) {
     ++counters_.keyframes;
-    keyframe_queue_.push(int{index});  // a full queue hands its oldest keyframe back to the free list
+    if (segmenter_ != nullptr && !config_.lockstep && !frame.has_labels) {
+      ++segmentation_in_flight_;
+      segmentation_queue_.push(int{index});
+    } else {
+      keyframe_queue_.push(int{index});  // a full queue hands its oldest keyframe back to the free list
+    }
   } else {
     free_frames_.push(int{index});
   }
@@ -338,30 +419,35 @@ void Pipeline::integrate_keyframe(const runtime::TaskContext& c) {
   if (current_keyframe_ < 0) return;
   const drivers::RgbdFrame& frame = frames_[static_cast<std::size_t>(current_keyframe_)];
   const Eigen::Isometry3d& world_T_camera = frame_poses_[static_cast<std::size_t>(current_keyframe_)];
+  if (segmenter_ != nullptr && config_.lockstep && !frame.has_labels)
+    ++(segment_frame(current_keyframe_) ? counters_.keyframes_segmented : counters_.keyframes_unlabelled);
   if (!tsdf_.process(frame, world_T_camera)) {
     ++counters_.keyframes_refused;
     return;
   }
   ++counters_.keyframes_integrated;
-  // The agent layer: one node per keyframe, joined to the previous one.
-  scene_graph::AgentAttributes a;
-  a.position_m = world_T_camera.translation();
-  a.world_R_body = Eigen::Quaterniond(world_T_camera.linear());
-  a.timestamp_ns = static_cast<std::uint64_t>(frame.sample_time_ns);
-  a.last_update_time_ns = static_cast<std::uint64_t>(c.now_ns);
-  a.is_active = true;
-  const scene_graph::NodeId id = scene_graph::make_node_id(kAgentPrefix, counters_.agent_nodes);
-  if (graph_.add_agent(id, kAgentPrefix, a) != scene_graph::Status::kOk) {
+  robot_m_ = world_T_camera.translation();
+  latest_keyframe_ns_ = static_cast<std::uint64_t>(frame.sample_time_ns);
+  // The agent layer: one node per keyframe, joined to the previous one by an odometry edge.
+  if (frontend_.add_keyframe(&graph_, latest_keyframe_ns_, world_T_camera) == agents::AddResult::kAdded) {
+    ++counters_.agent_nodes;
+    if (trajectory_m_.size() < trajectory_m_.capacity()) trajectory_m_.push_back(robot_m_);
+  } else {
     ++counters_.agent_refused;
-    return;
   }
-  if (counters_.agent_nodes > 0) graph_.add_edge(last_agent_, id);
-  last_agent_ = id;
-  ++counters_.agent_nodes;
-  if (trajectory_m_.size() < trajectory_m_.capacity()) trajectory_m_.push_back(a.position_m);
+  (void)c;
 }
 
-void Pipeline::update_frontend(const runtime::TaskContext&) { ++counters_.frontend_updates; }
+void Pipeline::update_frontend(const runtime::TaskContext& c) {
+  if (counters_.keyframes_integrated == 0) return;
+  frontend::Deadline deadline;
+  deadline.now = [](const void* clock) { return static_cast<const runtime::Clock*>(clock)->now_ns(); };
+  deadline.context = cost_clock_;
+  deadline.deadline_ns = c.deadline_ns;
+  const frontend::UpdateSummary s = frontend_.update(tsdf_, robot_m_, latest_keyframe_ns_, &graph_, deadline);
+  ++counters_.frontend_updates;
+  if (!s.places_complete) ++counters_.frontend_deadline_stops;
+}
 
 // ---------------------------------------------------------------------------------------------------------
 // Telemetry and outputs
@@ -405,20 +491,7 @@ bool Pipeline::finish(std::string* error) {
   reconstruction::Mesh mesh;
   tsdf_.extract_full_mesh(&mesh);
   if (!reconstruction::write_ply(dir + "/mesh.ply", mesh, error)) return false;
-  if (!world_.shapes.empty()) {
-    world::TopDownStyle style;
-    world::TopDownFrame frame;
-    cv::Mat image = world::draw_top_down(world_, style, &frame);
-    std::vector<Eigen::Vector3d> places, objects;
-    graph_.for_each_node([&](const scene_graph::NodeRecord& n) {
-      if (n.kind == scene_graph::NodeKind::kPlace) places.push_back(graph_.place(n.id)->position_m);
-      if (n.kind == scene_graph::NodeKind::kObject) objects.push_back(graph_.object(n.id)->position_m);
-    });
-    world::draw_polyline(image, trajectory_m_, frame, cv::Scalar(30, 30, 220), 2);
-    world::draw_points(image, places, frame, cv::Scalar(200, 120, 0), 3);
-    world::draw_points(image, objects, frame, cv::Scalar(0, 160, 0), 4);
-    if (!world::write_png(image, dir + "/top_down.png", error)) return false;
-  }
+  if (!write_graph_picture(graph_, world_, trajectory_m_, dir + "/top_down.png", error)) return false;
   std::printf("outputs: %s/scene_graph.json (%zu nodes), %s/mesh.ply (%zu vertices, %zu triangles), %s/top_down.png\n",
               dir.c_str(), graph_.num_nodes(), dir.c_str(), mesh.vertices.size(), mesh.triangles.size(), dir.c_str());
   return true;

@@ -9,10 +9,13 @@
 #include <cstdint>
 #include <cstdio>
 #include <memory>
+#include <thread>
 #include <string>
 #include <vector>
 
+#include "core/frontend/frontend.h"
 #include "core/reconstruction/semantic_tsdf.h"
+#include "core/segmentation/segmenter.h"
 #include "core/scene_graph/scene_graph.h"
 #include "drivers/gpio/gpio_devices.h"
 #include "drivers/gpio/gpio_line.h"
@@ -35,6 +38,7 @@ struct PipelineCounters {
   std::uint64_t keyframes_integrated = 0;
   std::uint64_t keyframes_refused = 0;    // reconstruction rejected the frame (counted, the run goes on)
   std::uint64_t frontend_updates = 0;
+  std::uint64_t frontend_deadline_stops = 0;  // the frontend stopped at its deadline (work carried to its next run)
   std::uint64_t agent_nodes = 0;
   std::uint64_t agent_refused = 0;
   std::uint64_t snapshots_written = 0;
@@ -43,6 +47,8 @@ struct PipelineCounters {
   std::uint64_t gpio_failures = 0;        // heartbeat, trigger or pause line calls that failed (counted, run goes on)
   std::uint64_t triggers = 0;
   std::uint64_t frames_paused = 0;        // read while the pause switch was on: dropped
+  std::uint64_t keyframes_segmented = 0;
+  std::uint64_t keyframes_unlabelled = 0; // waited past the segmentation deadline (or segmentation failed)
   std::uint64_t telemetry_lines = 0;
 };
 
@@ -66,12 +72,14 @@ class Pipeline {
   const PipelineCounters& counters() const { return counters_; }
   const runtime::Scheduler& scheduler() const { return scheduler_; }
   const reconstruction::SemanticTsdf& reconstruction() const { return tsdf_; }
+  const frontend::Frontend& frontend() const { return frontend_; }
   const scene_graph::SceneGraph& graph() const { return graph_; }
   const runtime::KeyframeSelector& keyframe_selector() const { return keyframes_; }
   // The GPIO chip (the simulated one unless the config names a libgpiod chip), for tests and telemetry.
   gpio::GpioChip* gpio_chip() { return gpio_chip_.get(); }
   bool paused() const { return pause_ != nullptr && pause_->paused(); }
   runtime::QueueStats frame_queue_stats() const { return keyframe_queue_.stats(); }
+  runtime::QueueStats segmentation_queue_stats() const { return segmentation_queue_.stats(); }
   // Fraction of the source consumed, when the source knows its length (else a negative number).
   double progress() const;
   // Wall-clock view of a stage's cost: the scheduler measures with this clock (the loop clock unless set).
@@ -91,6 +99,10 @@ class Pipeline {
   static void heartbeat_task(void* self, const runtime::TaskContext& c);
   static void telemetry_task(void* self, const runtime::TaskContext& c);
   void poll_camera();
+  bool init_segmentation(std::string* error);
+  void segmentation_worker();
+  void collect_segmented();
+  bool segment_frame(int index);
   bool init_gpio(std::string* error);
   void integrate_keyframe(const runtime::TaskContext& c);
   void update_frontend(const runtime::TaskContext& c);
@@ -120,9 +132,21 @@ class Pipeline {
   bool have_offset_ = false;
   bool source_ended_ = false;
 
+  // Segmentation: keyframes wait in `segmentation_queue_` for the worker thread (lockstep: inline, in the
+  // reconstruction task), labelled ones come back through `labelled_queue_`.
+  std::unique_ptr<segmentation::Segmenter> segmenter_;
+  runtime::BoundedQueue<int> segmentation_queue_{"segmentation"};
+  runtime::BoundedQueue<int> labelled_queue_{"labelled"};
+  std::thread segmentation_thread_;
+  std::atomic<bool> segmentation_stop_{false};
+  std::atomic<std::uint64_t> segmentation_failures_{0};
+  int segmentation_in_flight_ = 0;  // keyframes handed to segmentation and not back yet (loop thread only)
+
   reconstruction::SemanticTsdf tsdf_;
   scene_graph::SceneGraph graph_;
-  scene_graph::NodeId last_agent_ = 0;
+  frontend::Frontend frontend_;
+  Eigen::Vector3d robot_m_ = Eigen::Vector3d::Zero();  // camera position of the latest integrated keyframe
+  std::uint64_t latest_keyframe_ns_ = 0;
   std::vector<Eigen::Vector3d> trajectory_m_;  // keyframe positions for the picture (reserved at init)
 
   PipelineCounters counters_;

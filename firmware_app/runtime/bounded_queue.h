@@ -104,6 +104,14 @@ class BoundedQueue {
     return pop_locked(out);
   }
 
+  // Pops the oldest element only when pred(oldest) holds (for example: it waited too long).
+  template <typename Pred>
+  bool try_pop_if(Pred&& pred, T* out) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (stats_.size == 0 || !pred(static_cast<const T&>(slots_[head_]))) return false;
+    return pop_locked(out);
+  }
+
   // For worker threads: waits up to timeout_ns for an element; false on timeout or when closed and empty.
   bool pop_wait(T* out, std::int64_t timeout_ns) {
     std::unique_lock<std::mutex> lock(mutex_);

@@ -1,0 +1,99 @@
+// The frontend's orchestration of places, objects and agents.
+#include "core/frontend/frontend.h"
+
+#include <algorithm>
+
+#include "budgets/budget_table.h"
+
+namespace qsg::frontend {
+
+std::string Config::check() const {
+  if (const std::string p = places.check(); !p.empty()) return "places: " + p;
+  if (const std::string o = objects.check(); !o.empty()) return "objects: " + o;
+  if (const std::string a = agents.check(); !a.empty()) return "agents: " + a;
+  return {};
+}
+
+void Config::print(std::FILE* out) const {
+  places.print(out);
+  objects.print(out);
+  agents.print(out);
+  std::fprintf(out, "frontend: connect_interlayer=%d\n", connect_interlayer ? 1 : 0);
+}
+
+void Counters::print(std::FILE* out) const {
+  std::fprintf(out,
+               "frontend: updates=%llu places_cycles=%llu deadline_stops=%llu interlayer connected=%llu failed=%llu "
+               "graph_refused=%llu\n",
+               (unsigned long long)updates, (unsigned long long)places_cycles, (unsigned long long)deadline_stops,
+               (unsigned long long)interlayer_connected, (unsigned long long)interlayer_failed,
+               (unsigned long long)graph_refused);
+}
+
+bool Frontend::init(const Config& config, std::string* error) {
+  if (ready_) return *error = "frontend: init() called twice", false;
+  if (const std::string bad = config.check(); !bad.empty()) return *error = "frontend: config: " + bad, false;
+  config_ = config;
+  if (!places_.init(config.places, places::capacities_from_budget(), places::arena_bytes_from_budget(), error) ||
+      !objects_.init(config.objects, objects::capacities_from_budget(), budgets::active::objects::kArenaBytes, error) ||
+      !agents_.init(config.agents, agents::capacities_from_budget(), error))
+    return false;
+  const NearestPlaceCapacities index_caps = nearest_place_capacities_from_budget();
+  if (!index_.init(index_caps, NearestPlaceIndex::plan(index_caps).total_bytes(), error)) return false;
+  ready_ = true;
+  return true;
+}
+
+agents::AddResult Frontend::add_keyframe(scene_graph::SceneGraph* graph, std::uint64_t timestamp_ns,
+                                         const Eigen::Isometry3d& world_T_body) {
+  return agents_.add_keyframe(graph, timestamp_ns, world_T_body);
+}
+
+UpdateSummary Frontend::update(const reconstruction::SemanticTsdf& tsdf, const Eigen::Vector3d& robot_m,
+                               std::uint64_t time_ns, scene_graph::SceneGraph* graph, const Deadline& deadline) {
+  UpdateSummary summary;
+  if (!ready_) return summary;
+  ++counters_.updates;
+  // Objects first: one pass over the re-meshed blocks, far below any budget (their own bound is the number of
+  // new vertices), so they never starve behind the places' wavefronts.
+  summary.objects = objects_.update(tsdf, time_ns);
+  if (!objects_.sync(graph)) ++counters_.graph_refused;
+
+  places::Deadline pd;
+  pd.max_work_units = deadline.max_work_units;
+  if (deadline.now != nullptr) {
+    pd.expired = [](const void* d) { return static_cast<const Deadline*>(d)->expired(); };
+    pd.context = &deadline;
+  }
+  const places::UpdateResult pr = places_.update(tsdf, robot_m, pd);
+  summary.places_complete = pr.complete;
+  summary.places_work_units = pr.work_units;
+  if (!pr.complete) {
+    ++counters_.deadline_stops;  // the cycle resumes where it stopped on the next call
+    return summary;
+  }
+  ++counters_.places_cycles;
+  summary.places_sync = places_.sync(graph);
+  if (summary.places_sync.status != scene_graph::Status::kOk) ++counters_.graph_refused;
+  if (config_.connect_interlayer) connect_interlayer(graph, &summary);
+  return summary;
+}
+
+void Frontend::connect_interlayer(scene_graph::SceneGraph* graph, UpdateSummary* summary) {
+  if (index_.rebuild(*graph, /*active_only=*/true) == 0) return;
+  // Every object in the window (an object's nearest place changes as places appear around it), and the
+  // keyframes added since the last refresh.
+  connect_nodes_.clear();
+  objects_.for_each_object([&](const objects::ObjectView& o) {
+    if (o.node != scene_graph::kNoNode && o.num_tracked > 0 && graph->has_node(o.node)) connect_nodes_.push_back(o.node);
+  });
+  const std::size_t keyframes = agents_.num_keyframes();
+  std::size_t k = agents_connected_;
+  for (; k < keyframes && !connect_nodes_.full(); ++k) connect_nodes_.push_back(agents_.node_of(k));
+  agents_connected_ = k;
+  summary->connect = connect_to_nearest_places(graph, index_, connect_nodes_.data(), connect_nodes_.size());
+  counters_.interlayer_connected += summary->connect.connected;
+  counters_.interlayer_failed += summary->connect.failed;
+}
+
+}  // namespace qsg::frontend

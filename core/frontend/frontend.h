@@ -1,0 +1,102 @@
+// The frontend (the paper's Layers 2-3 in real time): every keyframe an agent node; every Nth keyframe an anytime
+// update of places (ESDF, GVD, sparsification) and objects (clusters of new mesh vertices), their sync into the
+// scene graph, and the inter-layer edges from each object and agent to its nearest active place. Stops at its
+// deadline and resumes on the next call without losing work. Never allocates after init().
+#pragma once
+
+#include <Eigen/Geometry>
+#include <cstdint>
+#include <cstdio>
+#include <limits>
+#include <string>
+
+#include "core/agents/agent_layer.h"
+#include "core/frontend/nearest_place_index.h"
+#include "core/memory/fixed_vector.h"
+#include "core/objects/object_layer.h"
+#include "core/places/places.h"
+
+namespace qsg::frontend {
+
+struct Config {
+  places::Config places;
+  objects::Config objects;
+  agents::Config agents;
+  bool connect_interlayer = true;  // objects and agents get their nearest active place as parent
+  std::string check() const;
+  void print(std::FILE* out) const;
+};
+
+// When an update must stop: a clock (the scheduler's, through a function pointer: no allocation, no dependency
+// on firmware_app) and a deadline on it; or a work-unit count for deterministic tests.
+struct Deadline {
+  using NowFn = std::int64_t (*)(const void* context);
+  NowFn now = nullptr;
+  const void* context = nullptr;
+  std::int64_t deadline_ns = std::numeric_limits<std::int64_t>::max();
+  std::uint64_t max_work_units = std::numeric_limits<std::uint64_t>::max();
+  bool expired() const { return now != nullptr && now(context) >= deadline_ns; }
+};
+
+struct Counters {
+  std::uint64_t updates = 0;
+  std::uint64_t places_cycles = 0;       // completed places cycles (GVD and places caught up with the TSDF)
+  std::uint64_t deadline_stops = 0;      // updates that stopped at the deadline with places work left
+  std::uint64_t interlayer_connected = 0;
+  std::uint64_t interlayer_failed = 0;   // edge stores full
+  std::uint64_t graph_refused = 0;       // a sync could not add everything (retried on the next one)
+  void print(std::FILE* out) const;
+};
+
+struct UpdateSummary {
+  bool places_complete = false;
+  std::uint64_t places_work_units = 0;
+  objects::UpdateResult objects;
+  places::SyncResult places_sync;
+  ConnectStats connect;
+};
+
+class Frontend {
+ public:
+  Frontend() = default;
+  Frontend(const Frontend&) = delete;
+  Frontend& operator=(const Frontend&) = delete;
+
+  // Every store from the board's budget table (places and objects arenas, the index from the place capacity).
+  bool init(const Config& config, std::string* error);
+
+  // Every keyframe.
+  agents::AddResult add_keyframe(scene_graph::SceneGraph* graph, std::uint64_t timestamp_ns,
+                                 const Eigen::Isometry3d& world_T_body);
+  // Every Nth keyframe: objects, then places until the deadline; when a places cycle completes, both are synced
+  // and the inter-layer edges are refreshed.
+  UpdateSummary update(const reconstruction::SemanticTsdf& tsdf, const Eigen::Vector3d& robot_m,
+                       std::uint64_t time_ns, scene_graph::SceneGraph* graph, const Deadline& deadline);
+
+  const places::Places& places() const { return places_; }
+  const objects::ObjectLayer& objects() const { return objects_; }
+  const agents::AgentLayer& agents() const { return agents_; }
+  const Counters& counters() const { return counters_; }
+  const Config& config() const { return config_; }
+  template <typename Fn>
+  void for_each_resource(Fn&& fn) const {  // fn(const memory::ResourceStats&)
+    places_.for_each_resource(fn);
+    objects_.for_each_resource(fn);
+    fn(connect_nodes_.stats());
+  }
+
+ private:
+  void connect_interlayer(scene_graph::SceneGraph* graph, UpdateSummary* summary);
+
+  Config config_;
+  places::Places places_;
+  objects::ObjectLayer objects_;
+  agents::AgentLayer agents_;
+  NearestPlaceIndex index_;
+  memory::FixedVector<scene_graph::NodeId, 8192> connect_nodes_{"frontend.connect_nodes"};
+  std::size_t agents_connected_ = 0;  // keyframes [0, agents_connected_) have their place edge
+  Counters counters_;
+  bool ready_ = false;
+};
+
+}  // namespace qsg::frontend

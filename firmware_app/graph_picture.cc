@@ -1,0 +1,91 @@
+// Top-down picture of the scene graph.
+#include "firmware_app/graph_picture.h"
+
+#include <algorithm>
+#include <cmath>
+#include <opencv2/imgproc.hpp>
+
+#include "drivers/world/top_down.h"
+
+namespace qsg::app {
+
+namespace {
+// The frame around every node of the graph when there is no world to frame it.
+world::TopDownFrame frame_around(const scene_graph::SceneGraph& graph, const std::vector<Eigen::Vector3d>& trajectory_m) {
+  Eigen::Vector2d lo(1e18, 1e18), hi(-1e18, -1e18);
+  const auto grow = [&](const Eigen::Vector3d& p) {
+    lo = lo.cwiseMin(p.head<2>());
+    hi = hi.cwiseMax(p.head<2>());
+  };
+  for (const Eigen::Vector3d& p : trajectory_m) grow(p);
+  graph.for_each_node([&](const scene_graph::NodeRecord& n) {
+    if (n.kind == scene_graph::NodeKind::kPlace) grow(graph.place(n.id)->position_m);
+    if (n.kind == scene_graph::NodeKind::kObject) grow(graph.object(n.id)->position_m);
+  });
+  if (lo.x() > hi.x()) lo = hi = Eigen::Vector2d::Zero();
+  world::TopDownFrame f;
+  const double margin_m = 1.0;
+  const double extent = std::max(hi.x() - lo.x(), hi.y() - lo.y()) + 2 * margin_m;
+  f.pixels_per_m = std::clamp(2000.0 / std::max(extent, 1.0), 5.0, 80.0);
+  f.origin_x_m = lo.x() - margin_m;
+  f.origin_y_m = hi.y() + margin_m;
+  f.width_px = static_cast<int>(std::ceil((hi.x() - lo.x() + 2 * margin_m) * f.pixels_per_m));
+  f.height_px = static_cast<int>(std::ceil((hi.y() - lo.y() + 2 * margin_m) * f.pixels_per_m));
+  return f;
+}
+}  // namespace
+
+bool write_graph_picture(const scene_graph::SceneGraph& graph, const world::World& world,
+                         const std::vector<Eigen::Vector3d>& trajectory_m, const std::string& path, std::string* error) {
+  world::TopDownFrame frame;
+  cv::Mat image;
+  if (!world.shapes.empty()) {
+    world::TopDownStyle style;
+    style.fill_rooms = false;  // the plan as a faint background: the graph is the subject
+    style.draw_objects = false;
+    style.draw_room_names = false;
+    image = world::draw_top_down(world, style, &frame);
+  } else {
+    frame = frame_around(graph, trajectory_m);
+    image = cv::Mat(frame.height_px, frame.width_px, CV_8UC3, cv::Scalar(255, 255, 255));
+  }
+  const auto px = [&](const Eigen::Vector3d& p) {
+    const cv::Point2d q = frame.to_pixel(p.x(), p.y());
+    return cv::Point(static_cast<int>(std::lround(q.x)), static_cast<int>(std::lround(q.y)));
+  };
+  // Rooms: their places' hull would need the places; a disc at the room node and the room's label colour.
+  graph.for_each_node([&](const scene_graph::NodeRecord& n) {
+    if (n.kind != scene_graph::NodeKind::kRoom) return;
+    const scene_graph::RoomAttributes* r = graph.room(n.id);
+    const cv::Scalar color = world::room_label_color(static_cast<semantics::RoomLabel>(r->semantic_label));
+    graph.for_each_child(n.id, [&](scene_graph::NodeId child) {
+      if (const scene_graph::PlaceAttributes* p = graph.place(child))
+        cv::circle(image, px(p->position_m), std::max(3, static_cast<int>(0.4 * frame.pixels_per_m)), color, cv::FILLED);
+    });
+  });
+  // Place edges, then places.
+  graph.for_each_edge([&](const scene_graph::EdgeRecord& e) {
+    const scene_graph::PlaceAttributes* a = graph.place(e.source);
+    const scene_graph::PlaceAttributes* b = graph.place(e.target);
+    if (a != nullptr && b != nullptr) cv::line(image, px(a->position_m), px(b->position_m), cv::Scalar(230, 170, 90), 1, cv::LINE_AA);
+  });
+  graph.for_each_node([&](const scene_graph::NodeRecord& n) {
+    if (const scene_graph::PlaceAttributes* p = graph.place(n.id))
+      cv::circle(image, px(p->position_m), 3, p->is_active ? cv::Scalar(200, 110, 0) : cv::Scalar(150, 150, 150),
+                 cv::FILLED, cv::LINE_AA);
+  });
+  // Objects: their boxes.
+  graph.for_each_node([&](const scene_graph::NodeRecord& n) {
+    const scene_graph::ObjectAttributes* o = graph.object(n.id);
+    if (o == nullptr) return;
+    const scene_graph::BoundingBox& b = o->bounding_box;
+    if (b.type != scene_graph::BoundingBox::Type::kInvalid)
+      cv::rectangle(image, px(Eigen::Vector3d(b.min_m.x(), b.max_m.y(), 0)), px(Eigen::Vector3d(b.max_m.x(), b.min_m.y(), 0)),
+                    cv::Scalar(0, 150, 0), 2, cv::LINE_AA);
+    cv::circle(image, px(o->position_m), 3, cv::Scalar(0, 110, 0), cv::FILLED, cv::LINE_AA);
+  });
+  world::draw_polyline(image, trajectory_m, frame, cv::Scalar(30, 30, 220), 1);
+  return world::write_png(image, path, error);
+}
+
+}  // namespace qsg::app

@@ -1,0 +1,19 @@
+// The top-down picture of a scene graph: rooms (filled by label, when the graph has them), place nodes and
+// edges, objects (their boxes) and the agent's keyframe trajectory; over the simulated world's plan when there
+// is one, else on a plain canvas framed around the graph.
+#pragma once
+
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "core/scene_graph/scene_graph.h"
+#include "drivers/world/world.h"
+
+namespace qsg::app {
+
+// world may be empty (replay, hardware): the picture is then framed around the graph. Writes a PNG.
+bool write_graph_picture(const scene_graph::SceneGraph& graph, const world::World& world,
+                         const std::vector<Eigen::Vector3d>& trajectory_m, const std::string& path, std::string* error);
+
+}  // namespace qsg::app
