@@ -25,6 +25,10 @@ struct ObjectLayer::Object {
   std::uint64_t num_vertices = 0;
   float lo[3] = {0, 0, 0};
   float hi[3] = {0, 0, 0};
+  // Box of the vertices released with their blocks (their positions are gone): a recomputed box starts from it.
+  float released_lo[3] = {0, 0, 0};
+  float released_hi[3] = {0, 0, 0};
+  bool box_dirty = false;  // a vertex on the box's boundary went stale or moved: recompute at the end of the update
   std::uint32_t tracked_head = kInvalidHandle;  // doubly linked through TrackedVertex::obj_prev/obj_next
   std::uint32_t num_tracked = 0;
   std::uint32_t key_head = kInvalidHandle;
@@ -76,6 +80,28 @@ inline std::uint64_t pack_cell(semantics::Label label, std::int32_t x, std::int3
          p(z);
 }
 
+inline bool inside(const float* p, const float* lo, const float* hi) {
+  return p[0] >= lo[0] && p[0] <= hi[0] && p[1] >= lo[1] && p[1] <= hi[1] && p[2] >= lo[2] && p[2] <= hi[2];
+}
+
+inline void box_centre(const float* lo, const float* hi, float* c) {
+  for (int i = 0; i < 3; ++i) c[i] = 0.5f * (lo[i] + hi[i]);
+}
+
+// Whether p is on the box: removing or moving it may shrink the box (a vertex strictly inside cannot).
+inline bool on_boundary(const float* p, const float* lo, const float* hi) {
+  for (int i = 0; i < 3; ++i)
+    if (p[i] <= lo[i] || p[i] >= hi[i]) return true;
+  return false;
+}
+
+inline void empty_box(float* lo, float* hi) {
+  for (int i = 0; i < 3; ++i) {
+    lo[i] = std::numeric_limits<float>::max();
+    hi[i] = -std::numeric_limits<float>::max();
+  }
+}
+
 inline float dist_sq(const float* a, const float* b) {
   const float dx = a[0] - b[0], dy = a[1] - b[1], dz = a[2] - b[2];
   return dx * dx + dy * dy + dz * dz;
@@ -110,7 +136,7 @@ LabelTable default_label_params() {
     LabelParams& p = t[l];
     p.enabled = !semantics::is_structure(l);
     p.tolerance_m = 0.2;
-    p.min_vertices = is_small(l) ? 8 : (is_large(l) ? 40 : 20);
+    p.min_vertices = is_small(l) ? 8 : 20;
     p.max_vertices = is_large(l) ? 200000 : 50000;
   }
   return t;
@@ -182,14 +208,16 @@ void Counters::print(std::FILE* out) const {
   std::fprintf(out,
                "objects: updates=%" PRIu64 " presented=%" PRIu64 " candidates=%" PRIu64 " clusters=%" PRIu64
                " (too_small=%" PRIu64 " too_large=%" PRIu64 " joined=%" PRIu64 " overlap_merged=%" PRIu64
-               ") objects created=%" PRIu64 " merged=%" PRIu64 " removed=%" PRIu64 " vertices stale=%" PRIu64
+               ") objects created=%" PRIu64 " merged=%" PRIu64 " (overlap %" PRIu64 ") removed=%" PRIu64
+               " boxes_recomputed=%" PRIu64 " vertices stale=%" PRIu64
                " released=%" PRIu64 " blocks released=%" PRIu64 " overflow: candidate=%" PRIu64 " tracked=%" PRIu64
                " key=%" PRIu64 " block=%" PRIu64 " object=%" PRIu64 " graph_node=%" PRIu64
                " graph_connection=%" PRIu64 "\n",
                updates, vertices_presented, candidates, clusters, clusters_too_small, clusters_too_large,
-               clusters_joined, clusters_overlap_merged, objects_created, objects_merged, objects_removed,
-               vertices_stale, vertices_released, blocks_released, candidate_overflow, tracked_overflow, key_overflow,
-               block_overflow, object_overflow, graph_node_failures, graph_connection_failures);
+               clusters_joined, clusters_overlap_merged, objects_created, objects_merged, objects_overlap_merged,
+               objects_removed, boxes_recomputed, vertices_stale, vertices_released, blocks_released,
+               candidate_overflow, tracked_overflow, key_overflow, block_overflow, object_overflow, graph_node_failures,
+               graph_connection_failures);
 }
 
 // -------------------------------------------------------------------------------------------------------------
@@ -332,9 +360,10 @@ ObjectView ObjectLayer::view(std::uint32_t h) const {
   v.label = o.label;
   if (o.num_vertices > 0) {
     const double n = static_cast<double>(o.num_vertices);
-    v.centroid_m = Eigen::Vector3d(o.sum[0] / n, o.sum[1] / n, o.sum[2] / n);
+    v.vertex_mean_m = Eigen::Vector3d(o.sum[0] / n, o.sum[1] / n, o.sum[2] / n);
     v.min_m = Eigen::Vector3d(o.lo[0], o.lo[1], o.lo[2]);
     v.max_m = Eigen::Vector3d(o.hi[0], o.hi[1], o.hi[2]);
+    v.position_m = 0.5 * (v.min_m + v.max_m);
   }
   v.num_vertices = o.num_vertices;
   v.num_tracked = o.num_tracked;
@@ -399,10 +428,9 @@ std::uint32_t ObjectLayer::create_object(semantics::Label label) {
   Object& o = objects_[h];
   o.node = scene_graph::make_node_id(scene_graph::kObjectPrefix, next_object_index_++);
   o.label = label;
-  for (int i = 0; i < 3; ++i) {
-    o.lo[i] = std::numeric_limits<float>::max();
-    o.hi[i] = -std::numeric_limits<float>::max();
-  }
+  empty_box(o.lo, o.hi);
+  empty_box(o.released_lo, o.released_hi);
+  o.box_dirty = false;
   ++counters_.objects_created;
   ++result_.objects_created;
   mark_changed(h);
@@ -446,7 +474,10 @@ void ObjectLayer::merge_objects(std::uint32_t into, std::uint32_t from) {
     a.sum[i] += b.sum[i];
     a.lo[i] = std::min(a.lo[i], b.lo[i]);
     a.hi[i] = std::max(a.hi[i], b.hi[i]);
+    a.released_lo[i] = std::min(a.released_lo[i], b.released_lo[i]);
+    a.released_hi[i] = std::max(a.released_hi[i], b.released_hi[i]);
   }
+  a.box_dirty = a.box_dirty || b.box_dirty;
   a.num_vertices += b.num_vertices;
   if (b.key_head != kInvalidHandle) {
     if (a.key_tail == kInvalidHandle) a.key_head = b.key_head;
@@ -505,9 +536,16 @@ void ObjectLayer::detach_tracked(std::uint32_t slot, bool subtract_from_object) 
   if (subtract_from_object) {
     for (int i = 0; i < 3; ++i) o.sum[i] -= t.p[i];
     --o.num_vertices;
+    if (on_boundary(t.p, o.lo, o.hi)) o.box_dirty = true;
     mark_changed(h);
     if (o.num_vertices == 0) delete_object(h);
-  } else if (o.num_tracked == 0) {
+    return;
+  }
+  for (int i = 0; i < 3; ++i) {  // released with its block: its position still bounds the object
+    o.released_lo[i] = std::min(o.released_lo[i], t.p[i]);
+    o.released_hi[i] = std::max(o.released_hi[i], t.p[i]);
+  }
+  if (o.num_tracked == 0) {
     if (!visible(h)) delete_object(h);  // a tentative object that never grew: noise
     else mark_changed(h);               // left the active window
   }
@@ -538,6 +576,7 @@ void ObjectLayer::move_tracked(std::uint32_t slot, const InputVertex& v) {
   const std::uint64_t new_cell = cell_key(t.label, p);
   if (old_cell != new_cell) tracked_cell_remove(slot);
   Object& o = objects_[t.object];
+  if (on_boundary(t.p, o.lo, o.hi)) o.box_dirty = true;
   for (int i = 0; i < 3; ++i) {
     o.sum[i] += static_cast<double>(p[i]) - static_cast<double>(t.p[i]);
     t.p[i] = p[i];
@@ -749,20 +788,50 @@ std::uint32_t ObjectLayer::flood_fill(std::uint32_t seed, std::uint32_t* linked,
   return num_linked;
 }
 
-std::uint32_t ObjectLayer::find_overlapping(semantics::Label label, const Eigen::Vector3d& centroid,
-                                            const Eigen::Vector3d& lo, const Eigen::Vector3d& hi) const {
+// The paper's rule: same label, and one's centre lies in the other's box. Centres are box centres, the objects'
+// positions (a vertex mean is pulled toward the best-seen surface and may leave the box of a part seen apart).
+std::uint32_t ObjectLayer::find_overlapping(semantics::Label label, const float* lo, const float* hi,
+                                            std::uint32_t skip, bool visible_only) const {
+  float c[3];
+  box_centre(lo, hi, c);
   for (std::uint32_t h = 0; h < objects_.capacity(); ++h) {
-    if (!objects_.live(h) || objects_[h].label != label || !visible(h)) continue;
+    if (h == skip || !objects_.live(h) || objects_[h].label != label || objects_[h].num_vertices == 0) continue;
+    if (visible_only && !visible(h)) continue;
     const Object& o = objects_[h];
-    const double n = static_cast<double>(o.num_vertices);
-    const Eigen::Vector3d oc(o.sum[0] / n, o.sum[1] / n, o.sum[2] / n);
-    const Eigen::Vector3d olo(o.lo[0], o.lo[1], o.lo[2]);
-    const Eigen::Vector3d ohi(o.hi[0], o.hi[1], o.hi[2]);
-    const bool mine_in_theirs = (centroid.array() >= olo.array()).all() && (centroid.array() <= ohi.array()).all();
-    const bool theirs_in_mine = (oc.array() >= lo.array()).all() && (oc.array() <= hi.array()).all();
-    if (mine_in_theirs || theirs_in_mine) return h;
+    float oc[3];
+    box_centre(o.lo, o.hi, oc);
+    if (inside(c, o.lo, o.hi) || inside(oc, lo, hi)) return h;
   }
   return kInvalidHandle;
+}
+
+// Applies the rule between every object changed since the last sync and all others of its label, repeatedly
+// (a merged box is larger and may now contain another centre). The larger object survives and keeps its node.
+void ObjectLayer::merge_overlapping_objects() {
+  for (std::size_t i = 0; i < changed_.size(); ++i) {
+    std::uint32_t h = changed_[i];
+    if (!objects_.live(h) || !objects_[h].changed || objects_[h].num_vertices == 0) continue;
+    for (;;) {
+      const std::uint32_t g = find_overlapping(objects_[h].label, objects_[h].lo, objects_[h].hi, h, false);
+      if (g == kInvalidHandle) break;
+      const bool keep_g = objects_[g].num_vertices > objects_[h].num_vertices;
+      const std::uint32_t into = keep_g ? g : h;
+      merge_objects(into, keep_g ? h : g);
+      ++counters_.objects_overlap_merged;
+      h = into;
+    }
+  }
+}
+
+void ObjectLayer::recompute_box(std::uint32_t h) {
+  Object& o = objects_[h];
+  for (int i = 0; i < 3; ++i) {
+    o.lo[i] = o.released_lo[i];
+    o.hi[i] = o.released_hi[i];
+  }
+  for (std::uint32_t s = o.tracked_head; s != kInvalidHandle; s = tracked_[s].obj_next) add_to_box(h, tracked_[s].p);
+  o.box_dirty = false;
+  ++counters_.boxes_recomputed;
 }
 
 void ObjectLayer::process_cluster(std::uint32_t begin, std::uint32_t end, const std::uint32_t* linked,
@@ -789,17 +858,16 @@ void ObjectLayer::process_cluster(std::uint32_t begin, std::uint32_t end, const 
       return;
     }
     if (config_.merge_overlapping && !small) {
-      Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-      Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::max());
-      Eigen::Vector3d hi = -lo;
+      float lo[3], hi[3];
+      empty_box(lo, hi);
       for (std::uint32_t k = begin; k < end; ++k) {
         const Candidate& c = candidates_[order_[k]];
-        const Eigen::Vector3d p(c.p[0], c.p[1], c.p[2]);
-        sum += p;
-        lo = lo.cwiseMin(p);
-        hi = hi.cwiseMax(p);
+        for (int i = 0; i < 3; ++i) {
+          lo[i] = std::min(lo[i], c.p[i]);
+          hi[i] = std::max(hi[i], c.p[i]);
+        }
       }
-      target = find_overlapping(label, sum / static_cast<double>(size), lo, hi);
+      target = find_overlapping(label, lo, hi, kInvalidHandle, true);
       if (target != kInvalidHandle) ++counters_.clusters_overlap_merged;
     }
     if (target == kInvalidHandle) {
@@ -840,7 +908,11 @@ UpdateResult ObjectLayer::end_update() {
     const std::uint32_t num_linked = flood_fill(i, linked, kMaxLinked);
     process_cluster(begin, static_cast<std::uint32_t>(order_.size()), linked, num_linked);
   }
-  // 3. Scratch maps back to empty, in time proportional to what this update used.
+  // 3. Boxes that may have shrunk (stale or moved boundary vertices), then the centre-in-box rule between objects.
+  for (const std::uint32_t h : changed_)
+    if (objects_.live(h) && objects_[h].box_dirty) recompute_box(h);
+  if (config_.merge_overlapping) merge_overlapping_objects();
+  // 4. Scratch maps back to empty, in time proportional to what this update used.
   for (const Candidate& c : candidates_) {
     candidate_index_.erase(c.key);
     candidate_cells_.erase(cell_key(c.label, c.p));
@@ -926,7 +998,7 @@ bool ObjectLayer::sync(scene_graph::SceneGraph* graph) {
       }
       a = &fresh;
     }
-    a->position_m = v.centroid_m;
+    a->position_m = v.position_m;  // the box centre, consistent with bounding_box (see the header)
     a->last_update_time_ns = o.last_update_ns;
     a->is_active = o.num_tracked > 0;
     char name[32];

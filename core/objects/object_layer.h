@@ -10,10 +10,20 @@
 //     tolerance of an existing object's tracked vertex of the same label joins that object (and joins objects it
 //     connects), so an object seen over several updates is the same connected component a single batch would give.
 //   - Any other cluster larger than the label's max vertex count is dropped. One with at least the min count is
-//     merged into an existing object of the same label when one's centroid lies in the other's box (the paper's
+//     merged into an existing object of the same label when one's centre lies in the other's box (the paper's
 //     rule), else it is new. A smaller one becomes a tentative object: tracked and joinable (an object seen a
 //     little at a time still forms), but invisible (not listed, not in the scene graph) until it reaches the min
 //     count, and deleted when its last vertex leaves the window below it.
+//   - At the end of every update the same rule is applied between objects (tentative ones included) that changed
+//     and every other object of their label: boxes grow over updates, so two parts of one piece of furniture that
+//     were seen apart (a table's two ends below a top the camera never sees) merge once one contains the other's
+//     centre, whichever update each part came from.
+//   - An object's position is the centre of its axis-aligned box, not the mean of its vertices: surface vertices
+//     sample an object non-uniformly (a table's top dominates its legs, the side facing the robot dominates the
+//     far side), so their mean is pulled toward the best-seen surface, while the box centre is what a
+//     ground-truth box and the scene graph's bounding box describe. The vertex mean stays available.
+//   - The box follows the surface: when tracked vertices go stale or move, the box is recomputed (at the end of
+//     the update) from the tracked vertices plus the box of the vertices already released with their blocks.
 //   - Tracked vertices whose block was re-meshed without them are stale (the surface moved) and leave their
 //     object; tracked vertices of blocks that left the active window are released but stay in the object's
 //     summary (centroid sum, count, box) and in its list of vertex keys.
@@ -51,12 +61,16 @@ struct LabelParams {
 
 using LabelTable = std::array<LabelParams, semantics::kNumObjectLabels>;
 // Every non-structure mpcat40 label enabled; tolerance 0.2 m (two 0.1 m voxels: marching-cubes vertices of one
-// surface are at most ~0.17 m apart), minimum cluster sizes by the label's typical size.
+// surface are at most ~0.17 m apart). The minimum size is a noise gate, 8 vertices for small labels (a picture
+// is only a few) and 20 for all others: noise does not grow with the label's physical size, and a large object
+// is often seen only in part (a 0.43 m coffee table below a 0.5 m camera shows one side, ~30 vertices); its
+// fragments are merged (connection, centre-in-box), not hidden. The maximum size depends on the label's size.
 LabelTable default_label_params();
 
 struct Config {
   LabelTable labels = default_label_params();
-  bool merge_overlapping = true;  // the paper's centroid-in-box merge of clusters not connected to an object
+  // The paper's centre-in-box merge: of new clusters not connected to an object, and between changed objects.
+  bool merge_overlapping = true;
   std::string check() const;      // empty when usable, else the bad field and why
   void print(std::FILE* out) const;
 };
@@ -80,7 +94,9 @@ struct Counters {
   std::uint64_t clusters_too_small = 0;     // kept as tentative objects
   std::uint64_t clusters_too_large = 0;
   std::uint64_t clusters_joined = 0;       // connected to existing objects
-  std::uint64_t clusters_overlap_merged = 0;  // centroid-in-box merges
+  std::uint64_t clusters_overlap_merged = 0;  // new clusters merged by the centre-in-box rule
+  std::uint64_t objects_overlap_merged = 0;   // objects merged by the centre-in-box rule (also in objects_merged)
+  std::uint64_t boxes_recomputed = 0;         // after vertices went stale or moved
   std::uint64_t objects_created = 0;
   std::uint64_t objects_merged = 0;        // objects absorbed by another object
   std::uint64_t objects_removed = 0;       // every vertex went stale
@@ -109,10 +125,13 @@ struct InputVertex {
 struct ObjectView {
   scene_graph::NodeId node = scene_graph::kNoNode;
   semantics::Label label = semantics::kVoid;
-  Eigen::Vector3d centroid_m = Eigen::Vector3d::Zero();
+  // The object's position (what the scene graph reports): the centre of its box, see the file comment.
+  Eigen::Vector3d position_m = Eigen::Vector3d::Zero();
+  // The mean of its vertices: biased toward the best-seen surface, kept for consumers that weigh by surface.
+  Eigen::Vector3d vertex_mean_m = Eigen::Vector3d::Zero();
   Eigen::Vector3d min_m = Eigen::Vector3d::Zero();
   Eigen::Vector3d max_m = Eigen::Vector3d::Zero();
-  std::uint64_t num_vertices = 0;  // in the centroid (tracked now or released with their block)
+  std::uint64_t num_vertices = 0;  // in the vertex mean (tracked now or released with their block)
   std::uint32_t num_tracked = 0;   // in the active window now
   std::uint32_t num_keys = 0;      // mesh-vertex references kept
   std::uint64_t last_update_ns = 0;
@@ -170,6 +189,12 @@ class ObjectLayer {
       if (objects_.live(h) && visible(h)) fn(view(h));
   }
   bool find_object(scene_graph::NodeId node, ObjectView* out) const;
+  // Tentative objects (below their label's min vertex count; diagnostics and tests).
+  template <typename Fn>
+  void for_each_tentative_object(Fn&& fn) const {  // fn(const ObjectView&)
+    for (std::uint32_t h = 0; h < objects_.capacity(); ++h)
+      if (objects_.live(h) && !visible(h)) fn(view(h));
+  }
   // The mesh-vertex keys of an object: fn(std::uint64_t key).
   template <typename Fn>
   void for_each_vertex_key(scene_graph::NodeId node, Fn&& fn) const;
@@ -233,8 +258,10 @@ class ObjectLayer {
   void release_keys(std::uint32_t object);
   std::uint32_t flood_fill(std::uint32_t seed, std::uint32_t* linked, std::uint32_t max_linked);
   void process_cluster(std::uint32_t begin, std::uint32_t end, const std::uint32_t* linked, std::uint32_t num_linked);
-  std::uint32_t find_overlapping(semantics::Label label, const Eigen::Vector3d& centroid, const Eigen::Vector3d& lo,
-                                 const Eigen::Vector3d& hi) const;
+  std::uint32_t find_overlapping(semantics::Label label, const float* lo, const float* hi, std::uint32_t skip,
+                                 bool visible_only) const;
+  void merge_overlapping_objects();
+  void recompute_box(std::uint32_t h);
   void log_graph_failure(const char* what, std::uint64_t count) const;
 
   Config config_;

@@ -91,7 +91,7 @@ UpdateResult present(ObjectLayer* layer, const std::vector<Vertex>& vertices, st
 std::vector<ObjectView> objects_of(const ObjectLayer& layer) {
   std::vector<ObjectView> out;
   layer.for_each_object([&](const ObjectView& v) { out.push_back(v); });
-  std::sort(out.begin(), out.end(), [](const ObjectView& a, const ObjectView& b) { return a.centroid_m.x() < b.centroid_m.x(); });
+  std::sort(out.begin(), out.end(), [](const ObjectView& a, const ObjectView& b) { return a.position_m.x() < b.position_m.x(); });
   return out;
 }
 
@@ -111,8 +111,9 @@ TEST(ObjectLayerTest, TwoSeparatedChairsBecomeTwoObjectsInTheSceneGraph) {
   const auto objs = objects_of(*layer);
   ASSERT_EQ(objs.size(), 2u);
   EXPECT_EQ(objs[0].label, semantics::kChair);
-  EXPECT_LT((objs[0].centroid_m - Eigen::Vector3d(0.25, 0.25, 0.45)).norm(), 0.01);
-  EXPECT_LT((objs[1].centroid_m - Eigen::Vector3d(2.25, 0.55, 0.45)).norm(), 0.01);
+  EXPECT_LT((objs[0].position_m - Eigen::Vector3d(0.25, 0.25, 0.45)).norm(), 0.01);
+  EXPECT_LT((objs[1].position_m - Eigen::Vector3d(2.25, 0.55, 0.45)).norm(), 0.01);
+  EXPECT_LT((objs[0].vertex_mean_m - Eigen::Vector3d(0.25, 0.25, 0.45)).norm(), 0.01);
   EXPECT_NEAR(objs[0].min_m.x(), 0.0, 1e-6);
   EXPECT_NEAR(objs[1].max_m.z(), 0.9, 1e-6);
   EXPECT_EQ(objs[0].num_vertices, a.size());
@@ -127,8 +128,8 @@ TEST(ObjectLayerTest, TwoSeparatedChairsBecomeTwoObjectsInTheSceneGraph) {
     const scene_graph::ObjectAttributes* attr = graph->object(o.node);
     ASSERT_NE(attr, nullptr);
     EXPECT_EQ(attr->semantic_label, semantics::kChair);
-    EXPECT_TRUE(attr->position_m.isApprox(o.centroid_m));
-    EXPECT_TRUE(attr->bounding_box.contains(o.centroid_m));
+    EXPECT_TRUE(attr->position_m.isApprox(o.position_m));
+    EXPECT_TRUE(attr->bounding_box.contains(o.position_m));
     EXPECT_TRUE(attr->is_active);
     EXPECT_EQ(attr->last_update_time_ns, 42u);
     EXPECT_EQ(graph->num_mesh_connections(o.node), o.num_keys);
@@ -181,7 +182,7 @@ TEST(ObjectLayerTest, ABridgeBetweenTwoObjectsMergesThemAndRemovesOneNode) {
   // Two sofa parts in blocks x = 0 and x = 2, then a bridge between them in block x = 1.
   present(layer.get(), concat(box_surface({0.2, 0, 0}, {0.7, 0.5, 0.5}, semantics::kSofa, &key),
                               box_surface({1.7, 0, 0}, {2.2, 0.5, 0.5}, semantics::kSofa, &key)), 1);
-  // Sofa needs 40 vertices: both boxes have more.
+  // Sofa needs 20 vertices: both boxes have more.
   ASSERT_EQ(layer->num_objects(), 2u);
   ASSERT_TRUE(layer->sync(graph.get()));
   ASSERT_EQ(graph->num_nodes(scene_graph::NodeKind::kObject), 2u);
@@ -360,7 +361,8 @@ TEST(ObjectLayerTest, StaleVerticesLeaveTheirObjectAndReleasedBlocksKeepTheSumma
   EXPECT_EQ(objs[0].num_vertices, fewer.size());
   EXPECT_EQ(layer->counters().vertices_stale, 20u);
   // The block leaves the window: the object keeps its centroid and box but is no longer active.
-  const Eigen::Vector3d centroid = objs[0].centroid_m;
+  const Eigen::Vector3d centroid = objs[0].vertex_mean_m;
+  const Eigen::Vector3d position = objs[0].position_m;
   layer->begin_update(3);
   layer->release_block(block_of(0.1, 0.1, 0.1));
   layer->end_update();
@@ -368,7 +370,8 @@ TEST(ObjectLayerTest, StaleVerticesLeaveTheirObjectAndReleasedBlocksKeepTheSumma
   ASSERT_EQ(objs.size(), 1u);
   EXPECT_EQ(objs[0].num_tracked, 0u);
   EXPECT_EQ(objs[0].num_vertices, fewer.size());
-  EXPECT_TRUE(objs[0].centroid_m.isApprox(centroid));
+  EXPECT_TRUE(objs[0].vertex_mean_m.isApprox(centroid));
+  EXPECT_TRUE(objs[0].position_m.isApprox(position));
   EXPECT_EQ(layer->num_tracked_vertices(), 0u);
   ASSERT_TRUE(layer->sync(graph.get()));
   EXPECT_FALSE(graph->object(objs[0].node)->is_active);
@@ -512,6 +515,154 @@ TEST(ObjectLayerTest, EveryBoardsBudgetHoldsItsCapacities) {
   }
   const Capacities active = capacities_from_budget();
   EXPECT_EQ(active.objects, budgets::active::objects::kObjects);
+}
+
+}  // namespace
+}  // namespace qsg::objects
+
+namespace qsg::objects {
+namespace {
+
+// A table seen as a dense top and thin legs: the vertex mean is pulled up toward the top, the position (what the
+// scene graph reports) is the box centre.
+TEST(ObjectLayerTest, PositionIsTheBoxCentreAndTheVertexMeanIsKeptApart) {
+  auto layer = make_layer();
+  auto graph = scene_graph::testing::make_graph();
+  std::uint64_t key = 1;
+  auto table = box_surface({0.1, 0.1, 0.7}, {0.7, 0.7, 0.75}, semantics::kTable, &key);  // the top
+  for (const double x : {0.1, 0.7})
+    for (const double y : {0.1, 0.7})
+      table = concat(table, box_surface({x, y, 0.0}, {x, y, 0.65}, semantics::kTable, &key));  // legs
+  present(layer.get(), table, 1);
+  const auto objs = objects_of(*layer);
+  ASSERT_EQ(objs.size(), 1u);
+  EXPECT_LT((objs[0].position_m - Eigen::Vector3d(0.4, 0.4, 0.375)).norm(), 1e-5);
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (const Vertex& v : table) mean += Eigen::Vector3d(v.v.x, v.v.y, v.v.z);
+  mean /= static_cast<double>(table.size());
+  EXPECT_LT((objs[0].vertex_mean_m - mean).norm(), 1e-5);
+  EXPECT_GT(objs[0].vertex_mean_m.z(), 0.5) << "the top dominates the mean";
+  ASSERT_TRUE(layer->sync(graph.get()));
+  const scene_graph::ObjectAttributes* attr = graph->object(objs[0].node);
+  ASSERT_NE(attr, nullptr);
+  EXPECT_TRUE(attr->position_m.isApprox(objs[0].position_m));
+}
+
+// Two ends of one table seen apart (neither centre in the other's box), then the near end grows until its box
+// contains the far end's centre: the paper's rule merges the two existing objects, one node goes.
+TEST(ObjectLayerTest, ExistingObjectsMergeWhenAGrownBoxContainsTheOthersCentre) {
+  for (const bool merge : {true, false}) {
+    Config config;
+    config.merge_overlapping = merge;
+    auto layer = make_layer(config);
+    auto graph = scene_graph::testing::make_graph();
+    std::uint64_t key = 1;
+    const auto near = box_surface({0.0, 0.0, 0.0}, {0.3, 1.0, 0.7}, semantics::kTable, &key);
+    const auto far = box_surface({1.0, 0.5, 0.0}, {1.3, 1.0, 0.7}, semantics::kTable, &key);
+    present(layer.get(), concat(near, far), 1);
+    ASSERT_EQ(layer->num_objects(), 2u);
+    ASSERT_TRUE(layer->sync(graph.get()));
+    const NodeId near_node = objects_of(*layer)[0].node;
+    // Connected to the near end only (0.05 m from it, 0.4 m from the far end). Its blocks are re-meshed, so
+    // they present every vertex they hold.
+    const auto side = box_surface({0.35, 0.0, 0.0}, {1.3, 0.1, 0.7}, semantics::kTable, &key);
+    present(layer.get(), concat(concat(near, far), side), 2);
+    ASSERT_TRUE(layer->sync(graph.get()));
+    EXPECT_EQ(layer->num_objects(), merge ? 1u : 2u) << "merge_overlapping=" << merge;
+    EXPECT_EQ(graph->num_nodes(scene_graph::NodeKind::kObject), merge ? 1u : 2u);
+    EXPECT_EQ(layer->counters().objects_overlap_merged, merge ? 1u : 0u);
+    EXPECT_TRUE(graph->has_node(near_node)) << "the larger object keeps its node";
+    if (merge) {
+      const auto objs = objects_of(*layer);
+      EXPECT_NEAR(objs[0].max_m.x(), 1.3, 1e-6);
+      EXPECT_EQ(objs[0].num_vertices, objs[0].num_keys);
+    }
+  }
+}
+
+// A fragment too small to be an object on its own, farther than the tolerance from an object's vertices but
+// inside its box, joins that object rather than lingering as a tentative one.
+TEST(ObjectLayerTest, ATentativeFragmentInsideAnObjectsBoxJoinsIt) {
+  auto layer = make_layer();
+  std::uint64_t key = 1;
+  // A hollow 1 m cube of table vertices: its centre is 0.5 m from every vertex.
+  const auto shell = box_surface({0.0, 0.0, 0.0}, {1.0, 1.0, 1.0}, semantics::kTable, &key, 0.1);
+  present(layer.get(), shell, 1);
+  ASSERT_EQ(layer->num_objects(), 1u);
+  std::vector<Vertex> inner;
+  for (int i = 0; i < 5; ++i) {
+    Vertex v;
+    v.v = InputVertex{key++, 0.4f + 0.05f * static_cast<float>(i), 0.5f, 0.5f, semantics::kTable};
+    v.block = block_of(v.v.x, v.v.y, v.v.z);
+    inner.push_back(v);
+  }
+  present(layer.get(), concat(shell, inner), 2);  // re-meshed blocks present every vertex they hold
+  EXPECT_EQ(layer->num_objects(), 1u);
+  EXPECT_EQ(layer->num_tentative_objects(), 0u) << "the fragment joined the object";
+  EXPECT_EQ(objects_of(*layer)[0].num_vertices, shell.size() + inner.size());
+  EXPECT_EQ(layer->counters().objects_overlap_merged, 1u);
+}
+
+// The box follows the surface: vertices on the boundary that go stale or move inward shrink it; vertices
+// released with their block keep bounding it.
+TEST(ObjectLayerTest, BoxShrinksWhenBoundaryVerticesGoStaleOrMoveButKeepsReleasedOnes) {
+  auto layer = make_layer();
+  std::uint64_t key = 1;
+  // One chair in block (0,0,0) and its continuation in block (1,0,0).
+  const auto a = box_surface({0.05, 0.05, 0.05}, {0.75, 0.55, 0.75}, semantics::kChair, &key);
+  const auto b = box_surface({0.85, 0.05, 0.05}, {1.15, 0.55, 0.75}, semantics::kChair, &key);
+  present(layer.get(), concat(a, b), 1);
+  ASSERT_EQ(layer->num_objects(), 1u);
+  EXPECT_NEAR(objects_of(*layer)[0].max_m.z(), 0.75, 1e-6);
+  // Block a is re-meshed without its top layer (z = 0.75): the box's top comes down to the highest vertex left
+  // in a (0.70) or in b (still 0.75), so it stays 0.75 until b's top goes too.
+  std::vector<Vertex> a_low;
+  for (const Vertex& v : a)
+    if (v.v.z < 0.74f) a_low.push_back(v);
+  present(layer.get(), a_low, 2);
+  EXPECT_NEAR(objects_of(*layer)[0].max_m.z(), 0.75, 1e-6);
+  std::vector<Vertex> b_low;
+  for (const Vertex& v : b)
+    if (v.v.z < 0.74f) b_low.push_back(v);
+  present(layer.get(), b_low, 3);
+  EXPECT_NEAR(objects_of(*layer)[0].max_m.z(), 0.70, 1e-5);
+  EXPECT_GE(layer->counters().boxes_recomputed, 1u);
+  // A vertex on the x = 1.15 face moves inward (same key, new position): the box follows.
+  std::vector<Vertex> b_moved = b_low;
+  for (Vertex& v : b_moved)
+    if (v.v.x > 1.14f) v.v.x = 1.10f;
+  present(layer.get(), b_moved, 4);
+  EXPECT_NEAR(objects_of(*layer)[0].max_m.x(), 1.10, 1e-5);
+  // Block b leaves the window, then block a loses its low layer: b's released vertices still bound the box.
+  layer->begin_update(5);
+  layer->release_block(block_of(0.9, 0.1, 0.1));
+  layer->end_update();
+  std::vector<Vertex> a_mid;
+  for (const Vertex& v : a_low)
+    if (v.v.z > 0.06f) a_mid.push_back(v);
+  present(layer.get(), a_mid, 6);
+  const auto objs = objects_of(*layer);
+  ASSERT_EQ(objs.size(), 1u);
+  EXPECT_NEAR(objs[0].min_m.z(), 0.05, 1e-5) << "b's released bottom layer still bounds the box";
+  EXPECT_NEAR(objs[0].max_m.x(), 1.10, 1e-5);
+  EXPECT_NEAR(objs[0].max_m.z(), 0.70, 1e-5);
+}
+
+// The minimum vertex count is a noise gate, the same for large and medium labels: a large object seen only in
+// part (a low coffee table's side face, ~30 vertices at 0.1 m voxels) is an object.
+TEST(ObjectLayerTest, APartlySeenLargeObjectNeedsOnlyTheCommonMinimum) {
+  const LabelTable t = default_label_params();
+  EXPECT_EQ(t[semantics::kTable].min_vertices, t[semantics::kChair].min_vertices);
+  EXPECT_LT(t[semantics::kPicture].min_vertices, t[semantics::kChair].min_vertices);
+  auto layer = make_layer();
+  std::uint64_t key = 1;
+  // A 0.5 x 0.35 m side face at 0.1 m spacing: 6 x 4 + ... vertices.
+  const auto face = box_surface({0.1, 0.1, 0.0}, {0.6, 0.1, 0.3}, semantics::kTable, &key, 0.1);
+  ASSERT_GE(face.size(), t[semantics::kTable].min_vertices);
+  ASSERT_LT(face.size(), 40u);
+  present(layer.get(), face, 1);
+  EXPECT_EQ(layer->num_objects(), 1u);
+  EXPECT_EQ(layer->num_tentative_objects(), 0u);
 }
 
 }  // namespace

@@ -108,7 +108,7 @@ TEST(SimObjectsTest, ObjectsOfARenderedBuildingMatchGroundTruth) {
     bool match = false;
     for (std::size_t i = 0; i < w.objects.size(); ++i) {
       const world::Object& o = w.objects[i];
-      if (o.label == est.label && (o.box.center_m - est.centroid_m).norm() <= kMatchRadiusM) {
+      if (o.label == est.label && (o.box.center_m - est.position_m).norm() <= kMatchRadiusM) {
         match = true;
         gt_found[i] = true;
       }
@@ -116,7 +116,7 @@ TEST(SimObjectsTest, ObjectsOfARenderedBuildingMatchGroundTruth) {
     correct += match ? 1 : 0;
     if (!match)
       std::printf("unmatched estimate: %s at (%.2f %.2f %.2f), %llu vertices\n", semantics::object_label(est.label).name,
-                  est.centroid_m.x(), est.centroid_m.y(), est.centroid_m.z(),
+                  est.position_m.x(), est.position_m.y(), est.position_m.z(),
                   static_cast<unsigned long long>(est.num_vertices));
   });
   for (std::size_t i = 0; i < w.objects.size(); ++i) {
