@@ -8,10 +8,8 @@
 #include <string>
 #include <vector>
 
-#include "drivers/sim/exploration.h"
-#include "drivers/sim/sim_camera.h"
+#include "bench/sim_tour.h"
 #include "drivers/world/building_generator.h"
-#include "drivers/world/world_query.h"
 
 namespace qsg::bench {
 
@@ -28,18 +26,13 @@ inline std::unique_ptr<FrozenFrames> render_frozen_frames(int width, int height,
   bc.num_rooms = 6;
   bc.seed = 4;
   const world::World w = world::generate_building(bc);
-  render::RayScene scene;
-  std::string error;
-  if (!scene.build(w, &error)) return out;
-  const world::FreeSpaceIndex free_space(w);
-  const sim::ExplorationResult tour = sim::plan_exploration(w, scene, free_space, sim::ExplorationConfig{});
-  if (!tour.ok) return out;
-  sim::SimCamera camera;
   sim::SimCamera::Config config;
-  const double f = 525.0 * width / 640.0;
-  config.intrinsics = {width, height, f, f, (width - 1) / 2.0, (height - 1) / 2.0};
+  config.intrinsics = camera_of_size(width, height);
   config.rate_hz = 10.0;
-  if (!camera.init(config, render::Renderer::Config{}, w, tour.trajectory, &error)) return out;
+  SimTour sim_tour;
+  std::string error;
+  if (!make_sim_tour(w, sim::ExplorationConfig{}, config, render::Renderer::Config{}, &sim_tour, &error)) return out;
+  sim::SimCamera& camera = *sim_tour.camera;
   out->intrinsics = config.intrinsics;
   while (out->frames.size() < count) {
     auto frame = std::make_unique<drivers::RgbdFrame>();

@@ -1,8 +1,6 @@
 // Long-run Layer 1 benchmark: drives the semantic TSDF with ground-truth poses for at least a kilometre through a
 // large generated building and shows that the active window's memory stays flat while the archive grows; prints
 // progress every 100 m and the summary figures (optionally as JSON for the results table).
-#include <sys/resource.h>
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -11,11 +9,12 @@
 #include <cstdint>
 #include <fstream>
 #include <memory>
-#include <nlohmann/json.hpp>
 #include <set>
 #include <string>
 #include <vector>
 
+#include "bench/figures.h"
+#include "bench/sim_tour.h"
 #include "budgets/budget_table.h"
 #include "core/reconstruction/semantic_tsdf.h"
 #include "drivers/render/ray_scene.h"
@@ -24,11 +23,11 @@
 #include "drivers/world/building_generator.h"
 #include "drivers/world/world_query.h"
 
-#ifndef QSG_GIT_COMMIT
-#define QSG_GIT_COMMIT "unknown"
-#endif
 
 namespace {
+
+using qsg::bench::peak_rss_mb;
+using qsg::bench::quantile;
 
 using namespace qsg;
 
@@ -98,19 +97,6 @@ bool parse(int argc, char** argv, Options* o) {
   return true;
 }
 
-double peak_rss_mb() {
-  rusage usage{};
-  getrusage(RUSAGE_SELF, &usage);
-  return static_cast<double>(usage.ru_maxrss) / 1024.0;  // ru_maxrss is in KiB on Linux
-}
-
-double quantile(std::vector<double> v, double q) {
-  if (v.empty()) return 0.0;
-  const std::size_t k = std::min(v.size() - 1, static_cast<std::size_t>(q * static_cast<double>(v.size())));
-  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k), v.end());
-  return v[k];
-}
-
 double polygon_area(const world::Polygon2& p) {
   double twice = 0.0;
   for (std::size_t i = 0; i < p.size(); ++i) {
@@ -177,8 +163,7 @@ int main(int argc, char** argv) {
 
   sim::SimCamera camera;
   sim::SimCamera::Config cc;
-  const double f = 525.0 * opt.width / 640.0;
-  cc.intrinsics = drivers::CameraIntrinsics{opt.width, opt.height, f, f, (opt.width - 1) / 2.0, (opt.height - 1) / 2.0};
+  cc.intrinsics = bench::camera_of_size(opt.width, opt.height);
   cc.rate_hz = opt.rate_hz > 0.0 ? opt.rate_hz : ec.speed_m_s / opt.spacing_m;
   if (!camera.init(cc, render::Renderer::Config{}, w, trajectory, &error)) {
     std::fprintf(stderr, "sim camera: %s\n", error.c_str());
@@ -295,11 +280,8 @@ int main(int argc, char** argv) {
     std::snprintf(cond, sizeof(cond), "%dx%d, %.2f Hz, voxel %.2f m, %d rooms seed %llu, host_sim budget",
                   opt.width, opt.height, cc.rate_hz, config.voxel_size_m, static_cast<int>(w.rooms.size()),
                   static_cast<unsigned long long>(opt.seed));
-    nlohmann::json out = nlohmann::json::array();
-    auto add = [&](const char* name, double value, const char* unit) {
-      out.push_back({{"name", name}, {"value", value}, {"unit", unit}, {"conditions", cond},
-                     {"commit", QSG_GIT_COMMIT}});
-    };
+    bench::Figures figures(cond);
+    auto add = [&](const char* name, double value, const char* unit) { figures.add(name, value, unit); };
     add("recon_long_run.distance", distance_m, "m");
     add("recon_long_run.frames", static_cast<double>(frames), "frames");
     add("recon_long_run.mapped_area", mapped_area_m2, "m^2");
@@ -317,13 +299,7 @@ int main(int argc, char** argv) {
     add("recon_long_run.window_bytes_in_use_max", static_cast<double>(window_max), "bytes");
     add("recon_long_run.arena_bytes", static_cast<double>(arena_used), "bytes");
     add("recon_long_run.blocks_evicted", static_cast<double>(tsdf.counters().blocks_evicted), "blocks");
-    std::ofstream file(opt.json_path);
-    file << out.dump(2) << "\n";
-    if (!file) {
-      std::fprintf(stderr, "%s: cannot write\n", opt.json_path.c_str());
-      return 1;
-    }
-    std::printf("wrote %s\n", opt.json_path.c_str());
+    if (!figures.write(opt.json_path)) return 1;
   }
   return 0;
 }

@@ -14,25 +14,19 @@
 #include <cstdlib>
 #include <fstream>
 #include <memory>
-#include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
 #include <vector>
 
+#include "bench/figures.h"
+#include "bench/sim_tour.h"
 #include "budgets/budget_table.h"
 #include "core/agents/agent_layer.h"
 #include "core/objects/object_layer.h"
 #include "core/reconstruction/semantic_tsdf.h"
 #include "core/scene_graph/scene_graph.h"
-#include "drivers/render/ray_scene.h"
-#include "drivers/sim/exploration.h"
-#include "drivers/sim/sim_camera.h"
 #include "drivers/world/building_generator.h"
-#include "drivers/world/world_query.h"
 
-#ifndef QSG_GIT_COMMIT
-#define QSG_GIT_COMMIT "unknown"
-#endif
 
 namespace {
 
@@ -118,12 +112,7 @@ bool parse(int argc, char** argv, Options* o) {
   return true;
 }
 
-double quantile(std::vector<double> v, double q) {
-  if (v.empty()) return 0.0;
-  const std::size_t k = std::min(v.size() - 1, static_cast<std::size_t>(q * static_cast<double>(v.size())));
-  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k), v.end());
-  return v[k];
-}
+using bench::quantile;
 
 struct Score {
   std::size_t gt = 0, observed = 0, found = 0, found_observed = 0, estimated = 0, correct = 0;
@@ -136,28 +125,18 @@ bool run_building(std::uint64_t seed, const Options& opt, Score* score, std::vec
   bc.num_rooms = opt.rooms;
   bc.seed = seed;
   const world::World w = world::generate_building(bc);
-  render::RayScene scene;
-  std::string error;
-  if (!scene.build(w, &error)) {
-    std::fprintf(stderr, "seed %llu: ray scene: %s\n", static_cast<unsigned long long>(seed), error.c_str());
-    return false;
-  }
-  const world::FreeSpaceIndex free_space(w);
   const sim::ExplorationConfig ec;
-  const sim::ExplorationResult tour = sim::plan_exploration(w, scene, free_space, ec);
-  if (!tour.ok) {
-    std::fprintf(stderr, "seed %llu: exploration: %s\n", static_cast<unsigned long long>(seed), tour.error.c_str());
-    return false;
-  }
-  sim::SimCamera camera;
   sim::SimCamera::Config cc;
-  const double f = 525.0 * opt.width / 640.0;
-  cc.intrinsics = drivers::CameraIntrinsics{opt.width, opt.height, f, f, (opt.width - 1) / 2.0, (opt.height - 1) / 2.0};
+  cc.intrinsics = bench::camera_of_size(opt.width, opt.height);
   cc.rate_hz = ec.speed_m_s / opt.spacing_m;
-  if (!camera.init(cc, render::Renderer::Config{}, w, tour.trajectory, &error)) {
-    std::fprintf(stderr, "seed %llu: sim camera: %s\n", static_cast<unsigned long long>(seed), error.c_str());
+  bench::SimTour sim_tour;
+  std::string error;
+  if (!bench::make_sim_tour(w, ec, cc, render::Renderer::Config{}, &sim_tour, &error)) {
+    std::fprintf(stderr, "seed %llu: %s\n", static_cast<unsigned long long>(seed), error.c_str());
     return false;
   }
+  sim::SimCamera& camera = *sim_tour.camera;
+  const sim::ExplorationResult& tour = sim_tour.tour;
 
   reconstruction::SemanticTsdf tsdf;
   const reconstruction::Config rc;
@@ -342,10 +321,8 @@ int main(int argc, char** argv) {
                   "depth and labels, %s budget, one core",
                   opt.seeds.size(), opt.rooms, seeds.c_str(), opt.width, opt.height, opt.spacing_m,
                   budgets::active::kBoard);
-    nlohmann::json out = nlohmann::json::array();
-    auto add = [&](const char* name, double value, const char* unit) {
-      out.push_back({{"name", name}, {"value", value}, {"unit", unit}, {"conditions", cond}, {"commit", QSG_GIT_COMMIT}});
-    };
+    bench::Figures figures(cond);
+    auto add = [&](const char* name, double value, const char* unit) { figures.add(name, value, unit); };
     add("objects_eval.found", found_pct, "%");
     add("objects_eval.found_of_observed", found_observed_pct, "%");
     add("objects_eval.correct", correct_pct, "%");
@@ -355,13 +332,7 @@ int main(int argc, char** argv) {
     add("objects_eval.update_ms_p99", p99, "ms");
     add("objects_eval.update_ms_max", max_ms, "ms");
     add("objects_eval.keyframes", static_cast<double>(keyframes), "keyframes");
-    std::ofstream file(opt.json_path);
-    file << out.dump(2) << "\n";
-    if (!file) {
-      std::fprintf(stderr, "%s: cannot write\n", opt.json_path.c_str());
-      return 1;
-    }
-    std::printf("wrote %s\n", opt.json_path.c_str());
+    if (!figures.write(opt.json_path)) return 1;
   }
   return 0;
 }
