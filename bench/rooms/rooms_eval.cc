@@ -1,0 +1,509 @@
+// Rooms evaluation: benchmark floor plans (IPA, plain and furnished) extruded to 3D and generated two-floor buildings
+// are explored by the simulated robot (ground-truth poses, noise-free depth), reconstructed (TSDF) and run through
+// the frontend (places) every keyframe, then the room finder runs once on the final graph. Scored with the
+// benchmark's max-overlap precision and recall (mean over rooms and area-weighted) against the ground truth.
+//
+// How estimated rooms become pixel sets (documented in the report): the free cells of a 2D raster (the floor plan's
+// own pixels, 0.05 m; for generated buildings a 0.05 m raster of each floor's room footprints) are labelled by a
+// multi-source breadth-first wavefront (8-connected, through free cells only) started from the cell of every place
+// that has a room, so every free cell takes the room of the place geodesically nearest to it; cells farther than
+// --max-reach-m from every place stay unlabelled (not seen). Scoring is restricted to cells that are free and
+// inside a ground-truth room: |r_e| counts r_e's cells there, |r_g| all of r_g's free cells (unlabelled included,
+// so unexplored space lowers recall).
+#include <Eigen/Core>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <deque>
+#include <map>
+#include <memory>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <string>
+#include <vector>
+
+#include "bench/figures.h"
+#include "budgets/budget_table.h"
+#include "core/frontend/frontend.h"
+#include "core/reconstruction/semantic_tsdf.h"
+#include "core/rooms/room_finder.h"
+#include "core/scene_graph/scene_graph.h"
+#include "drivers/render/ray_scene.h"
+#include "drivers/sim/exploration.h"
+#include "drivers/sim/sim_camera.h"
+#include "drivers/world/building_generator.h"
+#include "drivers/world/floor_plan_import.h"
+#include "drivers/world/world_query.h"
+
+#ifndef QSG_SHARED_DATA_DIR
+#define QSG_SHARED_DATA_DIR "../shared/data"
+#endif
+
+namespace {
+
+using namespace qsg;
+namespace sg = scene_graph;
+
+struct Options {
+  std::string plans_dir = std::string(QSG_SHARED_DATA_DIR) + "/floorplans/ipa";
+  std::vector<std::string> maps{"lab_ipa", "Freiburg52_scan", "lab_c_scan", "lab_intel", "office_a", "office_e"};
+  std::vector<std::string> variants{"plain", "furnished"};
+  int generated = 2;          // two-floor generated buildings (seeds 1..N)
+  int generated_rooms = 12;
+  int width = 320;
+  int height = 240;
+  double hfov_deg = 90.0;
+  double rate_hz = 2.0;       // keyframes per second along the tour
+  double max_reach_m = 3.0;   // free cells farther (geodesically) from every place stay unlabelled
+  rooms::Config rooms;
+  std::string json_path;
+};
+
+std::vector<std::string> split(const std::string& s) {
+  std::vector<std::string> out;
+  std::size_t pos = 0;
+  while (pos <= s.size()) {
+    const std::size_t comma = s.find(',', pos);
+    const std::string item = s.substr(pos, comma == std::string::npos ? std::string::npos : comma - pos);
+    if (!item.empty()) out.push_back(item);
+    if (comma == std::string::npos) break;
+    pos = comma + 1;
+  }
+  return out;
+}
+
+bool parse(int argc, char** argv, Options* o) {
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--help" || a == "-h" || i + 1 >= argc) return false;
+    const std::string v = argv[++i];
+    char* end = nullptr;
+    double* number = nullptr;
+    if (a == "--plans-dir") o->plans_dir = v;
+    else if (a == "--maps") o->maps = v == "none" ? std::vector<std::string>{} : split(v);
+    else if (a == "--variants") o->variants = split(v);
+    else if (a == "--json") o->json_path = v;
+    else if (a == "--generated") o->generated = std::atoi(v.c_str());
+    else if (a == "--generated-rooms") o->generated_rooms = std::atoi(v.c_str());
+    else if (a == "--size") {
+      if (std::sscanf(v.c_str(), "%dx%d", &o->width, &o->height) != 2) return false;
+    } else if (a == "--hfov-deg") number = &o->hfov_deg;
+    else if (a == "--rate-hz") number = &o->rate_hz;
+    else if (a == "--max-reach-m") number = &o->max_reach_m;
+    else if (a == "--alpha") number = &o->rooms.plateau_alpha;
+    else if (a == "--min-dilation-m") number = &o->rooms.min_dilation_m;
+    else if (a == "--max-dilation-m") number = &o->rooms.max_dilation_m;
+    else if (a == "--min-component") o->rooms.min_component_size = static_cast<std::uint32_t>(std::atoi(v.c_str()));
+    else {
+      std::fprintf(stderr, "unknown option %s\n", a.c_str());
+      return false;
+    }
+    if (number != nullptr) {
+      *number = std::strtod(v.c_str(), &end);
+      if (end == v.c_str() || *end != '\0') {
+        std::fprintf(stderr, "option %s: bad value '%s'\n", a.c_str(), v.c_str());
+        return false;
+      }
+    }
+  }
+  for (const std::string& v : o->variants)
+    if (v != "plain" && v != "furnished") return false;
+  return o->width > 0 && o->height > 0 && o->rate_hz > 0 && o->rooms.check().empty();
+}
+
+double median(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+  return v[v.size() / 2];
+}
+
+// A 2D raster: which cells are free, the ground-truth room of each (0: none) and the estimated one (0: none).
+struct Raster {
+  int cols = 0, rows = 0;
+  double res_m = 0.05;
+  Eigen::Vector2d origin_m = Eigen::Vector2d::Zero();  // world x-y of cell (0, rows - 1)'s lower-left corner
+  std::vector<std::uint8_t> free;
+  std::vector<std::int32_t> truth;
+  std::vector<std::int32_t> estimate;
+  std::size_t idx(int c, int r) const { return static_cast<std::size_t>(r) * static_cast<std::size_t>(cols) + c; }
+  // Image convention (row 0 at the top, +y up), as the floor-plan importer.
+  bool cell_of(const Eigen::Vector3d& p, int* c, int* r) const {
+    *c = static_cast<int>(std::floor((p.x() - origin_m.x()) / res_m));
+    *r = rows - 1 - static_cast<int>(std::floor((p.y() - origin_m.y()) / res_m));
+    return *c >= 0 && *r >= 0 && *c < cols && *r < rows;
+  }
+  Eigen::Vector2d center_of(int c, int r) const {
+    return origin_m + res_m * Eigen::Vector2d(c + 0.5, rows - r - 0.5);
+  }
+};
+
+// Labels free cells with the room of the geodesically nearest place (multi-source BFS from the places' cells).
+void label_from_places(const sg::SceneGraph& g, double z_min_m, double z_max_m, double max_reach_m, Raster* ras) {
+  ras->estimate.assign(ras->free.size(), 0);
+  std::vector<int> dist(ras->free.size(), -1);
+  std::deque<std::pair<int, int>> queue;
+  std::map<sg::NodeId, std::int32_t> room_label;
+  g.for_each_node([&](const sg::NodeRecord& n) {
+    if (n.kind != sg::NodeKind::kPlace || n.parent == sg::kNoNode) return;
+    const Eigen::Vector3d& p = g.place(n.id)->position_m;
+    if (p.z() < z_min_m || p.z() >= z_max_m) return;
+    auto it = room_label.find(n.parent);
+    if (it == room_label.end()) it = room_label.emplace(n.parent, static_cast<std::int32_t>(room_label.size() + 1)).first;
+    int c, r;
+    if (!ras->cell_of(p, &c, &r)) return;
+    // A place on a wall cell (rasterization): the nearest free cell within 2 cells.
+    int best_c = -1, best_r = -1;
+    for (int d = 0; d <= 2 && best_c < 0; ++d)
+      for (int dr = -d; dr <= d && best_c < 0; ++dr)
+        for (int dc = -d; dc <= d && best_c < 0; ++dc) {
+          const int cc = c + dc, rr = r + dr;
+          if (cc >= 0 && rr >= 0 && cc < ras->cols && rr < ras->rows && ras->free[ras->idx(cc, rr)]) {
+            best_c = cc;
+            best_r = rr;
+          }
+        }
+    if (best_c < 0 || dist[ras->idx(best_c, best_r)] == 0) return;
+    dist[ras->idx(best_c, best_r)] = 0;
+    ras->estimate[ras->idx(best_c, best_r)] = it->second;
+    queue.emplace_back(best_c, best_r);
+  });
+  const int max_steps = static_cast<int>(std::lround(max_reach_m / ras->res_m));
+  while (!queue.empty()) {
+    const auto [c, r] = queue.front();
+    queue.pop_front();
+    const int d = dist[ras->idx(c, r)];
+    if (d >= max_steps) continue;
+    for (int dr = -1; dr <= 1; ++dr)
+      for (int dc = -1; dc <= 1; ++dc) {
+        const int cc = c + dc, rr = r + dr;
+        if ((dc == 0 && dr == 0) || cc < 0 || rr < 0 || cc >= ras->cols || rr >= ras->rows) continue;
+        const std::size_t k = ras->idx(cc, rr);
+        if (!ras->free[k] || dist[k] >= 0) continue;
+        dist[k] = d + 1;
+        ras->estimate[k] = ras->estimate[ras->idx(c, r)];
+        queue.emplace_back(cc, rr);
+      }
+  }
+}
+
+struct Score {
+  double precision_mean = 0.0, recall_mean = 0.0;
+  double precision_area = 0.0, recall_area = 0.0;
+  std::size_t rooms_found = 0, rooms_truth = 0;
+  // Sums for pooling over maps.
+  double p_sum = 0.0, r_sum = 0.0, p_overlap = 0.0, p_size = 0.0, r_overlap = 0.0, r_size = 0.0;
+  void add(const Score& o) {
+    p_sum += o.p_sum;
+    r_sum += o.r_sum;
+    p_overlap += o.p_overlap;
+    p_size += o.p_size;
+    r_overlap += o.r_overlap;
+    r_size += o.r_size;
+    rooms_found += o.rooms_found;
+    rooms_truth += o.rooms_truth;
+    finish();
+  }
+  void finish() {
+    precision_mean = rooms_found > 0 ? p_sum / static_cast<double>(rooms_found) : 0.0;
+    recall_mean = rooms_truth > 0 ? r_sum / static_cast<double>(rooms_truth) : 0.0;
+    precision_area = p_size > 0 ? p_overlap / p_size : 0.0;
+    recall_area = r_size > 0 ? r_overlap / r_size : 0.0;
+  }
+};
+
+// Max-overlap precision and recall over the cells that are free and inside a ground-truth room.
+Score score(const Raster& ras) {
+  std::map<std::pair<std::int32_t, std::int32_t>, double> overlap;
+  std::map<std::int32_t, double> est_size, gt_size;
+  for (std::size_t k = 0; k < ras.free.size(); ++k) {
+    if (!ras.free[k] || ras.truth[k] <= 0) continue;
+    gt_size[ras.truth[k]] += 1.0;
+    if (ras.estimate[k] <= 0) continue;
+    est_size[ras.estimate[k]] += 1.0;
+    overlap[{ras.estimate[k], ras.truth[k]}] += 1.0;
+  }
+  std::map<std::int32_t, double> best_e, best_g;
+  for (const auto& [key, n] : overlap) {
+    best_e[key.first] = std::max(best_e[key.first], n);
+    best_g[key.second] = std::max(best_g[key.second], n);
+  }
+  Score s;
+  for (const auto& [e, n] : est_size) {
+    s.p_sum += best_e[e] / n;
+    s.p_overlap += best_e[e];
+    s.p_size += n;
+  }
+  for (const auto& [g, n] : gt_size) {
+    s.r_sum += best_g[g] / n;
+    s.r_overlap += best_g[g];
+    s.r_size += n;
+  }
+  s.rooms_found = est_size.size();
+  s.rooms_truth = gt_size.size();
+  s.finish();
+  return s;
+}
+
+struct RunStats {
+  std::size_t keyframes = 0, places = 0, rooms = 0;
+  double tour_m = 0.0, rooms_ms = 0.0, dilation_m = 0.0, wall_s = 0.0;
+  std::size_t unreachable = 0;
+};
+
+// Explores, reconstructs, runs the frontend every keyframe and the room finder at the end.
+bool run_pipeline(const Options& opt, const world::World& w, sg::SceneGraph* graph, RunStats* stats) {
+  const auto start = std::chrono::steady_clock::now();
+  render::RayScene scene;
+  std::string error;
+  if (!scene.build(w, &error)) {
+    std::fprintf(stderr, "%s: ray scene: %s\n", w.name.c_str(), error.c_str());
+    return false;
+  }
+  const world::FreeSpaceIndex free_space(w);
+  const sim::ExplorationConfig ec;
+  const sim::ExplorationResult tour = sim::plan_exploration(w, scene, free_space, ec);
+  if (!tour.ok || tour.trajectory.size() < 2) {
+    std::fprintf(stderr, "%s: exploration: %s\n", w.name.c_str(), tour.ok ? "empty tour" : tour.error.c_str());
+    return false;
+  }
+  stats->tour_m = tour.length_m;
+  stats->unreachable = tour.unreachable_rooms.size();
+  sim::SimCamera camera;
+  sim::SimCamera::Config cc;
+  const double f = 0.5 * opt.width / std::tan(0.5 * opt.hfov_deg * 3.14159265358979 / 180.0);
+  cc.intrinsics = drivers::CameraIntrinsics{opt.width, opt.height, f, f, (opt.width - 1) / 2.0, (opt.height - 1) / 2.0};
+  cc.rate_hz = opt.rate_hz;
+  if (!camera.init(cc, render::Renderer::Config{}, w, tour.trajectory, &error)) {
+    std::fprintf(stderr, "%s: sim camera: %s\n", w.name.c_str(), error.c_str());
+    return false;
+  }
+  auto tsdf = std::make_unique<reconstruction::SemanticTsdf>();
+  if (!tsdf->init(reconstruction::Config{}, reconstruction::capacities_from_budget(),
+                  budgets::active::reconstruction::kArenaBytes, &error)) {
+    std::fprintf(stderr, "tsdf: %s\n", error.c_str());
+    return false;
+  }
+  auto fe = std::make_unique<frontend::Frontend>();
+  if (!fe->init(frontend::Config{}, &error)) {
+    std::fprintf(stderr, "frontend: %s\n", error.c_str());
+    return false;
+  }
+  auto frame = std::make_unique<drivers::RgbdFrame>();
+  Eigen::Vector3d last = Eigen::Vector3d::Zero();
+  std::uint64_t t_last = 0;
+  for (;;) {
+    const drivers::ReadStatus status = camera.read(*frame, 0);
+    if (status == drivers::ReadStatus::kEndOfStream) break;
+    if (status != drivers::ReadStatus::kOk) continue;
+    Eigen::Isometry3d T;
+    std::int64_t t_ns = 0;
+    if (!camera.camera_pose(frame->sequence, &T, &t_ns)) continue;
+    tsdf->process(*frame, T);
+    fe->add_keyframe(graph, static_cast<std::uint64_t>(t_ns), T);
+    fe->update(*tsdf, T.translation(), static_cast<std::uint64_t>(t_ns), graph, frontend::Deadline{});
+    last = T.translation();
+    t_last = static_cast<std::uint64_t>(t_ns);
+    ++stats->keyframes;
+  }
+  for (int i = 0; i < 100; ++i)
+    if (fe->update(*tsdf, last, t_last, graph, frontend::Deadline{}).places_complete) break;
+
+  auto finder = std::make_unique<rooms::RoomFinder>();
+  if (!finder->init(opt.rooms, rooms::Capacities::from_scene_graph(graph->capacities()), 0, &error)) {
+    std::fprintf(stderr, "rooms: %s\n", error.c_str());
+    return false;
+  }
+  std::vector<double> ms;
+  rooms::UpdateResult r;
+  for (int i = 0; i < 5; ++i) {
+    const auto t0 = std::chrono::steady_clock::now();
+    r = finder->update(graph, t_last);
+    ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+  }
+  std::printf("  %s: Betti curve (delta m: components):", w.name.c_str());
+  for (std::size_t i = 0; i < finder->curve_size(); i += 5) std::printf(" %.2f:%u", finder->dilation_at(i), finder->betti_at(i));
+  std::printf("\n");
+  stats->places = r.places;
+  stats->rooms = r.rooms;
+  stats->rooms_ms = median(ms);
+  stats->dilation_m = r.dilation_m;
+  stats->wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  if (r.outcome != rooms::Outcome::kOk)
+    std::fprintf(stderr, "%s: rooms: %s (%zu places)\n", w.name.c_str(), rooms::to_string(r.outcome), r.places);
+  return true;
+}
+
+void print_line(const std::string& name, const Score& s, const RunStats& st) {
+  std::printf("%-30s P %.3f R %.3f | area P %.3f R %.3f | rooms %zu / truth %zu | places %zu, delta* %.2f m, "
+              "rooms update %.2f ms, %zu keyframes, tour %.0f m, %zu unreachable, %.0f s\n",
+              name.c_str(), s.precision_mean, s.recall_mean, s.precision_area, s.recall_area, s.rooms_found,
+              s.rooms_truth, st.places, st.dilation_m, st.rooms_ms, st.keyframes, st.tour_m, st.unreachable, st.wall_s);
+  std::fflush(stdout);
+}
+
+bool eval_plan(const Options& opt, const std::string& map, bool furnished, Score* out, RunStats* st) {
+  const std::string occ_path = opt.plans_dir + "/" + map + (furnished ? "_furnitures" : "") + ".png";
+  const std::string gt_path = world::floor_plan_gt_path(occ_path);
+  world::FloorPlanConfig fc;
+  const world::WorldResult wr = world::import_floor_plan_files(occ_path, gt_path, fc);
+  if (!wr.ok) {
+    std::fprintf(stderr, "%s\n", wr.error.c_str());
+    return false;
+  }
+  auto graph = std::make_unique<sg::SceneGraph>();
+  std::string error;
+  if (!graph->init(sg::capacities_from_budget(), sg::arena_bytes_from_budget(), &error)) {
+    std::fprintf(stderr, "scene graph: %s\n", error.c_str());
+    return false;
+  }
+  if (!run_pipeline(opt, wr.world, graph.get(), st)) return false;
+  // Ground truth straight from the benchmark's image: 8-connected white regions of more than 100 px.
+  const cv::Mat occ = cv::imread(occ_path, cv::IMREAD_GRAYSCALE), gt = cv::imread(gt_path, cv::IMREAD_GRAYSCALE);
+  if (occ.empty() || gt.empty() || occ.size() != gt.size()) {
+    std::fprintf(stderr, "%s: cannot read the plan and its ground truth, or their sizes differ\n", occ_path.c_str());
+    return false;
+  }
+  cv::Mat labels, stats, centroids;
+  const cv::Mat white = gt > fc.gt_room_threshold;
+  cv::connectedComponentsWithStats(white, labels, stats, centroids, 8, CV_32S);
+  Raster ras;
+  ras.cols = occ.cols;
+  ras.rows = occ.rows;
+  ras.res_m = fc.resolution_m_per_px;
+  ras.free.resize(static_cast<std::size_t>(occ.total()));
+  ras.truth.resize(ras.free.size());
+  for (int r = 0; r < occ.rows; ++r)
+    for (int c = 0; c < occ.cols; ++c) {
+      ras.free[ras.idx(c, r)] = occ.at<std::uint8_t>(r, c) >= fc.free_threshold ? 1 : 0;
+      const int l = labels.at<int>(r, c);
+      ras.truth[ras.idx(c, r)] = l > 0 && stats.at<int>(l, cv::CC_STAT_AREA) >= fc.min_room_area_px ? l : 0;
+    }
+  label_from_places(*graph, -1e9, 1e9, opt.max_reach_m, &ras);
+  *out = score(ras);
+  return true;
+}
+
+bool eval_generated(const Options& opt, std::uint64_t seed, Score* out, RunStats* st) {
+  world::BuildingConfig bc;
+  bc.seed = seed;
+  bc.num_rooms = opt.generated_rooms;
+  bc.two_floors = true;
+  world::World w = world::generate_building(bc);
+  w.name = "generated_two_floor_" + std::to_string(seed);
+  auto graph = std::make_unique<sg::SceneGraph>();
+  std::string error;
+  if (!graph->init(sg::capacities_from_budget(), sg::arena_bytes_from_budget(), &error)) return false;
+  if (!run_pipeline(opt, w, graph.get(), st)) return false;
+  // One raster per floor over the building's footprint: room interiors are free, labelled by room id + 1.
+  const world::Aabb box = world::world_bounds(w);
+  std::map<std::int32_t, double> floors;  // floor index -> floor z
+  for (const world::Room& room : w.rooms) floors[room.floor_index] = room.floor_z_m;
+  Score total;
+  for (const auto& [floor, z] : floors) {
+    Raster ras;
+    ras.res_m = 0.05;
+    ras.origin_m = box.min_m.head<2>();
+    ras.cols = static_cast<int>(std::ceil((box.max_m.x() - box.min_m.x()) / ras.res_m));
+    ras.rows = static_cast<int>(std::ceil((box.max_m.y() - box.min_m.y()) / ras.res_m));
+    ras.free.assign(static_cast<std::size_t>(ras.cols) * static_cast<std::size_t>(ras.rows), 0);
+    ras.truth.assign(ras.free.size(), 0);
+    for (const world::Room& room : w.rooms) {
+      if (room.floor_index != floor) continue;
+      for (int r = 0; r < ras.rows; ++r)
+        for (int c = 0; c < ras.cols; ++c) {
+          const Eigen::Vector2d p = ras.center_of(c, r);
+          for (const world::Polygon2& poly : room.footprint_m)
+            if (world::point_in_polygon(poly, p)) {
+              ras.free[ras.idx(c, r)] = 1;
+              ras.truth[ras.idx(c, r)] = room.id + 1;
+            }
+        }
+    }
+    // Places of this floor: from its floor up to the next floor's (stair places go with the floor below).
+    label_from_places(*graph, z - 0.3, z + bc.ceiling_height_m - 0.3 + bc.slab_thickness_m, opt.max_reach_m, &ras);
+    total.add(score(ras));
+  }
+  *out = total;
+  return true;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options opt;
+  if (!parse(argc, argv, &opt)) {
+    std::fprintf(stderr,
+                 "usage: %s [--plans-dir DIR] [--maps a,b|none] [--variants plain,furnished] [--generated N] "
+                 "[--generated-rooms N] [--size WxH] [--hfov-deg D] [--rate-hz R] [--max-reach-m M] [--alpha A] "
+                 "[--min-dilation-m D] [--max-dilation-m D] [--min-component N] [--json FILE]\n",
+                 argv[0]);
+    return 2;
+  }
+  opt.rooms.print(stdout);
+  std::printf("camera %dx%d, %.0f deg hfov, %.1f Hz keyframes, ground-truth poses, noise-free depth; labels reach "
+              "%.1f m from places\n",
+              opt.width, opt.height, opt.hfov_deg, opt.rate_hz, opt.max_reach_m);
+  char cond[256];
+  std::snprintf(cond, sizeof(cond),
+                "sim camera %dx%d %.0f deg hfov %.1f Hz, ground-truth poses, noise-free depth, TSDF 0.1 m, frontend "
+                "every keyframe, rooms alpha %.2f [%.2f, %.2f] m min %u",
+                opt.width, opt.height, opt.hfov_deg, opt.rate_hz, opt.rooms.plateau_alpha, opt.rooms.min_dilation_m,
+                opt.rooms.max_dilation_m, opt.rooms.min_component_size);
+  bench::Figures figures(cond);
+  const auto add = [&](const std::string& prefix, const Score& s) {
+    figures.add(prefix + ".precision_mean", s.precision_mean, "fraction");
+    figures.add(prefix + ".recall_mean", s.recall_mean, "fraction");
+    figures.add(prefix + ".precision_area", s.precision_area, "fraction");
+    figures.add(prefix + ".recall_area", s.recall_area, "fraction");
+    figures.add(prefix + ".rooms_found", static_cast<double>(s.rooms_found), "rooms");
+    figures.add(prefix + ".rooms_truth", static_cast<double>(s.rooms_truth), "rooms");
+  };
+  int failures = 0;
+  std::vector<double> rooms_ms;
+  for (const std::string& variant : opt.variants) {
+    if (opt.maps.empty()) break;
+    Score overall;
+    for (const std::string& map : opt.maps) {
+      Score s;
+      RunStats st;
+      if (!eval_plan(opt, map, variant == "furnished", &s, &st)) {
+        ++failures;
+        continue;
+      }
+      print_line(map + " (" + variant + ")", s, st);
+      add("rooms_eval.ipa." + variant + "." + map, s);
+      rooms_ms.push_back(st.rooms_ms);
+      overall.add(s);
+    }
+    std::printf("%-30s P %.3f R %.3f | area P %.3f R %.3f | rooms %zu / truth %zu (means pooled over all rooms)\n",
+                ("ALL (" + variant + ")").c_str(), overall.precision_mean, overall.recall_mean, overall.precision_area,
+                overall.recall_area, overall.rooms_found, overall.rooms_truth);
+    add("rooms_eval.ipa." + variant + ".all", overall);
+  }
+  Score generated;
+  for (int seed = 1; seed <= opt.generated; ++seed) {
+    Score s;
+    RunStats st;
+    if (!eval_generated(opt, static_cast<std::uint64_t>(seed), &s, &st)) {
+      ++failures;
+      continue;
+    }
+    print_line("generated two-floor seed " + std::to_string(seed), s, st);
+    add("rooms_eval.generated_two_floor.seed" + std::to_string(seed), s);
+    rooms_ms.push_back(st.rooms_ms);
+    generated.add(s);
+  }
+  if (opt.generated > 0) {
+    std::printf("%-30s P %.3f R %.3f | area P %.3f R %.3f | rooms %zu / truth %zu\n", "ALL generated two-floor",
+                generated.precision_mean, generated.recall_mean, generated.precision_area, generated.recall_area,
+                generated.rooms_found, generated.rooms_truth);
+    add("rooms_eval.generated_two_floor.all", generated);
+  }
+  if (!rooms_ms.empty()) figures.add("rooms_eval.rooms_update_ms_median", median(rooms_ms), "ms");
+  if (!opt.json_path.empty() && !figures.write(opt.json_path)) return 1;
+  return failures == 0 ? 0 : 1;
+}

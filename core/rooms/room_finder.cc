@@ -1,0 +1,718 @@
+// Rooms by persistent homology over the places graph, flood fill, and the room and building nodes.
+#include "core/rooms/room_finder.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <limits>
+
+namespace qsg::rooms {
+
+namespace sg = scene_graph;
+
+namespace {
+constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
+// Grid dilations are d- + i x step in double; a clearance equal to a grid value must count as alive.
+constexpr double kDilationTolerance = 1e-9;
+constexpr std::size_t kMaxCurveSamples = 100000;
+}  // namespace
+
+struct RoomFinder::Edge {
+  std::uint32_t a;
+  std::uint32_t b;
+  double clearance_m;  // min(edge weight, clearance of both ends): an edge never outlives its ends
+};
+
+struct RoomFinder::HeapEntry {
+  double clearance_m;
+  std::uint32_t sequence;  // push order: among equal clearances the earlier frontier wins (breadth-first)
+  std::uint32_t place;
+  std::uint32_t room;
+};
+
+namespace {
+bool expands_before(const RoomFinder::HeapEntry& x, const RoomFinder::HeapEntry& y) {
+  if (x.clearance_m != y.clearance_m) return x.clearance_m > y.clearance_m;
+  return x.sequence < y.sequence;
+}
+}  // namespace
+
+struct RoomFinder::Match {
+  std::uint32_t count;
+  std::uint32_t room;      // slot of this update
+  std::uint32_t previous;  // slot of the previous update
+};
+
+struct RoomFinder::RoomAccumulator {
+  double sum[3];
+  double min[3];
+  double max[3];
+  std::uint32_t count;
+  bool active;
+};
+
+// ---------------------------------------------------------------------------------------------------------------
+// Config, capacities, counters.
+
+std::size_t Config::curve_samples() const {
+  if (!(dilation_step_m > 0.0) || !(max_dilation_m >= min_dilation_m)) return 0;
+  return static_cast<std::size_t>(std::floor((max_dilation_m - min_dilation_m) / dilation_step_m + 1e-6)) + 1;
+}
+
+std::string Config::check() const {
+  if (!std::isfinite(min_dilation_m) || min_dilation_m < 0.0)
+    return "rooms.min_dilation_m: must be finite and >= 0, got " + std::to_string(min_dilation_m);
+  if (!std::isfinite(max_dilation_m) || max_dilation_m < min_dilation_m)
+    return "rooms.max_dilation_m: must be finite and >= min_dilation_m, got " + std::to_string(max_dilation_m);
+  if (!std::isfinite(dilation_step_m) || dilation_step_m <= 0.0)
+    return "rooms.dilation_step_m: must be > 0, got " + std::to_string(dilation_step_m);
+  if (curve_samples() > kMaxCurveSamples)
+    return "rooms.dilation_step_m: " + std::to_string(curve_samples()) + " samples over [d-, d+], at most " +
+           std::to_string(kMaxCurveSamples);
+  if (min_component_size < 1) return "rooms.min_component_size: must be >= 1";
+  if (!(plateau_alpha >= 0.0 && plateau_alpha <= 1.0))
+    return "rooms.plateau_alpha: must be in [0, 1], got " + std::to_string(plateau_alpha);
+  if (building_index > sg::kIndexMask) return "rooms.building_index: larger than a node index";
+  return "";
+}
+
+void Config::print(std::FILE* out) const {
+  std::fprintf(out,
+               "rooms: dilation [%.3f, %.3f] m step %.3f m (%zu samples), min_component_size %u places, "
+               "plateau_alpha %.2f, building B(%llu)\n",
+               min_dilation_m, max_dilation_m, dilation_step_m, curve_samples(), min_component_size, plateau_alpha,
+               static_cast<unsigned long long>(building_index));
+}
+
+Capacities Capacities::from_scene_graph(const sg::Capacities& graph) {
+  Capacities c;
+  c.places = graph.place_nodes;
+  c.place_edges = graph.edges;
+  c.rooms = graph.room_nodes;
+  return c;
+}
+
+std::string Capacities::check() const {
+  if (places == 0) return "rooms capacities.places: must be > 0";
+  if (places >= kNone / 2) return "rooms capacities.places: too large";
+  if (place_edges >= kNone / 2) return "rooms capacities.place_edges: too large";
+  if (rooms == 0) return "rooms capacities.rooms: must be > 0";
+  if (rooms >= kNone / 2) return "rooms capacities.rooms: too large";
+  return "";
+}
+
+void Capacities::print(std::FILE* out) const {
+  std::fprintf(out, "rooms capacities: places %zu, place_edges %zu, rooms %zu\n", places, place_edges, rooms);
+}
+
+void Counters::print(std::FILE* out) const {
+  std::fprintf(out,
+               "rooms counters: updates %llu, no_places %llu, no_rooms %llu, truncated %llu, graph_refused %llu, "
+               "seeds_dropped %llu, rooms_created %llu, rooms_removed %llu\n",
+               static_cast<unsigned long long>(updates), static_cast<unsigned long long>(no_places),
+               static_cast<unsigned long long>(no_rooms), static_cast<unsigned long long>(truncated),
+               static_cast<unsigned long long>(graph_refused), static_cast<unsigned long long>(seeds_dropped),
+               static_cast<unsigned long long>(rooms_created), static_cast<unsigned long long>(rooms_removed));
+}
+
+const char* to_string(Outcome outcome) {
+  switch (outcome) {
+    case Outcome::kOk: return "ok";
+    case Outcome::kNotInitialized: return "not initialized";
+    case Outcome::kNoGraph: return "no scene graph";
+    case Outcome::kNoPlaces: return "no places";
+    case Outcome::kNoRooms: return "no component reached the minimum size";
+  }
+  return "?";
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// Plateau rule.
+
+int choose_plateau(const std::uint32_t* betti, std::size_t samples, double alpha) {
+  // Longest run of a non-zero value first, then the candidates.
+  std::size_t longest = 0;
+  for (std::size_t i = 0; i < samples;) {
+    std::size_t j = i;
+    while (j < samples && betti[j] == betti[i]) ++j;
+    if (betti[i] != 0) longest = std::max(longest, j - i);
+    i = j;
+  }
+  if (longest == 0) return -1;
+  // "Longer than alpha x the longest": strictly, except that the longest itself always qualifies (alpha = 1).
+  const double threshold = alpha * static_cast<double>(longest);
+  int best = -1;
+  std::size_t best_length = 0;
+  std::uint32_t best_value = 0;
+  for (std::size_t i = 0; i < samples;) {
+    std::size_t j = i;
+    while (j < samples && betti[j] == betti[i]) ++j;
+    const std::size_t length = j - i;
+    const bool candidate = betti[i] != 0 && (static_cast<double>(length) > threshold || length == longest);
+    if (candidate && (best < 0 || betti[i] > best_value || (betti[i] == best_value && length > best_length))) {
+      best = static_cast<int>(i);
+      best_length = length;
+      best_value = betti[i];
+    }
+    i = j;
+  }
+  return best;
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// Start-up.
+
+RoomFinder::RoomFinder() = default;
+RoomFinder::~RoomFinder() = default;
+
+memory::ArenaPlan RoomFinder::plan(const Config& config, const Capacities& c) {
+  using Map = memory::FixedHashMap<sg::NodeId, std::uint32_t, memory::U64Hash>;
+  memory::ArenaPlan p;
+  Map::plan(p, Map::slots_for(c.places));
+  Map::plan(p, Map::slots_for(c.places));
+  p.add_array<sg::NodeId>(c.places);
+  p.add_array<double>(c.places);
+  p.add_array<double>(3 * c.places);
+  p.add_array<std::uint8_t>(c.places);
+  p.add_array<Edge>(c.place_edges);
+  p.add_array<std::uint32_t>(c.places + 1);
+  p.add_array<std::uint32_t>(2 * c.place_edges);
+  p.add_array<std::uint32_t>(c.places + c.place_edges);
+  p.add_array<std::uint32_t>(c.places);
+  p.add_array<std::uint32_t>(c.places);
+  p.add_array<std::int32_t>(c.places);
+  p.add_array<HeapEntry>(2 * c.place_edges);
+  p.add_array<std::uint64_t>(std::max(c.places, c.place_edges));
+  p.add_array<Match>(c.places);
+  p.add_array<std::uint32_t>(std::max<std::size_t>(1, config.curve_samples()));
+  p.add_array<sg::NodeId>(c.rooms);
+  p.add_array<RoomAccumulator>(c.rooms);
+  p.add_array<std::uint32_t>(c.places);
+  p.add_array<sg::NodeId>(c.rooms);
+  p.add_array<std::uint8_t>(c.rooms);
+  p.add_array<sg::RoomAttributes>(c.rooms);
+  p.add_array<std::uint8_t>(c.rooms);
+  return p;
+}
+
+bool RoomFinder::init(const Config& config, const Capacities& c, std::size_t budget_bytes, std::string* error) {
+  ready_ = false;
+  std::string bad = config.check();
+  if (bad.empty()) bad = c.check();
+  if (!bad.empty()) {
+    if (error != nullptr) *error = bad;
+    return false;
+  }
+  const memory::ArenaPlan p = plan(config, c);
+  std::string arena_error;
+  if (!arena_.create("rooms", p, budget_bytes == 0 ? p.total_bytes() : budget_bytes, &arena_error)) {
+    if (error != nullptr) *error = "rooms: " + arena_error;
+    return false;
+  }
+  using Map = memory::FixedHashMap<sg::NodeId, std::uint32_t, memory::U64Hash>;
+  bool ok = index_.carve(arena_, Map::slots_for(c.places), c.places) &&
+            previous_.carve(arena_, Map::slots_for(c.places), c.places);
+  place_ids_ = arena_.carve_array<sg::NodeId>(c.places);
+  clearance_ = arena_.carve_array<double>(c.places);
+  position_ = arena_.carve_array<double>(3 * c.places);
+  active_ = arena_.carve_array<std::uint8_t>(c.places);
+  edges_ = arena_.carve_array<Edge>(c.place_edges);
+  adjacency_offset_ = arena_.carve_array<std::uint32_t>(c.places + 1);
+  adjacency_ = arena_.carve_array<std::uint32_t>(2 * c.place_edges);
+  order_ = arena_.carve_array<std::uint32_t>(c.places + c.place_edges);
+  parent_ = arena_.carve_array<std::uint32_t>(c.places);
+  size_ = arena_.carve_array<std::uint32_t>(c.places);
+  room_of_ = arena_.carve_array<std::int32_t>(c.places);
+  heap_ = arena_.carve_array<HeapEntry>(2 * c.place_edges);
+  pairs_ = arena_.carve_array<std::uint64_t>(std::max(c.places, c.place_edges));
+  matches_ = arena_.carve_array<Match>(c.places);
+  curve_ = arena_.carve_array<std::uint32_t>(std::max<std::size_t>(1, config.curve_samples()));
+  room_ids_ = arena_.carve_array<sg::NodeId>(c.rooms);
+  room_acc_ = arena_.carve_array<RoomAccumulator>(c.rooms);
+  root_room_ = arena_.carve_array<std::uint32_t>(c.places);
+  previous_ids_ = arena_.carve_array<sg::NodeId>(c.rooms);
+  previous_taken_ = arena_.carve_array<std::uint8_t>(c.rooms);
+  saved_ = arena_.carve_array<sg::RoomAttributes>(c.rooms);
+  saved_valid_ = arena_.carve_array<std::uint8_t>(c.rooms);
+  // A heap, matches or curve of zero size would be a null carve; the plan never asks for those.
+  ok = ok && place_ids_ && clearance_ && position_ && active_ && (edges_ || c.place_edges == 0) && adjacency_offset_ &&
+       (adjacency_ || c.place_edges == 0) && order_ && parent_ && size_ && room_of_ && (heap_ || c.place_edges == 0) &&
+       pairs_ && matches_ && curve_ && room_ids_ && room_acc_ && root_room_ && previous_ids_ &&
+       previous_taken_ && saved_ && saved_valid_;
+  arena_.align_to_plan_boundary();
+  if (!ok || !arena_.seal()) {
+    if (error != nullptr) *error = "rooms: arena carve did not match its plan";
+    return false;
+  }
+  config_ = config;
+  capacities_ = c;
+  heap_capacity_ = 2 * c.place_edges;
+  building_id_ = sg::make_node_id(sg::kBuildingPrefix, config.building_index);
+  counters_ = Counters{};
+  num_rooms_ = num_previous_ = 0;
+  curve_size_ = 0;
+  next_room_index_ = 0;
+  building_written_ = false;
+  ready_ = true;
+  return true;
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// Update.
+
+UpdateResult RoomFinder::update(sg::SceneGraph* graph, std::uint64_t time_ns) {
+  UpdateResult r;
+  if (!ready_) return r;
+  if (graph == nullptr || !graph->initialized()) {
+    r.outcome = Outcome::kNoGraph;
+    return r;
+  }
+  ++counters_.updates;
+  read_places(*graph, &r);
+  counters_.truncated += r.truncated;
+  compute_curve();
+  const int chosen = num_places_ == 0 ? -1 : choose_plateau(curve_, curve_size_, config_.plateau_alpha);
+  if (chosen < 0) {
+    r.outcome = num_places_ == 0 ? Outcome::kNoPlaces : Outcome::kNoRooms;
+    ++(num_places_ == 0 ? counters_.no_places : counters_.no_rooms);
+    remove_previous(graph, /*keep_taken=*/false, &r);
+    r.places_unassigned = num_places_;
+    return r;
+  }
+  r.dilation_m = dilation_at(static_cast<std::size_t>(chosen));
+  r.betti_at_dilation = curve_[chosen];
+  const std::size_t rooms = seed_rooms(r.dilation_m, &r);
+  flood_fill(rooms);
+  assign_ids(*graph, rooms, &r);
+  write_rooms(graph, rooms, time_ns, &r);
+  counters_.graph_refused += r.refused;
+  r.outcome = Outcome::kOk;
+  return r;
+}
+
+bool RoomFinder::read_places(const sg::SceneGraph& graph, UpdateResult* r) {
+  index_.clear();
+  num_places_ = 0;
+  num_edges_ = 0;
+  graph.for_each_node([&](const sg::NodeRecord& n) {
+    if (n.kind != sg::NodeKind::kPlace) return;
+    if (num_places_ == capacities_.places) {
+      ++r->truncated;
+      return;
+    }
+    const sg::PlaceAttributes* a = graph.place(n.id);
+    const std::uint32_t i = static_cast<std::uint32_t>(num_places_++);
+    place_ids_[i] = n.id;
+    clearance_[i] = std::isfinite(a->distance_m) ? a->distance_m : 0.0;
+    position_[3 * i + 0] = a->position_m.x();
+    position_[3 * i + 1] = a->position_m.y();
+    position_[3 * i + 2] = a->position_m.z();
+    active_[i] = a->is_active ? 1 : 0;
+    index_.insert(n.id, i);
+  });
+  for (std::uint32_t i = 0; i < num_places_; ++i) {
+    graph.for_each_neighbor(place_ids_[i], [&](sg::NodeId other, const sg::EdgeRecord& e) {
+      const std::uint32_t* j = index_.find(other);
+      if (j == nullptr || *j <= i) return;  // not a (read) place, or counted from the other end
+      if (num_edges_ == capacities_.place_edges) {
+        ++r->truncated;
+        return;
+      }
+      double w = std::min(clearance_[i], clearance_[*j]);
+      if (e.info.weighted && std::isfinite(e.info.weight)) w = std::min(w, e.info.weight);
+      edges_[num_edges_++] = Edge{i, *j, w};
+    });
+  }
+  // Adjacency in CSR form; size_ is the fill cursor.
+  std::fill(adjacency_offset_, adjacency_offset_ + num_places_ + 1, 0u);
+  for (std::size_t e = 0; e < num_edges_; ++e) {
+    ++adjacency_offset_[edges_[e].a + 1];
+    ++adjacency_offset_[edges_[e].b + 1];
+  }
+  for (std::size_t i = 0; i < num_places_; ++i) adjacency_offset_[i + 1] += adjacency_offset_[i];
+  std::copy(adjacency_offset_, adjacency_offset_ + num_places_, size_);
+  for (std::size_t e = 0; e < num_edges_; ++e) {
+    adjacency_[size_[edges_[e].a]++] = static_cast<std::uint32_t>(e);
+    adjacency_[size_[edges_[e].b]++] = static_cast<std::uint32_t>(e);
+  }
+  r->places = num_places_;
+  r->place_edges = num_edges_;
+  return true;
+}
+
+std::uint32_t RoomFinder::find(std::uint32_t i) {
+  while (parent_[i] != i) {
+    parent_[i] = parent_[parent_[i]];
+    i = parent_[i];
+  }
+  return i;
+}
+
+// Superlevel filtration: lowering the dilation from d+ to d- adds places and edges in order of decreasing
+// clearance; union-find keeps the number of components of at least min_component_size places.
+void RoomFinder::compute_curve() {
+  curve_size_ = config_.curve_samples();
+  std::uint32_t* node_order = order_;
+  std::uint32_t* edge_order = order_ + num_places_;
+  for (std::uint32_t i = 0; i < num_places_; ++i) node_order[i] = i;
+  for (std::uint32_t e = 0; e < num_edges_; ++e) edge_order[e] = e;
+  std::sort(node_order, node_order + num_places_, [&](std::uint32_t a, std::uint32_t b) {
+    return clearance_[a] != clearance_[b] ? clearance_[a] > clearance_[b] : a < b;
+  });
+  std::sort(edge_order, edge_order + num_edges_, [&](std::uint32_t a, std::uint32_t b) {
+    return edges_[a].clearance_m != edges_[b].clearance_m ? edges_[a].clearance_m > edges_[b].clearance_m : a < b;
+  });
+  const std::uint32_t m = config_.min_component_size;
+  std::fill(parent_, parent_ + num_places_, kNone);
+  std::size_t next_node = 0, next_edge = 0;
+  std::uint32_t count = 0;
+  for (std::size_t k = curve_size_; k-- > 0;) {
+    const double delta = dilation_at(k) - kDilationTolerance;
+    for (; next_node < num_places_ && clearance_[node_order[next_node]] >= delta; ++next_node) {
+      const std::uint32_t i = node_order[next_node];
+      parent_[i] = i;
+      size_[i] = 1;
+      if (m <= 1) ++count;
+    }
+    for (; next_edge < num_edges_ && edges_[edge_order[next_edge]].clearance_m >= delta; ++next_edge) {
+      const Edge& e = edges_[edge_order[next_edge]];
+      std::uint32_t ra = find(e.a), rb = find(e.b);
+      if (ra == rb) continue;
+      const bool big_a = size_[ra] >= m, big_b = size_[rb] >= m;
+      if (size_[ra] < size_[rb]) std::swap(ra, rb);
+      parent_[rb] = ra;
+      size_[ra] += size_[rb];
+      count = count + (size_[ra] >= m ? 1u : 0u) - (big_a ? 1u : 0u) - (big_b ? 1u : 0u);
+    }
+    curve_[k] = count;
+  }
+}
+
+std::size_t RoomFinder::seed_rooms(double dilation_m, UpdateResult* r) {
+  const double delta = dilation_m - kDilationTolerance;
+  for (std::uint32_t i = 0; i < num_places_; ++i) {
+    parent_[i] = clearance_[i] >= delta ? i : kNone;
+    size_[i] = 1;
+    room_of_[i] = -1;
+    root_room_[i] = kNone;
+  }
+  for (std::size_t k = 0; k < num_edges_; ++k) {
+    const Edge& e = edges_[k];
+    if (e.clearance_m < delta) continue;
+    std::uint32_t ra = find(e.a), rb = find(e.b);
+    if (ra == rb) continue;
+    if (size_[ra] < size_[rb]) std::swap(ra, rb);
+    parent_[rb] = ra;
+    size_[ra] += size_[rb];
+  }
+  // Seed components, largest first when they do not all fit (order_ is free again).
+  std::size_t seeds = 0;
+  for (std::uint32_t i = 0; i < num_places_; ++i)
+    if (parent_[i] == i && size_[i] >= config_.min_component_size) order_[seeds++] = i;
+  if (seeds > capacities_.rooms) {
+    std::sort(order_, order_ + seeds, [&](std::uint32_t a, std::uint32_t b) {
+      return size_[a] != size_[b] ? size_[a] > size_[b] : a < b;
+    });
+    r->seeds_dropped = seeds - capacities_.rooms;
+    counters_.seeds_dropped += r->seeds_dropped;
+    seeds = capacities_.rooms;
+    std::sort(order_, order_ + seeds);  // slots in place order, as without the cut
+  }
+  for (std::size_t s = 0; s < seeds; ++s) root_room_[order_[s]] = static_cast<std::uint32_t>(s);
+  for (std::uint32_t i = 0; i < num_places_; ++i) {
+    if (parent_[i] == kNone) continue;
+    const std::uint32_t slot = root_room_[find(i)];
+    if (slot != kNone) {
+      room_of_[i] = static_cast<std::int32_t>(slot);
+      ++r->seeded_places;
+    }
+  }
+  return seeds;
+}
+
+void RoomFinder::heap_push(const HeapEntry& e) {
+  // Max-heap on clearance, ties in push order (deterministic).
+  const auto before = expands_before;
+  if (heap_size_ == heap_capacity_) return;  // cannot happen: each place pushes its edges once
+  std::size_t i = heap_size_++;
+  while (i > 0) {
+    const std::size_t up = (i - 1) / 2;
+    if (!before(e, heap_[up])) break;
+    heap_[i] = heap_[up];
+    i = up;
+  }
+  heap_[i] = e;
+}
+
+RoomFinder::HeapEntry RoomFinder::heap_pop() {
+  const auto before = expands_before;
+  const HeapEntry top = heap_[0];
+  const HeapEntry last = heap_[--heap_size_];
+  std::size_t i = 0;
+  for (;;) {
+    const std::size_t l = 2 * i + 1, rgt = l + 1;
+    if (l >= heap_size_) break;
+    const std::size_t c = rgt < heap_size_ && before(heap_[rgt], heap_[l]) ? rgt : l;
+    if (!before(heap_[c], last)) break;
+    heap_[i] = heap_[c];
+    i = c;
+  }
+  if (heap_size_ > 0) heap_[i] = last;
+  return top;
+}
+
+// Every unassigned place joins the room whose frontier reaches it through the edge of largest clearance first.
+void RoomFinder::flood_fill(std::size_t num_rooms) {
+  (void)num_rooms;
+  heap_size_ = 0;
+  std::uint32_t sequence = 0;
+  const auto push_frontier = [&](std::uint32_t i) {
+    for (std::uint32_t k = adjacency_offset_[i]; k < adjacency_offset_[i + 1]; ++k) {
+      const Edge& e = edges_[adjacency_[k]];
+      const std::uint32_t j = e.a == i ? e.b : e.a;
+      if (room_of_[j] < 0) heap_push(HeapEntry{e.clearance_m, sequence++, j, static_cast<std::uint32_t>(room_of_[i])});
+    }
+  };
+  for (std::uint32_t i = 0; i < num_places_; ++i)
+    if (room_of_[i] >= 0) push_frontier(i);
+  while (heap_size_ > 0) {
+    const HeapEntry top = heap_pop();
+    if (room_of_[top.place] >= 0) continue;
+    room_of_[top.place] = static_cast<std::int32_t>(top.room);
+    push_frontier(top.place);
+  }
+}
+
+// A new room takes the id of the previous room it shares most places with (each id once, largest overlaps
+// first); the others get fresh ids.
+void RoomFinder::assign_ids(const sg::SceneGraph& graph, std::size_t num_rooms, UpdateResult* r) {
+  std::fill(room_ids_, room_ids_ + num_rooms, sg::kNoNode);
+  std::fill(previous_taken_, previous_taken_ + num_previous_, std::uint8_t{0});
+  std::size_t n = 0;
+  for (std::uint32_t i = 0; i < num_places_; ++i) {
+    if (room_of_[i] < 0) continue;
+    const std::uint32_t* prev = previous_.find(place_ids_[i]);
+    if (prev == nullptr || *prev >= num_previous_ || previous_ids_[*prev] == sg::kNoNode) continue;
+    pairs_[n++] = (static_cast<std::uint64_t>(room_of_[i]) << 32) | *prev;
+  }
+  std::sort(pairs_, pairs_ + n);
+  std::size_t num_matches = 0;
+  for (std::size_t k = 0; k < n;) {
+    std::size_t j = k;
+    while (j < n && pairs_[j] == pairs_[k]) ++j;
+    matches_[num_matches++] = Match{static_cast<std::uint32_t>(j - k), static_cast<std::uint32_t>(pairs_[k] >> 32),
+                                    static_cast<std::uint32_t>(pairs_[k] & 0xffffffffu)};
+    k = j;
+  }
+  std::sort(matches_, matches_ + num_matches, [](const Match& a, const Match& b) {
+    if (a.count != b.count) return a.count > b.count;
+    if (a.room != b.room) return a.room < b.room;
+    return a.previous < b.previous;
+  });
+  for (std::size_t k = 0; k < num_matches; ++k) {
+    const Match& m = matches_[k];
+    if (room_ids_[m.room] != sg::kNoNode || previous_taken_[m.previous]) continue;
+    room_ids_[m.room] = previous_ids_[m.previous];
+    previous_taken_[m.previous] = 1;
+    ++r->rooms_kept;
+  }
+  for (std::size_t s = 0; s < num_rooms; ++s) {
+    if (room_ids_[s] != sg::kNoNode) continue;
+    sg::NodeId id = sg::make_node_id(sg::kRoomPrefix, next_room_index_++);
+    while (graph.has_node(id)) id = sg::make_node_id(sg::kRoomPrefix, next_room_index_++);  // someone else's
+    room_ids_[s] = id;
+    ++counters_.rooms_created;
+  }
+}
+
+// Previous rooms no new room took over leave the graph (with their edges). Without new rooms (keep_taken false)
+// every previous room goes, and the building with them.
+void RoomFinder::remove_previous(sg::SceneGraph* graph, bool keep_taken, UpdateResult* r) {
+  for (std::size_t p = 0; p < num_previous_; ++p) {
+    if ((keep_taken && previous_taken_[p] != 0) || previous_ids_[p] == sg::kNoNode) continue;
+    if (graph->room(previous_ids_[p]) != nullptr && graph->remove_node(previous_ids_[p])) {
+      ++r->rooms_removed;
+      ++counters_.rooms_removed;
+    }
+  }
+  if (!keep_taken) {
+    if (building_written_ && graph->building(building_id_) != nullptr) graph->remove_node(building_id_);
+    building_written_ = false;
+    num_previous_ = 0;
+    num_rooms_ = 0;
+    previous_.clear();
+  }
+}
+
+bool RoomFinder::edge_fits(sg::SceneGraph* graph, sg::NodeId a, sg::NodeId b) {
+  const sg::NodeRecord* na = graph->node(a);
+  const sg::NodeRecord* nb = graph->node(b);
+  if (na == nullptr || nb == nullptr) return false;
+  const std::size_t need = (na->degree % sg::kAdjacencyChunkEdges == 0 ? 1u : 0u) +
+                           (nb->degree % sg::kAdjacencyChunkEdges == 0 ? 1u : 0u);
+  return graph->num_edges() < graph->capacities().edges && free_chunks_ >= need;
+}
+
+bool RoomFinder::add_edge(sg::SceneGraph* graph, sg::NodeId a, sg::NodeId b, UpdateResult* r) {
+  // Checked here so a full graph is a counted refusal in every build (the stores' own policy may abort).
+  if (!edge_fits(graph, a, b)) {
+    ++r->refused;
+    return false;
+  }
+  const std::size_t need = (graph->node(a)->degree % sg::kAdjacencyChunkEdges == 0 ? 1u : 0u) +
+                           (graph->node(b)->degree % sg::kAdjacencyChunkEdges == 0 ? 1u : 0u);
+  const sg::Status st = graph->add_edge(a, b);
+  if (st == sg::Status::kOk) {
+    free_chunks_ -= need;
+    return true;
+  }
+  if (st != sg::Status::kDuplicateEdge) ++r->refused;
+  return st == sg::Status::kDuplicateEdge;
+}
+
+void RoomFinder::write_rooms(sg::SceneGraph* graph, std::size_t num_rooms, std::uint64_t time_ns, UpdateResult* r) {
+  remove_previous(graph, /*keep_taken=*/true, r);
+  // Kept rooms are removed and re-added under the same id with their labels: remove_node() drops a node's edges
+  // newest first in O(degree), where removing them one by one would scan the room's adjacency for each.
+  for (std::size_t s = 0; s < num_rooms; ++s) {
+    saved_valid_[s] = 0;
+    if (const sg::RoomAttributes* existing = graph->room(room_ids_[s])) {
+      saved_[s] = *existing;
+      saved_valid_[s] = 1;
+      graph->remove_node(room_ids_[s]);
+    }
+  }
+  free_chunks_ = 0;
+  graph->for_each_resource([&](const memory::ResourceStats& st) {
+    if (std::strcmp(st.name, "scene_graph.adjacency_chunks") == 0) free_chunks_ = st.capacity - st.in_use;
+  });
+
+  // Centroid, bounds and activity of every room.
+  for (std::size_t s = 0; s < num_rooms; ++s) {
+    RoomAccumulator& a = room_acc_[s];
+    for (int d = 0; d < 3; ++d) {
+      a.sum[d] = 0.0;
+      a.min[d] = std::numeric_limits<double>::max();
+      a.max[d] = std::numeric_limits<double>::lowest();
+    }
+    a.count = 0;
+    a.active = false;
+  }
+  for (std::uint32_t i = 0; i < num_places_; ++i) {
+    if (room_of_[i] < 0) continue;
+    RoomAccumulator& a = room_acc_[room_of_[i]];
+    for (int d = 0; d < 3; ++d) {
+      const double v = position_[3 * i + d];
+      a.sum[d] += v;
+      a.min[d] = std::min(a.min[d], v);
+      a.max[d] = std::max(a.max[d], v);
+    }
+    ++a.count;
+    a.active = a.active || active_[i] != 0;
+  }
+
+  // Room nodes: attributes replaced, labels of kept rooms preserved for the classifier.
+  const sg::Capacities& gc = graph->capacities();
+  Eigen::Vector3d building_sum = Eigen::Vector3d::Zero();
+  std::size_t written = 0;
+  for (std::size_t s = 0; s < num_rooms; ++s) {
+    const RoomAccumulator& a = room_acc_[s];
+    const double n = static_cast<double>(std::max<std::uint32_t>(1, a.count));
+    sg::RoomAttributes attrs;
+    attrs.position_m = Eigen::Vector3d(a.sum[0] / n, a.sum[1] / n, a.sum[2] / n);
+    attrs.bounding_box = sg::BoundingBox::aabb(Eigen::Vector3d(a.min[0], a.min[1], a.min[2]),
+                                               Eigen::Vector3d(a.max[0], a.max[1], a.max[2]));
+    attrs.last_update_time_ns = time_ns;
+    attrs.is_active = a.active;
+    char name[32];
+    const int len = std::snprintf(name, sizeof(name), "R(%llu)",
+                                  static_cast<unsigned long long>(sg::node_index(room_ids_[s])));
+    attrs.name.assign(name, static_cast<std::size_t>(std::max(0, std::min<int>(len, 31))));
+    if (saved_valid_[s]) {
+      attrs.semantic_label = saved_[s].semantic_label;
+      attrs.class_probabilities = saved_[s].class_probabilities;
+      attrs.color = saved_[s].color;
+    }
+    if (graph->num_nodes(sg::NodeKind::kRoom) >= gc.room_nodes || graph->num_nodes() >= gc.nodes() ||
+               graph->add_room(room_ids_[s], attrs) != sg::Status::kOk) {
+      ++r->refused;
+      room_ids_[s] = sg::kNoNode;
+      continue;
+    }
+    building_sum += attrs.position_m;
+    ++written;
+  }
+
+  // The building at the mean of the room centroids.
+  bool have_building = false;
+  if (written > 0) {
+    sg::BuildingAttributes b;
+    b.position_m = building_sum / static_cast<double>(written);
+    b.last_update_time_ns = time_ns;
+    b.is_active = true;
+    char name[32];
+    const int len =
+        std::snprintf(name, sizeof(name), "B(%llu)", static_cast<unsigned long long>(config_.building_index));
+    b.name.assign(name, static_cast<std::size_t>(std::max(0, std::min<int>(len, 31))));
+    if (sg::BuildingAttributes* existing = graph->building(building_id_)) {
+      b.semantic_label = existing->semantic_label;
+      b.color = existing->color;
+      *existing = b;
+      have_building = true;
+    } else if (!graph->has_node(building_id_) && graph->num_nodes(sg::NodeKind::kBuilding) < gc.building_nodes &&
+               graph->num_nodes() < gc.nodes() && graph->add_building(building_id_, b) == sg::Status::kOk) {
+      have_building = true;
+    } else {
+      ++r->refused;
+    }
+  } else if (building_written_ && graph->building(building_id_) != nullptr) {
+    graph->remove_node(building_id_);
+  }
+  building_written_ = have_building;
+
+  // Room -> place (the room becomes the place's parent), room - room where places touch, building -> room.
+  for (std::uint32_t i = 0; i < num_places_; ++i) {
+    const std::int32_t s = room_of_[i];
+    if (s < 0 || room_ids_[s] == sg::kNoNode) {
+      ++r->places_unassigned;
+      continue;
+    }
+    if (graph->parent(place_ids_[i]) != sg::kNoNode) {  // another writer's room owns it
+      ++r->places_unassigned;
+      continue;
+    }
+    if (add_edge(graph, room_ids_[s], place_ids_[i], r)) ++r->places_assigned;
+    else ++r->places_unassigned;
+  }
+  std::size_t n = 0;
+  for (std::size_t e = 0; e < num_edges_; ++e) {
+    const std::int32_t a = room_of_[edges_[e].a], b = room_of_[edges_[e].b];
+    if (a < 0 || b < 0 || a == b) continue;
+    const std::uint64_t lo = static_cast<std::uint64_t>(std::min(a, b)), hi = static_cast<std::uint64_t>(std::max(a, b));
+    pairs_[n++] = (lo << 32) | hi;
+  }
+  std::sort(pairs_, pairs_ + n);
+  n = static_cast<std::size_t>(std::unique(pairs_, pairs_ + n) - pairs_);
+  for (std::size_t k = 0; k < n; ++k) {
+    const sg::NodeId a = room_ids_[pairs_[k] >> 32], b = room_ids_[pairs_[k] & 0xffffffffu];
+    if (a == sg::kNoNode || b == sg::kNoNode) continue;
+    if (add_edge(graph, a, b, r)) ++r->room_edges;
+  }
+  if (have_building)
+    for (std::size_t s = 0; s < num_rooms; ++s)
+      if (room_ids_[s] != sg::kNoNode) add_edge(graph, building_id_, room_ids_[s], r);
+
+  // Remember this update's rooms for the next one's ids.
+  previous_.clear();
+  for (std::uint32_t i = 0; i < num_places_; ++i)
+    if (room_of_[i] >= 0 && room_ids_[room_of_[i]] != sg::kNoNode)
+      previous_.insert(place_ids_[i], static_cast<std::uint32_t>(room_of_[i]));
+  std::copy(room_ids_, room_ids_ + num_rooms, previous_ids_);
+  num_previous_ = num_rooms;
+  num_rooms_ = 0;
+  for (std::size_t s = 0; s < num_rooms; ++s)
+    if (room_ids_[s] != sg::kNoNode) room_ids_[num_rooms_++] = room_ids_[s];
+  r->rooms = num_rooms_;
+}
+
+}  // namespace qsg::rooms

@@ -1,0 +1,199 @@
+// Layer 4-5 geometry: rooms found by persistent homology over the places graph (the paper's "Room Clustering via
+// Persistent Homology"), flood fill of the remaining places, room and building nodes written into the scene graph.
+//
+// One update reads every place node (clearance distance_m) and place-place edge (weight = clearance along the
+// edge) from the graph, computes the Betti-0 curve of the clearance filtration over [d-, d+] in one union-find
+// pass, picks the dilation by the paper's alpha plateau rule, seeds rooms with the components at that dilation,
+// assigns the other places by a flood fill that expands the edge of largest clearance first, and replaces the
+// rooms of the previous update (ids kept where a new room overlaps an old one most). Works on the 3D graph: no
+// floor slicing. Every store is carved once from one arena at init(); update() never allocates.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <cstdio>
+#include <string>
+
+#include "core/memory/arena.h"
+#include "core/memory/fixed_hash_map.h"
+#include "core/memory/resource_stats.h"
+#include "core/scene_graph/node_id.h"
+#include "core/scene_graph/scene_graph.h"
+
+namespace qsg::rooms {
+
+struct Config {
+  double min_dilation_m = 0.5;   // d-: smallest dilation (clearance) of the filtration
+  double max_dilation_m = 1.2;   // d+: largest dilation
+  double dilation_step_m = 0.01; // the Betti curve is sampled every step over [d-, d+]
+  std::uint32_t min_component_size = 15;  // places; smaller components are not counted (and seed no room)
+  // The paper's alpha: only flat intervals longer than alpha x the longest one are candidates; among them the one
+  // with the most components wins. 0 over-segments, 1 picks the most persistent interval.
+  double plateau_alpha = 0.5;
+  std::uint64_t building_index = 0;  // the building node is make_node_id('B', building_index)
+
+  std::size_t curve_samples() const;  // samples of the Betti curve (d-, d- + step, ..., d+)
+  std::string check() const;          // empty when usable, else the bad field and why
+  void print(std::FILE* out) const;
+};
+
+// Fixed sizes of the finder's stores; from the scene graph's capacities by default.
+struct Capacities {
+  std::size_t places = 32768;       // place nodes read per update (more are ignored and counted)
+  std::size_t place_edges = 262144; // place-place edges read per update (more are ignored and counted)
+  std::size_t rooms = 512;          // rooms per update (more seeds are dropped, smallest first, and counted)
+  static Capacities from_scene_graph(const scene_graph::Capacities& graph);
+  std::string check() const;
+  void print(std::FILE* out) const;
+};
+
+// What one update did; outcome says whether rooms were written.
+enum class Outcome : std::uint8_t {
+  kOk,
+  kNotInitialized,  // init() has not succeeded
+  kNoGraph,         // null or uninitialized scene graph
+  kNoPlaces,        // the graph holds no place node: previous rooms and the building are removed
+  kNoRooms,         // no component reached the minimum size at any dilation: previous rooms are removed
+};
+const char* to_string(Outcome outcome);
+
+struct UpdateResult {
+  Outcome outcome = Outcome::kNotInitialized;
+  std::size_t places = 0;            // read
+  std::size_t place_edges = 0;       // read
+  std::size_t rooms = 0;             // written
+  std::size_t room_edges = 0;        // room-room edges written
+  std::size_t places_assigned = 0;   // places that got a room parent
+  std::size_t places_unassigned = 0; // in a component of the places graph without a seed, or refused
+  std::size_t seeded_places = 0;     // places in the seed components
+  std::size_t rooms_kept = 0;        // rooms that kept the id of a previous room
+  std::size_t rooms_removed = 0;     // previous rooms that no new room took over
+  double dilation_m = 0.0;           // the chosen delta*
+  std::uint32_t betti_at_dilation = 0;
+  std::size_t truncated = 0;         // places or edges beyond the finder's capacities (ignored)
+  std::size_t refused = 0;           // nodes or edges the scene graph had no room for
+  std::size_t seeds_dropped = 0;     // seed components beyond the room capacity
+};
+
+struct Counters {
+  std::uint64_t updates = 0;
+  std::uint64_t no_places = 0;
+  std::uint64_t no_rooms = 0;
+  std::uint64_t truncated = 0;      // places or edges ignored for capacity, all updates together
+  std::uint64_t graph_refused = 0;  // scene-graph nodes or edges refused, all updates together
+  std::uint64_t seeds_dropped = 0;
+  std::uint64_t rooms_created = 0;  // fresh room ids
+  std::uint64_t rooms_removed = 0;
+  void print(std::FILE* out) const;
+};
+
+// The paper's plateau rule on a sampled Betti curve (betti[i] at d- + i x step, ascending): flat runs of equal
+// values of non-zero count are the intervals; among those longer than alpha x the longest (all when alpha is 0,
+// only the longest when it is 1), the one with the most components wins (ties: the longer, then the
+// smaller dilation). Returns the index of the run's first sample (its d_min), or -1 when every sample is 0.
+int choose_plateau(const std::uint32_t* betti, std::size_t samples, double alpha);
+
+class RoomFinder {
+ public:
+  RoomFinder();
+  RoomFinder(const RoomFinder&) = delete;
+  RoomFinder& operator=(const RoomFinder&) = delete;
+  ~RoomFinder();
+
+  static memory::ArenaPlan plan(const Config& config, const Capacities& capacities);
+  // Checks config and capacities and carves every store from one arena of at most budget_bytes (0: exactly the
+  // plan). Start-up only; false with the bad field in *error.
+  bool init(const Config& config, const Capacities& capacities, std::size_t budget_bytes, std::string* error);
+  bool initialized() const { return ready_; }
+
+  // Recomputes the rooms and the building from the graph's places. Never allocates.
+  UpdateResult update(scene_graph::SceneGraph* graph, std::uint64_t time_ns = 0);
+
+  // The Betti curve of the last update: value i at dilation_at(i) (ascending), curve_size() samples.
+  std::size_t curve_size() const { return curve_size_; }
+  double dilation_at(std::size_t i) const { return config_.min_dilation_m + static_cast<double>(i) * config_.dilation_step_m; }
+  std::uint32_t betti_at(std::size_t i) const { return curve_[i]; }
+  const std::uint32_t* betti_curve() const { return curve_; }
+
+  // The rooms of the last update (ids in the scene graph) and the building (kNoNode when there is none).
+  std::size_t num_rooms() const { return num_rooms_; }
+  scene_graph::NodeId room_id(std::size_t i) const { return room_ids_[i]; }
+  scene_graph::NodeId building_id() const { return building_written_ ? building_id_ : scene_graph::kNoNode; }
+
+  const Config& config() const { return config_; }
+  const Capacities& capacities() const { return capacities_; }
+  const Counters& counters() const { return counters_; }
+  template <typename Fn>
+  void for_each_resource(Fn&& fn) const {  // fn(const memory::ResourceStats&)
+    fn(arena_.stats());
+    fn(index_.stats());
+    fn(previous_.stats());
+  }
+
+  struct Edge;
+  struct HeapEntry;
+  struct Match;
+  struct RoomAccumulator;
+
+ private:
+  bool read_places(const scene_graph::SceneGraph& graph, UpdateResult* r);
+  void compute_curve();
+  std::size_t seed_rooms(double dilation_m, UpdateResult* r);
+  void flood_fill(std::size_t num_rooms);
+  void assign_ids(const scene_graph::SceneGraph& graph, std::size_t num_rooms, UpdateResult* r);
+  void write_rooms(scene_graph::SceneGraph* graph, std::size_t num_rooms, std::uint64_t time_ns, UpdateResult* r);
+  void remove_previous(scene_graph::SceneGraph* graph, bool keep_taken, UpdateResult* r);
+  bool edge_fits(scene_graph::SceneGraph* graph, scene_graph::NodeId a, scene_graph::NodeId b);
+  bool add_edge(scene_graph::SceneGraph* graph, scene_graph::NodeId a, scene_graph::NodeId b, UpdateResult* r);
+  std::uint32_t find(std::uint32_t i);
+  void heap_push(const HeapEntry& e);
+  HeapEntry heap_pop();
+
+  Config config_;
+  Capacities capacities_;
+  Counters counters_;
+  memory::Arena arena_;
+  memory::FixedHashMap<scene_graph::NodeId, std::uint32_t, memory::U64Hash> index_{"rooms.place_index"};
+  // Place -> slot of its room in the previous update (for stable room ids).
+  memory::FixedHashMap<scene_graph::NodeId, std::uint32_t, memory::U64Hash> previous_{"rooms.previous_rooms"};
+
+  // Places of this update (local index i < num_places_).
+  scene_graph::NodeId* place_ids_ = nullptr;
+  double* clearance_ = nullptr;
+  double* position_ = nullptr;  // x, y, z per place
+  std::uint8_t* active_ = nullptr;
+  std::size_t num_places_ = 0;
+  Edge* edges_ = nullptr;
+  std::size_t num_edges_ = 0;
+  std::uint32_t* adjacency_offset_ = nullptr;  // CSR: place i's edges are adjacency_[offset[i], offset[i + 1])
+  std::uint32_t* adjacency_ = nullptr;         // edge indices
+  std::uint32_t* order_ = nullptr;             // scratch: sort orders
+  std::uint32_t* parent_ = nullptr;            // union-find
+  std::uint32_t* size_ = nullptr;
+  std::int32_t* room_of_ = nullptr;            // per place: room slot of this update, or -1
+  HeapEntry* heap_ = nullptr;
+  std::size_t heap_size_ = 0;
+  std::size_t heap_capacity_ = 0;
+  std::uint64_t* pairs_ = nullptr;             // scratch: (a, b) keys for matching and room-room edges
+  Match* matches_ = nullptr;
+  std::uint32_t* curve_ = nullptr;
+  std::size_t curve_size_ = 0;
+
+  // Rooms: this update's (slot -> id, accumulated places) and the previous update's ids.
+  scene_graph::NodeId* room_ids_ = nullptr;
+  RoomAccumulator* room_acc_ = nullptr;
+  std::uint32_t* root_room_ = nullptr;         // per place root: seed slot, or kNone
+  scene_graph::NodeId* previous_ids_ = nullptr;
+  std::uint8_t* previous_taken_ = nullptr;
+  scene_graph::RoomAttributes* saved_ = nullptr;  // attributes of kept rooms while they are re-added
+  std::uint8_t* saved_valid_ = nullptr;
+  std::size_t num_rooms_ = 0;
+  std::size_t num_previous_ = 0;
+  std::uint64_t next_room_index_ = 0;
+  scene_graph::NodeId building_id_ = scene_graph::kNoNode;
+  std::size_t free_chunks_ = 0;                // the graph's free adjacency chunks while writing
+  bool building_written_ = false;
+  bool ready_ = false;
+};
+
+}  // namespace qsg::rooms

@@ -1,0 +1,462 @@
+// RoomFinder on synthetic places graphs with known rooms: doors, a corridor, two floors, small components, the
+// Betti curve against a brute-force reference, the plateau rule, the flood fill's order, the building node,
+// stable ids across updates, bad input and full stores, and no heap allocation per update.
+#include "core/rooms/room_finder.h"
+
+#include <gtest/gtest.h>
+
+#include <map>
+#include <memory>
+#include <random>
+#include <set>
+#include <vector>
+
+#include "tests/rooms/synthetic_places.h"
+#include "tests/support/allocation_counter.h"
+
+namespace qsg::rooms {
+namespace {
+
+namespace sg = scene_graph;
+using testing::GridPlan;
+using testing::SyntheticPlaces;
+
+sg::Capacities small_graph_capacities() {
+  sg::Capacities c;
+  c.object_nodes = 16;
+  c.agent_nodes = 16;
+  c.place_nodes = 4096;
+  c.room_nodes = 64;
+  c.building_nodes = 2;
+  c.edges = 32768;
+  c.adjacency_chunks = 16384;
+  c.mesh_connections = 16;
+  return c;
+}
+
+std::unique_ptr<sg::SceneGraph> make_graph(const sg::Capacities& c = small_graph_capacities()) {
+  auto g = std::make_unique<sg::SceneGraph>();
+  std::string error;
+  EXPECT_TRUE(g->init(c, sg::SceneGraph::plan(c).total_bytes(), &error)) << error;
+  return g;
+}
+
+std::unique_ptr<RoomFinder> make_finder(const Config& config = Config{},
+                                        const Capacities& caps = Capacities::from_scene_graph(small_graph_capacities())) {
+  auto f = std::make_unique<RoomFinder>();
+  std::string error;
+  EXPECT_TRUE(f->init(config, caps, 0, &error)) << error;
+  return f;
+}
+
+// Ground-truth room tag -> set of room nodes its places were given (tags >= 0 only).
+std::map<int, std::set<sg::NodeId>> rooms_by_tag(const sg::SceneGraph& g, const SyntheticPlaces& s) {
+  std::map<int, std::set<sg::NodeId>> out;
+  for (const auto& p : s.places)
+    if (p.room >= 0) out[p.room].insert(g.parent(p.id));
+  return out;
+}
+
+// Every tag maps to exactly one room, and different tags to different rooms.
+void expect_one_room_per_tag(const sg::SceneGraph& g, const SyntheticPlaces& s) {
+  std::set<sg::NodeId> used;
+  for (const auto& [tag, rooms] : rooms_by_tag(g, s)) {
+    ASSERT_EQ(rooms.size(), 1u) << "places of ground-truth room " << tag << " were split";
+    const sg::NodeId room = *rooms.begin();
+    ASSERT_NE(room, sg::kNoNode) << "room " << tag << " has unassigned places";
+    EXPECT_EQ(sg::node_prefix(room), sg::kRoomPrefix);
+    EXPECT_TRUE(used.insert(room).second) << "two ground-truth rooms merged into " << sg::node_label(room);
+  }
+}
+
+TEST(RoomFinderTest, TwoRoomsJoinedByANarrowDoorAreTwoRooms) {
+  SyntheticPlaces s;
+  testing::two_rooms_plan().add_to(&s, 1.0);
+  auto g = make_graph();
+  ASSERT_TRUE(s.write(g.get()));
+  auto finder = make_finder();
+  const UpdateResult r = finder->update(g.get());
+  ASSERT_EQ(r.outcome, Outcome::kOk) << to_string(r.outcome);
+  EXPECT_EQ(r.rooms, 2u);
+  EXPECT_EQ(g->num_nodes(sg::NodeKind::kRoom), 2u);
+  EXPECT_EQ(r.places, s.places.size());
+  EXPECT_EQ(r.places_assigned, s.places.size()) << "the flood fill reaches every place";
+  EXPECT_EQ(r.places_unassigned, 0u);
+  EXPECT_GE(r.dilation_m, 0.5 - 1e-9);
+  EXPECT_LE(r.dilation_m, 1.2 + 1e-9);
+  expect_one_room_per_tag(*g, s);
+  // The rooms touch through the door: one room-room edge.
+  EXPECT_EQ(r.room_edges, 1u);
+  EXPECT_TRUE(g->has_edge(finder->room_id(0), finder->room_id(1)));
+  // Each room sits at the centroid of its places, with its places as children.
+  for (std::size_t k = 0; k < finder->num_rooms(); ++k) {
+    const sg::NodeId room = finder->room_id(k);
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    std::size_t n = 0;
+    g->for_each_child(room, [&](sg::NodeId child) {
+      ASSERT_EQ(sg::node_prefix(child), sg::kPlacePrefix);
+      sum += g->place(child)->position_m;
+      ++n;
+    });
+    ASSERT_GT(n, 0u);
+    EXPECT_TRUE(g->room(room)->position_m.isApprox(sum / static_cast<double>(n), 1e-9));
+    EXPECT_EQ(g->node(room)->num_children, n);
+  }
+}
+
+TEST(RoomFinderTest, CorridorWithRoomsOffIt) {
+  SyntheticPlaces s;
+  testing::corridor_plan(3).add_to(&s, 0.5);
+  auto g = make_graph();
+  ASSERT_TRUE(s.write(g.get()));
+  auto finder = make_finder();
+  const UpdateResult r = finder->update(g.get());
+  ASSERT_EQ(r.outcome, Outcome::kOk);
+  EXPECT_EQ(r.rooms, 7u) << "six rooms and the corridor";
+  expect_one_room_per_tag(*g, s);
+  // Every side room touches the corridor and nothing else: 6 room-room edges, all to the corridor's room.
+  const sg::NodeId corridor = *rooms_by_tag(*g, s)[0].begin();
+  EXPECT_EQ(r.room_edges, 6u);
+  std::size_t corridor_room_edges = 0;
+  g->for_each_neighbor(corridor, [&](sg::NodeId other, const sg::EdgeRecord&) {
+    corridor_room_edges += sg::node_prefix(other) == sg::kRoomPrefix ? 1 : 0;
+  });
+  EXPECT_EQ(corridor_room_edges, 6u);
+}
+
+// Two floors with the same footprint 3 m apart, joined by a narrow staircase (a chain of low-clearance places):
+// a 2D slice would merge the floors; the 3D graph keeps four rooms.
+TEST(RoomFinderTest, TwoFloorsJoinedByAStaircase) {
+  SyntheticPlaces s;
+  const GridPlan plan = testing::two_rooms_plan();
+  plan.add_to(&s, 1.0);
+  const std::size_t upstairs = s.places.size();
+  plan.add_to(&s, 4.0);
+  for (std::size_t i = upstairs; i < s.places.size(); ++i)
+    if (s.places[i].room >= 0) s.places[i].room += 2;
+  // Stairs from the west room's north-west corner below to the one above: 0.9 m wide, clearance 0.4 m.
+  const auto nearest = [&](const Eigen::Vector3d& p) {
+    std::size_t best = 0;
+    for (std::size_t i = 0; i < s.places.size(); ++i)
+      if ((s.places[i].position_m - p).norm() < (s.places[best].position_m - p).norm()) best = i;
+    return best;
+  };
+  std::size_t prev = nearest({0.4, 4.1, 1.0});
+  const std::size_t top = nearest({0.4, 4.1, 4.0});
+  for (int k = 1; k < 12; ++k) {
+    const std::size_t step = s.add_place({0.4 + 0.3 * k, 4.1, 1.0 + 0.25 * k}, 0.4);
+    s.add_edge(prev, step, 0.4);
+    prev = step;
+  }
+  s.add_edge(prev, top, 0.4);
+  auto g = make_graph();
+  ASSERT_TRUE(s.write(g.get()));
+  auto finder = make_finder();
+  const UpdateResult r = finder->update(g.get());
+  ASSERT_EQ(r.outcome, Outcome::kOk);
+  EXPECT_EQ(r.rooms, 4u);
+  expect_one_room_per_tag(*g, s);
+  std::size_t below = 0, above = 0;
+  for (std::size_t k = 0; k < finder->num_rooms(); ++k) {
+    const double z = g->room(finder->room_id(k))->position_m.z();
+    below += z < 1.5 ? 1 : 0;
+    above += z > 3.5 ? 1 : 0;
+  }
+  EXPECT_EQ(below, 2u);
+  EXPECT_EQ(above, 2u);
+  EXPECT_EQ(r.places_assigned, s.places.size()) << "the stair places are flood-filled into a room";
+}
+
+TEST(RoomFinderTest, ComponentsBelowTheMinimumSizeAreIgnored) {
+  SyntheticPlaces s;
+  testing::two_rooms_plan().add_to(&s, 1.0);
+  // A detached chain of 10 high-clearance places (a fragment seen through a window, say).
+  std::size_t prev = s.add_place({20.0, 20.0, 1.0}, 1.0);
+  for (int k = 1; k < 10; ++k) {
+    const std::size_t next = s.add_place({20.0 + 0.5 * k, 20.0, 1.0}, 1.0);
+    s.add_edge(prev, next, 1.0);
+    prev = next;
+  }
+  auto g = make_graph();
+  ASSERT_TRUE(s.write(g.get()));
+  auto finder = make_finder();
+  const UpdateResult r = finder->update(g.get());
+  ASSERT_EQ(r.outcome, Outcome::kOk);
+  EXPECT_EQ(r.rooms, 2u);
+  EXPECT_EQ(r.places_unassigned, 10u) << "a component without a seed gets no room";
+  for (std::size_t i = 0; i < finder->curve_size(); ++i) EXPECT_LE(finder->betti_at(i), 2u) << "at sample " << i;
+  // With a minimum of 10 it counts, and becomes a third room.
+  Config c;
+  c.min_component_size = 10;
+  auto g2 = make_graph();
+  ASSERT_TRUE(s.write(g2.get()));
+  EXPECT_EQ(make_finder(c)->update(g2.get()).rooms, 3u);
+}
+
+// Brute force: for every sampled dilation, the components (BFS) of the places and edges that survive it.
+std::vector<std::uint32_t> brute_force_curve(const SyntheticPlaces& s, const Config& c) {
+  std::vector<std::uint32_t> curve;
+  for (std::size_t k = 0; k < c.curve_samples(); ++k) {
+    const double delta = c.min_dilation_m + static_cast<double>(k) * c.dilation_step_m - 1e-9;
+    const std::size_t n = s.places.size();
+    std::vector<std::vector<std::size_t>> adj(n);
+    for (const auto& e : s.edges) {
+      const double w = std::min({e.weight_m, s.places[e.a].clearance_m, s.places[e.b].clearance_m});
+      if (w >= delta) {
+        adj[e.a].push_back(e.b);
+        adj[e.b].push_back(e.a);
+      }
+    }
+    std::vector<bool> seen(n, false);
+    std::uint32_t count = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      if (seen[i] || s.places[i].clearance_m < delta) continue;
+      std::size_t size = 0;
+      std::vector<std::size_t> stack{i};
+      seen[i] = true;
+      while (!stack.empty()) {
+        const std::size_t u = stack.back();
+        stack.pop_back();
+        ++size;
+        for (std::size_t v : adj[u])
+          if (!seen[v]) {
+            seen[v] = true;
+            stack.push_back(v);
+          }
+      }
+      count += size >= c.min_component_size ? 1 : 0;
+    }
+    curve.push_back(count);
+  }
+  return curve;
+}
+
+TEST(RoomFinderTest, BettiCurveMatchesBruteForce) {
+  std::mt19937 rng(7);
+  for (int trial = 0; trial < 20; ++trial) {
+    SyntheticPlaces s;
+    std::uniform_real_distribution<double> clearance(0.2, 1.5), pos(0.0, 20.0);
+    const int n = 60 + trial * 10;
+    for (int i = 0; i < n; ++i) s.add_place({pos(rng), pos(rng), 1.0}, clearance(rng));
+    std::uniform_int_distribution<int> pick(0, n - 1);
+    std::set<std::pair<int, int>> seen;
+    for (int k = 0; k < 2 * n; ++k) {
+      int a = pick(rng), b = pick(rng);
+      if (a == b || !seen.insert({std::min(a, b), std::max(a, b)}).second) continue;
+      // Weights below, equal to and (ignored) above the ends' clearance.
+      const double w = std::min(s.places[a].clearance_m, s.places[b].clearance_m) * (k % 3 == 0 ? 1.0 : 0.8) +
+                       (k % 7 == 0 ? 0.5 : 0.0);
+      s.add_edge(static_cast<std::size_t>(a), static_cast<std::size_t>(b), w);
+    }
+    Config c;
+    c.min_component_size = 1 + trial % 5;
+    c.dilation_step_m = trial % 2 == 0 ? 0.01 : 0.05;
+    auto g = make_graph();
+    ASSERT_TRUE(s.write(g.get()));
+    auto finder = make_finder(c);
+    finder->update(g.get());
+    const std::vector<std::uint32_t> expected = brute_force_curve(s, c);
+    ASSERT_EQ(finder->curve_size(), expected.size());
+    for (std::size_t k = 0; k < expected.size(); ++k)
+      ASSERT_EQ(finder->betti_at(k), expected[k]) << "trial " << trial << " sample " << k << " delta "
+                                                  << finder->dilation_at(k);
+  }
+}
+
+TEST(RoomFinderTest, PlateauRuleFollowsThePaper) {
+  // Intervals: 1 x 10 samples, 3 x 6, 5 x 2, 0 x 4.
+  std::vector<std::uint32_t> b;
+  for (int i = 0; i < 10; ++i) b.push_back(1);
+  for (int i = 0; i < 6; ++i) b.push_back(3);
+  for (int i = 0; i < 2; ++i) b.push_back(5);
+  for (int i = 0; i < 4; ++i) b.push_back(0);
+  EXPECT_EQ(choose_plateau(b.data(), b.size(), 1.0), 0) << "alpha 1: the most persistent interval";
+  EXPECT_EQ(choose_plateau(b.data(), b.size(), 0.5), 10) << "longer than 5 samples: the 3-room interval";
+  EXPECT_EQ(choose_plateau(b.data(), b.size(), 0.0), 16) << "alpha 0: the most components";
+  const std::vector<std::uint32_t> zeros(8, 0);
+  EXPECT_EQ(choose_plateau(zeros.data(), zeros.size(), 0.5), -1);
+  // Equal counts in two runs: the longer wins.
+  const std::vector<std::uint32_t> twice{2, 2, 1, 2, 2, 2, 1, 1};
+  EXPECT_EQ(choose_plateau(twice.data(), twice.size(), 0.0), 3);
+}
+
+// Unassigned u and v between two seeds A and B: u-A 0.30, u-B 0.40, v-A 0.25, v-u 0.35. Largest clearance first
+// gives u to B (0.40) and then v to B through u (0.35 before 0.25); nearest-seed-by-hops would give v to A.
+TEST(RoomFinderTest, FloodFillExpandsLargestClearanceFirst) {
+  SyntheticPlaces s;
+  std::size_t a0 = 0, b0 = 0;
+  for (int room = 0; room < 2; ++room) {
+    std::size_t prev = SIZE_MAX;
+    for (int k = 0; k < 16; ++k) {
+      const std::size_t i = s.add_place({10.0 * room + 0.5 * k, 0.0, 1.0}, 1.0, room);
+      if (prev != SIZE_MAX) s.add_edge(prev, i, 1.0);
+      if (k == 0) (room == 0 ? a0 : b0) = i;
+      prev = i;
+    }
+  }
+  const std::size_t u = s.add_place({5.0, 1.0, 1.0}, 0.45);
+  const std::size_t v = s.add_place({4.0, 1.0, 1.0}, 0.45);
+  s.add_edge(u, a0, 0.30);
+  s.add_edge(u, b0, 0.40);
+  s.add_edge(v, a0, 0.25);
+  s.add_edge(v, u, 0.35);
+  auto g = make_graph();
+  ASSERT_TRUE(s.write(g.get()));
+  auto finder = make_finder();
+  const UpdateResult r = finder->update(g.get());
+  ASSERT_EQ(r.rooms, 2u);
+  EXPECT_EQ(r.seeded_places, 32u);
+  const sg::NodeId room_a = g->parent(s.places[a0].id), room_b = g->parent(s.places[b0].id);
+  ASSERT_NE(room_a, room_b);
+  EXPECT_EQ(g->parent(s.places[u].id), room_b);
+  EXPECT_EQ(g->parent(s.places[v].id), room_b) << "v must be reached through u (0.35) before A's 0.25 edge";
+  // A and B touch through u and v: one room-room edge.
+  EXPECT_TRUE(g->has_edge(room_a, room_b));
+}
+
+TEST(RoomFinderTest, OneBuildingAtTheMeanOfTheRoomCentroids) {
+  SyntheticPlaces s;
+  testing::corridor_plan(2).add_to(&s, 0.5);
+  auto g = make_graph();
+  ASSERT_TRUE(s.write(g.get()));
+  auto finder = make_finder();
+  ASSERT_EQ(finder->update(g.get()).rooms, 5u);
+  EXPECT_EQ(g->num_nodes(sg::NodeKind::kBuilding), 1u);
+  const sg::NodeId b = finder->building_id();
+  ASSERT_EQ(b, sg::make_node_id(sg::kBuildingPrefix, 0));
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  for (std::size_t k = 0; k < finder->num_rooms(); ++k) {
+    EXPECT_EQ(g->parent(finder->room_id(k)), b) << "every room hangs below the building";
+    sum += g->room(finder->room_id(k))->position_m;
+  }
+  EXPECT_EQ(g->node(b)->num_children, 5u);
+  EXPECT_TRUE(g->building(b)->position_m.isApprox(sum / 5.0, 1e-9));
+}
+
+TEST(RoomFinderTest, UpdatesReplaceRoomsAndKeepIds) {
+  SyntheticPlaces s;
+  testing::corridor_plan(2).add_to(&s, 0.5);
+  auto g = make_graph();
+  ASSERT_TRUE(s.write(g.get()));
+  auto finder = make_finder();
+  ASSERT_EQ(finder->update(g.get()).rooms, 5u);
+  std::map<int, sg::NodeId> first;
+  for (const auto& [tag, rooms] : rooms_by_tag(*g, s)) first[tag] = *rooms.begin();
+  // A classifier's label on one room survives the next update.
+  g->room(first[1])->semantic_label = 7;
+  const std::size_t edges = g->num_edges();
+  const UpdateResult again = finder->update(g.get());
+  EXPECT_EQ(again.rooms, 5u);
+  EXPECT_EQ(again.rooms_kept, 5u);
+  EXPECT_EQ(again.rooms_removed, 0u);
+  EXPECT_EQ(g->num_nodes(sg::NodeKind::kRoom), 5u);
+  EXPECT_EQ(g->num_edges(), edges) << "the same edges, not duplicates";
+  for (const auto& [tag, rooms] : rooms_by_tag(*g, s)) EXPECT_EQ(*rooms.begin(), first[tag]) << "room " << tag;
+  EXPECT_EQ(g->room(first[1])->semantic_label, 7u);
+  // One side room's places disappear: its room goes, the others keep their ids.
+  for (const auto& p : s.places)
+    if (p.room == 4) g->remove_node(p.id);
+  const UpdateResult third = finder->update(g.get());
+  EXPECT_EQ(third.rooms, 4u);
+  EXPECT_EQ(third.rooms_removed, 1u);
+  EXPECT_FALSE(g->has_node(first[4]));
+  for (int tag : {0, 1, 2, 3}) EXPECT_TRUE(g->room(first[tag]) != nullptr) << "room " << tag;
+  EXPECT_EQ(g->node(finder->building_id())->num_children, 4u);
+}
+
+TEST(RoomFinderTest, BadInputGivesACountedOutcome) {
+  RoomFinder uninitialized;
+  EXPECT_EQ(uninitialized.update(nullptr).outcome, Outcome::kNotInitialized);
+  auto finder = make_finder();
+  EXPECT_EQ(finder->update(nullptr).outcome, Outcome::kNoGraph);
+  sg::SceneGraph not_initialized;
+  EXPECT_EQ(finder->update(&not_initialized).outcome, Outcome::kNoGraph);
+  auto g = make_graph();
+  EXPECT_EQ(finder->update(g.get()).outcome, Outcome::kNoPlaces);
+  EXPECT_EQ(finder->counters().no_places, 1u);
+  // Places too narrow for any component at d-: no rooms, nothing written.
+  SyntheticPlaces narrow;
+  std::size_t prev = narrow.add_place({0, 0, 1}, 0.3);
+  for (int k = 1; k < 30; ++k) {
+    const std::size_t next = narrow.add_place({0.3 * k, 0, 1}, 0.3);
+    narrow.add_edge(prev, next, 0.3);
+    prev = next;
+  }
+  ASSERT_TRUE(narrow.write(g.get()));
+  EXPECT_EQ(finder->update(g.get()).outcome, Outcome::kNoRooms);
+  EXPECT_EQ(g->num_nodes(sg::NodeKind::kRoom), 0u);
+  EXPECT_EQ(g->num_nodes(sg::NodeKind::kBuilding), 0u);
+  // Rooms, then every place removed: the rooms and the building go too.
+  auto g2 = make_graph();
+  SyntheticPlaces s;
+  testing::two_rooms_plan().add_to(&s, 1.0);
+  ASSERT_TRUE(s.write(g2.get()));
+  ASSERT_EQ(finder->update(g2.get()).rooms, 2u);
+  for (const auto& p : s.places) g2->remove_node(p.id);
+  const UpdateResult r = finder->update(g2.get());
+  EXPECT_EQ(r.outcome, Outcome::kNoPlaces);
+  EXPECT_EQ(r.rooms_removed, 2u);
+  EXPECT_EQ(g2->num_nodes(), 0u);
+  // Bad configurations are refused by field.
+  std::string error;
+  Config c;
+  c.max_dilation_m = 0.1;
+  EXPECT_FALSE(RoomFinder().init(c, Capacities{}, 0, &error));
+  EXPECT_NE(error.find("max_dilation_m"), std::string::npos) << error;
+  c = Config{};
+  c.plateau_alpha = 1.5;
+  EXPECT_FALSE(RoomFinder().init(c, Capacities{}, 0, &error));
+  EXPECT_NE(error.find("plateau_alpha"), std::string::npos) << error;
+  Capacities caps;
+  caps.rooms = 0;
+  EXPECT_FALSE(RoomFinder().init(Config{}, caps, 0, &error));
+  EXPECT_NE(error.find("rooms"), std::string::npos) << error;
+  EXPECT_FALSE(RoomFinder().init(Config{}, Capacities{}, 1024, &error)) << "a budget below the plan";
+}
+
+TEST(RoomFinderTest, FullStoresAreCountedRefusalsNotCrashes) {
+  SyntheticPlaces s;
+  testing::corridor_plan(2).add_to(&s, 0.5);
+  // Room for one room node only, and for the place edges plus 20 more edges.
+  sg::Capacities c = small_graph_capacities();
+  c.room_nodes = 1;
+  c.edges = s.edges.size() + 20;
+  auto g = make_graph(c);
+  ASSERT_TRUE(s.write(g.get()));
+  auto finder = make_finder(Config{}, Capacities::from_scene_graph(small_graph_capacities()));
+  const UpdateResult r = finder->update(g.get());
+  EXPECT_EQ(r.outcome, Outcome::kOk);
+  EXPECT_EQ(r.rooms, 1u);
+  EXPECT_GT(r.refused, 0u);
+  EXPECT_GT(r.places_unassigned, 0u);
+  EXPECT_EQ(g->num_nodes(sg::NodeKind::kRoom), 1u);
+  EXPECT_LE(g->num_edges(), c.edges);
+  EXPECT_GT(finder->counters().graph_refused, 0u);
+  // The finder's own capacities: more places than it holds are ignored and counted.
+  Capacities tiny;
+  tiny.places = 100;
+  tiny.place_edges = 100;
+  tiny.rooms = 1;
+  auto small = make_finder(Config{}, tiny);
+  auto g2 = make_graph();
+  ASSERT_TRUE(s.write(g2.get()));
+  const UpdateResult r2 = small->update(g2.get());
+  EXPECT_EQ(r2.places, 100u);
+  EXPECT_GT(r2.truncated, 0u);
+}
+
+TEST(RoomFinderTest, UpdatesDoNotAllocate) {
+  SyntheticPlaces s;
+  testing::corridor_plan(3).add_to(&s, 0.5);
+  auto g = make_graph();
+  ASSERT_TRUE(s.write(g.get()));
+  auto finder = make_finder();
+  UpdateResult first, second;
+  EXPECT_NO_ALLOCATIONS(first = finder->update(g.get()));
+  EXPECT_NO_ALLOCATIONS(second = finder->update(g.get()));
+  EXPECT_EQ(first.rooms, 7u);
+  EXPECT_EQ(second.rooms_kept, 7u);
+}
+
+}  // namespace
+}  // namespace qsg::rooms
