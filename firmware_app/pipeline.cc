@@ -75,6 +75,9 @@ bool write_file_atomically(const std::string& path, const std::string& text, std
 
 Pipeline::Pipeline() = default;
 Pipeline::~Pipeline() {
+  backend_stop_.store(true);
+  backend_queue_.close();
+  if (backend_thread_.joinable()) backend_thread_.join();
   segmentation_stop_.store(true);
   segmentation_queue_.close();
   if (segmentation_thread_.joinable()) segmentation_thread_.join();
@@ -159,7 +162,7 @@ bool Pipeline::init(const AppConfig& config, runtime::Clock* clock, std::string*
   keyframe_queue_.set_on_drop([](void* self, int&& index) { static_cast<Pipeline*>(self)->free_frames_.push(int{index}); },
                               this);
 
-  if (!init_gpio(error) || !init_segmentation(error)) return false;
+  if (!init_gpio(error) || !init_segmentation(error) || !init_backend(error)) return false;
 
   // The task table.
   if (!scheduler_.init(config.scheduler, table, clock_, error)) return false;
@@ -204,6 +207,35 @@ bool Pipeline::init_segmentation(std::string* error) {
   // Lockstep runs segment inline (deterministic); otherwise a long-lived worker does.
   if (!config_.lockstep) segmentation_thread_ = std::thread([this] { segmentation_worker(); });
   return true;
+}
+
+bool Pipeline::init_backend(std::string* error) {
+  if (!rooms_.init(rooms::Config{}, rooms::Capacities::from_scene_graph(graph_.capacities()),
+                   budgets::active::rooms::kArenaBytes, error))
+    return false;
+  const budgets::QueueBudget* q = find_queue(budgets::active::kTable, "frontend_to_backend");
+  if (q == nullptr)
+    return *error = std::string("budget table ") + budgets::active::kTable.board + ": no 'frontend_to_backend' queue", false;
+  const auto collate = [](BackendUpdate& queued, BackendUpdate&& incoming) {
+    queued.time_ns = incoming.time_ns;  // the backend works on the latest graph anyway: one update covers both
+    queued.frontend_cycles += incoming.frontend_cycles;
+  };
+  if (!backend_queue_.init(q->depth, q->policy, collate, error)) return false;
+  if (!config_.lockstep) backend_thread_ = std::thread([this] { backend_worker(); });
+  return true;
+}
+
+void Pipeline::run_backend_update(std::uint64_t time_ns) {
+  std::lock_guard<std::mutex> lock(graph_mutex_);
+  const rooms::UpdateResult r = rooms_.update(&graph_, time_ns);
+  backend_updates_.fetch_add(1);
+  rooms_count_.store(r.rooms);
+}
+
+void Pipeline::backend_worker() {
+  BackendUpdate u;
+  while (!backend_stop_.load())
+    if (backend_queue_.pop_wait(&u, 100000000)) run_backend_update(u.time_ns);
 }
 
 bool Pipeline::segment_frame(int index) {
@@ -306,6 +338,12 @@ bool Pipeline::step() {
     free_frames_.push(int{current_keyframe_});
     current_keyframe_ = -1;
   }
+  if (config_.lockstep) {
+    BackendUpdate u;
+    if (backend_queue_.try_pop(&u)) run_backend_update(u.time_ns);
+  }
+  counters_.backend_updates = backend_updates_.load();
+  counters_.rooms = rooms_count_.load();
   if (tick_start >= next_snapshot_ns_) {
     std::string error;
     if (!write_snapshot(&error)) {
@@ -426,9 +464,11 @@ void Pipeline::integrate_keyframe(const runtime::TaskContext& c) {
     return;
   }
   ++counters_.keyframes_integrated;
+  frontend_.observe(tsdf_, world_T_camera);
   robot_m_ = world_T_camera.translation();
   latest_keyframe_ns_ = static_cast<std::uint64_t>(frame.sample_time_ns);
   // The agent layer: one node per keyframe, joined to the previous one by an odometry edge.
+  std::lock_guard<std::mutex> lock(graph_mutex_);
   if (frontend_.add_keyframe(&graph_, latest_keyframe_ns_, world_T_camera) == agents::AddResult::kAdded) {
     ++counters_.agent_nodes;
     if (trajectory_m_.size() < trajectory_m_.capacity()) trajectory_m_.push_back(robot_m_);
@@ -444,9 +484,14 @@ void Pipeline::update_frontend(const runtime::TaskContext& c) {
   deadline.now = [](const void* clock) { return static_cast<const runtime::Clock*>(clock)->now_ns(); };
   deadline.context = cost_clock_;
   deadline.deadline_ns = c.deadline_ns;
-  const frontend::UpdateSummary s = frontend_.update(tsdf_, robot_m_, latest_keyframe_ns_, &graph_, deadline);
+  frontend::UpdateSummary s;
+  {
+    std::lock_guard<std::mutex> lock(graph_mutex_);
+    s = frontend_.update(tsdf_, robot_m_, latest_keyframe_ns_, &graph_, deadline);
+  }
   ++counters_.frontend_updates;
   if (!s.places_complete) ++counters_.frontend_deadline_stops;
+  else backend_queue_.push(BackendUpdate{latest_keyframe_ns_, 1});  // collates while the backend is busy
 }
 
 // ---------------------------------------------------------------------------------------------------------
@@ -465,27 +510,43 @@ void Pipeline::print_telemetry(std::FILE* out) {
   for (std::size_t i = 0; i < scheduler_.num_tasks(); ++i) overruns += scheduler_.task(i).stats.overruns;
   const runtime::QueueStats q = keyframe_queue_.stats();
   const drivers::DriverCounters& d = camera_->counters();
+  std::size_t graph_nodes = 0;
+  {
+    std::lock_guard<std::mutex> lock(graph_mutex_);
+    graph_nodes = graph_.num_nodes();
+  }
   std::fprintf(out,
                "[t=%7.1fs] kf/s=%.1f keyframes=%llu | max_us recon=%lld frontend=%lld overruns=%zu | blocks=%zu/%zu "
-               "archive=%zu tri | graph nodes=%zu | frames queue hw=%u drops=%llu | driver drops=%llu stalls=%llu "
+               "archive=%zu tri | graph nodes=%zu rooms=%llu | frames queue hw=%u drops=%llu | driver drops=%llu stalls=%llu "
                "bad=%llu | gpio fail=%llu%s | rss=%.0f MB\n",
                t_s, kf_per_s, (unsigned long long)counters_.keyframes, (long long)(recon ? recon->max_us : 0),
                (long long)(front ? front->max_us : 0), overruns, tsdf_.active_blocks(), tsdf_.capacities().max_blocks,
-               tsdf_.archive_triangles(), graph_.num_nodes(), q.high_water, (unsigned long long)q.dropped,
+               tsdf_.archive_triangles(), graph_nodes, (unsigned long long)rooms_count_.load(), q.high_water, (unsigned long long)q.dropped,
                (unsigned long long)d.dropped, (unsigned long long)d.stalls, (unsigned long long)d.bad_frames,
                (unsigned long long)counters_.gpio_failures, paused() ? " PAUSED" : "", peak_rss_mb());
   ++counters_.telemetry_lines;
 }
 
 bool Pipeline::write_snapshot(std::string* error) {
-  if (!write_file_atomically(config_.output_dir + "/scene_graph_snapshot.json", scene_graph::write_spark_dsg_json(graph_),
-                             error))
-    return false;
+  std::string text;
+  {
+    std::lock_guard<std::mutex> lock(graph_mutex_);
+    text = scene_graph::write_spark_dsg_json(graph_);
+  }
+  if (!write_file_atomically(config_.output_dir + "/scene_graph_snapshot.json", text, error)) return false;
   ++counters_.snapshots_written;
   return true;
 }
 
 bool Pipeline::finish(std::string* error) {
+  // The backend finishes its last update first (a final one covers what the last keyframes changed).
+  backend_stop_.store(true);
+  backend_queue_.close();
+  if (backend_thread_.joinable()) backend_thread_.join();
+  run_backend_update(latest_keyframe_ns_);
+  counters_.backend_updates = backend_updates_.load();
+  counters_.rooms = rooms_count_.load();
+  std::lock_guard<std::mutex> lock(graph_mutex_);
   const std::string dir = config_.output_dir;
   if (!write_file_atomically(dir + "/scene_graph.json", scene_graph::write_spark_dsg_json(graph_), error)) return false;
   reconstruction::Mesh mesh;

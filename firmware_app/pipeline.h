@@ -9,12 +9,14 @@
 #include <cstdint>
 #include <cstdio>
 #include <memory>
+#include <mutex>
 #include <thread>
 #include <string>
 #include <vector>
 
 #include "core/frontend/frontend.h"
 #include "core/reconstruction/semantic_tsdf.h"
+#include "core/rooms/room_finder.h"
 #include "core/segmentation/segmenter.h"
 #include "core/scene_graph/scene_graph.h"
 #include "drivers/gpio/gpio_devices.h"
@@ -47,6 +49,8 @@ struct PipelineCounters {
   std::uint64_t gpio_failures = 0;        // heartbeat, trigger or pause line calls that failed (counted, run goes on)
   std::uint64_t triggers = 0;
   std::uint64_t frames_paused = 0;        // read while the pause switch was on: dropped
+  std::uint64_t backend_updates = 0;      // room updates run by the backend
+  std::uint64_t rooms = 0;                // rooms after the latest backend update
   std::uint64_t keyframes_segmented = 0;
   std::uint64_t keyframes_unlabelled = 0; // waited past the segmentation deadline (or segmentation failed)
   std::uint64_t telemetry_lines = 0;
@@ -80,6 +84,8 @@ class Pipeline {
   bool paused() const { return pause_ != nullptr && pause_->paused(); }
   runtime::QueueStats frame_queue_stats() const { return keyframe_queue_.stats(); }
   runtime::QueueStats segmentation_queue_stats() const { return segmentation_queue_.stats(); }
+  runtime::QueueStats backend_queue_stats() const { return backend_queue_.stats(); }
+  const rooms::RoomFinder& room_finder() const { return rooms_; }
   // Fraction of the source consumed, when the source knows its length (else a negative number).
   double progress() const;
   // Wall-clock view of a stage's cost: the scheduler measures with this clock (the loop clock unless set).
@@ -102,6 +108,9 @@ class Pipeline {
   bool init_segmentation(std::string* error);
   void segmentation_worker();
   void collect_segmented();
+  bool init_backend(std::string* error);
+  void backend_worker();
+  void run_backend_update(std::uint64_t time_ns);
   bool segment_frame(int index);
   bool init_gpio(std::string* error);
   void integrate_keyframe(const runtime::TaskContext& c);
@@ -141,6 +150,21 @@ class Pipeline {
   std::atomic<bool> segmentation_stop_{false};
   std::atomic<std::uint64_t> segmentation_failures_{0};
   int segmentation_in_flight_ = 0;  // keyframes handed to segmentation and not back yet (loop thread only)
+
+  // Backend: the frontend hands over a (collated) update after each completed places cycle; the backend thread
+  // (lockstep: the loop, after the keyframe's tasks) finds rooms and the building. The graph is shared under
+  // graph_mutex_: the loop holds it while a stage writes the graph, the backend while it updates rooms.
+  struct BackendUpdate {
+    std::uint64_t time_ns = 0;
+    std::uint32_t frontend_cycles = 0;
+  };
+  rooms::RoomFinder rooms_;
+  runtime::BoundedQueue<BackendUpdate> backend_queue_{"frontend_to_backend"};
+  std::thread backend_thread_;
+  std::atomic<bool> backend_stop_{false};
+  std::atomic<std::uint64_t> backend_updates_{0};
+  std::atomic<std::uint64_t> rooms_count_{0};
+  std::mutex graph_mutex_;
 
   reconstruction::SemanticTsdf tsdf_;
   scene_graph::SceneGraph graph_;

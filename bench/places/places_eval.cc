@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <fstream>
 #include <map>
 #include <memory>
@@ -45,12 +46,17 @@ struct Options {
   double rate_hz = 5.0;    // keyframes per second along the tour
   std::string json_path;
   bool verbose = false;
+  bool diagnose = false;  // explain every component but the largest
+  int every_n = 1;        // places update every Nth keyframe (observe() on every keyframe)
+  bool observe = true;    // --no-observe: update() carves from the latest frame only (the old behaviour)
+  bool free_space_edges = true;
+  bool relink = true;
 };
 
 void usage(const char* argv0) {
   std::fprintf(stderr,
-               "usage: %s [--seeds 1,2,3] [--rooms N] [--size WxH] [--hfov-deg D] [--rate-hz R] [--json FILE] "
-               "[--verbose]\n",
+               "usage: %s [--seeds 1,2,3] [--rooms N] [--size WxH] [--hfov-deg D] [--rate-hz R] [--every-n N] "
+               "[--no-observe] [--no-free-space-edges] [--no-relink] [--json FILE] [--verbose] [--diagnose]\n",
                argv0);
 }
 
@@ -60,6 +66,22 @@ bool parse(int argc, char** argv, Options* o) {
     if (a == "--help" || a == "-h") return false;
     if (a == "--verbose") {
       o->verbose = true;
+      continue;
+    }
+    if (a == "--diagnose") {
+      o->diagnose = true;
+      continue;
+    }
+    if (a == "--no-observe") {
+      o->observe = false;
+      continue;
+    }
+    if (a == "--no-free-space-edges") {
+      o->free_space_edges = false;
+      continue;
+    }
+    if (a == "--no-relink") {
+      o->relink = false;
       continue;
     }
     if (i + 1 >= argc) {
@@ -83,6 +105,8 @@ bool parse(int argc, char** argv, Options* o) {
         pos = comma + 1;
       }
       continue;
+    } else if (a == "--every-n") {
+      o->every_n = static_cast<int>(std::strtol(v.c_str(), &end, 10));
     } else if (a == "--rooms") {
       o->rooms = static_cast<int>(std::strtol(v.c_str(), &end, 10));
     } else if (a == "--hfov-deg") {
@@ -108,7 +132,7 @@ bool parse(int argc, char** argv, Options* o) {
     }
   }
   return !o->seeds.empty() && o->rooms >= 3 && o->width > 0 && o->height > 0 && o->hfov_deg > 10 &&
-         o->hfov_deg < 170 && o->rate_hz > 0;
+         o->hfov_deg < 170 && o->rate_hz > 0 && o->every_n >= 1;
 }
 
 double quantile(std::vector<double> v, double q) {
@@ -168,6 +192,174 @@ std::size_t place_components(const scene_graph::SceneGraph& g, std::vector<std::
   return components;
 }
 
+
+// Diagnosis (--diagnose): what happened to each place node over the run, to explain extra components.
+struct NodeHistory {
+  int added_kf = -1;
+  int deactivated_kf = -1;
+  int reactivations = 0;
+  std::size_t degree_at_deactivation = 0;
+  std::size_t max_degree = 0;
+};
+
+std::size_t place_degree(const scene_graph::SceneGraph& g, scene_graph::NodeId id) {
+  std::size_t d = 0;
+  g.for_each_neighbor(id, [&](scene_graph::NodeId m, const scene_graph::EdgeRecord&) {
+    d += scene_graph::node_prefix(m) == scene_graph::kPlacePrefix ? 1 : 0;
+  });
+  return d;
+}
+
+void track_history(const scene_graph::SceneGraph& g, int kf, std::map<scene_graph::NodeId, NodeHistory>* h) {
+  g.for_each_node([&](const scene_graph::NodeRecord& n) {
+    if (n.kind != scene_graph::NodeKind::kPlace) return;
+    NodeHistory& e = (*h)[n.id];
+    if (e.added_kf < 0) e.added_kf = kf;
+    const std::size_t d = place_degree(g, n.id);
+    e.max_degree = std::max(e.max_degree, d);
+    const bool active = g.place(n.id)->is_active;
+    if (!active && e.deactivated_kf < 0) {
+      e.deactivated_kf = kf;
+      e.degree_at_deactivation = d;
+    } else if (active && e.deactivated_kf >= 0) {
+      e.deactivated_kf = -1;
+      ++e.reactivations;
+    }
+  });
+}
+
+void diagnose_components(const scene_graph::SceneGraph& g, const places::Places& places, const sim::GroundTruth& truth,
+                         const std::map<scene_graph::NodeId, NodeHistory>& history) {
+  std::vector<places::PlaceInfo> live;
+  places.places(&live);
+  std::map<scene_graph::NodeId, const places::PlaceInfo*> by_id;
+  for (const places::PlaceInfo& p : live) by_id[p.id] = &p;
+  std::vector<places::GvdVoxelInfo> gvd;
+  places.gvd_voxels(&gvd);
+  // GVD voxel -> cluster node, and components of the GVD graph (26-neighbourhood).
+  const double s = places.voxel_size_m();
+  const auto key = [s](const Eigen::Vector3d& p) {
+    return std::make_tuple(static_cast<int>(std::floor(p.x() / s)), static_cast<int>(std::floor(p.y() / s)),
+                           static_cast<int>(std::floor(p.z() / s)));
+  };
+  std::map<std::tuple<int, int, int>, scene_graph::NodeId> owner;
+  std::map<std::tuple<int, int, int>, int> gvd_comp;
+  for (const places::GvdVoxelInfo& v : gvd) {
+    owner[key(v.position_m)] = scene_graph::kNoNode;
+    gvd_comp[key(v.position_m)] = -1;
+  }
+  for (const places::PlaceInfo& p : live)
+    for (const Eigen::Vector3d& v : p.voxel_positions_m) owner[key(v)] = p.id;
+  std::vector<std::size_t> comp_size;
+  for (auto& [k, c] : gvd_comp) {
+    if (c >= 0) continue;
+    const int id = static_cast<int>(comp_size.size());
+    comp_size.push_back(0);
+    std::vector<std::tuple<int, int, int>> stack{k};
+    c = id;
+    while (!stack.empty()) {
+      const auto [x, y, z] = stack.back();
+      stack.pop_back();
+      ++comp_size.back();
+      for (int dz = -1; dz <= 1; ++dz)
+        for (int dy = -1; dy <= 1; ++dy)
+          for (int dx = -1; dx <= 1; ++dx) {
+            auto it = gvd_comp.find({x + dx, y + dy, z + dz});
+            if (it == gvd_comp.end() || it->second >= 0) continue;
+            it->second = id;
+            stack.push_back(it->first);
+          }
+    }
+  }
+  std::vector<std::size_t> sorted = comp_size;
+  std::sort(sorted.rbegin(), sorted.rend());
+  std::printf("  diagnose: %zu GVD voxels in %zu GVD components (largest", gvd.size(), comp_size.size());
+  for (std::size_t i = 0; i < std::min<std::size_t>(6, sorted.size()); ++i) std::printf(" %zu", sorted[i]);
+  std::printf(")\n");
+  // Places components.
+  std::set<scene_graph::NodeId> seen;
+  std::vector<std::vector<scene_graph::NodeId>> comps;
+  g.for_each_node([&](const scene_graph::NodeRecord& n) {
+    if (n.kind != scene_graph::NodeKind::kPlace || !seen.insert(n.id).second) return;
+    comps.emplace_back();
+    std::vector<scene_graph::NodeId> stack{n.id};
+    while (!stack.empty()) {
+      const scene_graph::NodeId id = stack.back();
+      stack.pop_back();
+      comps.back().push_back(id);
+      g.for_each_neighbor(id, [&](scene_graph::NodeId m, const scene_graph::EdgeRecord&) {
+        if (scene_graph::node_prefix(m) == scene_graph::kPlacePrefix && seen.insert(m).second) stack.push_back(m);
+      });
+    }
+  });
+  std::sort(comps.begin(), comps.end(), [](const auto& a, const auto& b) { return a.size() > b.size(); });
+  std::map<std::string, int> causes;
+  for (std::size_t ci = 1; ci < comps.size(); ++ci) {
+    std::size_t active = 0;
+    for (scene_graph::NodeId id : comps[ci]) active += g.place(id)->is_active ? 1 : 0;
+    std::printf("  extra component %zu: %zu nodes, %zu active\n", ci, comps[ci].size(), active);
+    for (scene_graph::NodeId id : comps[ci]) {
+      const scene_graph::PlaceAttributes* a = g.place(id);
+      const auto hit = history.find(id);
+      const NodeHistory h = hit == history.end() ? NodeHistory{} : hit->second;
+      std::string cause;
+      char extra[256] = "";
+      if (!a->is_active) {
+        cause = h.degree_at_deactivation > 0 ? "inactive: lost its edges after leaving"
+                                            : (h.max_degree > 0 ? "inactive: lost its edges before leaving"
+                                                                : "inactive: never had an edge");
+      } else {
+        const auto pit = by_id.find(id);
+        if (pit == by_id.end()) {
+          cause = "active in graph but not live";
+        } else {
+          const places::PlaceInfo& p = *pit->second;
+          // Does the cluster touch GVD voxels of other clusters or of none?
+          std::size_t touch_other = 0, touch_unclustered = 0;
+          int comp = -1;
+          for (const Eigen::Vector3d& v : p.voxel_positions_m) {
+            const auto [x, y, z] = key(v);
+            comp = gvd_comp[key(v)];
+            for (int dz = -1; dz <= 1; ++dz)
+              for (int dy = -1; dy <= 1; ++dy)
+                for (int dx = -1; dx <= 1; ++dx) {
+                  auto it = owner.find({x + dx, y + dy, z + dz});
+                  if (it == owner.end()) continue;
+                  if (it->second == scene_graph::kNoNode) ++touch_unclustered;
+                  else if (it->second != id) ++touch_other;
+                }
+          }
+          const std::size_t cs = comp >= 0 ? comp_size[static_cast<std::size_t>(comp)] : 0;
+          if (touch_other > 0) cause = "active: touches another cluster but no graph edge";
+          else if (cs == p.num_voxels) cause = "active: isolated GVD fragment";
+          else cause = "active: GVD component larger than its cluster (unclustered or edge-less neighbours)";
+          std::snprintf(extra, sizeof(extra), " voxels %u gvd_comp %zu touch_other %zu touch_unclustered %zu edges %zu",
+                        p.num_voxels, cs, touch_other, touch_unclustered, p.edges.size());
+        }
+      }
+      {
+        const Eigen::Vector3d q = (a->position_m - truth.origin_m) / truth.config.voxel_size_m;
+        const Eigen::Vector3i qi = q.array().floor().cast<int>();
+        if ((qi.array() >= 0).all() && (qi.array() < truth.dims.array()).all()) {
+          const std::size_t gi = truth.index(qi.x(), qi.y(), qi.z());
+          const std::size_t len = std::strlen(extra);
+          std::snprintf(extra + len, sizeof(extra) - len, " gt_clear %.2f gt_room %d", truth.clearance_m[gi],
+                        static_cast<int>(truth.voxel_room[gi]));
+        }
+      }
+      ++causes[cause];
+      if (comps[ci].size() <= 3 || id == comps[ci].front())
+        std::printf("    node %llx %s at %.2f %.2f %.2f clear %.2f basis %u true_gvd %.2f added %d deact %d "
+                    "deg_at_deact %zu max_deg %zu reactiv %d%s\n",
+                    static_cast<unsigned long long>(id), cause.c_str(), a->position_m.x(), a->position_m.y(),
+                    a->position_m.z(), a->distance_m, static_cast<unsigned>(a->num_basis_points),
+                    truth.distance_to_gvd(a->position_m), h.added_kf, h.deactivated_kf, h.degree_at_deactivation,
+                    h.max_degree, h.reactivations, extra);
+    }
+  }
+  for (const auto& [c, n] : causes) std::printf("  diagnose cause: %3d x %s\n", n, c.c_str());
+}
+
 struct BuildingResult {
   std::uint64_t seed = 0;
   std::size_t keyframes = 0;
@@ -181,6 +373,7 @@ struct BuildingResult {
   std::size_t regions = 0;
   double area_m2 = 0.0;
   std::vector<double> update_ms;
+  std::vector<double> observe_ms;
 };
 
 bool run_building(const Options& opt, std::uint64_t seed, BuildingResult* out) {
@@ -218,6 +411,8 @@ bool run_building(const Options& opt, std::uint64_t seed, BuildingResult* out) {
   }
   places::Places places;
   places::Config pc;
+  pc.free_space_edges = opt.free_space_edges;
+  pc.relink_inactive = opt.relink;
   if (!places.init(pc, places::capacities_from_budget(), places::arena_bytes_from_budget(), &error)) {
     std::fprintf(stderr, "%s\n", error.c_str());
     return false;
@@ -233,6 +428,7 @@ bool run_building(const Options& opt, std::uint64_t seed, BuildingResult* out) {
     places::capacities_from_budget().print(stdout);
   }
 
+  std::map<scene_graph::NodeId, NodeHistory> history;
   auto frame = std::make_unique<drivers::RgbdFrame>();
   for (;;) {
     const drivers::ReadStatus status = camera.read(*frame, 0);
@@ -241,14 +437,21 @@ bool run_building(const Options& opt, std::uint64_t seed, BuildingResult* out) {
     Eigen::Isometry3d pose;
     if (!camera.camera_pose(frame->sequence, &pose, nullptr)) continue;
     tsdf.process(*frame, pose);
+    const auto t_obs = std::chrono::steady_clock::now();
+    if (opt.observe) places.observe(tsdf, pose);
     const auto t0 = std::chrono::steady_clock::now();
+    out->observe_ms.push_back(std::chrono::duration<double, std::milli>(t0 - t_obs).count());
+    ++out->keyframes;
+    // The frontend's cadence: every Nth keyframe (the last keyframes of the tour are flushed below).
+    if ((out->keyframes - 1) % static_cast<std::size_t>(opt.every_n) != 0) continue;
     places.update(tsdf, pose.translation(), places::Deadline::unlimited());
     places.sync(&graph);
     const auto t1 = std::chrono::steady_clock::now();
     out->update_ms.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
-    ++out->keyframes;
+    if (opt.diagnose) track_history(graph, static_cast<int>(out->keyframes), &history);
   }
-  // Finish any cycle in flight.
+  // Finish any cycle in flight, and take in the keyframes observed since the last update.
+  places.update(tsdf, tour.trajectory.back().world_t_body_m, places::Deadline::unlimited());
   for (int i = 0; i < 100 && places.cycle_in_progress(); ++i)
     places.update(tsdf, tour.trajectory.back().world_t_body_m, places::Deadline::unlimited());
   places.sync(&graph);
@@ -310,6 +513,7 @@ bool run_building(const Options& opt, std::uint64_t seed, BuildingResult* out) {
     for (const auto& [size, active, c] : comps)
       std::printf("  component: %zu nodes (%zu active) around %.1f %.1f %.1f\n", size, active, c.x(), c.y(), c.z());
   }
+  if (opt.diagnose) diagnose_components(graph, places, truth, history);
   out->seed = seed;
   out->nodes = distances.size();
   out->edges = graph.num_edges();

@@ -65,6 +65,11 @@ class Frontend {
   // Every store from the board's budget table (places and objects arenas, the index from the place capacity).
   bool init(const Config& config, std::string* error);
 
+  // Every keyframe, right after its integration: what the frame saw as free space, for the next places cycle
+  // (the places update may run only every Nth keyframe).
+  void observe(const reconstruction::SemanticTsdf& tsdf, const Eigen::Isometry3d& world_T_camera) {
+    if (ready_) places_.observe(tsdf, world_T_camera);
+  }
   // Every keyframe.
   agents::AddResult add_keyframe(scene_graph::SceneGraph* graph, std::uint64_t timestamp_ns,
                                  const Eigen::Isometry3d& world_T_body);

@@ -103,9 +103,20 @@ struct Places::Cluster {
   std::uint8_t num_edges = 0;
   float clearance_m = 0.0f;
   Eigen::Vector3d position_m = Eigen::Vector3d::Zero();
+  std::uint32_t cell_next = kNoCluster;  // next live cluster of the same hash cell
   std::uint32_t edge_to[kMaxClusterEdges];
   float edge_weight[kMaxClusterEdges];
+  std::uint8_t edge_free[kMaxClusterEdges];  // 1: free-space edge (overlapping spheres), 0: GVD adjacency
   memory::BoundedArray<scene_graph::PlaceMeshConnection, scene_graph::kMaxPlaceConnections> connections;
+};
+
+// An edge of a removed place to an inactive place, waiting for the live place that replaces the removed one.
+struct Places::Relink {
+  scene_graph::NodeId inactive = scene_graph::kNoNode;
+  Eigen::Vector3d position_m = Eigen::Vector3d::Zero();  // the removed place's sphere
+  float clearance_m = 0.0f;
+  float weight_m = 0.0f;  // the removed edge's weight
+  memory::Index3 cell;
 };
 
 // A fixed list of voxel refs (or dirty-block entries) with a usage counter.
@@ -148,28 +159,36 @@ void Config::print(std::FILE* out) const {
   std::fprintf(out,
                "places: voxel_factor=%d max_distance_m=%.2f min_clearance_m=%.2f min_basis_angle_deg=%.1f "
                "min_basis_points=%d place_resolution_m=%.2f window_radius_m=%.1f slab_m=[-%.1f, +%.1f] "
-               "min_tsdf_weight=%.2f\n",
+               "min_tsdf_weight=%.2f free_space_edges=%d relink_inactive=%d\n",
                voxel_factor, max_distance_m, min_clearance_m, min_basis_angle_rad * 180.0 / 3.14159265358979,
-               min_basis_points, place_resolution_m, window_radius_m, slab_below_m, slab_above_m, min_tsdf_weight);
+               min_basis_points, place_resolution_m, window_radius_m, slab_below_m, slab_above_m, min_tsdf_weight,
+               free_space_edges ? 1 : 0, relink_inactive ? 1 : 0);
 }
 
 void Capacities::print(std::FILE* out) const {
-  std::fprintf(out, "places capacities: max_blocks=%zu place_nodes=%zu inactive_cells=%zu\n", max_blocks, place_nodes,
-               inactive_cells);
+  std::fprintf(out,
+               "places capacities: max_blocks=%zu place_nodes=%zu inactive_cells=%zu observed_blocks=%zu "
+               "pending_relinks=%zu\n",
+               max_blocks, place_nodes, inactive_cells, observed_blocks, pending_relinks);
 }
 
 void Counters::print(std::FILE* out) const {
   std::fprintf(out,
                "places: updates=%llu cycles=%llu tsdf_blocks_read=%llu voxels updated=%llu raised=%llu blocks "
                "allocated=%llu freed=%llu refused=%llu gvd_voxels=%llu places=%llu merged=%llu split=%llu "
-               "refused clusters=%llu edges=%llu graph=%llu\n",
+               "refused clusters=%llu edges=%llu graph=%llu free_space_edges=%llu relinked=%llu "
+               "relinks_dropped=%llu relinks_refused=%llu views=%llu views_merged=%llu observed_refused=%llu "
+               "rays=%llu\n",
                (unsigned long long)updates, (unsigned long long)cycles, (unsigned long long)tsdf_blocks_read,
                (unsigned long long)voxels_updated, (unsigned long long)voxels_raised,
                (unsigned long long)blocks_allocated, (unsigned long long)blocks_freed,
                (unsigned long long)blocks_refused, (unsigned long long)gvd_voxels, (unsigned long long)places,
                (unsigned long long)clusters_merged, (unsigned long long)clusters_split,
                (unsigned long long)clusters_refused, (unsigned long long)edges_refused,
-               (unsigned long long)graph_refused);
+               (unsigned long long)graph_refused, (unsigned long long)free_space_edges,
+               (unsigned long long)relinked, (unsigned long long)relinks_dropped, (unsigned long long)relinks_refused,
+               (unsigned long long)views_observed, (unsigned long long)views_merged,
+               (unsigned long long)observed_refused, (unsigned long long)rays_carved);
 }
 
 Capacities capacities_from_budget() {
@@ -177,6 +196,8 @@ Capacities capacities_from_budget() {
   c.max_blocks = budgets::active::places::kMaxBlocks;
   c.place_nodes = budgets::active::places::kPlaceNodes;
   c.inactive_cells = budgets::active::places::kInactiveCells;
+  c.observed_blocks = budgets::active::places::kObservedBlocks;
+  c.pending_relinks = budgets::active::places::kPendingRelinks;
   return c;
 }
 std::size_t arena_bytes_from_budget() { return budgets::active::places::kArenaBytes; }
@@ -186,7 +207,10 @@ Places::Places()
     : blocks_("places.blocks", memory::OverflowPolicy::kRefuse),
       block_index_("places.block_index", memory::OverflowPolicy::kRefuse),
       clusters_("places.clusters", memory::OverflowPolicy::kRefuse),
-      inactive_("places.inactive_cells", memory::OverflowPolicy::kRefuse) {}
+      inactive_("places.inactive_cells", memory::OverflowPolicy::kRefuse),
+      cells_("places.cell_index", memory::OverflowPolicy::kRefuse),
+      observed_{memory::SpatialHash<std::uint32_t>("places.observed_blocks_a", memory::OverflowPolicy::kRefuse),
+                memory::SpatialHash<std::uint32_t>("places.observed_blocks_b", memory::OverflowPolicy::kRefuse)} {}
 
 Places::~Places() {
   if (ready_) {
@@ -208,6 +232,10 @@ memory::ArenaPlan Places::plan(const Capacities& c) {
   memory::SpatialHash<std::uint32_t>::plan(plan, memory::SpatialHash<std::uint32_t>::slots_for(c.max_blocks));
   memory::Pool<Cluster>::plan(plan, c.place_nodes);
   memory::SpatialHash<scene_graph::NodeId>::plan(plan, memory::SpatialHash<scene_graph::NodeId>::slots_for(c.inactive_cells));
+  memory::SpatialHash<std::uint32_t>::plan(plan, memory::SpatialHash<std::uint32_t>::slots_for(c.place_nodes));
+  for (int i = 0; i < 2; ++i)
+    memory::SpatialHash<std::uint32_t>::plan(plan, memory::SpatialHash<std::uint32_t>::slots_for(c.observed_blocks));
+  plan.add_array<Relink>(c.pending_relinks);
   plan.add_array<List>(kNumLists);
   for (int i = 0; i < kNumLists; ++i) plan.add_array<std::uint32_t>(list_capacity(c, i));
   plan.add_array<std::uint32_t>(c.max_blocks * kBlockVoxels);  // lower-wave ring
@@ -222,8 +250,10 @@ bool Places::init(const Config& config, const Capacities& c, std::size_t budget_
   if (ready_) return fail("init() called twice");
   const std::string bad = config.check();
   if (!bad.empty()) return fail("config: " + bad);
-  if (c.max_blocks == 0 || c.place_nodes == 0 || c.inactive_cells == 0)
-    return fail("capacities: max_blocks, place_nodes and inactive_cells must be positive");
+  if (c.max_blocks == 0 || c.place_nodes == 0 || c.inactive_cells == 0 || c.observed_blocks == 0 ||
+      c.pending_relinks == 0)
+    return fail("capacities: max_blocks, place_nodes, inactive_cells, observed_blocks and pending_relinks must be "
+                "positive");
   if (c.max_blocks > (kNoRef / kBlockVoxels) - 1) return fail("capacities: max_blocks too large for 32-bit voxel refs");
   config_ = config;
   capacities_ = c;
@@ -232,7 +262,14 @@ bool Places::init(const Config& config, const Capacities& c, std::size_t budget_
             block_index_.carve(arena_, memory::SpatialHash<std::uint32_t>::slots_for(c.max_blocks), c.max_blocks) &&
             clusters_.carve(arena_, c.place_nodes) &&
             inactive_.carve(arena_, memory::SpatialHash<scene_graph::NodeId>::slots_for(c.inactive_cells),
-                            c.inactive_cells);
+                            c.inactive_cells) &&
+            cells_.carve(arena_, memory::SpatialHash<std::uint32_t>::slots_for(c.place_nodes), c.place_nodes) &&
+            observed_[0].carve(arena_, memory::SpatialHash<std::uint32_t>::slots_for(c.observed_blocks),
+                               c.observed_blocks) &&
+            observed_[1].carve(arena_, memory::SpatialHash<std::uint32_t>::slots_for(c.observed_blocks),
+                               c.observed_blocks);
+  relinks_ = ok ? arena_.carve_array<Relink>(c.pending_relinks) : nullptr;
+  ok = ok && relinks_ != nullptr;
   lists_ = ok ? arena_.carve_array<List>(kNumLists) : nullptr;
   ok = ok && lists_ != nullptr;
   static const char* const kNames[kNumLists] = {"places.dirty_tsdf_blocks", "places.raise_list",
@@ -259,6 +296,17 @@ memory::ResourceStats Places::lower_queue_stats() const {
   s.capacity = lower_capacity_;
   s.in_use = lower_size_;
   s.high_water = lower_high_water_;
+  return s;
+}
+
+memory::ResourceStats Places::relink_stats() const {
+  memory::ResourceStats s;
+  s.name = "places.pending_relinks";
+  s.unit = "edges";
+  s.capacity = capacities_.pending_relinks;
+  s.in_use = num_relinks_;
+  s.high_water = relinks_high_water_;
+  s.failed = counters_.relinks_refused;
   return s;
 }
 
@@ -456,8 +504,16 @@ void Places::seed_sub_block(const reconstruction::SemanticTsdf& tsdf, std::uint3
   if (th == memory::kInvalidHandle || !tsdf.block_view(th, &view)) return;  // archived or never seen: keep
   b.tsdf_stamp[sub] = view.integrated_stamp;
   b.tsdf_seen[sub] = 1;
-  // Only a block the latest frame touched was seen from (about) the robot's position.
-  carve = carve && view.integrated_stamp == tsdf.frame_stamp();
+  // The views that saw this block: those observe() recorded for the cycle, else (no observe() calls) the latest
+  // frame from the robot's position when the block was part of it.
+  const int cycle_set = 1 - pending_;
+  std::uint32_t seen_by = 0;
+  if (carve && num_views_[cycle_set] > 0) {
+    const std::uint32_t* mask = observed_[cycle_set].find(tb);
+    seen_by = mask != nullptr ? *mask : 0u;
+  }
+  const bool legacy = carve && !observing_ && view.integrated_stamp == tsdf.frame_stamp();
+  carve = seen_by != 0 || legacy;
   ++counters_.tsdf_blocks_read;
   const int n = kBlockSide / f;  // ESDF voxels per side of the TSDF block
   const std::uint16_t min_w = static_cast<std::uint16_t>(
@@ -500,17 +556,23 @@ void Places::seed_sub_block(const reconstruction::SemanticTsdf& tsdf, std::uint3
           }
         }
         apply_state(ref, state, seed);
-        // Seen from the robot in the latest frame: the space between holds nothing.
-        if (carve && (state == kSeed || (state == kFree && observed > 0))) carve_ray(tsdf, ref);
+        // Seen from the camera: the space between holds nothing.
+        if (carve && (state == kSeed || (state == kFree && observed > 0))) {
+          if (legacy) carve_ray(tsdf, cycle_robot_m_, ref);
+          for (int k = 0; k < num_views_[cycle_set]; ++k)
+            if ((seen_by >> k) & 1u) carve_ray(tsdf, views_m_[cycle_set][k], ref);
+        }
       }
 }
 
 // Marks the voxels between the robot and a voxel it has just observed as free (stops at anything the TSDF
 // knows as occupied). Samples the segment every half voxel; allocates blocks on the way inside the window.
-void Places::carve_ray(const reconstruction::SemanticTsdf& tsdf, std::uint32_t target) {
+void Places::carve_ray(const reconstruction::SemanticTsdf& tsdf, const Eigen::Vector3d& origin_m,
+                       std::uint32_t target) {
+  ++counters_.rays_carved;
   const memory::Index3 goal = coords(target);
   const Eigen::Vector3d b = center_m(goal);
-  const Eigen::Vector3d a = cycle_robot_m_;
+  const Eigen::Vector3d a = origin_m;
   const double len = (b - a).norm();
   const int steps = static_cast<int>(std::ceil(len / (0.5 * voxel_m_)));
   memory::Index3 last{std::numeric_limits<std::int32_t>::min(), 0, 0};
@@ -646,12 +708,19 @@ void Places::begin_cycle(const reconstruction::SemanticTsdf& tsdf, const Eigen::
     for (std::uint32_t h = 0; h < blocks_.capacity(); ++h)
       if (blocks_.live(h) && blocks_[h].dying) release_block(h);
   }
-  // TSDF blocks integrated since they were last read.
+  // The views observed since the last cycle become this cycle's; observe() fills the other set meanwhile.
+  pending_ = 1 - pending_;
+  observed_[pending_].clear();
+  num_views_[pending_] = 0;
+  const int cycle_set = 1 - pending_;
+  // TSDF blocks integrated since they were last read, and those a view of this cycle saw (already read when a
+  // cycle that started before their frame read them after it).
   List& dirty = lists_[kDirtyList];
   dirty.clear();
   const int f = config_.voxel_factor;
   tsdf.for_each_block([&](std::uint32_t, const reconstruction::SemanticTsdf::BlockView& view) {
     ++units_;
+    const bool viewed = num_views_[cycle_set] > 0 && observed_[cycle_set].find(view.index) != nullptr;
     const memory::Index3 e{floor_div(view.index.x, f), floor_div(view.index.y, f), floor_div(view.index.z, f)};
     if (!block_in_window(e)) return;
     std::uint32_t h = memory::kInvalidHandle;
@@ -660,10 +729,39 @@ void Places::begin_cycle(const reconstruction::SemanticTsdf& tsdf, const Eigen::
     if (h == memory::kInvalidHandle) return;
     const int sub = (view.index.x - e.x * f) + f * ((view.index.y - e.y * f) + f * (view.index.z - e.z * f));
     const Block& b = blocks_[h];
-    if (!b.tsdf_seen[sub] || b.tsdf_stamp[sub] != view.integrated_stamp)
+    if (!b.tsdf_seen[sub] || b.tsdf_stamp[sub] != view.integrated_stamp || viewed)
       dirty.push(h * static_cast<std::uint32_t>(kMaxVoxelFactor * kMaxVoxelFactor * kMaxVoxelFactor) +
                  static_cast<std::uint32_t>(sub));
   });
+}
+
+bool Places::observe(const reconstruction::SemanticTsdf& tsdf, const Eigen::Isometry3d& world_T_camera) {
+  if (!ready_) return false;
+  ++counters_.views_observed;
+  observing_ = true;
+  const std::uint32_t stamp = tsdf.frame_stamp();
+  int& n = num_views_[pending_];
+  int k = n;
+  if (n > 0 && view_stamp_[pending_][n - 1] == stamp) {
+    k = n - 1;  // the same frame again
+  } else if (n == kMaxViews) {
+    k = kMaxViews - 1;  // every slot used: the newest view takes the last slot (its blocks keep their bit)
+    ++counters_.views_merged;
+  } else {
+    ++n;
+  }
+  views_m_[pending_][k] = world_T_camera.translation();
+  view_stamp_[pending_][k] = stamp;
+  const std::uint32_t bit = 1u << k;
+  memory::SpatialHash<std::uint32_t>& set = observed_[pending_];
+  tsdf.for_each_block([&](std::uint32_t, const reconstruction::SemanticTsdf::BlockView& view) {
+    if (view.integrated_stamp != stamp) return;
+    bool inserted = false;
+    std::uint32_t* mask = set.find_or_insert(view.index, bit, &inserted);
+    if (mask == nullptr) ++counters_.observed_refused;
+    else if (!inserted) *mask |= bit;
+  });
+  return true;
 }
 
 // ---------------------------------------------------------------------------------------------------------
@@ -804,9 +902,36 @@ std::uint32_t Places::new_cluster(const memory::Index3& cell) {
   } else {
     c.node = scene_graph::make_node_id(scene_graph::kPlacePrefix, next_node_index_++);
   }
+  link_cell(h);
   ++clusters_live_;
   counters_.places = clusters_live_;
   return h;
+}
+
+// Live clusters per hash cell (an intrusive list headed in cells_): the neighbourhood queries of free-space edges
+// and relinks visit 27 cells instead of every cluster.
+void Places::link_cell(std::uint32_t cluster) {
+  Cluster& c = clusters_[cluster];
+  std::uint32_t* head = cells_.find(c.cell);
+  c.cell_next = head != nullptr ? *head : kNoCluster;
+  if (cells_.insert(c.cell, cluster) == nullptr) c.cell_next = kNoCluster;  // full: counted by the map
+}
+
+void Places::unlink_cell(std::uint32_t cluster) {
+  Cluster& c = clusters_[cluster];
+  std::uint32_t* head = cells_.find(c.cell);
+  if (head == nullptr) return;
+  if (*head == cluster) {
+    if (c.cell_next == kNoCluster) cells_.erase(c.cell);
+    else *head = c.cell_next;
+  } else {
+    for (std::uint32_t h = *head; h != kNoCluster; h = clusters_[h].cell_next)
+      if (clusters_[h].cell_next == cluster) {
+        clusters_[h].cell_next = c.cell_next;
+        break;
+      }
+  }
+  c.cell_next = kNoCluster;
 }
 
 void Places::cluster_add_voxel(std::uint32_t cluster, std::uint32_t ref) {
@@ -839,6 +964,7 @@ void Places::drop_edge(std::uint32_t cluster, std::uint32_t other) {
     --c.num_edges;
     c.edge_to[k] = c.edge_to[c.num_edges];
     c.edge_weight[k] = c.edge_weight[c.num_edges];
+    c.edge_free[k] = c.edge_free[c.num_edges];
     c.sync_dirty = 1;
     return;
   }
@@ -850,6 +976,7 @@ void Places::retire_cluster(std::uint32_t cluster, std::uint8_t state) {
   Cluster& c = clusters_[cluster];
   for (int k = 0; k < c.num_edges; ++k) drop_edge(c.edge_to[k], cluster);
   c.num_edges = 0;
+  unlink_cell(cluster);
   // Members (a merge moves them first) are detached by the caller; clear what is left.
   for (std::uint32_t r = c.head; r != kNoRef;) {
     Voxel& v = vox(r);
@@ -1089,12 +1216,68 @@ void Places::compute_mesh_connections(const reconstruction::SemanticTsdf& tsdf, 
   }
 }
 
+// The smallest ESDF distance along the segment between two points (sampled every half voxel, both ends
+// included, from the lexicographically smaller end so both clusters of an edge compute the same value); false
+// when the segment crosses a voxel that holds a surface (distance 0), is occupied, unobserved or outside the
+// window.
+bool Places::segment_clearance(Eigen::Vector3d pa, Eigen::Vector3d pb, float* min_distance_m) const {
+  if (std::lexicographical_compare(pb.data(), pb.data() + 3, pa.data(), pa.data() + 3)) std::swap(pa, pb);
+  const int steps = std::max(1, static_cast<int>(std::ceil((pb - pa).norm() / (0.5 * voxel_m_))));
+  float best = kUnreached;
+  memory::Index3 last{std::numeric_limits<std::int32_t>::min(), 0, 0};
+  for (int i = 0; i <= steps; ++i) {
+    const Eigen::Vector3d p = (pa + (pb - pa) * (static_cast<double>(i) / steps)) / voxel_m_;
+    const memory::Index3 g{static_cast<std::int32_t>(std::floor(p.x())), static_cast<std::int32_t>(std::floor(p.y())),
+                           static_cast<std::int32_t>(std::floor(p.z()))};
+    if (g == last) continue;
+    last = g;
+    const std::uint32_t ref = find_voxel(g);
+    if (ref == kNoRef) return false;
+    const Voxel& v = vox(ref);
+    if ((v.state != kFree && v.state != kSeed) || v.parent == kNoRef || !(v.distance_m > 0.0f)) return false;
+    best = std::min(best, v.distance_m);
+  }
+  *min_distance_m = best;
+  return true;
+}
+
+// Whether the free space of two clusters is joined: a voxel of one, whose sphere overlaps the other's
+// representative sphere (each cluster is a connected piece of GVD, so its voxels and their spheres connect to its
+// representative), with the segment between them certified by the ESDF. The pair tested is chosen the same way
+// from both ends (the smaller of the two tests' voxel refs), so both clusters agree on the edge and its weight.
+bool Places::spheres_meet(std::uint32_t a, std::uint32_t b, float* weight_m) const {
+  if (b < a) std::swap(a, b);
+  const auto best_voxel = [this](std::uint32_t from, std::uint32_t to_cluster, std::uint32_t* out) {
+    const Cluster& t = clusters_[to_cluster];
+    const Eigen::Vector3d pt = center_m(coords(t.rep));
+    double best = std::numeric_limits<double>::max();
+    *out = kNoRef;
+    for (std::uint32_t r = clusters_[from].head; r != kNoRef; r = vox(r).cluster_next) {
+      const double reach = static_cast<double>(vox(r).distance_m) + static_cast<double>(t.clearance_m);
+      // The deepest overlap (least distance minus reach) wins; ties by the smaller ref.
+      const double slack = (center_m(coords(r)) - pt).norm() - reach;
+      if (slack < 0.0 && (slack < best || (slack == best && r < *out))) {
+        best = slack;
+        *out = r;
+      }
+    }
+    return best;
+  };
+  std::uint32_t va = kNoRef, vb = kNoRef;
+  const double sa = best_voxel(a, b, &va), sb = best_voxel(b, a, &vb);
+  if (va == kNoRef && vb == kNoRef) return false;
+  const bool use_a = vb == kNoRef || (va != kNoRef && sa <= sb);
+  return use_a ? segment_clearance(center_m(coords(va)), clusters_[b].position_m, weight_m)
+               : segment_clearance(center_m(coords(vb)), clusters_[a].position_m, weight_m);
+}
+
 // Edges from the GVD adjacency: cluster A joins cluster B when a voxel of A touches a voxel of B; the weight is
 // the smallest clearance among the voxels through which the GVD passes from A to B (the touching pairs).
 void Places::recompute_edges(std::uint32_t cluster) {
   Cluster& c = clusters_[cluster];
   std::uint32_t to[kMaxClusterEdges];
   float weight[kMaxClusterEdges];
+  std::uint8_t free_edge[kMaxClusterEdges];
   int n = 0;
   for (std::uint32_t r = c.head; r != kNoRef; r = vox(r).cluster_next) {
     const Voxel& v = vox(r);
@@ -1111,9 +1294,43 @@ void Places::recompute_edges(std::uint32_t cluster) {
       } else if (n < kMaxClusterEdges) {
         to[n] = nv.cluster;
         weight[n] = w;
+        free_edge[n] = 0;
         ++n;
       } else {
         ++counters_.edges_refused;
+      }
+    }
+  }
+  // Free-space edges (after the GVD's, which keep priority for the slots): places of the 27 cells around this
+  // one whose spheres of free space overlap, certified by the ESDF along the segment between them.
+  if (config_.free_space_edges && c.rep != kNoRef) {
+    for (int oi = 0; oi <= 26; ++oi) {  // the 26 neighbour cells, then the cell itself
+      const memory::Index3 cell = oi < 26 ? add(c.cell, kOffsets.o[oi].dx, kOffsets.o[oi].dy, kOffsets.o[oi].dz) : c.cell;
+      const std::uint32_t* head = cells_.find(cell);
+      for (std::uint32_t x = head != nullptr ? *head : kNoCluster; x != kNoCluster; x = clusters_[x].cell_next) {
+        const Cluster& xc = clusters_[x];
+        if (x == cluster || xc.state != kLive || xc.rep == kNoRef) continue;
+        int k = 0;
+        while (k < n && to[k] != x) ++k;
+        if (k < n) continue;
+        // Already two GVD hops away (through a GVD neighbour of this cluster): the GVD joins them.
+        bool near = false;
+        for (int j = 0; j < n && !near; ++j) {
+          if (free_edge[j]) continue;
+          const Cluster& g = clusters_[to[j]];
+          for (int e = 0; e < g.num_edges && !near; ++e) near = g.edge_to[e] == x && !g.edge_free[e];
+        }
+        if (near) continue;
+        float w = 0.0f;
+        if (!spheres_meet(cluster, x, &w)) continue;
+        if (n == kMaxClusterEdges) {
+          ++counters_.edges_refused;
+          continue;
+        }
+        to[n] = x;
+        weight[n] = w;
+        free_edge[n] = 1;
+        ++n;
       }
     }
   }
@@ -1137,13 +1354,16 @@ void Places::recompute_edges(std::uint32_t cluster) {
       o.edge_to[k] = cluster;
       ++o.num_edges;
       o.edge_weight[k] = weight[j];
+      o.edge_free[k] = free_edge[j];
       o.sync_dirty = 1;
-    } else if (o.edge_weight[k] != weight[j]) {
+    } else if (o.edge_weight[k] != weight[j] || o.edge_free[k] != free_edge[j]) {
       o.edge_weight[k] = weight[j];
+      o.edge_free[k] = free_edge[j];
       o.sync_dirty = 1;
     }
     c.edge_to[kept] = to[j];
     c.edge_weight[kept] = weight[j];
+    c.edge_free[kept] = free_edge[j];
     ++kept;
   }
   c.num_edges = static_cast<std::uint8_t>(kept);
@@ -1262,6 +1482,12 @@ UpdateResult Places::update(const reconstruction::SemanticTsdf& tsdf, const Eige
         cursor_ = 0;
         phase_ = kIdle;
         ++counters_.cycles;
+        counters_.free_space_edges = 0;
+        clusters_.for_each([&](std::uint32_t, const Cluster& c) {
+          if (c.state != kLive) return;
+          for (int k = 0; k < c.num_edges; ++k) counters_.free_space_edges += c.edge_free[k];
+        });
+        counters_.free_space_edges /= 2;
         result.complete = true;
         result.work_units = units_;
         return result;
@@ -1296,6 +1522,25 @@ SyncResult Places::sync(scene_graph::SceneGraph* graph) {
     if (!clusters_.live(h)) continue;
     Cluster& c = clusters_[h];
     if (c.state == kRemoved) {
+      if (config_.relink_inactive && c.synced) {
+        // Its edges to inactive places would vanish with it: park them for the place that replaces it.
+        graph->for_each_neighbor(c.node, [&](scene_graph::NodeId m, const scene_graph::EdgeRecord& e) {
+          if (scene_graph::node_prefix(m) != scene_graph::kPlacePrefix) return;
+          const scene_graph::PlaceAttributes* pm = graph->place(m);
+          if (pm == nullptr || pm->is_active) return;
+          if (num_relinks_ == capacities_.pending_relinks) {
+            ++counters_.relinks_refused;
+            return;
+          }
+          Relink& l = relinks_[num_relinks_++];
+          relinks_high_water_ = std::max(relinks_high_water_, num_relinks_);
+          l.inactive = m;
+          l.position_m = c.position_m;
+          l.clearance_m = c.clearance_m;
+          l.weight_m = e.info.weighted ? static_cast<float>(e.info.weight) : c.clearance_m;
+          l.cell = c.cell;
+        });
+      }
       if (graph->remove_node(c.node)) ++r.nodes_removed;
       clusters_.release(h);
     } else if (c.state == kLeft) {
@@ -1389,7 +1634,69 @@ SyncResult Places::sync(scene_graph::SceneGraph* graph) {
     }
     if (complete) c.sync_dirty = 0;
   }
+  resolve_relinks(graph, &r);
   return r;
+}
+
+// The live, synced place of the cell or a neighbouring cell nearest to a removed place, among those whose
+// sphere of free space overlaps the removed place's (so the two spheres' union joins them through free space).
+std::uint32_t Places::replacement_for(const Eigen::Vector3d& position_m, double clearance_m,
+                                      const memory::Index3& cell) const {
+  std::uint32_t best = kNoCluster;
+  double best_d2 = std::numeric_limits<double>::max();
+  for (int oi = 0; oi <= 26; ++oi) {
+    const memory::Index3 nc = oi < 26 ? add(cell, kOffsets.o[oi].dx, kOffsets.o[oi].dy, kOffsets.o[oi].dz) : cell;
+    const std::uint32_t* head = cells_.find(nc);
+    for (std::uint32_t x = head != nullptr ? *head : kNoCluster; x != kNoCluster; x = clusters_[x].cell_next) {
+      const Cluster& xc = clusters_[x];
+      if (xc.state != kLive || !xc.synced || xc.rep == kNoRef) continue;
+      const double reach = clearance_m + static_cast<double>(xc.clearance_m);
+      const double d2 = (xc.position_m - position_m).squaredNorm();
+      float w = 0.0f;
+      if (d2 >= reach * reach || d2 >= best_d2 || !segment_clearance(position_m, xc.position_m, &w)) continue;
+      best = x;
+      best_d2 = d2;
+    }
+  }
+  return best;
+}
+
+// Moves the parked edges of removed places to their replacements; an edge waits while the removed place's
+// position is inside the window (its replacement may appear in a later cycle) and is dropped after.
+void Places::resolve_relinks(scene_graph::SceneGraph* graph, SyncResult* r) {
+  std::size_t kept = 0;
+  for (std::size_t i = 0; i < num_relinks_; ++i) {
+    const Relink l = relinks_[i];
+    const scene_graph::PlaceAttributes* pi = graph->place(l.inactive);
+    if (pi == nullptr || pi->is_active) continue;  // gone, or back in the window with edges of its own
+    const std::uint32_t x = replacement_for(l.position_m, l.clearance_m, l.cell);
+    if (x != kNoCluster) {
+      const Cluster& xc = clusters_[x];
+      if (graph->edge_info(l.inactive, xc.node) == nullptr) {
+        scene_graph::EdgeAttributes info;
+        info.weighted = true;
+        info.weight = std::min({static_cast<double>(l.weight_m), static_cast<double>(l.clearance_m),
+                                static_cast<double>(xc.clearance_m)});
+        if (graph->num_edges() >= graph->capacities().edges ||
+            graph->add_edge(l.inactive, xc.node, info) != scene_graph::Status::kOk) {
+          ++r->refused;
+          ++counters_.graph_refused;
+          r->status = scene_graph::Status::kFull;
+          relinks_[kept++] = l;  // retried on the next sync
+          continue;
+        }
+        ++r->edges_added;
+      }
+      ++counters_.relinked;
+      continue;
+    }
+    const memory::Index3 g{static_cast<std::int32_t>(std::floor(l.position_m.x() / voxel_m_)),
+                           static_cast<std::int32_t>(std::floor(l.position_m.y() / voxel_m_)),
+                           static_cast<std::int32_t>(std::floor(l.position_m.z() / voxel_m_))};
+    if (find_voxel(g) != kNoRef) relinks_[kept++] = l;
+    else ++counters_.relinks_dropped;
+  }
+  num_relinks_ = kept;
 }
 
 // ---------------------------------------------------------------------------------------------------------
@@ -1436,7 +1743,8 @@ void Places::places(std::vector<PlaceInfo>* out) const {
     p.clearance_m = c.clearance_m;
     p.num_basis_points = c.num_basis;
     p.num_voxels = c.count;
-    for (int k = 0; k < c.num_edges; ++k) p.edges.emplace_back(clusters_[c.edge_to[k]].node, c.edge_weight[k]);
+    for (int k = 0; k < c.num_edges; ++k)
+      (c.edge_free[k] ? p.free_space_edges : p.edges).emplace_back(clusters_[c.edge_to[k]].node, c.edge_weight[k]);
     for (std::uint32_t r = c.head; r != kNoRef; r = vox(r).cluster_next) {
       p.voxel_positions_m.push_back(center_m(coords(r)));
       p.voxel_clearances_m.push_back(vox(r).distance_m);

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <cstddef>
 #include <cstdint>
 #include <cstdio>
@@ -29,6 +30,7 @@ inline constexpr int kBlockSide = 8;
 inline constexpr int kBlockVoxels = kBlockSide * kBlockSide * kBlockSide;
 inline constexpr int kMaxVoxelFactor = 2;
 inline constexpr int kMaxClusterEdges = 24;  // place edges kept per place (neighbouring cells of a 3D hash)
+inline constexpr int kMaxViews = 32;         // observe() calls remembered between two cycles (one bit each)
 
 struct Config {
   // GVD voxel = voxel_factor x TSDF voxel (1 or 2). 2 (0.2 m at 0.1 m TSDF voxels) by default: 8x fewer voxels
@@ -48,6 +50,14 @@ struct Config {
   double slab_below_m = 2.0;
   double slab_above_m = 3.0;
   double min_tsdf_weight = 0.0;      // TSDF voxels with more weight than this count as observed
+  // The paper: each GVD voxel's distance "defines a sphere of free-space"; the union of the spheres is the free
+  // space and carries its connectivity. Places of neighbouring hash cells whose spheres overlap are joined by a
+  // free-space edge (weight: the smallest ESDF distance along the segment), which reconnects GVD pieces that the
+  // theta-SMA and clearance filters cut off from the rest of the same free-space region.
+  bool free_space_edges = true;
+  // A removed place's edges to inactive places (which cannot re-derive their edges: their voxels are gone) move
+  // to the live place of the same or a neighbouring cell whose sphere overlaps the removed one's.
+  bool relink_inactive = true;
   std::string check() const;         // empty when usable, else the bad field and why
   void print(std::FILE* out) const;
 };
@@ -56,6 +66,10 @@ struct Capacities {
   std::size_t max_blocks = 512;      // ESDF blocks of kBlockVoxels voxels (the window's free space and surfaces)
   std::size_t place_nodes = 32768;   // clusters = place nodes alive in the window, plus those awaiting sync()
   std::size_t inactive_cells = 32768;  // hash cells remembering the inactive node that left them (for revisits)
+  // TSDF blocks whose free space observe() remembers until the next cycle (each cycle holds one such set while
+  // observe() fills the other); a frame touches a few hundred blocks, a cycle of 5 keyframes ~1000.
+  std::size_t observed_blocks = 4096;
+  std::size_t pending_relinks = 512;   // inactive-place edges waiting for a live place to move to
   void print(std::FILE* out) const;
 };
 Capacities capacities_from_budget();
@@ -99,6 +113,14 @@ struct Counters {
   std::uint64_t edges_refused = 0;     // a place had kMaxClusterEdges neighbours already
   std::uint64_t graph_refused = 0;     // sync(): the scene graph's place or edge store was full
   std::uint64_t reactivated = 0;       // places re-created in a cell an inactive node had left: the node is reused
+  std::uint64_t free_space_edges = 0;  // current free-space edges (sphere overlap, not GVD adjacency)
+  std::uint64_t relinked = 0;          // edges of removed places moved from an inactive place to a live one
+  std::uint64_t relinks_dropped = 0;   // no live place replaced the removed one before it left the window
+  std::uint64_t relinks_refused = 0;   // pending relink store full
+  std::uint64_t views_observed = 0;    // observe() calls
+  std::uint64_t views_merged = 0;      // observe() found every view slot used: the newest slot was overwritten
+  std::uint64_t observed_refused = 0;  // observe(): the observed-block set was full (that block is not carved)
+  std::uint64_t rays_carved = 0;
   void print(std::FILE* out) const;
 };
 
@@ -127,7 +149,8 @@ struct PlaceInfo {
   double clearance_m = 0.0;
   std::uint32_t num_basis_points = 0;
   std::uint32_t num_voxels = 0;
-  std::vector<std::pair<scene_graph::NodeId, double>> edges;  // neighbour, weight (min clearance)
+  std::vector<std::pair<scene_graph::NodeId, double>> edges;  // GVD adjacency: neighbour, weight (min clearance)
+  std::vector<std::pair<scene_graph::NodeId, double>> free_space_edges;  // overlapping spheres: neighbour, weight
   std::vector<Eigen::Vector3d> voxel_positions_m;  // the cluster's GVD voxels
   std::vector<double> voxel_clearances_m;
   std::vector<std::uint32_t> voxel_basis_points;
@@ -143,6 +166,12 @@ class Places {
   static memory::ArenaPlan plan(const Capacities& capacities);
   // Checks the config and carves every store from one arena of at most budget_bytes. Start-up only.
   bool init(const Config& config, const Capacities& capacities, std::size_t budget_bytes, std::string* error);
+
+  // Per keyframe, right after the frame was integrated (cheap: one pass over the TSDF's block table, no voxel
+  // reads): remembers the camera position and the TSDF blocks this frame touched, so the next cycle carves the
+  // free space between them, whatever the number of keyframes between two update() calls. Without observe()
+  // calls, a cycle carves from robot_m to the blocks of the latest frame only. False when not initialised.
+  bool observe(const reconstruction::SemanticTsdf& tsdf, const Eigen::Isometry3d& world_T_camera);
 
   // One step of the cycle: scan the TSDF for blocks integrated since their last read (and free ESDF blocks that
   // left the window around robot_m), re-seed them, run raise and lower waves, re-test the GVD where parents
@@ -173,6 +202,10 @@ class Places {
     fn(block_index_.stats());
     fn(clusters_.stats());
     fn(inactive_.stats());
+    fn(cells_.stats());
+    fn(observed_[0].stats());
+    fn(observed_[1].stats());
+    fn(relink_stats());
     fn(lower_queue_stats());
     fn(list_stats(0));
     fn(list_stats(1));
@@ -188,6 +221,7 @@ class Places {
 
  private:
   memory::ResourceStats lower_queue_stats() const;
+  memory::ResourceStats relink_stats() const;
   memory::ResourceStats list_stats(int which) const;
 
   // Geometry helpers.
@@ -206,7 +240,7 @@ class Places {
   void evict_block_voxels(std::uint32_t handle);
   void release_block(std::uint32_t handle);
   void seed_sub_block(const reconstruction::SemanticTsdf& tsdf, std::uint32_t handle, int sub, bool carve);
-  void carve_ray(const reconstruction::SemanticTsdf& tsdf, std::uint32_t target);
+  void carve_ray(const reconstruction::SemanticTsdf& tsdf, const Eigen::Vector3d& origin_m, std::uint32_t target);
   void apply_state(std::uint32_t ref, std::uint8_t state, float seed_m);
   void raise_dependents(std::uint32_t seed_ref, bool include_seed);
   void set_parent(std::uint32_t ref, std::uint32_t parent, float distance_m);
@@ -234,6 +268,13 @@ class Places {
   void pick_representative(std::uint32_t cluster);
   void recompute_edges(std::uint32_t cluster);
   void compute_mesh_connections(const reconstruction::SemanticTsdf& tsdf, std::uint32_t cluster);
+  bool segment_clearance(Eigen::Vector3d a_m, Eigen::Vector3d b_m, float* min_distance_m) const;
+  bool spheres_meet(std::uint32_t a, std::uint32_t b, float* weight_m) const;
+  void link_cell(std::uint32_t cluster);
+  void unlink_cell(std::uint32_t cluster);
+  std::uint32_t replacement_for(const Eigen::Vector3d& position_m, double clearance_m,
+                                const memory::Index3& cell) const;
+  void resolve_relinks(scene_graph::SceneGraph* graph, SyncResult* r);
 
   Config config_;
   Capacities capacities_;
@@ -243,6 +284,17 @@ class Places {
   memory::SpatialHash<std::uint32_t> block_index_;
   memory::Pool<Cluster> clusters_;
   memory::SpatialHash<scene_graph::NodeId> inactive_;  // hash cell -> the inactive node that left it
+  memory::SpatialHash<std::uint32_t> cells_;           // hash cell -> first live cluster (list via cell_next)
+  // observe(): TSDF block -> bit k set when view k saw it; [pending_] fills, the other belongs to the cycle.
+  memory::SpatialHash<std::uint32_t> observed_[2];
+  Eigen::Vector3d views_m_[2][kMaxViews];
+  std::uint32_t view_stamp_[2][kMaxViews] = {};
+  int num_views_[2] = {0, 0};
+  int pending_ = 0;
+  bool observing_ = false;  // observe() was called: cycles carve from the observed views only
+  struct Relink;
+  Relink* relinks_ = nullptr;
+  std::size_t num_relinks_ = 0, relinks_high_water_ = 0;
   List* lists_ = nullptr;  // [0] dirty TSDF sub-blocks, [1] raise, [2] affected, [3] GVD evaluation, [4] GVD changed
   std::uint32_t* lower_ring_ = nullptr;
   std::size_t lower_capacity_ = 0, lower_head_ = 0, lower_size_ = 0, lower_high_water_ = 0;

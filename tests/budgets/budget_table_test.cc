@@ -8,6 +8,8 @@
 
 #include "budgets/budget_table.h"
 #include "core/reconstruction/semantic_tsdf.h"
+#include "core/places/places.h"
+#include "core/rooms/room_finder.h"
 #include "core/scene_graph/scene_graph.h"
 
 namespace qsg::budgets {
@@ -59,6 +61,40 @@ void expect_scene_graph_fits(const char* board) {
 TEST(BudgetTableTest, EveryArenaHoldsItsCapacities) {
   expect_scene_graph_fits<HostSimSceneGraph>("host_sim");
   expect_scene_graph_fits<XavierNxSceneGraph>("xavier_nx");
+}
+
+// The places layer of each board: its capacities must fit its arena.
+#define QSG_PLACES_FITS(board)                                                                               \
+  do {                                                                                                       \
+    places::Capacities c;                                                                                    \
+    c.max_blocks = budgets::board::places::kMaxBlocks;                                                       \
+    c.place_nodes = budgets::board::places::kPlaceNodes;                                                     \
+    c.inactive_cells = budgets::board::places::kInactiveCells;                                               \
+    c.observed_blocks = budgets::board::places::kObservedBlocks;                                             \
+    c.pending_relinks = budgets::board::places::kPendingRelinks;                                             \
+    const std::size_t planned = places::Places::plan(c).total_bytes();                                       \
+    EXPECT_LE(planned, budgets::board::places::kArenaBytes) << #board ": places capacities need " << planned; \
+    std::printf(#board " places arena: planned %zu of %zu bytes\n", planned, budgets::board::places::kArenaBytes); \
+  } while (0)
+
+TEST(BudgetTableTest, PlacesArenaHoldsThePlacesLayer) {
+  QSG_PLACES_FITS(host_sim);
+  QSG_PLACES_FITS(xavier_nx);
+}
+
+// The room finder is sized from the graph's place, edge and room capacities; its arena is the board's "rooms".
+template <typename T>
+void expect_rooms_fit(const char* board, std::size_t arena_bytes) {
+  const rooms::Capacities c = rooms::Capacities::from_scene_graph(scene_graph_capacities<T>());
+  const std::size_t planned = rooms::RoomFinder::plan(rooms::Config{}, c).total_bytes();
+  EXPECT_LE(planned, arena_bytes) << board << ": rooms capacities need " << planned << " bytes, its arena allows "
+                                  << arena_bytes;
+  std::printf("%s rooms arena: planned %zu of %zu bytes\n", board, planned, arena_bytes);
+}
+
+TEST(BudgetTableTest, RoomsArenaHoldsTheRoomFinder) {
+  expect_rooms_fit<HostSimSceneGraph>("host_sim", budgets::host_sim::rooms::kArenaBytes);
+  expect_rooms_fit<XavierNxSceneGraph>("xavier_nx", budgets::xavier_nx::rooms::kArenaBytes);
 }
 
 template <typename Ns>

@@ -54,6 +54,7 @@ struct Rig {
         const Eigen::Isometry3d T = camera_pose(p, 2 * kPi * k / 8, pitch);
         ASSERT_TRUE(renderer->render(T, camera, seq++, *frame, &error)) << error;
         ASSERT_TRUE(tsdf->process(*frame, T));
+        frontend->observe(*tsdf, T);
         time_ns += 100000000;
         ASSERT_EQ(frontend->add_keyframe(graph.get(), time_ns, T), agents::AddResult::kAdded);
       }

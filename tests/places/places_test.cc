@@ -509,5 +509,224 @@ TEST(PlacesTest, TheBudgetTableHoldsTheArena) {
   EXPECT_LE(Places::plan(caps).total_bytes(), arena_bytes_from_budget());
 }
 
+// --- Connectivity across the window and across GVD fragments -------------------------------------------------
+
+struct WalkResult {
+  std::size_t components = 0;
+  std::size_t nodes = 0;
+  std::size_t inactive = 0;
+  Counters counters;
+};
+
+// Three rooms joined by doors, walked through with a small window (places leave it and stay inactive while the
+// GVD at the window's edge is rebuilt), every keyframe updated.
+WalkResult walk_three_rooms(const Config& config) {
+  WalkResult out;
+  Scanner scanner;
+  std::string error;
+  EXPECT_TRUE(scanner.init(testing::rooms_world({3.0, 3.0, 3.0}, 3.0, true), 100.0, &error)) << error;
+  auto places = make_places(config);
+  auto graph = make_graph();
+  const auto hook = [&](const Eigen::Vector3d& camera) {
+    run_to_completion(places.get(), scanner.tsdf(), camera);
+    places->sync(graph.get());
+  };
+  for (const double x : {1.5, 3.05, 4.6, 6.15, 7.7}) EXPECT_TRUE(scanner.spin({x, 1.5, 1.2}, 6, hook));
+  out.components = place_components(*graph);
+  graph->for_each_node([&](const scene_graph::NodeRecord& n) {
+    if (n.kind != scene_graph::NodeKind::kPlace) return;
+    ++out.nodes;
+    out.inactive += graph->place(n.id)->is_active ? 0 : 1;
+  });
+  out.counters = places->counters();
+  return out;
+}
+
+Config small_window_config() {
+  Config c;
+  c.window_radius_m = 3.5;
+  return c;
+}
+
+// One free-space region: one places component, although places leave the window (inactive) while the GVD at
+// the window's edge is rebuilt: the edges of removed places to inactive ones move to their replacements.
+TEST(PlacesTest, AWalkThroughThreeRoomsGivesOneComponentWithFreeSpaceEdgesAndRelinks) {
+  const WalkResult with = walk_three_rooms(small_window_config());
+  std::printf("three rooms: %zu components (%zu nodes, %zu inactive, %llu free-space edges, %llu relinked)\n",
+              with.components, with.nodes, with.inactive, (unsigned long long)with.counters.free_space_edges,
+              (unsigned long long)with.counters.relinked);
+  EXPECT_GT(with.inactive, 0u) << "the walk must move places out of the window";
+  EXPECT_GT(with.counters.relinked, 0u) << "removed places next to inactive ones must hand their edges over";
+  EXPECT_EQ(with.counters.relinks_refused, 0u);
+  EXPECT_EQ(with.components, 1u);
+}
+
+// Free-space edges follow their rule: neighbouring hash cells, no GVD edge between the two, a positive weight
+// no larger than either place's clearance plus a voxel, and the same edge seen from both ends.
+TEST(PlacesTest, FreeSpaceEdgesJoinNeighbouringPlacesWithOverlappingSpheres) {
+  // A room with a low cabinet along one wall and a table top: GVD sheets above and beside them are cut apart by
+  // the theta-SMA, and free-space edges join them.
+  world::World w = testing::rooms_world({4.0}, 3.0, false);
+  testing::add_box(&w, {0.0, 0.0, 0.0}, {0.8, 3.0, 0.9});
+  testing::add_box(&w, {2.0, 0.8, 0.7}, {3.2, 2.0, 0.75});
+  auto m = std::make_unique<Mapped>();
+  std::string error;
+  ASSERT_TRUE(m->scanner.init(w, 100.0, &error)) << error;
+  m->places = make_places();
+  ASSERT_TRUE(m->scanner.spin({1.5, 1.5, 1.2}, 8, every_frame(m->places.get(), &m->scanner)));
+  ASSERT_TRUE(m->scanner.spin({3.0, 0.5, 1.2}, 8, every_frame(m->places.get(), &m->scanner)));
+  ASSERT_TRUE(m->scanner.spin({3.0, 2.5, 0.4}, 8, every_frame(m->places.get(), &m->scanner)));
+  std::vector<PlaceInfo> places;
+  m->places->places(&places);
+  const double cell = m->places->config().place_resolution_m;
+  const double s = m->places->voxel_size_m();
+  const auto cell_of = [cell](const Eigen::Vector3d& p) { return (p / cell).array().floor().cast<int>().eval(); };
+  std::map<scene_graph::NodeId, const PlaceInfo*> by_id;
+  for (const PlaceInfo& p : places) by_id[p.id] = &p;
+  std::size_t free_edges = 0;
+  for (const PlaceInfo& p : places)
+    for (const auto& [other, weight] : p.free_space_edges) {
+      ++free_edges;
+      ASSERT_EQ(by_id.count(other), 1u);
+      const PlaceInfo& q = *by_id[other];
+      EXPECT_LE((cell_of(p.voxel_positions_m[0]) - cell_of(q.voxel_positions_m[0])).cwiseAbs().maxCoeff(), 1);
+      EXPECT_TRUE(std::none_of(p.edges.begin(), p.edges.end(), [&](const auto& e) { return e.first == other; }));
+      EXPECT_GT(weight, 0.0);
+      // Some voxel of one overlaps the other's representative sphere (with the voxel of slack).
+      const auto meets = [s](const PlaceInfo& a, const PlaceInfo& b) {
+        for (std::size_t i = 0; i < a.num_voxels; ++i)
+          if ((a.voxel_positions_m[i] - b.position_m).norm() < a.voxel_clearances_m[i] + b.clearance_m + s + 1e-6)
+            return true;
+        return false;
+      };
+      EXPECT_TRUE(meets(p, q) || meets(q, p));
+      const auto back = std::find_if(q.free_space_edges.begin(), q.free_space_edges.end(),
+                                     [&](const auto& e) { return e.first == p.id; });
+      ASSERT_TRUE(back != q.free_space_edges.end()) << "free-space edge not symmetric";
+      EXPECT_EQ(back->second, weight);
+    }
+  std::printf("room with furniture: %zu places, %zu free-space edges\n", places.size(), free_edges / 2);
+  EXPECT_GT(free_edges, 0u);
+  EXPECT_EQ(free_edges / 2, m->places->counters().free_space_edges);
+  // Mirrored into the scene graph like the GVD edges.
+  auto graph = make_graph();
+  m->places->sync(graph.get());
+  for (const PlaceInfo& p : places)
+    for (const auto& [other, weight] : p.free_space_edges) {
+      const scene_graph::EdgeRecord* e = graph->edge(p.id, other);
+      ASSERT_NE(e, nullptr);
+      EXPECT_NEAR(e->info.weight, weight, 1e-6);
+    }
+  EXPECT_EQ(place_components(*graph), 1u) << "one room, one free-space region";
+}
+
+// --- observe(): the free space of every keyframe, whatever the update cadence --------------------------------
+
+struct CadenceResult {
+  std::set<std::tuple<int, int, int>> gvd;
+  std::size_t places = 0;
+  std::size_t reached = 0;  // ESDF voxels with a distance
+  std::size_t components = 0;
+};
+
+// Two rooms with a door scanned from three viewpoints; observe() after every keyframe when `observe`, update()
+// every `every_n`th keyframe and once at the end.
+CadenceResult run_cadence(int every_n, bool observe) {
+  CadenceResult out;
+  Scanner scanner;
+  std::string error;
+  EXPECT_TRUE(scanner.init(testing::rooms_world({3.0, 3.0}, 3.0, true), 100.0, &error)) << error;
+  auto places = make_places();
+  int frame = 0;
+  Eigen::Vector3d last = Eigen::Vector3d::Zero();
+  const auto hook = [&](const Eigen::Vector3d& camera) {
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.translation() = camera;
+    if (observe) {
+      EXPECT_TRUE(places->observe(scanner.tsdf(), T));
+    }
+    last = camera;
+    if (frame++ % every_n == 0) run_to_completion(places.get(), scanner.tsdf(), camera);
+  };
+  for (const Eigen::Vector3d& v : {Eigen::Vector3d(1.5, 1.5, 1.2), Eigen::Vector3d(3.05, 1.5, 1.2),
+                                   Eigen::Vector3d(4.6, 1.5, 1.2)})
+    EXPECT_TRUE(scanner.spin(v, 8, hook));
+  run_to_completion(places.get(), scanner.tsdf(), last);
+  std::vector<GvdVoxelInfo> gvd;
+  places->gvd_voxels(&gvd);
+  const double s = places->voxel_size_m();
+  for (const GvdVoxelInfo& v : gvd)
+    out.gvd.insert({static_cast<int>(std::floor(v.position_m.x() / s)), static_cast<int>(std::floor(v.position_m.y() / s)),
+                    static_cast<int>(std::floor(v.position_m.z() / s))});
+  for (double x = 0.1; x < 6.1; x += s)
+    for (double y = 0.1; y < 3.0; y += s)
+      for (double z = 0.1; z < kHeight; z += s) {
+        float d = 0.0f;
+        out.reached += places->distance_at({x, y, z}, &d) ? 1 : 0;
+      }
+  out.places = places->num_places();
+  auto graph = make_graph();
+  places->sync(graph.get());
+  out.components = place_components(*graph);
+  return out;
+}
+
+std::size_t symmetric_difference(const std::set<std::tuple<int, int, int>>& a, const std::set<std::tuple<int, int, int>>& b) {
+  std::size_t n = 0;
+  for (const auto& k : a) n += b.count(k) == 0 ? 1 : 0;
+  for (const auto& k : b) n += a.count(k) == 0 ? 1 : 0;
+  return n;
+}
+
+TEST(PlacesTest, UpdatingEveryFifthKeyframeWithObserveMatchesEveryKeyframe) {
+  const CadenceResult every = run_cadence(1, true);
+  const CadenceResult fifth = run_cadence(5, true);
+  const CadenceResult blind = run_cadence(5, false);  // the old way: 4 of 5 keyframes' free space missed
+  const std::size_t diff = symmetric_difference(every.gvd, fifth.gvd);
+  const std::size_t diff_blind = symmetric_difference(every.gvd, blind.gvd);
+  std::printf("cadence: every keyframe %zu GVD voxels, %zu places, %zu reached; every 5th with observe: %zu GVD "
+              "voxels (%zu differ), %zu places, %zu reached; without observe: %zu GVD voxels (%zu differ), %zu places, "
+              "%zu reached\n",
+              every.gvd.size(), every.places, every.reached, fifth.gvd.size(), diff, fifth.places, fifth.reached,
+              blind.gvd.size(), diff_blind, blind.places, blind.reached);
+  ASSERT_GT(every.gvd.size(), 100u);
+  // Same free space: the ESDF reaches the same voxels (within 1 %), the GVD differs in at most 2 % of its voxels
+  // (the TSDF a ray is cast through is a few frames newer), the place count within 10 %.
+  EXPECT_NEAR(static_cast<double>(fifth.reached), static_cast<double>(every.reached), 0.01 * every.reached);
+  EXPECT_LE(diff, every.gvd.size() / 50);
+  EXPECT_NEAR(static_cast<double>(fifth.places), static_cast<double>(every.places), 0.1 * every.places);
+  EXPECT_EQ(fifth.components, every.components);
+  // Without observe() the difference is larger (this test can fail).
+  EXPECT_GT(diff_blind + (every.reached - std::min(every.reached, blind.reached)), diff);
+}
+
+// observe() and an update after it stay off the heap.
+TEST(PlacesTest, ObserveDoesNotAllocate) {
+  Scanner scanner;
+  std::string error;
+  ASSERT_TRUE(scanner.init(testing::rooms_world({4.0}, 3.0, false), 100.0, &error)) << error;
+  auto places = make_places();
+  auto graph = make_graph();
+  ASSERT_TRUE(scanner.spin({1.3, 1.5, 1.2}, 8, every_frame(places.get(), &scanner)));
+  places->sync(graph.get());
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.translation() = Eigen::Vector3d(2.7, 1.5, 1.2);
+  int observed = 0;
+  ASSERT_TRUE(scanner.spin(T.translation(), 4, [&](const Eigen::Vector3d&) {
+    bool ok = false;
+    EXPECT_NO_ALLOCATIONS(ok = places->observe(scanner.tsdf(), T));
+    observed += ok ? 1 : 0;
+  }));
+  EXPECT_EQ(observed, 12);
+  UpdateResult r;
+  EXPECT_NO_ALLOCATIONS(r = places->update(scanner.tsdf(), T.translation(), Deadline::unlimited()));
+  EXPECT_TRUE(r.complete);
+  SyncResult sr;
+  EXPECT_NO_ALLOCATIONS(sr = places->sync(graph.get()));
+  EXPECT_GT(places->counters().rays_carved, 0u);
+  EXPECT_EQ(places->counters().views_observed, 12u);
+  EXPECT_EQ(places->counters().views_merged, 0u);
+}
+
 }  // namespace
 }  // namespace qsg::places
