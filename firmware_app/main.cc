@@ -121,6 +121,14 @@ int main(int argc, char** argv) {
     return 1;
   }
   pipeline.scheduler().print_table(stdout);
+  const budgets::BoardTable& table = budgets::active::kTable;
+  std::printf("arenas (%s):", table.board);
+  for (std::size_t i = 0; i < table.num_arenas; ++i)
+    std::printf(" %s %.1f MB%s", table.arenas[i].name, table.arenas[i].bytes / 1048576.0, i + 1 < table.num_arenas ? "," : "\n");
+  std::printf("queues (%s):", table.board);
+  for (std::size_t i = 0; i < table.num_queues; ++i)
+    std::printf(" %s depth %u %s%s", table.queues[i].name, table.queues[i].depth, budgets::to_string(table.queues[i].policy),
+                i + 1 < table.num_queues ? "," : "\n");
 
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
