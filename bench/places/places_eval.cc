@@ -12,7 +12,6 @@
 #include <fstream>
 #include <map>
 #include <memory>
-#include <nlohmann/json.hpp>
 #include <set>
 #include <string>
 #include <tuple>
@@ -21,6 +20,8 @@
 #include "core/places/places.h"
 #include "core/reconstruction/semantic_tsdf.h"
 #include "core/scene_graph/scene_graph.h"
+#include "bench/figures.h"
+#include "bench/sim_tour.h"
 #include "budgets/budget_table.h"
 #include "drivers/render/ray_scene.h"
 #include "drivers/sim/exploration.h"
@@ -29,9 +30,6 @@
 #include "drivers/world/building_generator.h"
 #include "drivers/world/world_query.h"
 
-#ifndef QSG_GIT_COMMIT
-#define QSG_GIT_COMMIT "unknown"
-#endif
 
 namespace {
 
@@ -135,12 +133,7 @@ bool parse(int argc, char** argv, Options* o) {
          o->hfov_deg < 170 && o->rate_hz > 0 && o->every_n >= 1;
 }
 
-double quantile(std::vector<double> v, double q) {
-  if (v.empty()) return 0.0;
-  const std::size_t k = std::min(v.size() - 1, static_cast<std::size_t>(q * static_cast<double>(v.size())));
-  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k), v.end());
-  return v[k];
-}
+using bench::quantile;
 
 double polygon_area(const world::Polygon2& p) {
   double twice = 0.0;
@@ -381,28 +374,19 @@ bool run_building(const Options& opt, std::uint64_t seed, BuildingResult* out) {
   bc.num_rooms = opt.rooms;
   bc.seed = seed;
   const world::World w = world::generate_building(bc);
-  render::RayScene scene;
-  std::string error;
-  if (!scene.build(w, &error)) {
-    std::fprintf(stderr, "ray scene: %s\n", error.c_str());
-    return false;
-  }
-  const world::FreeSpaceIndex free_space(w);
   const sim::ExplorationConfig ec;
-  const sim::ExplorationResult tour = sim::plan_exploration(w, scene, free_space, ec);
-  if (!tour.ok || tour.trajectory.size() < 2) {
-    std::fprintf(stderr, "exploration: %s\n", tour.ok ? "empty tour" : tour.error.c_str());
-    return false;
-  }
-  sim::SimCamera camera;
   sim::SimCamera::Config cc;
   const double f = 0.5 * opt.width / std::tan(0.5 * opt.hfov_deg * 3.14159265358979 / 180.0);
   cc.intrinsics = drivers::CameraIntrinsics{opt.width, opt.height, f, f, (opt.width - 1) / 2.0, (opt.height - 1) / 2.0};
   cc.rate_hz = opt.rate_hz;
-  if (!camera.init(cc, render::Renderer::Config{}, w, tour.trajectory, &error)) {
-    std::fprintf(stderr, "sim camera: %s\n", error.c_str());
+  bench::SimTour sim_tour;
+  std::string error;
+  if (!bench::make_sim_tour(w, ec, cc, render::Renderer::Config{}, &sim_tour, &error)) {
+    std::fprintf(stderr, "seed %llu: %s\n", static_cast<unsigned long long>(seed), error.c_str());
     return false;
   }
+  const sim::ExplorationResult& tour = sim_tour.tour;
+  sim::SimCamera& camera = *sim_tour.camera;
   reconstruction::SemanticTsdf tsdf;
   reconstruction::Config tc;
   if (!tsdf.init(tc, reconstruction::capacities_from_budget(), budgets::active::reconstruction::kArenaBytes, &error)) {
@@ -457,6 +441,7 @@ bool run_building(const Options& opt, std::uint64_t seed, BuildingResult* out) {
   places.sync(&graph);
 
   sim::GroundTruth truth;
+  const world::FreeSpaceIndex free_space(w);
   if (!sim::compute_ground_truth(w, free_space, sim::GroundTruthConfig{}, &truth, &error)) {
     std::fprintf(stderr, "ground truth: %s\n", error.c_str());
     return false;
@@ -602,11 +587,8 @@ int main(int argc, char** argv) {
                   "%d-room generated buildings seeds %s, %dx%d %.0f deg hfov, %.1f Hz keyframes, voxel 0.10 m, "
                   "GVD voxel 0.20 m, ground-truth poses, noise-free depth, one core",
                   opt.rooms, seeds.c_str(), opt.width, opt.height, opt.hfov_deg, opt.rate_hz);
-    nlohmann::json out = nlohmann::json::array();
-    const auto add = [&](const char* name, double value, const char* unit) {
-      out.push_back({{"name", name}, {"value", value}, {"unit", unit}, {"conditions", cond},
-                     {"commit", QSG_GIT_COMMIT}});
-    };
+    bench::Figures figures(cond);
+    const auto add = [&](const char* name, double value, const char* unit) { figures.add(name, value, unit); };
     add("places_eval.node_to_gvd_mean", mean_dist, "m");
     add("places_eval.buildings_one_component_per_region", static_cast<double>(matched), "buildings");
     add("places_eval.buildings", static_cast<double>(results.size()), "buildings");
@@ -625,13 +607,7 @@ int main(int argc, char** argv) {
     add("places_eval.update_ms_median", median_ms, "ms");
     add("places_eval.update_ms_p99", p99_ms, "ms");
     add("places_eval.update_ms_max", max_ms, "ms");
-    std::ofstream file(opt.json_path);
-    file << out.dump(2) << "\n";
-    if (!file) {
-      std::fprintf(stderr, "%s: cannot write\n", opt.json_path.c_str());
-      return 1;
-    }
-    std::printf("wrote %s\n", opt.json_path.c_str());
+    if (!figures.write(opt.json_path)) return 1;
   }
   return 0;
 }

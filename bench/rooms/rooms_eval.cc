@@ -27,6 +27,7 @@
 #include <vector>
 
 #include "bench/figures.h"
+#include "bench/sim_tour.h"
 #include "budgets/budget_table.h"
 #include "core/frontend/frontend.h"
 #include "core/reconstruction/semantic_tsdf.h"
@@ -257,30 +258,21 @@ struct RunStats {
 // Explores, reconstructs, runs the frontend every keyframe and the room finder at the end.
 bool run_pipeline(const Options& opt, const world::World& w, sg::SceneGraph* graph, RunStats* stats) {
   const auto start = std::chrono::steady_clock::now();
-  render::RayScene scene;
-  std::string error;
-  if (!scene.build(w, &error)) {
-    std::fprintf(stderr, "%s: ray scene: %s\n", w.name.c_str(), error.c_str());
-    return false;
-  }
-  const world::FreeSpaceIndex free_space(w);
   const sim::ExplorationConfig ec;
-  const sim::ExplorationResult tour = sim::plan_exploration(w, scene, free_space, ec);
-  if (!tour.ok || tour.trajectory.size() < 2) {
-    std::fprintf(stderr, "%s: exploration: %s\n", w.name.c_str(), tour.ok ? "empty tour" : tour.error.c_str());
-    return false;
-  }
-  stats->tour_m = tour.length_m;
-  stats->unreachable = tour.unreachable_rooms.size();
-  sim::SimCamera camera;
   sim::SimCamera::Config cc;
   const double f = 0.5 * opt.width / std::tan(0.5 * opt.hfov_deg * 3.14159265358979 / 180.0);
   cc.intrinsics = drivers::CameraIntrinsics{opt.width, opt.height, f, f, (opt.width - 1) / 2.0, (opt.height - 1) / 2.0};
   cc.rate_hz = opt.rate_hz;
-  if (!camera.init(cc, render::Renderer::Config{}, w, tour.trajectory, &error)) {
-    std::fprintf(stderr, "%s: sim camera: %s\n", w.name.c_str(), error.c_str());
+  bench::SimTour sim_tour;
+  std::string error;
+  if (!bench::make_sim_tour(w, ec, cc, render::Renderer::Config{}, &sim_tour, &error)) {
+    std::fprintf(stderr, "%s: %s\n", w.name.c_str(), error.c_str());
     return false;
   }
+  const sim::ExplorationResult& tour = sim_tour.tour;
+  sim::SimCamera& camera = *sim_tour.camera;
+  stats->tour_m = tour.length_m;
+  stats->unreachable = tour.unreachable_rooms.size();
   auto tsdf = std::make_unique<reconstruction::SemanticTsdf>();
   if (!tsdf->init(reconstruction::Config{}, reconstruction::capacities_from_budget(),
                   budgets::active::reconstruction::kArenaBytes, &error)) {
