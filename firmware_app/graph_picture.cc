@@ -57,7 +57,13 @@ bool write_graph_picture(const scene_graph::SceneGraph& graph, const world::Worl
   graph.for_each_node([&](const scene_graph::NodeRecord& n) {
     if (n.kind != scene_graph::NodeKind::kRoom) return;
     const scene_graph::RoomAttributes* r = graph.room(n.id);
-    const cv::Scalar color = world::room_label_color(static_cast<semantics::RoomLabel>(r->semantic_label));
+    // By label once the room is classified; until then a distinct pastel per room, so rooms can be told apart.
+    cv::Scalar color = world::room_label_color(static_cast<semantics::RoomLabel>(r->semantic_label));
+    if (r->semantic_label == semantics::kRoomUnknown) {
+      const std::uint64_t h = (n.id & 0xFFFFFFFFFFFFFFull) * 0x9E3779B97F4A7C15ull;
+      color = cv::Scalar(140 + static_cast<double>((h >> 20) & 0x5F), 140 + static_cast<double>((h >> 32) & 0x5F),
+                         140 + static_cast<double>((h >> 44) & 0x5F));
+    }
     graph.for_each_child(n.id, [&](scene_graph::NodeId child) {
       if (const scene_graph::PlaceAttributes* p = graph.place(child))
         cv::circle(image, px(p->position_m), std::max(3, static_cast<int>(0.4 * frame.pixels_per_m)), color, cv::FILLED);
