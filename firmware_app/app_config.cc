@@ -152,6 +152,20 @@ bool AppConfig::load(const std::string& path, std::string* error) {
                               {"min_rotation_rad", number(&keyframes.min_rotation_rad)}},
                              why);
        }},
+      {"v4l2", [&](const Json& v, std::string* why) {
+         return read_section(v, "v4l2",
+                             {{"depth_device", text(&v4l2.depth_device)},
+                              {"colour_device", text(&v4l2.colour_device)},
+                              {"width", number(&v4l2.width)},
+                              {"height", number(&v4l2.height)},
+                              {"fx", number(&v4l2.fx)},
+                              {"fy", number(&v4l2.fy)},
+                              {"cx", number(&v4l2.cx)},
+                              {"cy", number(&v4l2.cy)},
+                              {"depth_scale_m", number(&v4l2.depth_scale_m)},
+                              {"poses", text(&v4l2.poses)}},
+                             why);
+       }},
       {"segmentation", [&](const Json& v, std::string* why) {
          return read_section(v, "segmentation",
                              {{"model_path", text(&segmentation.model_path)},
@@ -187,6 +201,9 @@ bool AppConfig::load(const std::string& path, std::string* error) {
 
 std::string AppConfig::check() const {
   if (driver == Driver::kReplay && replay_path.empty()) return "driver replay needs replay_path";
+  if (driver == Driver::kV4l2 && (v4l2.width < 16 || v4l2.height < 16 || v4l2.width > 640 || v4l2.height > 480))
+    return "v4l2: width x height must be within 16x16 .. 640x480";
+  if (driver == Driver::kV4l2 && !(v4l2.depth_scale_m > 0.0)) return "v4l2.depth_scale_m must be > 0";
   if (output_dir.empty()) return "output_dir must not be empty";
   if (!segmentation.model_path.empty() && segmentation.label_map_path.empty())
     return "segmentation.label_map_path must be set with a model";
@@ -218,6 +235,9 @@ void AppConfig::print(std::FILE* out) const {
                to_string(driver), driver == Driver::kReplay ? " replay_path=" : "",
                driver == Driver::kReplay ? replay_path.c_str() : "", output_dir.c_str(), duration_s, lockstep ? 1 : 0,
                snapshot_interval_s, telemetry_interval_s, ground_truth_labels ? 1 : 0);
+  if (driver == Driver::kV4l2)
+    std::fprintf(out, "v4l2: depth=%s colour=%s %dx%d depth_scale_m=%.5f poses=%s\n", v4l2.depth_device.c_str(),
+                 v4l2.colour_device.c_str(), v4l2.width, v4l2.height, v4l2.depth_scale_m, v4l2.poses.c_str());
   if (driver == Driver::kSim) {
     building.print(out);
     exploration.print(out);

@@ -29,6 +29,19 @@ struct AppConfig {
   double telemetry_interval_s = 1.0;
   bool ground_truth_labels = true;      // sim: the renderer's labels bypass segmentation
 
+  // The V4L2 RGB-D pair (a RealSense-style camera: aligned Z16 depth and colour nodes) and where its frames'
+  // poses come from: "static" (the robot stands still: identity) or a TUM trajectory file (world_T_camera,
+  // interpolated at each frame's sample time) until the odometry driver lands.
+  struct V4l2 {
+    std::string depth_device = "/dev/video0";
+    std::string colour_device = "/dev/video1";
+    int width = 640;
+    int height = 480;
+    double fx = 0.0, fy = 0.0, cx = 0.0, cy = 0.0;  // 0: 58 degree field of view, centred
+    double depth_scale_m = 0.001;
+    std::string poses = "static";
+  } v4l2;
+
   // Semantic segmentation (OpenCV DNN) of keyframes without ground-truth labels. Off when model_path is empty.
   struct Segmentation {
     std::string model_path;                  // e.g. ../shared/data/models/espnetv2_s2_pascal384.onnx

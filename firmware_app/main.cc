@@ -21,7 +21,7 @@ void on_signal(int) { g_stop = 1; }
 
 void usage() {
   std::printf(
-      "usage: qsg_app [--config FILE] [--driver sim|replay|v4l2] [--output DIR] [--duration S]\n"
+      "usage: qsg_app [--config FILE] [--driver sim|replay|v4l2] [--replay TUM_FOLDER] [--output DIR] [--duration S]\n"
       "               [--realtime | --lockstep] [--seed N] [--rooms N] [--quiet]\n"
       "       qsg_app --convert SPARK_DSG_JSON OUT_JSON   (validate a scene graph and write it canonically)\n"
       "  Defaults: the simulated quadruped explores a generated 12-room building in lockstep on the board's\n"

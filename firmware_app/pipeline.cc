@@ -140,9 +140,25 @@ bool Pipeline::init(const AppConfig& config, runtime::Clock* clock, std::string*
       prefetch_outside_tasks_ = true;
       break;
     }
-    case Driver::kV4l2:
-      return fail(std::string("driver '") + to_string(config.driver) +
-                  "' is not wired into the app yet (use sim; see firmware_app/README.md)");
+    case Driver::kV4l2: {
+      const AppConfig::V4l2& vc = config.v4l2;
+      v4l2::V4l2RgbdSource::Config sc;
+      sc.depth.device = vc.depth_device;
+      sc.colour.device = vc.colour_device;
+      sc.depth.width_px = sc.colour.width_px = vc.width;
+      sc.depth.height_px = sc.colour.height_px = vc.height;
+      const double f = 525.0 * vc.width / 640.0;
+      sc.intrinsics = {vc.width, vc.height, vc.fx > 0 ? vc.fx : f, vc.fy > 0 ? vc.fy : f,
+                       vc.cx > 0 ? vc.cx : 0.5 * vc.width - 0.5, vc.cy > 0 ? vc.cy : 0.5 * vc.height - 0.5};
+      sc.depth_scale_m = static_cast<float>(vc.depth_scale_m);
+      if (vc.poses != "static" && !replay::read_tum_trajectory(vc.poses, &camera_trajectory_, error)) return false;
+      v4l2_ = std::make_unique<v4l2::V4l2RgbdSource>(
+          v4l2_depth_sys_ != nullptr ? *v4l2_depth_sys_ : v4l2::linux_v4l2_syscalls(),
+          v4l2_colour_sys_ != nullptr ? *v4l2_colour_sys_ : v4l2::linux_v4l2_syscalls());
+      if (!v4l2_->init(sc, error)) return false;
+      camera_ = v4l2_.get();
+      break;
+    }
   }
 
   // Frame buffers and the keyframe queue, with the depth and drop policy the board declares.
@@ -406,6 +422,16 @@ bool Pipeline::frame_pose(const drivers::RgbdFrame& frame, Eigen::Isometry3d* wo
   if (replay_ != nullptr) {
     replay::StampedPose pose;
     if (!replay_->ground_truth_at(frame.sample_time_ns, &pose)) return false;
+    *world_T_camera = pose.world_T_body();
+    return true;
+  }
+  if (v4l2_ != nullptr) {
+    if (camera_trajectory_.empty()) {
+      *world_T_camera = Eigen::Isometry3d::Identity();  // "static": the robot stands still
+      return true;
+    }
+    replay::StampedPose pose;
+    if (!replay::interpolate_pose(camera_trajectory_, frame.sample_time_ns, 200000000, &pose)) return false;
     *world_T_camera = pose.world_T_body();
     return true;
   }

@@ -22,6 +22,7 @@
 #include "drivers/gpio/gpio_devices.h"
 #include "drivers/gpio/gpio_line.h"
 #include "drivers/replay/tum_replay.h"
+#include "drivers/v4l2/v4l2_rgbd_source.h"
 #include "drivers/sim/sim_camera.h"
 #include "drivers/world/world.h"
 #include "firmware_app/app_config.h"
@@ -90,6 +91,12 @@ class Pipeline {
   double progress() const;
   // Wall-clock view of a stage's cost: the scheduler measures with this clock (the loop clock unless set).
   void set_cost_clock(runtime::Clock* clock) { cost_clock_ = clock; }
+  // Tests: the V4L2 pair's system calls (fake devices) instead of the kernel's. Before init().
+  void set_v4l2_syscalls(v4l2::V4l2Syscalls* depth, v4l2::V4l2Syscalls* colour) {
+    v4l2_depth_sys_ = depth;
+    v4l2_colour_sys_ = colour;
+  }
+  const drivers::RgbdSource* camera() const { return camera_; }
   void set_run_observer(runtime::Scheduler::RunObserver observer, void* user) {
     scheduler_.set_run_observer(observer, user);
   }
@@ -127,6 +134,10 @@ class Pipeline {
   world::World world_;
   std::unique_ptr<sim::SimCamera> sim_camera_;
   std::unique_ptr<replay::TumReplay> replay_;
+  std::unique_ptr<v4l2::V4l2RgbdSource> v4l2_;
+  replay::Trajectory camera_trajectory_;  // v4l2: poses from a TUM file (empty: static)
+  v4l2::V4l2Syscalls* v4l2_depth_sys_ = nullptr;
+  v4l2::V4l2Syscalls* v4l2_colour_sys_ = nullptr;
   drivers::RgbdSource* camera_ = nullptr;
   bool prefetch_outside_tasks_ = false;  // sim and replay: producing a frame is the simulator's cost, not the robot's
 
