@@ -537,19 +537,33 @@ void Pipeline::print_telemetry(std::FILE* out) {
   const runtime::QueueStats q = keyframe_queue_.stats();
   const drivers::DriverCounters& d = camera_->counters();
   std::size_t graph_nodes = 0;
+  // The fullest store by high-water mark (arenas are carved whole at start-up, so their pools tell the story),
+  // and how many requests any store refused.
+  memory::ResourceStats fullest;
+  double fullest_fill = -1.0;
+  std::uint64_t refused = 0;
+  const auto watch = [&](const memory::ResourceStats& r) {
+    refused += r.failed;
+    if (r.capacity == 0 || std::strcmp(r.unit, "bytes") == 0) return;
+    const double fill = static_cast<double>(r.high_water) / static_cast<double>(r.capacity);
+    if (fill > fullest_fill) fullest_fill = fill, fullest = r;
+  };
   {
     std::lock_guard<std::mutex> lock(graph_mutex_);
     graph_nodes = graph_.num_nodes();
+    graph_.for_each_resource(watch);
   }
+  frontend_.for_each_resource(watch);
   std::fprintf(out,
                "[t=%7.1fs] kf/s=%.1f keyframes=%llu | max_us recon=%lld frontend=%lld overruns=%zu | blocks=%zu/%zu "
                "archive=%zu tri | graph nodes=%zu rooms=%llu | frames queue hw=%u drops=%llu | driver drops=%llu stalls=%llu "
-               "bad=%llu | gpio fail=%llu%s | rss=%.0f MB\n",
+               "bad=%llu | gpio fail=%llu%s | fullest store %s hw %zu/%zu, refused %llu | rss=%.0f MB\n",
                t_s, kf_per_s, (unsigned long long)counters_.keyframes, (long long)(recon ? recon->max_us : 0),
                (long long)(front ? front->max_us : 0), overruns, tsdf_.active_blocks(), tsdf_.capacities().max_blocks,
                tsdf_.archive_triangles(), graph_nodes, (unsigned long long)rooms_count_.load(), q.high_water, (unsigned long long)q.dropped,
                (unsigned long long)d.dropped, (unsigned long long)d.stalls, (unsigned long long)d.bad_frames,
-               (unsigned long long)counters_.gpio_failures, paused() ? " PAUSED" : "", peak_rss_mb());
+               (unsigned long long)counters_.gpio_failures, paused() ? " PAUSED" : "", fullest.name, fullest.high_water,
+               fullest.capacity, (unsigned long long)refused, peak_rss_mb());
   ++counters_.telemetry_lines;
 }
 
