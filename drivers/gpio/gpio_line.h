@@ -38,6 +38,29 @@ class GpioLine {
   virtual const GpioCounters& counters() const = 0;
 };
 
+// What every backend's line keeps: its name, direction, counters and the text of its last error (fixed
+// buffers: set() and get() never allocate). Backends derive from it and implement set() and get().
+class GpioLineBase : public GpioLine {
+ public:
+  const char* name() const override { return name_; }
+  GpioDirection direction() const override { return direction_; }
+  const char* last_error() const override { return error_; }
+  const GpioCounters& counters() const override { return counters_; }
+
+ protected:
+  GpioLineBase(const char* chip_name, unsigned offset, GpioDirection direction);
+  // Records the error (printf-style), counts it, returns false.
+  bool fail(const char* format, ...) __attribute__((format(printf, 2, 3)));
+  bool is_output() const { return direction_ == GpioDirection::kOutput; }
+
+  char name_[96] = {};
+  GpioCounters counters_;
+
+ private:
+  GpioDirection direction_;
+  char error_[192] = {};
+};
+
 class GpioChip {
  public:
   virtual ~GpioChip() = default;

@@ -18,19 +18,14 @@ bool have_libgpiod() { return true; }
 
 namespace {
 
-class GpiodLine : public GpioLine {
+class GpiodLine : public GpioLineBase {
  public:
   GpiodLine(gpiod_line* line, const char* chip_name, unsigned offset, GpioDirection direction)
-      : line_(line), direction_(direction) {
-    std::snprintf(name_, sizeof(name_), "%s:%u", chip_name, offset);
-  }
+      : GpioLineBase(chip_name, offset, direction), line_(line) {}
   ~GpiodLine() override { gpiod_line_release(line_); }
 
-  const char* name() const override { return name_; }
-  GpioDirection direction() const override { return direction_; }
-
   bool set(bool high) override {
-    if (direction_ != GpioDirection::kOutput) return fail("%s: set() on a line requested as input", name_);
+    if (!is_output()) return fail("%s: set() on a line requested as input", name_);
     if (gpiod_line_set_value(line_, high ? 1 : 0) < 0) return fail("%s: set failed: %s", name_, std::strerror(errno));
     ++counters_.writes;
     return true;
@@ -44,24 +39,8 @@ class GpiodLine : public GpioLine {
     return true;
   }
 
-  const char* last_error() const override { return error_; }
-  const GpioCounters& counters() const override { return counters_; }
-
  private:
-  bool fail(const char* format, ...) __attribute__((format(printf, 2, 3))) {
-    std::va_list args;
-    va_start(args, format);
-    std::vsnprintf(error_, sizeof(error_), format, args);
-    va_end(args);
-    ++counters_.errors;
-    return false;
-  }
-
   gpiod_line* line_;
-  GpioDirection direction_;
-  char name_[96] = {};
-  char error_[192] = {};
-  GpioCounters counters_;
 };
 
 }  // namespace

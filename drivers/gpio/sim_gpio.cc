@@ -5,19 +5,14 @@
 
 namespace qsg::gpio {
 
-class SimGpioLine : public GpioLine {
+class SimGpioLine : public GpioLineBase {
  public:
-  SimGpioLine(SimGpioChip& chip, unsigned offset, GpioDirection direction) : chip_(chip), offset_(offset),
-                                                                            direction_(direction) {
-    std::snprintf(name_, sizeof(name_), "%s:%u", chip.name(), offset);
-  }
+  SimGpioLine(SimGpioChip& chip, unsigned offset, GpioDirection direction)
+      : GpioLineBase(chip.name(), offset, direction), chip_(chip), offset_(offset) {}
   ~SimGpioLine() override { chip_.release(offset_); }
 
-  const char* name() const override { return name_; }
-  GpioDirection direction() const override { return direction_; }
-
   bool set(bool high) override {
-    if (direction_ != GpioDirection::kOutput) return fail("%s: set() on a line requested as input", name_);
+    if (!is_output()) return fail("%s: set() on a line requested as input", name_);
     if (chip_.lines_[offset_].failing) return fail("%s: set failed: simulated line fault", name_);
     chip_.drive(offset_, high, false);
     ++counters_.writes;
@@ -31,25 +26,9 @@ class SimGpioLine : public GpioLine {
     return true;
   }
 
-  const char* last_error() const override { return error_; }
-  const GpioCounters& counters() const override { return counters_; }
-
  private:
-  bool fail(const char* format, ...) __attribute__((format(printf, 2, 3))) {
-    std::va_list args;
-    va_start(args, format);
-    std::vsnprintf(error_, sizeof(error_), format, args);
-    va_end(args);
-    ++counters_.errors;
-    return false;
-  }
-
   SimGpioChip& chip_;
   unsigned offset_;
-  GpioDirection direction_;
-  char name_[96] = {};
-  char error_[160] = {};
-  GpioCounters counters_;
 };
 
 void SimGpioChip::Config::print(std::FILE* out) const {
