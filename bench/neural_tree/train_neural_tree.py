@@ -1,0 +1,625 @@
+#!/usr/bin/python3
+"""Offline training and evaluation of the room-classifying neural tree (core/neural_tree) on Stanford3DSG rooms.
+
+Commands (from the repository root, Debian's python3-torch; fixed seeds, one thread):
+  /usr/bin/python3 bench/neural_tree/train_neural_tree.py cv        # 5x repeated stratified 5-fold CV, LR baseline too
+  /usr/bin/python3 bench/neural_tree/train_neural_tree.py ssl       # the paper's 70/10/20 node-classification protocol
+  /usr/bin/python3 bench/neural_tree/train_neural_tree.py train     # all rooms -> weights file + parity fixture
+"""
+import argparse
+import base64
+import json
+import math
+import os
+import struct
+import sys
+import time
+
+import numpy as np
+import torch
+
+sys.dont_write_bytecode = True  # no __pycache__ in the source tree
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import htree as ht  # noqa: E402
+
+REPO = os.path.abspath(os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", ".."))
+DATA = os.environ.get("QSG_SHARED_DATA", os.path.join(REPO, "..", "shared", "data"))
+ROOMS_JSON = os.path.join(DATA, "scene_graphs", "Stanford3DSG_rooms.json")
+WORDS_JSON = os.path.join(DATA, "words", "glove100_scene_label_subset.json")
+WEIGHTS_OUT = os.path.join(REPO, "core", "neural_tree", "weights", "room_classifier_v1.json")
+FIXTURE_OUT = os.path.join(REPO, "tests", "neural_tree", "parity_fixture.json")
+
+WORD_DIM = 100
+# Input feature layout (kept in the weights file; core/neural_tree reads offsets from there).
+OFF_TYPE = 0
+OFF_WORD = OFF_TYPE + ht.NUM_TYPES
+OFF_OBJ_SIZE = OFF_WORD + WORD_DIM
+OFF_OBJ_REL = OFF_OBJ_SIZE + 3
+OFF_ROOM_SIZE = OFF_OBJ_REL + 3
+OFF_ROOM_COUNT = OFF_ROOM_SIZE + 3
+OFF_OBJ_LABEL_COUNT = OFF_ROOM_COUNT + 1  # log(1 + objects of the same label in the room)
+INPUT_DIM = OFF_OBJ_LABEL_COUNT + 1
+MIN_SIZE_M = 0.01  # floor under box sizes before the log
+
+# Stanford3DSG room classes -> the paper's room labels (core/semantics/labels.h names).
+ROOM_LABEL_MAP = {
+    "bathroom": "bathroom", "bedroom": "bedroom", "corridor": "hallway", "dining_room": "dining room",
+    "home_office": "office", "kitchen": "kitchen", "living_room": "living room",
+    "storage_room": "utility room", "utility_room": "utility room", "lobby": "lobby", "playroom": "game room",
+    "staircase": "stairwell", "closet": "closet", "gym": "gym", "garage": "garage",
+}
+MPCAT40 = ["void", "wall", "floor", "chair", "door", "table", "picture", "cabinet", "cushion", "window", "sofa", "bed",
+           "curtain", "chest_of_drawers", "plant", "sink", "stairs", "ceiling", "toilet", "stool", "towel", "mirror",
+           "tv_monitor", "shower", "column", "bathtub", "counter", "fireplace", "lighting", "beam", "railing",
+           "shelving", "blinds", "gym_equipment", "seating", "board_panel", "furniture", "appliances", "clothes",
+           "objects", "misc", "unlabeled"]
+
+CONFIG = dict(label_count=0, box_relative=0, plain_graph=0, agg_sum=0, ensemble=3, pos_scale=1.0, hidden=32, layers=3, lr=0.005, weight_decay=5e-4, dropout=0.25, epochs=250, lr_l2=1e-2)
+
+
+# ----------------------------------------------------------------------------------------------------------------
+# Data and features
+def load_words():
+    with open(WORDS_JSON) as f:
+        return json.load(f)["vectors"]
+
+
+def word_feature(words, name):
+    """Mean of the word vectors of a (compound) label, L2-normalised; zeros when no word is known."""
+    parts = [p for p in name.replace("-", "_").replace(" ", "_").split("_") if p]
+    vecs = [np.asarray(words[p][:WORD_DIM], dtype=np.float64) for p in parts if p in words]
+    if not vecs:
+        return np.zeros(WORD_DIM, dtype=np.float32)
+    v = np.mean(vecs, axis=0)
+    return (v / max(np.linalg.norm(v), 1e-9)).astype(np.float32)
+
+
+def load_rooms():
+    with open(ROOMS_JSON) as f:
+        d = json.load(f)
+    classes = sorted(d["room_labels"], key=lambda k: d["room_labels"][k])
+    object_names = sorted(d["object_labels"], key=lambda k: d["object_labels"][k])
+    return d["graphs"], classes, object_names
+
+
+class SceneInput:
+    """One object-room(-building) graph: per node layer, word-table index, centroid, size; undirected edges."""
+
+    def __init__(self, layers, word, centroid, size, edges, parent_room):
+        self.layers = layers
+        self.word = word
+        self.centroid = np.asarray(centroid, dtype=np.float64).reshape(-1, 3)
+        self.size = np.asarray(size, dtype=np.float64).reshape(-1, 3)
+        self.edges = edges
+        self.parent_room = parent_room  # object -> its room's node index, else -1
+
+
+def scene_from_stanford(g, word_index):
+    layers, word, cen, size = [], [], [], []
+    for n in g["nodes"]:
+        layers.append(ht.LAYER_ROOM if n["type"] == "room" else ht.LAYER_OBJECT)
+        word.append(word_index[n["label"]] if n["type"] != "room" else -1)
+        cen.append(n["x"][:3])
+        size.append(n["x"][3:6])
+    # Undirected: the stored graph lists object->room only; keep each pair once.
+    edges = sorted(set((min(a, b), max(a, b)) for a, b in g["edges"] if a != b))
+    room = layers.index(ht.LAYER_ROOM)
+    parent = [room if l == ht.LAYER_OBJECT else -1 for l in layers]
+    return SceneInput(layers, word, cen, size, edges, parent)
+
+
+def log_box(size):
+    """Box size without the room's orientation: log of the larger and smaller horizontal side and the height."""
+    sx, sy, sz = (max(float(v), MIN_SIZE_M) for v in size)
+    return [math.log(max(sx, sy)), math.log(min(sx, sy)), math.log(sz)]
+
+
+def offset_feature(d):
+    """A relative position without the room's orientation: horizontal distance, height difference, distance."""
+    h = math.hypot(d[0], d[1])
+    return [h, d[2], math.sqrt(h * h + d[2] * d[2])]
+
+
+def htree_features(scene, word_table):
+    """H-tree, node features x, node positions and leaf->room pooling for one scene (same rules as C++)."""
+    g = ht.Graph(scene.layers, scene.edges)
+    if CONFIG["plain_graph"]:  # ablation: message passing on the input graph itself (a plain GNN)
+        h = ht.HTree()
+        for v in range(len(scene.layers)):
+            h.add(g, [v])
+        h.edges = g.edges()
+    else:
+        h = ht.build_htree(g)
+    n = len(h.members)
+    x = np.zeros((n, INPUT_DIM), dtype=np.float32)
+    pos = np.zeros((n, 3), dtype=np.float64)
+    counts = {}
+    label_counts = {}
+    for v, l in enumerate(scene.layers):
+        if l == ht.LAYER_OBJECT and scene.parent_room[v] >= 0:
+            counts[scene.parent_room[v]] = counts.get(scene.parent_room[v], 0) + 1
+            key = (scene.parent_room[v], scene.word[v])
+            label_counts[key] = label_counts.get(key, 0) + 1
+    pool_node, pool_room = [], []
+    for i, members in enumerate(h.members):
+        x[i, OFF_TYPE + h.types[i]] = 1.0
+        pos[i] = scene.centroid[members].mean(axis=0)
+        if len(members) != 1:
+            continue
+        v = members[0]
+        if scene.layers[v] == ht.LAYER_OBJECT:
+            if scene.word[v] >= 0:
+                x[i, OFF_WORD:OFF_WORD + WORD_DIM] = word_table[scene.word[v]]
+            x[i, OFF_OBJ_SIZE:OFF_OBJ_SIZE + 3] = log_box(scene.size[v])
+            r = scene.parent_room[v]
+            if r >= 0 and CONFIG["label_count"]:
+                x[i, OFF_OBJ_LABEL_COUNT] = math.log1p(label_counts[(r, scene.word[v])])
+            if r >= 0 and CONFIG["box_relative"]:
+                # Where in the room's box: |offset| over the half extent per axis (0 centre, 1 wall), height signed.
+                half = np.maximum(scene.size[r], MIN_SIZE_M) / 2
+                d = (scene.centroid[v] - scene.centroid[r]) / half
+                x[i, OFF_OBJ_REL:OFF_OBJ_REL + 3] = [abs(d[0]), abs(d[1]), d[2]]
+            elif r >= 0:
+                x[i, OFF_OBJ_REL:OFF_OBJ_REL + 3] = offset_feature(scene.centroid[v] - scene.centroid[r])
+        elif scene.layers[v] == ht.LAYER_ROOM:
+            x[i, OFF_ROOM_SIZE:OFF_ROOM_SIZE + 3] = log_box(scene.size[v])
+            x[i, OFF_ROOM_COUNT] = math.log1p(counts.get(v, 0))
+            pool_node.append(i)
+            pool_room.append(v)
+    # Mean relative position of each node's H-tree neighbours: the edge feature, the same for every layer.
+    rel = np.zeros((n, 3), dtype=np.float64)
+    deg = np.zeros(n, dtype=np.float64)
+    for a, b in h.edges:
+        rel[a] += offset_feature(pos[b] - pos[a])
+        rel[b] += offset_feature(pos[a] - pos[b])
+        deg[a] += 1
+        deg[b] += 1
+    rel /= np.maximum(deg, 1)[:, None]
+    return h, x, rel.astype(np.float32), pool_node, pool_room
+
+
+class Batch:
+    """Disjoint union of H-trees as flat tensors."""
+
+    def __init__(self, items):
+        xs, rels, src, dst, pool_node, pool_seg = [], [], [], [], [], []
+        offset = 0
+        seg = 0
+        self.room_of_seg = []
+        for item_index, (h, x, rel, pnodes, prooms) in enumerate(items):
+            xs.append(x)
+            rels.append(rel)
+            for a, b in h.edges:
+                src += [offset + a, offset + b]
+                dst += [offset + b, offset + a]
+            # One pooling segment per room of the scene.
+            for room in sorted(set(prooms)):
+                for pn, pr in zip(pnodes, prooms):
+                    if pr == room:
+                        pool_node.append(offset + pn)
+                        pool_seg.append(seg)
+                self.room_of_seg.append((item_index, room))
+                seg += 1
+            offset += x.shape[0]
+        self.x = torch.from_numpy(np.concatenate(xs))
+        self.rel = torch.from_numpy(np.concatenate(rels))
+        # Distances enter scaled (metres times pos_scale), so they sit in the range of the other features.
+        self.x[:, OFF_OBJ_REL:OFF_OBJ_REL + 3] *= CONFIG["pos_scale"]
+        self.rel *= CONFIG["pos_scale"]
+        self.src = torch.tensor(src, dtype=torch.long)
+        self.dst = torch.tensor(dst, dtype=torch.long)
+        n = self.x.shape[0]
+        deg = torch.zeros(n).index_add_(0, self.dst, torch.ones(len(dst)))
+        self.inv_deg = (1.0 / deg.clamp(min=1)).unsqueeze(1)
+        self.pool_node = torch.tensor(pool_node, dtype=torch.long)
+        self.pool_seg = torch.tensor(pool_seg, dtype=torch.long)
+        self.num_seg = seg
+        cnt = torch.zeros(seg).index_add_(0, self.pool_seg, torch.ones(len(pool_seg)))
+        self.inv_cnt = (1.0 / cnt.clamp(min=1)).unsqueeze(1)
+
+
+# ----------------------------------------------------------------------------------------------------------------
+# Model
+class NeuralTree(torch.nn.Module):
+    """GraphSAGE-mean on the H-tree with a relative-position edge term; room = mean of its leaves' embeddings."""
+
+    def __init__(self, input_dim, hidden, layers, classes, dropout):
+        super().__init__()
+        self.w_self = torch.nn.ModuleList()
+        self.w_neigh = torch.nn.ModuleList()
+        self.w_edge = torch.nn.ModuleList()
+        d = input_dim
+        for _ in range(layers):
+            self.w_self.append(torch.nn.Linear(d, hidden, bias=True))
+            self.w_neigh.append(torch.nn.Linear(d, hidden, bias=False))
+            self.w_edge.append(torch.nn.Linear(3, hidden, bias=False))
+            d = hidden
+        self.head = torch.nn.Linear(hidden, classes)
+        self.dropout = dropout
+
+    def forward(self, b):
+        h = b.x
+        for ws, wn, we in zip(self.w_self, self.w_neigh, self.w_edge):
+            agg = torch.zeros_like(h).index_add_(0, b.dst, h[b.src])
+            if not CONFIG["agg_sum"]:
+                agg = agg * b.inv_deg
+            h = torch.relu(ws(h) + wn(agg) + we(b.rel))
+            h = torch.nn.functional.dropout(h, self.dropout, self.training)
+        pooled = torch.zeros(b.num_seg, h.shape[1]).index_add_(0, b.pool_seg, h[b.pool_node]) * b.inv_cnt
+        return self.head(pooled)
+
+
+def seed_all(seed):
+    torch.manual_seed(seed)
+    np.random.seed(seed)
+
+
+def train_model(train_batch, labels, num_classes, seed, cfg=CONFIG):
+    seed_all(seed)
+    model = NeuralTree(INPUT_DIM, cfg["hidden"], cfg["layers"], num_classes, cfg["dropout"])
+    opt = torch.optim.Adam(model.parameters(), lr=cfg["lr"], weight_decay=cfg["weight_decay"])
+    y = torch.tensor(labels, dtype=torch.long)
+    model.train()
+    for _ in range(cfg["epochs"]):
+        opt.zero_grad()
+        loss = torch.nn.functional.cross_entropy(model(train_batch), y)
+        loss.backward()
+        opt.step()
+    model.eval()
+    return model
+
+
+def train_ensemble(train_batch, labels, num_classes, seed):
+    """CONFIG['ensemble'] members from consecutive seeds; the classifier averages their probabilities."""
+    k = int(CONFIG["ensemble"])
+    return [train_model(train_batch, labels, num_classes, seed=seed * k + j) for j in range(k)]
+
+
+def predict_proba(models, batch):
+    with torch.no_grad():
+        return torch.stack([torch.softmax(m(batch), 1) for m in models]).mean(0)
+
+
+# ----------------------------------------------------------------------------------------------------------------
+# Logistic-regression baseline: log object counts + room box geometry, standardised, L2-regularised.
+def lr_features(graphs, object_names):
+    idx = {n: i for i, n in enumerate(object_names)}
+    f = np.zeros((len(graphs), len(object_names) + 6))
+    for k, g in enumerate(graphs):
+        for n in g["nodes"]:
+            if n["type"] == "room":
+                s = np.log(np.maximum(n["x"][3:6], MIN_SIZE_M))
+                f[k, -6:-3] = s
+                f[k, -3] = max(s[0], s[1])
+                f[k, -2] = min(s[0], s[1])
+                f[k, -1] = s[0] + s[1]  # log floor area
+            else:
+                f[k, idx[n["label"]]] += 1
+        f[k, :len(object_names)] = np.log1p(f[k, :len(object_names)])
+    return f
+
+
+def train_lr(f, y, num_classes, l2=1e-2):
+    mu, sd = f.mean(0), f.std(0) + 1e-6
+    x = torch.tensor((f - mu) / sd, dtype=torch.float64)
+    yt = torch.tensor(y, dtype=torch.long)
+    w = torch.zeros(f.shape[1], num_classes, dtype=torch.float64, requires_grad=True)
+    b = torch.zeros(num_classes, dtype=torch.float64, requires_grad=True)
+    opt = torch.optim.LBFGS([w, b], max_iter=500, line_search_fn="strong_wolfe")
+
+    def closure():
+        opt.zero_grad()
+        loss = torch.nn.functional.cross_entropy(x @ w + b, yt) + l2 * (w * w).sum()
+        loss.backward()
+        return loss
+
+    opt.step(closure)
+    return lambda ft: (torch.tensor((ft - mu) / sd) @ w + b).argmax(1).detach().numpy()
+
+
+# ----------------------------------------------------------------------------------------------------------------
+def stratified_folds(y, k, rng):
+    """Per class: shuffle, deal round-robin into k folds (continuing where the previous class stopped)."""
+    fold = np.zeros(len(y), dtype=int)
+    start = 0
+    for c in sorted(set(y)):
+        members = np.flatnonzero(np.asarray(y) == c)
+        rng.shuffle(members)
+        for j, m in enumerate(members):
+            fold[m] = (start + j) % k
+        start = (start + len(members)) % k
+    return fold
+
+
+def prepare(graphs, object_names, words):
+    word_table = np.stack([word_feature(words, n) for n in object_names])
+    word_index = {n: i for i, n in enumerate(object_names)}
+    scenes = [scene_from_stanford(g, word_index) for g in graphs]
+    items = [htree_features(s, word_table) for s in scenes]
+    return scenes, items, word_table
+
+
+def cmd_cv(args):
+    graphs, classes, object_names = load_rooms()
+    words = load_words()
+    y = np.array([classes.index(next(n["label"] for n in g["nodes"] if n["type"] == "room")) for g in graphs])
+    _, items, _ = prepare(graphs, object_names, words)
+    widths = [it[0].width for it in items]
+    print("rooms %d, H-tree nodes %d, width max %d mean %.2f" %
+          (len(items), sum(len(it[0].members) for it in items), max(widths), np.mean(widths)))
+    f = lr_features(graphs, object_names)
+    acc_nt, acc_lr, fold_nt, fold_lr = [], [], [], []
+    t0 = time.time()
+    for rep in range(args.repeats):
+        fold = stratified_folds(y, args.folds, np.random.RandomState(1000 + rep))
+        ok_nt = ok_lr = 0
+        for k in range(args.folds):
+            tr = np.flatnonzero(fold != k)
+            te = np.flatnonzero(fold == k)
+            c_nt = 0
+            if not args.lr_only:
+                models = train_ensemble(Batch([items[i] for i in tr]), y[tr], len(classes), seed=rep * 100 + k)
+                pred = predict_proba(models, Batch([items[i] for i in te])).argmax(1).numpy()
+                c_nt = int((pred == y[te]).sum())
+            pred_lr = train_lr(f[tr], y[tr], len(classes), CONFIG["lr_l2"])(f[te])
+            c_lr = int((pred_lr == y[te]).sum())
+            ok_nt += c_nt
+            ok_lr += c_lr
+            fold_nt.append(c_nt / len(te))
+            fold_lr.append(c_lr / len(te))
+        acc_nt.append(ok_nt / len(y))
+        acc_lr.append(ok_lr / len(y))
+        print("repeat %d: neural tree %.2f %%, logistic regression %.2f %%  (%.0f s)" %
+              (rep, 100 * acc_nt[-1], 100 * acc_lr[-1], time.time() - t0), flush=True)
+    print("neural tree:         %.2f +- %.2f %% (std over repeats; over folds +- %.2f)" %
+          (100 * np.mean(acc_nt), 100 * np.std(acc_nt), 100 * np.std(fold_nt)))
+    print("logistic regression: %.2f +- %.2f %% (std over repeats; over folds +- %.2f)" %
+          (100 * np.mean(acc_lr), 100 * np.std(acc_lr), 100 * np.std(fold_lr)))
+    print("config", json.dumps(CONFIG))
+
+
+# ----------------------------------------------------------------------------------------------------------------
+# Semi-supervised node classification (the paper's protocol): every room and object node gets a label, 70/10/20
+# split over all nodes, 100 runs; node labels pooled from all leaves of that node.
+def cmd_ssl(args):
+    graphs, classes, object_names = load_rooms()
+    words = load_words()
+    word_index = {n: i for i, n in enumerate(object_names)}
+    # The paper's features here: centroid-free geometry, relative positions; no word vectors (labels are targets).
+    xs, rels, src, dst, lab, leaf_node, leaf_seg = [], [], [], [], [], [], []
+    offset = 0
+    seg = 0
+    for g in graphs:
+        s = scene_from_stanford(g, word_index)
+        s.word = [-1] * len(s.word)
+        h, x, rel, _, _ = htree_features(s, np.zeros((len(object_names), WORD_DIM), dtype=np.float32))
+        # Rooms and objects alike carry their log box size; offsets to the room stay on objects.
+        for i, members in enumerate(h.members):
+            if len(members) == 1 and s.layers[members[0]] == ht.LAYER_ROOM:
+                x[i, OFF_OBJ_SIZE:OFF_OBJ_SIZE + 3] = x[i, OFF_ROOM_SIZE:OFF_ROOM_SIZE + 3]
+        xs.append(x)
+        rels.append(rel)
+        for a, b in h.edges:
+            src += [offset + a, offset + b]
+            dst += [offset + b, offset + a]
+        for v, n in enumerate(g["nodes"]):
+            lab.append(classes.index(n["label"]) if n["type"] == "room" else len(classes) + word_index[n["label"]])
+            for i, members in enumerate(h.members):
+                if members == [v]:
+                    leaf_node.append(offset + i)
+                    leaf_seg.append(seg + v)
+        seg += len(g["nodes"])
+        offset += x.shape[0]
+
+    class B:
+        pass
+
+    b = B()
+    b.x = torch.from_numpy(np.concatenate(xs))
+    b.rel = torch.from_numpy(np.concatenate(rels))
+    b.src = torch.tensor(src)
+    b.dst = torch.tensor(dst)
+    deg = torch.zeros(offset).index_add_(0, b.dst, torch.ones(len(dst)))
+    b.inv_deg = (1.0 / deg.clamp(min=1)).unsqueeze(1)
+    b.pool_node = torch.tensor(leaf_node)
+    b.pool_seg = torch.tensor(leaf_seg)
+    b.num_seg = seg
+    cnt = torch.zeros(seg).index_add_(0, b.pool_seg, torch.ones(len(leaf_seg)))
+    b.inv_cnt = (1.0 / cnt.clamp(min=1)).unsqueeze(1)
+    y = torch.tensor(lab)
+    is_room = y < len(classes)
+    nclass = len(classes) + len(object_names)
+    accs = []
+    t0 = time.time()
+    for run in range(args.runs):
+        rng = np.random.RandomState(run)
+        perm = rng.permutation(seg)
+        ntr, nva = int(0.7 * seg), int(0.1 * seg)
+        tr, va, te = perm[:ntr], perm[ntr:ntr + nva], perm[ntr + nva:]
+        seed_all(run)
+        model = NeuralTree(INPUT_DIM, 64, 3, nclass, 0.25)
+        opt = torch.optim.Adam(model.parameters(), lr=0.005, weight_decay=1e-4)
+        best_va, best_te = -1.0, 0.0
+        room_only = is_room[:, None] & (torch.arange(nclass) >= len(classes))[None, :]
+        object_only = ~is_room[:, None] & (torch.arange(nclass) < len(classes))[None, :]
+
+        def masked(logits):
+            # A room node may only take a room label and an object an object label.
+            return logits.masked_fill(room_only, -1e9).masked_fill(object_only, -1e9)
+
+        for epoch in range(args.epochs):
+            model.train()
+            opt.zero_grad()
+            torch.nn.functional.cross_entropy(masked(model(b))[tr], y[tr]).backward()
+            opt.step()
+            if epoch % 20 == 19:  # model selection on the validation nodes, in eval mode
+                model.eval()
+                with torch.no_grad():
+                    pred = masked(model(b)).argmax(1)
+                a_va = float((pred[va] == y[va]).float().mean())
+                if a_va > best_va:
+                    best_va, best_te = a_va, float((pred[te] == y[te]).float().mean())
+        accs.append(best_te)
+        if run % 10 == 9:
+            print("run %d: mean test %.2f %% (%.0f s)" % (run, 100 * np.mean(accs), time.time() - t0), flush=True)
+    print("semi-supervised node classification (70/10/20, %d runs): %.2f +- %.2f %%" %
+          (args.runs, 100 * np.mean(accs), 100 * np.std(accs)))
+
+
+# ----------------------------------------------------------------------------------------------------------------
+def f32list(t):
+    """Exact float32 values as JSON numbers (9 significant digits round-trip a float32)."""
+    return [float("%.9g" % v) for v in np.asarray(t, dtype=np.float32).ravel()]
+
+
+def f32b64(t):
+    """A weight array as base64 of little-endian float32 (exact, about a third of the text form's size)."""
+    return base64.b64encode(np.asarray(t, dtype="<f4").ravel().tobytes()).decode("ascii")
+
+
+def from_b64(text):
+    return np.frombuffer(base64.b64decode(text), dtype="<f4").copy()
+
+
+def member_json(model):
+    layers = []
+    for ws, wn, we in zip(model.w_self, model.w_neigh, model.w_edge):
+        layers.append({
+            "in": ws.in_features, "out": ws.out_features,
+            "w_self": f32b64(ws.weight.detach()), "b_self": f32b64(ws.bias.detach()),
+            "w_neigh": f32b64(wn.weight.detach()), "w_edge": f32b64(we.weight.detach()),
+        })
+    return {"layers": layers,
+            "head": {"in": model.head.in_features, "out": model.head.out_features,
+                     "w": f32b64(model.head.weight.detach()), "b": f32b64(model.head.bias.detach())}}
+
+
+def write_weights(models, classes, word_names, word_table, path):
+    doc = {
+        "header": {"format": "qsg_neural_tree_weights", "version": 1,
+                   "trained_on": "Stanford3DSG_rooms.json (482 rooms), bench/neural_tree/train_neural_tree.py train",
+                   "config": CONFIG},
+        "input_dim": INPUT_DIM, "hidden": CONFIG["hidden"], "num_layers": CONFIG["layers"],
+        "num_classes": len(classes), "num_types": ht.NUM_TYPES, "word_dim": WORD_DIM, "min_size_m": MIN_SIZE_M,
+        "position_scale": CONFIG["pos_scale"], "aggregation": "sum" if CONFIG["agg_sum"] else "mean",
+        "offsets": {"type": OFF_TYPE, "word": OFF_WORD, "object_size": OFF_OBJ_SIZE,
+                    "object_relative_position": OFF_OBJ_REL, "room_size": OFF_ROOM_SIZE,
+                    "room_object_count": OFF_ROOM_COUNT, "object_label_count": OFF_OBJ_LABEL_COUNT if CONFIG["label_count"] else -1},
+        "classes": classes,
+        "class_room_labels": [ROOM_LABEL_MAP[c] for c in classes],
+        "words": {n: f32b64(v) for n, v in zip(word_names, word_table)},
+        "members": [member_json(m) for m in models],
+    }
+    os.makedirs(os.path.dirname(path), exist_ok=True)
+    with open(path, "w") as f:
+        json.dump(doc, f, separators=(",", ":"))
+    print("wrote %s (%d bytes, %d members)" % (path, os.path.getsize(path), len(models)))
+
+
+def round_trip_models(models, path):
+    """Reload the weights as written (float32 text) so the fixture's expectations use exactly what C++ reads."""
+    with open(path) as f:
+        doc = json.load(f)
+    with torch.no_grad():
+        for model, member in zip(models, doc["members"]):
+            for l, (ws, wn, we) in zip(member["layers"], zip(model.w_self, model.w_neigh, model.w_edge)):
+                ws.weight.copy_(torch.tensor(from_b64(l["w_self"])).view_as(ws.weight))
+                ws.bias.copy_(torch.tensor(from_b64(l["b_self"])))
+                wn.weight.copy_(torch.tensor(from_b64(l["w_neigh"])).view_as(wn.weight))
+                we.weight.copy_(torch.tensor(from_b64(l["w_edge"])).view_as(we.weight))
+            model.head.weight.copy_(torch.tensor(from_b64(member["head"]["w"])).view_as(model.head.weight))
+            model.head.bias.copy_(torch.tensor(from_b64(member["head"]["b"])))
+    return {n: from_b64(v) for n, v in doc["words"].items()}
+
+
+def fixture_scenes(graphs, object_names):
+    """A few Stanford rooms plus one synthetic two-room building with mpcat40 labels and room-room edges."""
+    word_index = {n: i for i, n in enumerate(object_names)}
+    picked = []
+    for g in graphs:
+        n = len(g["nodes"]) - 1
+        if n in (1, 3, 6, 12) and all(len(p["nodes"]) - 1 != n for p in picked):
+            picked.append(g)
+    scenes = []
+    for g in picked:
+        s = scene_from_stanford(g, word_index)
+        s.word_names = [object_names[w] if w >= 0 else "" for w in s.word]
+        scenes.append(s)
+    # Building 0, rooms 1-2, objects 3-8: labels by mpcat40 name (the shipped pipeline's vocabulary).
+    layers = [ht.LAYER_BUILDING, ht.LAYER_ROOM, ht.LAYER_ROOM] + [ht.LAYER_OBJECT] * 6
+    names = ["", "", "", "bed", "chest_of_drawers", "lighting", "toilet", "sink", "towel"]
+    cen = [[2, 1, 1.2], [0, 0, 1.2], [4, 2, 1.2], [-0.5, 0.3, 0.4], [1, -1, 0.5], [0.2, 0.2, 2.2],
+           [4.5, 2.5, 0.4], [3.6, 2.2, 0.8], [4.2, 1.4, 1.0]]
+    size = [[8, 5, 2.6], [4, 3.5, 2.5], [2.5, 2, 2.5], [2, 1.6, 0.6], [0.9, 0.5, 1.0], [0.4, 0.4, 0.2],
+            [0.5, 0.7, 0.8], [0.6, 0.5, 0.3], [0.1, 0.6, 0.8]]
+    edges = [(0, 1), (0, 2), (1, 2), (1, 3), (1, 4), (1, 5), (2, 6), (2, 7), (2, 8), (3, 4), (3, 5), (6, 7), (7, 8)]
+    s = SceneInput(layers, [-1] * 9, cen, size, edges, [-1, -1, -1, 1, 1, 1, 2, 2, 2])
+    s.word_names = names
+    scenes.append(s)
+    return scenes
+
+
+def cmd_train(args):
+    # core/neural_tree implements the shipped feature set only; the ablation switches stay in cv.
+    if CONFIG["box_relative"] or CONFIG["plain_graph"]:
+        sys.exit("train: box_relative and plain_graph are cv-only ablations; core/neural_tree does not read them")
+    graphs, classes, object_names = load_rooms()
+    words = load_words()
+    y = np.array([classes.index(next(n["label"] for n in g["nodes"] if n["type"] == "room")) for g in graphs])
+    _, items, word_table = prepare(graphs, object_names, words)
+    models = train_ensemble(Batch(items), y, len(classes), seed=7)
+    word_names = list(object_names) + [m for m in MPCAT40 if m not in object_names]
+    table = np.stack([word_feature(words, n) for n in word_names])
+    write_weights(models, classes, word_names, table, args.weights)
+    stored = round_trip_models(models, args.weights)
+    acc = float((predict_proba(models, Batch(items)).argmax(1).numpy() == y).mean())
+    print("training accuracy %.2f %%" % (100 * acc))
+    # Parity fixture: inputs exactly as the C++ API takes them, and the PyTorch room probabilities.
+    cases = []
+    for s in fixture_scenes(graphs, object_names):
+        wt = np.stack([stored[n] if n in stored else np.zeros(WORD_DIM, np.float32) for n in word_names])
+        s.word = [word_names.index(n) if n else -1 for n in s.word_names]
+        item = htree_features(s, wt)
+        b = Batch([item])
+        probs = predict_proba(models, b)
+        logits = torch.log(probs.clamp(min=1e-30))  # the ensemble's log-probabilities, as C++ reports them
+        cases.append({
+            "layers": s.layers, "labels": s.word_names, "centroids": s.centroid.ravel().tolist(),
+            "sizes": s.size.ravel().tolist(), "edges": [list(e) for e in s.edges],
+            "htree_nodes": len(item[0].members), "htree_width": item[0].width,
+            "htree_types": item[0].types,
+            "rooms": [r for _, r in b.room_of_seg],
+            "logits": [f32list(r) for r in logits], "probabilities": [f32list(r) for r in probs],
+        })
+    with open(args.fixture, "w") as f:
+        json.dump({"header": {"format": "qsg_neural_tree_parity", "version": 1,
+                              "weights": os.path.relpath(args.weights, REPO)}, "cases": cases}, f, indent=1)
+    print("wrote %s (%d cases)" % (args.fixture, len(cases)))
+
+
+def main():
+    torch.set_num_threads(1)
+    torch.use_deterministic_algorithms(True)
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    sub = p.add_subparsers(dest="cmd", required=True)
+    c = sub.add_parser("cv")
+    c.add_argument("--repeats", type=int, default=5)
+    c.add_argument("--folds", type=int, default=5)
+    c.add_argument("--lr-only", action="store_true", help="only the logistic-regression baseline")
+    s = sub.add_parser("ssl")
+    s.add_argument("--runs", type=int, default=100)
+    s.add_argument("--epochs", type=int, default=300)
+    t = sub.add_parser("train")
+    t.add_argument("--weights", default=WEIGHTS_OUT)
+    t.add_argument("--fixture", default=FIXTURE_OUT)
+    for sp in (c, s, t):
+        sp.add_argument("--set", action="append", default=[], help="override a CONFIG entry, key=value")
+    args = p.parse_args()
+    for kv in getattr(args, "set", []):
+        k, v = kv.split("=")
+        CONFIG[k] = type(CONFIG[k])(float(v)) if CONFIG[k] is not None else float(v)
+    {"cv": cmd_cv, "ssl": cmd_ssl, "train": cmd_train}[args.cmd](args)
+
+
+if __name__ == "__main__":
+    main()

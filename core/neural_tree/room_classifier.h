@@ -1,0 +1,152 @@
+// Room labels from a neural tree: GraphSAGE message passing on the H-tree of the object-room(-building) graph,
+// Eigen only, weights from a versioned file; a room keeps "unknown" whenever the classifier cannot run.
+#pragma once
+
+#include <Eigen/Core>
+#include <array>
+#include <cstdint>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include "core/neural_tree/h_tree.h"
+#include "core/semantics/labels.h"
+
+namespace qsg::neural_tree {
+
+using RowMatrixXf = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+
+// A trained neural tree as stored in core/neural_tree/weights/room_classifier_v<version>.json.
+struct NeuralTreeWeights {
+  static constexpr int kFormatVersion = 1;
+  struct Offsets {
+    int type = 0, word = 0, object_size = 0, object_relative_position = 0, room_size = 0, room_object_count = 0;
+    int object_label_count = -1;  // log(1 + objects of the same label in the room); -1 = not used
+  };
+  struct Layer {
+    RowMatrixXf w_self;   // out x in
+    Eigen::VectorXf b_self;
+    RowMatrixXf w_neigh;  // out x in
+    RowMatrixXf w_edge;   // out x 3 (mean relative position of the H-tree neighbours)
+  };
+  int input_dim = 0, hidden = 0, num_classes = 0, word_dim = 0;
+  float min_size_m = 0.01f;
+  double position_scale = 1.0;  // distances (m) are multiplied by this before entering the network
+  bool sum_aggregation = false;  // neighbour messages summed (GIN-like) instead of averaged (GraphSAGE-mean)
+  Offsets offsets;
+  std::vector<std::string> classes;                         // the training set's room classes
+  std::vector<semantics::RoomLabel> class_room_labels;      // each class on our room labels (many-to-one allowed)
+  std::vector<std::string> word_names;                      // object label names with a word vector
+  RowMatrixXf words;                                        // num_words x word_dim
+  // One trained network; the file holds an ensemble whose class probabilities are averaged.
+  struct Member {
+    std::vector<Layer> layers;
+    RowMatrixXf head_w;  // num_classes x hidden
+    Eigen::VectorXf head_b;
+  };
+  std::vector<Member> members;
+};
+
+// A relative position without the room's orientation (the scene's z is up): horizontal distance, height
+// difference, distance. Used for an object's offset from its room and for the H-tree edge feature.
+Eigen::Vector3d offset_feature(const Eigen::Vector3d& d);
+
+// Loads and shape-checks a weights file. On failure returns false and `error` names the file and the field.
+bool load_weights(const std::string& path, NeuralTreeWeights* out, std::string* error);
+
+// The classifier's input: objects (with their room), rooms, at most one building; indices are node numbers.
+struct ObjectRoomGraph {
+  struct Node {
+    NodeLayer layer = NodeLayer::kObject;
+    int word = -1;   // objects: row of the model's word table (RoomClassifier::word_index), -1 = no word
+    int room = -1;   // objects: node index of their room, -1 = none (the object is then left out)
+    Eigen::Vector3d centroid_m = Eigen::Vector3d::Zero();
+    Eigen::Vector3d size_m = Eigen::Vector3d::Zero();
+  };
+  std::vector<Node> nodes;
+  std::vector<std::int32_t> edge_a, edge_b;  // object-object (same room) and room-room edges; parents implicit
+
+  void reserve(int nodes_capacity, int edges_capacity);
+  void clear();
+  int add_room(const Eigen::Vector3d& centroid_m, const Eigen::Vector3d& size_m);
+  int add_building(const Eigen::Vector3d& centroid_m);
+  int add_object(int room, int word, const Eigen::Vector3d& centroid_m, const Eigen::Vector3d& size_m);
+  void add_edge(int a, int b);
+};
+
+struct RoomPrediction {
+  int node = -1;
+  semantics::RoomLabel label = semantics::kRoomUnknown;
+  float probability = 0.0f;  // of `label`
+  std::array<float, semantics::kNumRoomLabels> label_probabilities{};  // over our room labels
+};
+
+class RoomClassifier {
+ public:
+  struct Config {
+    std::string weights_path = QSG_NEURAL_TREE_DEFAULT_WEIGHTS;
+    HTreeBuilder::Config h_tree;
+    int max_rooms = 256;
+    float min_probability = 0.0f;  // a room whose best label is less likely stays "unknown"
+    void print(std::FILE* out) const;
+  };
+  struct Stats {
+    std::uint64_t runs = 0, failures = 0, dropped_edges = 0;
+    int last_graph_nodes = 0, last_htree_nodes = 0, last_width = -1, max_width = -1, max_htree_nodes = 0;
+    void print(std::FILE* out) const;
+  };
+
+  RoomClassifier();
+  explicit RoomClassifier(const Config& config);
+
+  // Loads the weights and sizes every buffer. On failure the classifier stays usable: classify() then reports the
+  // error and leaves every room "unknown".
+  bool init(std::string* error);
+  bool ready() const { return ready_; }
+
+  // Row of the word table for an object label name (Stanford3DSG or mpcat40 spelling), or -1.
+  int word_index(const std::string& name) const;
+  int word_index(semantics::Label mpcat40_label) const;
+
+  // Labels every room of `graph`. Returns false with a reason (no weights, bad graph, capacity) and then every
+  // prediction is "unknown". Does not allocate once init() has run, while the graph stays within Config.
+  bool classify(const ObjectRoomGraph& graph, std::string* error);
+
+  const std::vector<RoomPrediction>& predictions() const { return predictions_; }
+  // Log class probabilities per room (rows follow predictions()), in the model's class order, floored at 1e-30;
+  // for parity tests.
+  Eigen::Block<const RowMatrixXf, Eigen::Dynamic, Eigen::Dynamic, true> room_log_probabilities() const {
+    return log_probabilities_.topRows(num_rooms_);
+  }
+  const HTree& h_tree() const { return h_tree_; }
+  const LayeredGraph& layered_graph() const { return layered_; }  // the hierarchical graph the H-tree was built on
+  const NeuralTreeWeights& weights() const { return weights_; }
+  const Stats& stats() const { return stats_; }
+  const Config& config() const { return config_; }
+
+ private:
+  bool fail(std::string* error, const std::string& message);
+  bool build_graph(const ObjectRoomGraph& graph, std::string* error);
+  void compute_features(const ObjectRoomGraph& graph);  // graph-side inputs shared by every member
+  void run_member(std::size_t m);                       // adds the member's probabilities to probabilities_
+
+  Config config_;
+  bool ready_ = false;
+  NeuralTreeWeights weights_;
+  std::vector<int> mpcat40_word_;
+  std::vector<RowMatrixXf> word_self_, word_neigh_;  // per member: word table through layer 0 (words x hidden)
+  HTreeBuilder builder_;
+  LayeredGraph layered_;
+  HTree h_tree_;
+  std::vector<RoomPrediction> predictions_;
+  int num_rooms_ = 0;
+  // Per H-tree node buffers, sized at init for Config::h_tree.max_htree_nodes rows.
+  std::vector<float> label_count_;  // per graph node: log(1 + same-label objects in its room)
+  std::vector<std::int32_t> graph_word_, adj_begin_, adj_, adj_fill_, room_slot_, object_count_, leaf_begin_, leaves_;
+  Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> positions_;  // mean member centroid per node
+  RowMatrixXf relative_, log_size_, offset_, h_, h_next_, aggregate_, self_, neigh_, pooled_, logits_;
+  RowMatrixXf probabilities_, log_probabilities_;
+  Stats stats_;
+};
+
+}  // namespace qsg::neural_tree
