@@ -174,6 +174,9 @@ bool AppConfig::load(const std::string& path, std::string* error) {
                               {"min_confidence", number(&segmentation.min_confidence)}},
                              why);
        }},
+      {"room_labels", [&](const Json& v, std::string* why) {
+         return read_section(v, "room_labels", {{"weights_path", text(&room_weights_path)}}, why);
+       }},
       {"gpio", [&](const Json& v, std::string* why) {
          return read_section(v, "gpio",
                              {{"chip", text(&gpio.chip)},
@@ -248,6 +251,9 @@ void AppConfig::print(std::FILE* out) const {
                segmentation.model_path.empty() ? "" : " label_map=",
                segmentation.model_path.empty() ? "" : segmentation.label_map_path.c_str(), segmentation.deadline_s,
                segmentation.min_confidence);
+  std::fprintf(out, "room_labels: weights_path=%s\n",
+               room_weights_path.empty() ? "(built-in: core/neural_tree/weights/room_classifier_v1.json)"
+                                         : room_weights_path.c_str());
   std::fprintf(out, "gpio: chip=%s heartbeat_line=%d trigger_line=%d pause_line=%d trigger_width_s=%.4f pause_debounce_s=%.3f\n",
                gpio.chip.c_str(), gpio.heartbeat_line, gpio.trigger_line, gpio.pause_line, gpio.trigger_width_s,
                gpio.pause_debounce_s);

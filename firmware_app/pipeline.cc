@@ -7,6 +7,7 @@
 
 #include <cerrno>
 #include <cmath>
+#include <algorithm>
 #include <cstring>
 #include <filesystem>
 
@@ -237,6 +238,14 @@ bool Pipeline::init_backend(std::string* error) {
     queued.frontend_cycles += incoming.frontend_cycles;
   };
   if (!backend_queue_.init(q->depth, q->policy, collate, error)) return false;
+  // A missing or corrupt weight file is reported and the rooms keep the label "unknown": the run goes on.
+  neural_tree::RoomClassifier::Config cc;
+  if (!config_.room_weights_path.empty()) cc.weights_path = config_.room_weights_path;
+  classifier_ = std::make_unique<neural_tree::RoomClassifier>(cc);
+  std::string why;
+  if (!classifier_->init(&why))
+    std::fprintf(stderr, "qsg_app: room labels off: %s (rooms stay \"unknown\")\n", why.c_str());
+  room_graph_.reserve(2048, 8192);
   if (!config_.lockstep) backend_thread_ = std::thread([this] { backend_worker(); });
   return true;
 }
@@ -246,6 +255,63 @@ void Pipeline::run_backend_update(std::uint64_t time_ns) {
   const rooms::UpdateResult r = rooms_.update(&graph_, time_ns);
   backend_updates_.fetch_add(1);
   rooms_count_.store(r.rooms);
+  if (r.rooms > 0 && classifier_ != nullptr && classifier_->ready()) label_rooms();
+}
+
+// The classifier's input from the scene graph (caller holds graph_mutex_): rooms with their box, each object in
+// the room of the place it hangs from, room-room edges, the building.
+void Pipeline::label_rooms() {
+  room_graph_.clear();
+  std::int32_t room_index[4096];
+  scene_graph::NodeId room_ids[4096];
+  int rooms = 0;
+  const auto index_of = [&](scene_graph::NodeId id) {
+    for (int i = 0; i < rooms; ++i)
+      if (room_ids[i] == id) return room_index[i];
+    return -1;
+  };
+  graph_.for_each_node([&](const scene_graph::NodeRecord& n) {
+    if (n.kind != scene_graph::NodeKind::kRoom || rooms >= 4096) return;
+    const scene_graph::RoomAttributes* a = graph_.room(n.id);
+    const Eigen::Vector3d size = a->bounding_box.type == scene_graph::BoundingBox::Type::kInvalid
+                                     ? Eigen::Vector3d::Zero()
+                                     : Eigen::Vector3d(a->bounding_box.max_m - a->bounding_box.min_m);
+    room_ids[rooms] = n.id;
+    room_index[rooms++] = room_graph_.add_room(a->position_m, size);
+  });
+  graph_.for_each_node([&](const scene_graph::NodeRecord& n) {
+    if (n.kind != scene_graph::NodeKind::kObject || n.parent == scene_graph::kNoNode) return;
+    const int room = index_of(graph_.parent(n.parent));  // object -> place -> room
+    if (room < 0) return;
+    const scene_graph::ObjectAttributes* o = graph_.object(n.id);
+    room_graph_.add_object(room, classifier_->word_index(static_cast<semantics::Label>(o->semantic_label)), o->position_m,
+                           o->bounding_box.max_m - o->bounding_box.min_m);
+  });
+  graph_.for_each_edge([&](const scene_graph::EdgeRecord& e) {
+    const int a = index_of(e.source), b = index_of(e.target);
+    if (a >= 0 && b >= 0) room_graph_.add_edge(a, b);
+  });
+  if (!classifier_->classify(room_graph_, &classifier_error_)) return;
+  std::uint64_t labelled = 0;
+  for (const neural_tree::RoomPrediction& p : classifier_->predictions()) {
+    for (int i = 0; i < rooms; ++i) {
+      if (room_index[i] != p.node) continue;
+      scene_graph::RoomAttributes* a = graph_.room(room_ids[i]);
+      a->semantic_label = p.label;
+      a->class_probabilities.clear();
+      // The most likely labels first, as many as the attribute holds.
+      std::array<std::uint32_t, semantics::kNumRoomLabels> order{};
+      for (std::uint32_t k = 0; k < order.size(); ++k) order[k] = k;
+      std::sort(order.begin(), order.end(),
+                [&](std::uint32_t x, std::uint32_t y) { return p.label_probabilities[x] > p.label_probabilities[y]; });
+      for (std::uint32_t k : order) {
+        if (a->class_probabilities.size() == scene_graph::kMaxRoomClasses || p.label_probabilities[k] <= 0.0f) break;
+        a->class_probabilities.push_back(scene_graph::LabelProbability{k, p.label_probabilities[k]});
+      }
+      labelled += p.label != semantics::kRoomUnknown ? 1 : 0;
+    }
+  }
+  rooms_labelled_.store(labelled);
 }
 
 void Pipeline::backend_worker() {
@@ -360,6 +426,7 @@ bool Pipeline::step() {
   }
   counters_.backend_updates = backend_updates_.load();
   counters_.rooms = rooms_count_.load();
+  counters_.rooms_labelled = rooms_labelled_.load();
   if (tick_start >= next_snapshot_ns_) {
     std::string error;
     if (!write_snapshot(&error)) {
@@ -586,6 +653,7 @@ bool Pipeline::finish(std::string* error) {
   run_backend_update(latest_keyframe_ns_);
   counters_.backend_updates = backend_updates_.load();
   counters_.rooms = rooms_count_.load();
+  counters_.rooms_labelled = rooms_labelled_.load();
   std::lock_guard<std::mutex> lock(graph_mutex_);
   const std::string dir = config_.output_dir;
   if (!write_file_atomically(dir + "/scene_graph.json", scene_graph::write_spark_dsg_json(graph_), error)) return false;

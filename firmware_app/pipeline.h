@@ -16,6 +16,7 @@
 
 #include "core/frontend/frontend.h"
 #include "core/reconstruction/semantic_tsdf.h"
+#include "core/neural_tree/room_classifier.h"
 #include "core/rooms/room_finder.h"
 #include "core/segmentation/segmenter.h"
 #include "core/scene_graph/scene_graph.h"
@@ -52,6 +53,7 @@ struct PipelineCounters {
   std::uint64_t frames_paused = 0;        // read while the pause switch was on: dropped
   std::uint64_t backend_updates = 0;      // room updates run by the backend
   std::uint64_t rooms = 0;                // rooms after the latest backend update
+  std::uint64_t rooms_labelled = 0;       // rooms the neural tree gave a label (latest update)
   std::uint64_t keyframes_segmented = 0;
   std::uint64_t keyframes_unlabelled = 0; // waited past the segmentation deadline (or segmentation failed)
   std::uint64_t telemetry_lines = 0;
@@ -170,6 +172,12 @@ class Pipeline {
     std::uint32_t frontend_cycles = 0;
   };
   rooms::RoomFinder rooms_;
+  // Room labels: the neural tree over objects, rooms and the building. Without weights rooms stay "unknown".
+  std::unique_ptr<neural_tree::RoomClassifier> classifier_;
+  neural_tree::ObjectRoomGraph room_graph_;
+  std::atomic<std::uint64_t> rooms_labelled_{0};
+  std::string classifier_error_;  // the latest failure (backend thread only)
+  void label_rooms();
   runtime::BoundedQueue<BackendUpdate> backend_queue_{"frontend_to_backend"};
   std::thread backend_thread_;
   std::atomic<bool> backend_stop_{false};

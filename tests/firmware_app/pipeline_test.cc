@@ -145,6 +145,25 @@ TEST(PipelineTest, RunsOnAV4l2DepthAndColourPair) {
   EXPECT_GT(p.reconstruction().active_blocks(), 0u) << "the wall was integrated";
 }
 
+TEST(PipelineTest, MissingRoomWeightsLeaveRoomsUnknownAndTheRunGoesOn) {
+  runtime::SteppedClock clock;
+  Pipeline p;
+  std::string error;
+  AppConfig c = small_config("no_weights");
+  c.room_weights_path = "/nonexistent/room_classifier.json";
+  ASSERT_TRUE(p.init(c, &clock, &error)) << error;
+  for (int k = 0; k < 3000 && p.step(); ++k) {
+  }
+  ASSERT_TRUE(p.finish(&error)) << error;
+  EXPECT_GT(p.counters().keyframes_integrated, 20u);
+  EXPECT_EQ(p.counters().rooms_labelled, 0u);
+  p.graph().for_each_node([&](const scene_graph::NodeRecord& n) {
+    if (n.kind == scene_graph::NodeKind::kRoom) {
+      EXPECT_EQ(p.graph().room(n.id)->semantic_label, semantics::kRoomUnknown);
+    }
+  });
+}
+
 TEST(PipelineTest, BadConfigAndUnwritableOutputAreClearErrors) {
   runtime::SteppedClock clock;
   std::string error;
