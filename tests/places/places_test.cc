@@ -590,7 +590,8 @@ TEST(PlacesTest, FreeSpaceEdgesJoinNeighbouringPlacesWithOverlappingSpheres) {
       ASSERT_EQ(by_id.count(other), 1u);
       const PlaceInfo& q = *by_id[other];
       EXPECT_LE((cell_of(p.voxel_positions_m[0]) - cell_of(q.voxel_positions_m[0])).cwiseAbs().maxCoeff(), 1);
-      EXPECT_TRUE(std::none_of(p.edges.begin(), p.edges.end(), [&](const auto& e) { return e.first == other; }));
+      const scene_graph::NodeId neighbour = other;  // clang cannot capture a structured binding (C++17)
+      EXPECT_TRUE(std::none_of(p.edges.begin(), p.edges.end(), [&](const auto& e) { return e.first == neighbour; }));
       EXPECT_GT(weight, 0.0);
       // Some voxel of one overlaps the other's representative sphere (with the voxel of slack).
       const auto meets = [s](const PlaceInfo& a, const PlaceInfo& b) {
