@@ -658,21 +658,9 @@ void Places::evict_block_voxels(std::uint32_t handle) {
     }
     if ((v.flags & kGvd) != 0 && counters_.gvd_voxels > 0) --counters_.gvd_voxels;
     if (v.state == kSeed) {
-      // Dependents outside the dying blocks lose their parent: raise them like a vanished seed.
-      std::uint32_t d = v.next;
-      while (d != kNoRef) {
-        Voxel& dv = vox(d);
-        const std::uint32_t next = dv.next;
-        dv.parent = kNoRef;
-        dv.prev = kNoRef;
-        dv.next = kNoRef;
-        dv.distance_m = kUnreached;
-        push_raise(d);  // no-op for dying blocks
-        mark_affected(d);
-        d = next;
-      }
-      v.next = kNoRef;
-      v.parent = kNoRef;
+      // Dependents outside the dying blocks lose their parent: raise them like a vanished seed (push_raise is a
+      // no-op for the dying blocks' own voxels).
+      raise_dependents(ref, /*include_seed=*/true);
     } else {
       clear_parent(ref);
     }
