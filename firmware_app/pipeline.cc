@@ -362,7 +362,9 @@ void Pipeline::collect_segmented() {
 bool Pipeline::init_gpio(std::string* error) {
   const AppConfig::Gpio& g = config_.gpio;
   if (g.chip == "sim") {
-    gpio_chip_ = std::make_unique<gpio::SimGpioChip>();
+    auto chip = std::make_unique<gpio::SimGpioChip>();
+    sim_gpio_ = chip.get();
+    gpio_chip_ = std::move(chip);
   } else {
     std::unique_ptr<gpio::GpiodChip> chip = gpio::GpiodChip::open(g.chip, error);
     if (chip == nullptr) return false;
@@ -408,7 +410,7 @@ bool Pipeline::step() {
     done_ = true;
     return false;
   }
-  if (auto* sim_chip = dynamic_cast<gpio::SimGpioChip*>(gpio_chip_.get())) sim_chip->set_time_ns(tick_start);
+  if (sim_gpio_ != nullptr) sim_gpio_->set_time_ns(tick_start);
   if (trigger_ && !trigger_->update(tick_start)) ++counters_.gpio_failures;
   if (pause_ && !pause_->update(tick_start)) ++counters_.gpio_failures;
   // The simulator renders outside the measured tasks: its cost is the simulation's, not the robot's.

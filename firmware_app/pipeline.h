@@ -22,6 +22,7 @@
 #include "core/scene_graph/scene_graph.h"
 #include "drivers/gpio/gpio_devices.h"
 #include "drivers/gpio/gpio_line.h"
+#include "drivers/gpio/sim_gpio.h"
 #include "drivers/replay/tum_replay.h"
 #include "drivers/v4l2/v4l2_rgbd_source.h"
 #include "drivers/sim/sim_camera.h"
@@ -199,6 +200,7 @@ class Pipeline {
   std::int64_t last_telemetry_ns_ = 0;
   std::uint64_t last_telemetry_keyframes_ = 0;
   std::unique_ptr<gpio::GpioChip> gpio_chip_;
+  gpio::SimGpioChip* sim_gpio_ = nullptr;  // the same chip when simulated: its time follows the loop's
   std::unique_ptr<gpio::GpioLine> heartbeat_line_, trigger_line_, pause_line_;
   std::unique_ptr<gpio::Heartbeat> heartbeat_;
   std::unique_ptr<gpio::TriggerPulse> trigger_;
