@@ -63,6 +63,16 @@ const Frames& frames() {
   return *cache;
 }
 
+// Our TSDF at the settings Open3D gets (voxel, truncation, range), carved from the board's capacities.
+bool init_ours(reconstruction::SemanticTsdf* tsdf, std::string* error) {
+  reconstruction::Config config;
+  config.voxel_size_m = kVoxelM;
+  config.truncation_voxels = kTruncationVoxels;
+  config.max_range_m = kMaxRangeM;
+  const reconstruction::Capacities caps = reconstruction::capacities_from_budget();
+  return tsdf->init(config, caps, reconstruction::SemanticTsdf::plan(caps).total_bytes(), error);
+}
+
 void BM_Ours_IntegrateAndMesh(benchmark::State& state) {
   const Frames& all = frames();
   const bench::FrozenFrames& data = *all.ours;
@@ -70,14 +80,9 @@ void BM_Ours_IntegrateAndMesh(benchmark::State& state) {
     state.SkipWithError("no frames rendered");
     return;
   }
-  reconstruction::Config config;
-  config.voxel_size_m = kVoxelM;
-  config.truncation_voxels = kTruncationVoxels;
-  config.max_range_m = kMaxRangeM;
-  const reconstruction::Capacities caps = reconstruction::capacities_from_budget();
   reconstruction::SemanticTsdf tsdf;
   std::string error;
-  if (!tsdf.init(config, caps, reconstruction::SemanticTsdf::plan(caps).total_bytes(), &error)) {
+  if (!init_ours(&tsdf, &error)) {
     state.SkipWithError(error.c_str());
     return;
   }
@@ -125,11 +130,6 @@ void BM_Ratio_Open3dOverOurs(benchmark::State& state) {
     state.SkipWithError("no frames rendered");
     return;
   }
-  reconstruction::Config config;
-  config.voxel_size_m = kVoxelM;
-  config.truncation_voxels = kTruncationVoxels;
-  config.max_range_m = kMaxRangeM;
-  const reconstruction::Capacities caps = reconstruction::capacities_from_budget();
   const drivers::CameraIntrinsics& in = data.intrinsics;
   const open3d::camera::PinholeCameraIntrinsic intrinsic(in.width, in.height, in.fx, in.fy, in.cx, in.cy);
   double ours_s = 0.0;
@@ -139,7 +139,7 @@ void BM_Ratio_Open3dOverOurs(benchmark::State& state) {
     state.PauseTiming();
     auto tsdf = std::make_unique<reconstruction::SemanticTsdf>();
     std::string error;
-    if (!tsdf->init(config, caps, reconstruction::SemanticTsdf::plan(caps).total_bytes(), &error)) {
+    if (!init_ours(tsdf.get(), &error)) {
       state.SkipWithError(error.c_str());
       return;
     }
@@ -176,11 +176,9 @@ void BM_Ratio_Open3dOverOurs(benchmark::State& state) {
 // Interoperability, not speed: Open3D reads our binary PLY back with the same vertices, triangles and colours.
 void BM_Open3dReadsOurPly(benchmark::State& state) {
   const bench::FrozenFrames& data = *frames().ours;
-  reconstruction::Config config;
-  const reconstruction::Capacities caps = reconstruction::capacities_from_budget();
   reconstruction::SemanticTsdf tsdf;
   std::string error;
-  if (data.frames.empty() || !tsdf.init(config, caps, reconstruction::SemanticTsdf::plan(caps).total_bytes(), &error)) {
+  if (data.frames.empty() || !init_ours(&tsdf, &error)) {
     state.SkipWithError("no frames or no TSDF");
     return;
   }
