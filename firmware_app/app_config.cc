@@ -141,6 +141,26 @@ bool AppConfig::load(const std::string& path, std::string* error) {
                               {"window_radius_m", number(&pc.window_radius_m)}},
                              why);
        }},
+      {"rooms", [&](const Json& v, std::string* why) {
+         std::string seeding = rooms::to_string(rooms.seeding);
+         double min_component = rooms.min_component_size;
+         const bool ok = read_section(v, "rooms",
+                                      {{"seeding", text(&seeding)},
+                                       {"min_persistence_m", number(&rooms.min_persistence_m)},
+                                       {"min_component_size", number(&min_component)},
+                                       {"plateau_alpha", number(&rooms.plateau_alpha)},
+                                       {"min_dilation_m", number(&rooms.min_dilation_m)},
+                                       {"max_dilation_m", number(&rooms.max_dilation_m)}},
+                                      why);
+         if (!ok) return false;
+         if (seeding == "plateau") rooms.seeding = rooms::Seeding::kPlateau;
+         else if (seeding == "persistence") rooms.seeding = rooms::Seeding::kPersistence;
+         else return *why = "rooms.seeding: expected plateau or persistence, got '" + seeding + "'", false;
+         if (!(min_component >= 1.0 && min_component <= 1e6))
+           return *why = "rooms.min_component_size: expected 1 .. 1000000", false;
+         rooms.min_component_size = static_cast<std::uint32_t>(min_component);
+         return true;
+       }},
       {"frontend", [&](const Json& v, std::string* why) {
          return read_section(v, "frontend", {{"connect_interlayer", boolean(&frontend.connect_interlayer)}}, why);
        }},
@@ -226,6 +246,7 @@ std::string AppConfig::check() const {
   if (const std::string c = camera.check(); !c.empty()) return "camera: " + c;
   if (const std::string r = reconstruction.check(); !r.empty()) return "reconstruction: " + r;
   if (const std::string f = frontend.check(); !f.empty()) return "frontend: " + f;
+  if (const std::string r = rooms.check(); !r.empty()) return r;
   if (const std::string k = keyframes.check(); !k.empty()) return "keyframes: " + k;
   if (const std::string s = scheduler.check(); !s.empty()) return "scheduler: " + s;
   return {};
@@ -259,6 +280,7 @@ void AppConfig::print(std::FILE* out) const {
                gpio.pause_debounce_s);
   reconstruction.print(out);
   frontend.print(out);
+  rooms.print(out);
   keyframes.print(out);
   scheduler.print(out);
 }

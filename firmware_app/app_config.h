@@ -8,6 +8,7 @@
 
 #include "core/frontend/frontend.h"
 #include "core/reconstruction/semantic_tsdf.h"
+#include "core/rooms/room_finder.h"
 #include "drivers/sim/exploration.h"
 #include "drivers/sim/sim_camera.h"
 #include "drivers/world/building_generator.h"
@@ -70,6 +71,7 @@ struct AppConfig {
   sim::SimCamera::Config camera;
   reconstruction::Config reconstruction;
   frontend::Config frontend;
+  rooms::Config rooms;
   runtime::KeyframeConfig keyframes;
   runtime::SchedulerConfig scheduler;
 

@@ -227,7 +227,7 @@ bool Pipeline::init_segmentation(std::string* error) {
 }
 
 bool Pipeline::init_backend(std::string* error) {
-  if (!rooms_.init(rooms::Config{}, rooms::Capacities::from_scene_graph(graph_.capacities()),
+  if (!rooms_.init(config_.rooms, rooms::Capacities::from_scene_graph(graph_.capacities()),
                    budgets::active::rooms::kArenaBytes, error))
     return false;
   const budgets::QueueBudget* q = find_queue(budgets::active::kTable, "frontend_to_backend");

@@ -10,6 +10,10 @@
 // --max-reach-m from every place stay unlabelled (not seen). Scoring is restricted to cells that are free and
 // inside a ground-truth room: |r_e| counts r_e's cells there, |r_g| all of r_g's free cells (unlabelled included,
 // so unexplored space lowers recall).
+//
+// Room parameters come from the command line (--seeding plateau|persistence, --min-component, --alpha,
+// --min-persistence-m, ...); --cache-dir saves each run's frontend graph and reuses it, so a parameter sweep
+// explores each plan once.
 #include <Eigen/Core>
 #include <algorithm>
 #include <chrono>
@@ -18,6 +22,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <deque>
+#include <fstream>
 #include <map>
 #include <memory>
 #include <opencv2/core.hpp>
@@ -33,6 +38,7 @@
 #include "core/reconstruction/semantic_tsdf.h"
 #include "core/rooms/room_finder.h"
 #include "core/scene_graph/scene_graph.h"
+#include "core/scene_graph/spark_dsg_json.h"
 #include "drivers/render/ray_scene.h"
 #include "drivers/sim/exploration.h"
 #include "drivers/sim/sim_camera.h"
@@ -62,6 +68,9 @@ struct Options {
   double max_reach_m = 3.0;   // free cells farther (geodesically) from every place stay unlabelled
   rooms::Config rooms;
   std::string json_path;
+  // Tuning aid: the frontend's graph of each run is saved here (Spark-DSG JSON) and read back on the next run
+  // instead of exploring again, so room parameters can be swept in seconds. Empty: always explore.
+  std::string cache_dir;
 };
 
 std::vector<std::string> split(const std::string& s) {
@@ -88,6 +97,7 @@ bool parse(int argc, char** argv, Options* o) {
     else if (a == "--maps") o->maps = v == "none" ? std::vector<std::string>{} : split(v);
     else if (a == "--variants") o->variants = split(v);
     else if (a == "--json") o->json_path = v;
+    else if (a == "--cache-dir") o->cache_dir = v;
     else if (a == "--generated") o->generated = std::atoi(v.c_str());
     else if (a == "--generated-rooms") o->generated_rooms = std::atoi(v.c_str());
     else if (a == "--size") {
@@ -98,7 +108,15 @@ bool parse(int argc, char** argv, Options* o) {
     else if (a == "--alpha") number = &o->rooms.plateau_alpha;
     else if (a == "--min-dilation-m") number = &o->rooms.min_dilation_m;
     else if (a == "--max-dilation-m") number = &o->rooms.max_dilation_m;
-    else if (a == "--min-component") o->rooms.min_component_size = static_cast<std::uint32_t>(std::atoi(v.c_str()));
+    else if (a == "--min-persistence-m") number = &o->rooms.min_persistence_m;
+    else if (a == "--seeding") {
+      if (v == "plateau") o->rooms.seeding = rooms::Seeding::kPlateau;
+      else if (v == "persistence") o->rooms.seeding = rooms::Seeding::kPersistence;
+      else {
+        std::fprintf(stderr, "--seeding: expected plateau or persistence, got '%s'\n", v.c_str());
+        return false;
+      }
+    } else if (a == "--min-component") o->rooms.min_component_size = static_cast<std::uint32_t>(std::atoi(v.c_str()));
     else {
       std::fprintf(stderr, "unknown option %s\n", a.c_str());
       return false;
@@ -256,8 +274,22 @@ struct RunStats {
 };
 
 // Explores, reconstructs, runs the frontend every keyframe and the room finder at the end.
-bool run_pipeline(const Options& opt, const world::World& w, sg::SceneGraph* graph, RunStats* stats) {
+bool run_rooms(const Options& opt, const std::string& name, sg::SceneGraph* graph, RunStats* stats);
+
+bool run_pipeline(const Options& opt, const world::World& w, const std::string& key, sg::SceneGraph* graph,
+                  RunStats* stats) {
   const auto start = std::chrono::steady_clock::now();
+  const std::string cache_path = opt.cache_dir.empty() ? "" : opt.cache_dir + "/" + key + ".json";
+  if (!cache_path.empty() && std::ifstream(cache_path).good()) {
+    const sg::JsonImportResult in = sg::read_spark_dsg_json_file(cache_path, *graph);
+    if (!in.ok) {
+      std::fprintf(stderr, "%s: %s\n", cache_path.c_str(), in.error.c_str());
+      return false;
+    }
+    const bool ok = run_rooms(opt, w.name, graph, stats);
+    stats->wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    return ok;
+  }
   const sim::ExplorationConfig ec;
   sim::SimCamera::Config cc;
   const double f = 0.5 * opt.width / std::tan(0.5 * opt.hfov_deg * 3.14159265358979 / 180.0);
@@ -303,6 +335,17 @@ bool run_pipeline(const Options& opt, const world::World& w, sg::SceneGraph* gra
   }
   for (int i = 0; i < 100; ++i)
     if (fe->update(*tsdf, last, t_last, graph, frontend::Deadline{}).places_complete) break;
+  if (!cache_path.empty() && !sg::write_spark_dsg_json_file(*graph, cache_path, &error))
+    std::fprintf(stderr, "cache: %s\n", error.c_str());
+  const bool ok = run_rooms(opt, w.name, graph, stats);
+  stats->wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return ok;
+}
+
+// The room finder on the final graph (five updates, the median time reported).
+bool run_rooms(const Options& opt, const std::string& name, sg::SceneGraph* graph, RunStats* stats) {
+  std::string error;
+  const std::uint64_t time_ns = 0;  // room timestamps do not matter here
 
   auto finder = std::make_unique<rooms::RoomFinder>();
   if (!finder->init(opt.rooms, rooms::Capacities::from_scene_graph(graph->capacities()), 0, &error)) {
@@ -313,19 +356,18 @@ bool run_pipeline(const Options& opt, const world::World& w, sg::SceneGraph* gra
   rooms::UpdateResult r;
   for (int i = 0; i < 5; ++i) {
     const auto t0 = std::chrono::steady_clock::now();
-    r = finder->update(graph, t_last);
+    r = finder->update(graph, time_ns);
     ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
   }
-  std::printf("  %s: Betti curve (delta m: components):", w.name.c_str());
+  std::printf("  %s: Betti curve (delta m: components):", name.c_str());
   for (std::size_t i = 0; i < finder->curve_size(); i += 5) std::printf(" %.2f:%u", finder->dilation_at(i), finder->betti_at(i));
   std::printf("\n");
   stats->places = r.places;
   stats->rooms = r.rooms;
   stats->rooms_ms = median(ms);
   stats->dilation_m = r.dilation_m;
-  stats->wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   if (r.outcome != rooms::Outcome::kOk)
-    std::fprintf(stderr, "%s: rooms: %s (%zu places)\n", w.name.c_str(), rooms::to_string(r.outcome), r.places);
+    std::fprintf(stderr, "%s: rooms: %s (%zu places)\n", name.c_str(), rooms::to_string(r.outcome), r.places);
   return true;
 }
 
@@ -352,7 +394,7 @@ bool eval_plan(const Options& opt, const std::string& map, bool furnished, Score
     std::fprintf(stderr, "scene graph: %s\n", error.c_str());
     return false;
   }
-  if (!run_pipeline(opt, wr.world, graph.get(), st)) return false;
+  if (!run_pipeline(opt, wr.world, map + (furnished ? "_furnished" : "_plain"), graph.get(), st)) return false;
   // Ground truth straight from the benchmark's image: 8-connected white regions of more than 100 px.
   const cv::Mat occ = cv::imread(occ_path, cv::IMREAD_GRAYSCALE), gt = cv::imread(gt_path, cv::IMREAD_GRAYSCALE);
   if (occ.empty() || gt.empty() || occ.size() != gt.size()) {
@@ -389,7 +431,7 @@ bool eval_generated(const Options& opt, std::uint64_t seed, Score* out, RunStats
   auto graph = std::make_unique<sg::SceneGraph>();
   std::string error;
   if (!graph->init(sg::capacities_from_budget(), sg::arena_bytes_from_budget(), &error)) return false;
-  if (!run_pipeline(opt, w, graph.get(), st)) return false;
+  if (!run_pipeline(opt, w, w.name, graph.get(), st)) return false;
   // One raster per floor over the building's footprint: room interiors are free, labelled by room id + 1.
   const world::Aabb box = world::world_bounds(w);
   std::map<std::int32_t, double> floors;  // floor index -> floor z
@@ -431,7 +473,8 @@ int main(int argc, char** argv) {
     std::fprintf(stderr,
                  "usage: %s [--plans-dir DIR] [--maps a,b|none] [--variants plain,furnished] [--generated N] "
                  "[--generated-rooms N] [--size WxH] [--hfov-deg D] [--rate-hz R] [--max-reach-m M] [--alpha A] "
-                 "[--min-dilation-m D] [--max-dilation-m D] [--min-component N] [--json FILE]\n",
+                 "[--min-dilation-m D] [--max-dilation-m D] [--min-component N] [--seeding plateau|persistence] "
+                 "[--min-persistence-m P] [--cache-dir DIR] [--json FILE]\n",
                  argv[0]);
     return 2;
   }
@@ -442,8 +485,9 @@ int main(int argc, char** argv) {
   char cond[256];
   std::snprintf(cond, sizeof(cond),
                 "sim camera %dx%d %.0f deg hfov %.1f Hz, ground-truth poses, noise-free depth, TSDF 0.1 m, frontend "
-                "every keyframe, rooms alpha %.2f [%.2f, %.2f] m min %u",
-                opt.width, opt.height, opt.hfov_deg, opt.rate_hz, opt.rooms.plateau_alpha, opt.rooms.min_dilation_m,
+                "every keyframe, rooms seeding %s alpha %.2f persistence %.2f m [%.2f, %.2f] m min %u",
+                opt.width, opt.height, opt.hfov_deg, opt.rate_hz, rooms::to_string(opt.rooms.seeding),
+                opt.rooms.plateau_alpha, opt.rooms.min_persistence_m, opt.rooms.min_dilation_m,
                 opt.rooms.max_dilation_m, opt.rooms.min_component_size);
   bench::Figures figures(cond);
   const auto add = [&](const std::string& prefix, const Score& s) {

@@ -54,12 +54,27 @@ struct RoomFinder::RoomAccumulator {
 // ---------------------------------------------------------------------------------------------------------------
 // Config, capacities, counters.
 
+Config Config::paper() {
+  Config c;
+  c.seeding = Seeding::kPlateau;
+  c.min_component_size = 15;
+  c.plateau_alpha = 0.5;
+  return c;
+}
+
 std::size_t Config::curve_samples() const {
   if (!(dilation_step_m > 0.0) || !(max_dilation_m >= min_dilation_m)) return 0;
   return static_cast<std::size_t>(std::floor((max_dilation_m - min_dilation_m) / dilation_step_m + 1e-6)) + 1;
 }
 
+const char* to_string(Seeding seeding) {
+  return seeding == Seeding::kPersistence ? "persistence" : "plateau";
+}
+
 std::string Config::check() const {
+  if (seeding != Seeding::kPlateau && seeding != Seeding::kPersistence) return "rooms.seeding: unknown value";
+  if (!std::isfinite(min_persistence_m) || min_persistence_m < 0.0)
+    return "rooms.min_persistence_m: must be finite and >= 0, got " + std::to_string(min_persistence_m);
   if (!std::isfinite(min_dilation_m) || min_dilation_m < 0.0)
     return "rooms.min_dilation_m: must be finite and >= 0, got " + std::to_string(min_dilation_m);
   if (!std::isfinite(max_dilation_m) || max_dilation_m < min_dilation_m)
@@ -78,10 +93,10 @@ std::string Config::check() const {
 
 void Config::print(std::FILE* out) const {
   std::fprintf(out,
-               "rooms: dilation [%.3f, %.3f] m step %.3f m (%zu samples), min_component_size %u places, "
-               "plateau_alpha %.2f, building B(%llu)\n",
-               min_dilation_m, max_dilation_m, dilation_step_m, curve_samples(), min_component_size, plateau_alpha,
-               static_cast<unsigned long long>(building_index));
+               "rooms: seeding %s, dilation [%.3f, %.3f] m step %.3f m (%zu samples), min_component_size %u places, "
+               "plateau_alpha %.2f, min_persistence_m %.2f, building B(%llu)\n",
+               to_string(seeding), min_dilation_m, max_dilation_m, dilation_step_m, curve_samples(),
+               min_component_size, plateau_alpha, min_persistence_m, static_cast<unsigned long long>(building_index));
 }
 
 Capacities Capacities::from_scene_graph(const sg::Capacities& graph) {
@@ -192,6 +207,10 @@ memory::ArenaPlan RoomFinder::plan(const Config& config, const Capacities& c) {
   p.add_array<std::uint8_t>(c.rooms);
   p.add_array<sg::RoomAttributes>(c.rooms);
   p.add_array<std::uint8_t>(c.rooms);
+  p.add_array<double>(c.places);
+  p.add_array<std::uint32_t>(c.places);
+  p.add_array<std::uint32_t>(c.places);
+  p.add_array<std::uint8_t>(c.places);
   return p;
 }
 
@@ -234,11 +253,15 @@ bool RoomFinder::init(const Config& config, const Capacities& c, std::size_t bud
   previous_taken_ = arena_.carve_array<std::uint8_t>(c.rooms);
   saved_ = arena_.carve_array<sg::RoomAttributes>(c.rooms);
   saved_valid_ = arena_.carve_array<std::uint8_t>(c.rooms);
+  birth_ = arena_.carve_array<double>(c.places);
+  member_next_ = arena_.carve_array<std::uint32_t>(c.places);
+  member_tail_ = arena_.carve_array<std::uint32_t>(c.places);
+  split_ = arena_.carve_array<std::uint8_t>(c.places);
   // A heap, matches or curve of zero size would be a null carve; the plan never asks for those.
   ok = ok && place_ids_ && clearance_ && position_ && active_ && (edges_ || c.place_edges == 0) && adjacency_offset_ &&
        (adjacency_ || c.place_edges == 0) && order_ && parent_ && size_ && room_of_ && (heap_ || c.place_edges == 0) &&
        pairs_ && matches_ && curve_ && room_ids_ && room_acc_ && root_room_ && previous_ids_ &&
-       previous_taken_ && saved_ && saved_valid_;
+       previous_taken_ && saved_ && saved_valid_ && birth_ && member_next_ && member_tail_ && split_;
   arena_.align_to_plan_boundary();
   if (!ok || !arena_.seal()) {
     if (error != nullptr) *error = "rooms: arena carve did not match its plan";
@@ -281,7 +304,15 @@ UpdateResult RoomFinder::update(sg::SceneGraph* graph, std::uint64_t time_ns) {
   }
   r.dilation_m = dilation_at(static_cast<std::size_t>(chosen));
   r.betti_at_dilation = curve_[chosen];
-  const std::size_t rooms = seed_rooms(r.dilation_m, &r);
+  const std::size_t rooms =
+      config_.seeding == Seeding::kPersistence ? seed_by_persistence(&r) : seed_rooms(r.dilation_m, &r);
+  if (rooms == 0) {
+    r.outcome = Outcome::kNoRooms;
+    ++counters_.no_rooms;
+    remove_previous(graph, /*keep_taken=*/false, &r);
+    r.places_unassigned = num_places_;
+    return r;
+  }
   flood_fill(rooms);
   assign_ids(*graph, rooms, &r);
   write_rooms(graph, rooms, time_ns, &r);
@@ -418,6 +449,7 @@ std::size_t RoomFinder::seed_rooms(double dilation_m, UpdateResult* r) {
     seeds = capacities_.rooms;
     std::sort(order_, order_ + seeds);  // slots in place order, as without the cut
   }
+  r->seeds = seeds + r->seeds_dropped;
   for (std::size_t s = 0; s < seeds; ++s) root_room_[order_[s]] = static_cast<std::uint32_t>(s);
   for (std::uint32_t i = 0; i < num_places_; ++i) {
     if (parent_[i] == kNone) continue;
@@ -428,6 +460,88 @@ std::size_t RoomFinder::seed_rooms(double dilation_m, UpdateResult* r) {
     }
   }
   return seeds;
+}
+
+// Merge tree of the clearance filtration (order_ still holds compute_curve()'s sorted places and edges): places
+// enter at their clearance (capped at d+), edges join components at their clearance, down to d-. When two
+// components meet and both are seed-worthy (big and persistent enough, or already holding seeds), the ones not yet
+// seeded become seeds with every place they hold; the merged component holds seeds from then on, so later places
+// that reach it only through it are left to the flood fill. At d- every remaining component of the minimum size
+// becomes a seed whatever its persistence: nothing joins it above d-, so it is a region of its own (a narrow
+// corridor peaks not far above d-, yet is a room).
+std::size_t RoomFinder::seed_by_persistence(UpdateResult* r) {
+  const std::uint32_t* node_order = order_;
+  const std::uint32_t* edge_order = order_ + num_places_;
+  const double d_min = config_.min_dilation_m - kDilationTolerance;
+  for (std::uint32_t i = 0; i < num_places_; ++i) {
+    parent_[i] = kNone;
+    room_of_[i] = -1;
+  }
+  const auto worthy = [&](std::uint32_t root, double at_m) {
+    return split_[root] != 0 ||
+           (size_[root] >= config_.min_component_size && birth_[root] - at_m >= config_.min_persistence_m - 1e-9);
+  };
+  std::size_t seeds = 0;
+  std::size_t next_node = 0;
+  for (std::size_t k = 0; k < num_edges_; ++k) {
+    const Edge& e = edges_[edge_order[k]];
+    if (e.clearance_m < d_min) break;
+    // Places at least as clear as this edge enter first (an edge's clearance never exceeds its ends').
+    for (; next_node < num_places_ && clearance_[node_order[next_node]] >= e.clearance_m; ++next_node) {
+      const std::uint32_t i = node_order[next_node];
+      parent_[i] = i;
+      size_[i] = 1;
+      birth_[i] = std::min(clearance_[i], config_.max_dilation_m);
+      member_next_[i] = kNone;
+      member_tail_[i] = i;
+      split_[i] = 0;
+    }
+    std::uint32_t ra = find(e.a), rb = find(e.b);
+    if (ra == rb) continue;
+    std::uint8_t split = split_[ra] | split_[rb];
+    if (worthy(ra, e.clearance_m) && worthy(rb, e.clearance_m)) {
+      if (split_[ra] == 0) emit_seed(ra, &seeds, r);
+      if (split_[rb] == 0) emit_seed(rb, &seeds, r);
+      split = 1;
+    }
+    if (size_[ra] < size_[rb]) std::swap(ra, rb);
+    parent_[rb] = ra;
+    size_[ra] += size_[rb];
+    birth_[ra] = std::max(birth_[ra], birth_[rb]);
+    member_next_[member_tail_[ra]] = rb;
+    member_tail_[ra] = member_tail_[rb];
+    split_[ra] = split;
+  }
+  // Places above d- that no edge above d- reached are components of their own.
+  for (; next_node < num_places_ && clearance_[node_order[next_node]] >= d_min; ++next_node) {
+    const std::uint32_t i = node_order[next_node];
+    parent_[i] = i;
+    size_[i] = 1;
+    birth_[i] = std::min(clearance_[i], config_.max_dilation_m);
+    member_next_[i] = kNone;
+    member_tail_[i] = i;
+    split_[i] = 0;
+  }
+  for (std::size_t n = 0; n < next_node; ++n) {
+    const std::uint32_t i = node_order[n];
+    if (parent_[i] == i && split_[i] == 0 && size_[i] >= config_.min_component_size) emit_seed(i, &seeds, r);
+  }
+  r->seeds = seeds + r->seeds_dropped;
+  return seeds;
+}
+
+void RoomFinder::emit_seed(std::uint32_t root, std::size_t* seeds, UpdateResult* r) {
+  split_[root] = 1;
+  if (*seeds == capacities_.rooms) {
+    ++r->seeds_dropped;
+    ++counters_.seeds_dropped;
+    return;
+  }
+  const std::int32_t slot = static_cast<std::int32_t>((*seeds)++);
+  for (std::uint32_t i = root; i != kNone; i = member_next_[i]) {
+    room_of_[i] = slot;
+    ++r->seeded_places;
+  }
 }
 
 void RoomFinder::heap_push(const HeapEntry& e) {

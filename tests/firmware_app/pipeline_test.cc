@@ -212,11 +212,22 @@ TEST(AppConfigTest, LoadsKnownKeysAndNamesBadOnes) {
   EXPECT_NE(error.find("cannot open"), std::string::npos) << error;
   EXPECT_FALSE(c.load(write("driver.json", "{\"driver\": \"usb\"}"), &error));
   EXPECT_NE(error.find("driver"), std::string::npos) << error;
+  ASSERT_TRUE(c.load(write("rooms.json", "{\"rooms\": {\"seeding\": \"plateau\", \"min_component_size\": 9}}"),
+                     &error))
+      << error;
+  EXPECT_EQ(c.rooms.seeding, rooms::Seeding::kPlateau);
+  EXPECT_EQ(c.rooms.min_component_size, 9u);
+  EXPECT_FALSE(c.load(write("seeding.json", "{\"rooms\": {\"seeding\": \"watershed\"}}"), &error));
+  EXPECT_NE(error.find("rooms.seeding: expected plateau or persistence"), std::string::npos) << error;
+  EXPECT_FALSE(c.load(write("alpha.json", "{\"rooms\": {\"plateau_alpha\": 2}}"), &error));
+  EXPECT_NE(error.find("rooms.plateau_alpha"), std::string::npos) << error;
   // The shipped default file loads and equals the built-in defaults where it spells them out.
   AppConfig shipped;
   ASSERT_TRUE(shipped.load(std::string(QSG_SOURCE_DIR) + "/firmware_app/config/default.json", &error)) << error;
   EXPECT_EQ(shipped.building.num_rooms, AppConfig().building.num_rooms);
   EXPECT_EQ(shipped.camera.intrinsics.width, AppConfig().camera.intrinsics.width);
+  EXPECT_EQ(shipped.rooms.seeding, AppConfig().rooms.seeding);
+  EXPECT_EQ(shipped.rooms.min_component_size, AppConfig().rooms.min_component_size);
 }
 
 }  // namespace

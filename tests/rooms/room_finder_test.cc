@@ -179,18 +179,99 @@ TEST(RoomFinderTest, ComponentsBelowTheMinimumSizeAreIgnored) {
   }
   auto g = make_graph();
   ASSERT_TRUE(s.write(g.get()));
-  auto finder = make_finder();
+  auto finder = make_finder(Config::paper());  // 15 places
   const UpdateResult r = finder->update(g.get());
   ASSERT_EQ(r.outcome, Outcome::kOk);
   EXPECT_EQ(r.rooms, 2u);
   EXPECT_EQ(r.places_unassigned, 10u) << "a component without a seed gets no room";
   for (std::size_t i = 0; i < finder->curve_size(); ++i) EXPECT_LE(finder->betti_at(i), 2u) << "at sample " << i;
   // With a minimum of 10 it counts, and becomes a third room.
-  Config c;
+  Config c = Config::paper();
   c.min_component_size = 10;
   auto g2 = make_graph();
   ASSERT_TRUE(s.write(g2.get()));
   EXPECT_EQ(make_finder(c)->update(g2.get()).rooms, 3u);
+}
+
+Config persistence_config() {
+  Config c;
+  c.seeding = Seeding::kPersistence;
+  return c;
+}
+
+// A 10 m x 6 m hall and a 2.25 m x 2.25 m office off it through a 0.75 m door. The hall keeps clearance far above
+// d+, the office peaks at 1 m and holds 15+ places only below ~0.63 m, so the Betti curve is 1 over most of
+// [d-, d+] and the paper's single plateau dilation sees one room; the office's own persistence (peak minus d-,
+// its door being below d-) makes it a room of its own.
+GridPlan hall_and_office_plan() {
+  GridPlan plan(52, 26, testing::kCellM);
+  plan.carve(1, 1, 41, 25, 0);   // hall
+  plan.carve(42, 9, 51, 18, 1);  // office
+  plan.carve(41, 12, 42, 15, -1);
+  return plan;
+}
+
+TEST(RoomFinderTest, PersistenceSeedsASmallRoomThePlateauMisses) {
+  SyntheticPlaces s;
+  hall_and_office_plan().add_to(&s, 1.0);
+  auto g = make_graph();
+  ASSERT_TRUE(s.write(g.get()));
+  const UpdateResult plateau = make_finder(Config::paper())->update(g.get());
+  ASSERT_EQ(plateau.outcome, Outcome::kOk);
+  EXPECT_EQ(plateau.rooms, 1u) << "the paper's global dilation merges the office into the hall";
+
+  auto g2 = make_graph();
+  ASSERT_TRUE(s.write(g2.get()));
+  auto finder = make_finder(persistence_config());
+  const UpdateResult r = finder->update(g2.get());
+  ASSERT_EQ(r.outcome, Outcome::kOk) << to_string(r.outcome);
+  EXPECT_EQ(r.rooms, 2u);
+  EXPECT_EQ(r.seeds, 2u);
+  EXPECT_EQ(r.places_assigned, s.places.size());
+  expect_one_room_per_tag(*g2, s);
+}
+
+// Two 6 m x 6 m halls side by side: joined through a 2.5 m opening (a pinch: clearance ~1.1 m, persistence
+// ~0.1 m) they are one room; through a 1 m doorway (clearance ~0.4 m) they are two.
+GridPlan two_halls_plan(int opening_cells) {
+  GridPlan plan(51, 26, testing::kCellM);
+  plan.carve(1, 1, 25, 25, 0);
+  plan.carve(26, 1, 50, 25, opening_cells >= 8 ? 0 : 1);
+  plan.carve(25, 13 - opening_cells / 2, 26, 13 - opening_cells / 2 + opening_cells, -1);
+  return plan;
+}
+
+TEST(RoomFinderTest, PersistenceSplitsAtDoorsNotAtPinches) {
+  for (const int opening : {10, 4}) {
+    SCOPED_TRACE(::testing::Message() << "opening of " << opening << " cells");
+    SyntheticPlaces s;
+    two_halls_plan(opening).add_to(&s, 1.0);
+    auto g = make_graph();
+    ASSERT_TRUE(s.write(g.get()));
+    const UpdateResult r = make_finder(persistence_config())->update(g.get());
+    ASSERT_EQ(r.outcome, Outcome::kOk);
+    EXPECT_EQ(r.rooms, opening >= 8 ? 1u : 2u);
+    expect_one_room_per_tag(*g, s);
+  }
+  // With no persistence required, even the pinch splits the halls.
+  Config c = persistence_config();
+  c.min_persistence_m = 0.0;
+  SyntheticPlaces s;
+  two_halls_plan(10).add_to(&s, 1.0);
+  auto g = make_graph();
+  ASSERT_TRUE(s.write(g.get()));
+  EXPECT_EQ(make_finder(c)->update(g.get()).rooms, 2u);
+}
+
+TEST(RoomFinderTest, PersistenceHandlesTheCorridorAndFloorsLikeThePlateau) {
+  SyntheticPlaces s;
+  testing::corridor_plan(3).add_to(&s, 0.5);
+  auto g = make_graph();
+  ASSERT_TRUE(s.write(g.get()));
+  const UpdateResult r = make_finder(persistence_config())->update(g.get());
+  ASSERT_EQ(r.outcome, Outcome::kOk);
+  EXPECT_EQ(r.rooms, 7u) << "six rooms and the corridor";
+  expect_one_room_per_tag(*g, s);
 }
 
 // Brute force: for every sampled dilation, the components (BFS) of the places and edges that survive it.
@@ -456,6 +537,9 @@ TEST(RoomFinderTest, UpdatesDoNotAllocate) {
   EXPECT_NO_ALLOCATIONS(second = finder->update(g.get()));
   EXPECT_EQ(first.rooms, 7u);
   EXPECT_EQ(second.rooms_kept, 7u);
+  auto persistence = make_finder(persistence_config());
+  EXPECT_NO_ALLOCATIONS(first = persistence->update(g.get()));
+  EXPECT_EQ(first.rooms, 7u);
 }
 
 }  // namespace
