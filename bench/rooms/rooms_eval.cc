@@ -35,6 +35,7 @@
 #include "bench/sim_tour.h"
 #include "budgets/budget_table.h"
 #include "core/frontend/frontend.h"
+#include "core/neural_tree/room_classifier.h"
 #include "core/reconstruction/semantic_tsdf.h"
 #include "core/rooms/room_finder.h"
 #include "core/scene_graph/scene_graph.h"
@@ -421,7 +422,120 @@ bool eval_plan(const Options& opt, const std::string& map, bool furnished, Score
   return true;
 }
 
-bool eval_generated(const Options& opt, std::uint64_t seed, Score* out, RunStats* st) {
+// Room labels on a generated building (whose rooms have known types): the neural tree labels the graph's rooms as
+// the app does (objects in the room of the place they hang from, room-room edges), and each estimated room is
+// scored against the ground-truth room that holds most of its places.
+struct LabelScore {
+  std::size_t rooms = 0, correct = 0, unknown = 0;
+  std::map<std::string, std::size_t> confusions;  // "truth -> predicted"
+  std::size_t truth_rooms = 0, truth_correct = 0;  // the classifier on the world's own rooms and objects
+};
+
+neural_tree::RoomClassifier& shared_classifier() {
+  static neural_tree::RoomClassifier classifier;
+  static bool tried = false;
+  if (!tried) {
+    tried = true;
+    std::string error;
+    if (!classifier.init(&error)) std::fprintf(stderr, "room labels: %s\n", error.c_str());
+  }
+  return classifier;
+}
+
+// The same classifier on the generator's ground truth (room footprints, object boxes, doors as room-room edges):
+// what the labels can reach when rooms and objects are perfect.
+void label_truth_rooms(const world::World& w, LabelScore* out) {
+  neural_tree::RoomClassifier& classifier = shared_classifier();
+  if (!classifier.ready()) return;
+  neural_tree::ObjectRoomGraph input;
+  std::map<std::int32_t, int> node_of_room;
+  for (const world::Room& room : w.rooms) {
+    Eigen::Vector2d lo = Eigen::Vector2d::Constant(1e9), hi = -lo;
+    for (const world::Polygon2& poly : room.footprint_m)
+      for (const Eigen::Vector2d& v : poly) {
+        lo = lo.cwiseMin(v);
+        hi = hi.cwiseMax(v);
+      }
+    const Eigen::Vector2d c = 0.5 * (lo + hi);
+    node_of_room[room.id] = input.add_room(Eigen::Vector3d(c.x(), c.y(), room.floor_z_m + 0.5 * room.height_m),
+                                           Eigen::Vector3d(hi.x() - lo.x(), hi.y() - lo.y(), room.height_m));
+  }
+  for (const world::Object& o : w.objects) {
+    const auto room = node_of_room.find(o.room_id);
+    if (room == node_of_room.end()) continue;
+    const Eigen::Vector3d extent = o.box.world_R_box.toRotationMatrix().cwiseAbs() * (2.0 * o.box.half_extents_m);
+    input.add_object(room->second, classifier.word_index(o.label), o.box.center_m, extent);
+  }
+  for (const world::Door& d : w.doors) {
+    const auto a = node_of_room.find(d.room_a), b = node_of_room.find(d.room_b);
+    if (a != node_of_room.end() && b != node_of_room.end()) input.add_edge(a->second, b->second);
+  }
+  std::string error;
+  if (!classifier.classify(input, &error)) return;
+  for (const neural_tree::RoomPrediction& p : classifier.predictions())
+    for (const world::Room& room : w.rooms)
+      if (node_of_room[room.id] == p.node) {
+        ++out->truth_rooms;
+        out->truth_correct += p.label == room.label ? 1 : 0;
+      }
+}
+
+bool label_rooms(const world::World& w, const sg::SceneGraph& g, LabelScore* out) {
+  neural_tree::RoomClassifier& classifier = shared_classifier();
+  std::string error;
+  if (!classifier.ready()) return false;
+  neural_tree::ObjectRoomGraph input;
+  std::map<sg::NodeId, int> node_of_room;
+  g.for_each_node([&](const sg::NodeRecord& n) {
+    if (n.kind != sg::NodeKind::kRoom) return;
+    const sg::RoomAttributes* a = g.room(n.id);
+    const bool box = a->bounding_box.type != sg::BoundingBox::Type::kInvalid;
+    node_of_room[n.id] = input.add_room(
+        a->position_m, box ? Eigen::Vector3d(a->bounding_box.max_m - a->bounding_box.min_m) : Eigen::Vector3d::Zero());
+  });
+  g.for_each_node([&](const sg::NodeRecord& n) {
+    if (n.kind != sg::NodeKind::kObject || n.parent == sg::kNoNode) return;
+    const auto room = node_of_room.find(g.parent(n.parent));
+    if (room == node_of_room.end()) return;
+    const sg::ObjectAttributes* o = g.object(n.id);
+    input.add_object(room->second, classifier.word_index(static_cast<semantics::Label>(o->semantic_label)),
+                     o->position_m, o->bounding_box.max_m - o->bounding_box.min_m);
+  });
+  g.for_each_edge([&](const sg::EdgeRecord& e) {
+    const auto a = node_of_room.find(e.source), b = node_of_room.find(e.target);
+    if (a != node_of_room.end() && b != node_of_room.end()) input.add_edge(a->second, b->second);
+  });
+  if (!classifier.classify(input, &error)) {
+    std::fprintf(stderr, "room labels: %s\n", error.c_str());
+    return false;
+  }
+  std::map<int, semantics::RoomLabel> predicted;
+  for (const neural_tree::RoomPrediction& p : classifier.predictions()) predicted[p.node] = p.label;
+  std::map<std::int32_t, semantics::RoomLabel> truth_label;
+  for (const world::Room& room : w.rooms) truth_label[room.id] = room.label;
+  for (const auto& [room_id, node] : node_of_room) {
+    std::map<std::int32_t, int> votes;
+    g.for_each_child(room_id, [&](sg::NodeId child) {
+      if (sg::node_prefix(child) != sg::kPlacePrefix) return;
+      const Eigen::Vector3d& p = g.place(child)->position_m;
+      const std::int32_t t = world::room_at(w, p.x(), p.y(), p.z());
+      if (t >= 0) ++votes[t];
+    });
+    if (votes.empty()) continue;
+    const std::int32_t truth = std::max_element(votes.begin(), votes.end(), [](const auto& a, const auto& b) {
+                                 return a.second < b.second;
+                               })->first;
+    const semantics::RoomLabel want = truth_label[truth], got = predicted[node];
+    ++out->rooms;
+    out->correct += got == want ? 1 : 0;
+    out->unknown += got == semantics::kRoomUnknown ? 1 : 0;
+    if (got != want)
+      ++out->confusions[std::string(semantics::room_label_name(want)) + " -> " + semantics::room_label_name(got)];
+  }
+  return true;
+}
+
+bool eval_generated(const Options& opt, std::uint64_t seed, Score* out, RunStats* st, LabelScore* labels) {
   world::BuildingConfig bc;
   bc.seed = seed;
   bc.num_rooms = opt.generated_rooms;
@@ -432,6 +546,8 @@ bool eval_generated(const Options& opt, std::uint64_t seed, Score* out, RunStats
   std::string error;
   if (!graph->init(sg::capacities_from_budget(), sg::arena_bytes_from_budget(), &error)) return false;
   if (!run_pipeline(opt, w, w.name, graph.get(), st)) return false;
+  label_rooms(w, *graph, labels);
+  label_truth_rooms(w, labels);
   // One raster per floor over the building's footprint: room interiors are free, labelled by room id + 1.
   const world::Aabb box = world::world_bounds(w);
   std::map<std::int32_t, double> floors;  // floor index -> floor z
@@ -521,10 +637,11 @@ int main(int argc, char** argv) {
     add("rooms_eval.ipa." + variant + ".all", overall);
   }
   Score generated;
+  LabelScore labels;
   for (int seed = 1; seed <= opt.generated; ++seed) {
     Score s;
     RunStats st;
-    if (!eval_generated(opt, static_cast<std::uint64_t>(seed), &s, &st)) {
+    if (!eval_generated(opt, static_cast<std::uint64_t>(seed), &s, &st, &labels)) {
       ++failures;
       continue;
     }
@@ -538,6 +655,16 @@ int main(int argc, char** argv) {
                 generated.precision_mean, generated.recall_mean, generated.precision_area, generated.recall_area,
                 generated.rooms_found, generated.rooms_truth);
     add("rooms_eval.generated_two_floor.all", generated);
+    const double accuracy = labels.rooms > 0 ? static_cast<double>(labels.correct) / labels.rooms : 0.0;
+    std::printf("room labels (neural tree, generated two-floor): %zu of %zu estimated rooms correct (%.1f %%), %zu "
+                "unknown; each room scored against the ground-truth room holding most of its places\n",
+                labels.correct, labels.rooms, 100.0 * accuracy, labels.unknown);
+    for (const auto& [pair, n] : labels.confusions) std::printf("  wrong: %s x %zu\n", pair.c_str(), n);
+    std::printf("room labels on the ground-truth rooms and objects of the same buildings: %zu of %zu (%.1f %%)\n",
+                labels.truth_correct, labels.truth_rooms,
+                labels.truth_rooms > 0 ? 100.0 * labels.truth_correct / labels.truth_rooms : 0.0);
+    figures.add("rooms_eval.generated_two_floor.label_accuracy", accuracy, "fraction");
+    figures.add("rooms_eval.generated_two_floor.labelled_rooms", static_cast<double>(labels.rooms), "rooms");
   }
   if (!rooms_ms.empty()) figures.add("rooms_eval.rooms_update_ms_median", median(rooms_ms), "ms");
   if (!opt.json_path.empty() && !figures.write(opt.json_path)) return 1;
