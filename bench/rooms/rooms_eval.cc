@@ -24,6 +24,7 @@
 #include <deque>
 #include <fstream>
 #include <map>
+#include <set>
 #include <memory>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -67,6 +68,7 @@ struct Options {
   double hfov_deg = 90.0;
   double rate_hz = 2.0;       // keyframes per second along the tour
   double max_reach_m = 3.0;   // free cells farther (geodesically) from every place stay unlabelled
+  double robot_radius_m = sim::ExplorationConfig{}.robot_radius_m;  // doors narrower than twice this stay shut
   rooms::Config rooms;
   std::string json_path;
   // Tuning aid: the frontend's graph of each run is saved here (Spark-DSG JSON) and read back on the next run
@@ -106,10 +108,12 @@ bool parse(int argc, char** argv, Options* o) {
     } else if (a == "--hfov-deg") number = &o->hfov_deg;
     else if (a == "--rate-hz") number = &o->rate_hz;
     else if (a == "--max-reach-m") number = &o->max_reach_m;
+    else if (a == "--robot-radius-m") number = &o->robot_radius_m;
     else if (a == "--alpha") number = &o->rooms.plateau_alpha;
     else if (a == "--min-dilation-m") number = &o->rooms.min_dilation_m;
     else if (a == "--max-dilation-m") number = &o->rooms.max_dilation_m;
     else if (a == "--min-persistence-m") number = &o->rooms.min_persistence_m;
+    else if (a == "--max-door-clearance-m") number = &o->rooms.max_door_clearance_m;
     else if (a == "--seeding") {
       if (v == "plateau") o->rooms.seeding = rooms::Seeding::kPlateau;
       else if (v == "persistence") o->rooms.seeding = rooms::Seeding::kPersistence;
@@ -272,6 +276,7 @@ struct RunStats {
   std::size_t keyframes = 0, places = 0, rooms = 0;
   double tour_m = 0.0, rooms_ms = 0.0, dilation_m = 0.0, wall_s = 0.0;
   std::size_t unreachable = 0;
+  std::vector<std::int32_t> unreachable_ids;  // world rooms outside the start's free-space component
 };
 
 // Explores, reconstructs, runs the frontend every keyframe and the room finder at the end.
@@ -281,17 +286,8 @@ bool run_pipeline(const Options& opt, const world::World& w, const std::string& 
                   RunStats* stats) {
   const auto start = std::chrono::steady_clock::now();
   const std::string cache_path = opt.cache_dir.empty() ? "" : opt.cache_dir + "/" + key + ".json";
-  if (!cache_path.empty() && std::ifstream(cache_path).good()) {
-    const sg::JsonImportResult in = sg::read_spark_dsg_json_file(cache_path, *graph);
-    if (!in.ok) {
-      std::fprintf(stderr, "%s: %s\n", cache_path.c_str(), in.error.c_str());
-      return false;
-    }
-    const bool ok = run_rooms(opt, w.name, graph, stats);
-    stats->wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    return ok;
-  }
-  const sim::ExplorationConfig ec;
+  sim::ExplorationConfig ec;
+  ec.robot_radius_m = opt.robot_radius_m;
   sim::SimCamera::Config cc;
   const double f = 0.5 * opt.width / std::tan(0.5 * opt.hfov_deg * 3.14159265358979 / 180.0);
   cc.intrinsics = drivers::CameraIntrinsics{opt.width, opt.height, f, f, (opt.width - 1) / 2.0, (opt.height - 1) / 2.0};
@@ -306,6 +302,17 @@ bool run_pipeline(const Options& opt, const world::World& w, const std::string& 
   sim::SimCamera& camera = *sim_tour.camera;
   stats->tour_m = tour.length_m;
   stats->unreachable = tour.unreachable_rooms.size();
+  stats->unreachable_ids = tour.unreachable_rooms;
+  if (!cache_path.empty() && std::ifstream(cache_path).good()) {
+    const sg::JsonImportResult in = sg::read_spark_dsg_json_file(cache_path, *graph);
+    if (!in.ok) {
+      std::fprintf(stderr, "%s: %s\n", cache_path.c_str(), in.error.c_str());
+      return false;
+    }
+    const bool ok = run_rooms(opt, w.name, graph, stats);
+    stats->wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    return ok;
+  }
   auto tsdf = std::make_unique<reconstruction::SemanticTsdf>();
   if (!tsdf->init(reconstruction::Config{}, reconstruction::capacities_from_budget(),
                   budgets::active::reconstruction::kArenaBytes, &error)) {
@@ -380,7 +387,8 @@ void print_line(const std::string& name, const Score& s, const RunStats& st) {
   std::fflush(stdout);
 }
 
-bool eval_plan(const Options& opt, const std::string& map, bool furnished, Score* out, RunStats* st) {
+bool eval_plan(const Options& opt, const std::string& map, bool furnished, Score* out, RunStats* st,
+               Score* reachable) {
   const std::string occ_path = opt.plans_dir + "/" + map + (furnished ? "_furnitures" : "") + ".png";
   const std::string gt_path = world::floor_plan_gt_path(occ_path);
   world::FloorPlanConfig fc;
@@ -419,6 +427,34 @@ bool eval_plan(const Options& opt, const std::string& map, bool furnished, Score
     }
   label_from_places(*graph, -1e9, 1e9, opt.max_reach_m, &ras);
   *out = score(ras);
+  // The same score over the rooms the robot could enter: ground-truth rooms the tour could not reach (closed doors
+  // in the scan, or doors narrower than the robot) are left out. Each unreachable world room is the ground-truth
+  // region holding most of its footprint's cells.
+  if (reachable != nullptr) {
+    std::set<std::int32_t> excluded;
+    for (const std::int32_t id : st->unreachable_ids) {
+      const world::Room* room = nullptr;
+      for (const world::Room& candidate : wr.world.rooms)
+        if (candidate.id == id) room = &candidate;
+      if (room == nullptr) continue;
+      std::map<std::int32_t, int> votes;
+      for (int r = 0; r < ras.rows; ++r)
+        for (int c = 0; c < ras.cols; ++c) {
+          const std::int32_t t = ras.truth[ras.idx(c, r)];
+          if (t <= 0) continue;
+          for (const world::Polygon2& poly : room->footprint_m)
+            if (world::point_in_polygon(poly, ras.center_of(c, r))) ++votes[t];
+        }
+      if (!votes.empty())
+        excluded.insert(std::max_element(votes.begin(), votes.end(), [](const auto& a, const auto& b) {
+                          return a.second < b.second;
+                        })->first);
+    }
+    Raster masked = ras;
+    for (std::int32_t& t : masked.truth)
+      if (excluded.count(t) != 0) t = 0;
+    *reachable = score(masked);
+  }
   return true;
 }
 
@@ -588,9 +624,9 @@ int main(int argc, char** argv) {
   if (!parse(argc, argv, &opt)) {
     std::fprintf(stderr,
                  "usage: %s [--plans-dir DIR] [--maps a,b|none] [--variants plain,furnished] [--generated N] "
-                 "[--generated-rooms N] [--size WxH] [--hfov-deg D] [--rate-hz R] [--max-reach-m M] [--alpha A] "
+                 "[--generated-rooms N] [--size WxH] [--hfov-deg D] [--rate-hz R] [--max-reach-m M] [--robot-radius-m R] [--alpha A] "
                  "[--min-dilation-m D] [--max-dilation-m D] [--min-component N] [--seeding plateau|persistence] "
-                 "[--min-persistence-m P] [--cache-dir DIR] [--json FILE]\n",
+                 "[--min-persistence-m P] [--max-door-clearance-m D] [--cache-dir DIR] [--json FILE]\n",
                  argv[0]);
     return 2;
   }
@@ -618,11 +654,11 @@ int main(int argc, char** argv) {
   std::vector<double> rooms_ms;
   for (const std::string& variant : opt.variants) {
     if (opt.maps.empty()) break;
-    Score overall;
+    Score overall, overall_reachable;
     for (const std::string& map : opt.maps) {
-      Score s;
+      Score s, reachable;
       RunStats st;
-      if (!eval_plan(opt, map, variant == "furnished", &s, &st)) {
+      if (!eval_plan(opt, map, variant == "furnished", &s, &st, &reachable)) {
         ++failures;
         continue;
       }
@@ -630,11 +666,17 @@ int main(int argc, char** argv) {
       add("rooms_eval.ipa." + variant + "." + map, s);
       rooms_ms.push_back(st.rooms_ms);
       overall.add(s);
+      overall_reachable.add(reachable);
     }
     std::printf("%-30s P %.3f R %.3f | area P %.3f R %.3f | rooms %zu / truth %zu (means pooled over all rooms)\n",
                 ("ALL (" + variant + ")").c_str(), overall.precision_mean, overall.recall_mean, overall.precision_area,
                 overall.recall_area, overall.rooms_found, overall.rooms_truth);
+    std::printf("%-30s P %.3f R %.3f | area P %.3f R %.3f | rooms %zu / truth %zu (rooms the tour could reach)\n",
+                ("ALL reachable (" + variant + ")").c_str(), overall_reachable.precision_mean,
+                overall_reachable.recall_mean, overall_reachable.precision_area, overall_reachable.recall_area,
+                overall_reachable.rooms_found, overall_reachable.rooms_truth);
     add("rooms_eval.ipa." + variant + ".all", overall);
+    add("rooms_eval.ipa." + variant + ".reachable", overall_reachable);
   }
   Score generated;
   LabelScore labels;

@@ -73,6 +73,7 @@ const char* to_string(Seeding seeding) {
 
 std::string Config::check() const {
   if (seeding != Seeding::kPlateau && seeding != Seeding::kPersistence) return "rooms.seeding: unknown value";
+  if (!(max_door_clearance_m >= 0.0)) return "rooms.max_door_clearance_m: must be >= 0 (inf: no limit)";
   if (!std::isfinite(min_persistence_m) || min_persistence_m < 0.0)
     return "rooms.min_persistence_m: must be finite and >= 0, got " + std::to_string(min_persistence_m);
   if (!std::isfinite(min_dilation_m) || min_dilation_m < 0.0)
@@ -94,9 +95,9 @@ std::string Config::check() const {
 void Config::print(std::FILE* out) const {
   std::fprintf(out,
                "rooms: seeding %s, dilation [%.3f, %.3f] m step %.3f m (%zu samples), min_component_size %u places, "
-               "plateau_alpha %.2f, min_persistence_m %.2f, building B(%llu)\n",
+               "plateau_alpha %.2f, min_persistence_m %.2f, max_door_clearance_m %.2f, building B(%llu)\n",
                to_string(seeding), min_dilation_m, max_dilation_m, dilation_step_m, curve_samples(),
-               min_component_size, plateau_alpha, min_persistence_m, static_cast<unsigned long long>(building_index));
+               min_component_size, plateau_alpha, min_persistence_m, max_door_clearance_m, static_cast<unsigned long long>(building_index));
 }
 
 Capacities Capacities::from_scene_graph(const sg::Capacities& graph) {
@@ -499,7 +500,8 @@ std::size_t RoomFinder::seed_by_persistence(UpdateResult* r) {
     std::uint32_t ra = find(e.a), rb = find(e.b);
     if (ra == rb) continue;
     std::uint8_t split = split_[ra] | split_[rb];
-    if (worthy(ra, e.clearance_m) && worthy(rb, e.clearance_m)) {
+    if (e.clearance_m <= config_.max_door_clearance_m + 1e-9 && worthy(ra, e.clearance_m) &&
+        worthy(rb, e.clearance_m)) {
       if (split_[ra] == 0) emit_seed(ra, &seeds, r);
       if (split_[rb] == 0) emit_seed(rb, &seeds, r);
       split = 1;

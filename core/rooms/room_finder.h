@@ -12,6 +12,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <cstdio>
+#include <limits>
 #include <string>
 
 #include "core/memory/arena.h"
@@ -40,6 +41,9 @@ const char* to_string(Seeding seeding);
 struct Config {
   Seeding seeding = Seeding::kPersistence;
   double min_persistence_m = 0.4;  // kPersistence: smallest (birth - merge) clearance gap of a seed component
+  // kPersistence: components meeting through a wider passage (clearance above this, i.e. an opening wider than
+  // twice it) are one room whatever their persistence. Infinity: no limit.
+  double max_door_clearance_m = std::numeric_limits<double>::infinity();
   double min_dilation_m = 0.5;   // d-: smallest dilation (clearance) of the filtration
   double max_dilation_m = 1.2;   // d+: largest dilation
   double dilation_step_m = 0.01; // the Betti curve is sampled every step over [d-, d+]

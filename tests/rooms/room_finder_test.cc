@@ -263,6 +263,23 @@ TEST(RoomFinderTest, PersistenceSplitsAtDoorsNotAtPinches) {
   EXPECT_EQ(make_finder(c)->update(g.get()).rooms, 2u);
 }
 
+TEST(RoomFinderTest, PersistenceKeepsRoomsJoinedWiderThanTheDoorLimitTogether) {
+  SyntheticPlaces s;
+  two_halls_plan(6).add_to(&s, 1.0);  // a 1.5 m opening: clearance ~0.6 m, persistence ~0.6 m
+  auto g = make_graph();
+  ASSERT_TRUE(s.write(g.get()));
+  EXPECT_EQ(make_finder(persistence_config())->update(g.get()).rooms, 2u);
+  Config c = persistence_config();
+  c.max_door_clearance_m = 0.5;
+  auto g2 = make_graph();
+  ASSERT_TRUE(s.write(g2.get()));
+  EXPECT_EQ(make_finder(c)->update(g2.get()).rooms, 1u);
+  c.max_door_clearance_m = -1.0;
+  std::string error;
+  EXPECT_FALSE(RoomFinder().init(c, Capacities::from_scene_graph(small_graph_capacities()), 0, &error));
+  EXPECT_NE(error.find("max_door_clearance_m"), std::string::npos) << error;
+}
+
 TEST(RoomFinderTest, PersistenceHandlesTheCorridorAndFloorsLikeThePlateau) {
   SyntheticPlaces s;
   testing::corridor_plan(3).add_to(&s, 0.5);
