@@ -98,4 +98,66 @@ void BM_ObjectsClusterRandom(benchmark::State& state) {
 }
 BENCHMARK(BM_ObjectsClusterRandom)->Arg(5000)->Arg(20000)->Arg(60000)->Unit(benchmark::kMillisecond);
 
+// The merge search with many objects in the layer: n objects seen earlier (square rings of chair vertices, 0.8 m
+// a side, on a 3 m grid), then one update per iteration that presents a patch at the centre of one ring (farther
+// than the tolerance from it, inside its box: merged by the centre-in-box rule) and syncs. Public API only, so the
+// same benchmark runs against any version of the layer; the cost should not follow n.
+void BM_ObjectsMergeManyObjects(benchmark::State& state) {
+  const int n = static_cast<int>(state.range(0));
+  std::string error;
+  auto layer = std::make_unique<objects::ObjectLayer>();
+  auto graph = std::make_unique<scene_graph::SceneGraph>();
+  if (!layer->init(objects::Config{}, objects::capacities_from_budget(), budgets::active::objects::kArenaBytes,
+                   &error) ||
+      !graph->init(scene_graph::capacities_from_budget(), scene_graph::arena_bytes_from_budget(), &error)) {
+    state.SkipWithError(error.c_str());
+    return;
+  }
+  const int per_row = 60;
+  const auto origin = [&](int i, float* x, float* y) {
+    *x = 3.0f * static_cast<float>(i % per_row);
+    *y = 3.0f * static_cast<float>(i / per_row);
+  };
+  std::uint64_t key = 1;
+  for (int first = 0; first < n; first += 1000) {  // in parts: one update clusters at most cluster_vertices
+    layer->begin_update(static_cast<std::uint64_t>(first + 1));
+    for (int i = first; i < std::min(n, first + 1000); ++i) {
+      float x0 = 0, y0 = 0;
+      origin(i, &x0, &y0);
+      layer->begin_block({i / 10, -1, 0});  // ten rings a block, never presented again
+      for (int k = 0; k < 8; ++k) {
+        const float t = 0.1f * static_cast<float>(k);
+        const float ring[4][2] = {{x0 + t, y0}, {x0 + 0.8f, y0 + t}, {x0 + 0.8f - t, y0 + 0.8f}, {x0, y0 + 0.8f - t}};
+        for (const auto& p : ring) layer->add_vertex(objects::InputVertex{key++, p[0], p[1], 0.0f, semantics::kChair});
+      }
+    }
+    layer->end_update();
+    layer->sync(graph.get());
+  }
+  if (layer->num_objects() != static_cast<std::size_t>(n)) {
+    state.SkipWithError("the rings did not become one object each");
+    return;
+  }
+  int i = 0;
+  double max_ms = 0.0;
+  for (auto _ : state) {
+    float x0 = 0, y0 = 0;
+    origin(i % n, &x0, &y0);
+    const auto t0 = std::chrono::steady_clock::now();
+    layer->begin_update(static_cast<std::uint64_t>(n + i));
+    layer->begin_block({i, 1, 0});
+    for (int a = 0; a < 5; ++a)
+      for (int b = 0; b < 5; ++b)
+        layer->add_vertex(objects::InputVertex{key++, x0 + 0.3f + 0.05f * static_cast<float>(a),
+                                               y0 + 0.3f + 0.05f * static_cast<float>(b), 0.0f, semantics::kChair});
+    layer->end_update();
+    layer->sync(graph.get());
+    max_ms = std::max(max_ms, std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+    ++i;
+  }
+  state.counters["max_ms"] = max_ms;
+  state.counters["objects"] = static_cast<double>(layer->num_objects());
+}
+BENCHMARK(BM_ObjectsMergeManyObjects)->Arg(500)->Arg(1500)->Arg(3000)->Iterations(500)->Unit(benchmark::kMicrosecond);
+
 }  // namespace

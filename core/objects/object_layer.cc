@@ -20,6 +20,7 @@ struct ObjectLayer::Object {
   NodeId node = scene_graph::kNoNode;
   semantics::Label label = semantics::kVoid;
   bool changed = false;   // waiting in changed_ for the next sync
+  std::uint32_t touched = 0;  // stamp of the last update that changed it (the merge step looks at these only)
   bool in_graph = false;  // a node was added for it
   double sum[3] = {0, 0, 0};
   std::uint64_t num_vertices = 0;
@@ -35,6 +36,13 @@ struct ObjectLayer::Object {
   std::uint32_t key_tail = kInvalidHandle;
   std::uint32_t num_keys = 0;
   std::uint64_t last_update_ns = 0;
+  // Entry in the merge index (object_cells_), kept in step with the box by index_object().
+  std::uint64_t index_cell = 0;
+  std::uint32_t index_next = kInvalidHandle;
+  std::uint8_t extent_class = 0;
+  bool indexed = false;
+  std::uint32_t label_prev = kInvalidHandle;  // all objects of the label (label_head_), doubly linked
+  std::uint32_t label_next = kInvalidHandle;
 };
 
 struct ObjectLayer::TrackedVertex {
@@ -139,6 +147,8 @@ LabelTable default_label_params() {
     p.min_vertices = is_small(l) ? 8 : 20;
     p.max_vertices = is_large(l) ? 200000 : 50000;
   }
+  t[semantics::kBed].max_size_m = 2.3;
+  t[semantics::kTable].max_size_m = 2.4;
   return t;
 }
 
@@ -159,18 +169,27 @@ std::string Config::check() const {
       std::snprintf(buf, sizeof(buf), "labels[%u] (%s): need 1 <= min_vertices <= max_vertices", l, name);
       return buf;
     }
+    if (!(p.max_size_m >= 0.0 && p.max_size_m <= 20.0)) {
+      std::snprintf(buf, sizeof(buf), "labels[%u] (%s).max_size_m must be in [0, 20] m (0: no size prior)", l, name);
+      return buf;
+    }
   }
+  if (!(index_cell_m >= 0.25 && index_cell_m <= 50.0)) return "index_cell_m must be in [0.25, 50] m";
   return {};
 }
 
 void Config::print(std::FILE* out) const {
-  std::fprintf(out, "objects: merge_overlapping=%d; enabled labels (tolerance_m, min..max vertices):",
-               merge_overlapping ? 1 : 0);
+  std::fprintf(out,
+               "objects: merge_overlapping=%d merge_intersecting=%d merge_by_size_prior=%d index_cell_m=%.2f; enabled "
+               "labels (tolerance_m, min..max vertices[, max_size_m]):",
+               merge_overlapping ? 1 : 0, merge_intersecting ? 1 : 0, merge_by_size_prior ? 1 : 0, index_cell_m);
   for (semantics::Label l = 0; l < semantics::kNumObjectLabels; ++l) {
     const LabelParams& p = labels[l];
-    if (p.enabled)
-      std::fprintf(out, " %s(%.2f,%u..%u)", semantics::object_label(l).name, p.tolerance_m, p.min_vertices,
-                   p.max_vertices);
+    if (!p.enabled) continue;
+    std::fprintf(out, " %s(%.2f,%u..%u", semantics::object_label(l).name, p.tolerance_m, p.min_vertices,
+                 p.max_vertices);
+    if (p.max_size_m > 0.0) std::fprintf(out, ",%.2f", p.max_size_m);
+    std::fprintf(out, ")");
   }
   std::fprintf(out, "\n");
 }
@@ -208,14 +227,16 @@ void Counters::print(std::FILE* out) const {
   std::fprintf(out,
                "objects: updates=%" PRIu64 " presented=%" PRIu64 " candidates=%" PRIu64 " clusters=%" PRIu64
                " (too_small=%" PRIu64 " too_large=%" PRIu64 " joined=%" PRIu64 " overlap_merged=%" PRIu64
-               ") objects created=%" PRIu64 " merged=%" PRIu64 " (overlap %" PRIu64 ") removed=%" PRIu64
-               " boxes_recomputed=%" PRIu64 " vertices stale=%" PRIu64
+               ") objects created=%" PRIu64 " merged=%" PRIu64 " (overlap %" PRIu64 " intersect %" PRIu64
+               " size %" PRIu64 ") removed=%" PRIu64 " index queries=%" PRIu64 " (scans %" PRIu64
+               ", visits %" PRIu64 ") boxes_recomputed=%" PRIu64 " vertices stale=%" PRIu64
                " released=%" PRIu64 " blocks released=%" PRIu64 " overflow: candidate=%" PRIu64 " tracked=%" PRIu64
                " key=%" PRIu64 " block=%" PRIu64 " object=%" PRIu64 " graph_node=%" PRIu64
                " graph_connection=%" PRIu64 "\n",
                updates, vertices_presented, candidates, clusters, clusters_too_small, clusters_too_large,
                clusters_joined, clusters_overlap_merged, objects_created, objects_merged, objects_overlap_merged,
-               objects_removed, boxes_recomputed, vertices_stale, vertices_released, blocks_released,
+               objects_intersect_merged, objects_size_merged, objects_removed, index_queries, index_scans, index_visits,
+               boxes_recomputed, vertices_stale, vertices_released, blocks_released,
                candidate_overflow, tracked_overflow, key_overflow, block_overflow, object_overflow, graph_node_failures,
                graph_connection_failures);
 }
@@ -233,6 +254,7 @@ ObjectLayer::ObjectLayer()
       candidates_("objects.candidates", memory::OverflowPolicy::kRefuse),
       candidate_index_("objects.candidate_index", memory::OverflowPolicy::kRefuse),
       candidate_cells_("objects.candidate_cells", memory::OverflowPolicy::kRefuse),
+      object_cells_("objects.object_cells", memory::OverflowPolicy::kRefuse),
       order_("objects.order", memory::OverflowPolicy::kRefuse),
       presented_blocks_("objects.presented_blocks", memory::OverflowPolicy::kRefuse),
       changed_("objects.changed", memory::OverflowPolicy::kRefuse),
@@ -263,6 +285,7 @@ memory::ArenaPlan ObjectLayer::plan(const Capacities& c) {
   memory::ArenaVector<std::uint32_t>::plan(p, c.objects);
   memory::ArenaVector<NodeId>::plan(p, c.objects);
   memory::ArenaVector<NodeId>::plan(p, c.objects);
+  U64Map::plan(p, U64Map::slots_for(c.objects));
   return p;
 }
 
@@ -289,6 +312,8 @@ bool ObjectLayer::init(const Config& config, const Capacities& c, std::size_t bu
     inv_tolerance_[l] = static_cast<float>(1.0 / tol);
     tolerance_sq_[l] = static_cast<float>(tol * tol);
   }
+  inv_index_cell_ = static_cast<float>(1.0 / config.index_cell_m);
+  label_head_.fill(kInvalidHandle);
   const std::size_t tracked_slots = U64Map::slots_for(c.tracked_vertices);
   const std::size_t candidate_slots = U64Map::slots_for(c.cluster_vertices);
   const bool ok = objects_.carve(arena_, c.objects) && tracked_.carve(arena_, c.tracked_vertices) &&
@@ -302,7 +327,8 @@ bool ObjectLayer::init(const Config& config, const Capacities& c, std::size_t bu
                   candidate_cells_.carve(arena_, candidate_slots, c.cluster_vertices) &&
                   order_.carve(arena_, c.cluster_vertices) && presented_blocks_.carve(arena_, c.tracked_blocks) &&
                   changed_.carve(arena_, c.objects) && removed_nodes_.carve(arena_, c.objects) &&
-                  synced_.carve(arena_, c.objects);
+                  synced_.carve(arena_, c.objects) &&
+                  object_cells_.carve(arena_, U64Map::slots_for(c.objects), c.objects);
   if (!ok || !arena_.seal()) {
     if (error != nullptr) *error = "objects: the arena carve did not match its plan";
     return false;
@@ -409,6 +435,7 @@ bool ObjectLayer::mesh_vertex_key(std::uint32_t connection, std::uint64_t* key) 
 void ObjectLayer::mark_changed(std::uint32_t h) {
   Object& o = objects_[h];
   o.last_update_ns = time_ns_;
+  o.touched = stamp_;
   if (o.changed) return;
   // changed_ holds at most one entry per live object, plus stale handles of released ones: compact when full.
   if (changed_.full()) {
@@ -431,6 +458,11 @@ std::uint32_t ObjectLayer::create_object(semantics::Label label) {
   empty_box(o.lo, o.hi);
   empty_box(o.released_lo, o.released_hi);
   o.box_dirty = false;
+  o.indexed = false;
+  o.label_prev = kInvalidHandle;
+  o.label_next = label_head_[label];
+  if (o.label_next != kInvalidHandle) objects_[o.label_next].label_prev = h;
+  label_head_[label] = h;
   ++counters_.objects_created;
   ++result_.objects_created;
   mark_changed(h);
@@ -448,11 +480,21 @@ void ObjectLayer::release_keys(std::uint32_t h) {
   o.num_keys = 0;
 }
 
+// Takes an object out of the merge index and its label's list, and frees its slot.
+void ObjectLayer::release_object(std::uint32_t h) {
+  unindex_object(h);
+  Object& o = objects_[h];
+  if (o.label_prev != kInvalidHandle) objects_[o.label_prev].label_next = o.label_next;
+  else label_head_[o.label] = o.label_next;
+  if (o.label_next != kInvalidHandle) objects_[o.label_next].label_prev = o.label_prev;
+  objects_.release(h);
+}
+
 void ObjectLayer::delete_object(std::uint32_t h) {
   release_keys(h);
   Object& o = objects_[h];
   if (o.in_graph && !removed_nodes_.push_back(o.node)) ++counters_.graph_node_failures;
-  objects_.release(h);
+  release_object(h);
   ++counters_.objects_removed;
 }
 
@@ -488,7 +530,8 @@ void ObjectLayer::merge_objects(std::uint32_t into, std::uint32_t from) {
   b.key_head = b.key_tail = kInvalidHandle;
   b.num_keys = 0;
   if (b.in_graph && !removed_nodes_.push_back(b.node)) ++counters_.graph_node_failures;
-  objects_.release(from);
+  release_object(from);
+  index_object(into);
   ++counters_.objects_merged;
   mark_changed(into);
 }
@@ -582,6 +625,7 @@ void ObjectLayer::move_tracked(std::uint32_t slot, const InputVertex& v) {
     t.p[i] = p[i];
   }
   add_to_box(t.object, p);
+  index_object(t.object);
   if (old_cell != new_cell) cell_insert(tracked_cells_, new_cell, slot, &t.cell_next);
   mark_changed(t.object);
 }
@@ -788,36 +832,155 @@ std::uint32_t ObjectLayer::flood_fill(std::uint32_t seed, std::uint32_t* linked,
   return num_linked;
 }
 
-// The paper's rule: same label, and one's centre lies in the other's box. Centres are box centres, the objects'
-// positions (a vertex mean is pulled toward the best-seen surface and may leave the box of a part seen apart).
-std::uint32_t ObjectLayer::find_overlapping(semantics::Label label, const float* lo, const float* hi,
-                                            std::uint32_t skip, bool visible_only) const {
-  float c[3];
+// Which rule, if any, pairs a box of `label` with object `other` (same label). The paper's: one's centre lies in
+// the other's box; centres are box centres, the objects' positions (a vertex mean is pulled toward the best-seen
+// surface and may leave the box of a part seen apart). Hydra's overlap: the boxes intersect. The size prior: the
+// joint box fits one instance and the heights meet. A new cluster is tested with the first two only (the prior
+// pairs fragments, which are objects by then).
+ObjectLayer::MergeRule ObjectLayer::merge_rule(semantics::Label label, const float* lo, const float* hi,
+                                               std::uint32_t other, bool cluster) const {
+  const Object& o = objects_[other];
+  float c[3], oc[3];
   box_centre(lo, hi, c);
-  for (std::uint32_t h = 0; h < objects_.capacity(); ++h) {
-    if (h == skip || !objects_.live(h) || objects_[h].label != label || objects_[h].num_vertices == 0) continue;
-    if (visible_only && !visible(h)) continue;
-    const Object& o = objects_[h];
-    float oc[3];
-    box_centre(o.lo, o.hi, oc);
-    if (inside(c, o.lo, o.hi) || inside(oc, lo, hi)) return h;
+  box_centre(o.lo, o.hi, oc);
+  if (config_.merge_overlapping && (inside(c, o.lo, o.hi) || inside(oc, lo, hi))) return MergeRule::kCentreInBox;
+  bool intersect = true;
+  for (int i = 0; i < 3; ++i) intersect = intersect && lo[i] <= o.hi[i] && o.lo[i] <= hi[i];
+  if (config_.merge_intersecting && intersect) return MergeRule::kIntersect;
+  const LabelParams& p = config_.labels[label];
+  if (cluster || !config_.merge_by_size_prior || !(p.max_size_m > 0.0)) return MergeRule::kNone;
+  const float tol = static_cast<float>(p.tolerance_m);
+  const float size = static_cast<float>(p.max_size_m);
+  if (lo[2] > o.hi[2] + tol || o.lo[2] > hi[2] + tol) return MergeRule::kNone;
+  for (int i = 0; i < 2; ++i)
+    if (std::max(hi[i], o.hi[i]) - std::min(lo[i], o.lo[i]) > size) return MergeRule::kNone;
+  return MergeRule::kSizePrior;
+}
+
+// The index cell of an object's box centre and its half-extent class (the largest half side, in cells, rounded up).
+std::uint64_t ObjectLayer::object_cell(std::uint32_t h, std::uint8_t* extent_class) const {
+  const Object& o = objects_[h];
+  const float inv = inv_index_cell_;
+  float c[3], half = 0.0f;
+  box_centre(o.lo, o.hi, c);
+  for (int i = 0; i < 3; ++i) half = std::max(half, 0.5f * (o.hi[i] - o.lo[i]));
+  const float k = std::ceil(half * inv);
+  *extent_class = static_cast<std::uint8_t>(k < static_cast<float>(kExtentClasses - 1) ? k : kExtentClasses - 1);
+  const auto cell = [inv](float v) { return static_cast<std::int32_t>(std::floor(v * inv)); };
+  return pack_cell(o.label, cell(c[0]), cell(c[1]), cell(c[2]));
+}
+
+// Keeps an object's index entry in step with its box; call after its box changed. Objects without vertices
+// (an empty box) are not indexed.
+void ObjectLayer::index_object(std::uint32_t h) {
+  Object& o = objects_[h];
+  if (o.num_vertices == 0) {
+    unindex_object(h);
+    return;
   }
+  std::uint8_t extent_class = 0;
+  const std::uint64_t cell = object_cell(h, &extent_class);
+  if (o.indexed && o.index_cell == cell && o.extent_class == extent_class) return;
+  unindex_object(h);
+  // Cannot be refused: the map holds at most one cell per object.
+  cell_insert(object_cells_, cell, h, &o.index_next);
+  o.index_cell = cell;
+  o.extent_class = extent_class;
+  o.indexed = true;
+  ++extent_count_[o.label][extent_class];
+}
+
+void ObjectLayer::unindex_object(std::uint32_t h) {
+  Object& o = objects_[h];
+  if (!o.indexed) return;
+  o.indexed = false;
+  --extent_count_[o.label][o.extent_class];
+  std::uint32_t* head = object_cells_.find(o.index_cell);
+  if (head == nullptr) return;
+  if (*head == h) {
+    if (o.index_next == kInvalidHandle) object_cells_.erase(o.index_cell);
+    else *head = o.index_next;
+    return;
+  }
+  for (std::uint32_t g = *head; g != kInvalidHandle; g = objects_[g].index_next) {
+    if (objects_[g].index_next == h) {
+      objects_[g].index_next = o.index_next;
+      return;
+    }
+  }
+}
+
+// An object of `label` (not `skip`) that a rule pairs with the box, or kInvalidHandle. A new cluster considers
+// visible objects only. Every rule pairs boxes whose centres are, per axis, at most the two half sides apart, plus
+// the size prior's length horizontally and the tolerance vertically: the search covers those index cells, or
+// every object when that reach spans more cells than the index holds objects of the label.
+std::uint32_t ObjectLayer::find_mergeable(semantics::Label label, const float* lo, const float* hi,
+                                          std::uint32_t skip, bool new_cluster, MergeRule* rule) {
+  *rule = MergeRule::kNone;
+  std::uint32_t largest = 0, count = 0;
+  for (std::uint32_t k = 0; k < kExtentClasses; ++k) {
+    const std::uint32_t n = extent_count_[label][k];
+    if (n > 0) largest = k;
+    count += n;
+  }
+  if (count == 0 || (count == 1 && skip != kInvalidHandle && objects_[skip].indexed)) return kInvalidHandle;
+  ++counters_.index_queries;
+  const auto test = [&](std::uint32_t g) {
+    if (g == skip || !objects_.live(g) || objects_[g].label != label || objects_[g].num_vertices == 0) return false;
+    if (new_cluster && !visible(g)) return false;
+    ++counters_.index_visits;
+    *rule = merge_rule(label, lo, hi, g, new_cluster);
+    return *rule != MergeRule::kNone;
+  };
+  const LabelParams& p = config_.labels[label];
+  const float cell = static_cast<float>(config_.index_cell_m);
+  const float other_half = static_cast<float>(largest) * cell;
+  const float tol = static_cast<float>(p.tolerance_m);
+  const float size = !new_cluster && config_.merge_by_size_prior ? static_cast<float>(p.max_size_m) : 0.0f;
+  std::int32_t c0[3], c1[3];
+  double cells = 1.0;
+  for (int i = 0; i < 3; ++i) {
+    const float c = 0.5f * (lo[i] + hi[i]);
+    const float reach = std::max(0.5f * (hi[i] - lo[i]) + other_half, i < 2 ? size : 0.0f) + tol;
+    c0[i] = static_cast<std::int32_t>(std::floor((c - reach) * inv_index_cell_));
+    c1[i] = static_cast<std::int32_t>(std::floor((c + reach) * inv_index_cell_));
+    cells *= static_cast<double>(c1[i] - c0[i] + 1);
+  }
+  if (largest == kExtentClasses - 1 || cells > static_cast<double>(count)) {
+    // A box larger than the classes reach, or more cells than objects of the label: look at each of them.
+    ++counters_.index_scans;
+    for (std::uint32_t g = label_head_[label]; g != kInvalidHandle; g = objects_[g].label_next)
+      if (test(g)) return g;
+    return kInvalidHandle;
+  }
+  for (std::int32_t x = c0[0]; x <= c1[0]; ++x)
+    for (std::int32_t y = c0[1]; y <= c1[1]; ++y)
+      for (std::int32_t z = c0[2]; z <= c1[2]; ++z) {
+        const std::uint32_t* head = object_cells_.find(pack_cell(label, x, y, z));
+        if (head == nullptr) continue;
+        for (std::uint32_t g = *head; g != kInvalidHandle; g = objects_[g].index_next)
+          if (test(g)) return g;
+      }
   return kInvalidHandle;
 }
 
-// Applies the rule between every object changed since the last sync and all others of its label, repeatedly
-// (a merged box is larger and may now contain another centre). The larger object survives and keeps its node.
-void ObjectLayer::merge_overlapping_objects() {
+// Applies the rules between every object changed in this update and the others of its label, repeatedly (a merged
+// box is larger and may now pair with another). The larger object survives and keeps its node.
+void ObjectLayer::merge_changed_objects() {
   for (std::size_t i = 0; i < changed_.size(); ++i) {
     std::uint32_t h = changed_[i];
-    if (!objects_.live(h) || !objects_[h].changed || objects_[h].num_vertices == 0) continue;
+    if (!objects_.live(h) || !objects_[h].changed || objects_[h].touched != stamp_ || objects_[h].num_vertices == 0)
+      continue;
     for (;;) {
-      const std::uint32_t g = find_overlapping(objects_[h].label, objects_[h].lo, objects_[h].hi, h, false);
+      MergeRule rule = MergeRule::kNone;
+      const std::uint32_t g = find_mergeable(objects_[h].label, objects_[h].lo, objects_[h].hi, h, false, &rule);
       if (g == kInvalidHandle) break;
       const bool keep_g = objects_[g].num_vertices > objects_[h].num_vertices;
       const std::uint32_t into = keep_g ? g : h;
       merge_objects(into, keep_g ? h : g);
-      ++counters_.objects_overlap_merged;
+      if (rule == MergeRule::kCentreInBox) ++counters_.objects_overlap_merged;
+      else if (rule == MergeRule::kIntersect) ++counters_.objects_intersect_merged;
+      else ++counters_.objects_size_merged;
       h = into;
     }
   }
@@ -831,6 +994,7 @@ void ObjectLayer::recompute_box(std::uint32_t h) {
   }
   for (std::uint32_t s = o.tracked_head; s != kInvalidHandle; s = tracked_[s].obj_next) add_to_box(h, tracked_[s].p);
   o.box_dirty = false;
+  index_object(h);
   ++counters_.boxes_recomputed;
 }
 
@@ -857,7 +1021,7 @@ void ObjectLayer::process_cluster(std::uint32_t begin, std::uint32_t end, const 
       ++counters_.clusters_too_large;
       return;
     }
-    if (config_.merge_overlapping && !small) {
+    if ((config_.merge_overlapping || config_.merge_intersecting) && !small) {
       float lo[3], hi[3];
       empty_box(lo, hi);
       for (std::uint32_t k = begin; k < end; ++k) {
@@ -867,7 +1031,8 @@ void ObjectLayer::process_cluster(std::uint32_t begin, std::uint32_t end, const 
           hi[i] = std::max(hi[i], c.p[i]);
         }
       }
-      target = find_overlapping(label, lo, hi, kInvalidHandle, true);
+      MergeRule rule = MergeRule::kNone;
+      target = find_mergeable(label, lo, hi, kInvalidHandle, true, &rule);
       if (target != kInvalidHandle) ++counters_.clusters_overlap_merged;
     }
     if (target == kInvalidHandle) {
@@ -884,6 +1049,7 @@ void ObjectLayer::process_cluster(std::uint32_t begin, std::uint32_t end, const 
     delete_object(target);
     return;
   }
+  index_object(target);
   mark_changed(target);
 }
 
@@ -911,7 +1077,7 @@ UpdateResult ObjectLayer::end_update() {
   // 3. Boxes that may have shrunk (stale or moved boundary vertices), then the centre-in-box rule between objects.
   for (const std::uint32_t h : changed_)
     if (objects_.live(h) && objects_[h].box_dirty) recompute_box(h);
-  if (config_.merge_overlapping) merge_overlapping_objects();
+  if (config_.merge_overlapping || config_.merge_intersecting || config_.merge_by_size_prior) merge_changed_objects();
   // 4. Scratch maps back to empty, in time proportional to what this update used.
   for (const Candidate& c : candidates_) {
     candidate_index_.erase(c.key);

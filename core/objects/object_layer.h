@@ -10,14 +10,21 @@
 //     tolerance of an existing object's tracked vertex of the same label joins that object (and joins objects it
 //     connects), so an object seen over several updates is the same connected component a single batch would give.
 //   - Any other cluster larger than the label's max vertex count is dropped. One with at least the min count is
-//     merged into an existing object of the same label when one's centre lies in the other's box (the paper's
-//     rule), else it is new. A smaller one becomes a tentative object: tracked and joinable (an object seen a
-//     little at a time still forms), but invisible (not listed, not in the scene graph) until it reaches the min
-//     count, and deleted when its last vertex leaves the window below it.
-//   - At the end of every update the same rule is applied between objects (tentative ones included) that changed
-//     and every other object of their label: boxes grow over updates, so two parts of one piece of furniture that
-//     were seen apart (a table's two ends below a top the camera never sees) merge once one contains the other's
-//     centre, whichever update each part came from.
+//     merged into an existing visible object of the same label when one's centre lies in the other's box (the
+//     paper's rule) or their boxes intersect, else it is new. A smaller one becomes a tentative object: tracked
+//     and joinable (an object seen a little at a time still forms), but invisible (not listed, not in the scene
+//     graph) until it reaches the min count, and deleted when its last vertex leaves the window below it.
+//   - At the end of every update, objects (tentative ones included) changed by it are merged with any other object
+//     of their label that one of three rules pairs them with: the paper's centre-in-box rule; boxes that intersect
+//     (Hydra also merges on overlap); and, for labels with a size prior (LabelParams::max_size_m), fragments whose
+//     joint box still fits one instance of the label and whose heights meet. Boxes grow over updates, so parts
+//     of one piece of furniture seen apart merge whichever update each came from. The size prior is for labels
+//     whose visible parts a low camera sees disconnected: a bed's foot end and the headboard above a mattress at
+//     camera height, a table's legs below a top thinner than a voxel. Merged objects keep every vertex, so the box
+//     covers the whole object and its centre is the object's.
+//   - Candidates for a merge come from a fixed-capacity grid index of object box centres per label (cells of
+//     Config::index_cell_m), searched over the reach of the rules: the cost of an update follows the objects near
+//     what changed, not the number of objects ever seen.
 //   - An object's position is the centre of its axis-aligned box, not the mean of its vertices: surface vertices
 //     sample an object non-uniformly (a table's top dominates its legs, the side facing the robot dominates the
 //     far side), so their mean is pulled toward the best-seen surface, while the box centre is what a
@@ -57,6 +64,9 @@ struct LabelParams {
   double tolerance_m = 0.2;       // two vertices closer than this are in the same cluster
   std::uint32_t min_vertices = 20;  // smaller clusters are noise (not yet an object)
   std::uint32_t max_vertices = 50000;  // larger clusters are not one object (e.g. a mislabelled wall)
+  // Size prior (0 = none): two objects of the label whose joint box is at most this long on both horizontal axes,
+  // and whose heights meet within the tolerance, are fragments of one instance and merge.
+  double max_size_m = 0.0;
 };
 
 using LabelTable = std::array<LabelParams, semantics::kNumObjectLabels>;
@@ -64,13 +74,22 @@ using LabelTable = std::array<LabelParams, semantics::kNumObjectLabels>;
 // surface are at most ~0.17 m apart). The minimum size is a noise gate, 8 vertices for small labels (a picture
 // is only a few) and 20 for all others: noise does not grow with the label's physical size, and a large object
 // is often seen only in part (a 0.43 m coffee table below a 0.5 m camera shows one side, ~30 vertices); its
-// fragments are merged (connection, centre-in-box), not hidden. The maximum size depends on the label's size.
+// fragments are merged (connection, centre-in-box, box overlap), not hidden. The maximum vertex count depends on
+// the label's size. Size priors for the two labels whose parts a 0.5 m camera sees disconnected: bed 2.3 m (a
+// super-king bed with its frame), table 2.4 m (an eight-seat dining table).
 LabelTable default_label_params();
 
 struct Config {
   LabelTable labels = default_label_params();
   // The paper's centre-in-box merge: of new clusters not connected to an object, and between changed objects.
   bool merge_overlapping = true;
+  // Merge objects of one label whose boxes intersect (Hydra's overlap merge); also for new clusters.
+  bool merge_intersecting = true;
+  // Apply the labels' size priors (LabelParams::max_size_m) between changed objects and their neighbours.
+  bool merge_by_size_prior = true;
+  // Cell of the grid that indexes object box centres for the merge search: a performance knob (which objects may
+  // merge does not depend on it); about the size of a large object.
+  double index_cell_m = 2.0;
   std::string check() const;      // empty when usable, else the bad field and why
   void print(std::FILE* out) const;
 };
@@ -96,6 +115,11 @@ struct Counters {
   std::uint64_t clusters_joined = 0;       // connected to existing objects
   std::uint64_t clusters_overlap_merged = 0;  // new clusters merged by the centre-in-box rule
   std::uint64_t objects_overlap_merged = 0;   // objects merged by the centre-in-box rule (also in objects_merged)
+  std::uint64_t objects_intersect_merged = 0;  // by intersecting boxes (also in objects_merged)
+  std::uint64_t objects_size_merged = 0;       // by the label's size prior (also in objects_merged)
+  std::uint64_t index_queries = 0;             // merge searches through the object index
+  std::uint64_t index_scans = 0;               // of which walked the label's list (a box larger than the index reaches)
+  std::uint64_t index_visits = 0;              // objects those searches tested against a rule
   std::uint64_t boxes_recomputed = 0;         // after vertices went stale or moved
   std::uint64_t objects_created = 0;
   std::uint64_t objects_merged = 0;        // objects absorbed by another object
@@ -220,6 +244,7 @@ class ObjectLayer {
     fn(candidates_.stats());
     fn(candidate_index_.stats());
     fn(candidate_cells_.stats());
+    fn(object_cells_.stats());
   }
 
   static constexpr std::uint32_t kKeysPerChunk = 15;
@@ -258,9 +283,16 @@ class ObjectLayer {
   void release_keys(std::uint32_t object);
   std::uint32_t flood_fill(std::uint32_t seed, std::uint32_t* linked, std::uint32_t max_linked);
   void process_cluster(std::uint32_t begin, std::uint32_t end, const std::uint32_t* linked, std::uint32_t num_linked);
-  std::uint32_t find_overlapping(semantics::Label label, const float* lo, const float* hi, std::uint32_t skip,
-                                 bool visible_only) const;
-  void merge_overlapping_objects();
+  enum class MergeRule : std::uint8_t { kNone, kCentreInBox, kIntersect, kSizePrior };
+  MergeRule merge_rule(semantics::Label label, const float* lo, const float* hi, std::uint32_t other,
+                       bool clusters_rules) const;
+  std::uint32_t find_mergeable(semantics::Label label, const float* lo, const float* hi, std::uint32_t skip,
+                               bool new_cluster, MergeRule* rule);
+  std::uint64_t object_cell(std::uint32_t h, std::uint8_t* bucket) const;
+  void index_object(std::uint32_t h);
+  void unindex_object(std::uint32_t h);
+  void release_object(std::uint32_t h);
+  void merge_changed_objects();
   void recompute_box(std::uint32_t h);
   void log_graph_failure(const char* what, std::uint64_t count) const;
 
@@ -269,6 +301,7 @@ class ObjectLayer {
   Counters counters_;
   std::array<float, semantics::kNumObjectLabels> inv_tolerance_{};
   std::array<float, semantics::kNumObjectLabels> tolerance_sq_{};
+  float inv_index_cell_ = 0.5f;
 
   memory::Arena arena_;
   memory::Pool<Object> objects_;
@@ -281,6 +314,12 @@ class ObjectLayer {
   memory::ArenaVector<Candidate> candidates_;
   memory::FixedHashMap<std::uint64_t, std::uint32_t, memory::U64Hash> candidate_index_;  // dedupe in one update
   memory::FixedHashMap<std::uint64_t, std::uint32_t, memory::U64Hash> candidate_cells_;
+  // (label, cell of the box centre) -> objects there, linked through Object::index_next.
+  memory::FixedHashMap<std::uint64_t, std::uint32_t, memory::U64Hash> object_cells_;
+  // Objects per label per half-extent class (in index cells; the last class is "larger"): how far a search reaches.
+  static constexpr std::uint32_t kExtentClasses = 16;
+  std::array<std::array<std::uint32_t, kExtentClasses>, semantics::kNumObjectLabels> extent_count_{};
+  std::array<std::uint32_t, semantics::kNumObjectLabels> label_head_{};  // objects of each label (Object::label_*)
   memory::ArenaVector<std::uint32_t> order_;            // candidates in flood-fill order
   memory::ArenaVector<std::uint32_t> presented_blocks_;  // block records re-meshed this update
   memory::ArenaVector<std::uint32_t> changed_;           // objects changed since the last sync

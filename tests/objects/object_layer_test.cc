@@ -197,6 +197,8 @@ TEST(ObjectLayerTest, OverlappingClustersMergeByThePapersRuleUnlessDisabled) {
   for (const bool merge : {true, false}) {
     Config config;
     config.merge_overlapping = merge;
+    config.merge_intersecting = merge;  // the patch's box also lies inside the rim's
+    config.merge_by_size_prior = merge;
     auto layer = make_layer(config);
     std::uint64_t key = 1;
     // A table's top rim seen first, then a separate patch at its centre (farther than the tolerance from the
@@ -299,6 +301,8 @@ void expect_same_partition(const ObjectLayer& layer, const std::vector<Vertex>& 
 TEST(ObjectLayerTest, ClustersEqualBruteForceEuclideanClusteringOnRandomPoints) {
   Config config;
   config.merge_overlapping = false;  // the reference is pure connected components
+  config.merge_intersecting = false;
+  config.merge_by_size_prior = false;
   for (semantics::Label l : {semantics::kChair, semantics::kTable}) {
     config.labels[l].min_vertices = 1;
     config.labels[l].tolerance_m = l == semantics::kChair ? 0.2 : 0.15;
@@ -554,6 +558,8 @@ TEST(ObjectLayerTest, ExistingObjectsMergeWhenAGrownBoxContainsTheOthersCentre) 
   for (const bool merge : {true, false}) {
     Config config;
     config.merge_overlapping = merge;
+    config.merge_intersecting = merge;    // the side's box reaches into the far end's
+    config.merge_by_size_prior = false;   // the two ends fit one table: the prior alone would merge them at once
     auto layer = make_layer(config);
     auto graph = scene_graph::testing::make_graph();
     std::uint64_t key = 1;
@@ -663,6 +669,138 @@ TEST(ObjectLayerTest, APartlySeenLargeObjectNeedsOnlyTheCommonMinimum) {
   present(layer.get(), face, 1);
   EXPECT_EQ(layer->num_objects(), 1u);
   EXPECT_EQ(layer->num_tentative_objects(), 0u);
+}
+
+// A bed seen by a low camera: first its foot end (frame and mattress sides, below the camera), later the headboard
+// above the mattress, 1.6 m away (the mattress top at camera height is never seen). The size prior makes them
+// one object whose box covers both and whose position is the bed's centre; without it they stay two.
+TEST(ObjectLayerTest, ABedSeenAsTwoFragmentsOverTwoUpdatesBecomesOneObject) {
+  for (const bool prior : {true, false}) {
+    Config config;
+    config.merge_by_size_prior = prior;
+    auto layer = make_layer(config);
+    auto graph = scene_graph::testing::make_graph();
+    std::uint64_t key = 1;
+    const auto foot = box_surface({9.15, 1.75, 0.0}, {9.55, 3.50, 0.50}, semantics::kBed, &key, 0.1);
+    const auto head = box_surface({7.45, 1.85, 0.55}, {7.55, 3.35, 0.85}, semantics::kBed, &key, 0.1);
+    present(layer.get(), foot, 1);
+    ASSERT_TRUE(layer->sync(graph.get()));
+    ASSERT_EQ(layer->num_objects(), 1u);
+    present(layer.get(), head, 2);
+    ASSERT_TRUE(layer->sync(graph.get()));
+    EXPECT_EQ(layer->num_objects(), prior ? 1u : 2u) << "merge_by_size_prior=" << prior;
+    EXPECT_EQ(graph->num_nodes(scene_graph::NodeKind::kObject), prior ? 1u : 2u);
+    EXPECT_EQ(layer->counters().objects_size_merged, prior ? 1u : 0u);
+    if (!prior) continue;
+    const ObjectView bed = objects_of(*layer)[0];
+    EXPECT_NEAR(bed.min_m.x(), 7.45, 1e-5);
+    EXPECT_NEAR(bed.max_m.x(), 9.55, 1e-5);
+    EXPECT_NEAR(bed.max_m.z(), 0.85, 1e-5);
+    EXPECT_EQ(bed.num_vertices, foot.size() + head.size()) << "the fragment's vertices stay with the object";
+    EXPECT_EQ(bed.num_keys, foot.size() + head.size());
+    EXPECT_LT((bed.position_m.head<2>() - Eigen::Vector2d(8.5, 2.625)).norm(), 0.05);
+    const scene_graph::ObjectAttributes* attr = graph->object(bed.node);
+    ASSERT_NE(attr, nullptr);
+    EXPECT_TRUE(attr->position_m.isApprox(bed.position_m));
+  }
+}
+
+// The size prior pairs fragments of one instance only: two beds side by side whose joint box is wider than one bed
+// can be, and a table above another (a floor apart), stay apart.
+TEST(ObjectLayerTest, TheSizePriorKeepsObjectsThatDoNotFitOneInstanceApart) {
+  auto layer = make_layer();
+  std::uint64_t key = 1;
+  auto scene = concat(box_surface({0.0, 0.0, 0.0}, {1.0, 2.0, 0.5}, semantics::kBed, &key, 0.1),
+                      box_surface({1.5, 0.0, 0.0}, {2.5, 2.0, 0.5}, semantics::kBed, &key, 0.1));
+  scene = concat(scene, box_surface({5.0, 0.0, 0.0}, {6.2, 0.8, 0.75}, semantics::kTable, &key, 0.1));
+  scene = concat(scene, box_surface({5.0, 0.0, 3.0}, {6.2, 0.8, 3.75}, semantics::kTable, &key, 0.1));
+  present(layer.get(), scene, 1);
+  EXPECT_EQ(layer->num_objects(), 4u);
+  EXPECT_EQ(layer->counters().objects_merged, 0u);
+  // A table's far legs, 1.4 m from its near legs, do fit one table.
+  present(layer.get(), box_surface({5.0, 1.8, 0.0}, {6.2, 1.9, 0.65}, semantics::kTable, &key, 0.1), 2);
+  EXPECT_EQ(layer->num_objects(), 4u);
+  EXPECT_EQ(layer->counters().objects_size_merged, 1u);
+}
+
+// Hydra's overlap rule: two fragments of a sofa whose boxes intersect, though neither centre lies in the other's
+// box and no vertex of one is within the tolerance of the other (two L-shaped walls of vertices), merge.
+TEST(ObjectLayerTest, FragmentsWhoseBoxesIntersectMergeUnlessDisabled) {
+  for (const bool intersect : {true, false}) {
+    Config config;
+    config.merge_intersecting = intersect;
+    auto layer = make_layer(config);
+    std::uint64_t key = 1;
+    // L of walls along x = 0 and y = 0 (box 0..1 x 0..1), and along x = 1.6 and y = 1.6 (box 0.7..1.6 squared).
+    auto a = concat(box_surface({0.0, 0.0, 0.0}, {1.0, 0.0, 0.5}, semantics::kSofa, &key, 0.1),
+                    box_surface({0.0, 0.1, 0.0}, {0.0, 1.0, 0.5}, semantics::kSofa, &key, 0.1));
+    auto b = concat(box_surface({0.7, 1.6, 0.0}, {1.6, 1.6, 0.5}, semantics::kSofa, &key, 0.1),
+                    box_surface({1.6, 0.7, 0.0}, {1.6, 1.5, 0.5}, semantics::kSofa, &key, 0.1));
+    present(layer.get(), a, 1);
+    present(layer.get(), concat(a, b), 2);
+    EXPECT_EQ(layer->num_objects(), intersect ? 1u : 2u) << "merge_intersecting=" << intersect;
+    EXPECT_EQ(layer->counters().objects_overlap_merged, 0u) << "not the centre-in-box rule";
+    EXPECT_EQ(layer->counters().objects_intersect_merged + layer->counters().clusters_overlap_merged,
+              intersect ? 1u : 0u);
+  }
+}
+
+// The merge search goes through the grid index: with many objects seen (far away), a new fragment is tested
+// against its neighbours only, and the cell size changes the cost, not the result.
+TEST(ObjectLayerTest, TheMergeSearchTestsNearbyObjectsOnlyWhateverTheCellSize) {
+  Capacities caps = small_capacities();
+  caps.objects = 256;  // 120 chairs and, for a moment, their 120 seats
+  caps.cluster_vertices = 32768;
+  caps.tracked_vertices = 32768;
+  caps.vertex_keys = 65536;
+  caps.tracked_blocks = 2048;
+  std::vector<std::vector<ObjectView>> results;
+  for (const double cell_m : {0.25, 2.0, 50.0}) {
+    Config config;
+    config.index_cell_m = cell_m;
+    auto layer = make_layer(config, caps);
+    std::uint64_t key = 1;
+    // 120 chairs on a 3 m grid, each seen first as its back and a rail (box 0.5 x 0.5 x 0.9), then its seat:
+    // farther than the tolerance from both, inside their box.
+    const auto chair_frame = [&](double x, double y) {
+      return concat(box_surface({x, y, 0.0}, {x + 0.5, y, 0.9}, semantics::kChair, &key, 0.1),
+                    box_surface({x, y + 0.1, 0.0}, {x, y + 0.5, 0.0}, semantics::kChair, &key, 0.1));
+    };
+    const auto seat = [&](double x, double y) {
+      return box_surface({x + 0.1, y + 0.25, 0.45}, {x + 0.4, y + 0.45, 0.45}, semantics::kChair, &key, 0.1);
+    };
+    std::vector<Vertex> frames, seats, first_chair;
+    for (int i = 0; i < 120; ++i) {
+      const double x = 3.0 * (i % 12), y = 3.0 * (i / 12);
+      const auto frame = chair_frame(x, y);
+      frames = concat(frames, frame);
+      if (i == 0) first_chair = frame;
+    }
+    const auto first_seat = seat(0.0, 0.0);
+    for (int i = 1; i < 120; ++i) seats = concat(seats, seat(3.0 * (i % 12), 3.0 * (i / 12)));
+    present(layer.get(), frames, 1);
+    ASSERT_EQ(layer->num_objects(), 120u);
+    const std::uint64_t visits_before = layer->counters().index_visits;
+    // One more fragment next to one chair: its search looks at that chair's neighbourhood, not at 120 objects.
+    present(layer.get(), concat(first_chair, first_seat), 2);  // its block is re-meshed: the frame comes again
+    EXPECT_EQ(layer->num_objects(), 120u);
+    EXPECT_EQ(layer->num_tentative_objects(), 0u) << "the seat joined its chair";
+    if (cell_m == 2.0) {
+      EXPECT_LE(layer->counters().index_visits - visits_before, 8u);
+    }
+    present(layer.get(), concat(concat(frames, first_seat), seats), 3);
+    EXPECT_EQ(layer->num_objects(), 120u) << "cell " << cell_m;
+    EXPECT_EQ(layer->num_tentative_objects(), 0u) << "cell " << cell_m;
+    results.push_back(objects_of(*layer));
+  }
+  for (std::size_t r = 1; r < results.size(); ++r) {
+    ASSERT_EQ(results[r].size(), results[0].size());
+    for (std::size_t i = 0; i < results[0].size(); ++i) {
+      EXPECT_EQ(results[r][i].num_vertices, results[0][i].num_vertices);
+      EXPECT_TRUE(results[r][i].min_m.isApprox(results[0][i].min_m));
+      EXPECT_TRUE(results[r][i].max_m.isApprox(results[0][i].max_m));
+    }
+  }
 }
 
 }  // namespace
