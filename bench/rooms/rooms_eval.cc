@@ -74,6 +74,7 @@ struct Options {
   // Tuning aid: the frontend's graph of each run is saved here (Spark-DSG JSON) and read back on the next run
   // instead of exploring again, so room parameters can be swept in seconds. Empty: always explore.
   std::string cache_dir;
+  std::string images_dir;  // --images DIR: per plan, a PNG of the estimated rooms beside the ground truth
 };
 
 std::vector<std::string> split(const std::string& s) {
@@ -101,6 +102,7 @@ bool parse(int argc, char** argv, Options* o) {
     else if (a == "--variants") o->variants = split(v);
     else if (a == "--json") o->json_path = v;
     else if (a == "--cache-dir") o->cache_dir = v;
+    else if (a == "--images") o->images_dir = v;
     else if (a == "--generated") o->generated = std::atoi(v.c_str());
     else if (a == "--generated-rooms") o->generated_rooms = std::atoi(v.c_str());
     else if (a == "--size") {
@@ -238,6 +240,26 @@ struct Score {
     recall_area = r_size > 0 ? r_overlap / r_size : 0.0;
   }
 };
+
+// Left: the estimated rooms, right: the ground truth, each room a colour from its id (black: occupied, grey: free but
+// unlabelled).
+void write_image(const Raster& ras, const std::string& path) {
+  cv::Mat out(ras.rows, 2 * ras.cols + 10, CV_8UC3, cv::Scalar(255, 255, 255));
+  const auto colour = [](std::int32_t id) {
+    const std::uint32_t h = static_cast<std::uint32_t>(id) * 2654435761u;
+    return cv::Vec3b(static_cast<std::uint8_t>(60 + (h & 0x7f)), static_cast<std::uint8_t>(60 + ((h >> 8) & 0x7f)),
+                     static_cast<std::uint8_t>(60 + ((h >> 16) & 0x7f)));
+  };
+  for (int r = 0; r < ras.rows; ++r)
+    for (int c = 0; c < ras.cols; ++c) {
+      const std::size_t k = ras.idx(c, r);
+      const cv::Vec3b free_grey(200, 200, 200);
+      out.at<cv::Vec3b>(r, c) = !ras.free[k] ? cv::Vec3b(0, 0, 0) : ras.estimate[k] > 0 ? colour(ras.estimate[k]) : free_grey;
+      out.at<cv::Vec3b>(r, ras.cols + 10 + c) =
+          !ras.free[k] ? cv::Vec3b(0, 0, 0) : ras.truth[k] > 0 ? colour(ras.truth[k] + 1000) : free_grey;
+    }
+  if (!cv::imwrite(path, out)) std::fprintf(stderr, "cannot write %s\n", path.c_str());
+}
 
 // Max-overlap precision and recall over the cells that are free and inside a ground-truth room.
 Score score(const Raster& ras) {
@@ -427,6 +449,8 @@ bool eval_plan(const Options& opt, const std::string& map, bool furnished, Score
     }
   label_from_places(*graph, -1e9, 1e9, opt.max_reach_m, &ras);
   *out = score(ras);
+  if (!opt.images_dir.empty())
+    write_image(ras, opt.images_dir + "/" + map + (furnished ? "_furnished" : "_plain") + "_rooms.png");
   // The same score over the rooms the robot could enter: ground-truth rooms the tour could not reach (closed doors
   // in the scan, or doors narrower than the robot) are left out. Each unreachable world room is the ground-truth
   // region holding most of its footprint's cells.
@@ -626,7 +650,7 @@ int main(int argc, char** argv) {
                  "usage: %s [--plans-dir DIR] [--maps a,b|none] [--variants plain,furnished] [--generated N] "
                  "[--generated-rooms N] [--size WxH] [--hfov-deg D] [--rate-hz R] [--max-reach-m M] [--robot-radius-m R] [--alpha A] "
                  "[--min-dilation-m D] [--max-dilation-m D] [--min-component N] [--seeding plateau|persistence] "
-                 "[--min-persistence-m P] [--max-door-clearance-m D] [--cache-dir DIR] [--json FILE]\n",
+                 "[--min-persistence-m P] [--max-door-clearance-m D] [--cache-dir DIR] [--images DIR] [--json FILE]\n",
                  argv[0]);
     return 2;
   }
