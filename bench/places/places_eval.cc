@@ -1,7 +1,8 @@
-// Places evaluation: the simulated robot explores generated buildings (ground-truth poses, noise-free depth,
-// 0.1 m voxels); the TSDF and the places layer run every keyframe; prints the mean distance from the place nodes
-// to the ground-truth GVD, places components against connected free-space regions, nodes per 100 m^2 and the
-// per-update time of places (median, p99), optionally as JSON.
+// Places evaluation: the simulated robot explores generated buildings or an extruded benchmark floor plan
+// (ground-truth poses, noise-free depth, 0.1 m voxels); the TSDF and the places layer run every keyframe; prints the
+// mean distance from the place nodes to the ground-truth GVD, places components against connected free-space
+// regions, nodes per 100 m^2, the per-update time of places (median, p99) and the memory of the ESDF and GVD in
+// the window, optionally as JSON.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -28,6 +29,7 @@
 #include "drivers/sim/ground_truth.h"
 #include "drivers/sim/sim_camera.h"
 #include "drivers/world/building_generator.h"
+#include "drivers/world/floor_plan_import.h"
 #include "drivers/world/world_query.h"
 
 
@@ -49,12 +51,21 @@ struct Options {
   bool observe = true;    // --no-observe: update() carves from the latest frame only (the old behaviour)
   bool free_space_edges = true;
   bool relink = true;
+  bool bridges = true;    // --no-bridges: no bridges and no enclosed pockets held back (the previous behaviour)
+  bool contract = true;   // --no-contract
+  std::string floorplan;   // --floorplan NAME: explore this extruded benchmark plan instead of generated buildings
+  bool furnished = false;
+  std::string plans_dir = std::string(QSG_SHARED_DATA_DIR) + "/floorplans/ipa";
+  double window_radius_m = 0.0;  // --window-radius-m: places window (0: the Config default)
+  double slab_above_m = 0.0;     // --slab-above-m: ESDF slab above the robot (0: the Config default)
 };
 
 void usage(const char* argv0) {
   std::fprintf(stderr,
                "usage: %s [--seeds 1,2,3] [--rooms N] [--size WxH] [--hfov-deg D] [--rate-hz R] [--every-n N] "
-               "[--no-observe] [--no-free-space-edges] [--no-relink] [--json FILE] [--verbose] [--diagnose]\n",
+               "[--no-observe] [--no-free-space-edges] [--no-relink] [--no-bridges] [--no-contract] [--floorplan NAME [--furnished]] "
+               "[--plans-dir DIR] [--window-radius-m R] [--slab-above-m H] [--json FILE] [--verbose] [--diagnose]\n"
+               "  NAME: a map of the plans dir (Freiburg52_scan, lab_c_scan, lab_intel, lab_ipa, office_a, office_e)\n",
                argv0);
 }
 
@@ -80,6 +91,18 @@ bool parse(int argc, char** argv, Options* o) {
     }
     if (a == "--no-relink") {
       o->relink = false;
+      continue;
+    }
+    if (a == "--no-bridges") {
+      o->bridges = false;
+      continue;
+    }
+    if (a == "--no-contract") {
+      o->contract = false;
+      continue;
+    }
+    if (a == "--furnished") {
+      o->furnished = true;
       continue;
     }
     if (i + 1 >= argc) {
@@ -114,6 +137,20 @@ bool parse(int argc, char** argv, Options* o) {
     } else if (a == "--json") {
       o->json_path = v;
       continue;
+    } else if (a == "--floorplan") {
+      o->floorplan = v;
+      continue;
+    } else if (a == "--plans-dir") {
+      o->plans_dir = v;
+      continue;
+    } else if (a == "--slab-above-m") {
+      o->slab_above_m = std::strtod(v.c_str(), &end);
+    } else if (a == "--window-radius-m") {
+      o->window_radius_m = std::strtod(v.c_str(), &end);
+      if (end != v.c_str() && *end == '\0' && !(o->window_radius_m > 0.0 && o->window_radius_m <= 50.0)) {
+        std::fprintf(stderr, "--window-radius-m: must be in (0, 50] m\n");
+        return false;
+      }
     } else if (a == "--size") {
       if (std::sscanf(v.c_str(), "%dx%d", &o->width, &o->height) != 2) {
         std::fprintf(stderr, "--size: expected WxH, got '%s'\n", v.c_str());
@@ -128,6 +165,10 @@ bool parse(int argc, char** argv, Options* o) {
       std::fprintf(stderr, "option %s: bad value '%s'\n", a.c_str(), v.c_str());
       return false;
     }
+  }
+  if (o->furnished && o->floorplan.empty()) {
+    std::fprintf(stderr, "--furnished needs --floorplan NAME\n");
+    return false;
   }
   return !o->seeds.empty() && o->rooms >= 3 && o->width > 0 && o->height > 0 && o->hfov_deg > 10 &&
          o->hfov_deg < 170 && o->rate_hz > 0 && o->every_n >= 1;
@@ -158,6 +199,55 @@ std::size_t free_space_regions(const world::World& w, const std::set<std::int32_
   std::set<std::int32_t> roots;
   for (std::int32_t r : visited) roots.insert(find(r));
   return roots.size();
+}
+
+// Connected free-space regions from the ground-truth grid (for floor plans, whose doors the import records only
+// where a separator line marks them): 6-connected components of voxels with at least min_clearance_m (the
+// clearance a place needs), counted when the tour passed through them.
+std::size_t free_space_regions_gt(const sim::GroundTruth& truth, const std::vector<Eigen::Vector3d>& path_m,
+                                  double min_clearance_m) {
+  const std::size_t n = truth.clearance_m.size();
+  std::vector<std::int32_t> label(n, -1);
+  const auto free = [&](std::size_t i) {
+    return truth.voxel_room[i] != sim::kVoxelOccupied && truth.clearance_m[i] >= min_clearance_m;
+  };
+  const auto voxel_of = [&](const Eigen::Vector3d& p, std::size_t* out) {
+    const Eigen::Vector3i q = ((p - truth.origin_m) / truth.config.voxel_size_m).array().floor().cast<int>();
+    if ((q.array() < 0).any() || (q.array() >= truth.dims.array()).any()) return false;
+    *out = truth.index(q.x(), q.y(), q.z());
+    return true;
+  };
+  std::set<std::int32_t> visited;
+  std::int32_t next = 0;
+  std::vector<std::size_t> stack;
+  const int nx = truth.dims.x(), ny = truth.dims.y(), nz = truth.dims.z();
+  for (const Eigen::Vector3d& p : path_m) {
+    std::size_t start = 0;
+    if (!voxel_of(p, &start) || !free(start)) continue;
+    if (label[start] < 0) {
+      label[start] = next;
+      stack.push_back(start);
+      while (!stack.empty()) {
+        const std::size_t i = stack.back();
+        stack.pop_back();
+        const int x = static_cast<int>(i % static_cast<std::size_t>(nx));
+        const int y = static_cast<int>((i / static_cast<std::size_t>(nx)) % static_cast<std::size_t>(ny));
+        const int z = static_cast<int>(i / (static_cast<std::size_t>(nx) * static_cast<std::size_t>(ny)));
+        const int d[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+        for (const auto& o : d) {
+          const int xx = x + o[0], yy = y + o[1], zz = z + o[2];
+          if (xx < 0 || yy < 0 || zz < 0 || xx >= nx || yy >= ny || zz >= nz) continue;
+          const std::size_t j = truth.index(xx, yy, zz);
+          if (label[j] >= 0 || !free(j)) continue;
+          label[j] = next;
+          stack.push_back(j);
+        }
+      }
+      ++next;
+    }
+    visited.insert(label[start]);
+  }
+  return visited.size();
 }
 
 // Components of the places graph; *sizes gets their node counts.
@@ -355,6 +445,7 @@ void diagnose_components(const scene_graph::SceneGraph& g, const places::Places&
 
 struct BuildingResult {
   std::uint64_t seed = 0;
+  std::string name;  // "seed N" or the floor plan's name and variant
   std::size_t keyframes = 0;
   std::size_t nodes = 0;
   std::size_t edges = 0;
@@ -367,13 +458,15 @@ struct BuildingResult {
   double area_m2 = 0.0;
   std::vector<double> update_ms;
   std::vector<double> observe_ms;
+  places::MemoryUse memory;
+  std::size_t tsdf_arena_bytes = 0;
+  std::uint64_t tsdf_evicted = 0;
 };
 
-bool run_building(const Options& opt, std::uint64_t seed, BuildingResult* out) {
-  world::BuildingConfig bc;
-  bc.num_rooms = opt.rooms;
-  bc.seed = seed;
-  const world::World w = world::generate_building(bc);
+// Runs the tour of one world; floor plans count free-space regions on the ground-truth grid, generated buildings
+// through the doors between visited rooms.
+bool run_world(const Options& opt, const world::World& w, bool floor_plan, BuildingResult* out) {
+  const std::uint64_t seed = out->seed;
   const sim::ExplorationConfig ec;
   sim::SimCamera::Config cc;
   const double f = 0.5 * opt.width / std::tan(0.5 * opt.hfov_deg * 3.14159265358979 / 180.0);
@@ -389,15 +482,45 @@ bool run_building(const Options& opt, std::uint64_t seed, BuildingResult* out) {
   sim::SimCamera& camera = *sim_tour.camera;
   reconstruction::SemanticTsdf tsdf;
   reconstruction::Config tc;
-  if (!tsdf.init(tc, reconstruction::capacities_from_budget(), budgets::active::reconstruction::kArenaBytes, &error)) {
+  places::Config pc;
+  pc.free_space_edges = opt.free_space_edges;
+  pc.relink_inactive = opt.relink;
+  pc.bridge_fragments = opt.bridges;
+  pc.enclosed_max_voxels = opt.bridges ? pc.enclosed_max_voxels : 0;
+  pc.contract_removed = opt.contract;
+  reconstruction::Capacities rcaps = reconstruction::capacities_from_budget();
+  std::size_t tsdf_bytes = budgets::active::reconstruction::kArenaBytes;
+  places::Capacities pcaps = places::capacities_from_budget();
+  std::size_t places_bytes = places::arena_bytes_from_budget();
+  if (opt.slab_above_m > 0.0) pc.slab_above_m = opt.slab_above_m;
+  if (opt.window_radius_m > 0.0) {
+    // Every ESDF block the places read must exist in the TSDF: its window is one ESDF block larger.
+    const double esdf_block_m = places::kBlockSide * pc.voxel_factor * tc.voxel_size_m;
+    const double tsdf_radius_m = opt.window_radius_m + esdf_block_m;
+    // The budget's TSDF pool holds the default window; a larger one holds more blocks (they grow with the area the
+    // window covers: the slab is bounded in height). The ESDF pool keeps the budget's size: a refusal is reported.
+    const double tsdf_scale = std::max(1.0, std::pow(tsdf_radius_m / tc.window_radius_m, 2.0));
+    pc.window_radius_m = opt.window_radius_m;
+    tc.window_radius_m = tsdf_radius_m;
+    if (tsdf_scale > 1.0) {
+      rcaps.max_blocks = static_cast<std::size_t>(std::ceil(static_cast<double>(rcaps.max_blocks) * tsdf_scale));
+      rcaps.mesh_vertices = static_cast<std::size_t>(std::ceil(static_cast<double>(rcaps.mesh_vertices) * tsdf_scale));
+      rcaps.mesh_triangles = static_cast<std::size_t>(std::ceil(static_cast<double>(rcaps.mesh_triangles) * tsdf_scale));
+      tsdf_bytes = std::max(tsdf_bytes, reconstruction::SemanticTsdf::plan(rcaps).total_bytes());
+      if (seed == opt.seeds.front())
+        std::printf("note: TSDF window %.1f m does not fit the budget's reconstruction pools (sized for %.1f m): "
+                    "sized for this eval: %zu blocks, arena %.1f MiB (budget %.1f MiB)\n",
+                    tsdf_radius_m, reconstruction::Config{}.window_radius_m, rcaps.max_blocks,
+                    tsdf_bytes / 1048576.0, budgets::active::reconstruction::kArenaBytes / 1048576.0);
+    }
+  }
+  out->tsdf_arena_bytes = tsdf_bytes;
+  if (!tsdf.init(tc, rcaps, tsdf_bytes, &error)) {
     std::fprintf(stderr, "%s\n", error.c_str());
     return false;
   }
   places::Places places;
-  places::Config pc;
-  pc.free_space_edges = opt.free_space_edges;
-  pc.relink_inactive = opt.relink;
-  if (!places.init(pc, places::capacities_from_budget(), places::arena_bytes_from_budget(), &error)) {
+  if (!places.init(pc, pcaps, places_bytes, &error)) {
     std::fprintf(stderr, "%s\n", error.c_str());
     return false;
   }
@@ -409,7 +532,7 @@ bool run_building(const Options& opt, std::uint64_t seed, BuildingResult* out) {
   if (seed == opt.seeds.front()) {
     tc.print(stdout);
     pc.print(stdout);
-    places::capacities_from_budget().print(stdout);
+    pcaps.print(stdout);
   }
 
   std::map<scene_graph::NodeId, NodeHistory> history;
@@ -446,6 +569,8 @@ bool run_building(const Options& opt, std::uint64_t seed, BuildingResult* out) {
     std::fprintf(stderr, "ground truth: %s\n", error.c_str());
     return false;
   }
+  out->memory = places.memory_use();
+  out->tsdf_evicted = tsdf.counters().blocks_evicted;
   std::vector<double> distances;
   graph.for_each_node([&](const scene_graph::NodeRecord& n) {
     if (n.kind != scene_graph::NodeKind::kPlace) return;
@@ -513,13 +638,18 @@ bool run_building(const Options& opt, std::uint64_t seed, BuildingResult* out) {
     out->largest_share = static_cast<double>(*std::max_element(sizes.begin(), sizes.end())) /
                          static_cast<double>(std::max<std::size_t>(1, distances.size()));
   std::set<std::int32_t> visited(tour.room_order.begin(), tour.room_order.end());
-  out->regions = free_space_regions(w, visited);
+  if (floor_plan) {
+    std::vector<Eigen::Vector3d> path;
+    for (const auto& pose : tour.trajectory) path.push_back(pose.world_t_body_m);
+    out->regions = free_space_regions_gt(truth, path, pc.min_clearance_m);
+  } else {
+    out->regions = free_space_regions(w, visited);
+  }
   for (const world::Room& room : w.rooms) {
     if (visited.count(room.id) == 0) continue;
     for (const world::Polygon2& p : room.footprint_m) out->area_m2 += polygon_area(p);
   }
-  std::printf("building seed %llu: %zu rooms (%zu visited), tour %.1f m, %zu keyframes at %dx%d\n",
-              static_cast<unsigned long long>(seed), w.rooms.size(), visited.size(), tour.length_m, out->keyframes,
+  std::printf("%s: %zu rooms (%zu visited), tour %.1f m, %zu keyframes at %dx%d\n", out->name.c_str(), w.rooms.size(), visited.size(), tour.length_m, out->keyframes,
               opt.width, opt.height);
   std::printf("  place nodes %zu, edges %zu; distance to the true GVD mean %.3f m, median %.3f m; components %zu "
               "(%zu with >= 3 nodes, largest holds %.1f %% of the nodes; free-space regions %zu); %.1f nodes per 100 m^2 of %.1f m^2; update median %.2f ms p99 %.2f ms max "
@@ -528,11 +658,51 @@ bool run_building(const Options& opt, std::uint64_t seed, BuildingResult* out) {
               out->components_3, 100.0 * out->largest_share, out->regions, 100.0 * static_cast<double>(out->nodes) / std::max(1.0, out->area_m2), out->area_m2,
               quantile(out->update_ms, 0.5), quantile(out->update_ms, 0.99),
               *std::max_element(out->update_ms.begin(), out->update_ms.end()));
+  out->memory.print(stdout);
+  if (places.counters().blocks_refused > 0)
+    std::printf("  note: the ESDF block pool refused %llu blocks (window larger than the budget's pool)\n",
+                static_cast<unsigned long long>(places.counters().blocks_refused));
+  if (out->tsdf_evicted > 0)
+    std::printf("  note: the TSDF pool evicted %llu blocks early (window larger than its pool)\n",
+                static_cast<unsigned long long>(out->tsdf_evicted));
   if (opt.verbose) {
     places.counters().print(stdout);
     places.for_each_resource([](const memory::ResourceStats& s) { s.print(stdout); });
   }
   return true;
+}
+
+bool run_building(const Options& opt, std::uint64_t seed, BuildingResult* out) {
+  world::BuildingConfig bc;
+  bc.num_rooms = opt.rooms;
+  bc.seed = seed;
+  out->seed = seed;
+  out->name = "building seed " + std::to_string(seed);
+  return run_world(opt, world::generate_building(bc), false, out);
+}
+
+// 1 ran, 0 skipped (no data), -1 failed.
+int run_floor_plan(const Options& opt, BuildingResult* out) {
+  const std::string occ_path = opt.plans_dir + "/" + opt.floorplan + (opt.furnished ? "_furnitures" : "") + ".png";
+  if (!std::ifstream(opt.plans_dir + "/lab_ipa.png")) {
+    std::printf("skipped: no benchmark floor plans in %s (the shared data directory is absent)\n",
+                opt.plans_dir.c_str());
+    return 0;
+  }
+  if (!std::ifstream(occ_path)) {
+    std::fprintf(stderr, "floor plan %s not found; names: Freiburg52_scan, lab_c_scan, lab_intel, lab_ipa, "
+                 "office_a, office_e\n", occ_path.c_str());
+    return -1;
+  }
+  world::FloorPlanConfig fc;
+  const world::WorldResult wr = world::import_floor_plan_files(occ_path, world::floor_plan_gt_path(occ_path), fc);
+  if (!wr.ok) {
+    std::fprintf(stderr, "%s: %s\n", occ_path.c_str(), wr.error.c_str());
+    return -1;
+  }
+  out->seed = 0;
+  out->name = opt.floorplan + (opt.furnished ? " furnished" : " plain");
+  return run_world(opt, wr.world, true, out) ? 1 : -1;
 }
 
 }  // namespace
@@ -544,10 +714,19 @@ int main(int argc, char** argv) {
     return 2;
   }
   std::vector<BuildingResult> results;
-  for (std::uint64_t seed : opt.seeds) {
+  if (!opt.floorplan.empty()) {
+    opt.seeds = {0};
     BuildingResult r;
-    if (!run_building(opt, seed, &r)) return 1;
+    const int ran = run_floor_plan(opt, &r);
+    if (ran < 0) return 1;
+    if (ran == 0) return 0;
     results.push_back(std::move(r));
+  } else {
+    for (std::uint64_t seed : opt.seeds) {
+      BuildingResult r;
+      if (!run_building(opt, seed, &r)) return 1;
+      results.push_back(std::move(r));
+    }
   }
   std::vector<double> all_ms;
   double dist_sum = 0.0, area = 0.0;
@@ -566,29 +745,74 @@ int main(int argc, char** argv) {
   const double per_100 = area > 0 ? 100.0 * static_cast<double>(nodes) / area : 0.0;
   const double median_ms = quantile(all_ms, 0.5), p99_ms = quantile(all_ms, 0.99);
   const double max_ms = all_ms.empty() ? 0.0 : *std::max_element(all_ms.begin(), all_ms.end());
-  std::printf("\nsummary over %zu buildings (%zu keyframes):\n", results.size(), all_ms.size());
+  std::printf("\nsummary over %zu %s (%zu keyframes):\n", results.size(),
+              opt.floorplan.empty() ? "buildings" : "floor plan", all_ms.size());
   std::printf("  mean distance place node -> true GVD: %.3f m (target <= 0.15)\n", mean_dist);
   for (const BuildingResult& r : results)
-    std::printf("  seed %llu: %zu places components (%zu with >= 3 nodes; the largest holds %.1f %% of the nodes) for "
+    std::printf("  %s: %zu places components (%zu with >= 3 nodes; the largest holds %.1f %% of the nodes) for "
                 "%zu connected free-space regions\n",
-                static_cast<unsigned long long>(r.seed), r.components, r.components_3, 100.0 * r.largest_share,
+                r.name.c_str(), r.components, r.components_3, 100.0 * r.largest_share,
                 r.regions);
   std::printf("  buildings with one component per region: %zu of %zu (counting components of >= 3 nodes: %zu)\n",
               matched, results.size(), matched_3);
   std::printf("  place nodes per 100 m^2: %.1f\n", per_100);
   std::printf("  places update + sync per keyframe: median %.2f ms, p99 %.2f ms, max %.2f ms (target median <= 10)\n",
               median_ms, p99_ms, max_ms);
+  // Memory: the largest run's high water (the window's data does not grow with the tour).
+  places::MemoryUse mem;
+  std::size_t tsdf_arena = 0;
+  for (const BuildingResult& r : results) {
+    if (r.memory.window_used_bytes() >= mem.window_used_bytes()) mem = r.memory;
+    tsdf_arena = std::max(tsdf_arena, r.tsdf_arena_bytes);
+  }
+  const double window_mb = static_cast<double>(mem.window_used_bytes()) / 1048576.0;
+  std::printf("  ESDF + GVD in the window (places window %.1f m): %.2f MiB = %zu blocks x %zu bytes (%.2f MiB) + work "
+              "lists %.2f MiB at their high water (target <= 16; the paper's system: 47.8 MB)\n",
+              opt.window_radius_m > 0.0 ? opt.window_radius_m : places::Config{}.window_radius_m, window_mb,
+              mem.blocks_high_water, mem.block_bytes, mem.esdf_used_bytes / 1048576.0,
+              mem.work_lists_used_bytes / 1048576.0);
+  std::printf("  planned: ESDF blocks %.2f MiB + work lists %.2f MiB; place bookkeeping %.2f MiB used of %.2f MiB "
+              "planned; places arena %.2f MiB; reconstruction arena %.2f MiB\n",
+              mem.esdf_planned_bytes / 1048576.0, mem.work_lists_planned_bytes / 1048576.0,
+              mem.places_used_bytes / 1048576.0, mem.places_planned_bytes / 1048576.0,
+              mem.arena_planned_bytes / 1048576.0, tsdf_arena / 1048576.0);
+  // The deployed board's table plans fewer ESDF blocks: what its window reserves (capacity, not use).
+  std::size_t xavier_window_planned = 0;
+  {
+    places::Capacities xc;
+    xc.max_blocks = budgets::xavier_nx::places::kMaxBlocks;
+    xc.place_nodes = budgets::xavier_nx::places::kPlaceNodes;
+    xc.inactive_cells = budgets::xavier_nx::places::kInactiveCells;
+    xc.observed_blocks = budgets::xavier_nx::places::kObservedBlocks;
+    xc.pending_relinks = budgets::xavier_nx::places::kPendingRelinks;
+    auto xavier = std::make_unique<places::Places>();
+    std::string error;
+    if (xavier->init(places::Config{}, xc, budgets::xavier_nx::places::kArenaBytes, &error)) {
+      const places::MemoryUse xm = xavier->memory_use();
+      xavier_window_planned = xm.esdf_planned_bytes + xm.work_lists_planned_bytes;
+      std::printf("  xavier_nx table: ESDF + GVD planned %.2f MiB (%zu blocks: %.2f MiB + work lists %.2f MiB), places "
+                  "arena %.2f MiB\n",
+                  xavier_window_planned / 1048576.0, xm.blocks_capacity, xm.esdf_planned_bytes / 1048576.0,
+                  xm.work_lists_planned_bytes / 1048576.0, xm.arena_planned_bytes / 1048576.0);
+    } else {
+      std::fprintf(stderr, "xavier_nx places table: %s\n", error.c_str());
+    }
+  }
 
   if (!opt.json_path.empty()) {
     std::string seeds;
     for (std::uint64_t s : opt.seeds) seeds += (seeds.empty() ? "" : ",") + std::to_string(s);
-    char cond[256];
+    char cond[384];
+    const std::string world_desc =
+        opt.floorplan.empty() ? std::to_string(opt.rooms) + "-room generated buildings seeds " + seeds
+                              : "extruded floor plan " + opt.floorplan + (opt.furnished ? " furnished" : " plain");
     std::snprintf(cond, sizeof(cond),
-                  "%d-room generated buildings seeds %s, %dx%d %.0f deg hfov, %.1f Hz keyframes, voxel 0.10 m, "
-                  "GVD voxel 0.20 m, ground-truth poses, noise-free depth, one core",
-                  opt.rooms, seeds.c_str(), opt.width, opt.height, opt.hfov_deg, opt.rate_hz);
+                  "%s, %dx%d %.0f deg hfov, %.1f Hz keyframes, voxel 0.10 m, GVD voxel 0.20 m, places window "
+                  "%.1f m, ground-truth poses, noise-free depth, one core",
+                  world_desc.c_str(), opt.width, opt.height, opt.hfov_deg, opt.rate_hz,
+                  opt.window_radius_m > 0.0 ? opt.window_radius_m : places::Config{}.window_radius_m);
     bench::Figures figures(cond);
-    const auto add = [&](const char* name, double value, const char* unit) { figures.add(name, value, unit); };
+    const auto add = [&](const std::string& name, double value, const char* unit) { figures.add(name, value, unit); };
     add("places_eval.node_to_gvd_mean", mean_dist, "m");
     add("places_eval.buildings_one_component_per_region", static_cast<double>(matched), "buildings");
     add("places_eval.buildings", static_cast<double>(results.size()), "buildings");
@@ -607,6 +831,32 @@ int main(int argc, char** argv) {
     add("places_eval.update_ms_median", median_ms, "ms");
     add("places_eval.update_ms_p99", p99_ms, "ms");
     add("places_eval.update_ms_max", max_ms, "ms");
+    for (const BuildingResult& r : results) {
+      std::string key = r.name;
+      for (char& ch : key)
+        if (ch == ' ') ch = '_';
+      add("places_eval." + key + ".places_components", static_cast<double>(r.components), "components");
+      add("places_eval." + key + ".free_space_regions", static_cast<double>(r.regions), "regions");
+      add("places_eval." + key + ".node_to_gvd_mean", r.mean_gvd_distance_m, "m");
+      add("places_eval." + key + ".nodes_per_100m2", 100.0 * static_cast<double>(r.nodes) / std::max(1.0, r.area_m2),
+          "nodes/100 m^2");
+      add("places_eval." + key + ".update_ms_median", quantile(r.update_ms, 0.5), "ms");
+      add("places_eval." + key + ".update_ms_p99", quantile(r.update_ms, 0.99), "ms");
+    }
+    add("places_eval.window_esdf_gvd_bytes", static_cast<double>(mem.window_used_bytes()), "bytes");
+    add("places_eval.window_esdf_blocks_bytes", static_cast<double>(mem.esdf_used_bytes), "bytes");
+    add("places_eval.window_esdf_blocks_high_water", static_cast<double>(mem.blocks_high_water), "blocks");
+    add("places_eval.window_work_lists_bytes", static_cast<double>(mem.work_lists_used_bytes), "bytes");
+    add("places_eval.window_esdf_gvd_planned_bytes",
+        static_cast<double>(mem.esdf_planned_bytes + mem.work_lists_planned_bytes), "bytes");
+    if (xavier_window_planned > 0)
+      add("places_eval.xavier_nx_window_esdf_gvd_planned_bytes", static_cast<double>(xavier_window_planned), "bytes");
+    add("places_eval.place_bookkeeping_bytes", static_cast<double>(mem.places_used_bytes), "bytes");
+    add("places_eval.place_bookkeeping_planned_bytes", static_cast<double>(mem.places_planned_bytes), "bytes");
+    add("places_eval.places_arena_planned_bytes", static_cast<double>(mem.arena_planned_bytes), "bytes");
+    add("places_eval.reconstruction_arena_bytes", static_cast<double>(tsdf_arena), "bytes");
+    add("places_eval.window_radius", opt.window_radius_m > 0.0 ? opt.window_radius_m : places::Config{}.window_radius_m,
+        "m");
     if (!figures.write(opt.json_path)) return 1;
   }
   return 0;

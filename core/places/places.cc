@@ -35,7 +35,8 @@ enum : std::uint8_t {
   kCarved = 128,
 };
 enum : std::uint8_t { kLive = 0, kRemoved = 1, kLeft = 2 };  // cluster states; the last two await sync()
-enum Phase : int { kIdle = 0, kSeedPhase, kRaisePhase, kLowerPhase, kGvdExpand, kGvdEval, kSparsify, kFinalize };
+enum Phase : int { kIdle = 0, kSeedPhase, kRaisePhase, kLowerPhase, kGvdExpand, kGvdEval, kSparsify, kFinalize, kBridge };
+enum : std::uint8_t { kEdgeGvd = 0, kEdgeFree = 1, kEdgeBridge = 2 };  // Cluster::edge_free values
 enum ListId : int { kDirtyList = 0, kRaiseList = 1, kAffectedList = 2, kEvalList = 3, kChangedList = 4, kNumLists };
 
 struct Offset {
@@ -101,12 +102,14 @@ struct Places::Cluster {
   std::uint8_t synced = 0;      // the node exists in the scene graph
   std::uint8_t num_basis = 0;
   std::uint8_t num_edges = 0;
+  std::uint8_t bridge_check = 0;  // its edges changed: is it (still) a small fragment to bridge?
+  std::uint8_t held = 0;          // an enclosed pocket (see Config::enclosed_max_voxels): kept out of the graph
   float clearance_m = 0.0f;
   Eigen::Vector3d position_m = Eigen::Vector3d::Zero();
   std::uint32_t cell_next = kNoCluster;  // next live cluster of the same hash cell
   std::uint32_t edge_to[kMaxClusterEdges];
   float edge_weight[kMaxClusterEdges];
-  std::uint8_t edge_free[kMaxClusterEdges];  // 1: free-space edge (overlapping spheres), 0: GVD adjacency
+  std::uint8_t edge_free[kMaxClusterEdges];  // kEdgeGvd, kEdgeFree (overlapping spheres) or kEdgeBridge
   memory::BoundedArray<scene_graph::PlaceMeshConnection, scene_graph::kMaxPlaceConnections> connections;
 };
 
@@ -152,6 +155,13 @@ std::string Config::check() const {
   if (!(slab_below_m >= 0.0 && slab_above_m >= 0.0 && slab_below_m + slab_above_m > 0.0))
     return "slab_below_m and slab_above_m must be >= 0 and not both 0";
   if (!(min_tsdf_weight >= 0.0)) return "min_tsdf_weight must be >= 0";
+  if (bridge_max_fragment_places < 1 || bridge_max_fragment_places > kMaxBridgeFragment)
+    return "bridge_max_fragment_places must be in [1, " + std::to_string(kMaxBridgeFragment) + "]";
+  if (!(bridge_max_length_m > 0.0 && bridge_max_length_m <= 10.0)) return "bridge_max_length_m must be in (0, 10] m";
+  if (!(bridge_min_clearance_m > 0.0)) return "bridge_min_clearance_m must be positive";
+  if (enclosed_max_voxels < 0) return "enclosed_max_voxels must be >= 0";
+  if (contract_search_places < 1 || contract_search_places > kMaxContractSearch)
+    return "contract_search_places must be in [1, " + std::to_string(kMaxContractSearch) + "]";
   return {};
 }
 
@@ -159,10 +169,15 @@ void Config::print(std::FILE* out) const {
   std::fprintf(out,
                "places: voxel_factor=%d max_distance_m=%.2f min_clearance_m=%.2f min_basis_angle_deg=%.1f "
                "min_basis_points=%d place_resolution_m=%.2f window_radius_m=%.1f slab_m=[-%.1f, +%.1f] "
-               "min_tsdf_weight=%.2f free_space_edges=%d relink_inactive=%d\n",
+               "min_tsdf_weight=%.2f free_space_edges=%d relink_inactive=%d bridge_fragments=%d "
+               "bridge_max_fragment_places=%d bridge_max_length_m=%.2f bridge_min_clearance_m=%.2f "
+               "enclosed_max_voxels=%d contract_removed=%d contract_search_places=%d\n",
                voxel_factor, max_distance_m, min_clearance_m, min_basis_angle_rad * 180.0 / 3.14159265358979,
                min_basis_points, place_resolution_m, window_radius_m, slab_below_m, slab_above_m, min_tsdf_weight,
-               free_space_edges ? 1 : 0, relink_inactive ? 1 : 0);
+               free_space_edges ? 1 : 0, relink_inactive ? 1 : 0, bridge_fragments ? 1 : 0,
+               bridge_max_fragment_places, bridge_max_length_m, bridge_min_clearance_m, enclosed_max_voxels,
+               contract_removed ? 1 : 0,
+               contract_search_places);
 }
 
 void Capacities::print(std::FILE* out) const {
@@ -178,7 +193,7 @@ void Counters::print(std::FILE* out) const {
                "allocated=%llu freed=%llu refused=%llu gvd_voxels=%llu places=%llu merged=%llu split=%llu "
                "refused clusters=%llu edges=%llu graph=%llu free_space_edges=%llu relinked=%llu "
                "relinks_dropped=%llu relinks_refused=%llu views=%llu views_merged=%llu observed_refused=%llu "
-               "rays=%llu\n",
+               "rays=%llu bridges=%llu bridges_added=%llu bridges_missing=%llu contracted=%llu enclosed_held=%llu\n",
                (unsigned long long)updates, (unsigned long long)cycles, (unsigned long long)tsdf_blocks_read,
                (unsigned long long)voxels_updated, (unsigned long long)voxels_raised,
                (unsigned long long)blocks_allocated, (unsigned long long)blocks_freed,
@@ -188,7 +203,20 @@ void Counters::print(std::FILE* out) const {
                (unsigned long long)graph_refused, (unsigned long long)free_space_edges,
                (unsigned long long)relinked, (unsigned long long)relinks_dropped, (unsigned long long)relinks_refused,
                (unsigned long long)views_observed, (unsigned long long)views_merged,
-               (unsigned long long)observed_refused, (unsigned long long)rays_carved);
+               (unsigned long long)observed_refused, (unsigned long long)rays_carved, (unsigned long long)bridges,
+               (unsigned long long)bridges_added, (unsigned long long)bridges_missing,
+               (unsigned long long)contracted, (unsigned long long)enclosed_held);
+}
+
+void MemoryUse::print(std::FILE* out) const {
+  constexpr double kMiB = 1024.0 * 1024.0;
+  std::fprintf(out,
+               "places memory: ESDF+GVD blocks %zu of %zu x %zu bytes = %.2f MiB (planned %.2f MiB); work lists "
+               "%.2f MiB (planned %.2f MiB); window total %.2f MiB; place bookkeeping %.2f MiB (planned %.2f MiB); "
+               "arena %.2f MiB\n",
+               blocks_high_water, blocks_capacity, block_bytes, esdf_used_bytes / kMiB, esdf_planned_bytes / kMiB,
+               work_lists_used_bytes / kMiB, work_lists_planned_bytes / kMiB, window_used_bytes() / kMiB,
+               places_used_bytes / kMiB, places_planned_bytes / kMiB, arena_planned_bytes / kMiB);
 }
 
 Capacities capacities_from_budget() {
@@ -954,6 +982,7 @@ void Places::drop_edge(std::uint32_t cluster, std::uint32_t other) {
     c.edge_weight[k] = c.edge_weight[c.num_edges];
     c.edge_free[k] = c.edge_free[c.num_edges];
     c.sync_dirty = 1;
+    c.bridge_check = 1;
     return;
   }
 }
@@ -1282,7 +1311,7 @@ void Places::recompute_edges(std::uint32_t cluster) {
       } else if (n < kMaxClusterEdges) {
         to[n] = nv.cluster;
         weight[n] = w;
-        free_edge[n] = 0;
+        free_edge[n] = kEdgeGvd;
         ++n;
       } else {
         ++counters_.edges_refused;
@@ -1317,9 +1346,31 @@ void Places::recompute_edges(std::uint32_t cluster) {
         }
         to[n] = x;
         weight[n] = w;
-        free_edge[n] = 1;
+        free_edge[n] = kEdgeFree;
         ++n;
       }
+    }
+  }
+  // Bridges stay while their segment is still certified free (the bridge pass adds them; a fragment that has
+  // since joined the rest keeps its bridge as one more free-space edge).
+  if (config_.bridge_fragments && c.rep != kNoRef) {
+    for (int k = 0; k < c.num_edges; ++k) {
+      if (c.edge_free[k] != kEdgeBridge) continue;
+      const std::uint32_t x = c.edge_to[k];
+      int j = 0;
+      while (j < n && to[j] != x) ++j;
+      if (j < n || n == kMaxClusterEdges) continue;
+      const Cluster& xc = clusters_[x];
+      float w = 0.0f;
+      if (xc.state != kLive || xc.rep == kNoRef ||
+          (xc.position_m - c.position_m).norm() > config_.bridge_max_length_m ||
+          !segment_clearance(c.position_m, xc.position_m, &w) ||
+          static_cast<double>(w) < config_.bridge_min_clearance_m)
+        continue;
+      to[n] = x;
+      weight[n] = w;
+      free_edge[n] = kEdgeBridge;
+      ++n;
     }
   }
   // Drop the edges that are gone (from both ends), then write the others into both ends.
@@ -1341,6 +1392,7 @@ void Places::recompute_edges(std::uint32_t cluster) {
       }
       o.edge_to[k] = cluster;
       ++o.num_edges;
+      o.bridge_check = 1;
       o.edge_weight[k] = weight[j];
       o.edge_free[k] = free_edge[j];
       o.sync_dirty = 1;
@@ -1364,6 +1416,113 @@ void Places::finalize_cluster(const reconstruction::SemanticTsdf& tsdf, std::uin
   compute_mesh_connections(tsdf, cluster);
   recompute_edges(cluster);
   clusters_[cluster].sync_dirty = 1;
+  clusters_[cluster].bridge_check = 1;
+}
+
+bool Places::add_cluster_edge(std::uint32_t a, std::uint32_t b, float weight_m, std::uint8_t kind) {
+  Cluster& ca = clusters_[a];
+  Cluster& cb = clusters_[b];
+  for (int k = 0; k < ca.num_edges; ++k)
+    if (ca.edge_to[k] == b) return false;
+  if (ca.num_edges == kMaxClusterEdges || cb.num_edges == kMaxClusterEdges) {
+    ++counters_.edges_refused;
+    return false;
+  }
+  ca.edge_to[ca.num_edges] = b;
+  ca.edge_weight[ca.num_edges] = weight_m;
+  ca.edge_free[ca.num_edges] = kind;
+  ++ca.num_edges;
+  cb.edge_to[cb.num_edges] = a;
+  cb.edge_weight[cb.num_edges] = weight_m;
+  cb.edge_free[cb.num_edges] = kind;
+  ++cb.num_edges;
+  ca.sync_dirty = 1;
+  cb.sync_dirty = 1;
+  ca.bridge_check = 1;
+  cb.bridge_check = 1;
+  return true;
+}
+
+// A live place whose component of live places is small (GVD pieces under furniture, or cut off by the theta-SMA
+// and clearance filters) is joined to the nearest live place outside it whose straight segment stays in observed
+// free space. Without it such pieces stay separate components of one free-space region. False-free: the segment
+// must be certified by the ESDF voxel by voxel, so no bridge crosses a wall or unobserved space.
+void Places::bridge_fragment(std::uint32_t cluster) {
+  std::uint32_t members[kMaxBridgeFragment];
+  int num = 0;
+  members[num++] = cluster;
+  const int limit = config_.bridge_max_fragment_places;
+  for (int i = 0; i < num; ++i) {
+    const Cluster& m = clusters_[members[i]];
+    for (int k = 0; k < m.num_edges; ++k) {
+      const std::uint32_t o = m.edge_to[k];
+      bool seen = false;
+      for (int j = 0; j < num && !seen; ++j) seen = members[j] == o;
+      if (seen) continue;
+      if (num == limit) {
+        set_held(cluster, false);  // part of a larger component: nothing to do
+        clusters_[cluster].bridge_check = 0;
+        return;
+      }
+      members[num++] = o;
+    }
+  }
+  const double max_len = config_.bridge_max_length_m;
+  const int reach = static_cast<int>(std::ceil(max_len / config_.place_resolution_m));
+  std::uint32_t best_from = kNoCluster, best_to = kNoCluster;
+  double best_d2 = max_len * max_len;
+  float best_w = 0.0f;
+  bool candidates = false;  // some place outside the fragment is within reach (certified or not)
+  for (int i = 0; i < num; ++i) {
+    const Cluster& m = clusters_[members[i]];
+    if (m.rep == kNoRef || m.num_edges == kMaxClusterEdges) continue;
+    for (int dz = -reach; dz <= reach; ++dz)
+      for (int dy = -reach; dy <= reach; ++dy)
+        for (int dx = -reach; dx <= reach; ++dx) {
+          const std::uint32_t* head = cells_.find(add(m.cell, dx, dy, dz));
+          for (std::uint32_t x = head != nullptr ? *head : kNoCluster; x != kNoCluster; x = clusters_[x].cell_next) {
+            const Cluster& xc = clusters_[x];
+            if (xc.state != kLive || xc.rep == kNoRef || xc.num_edges == kMaxClusterEdges) continue;
+            const double d2 = (xc.position_m - m.position_m).squaredNorm();
+            if (d2 > best_d2 || (d2 == best_d2 && best_to != kNoCluster)) continue;
+            bool inside = false;
+            for (int j = 0; j < num && !inside; ++j) inside = members[j] == x;
+            candidates = candidates || !inside;
+            float w = 0.0f;
+            if (inside || !segment_clearance(m.position_m, xc.position_m, &w) ||
+                static_cast<double>(w) < config_.bridge_min_clearance_m)
+              continue;
+            best_from = members[i];
+            best_to = x;
+            best_d2 = d2;
+            best_w = w;
+          }
+        }
+  }
+  if (best_to == kNoCluster) {
+    ++counters_.bridges_missing;  // stays flagged: retried next cycle, when more of the map is known
+    // Places around, none reachable through free space, and only a few GVD voxels: a pocket enclosed by surfaces.
+    std::uint32_t voxels = 0;
+    for (int i = 0; i < num; ++i) voxels += clusters_[members[i]].count;
+    const bool enclosed = candidates && static_cast<int>(voxels) <= config_.enclosed_max_voxels;
+    for (int i = 0; i < num; ++i) set_held(members[i], enclosed);
+    return;
+  }
+  clusters_[cluster].bridge_check = 0;
+  for (int i = 0; i < num; ++i) set_held(members[i], false);
+  if (add_cluster_edge(best_from, best_to, best_w, kEdgeBridge)) ++counters_.bridges_added;
+}
+
+// Holding a place back (or releasing it) changes what sync() publishes; a released place's held neighbours are
+// re-checked, since the component they share is no longer a fragment.
+void Places::set_held(std::uint32_t cluster, bool held) {
+  Cluster& c = clusters_[cluster];
+  if ((c.held != 0) == held) return;
+  c.held = held ? 1 : 0;
+  c.sync_dirty = 1;
+  if (held) return;
+  for (int k = 0; k < c.num_edges; ++k)
+    if (clusters_[c.edge_to[k]].held) clusters_[c.edge_to[k]].bridge_check = 1;
 }
 
 // ---------------------------------------------------------------------------------------------------------
@@ -1468,14 +1627,37 @@ UpdateResult Places::update(const reconstruction::SemanticTsdf& tsdf, const Eige
           }
         }
         cursor_ = 0;
+        counters_.bridges_missing = 0;
+        phase_ = kBridge;
+        break;
+      case kBridge:
+        while (config_.bridge_fragments && cursor_ < clusters_.capacity()) {
+          if (expired()) return {false, units_};
+          const std::uint32_t h = static_cast<std::uint32_t>(cursor_++);
+          if (clusters_.live(h) && clusters_[h].state == kLive && clusters_[h].bridge_check &&
+              clusters_[h].rep != kNoRef) {
+            bridge_fragment(h);
+            ++units_;
+          } else if ((h & 63) == 0) {
+            ++units_;
+          }
+        }
+        cursor_ = 0;
         phase_ = kIdle;
         ++counters_.cycles;
         counters_.free_space_edges = 0;
+        counters_.bridges = 0;
+        counters_.enclosed_held = 0;
         clusters_.for_each([&](std::uint32_t, const Cluster& c) {
           if (c.state != kLive) return;
-          for (int k = 0; k < c.num_edges; ++k) counters_.free_space_edges += c.edge_free[k];
+          counters_.enclosed_held += c.held;
+          for (int k = 0; k < c.num_edges; ++k) {
+            counters_.free_space_edges += c.edge_free[k] == kEdgeFree ? 1 : 0;
+            counters_.bridges += c.edge_free[k] == kEdgeBridge ? 1 : 0;
+          }
         });
         counters_.free_space_edges /= 2;
+        counters_.bridges /= 2;
         result.complete = true;
         result.work_units = units_;
         return result;
@@ -1505,7 +1687,25 @@ SyncResult Places::sync(scene_graph::SceneGraph* graph) {
       std::fprintf(stderr, "places: scene graph %s store full; refused %llu so far (retried on the next sync)\n",
                    what, static_cast<unsigned long long>(n));
   };
-  // Retired clusters: removed places leave the graph, places that left the window stay, inactive.
+  // Retired clusters: places that left the window stay, inactive; removed places leave the graph. The first go
+  // inactive before any removal, and the nodes this sync removes are listed (sorted), so the contraction counts
+  // neither as a place that anchors an inactive one in the active graph.
+  scene_graph::NodeId removing[kMaxRemovingPerSync];
+  std::size_t num_removing = 0;
+  for (std::uint32_t h = 0; h < clusters_.capacity(); ++h) {
+    if (!clusters_.live(h)) continue;
+    Cluster& c = clusters_[h];
+    if (c.state == kLeft) {
+      if (scene_graph::PlaceAttributes* p = graph->place(c.node)) {
+        p->is_active = false;
+        ++r.nodes_deactivated;
+      }
+      clusters_.release(h);
+    } else if (c.state == kRemoved && c.synced && num_removing < kMaxRemovingPerSync) {
+      removing[num_removing++] = c.node;  // beyond the array: still removed, only counted as a possible anchor
+    }
+  }
+  std::sort(removing, removing + num_removing);
   for (std::uint32_t h = 0; h < clusters_.capacity(); ++h) {
     if (!clusters_.live(h)) continue;
     Cluster& c = clusters_[h];
@@ -1529,13 +1729,8 @@ SyncResult Places::sync(scene_graph::SceneGraph* graph) {
           l.cell = c.cell;
         });
       }
+      if (config_.contract_removed && c.synced) contract_around(graph, c.node, removing, num_removing, &r);
       if (graph->remove_node(c.node)) ++r.nodes_removed;
-      clusters_.release(h);
-    } else if (c.state == kLeft) {
-      if (scene_graph::PlaceAttributes* p = graph->place(c.node)) {
-        p->is_active = false;
-        ++r.nodes_deactivated;
-      }
       clusters_.release(h);
     }
   }
@@ -1544,6 +1739,25 @@ SyncResult Places::sync(scene_graph::SceneGraph* graph) {
     if (!clusters_.live(h)) continue;
     Cluster& c = clusters_[h];
     if (c.state != kLive || !c.sync_dirty || c.rep == kNoRef) continue;
+    if (c.held) {
+      // An enclosed pocket: not published; withdrawn if it was (unless inactive places hang on it).
+      if (c.synced) {
+        bool linked = false;
+        graph->for_each_neighbor(c.node, [&](scene_graph::NodeId m, const scene_graph::EdgeRecord&) {
+          const scene_graph::PlaceAttributes* pm =
+              scene_graph::node_prefix(m) == scene_graph::kPlacePrefix ? graph->place(m) : nullptr;
+          linked = linked || (pm != nullptr && !pm->is_active);
+        });
+        if (linked) {
+          c.sync_dirty = 0;
+          continue;
+        }
+        if (graph->remove_node(c.node)) ++r.nodes_removed;
+        c.synced = 0;
+      }
+      c.sync_dirty = 0;
+      continue;
+    }
     scene_graph::PlaceAttributes attrs;
     attrs.position_m = c.position_m;
     attrs.is_active = true;
@@ -1687,6 +1901,134 @@ void Places::resolve_relinks(scene_graph::SceneGraph* graph, SyncResult* r) {
   num_relinks_ = kept;
 }
 
+// Whether an inactive place still reaches an active place (other than `removed`) within contract_search_places
+// graph nodes. Bounded breadth-first search on a fixed array: no allocation.
+bool Places::anchored(const scene_graph::SceneGraph& graph, scene_graph::NodeId start, scene_graph::NodeId removed,
+                      const scene_graph::NodeId* removing, std::size_t num_removing) const {
+  scene_graph::NodeId queue[kMaxContractSearch];
+  const int limit = config_.contract_search_places;
+  int num = 0;
+  queue[num++] = start;
+  bool found = false, overflow = false;
+  for (int i = 0; i < num && !found && !overflow; ++i) {
+    graph.for_each_neighbor(queue[i], [&](scene_graph::NodeId m, const scene_graph::EdgeRecord&) {
+      if (found || overflow || m == removed || scene_graph::node_prefix(m) != scene_graph::kPlacePrefix) return;
+      const scene_graph::PlaceAttributes* pm = graph.place(m);
+      if (pm == nullptr || std::binary_search(removing, removing + num_removing, m)) return;  // going: no anchor
+      if (pm->is_active) {
+        found = true;
+        return;
+      }
+      for (int j = 0; j < num; ++j)
+        if (queue[j] == m) return;
+      if (num == limit) {
+        overflow = true;  // undecided: contract (one edge too many is cheaper than a cut graph)
+        return;
+      }
+      queue[num++] = m;
+    });
+  }
+  return found;
+}
+
+// Before a place node is removed: each inactive neighbour that only reached the active graph through it is joined
+// to the removed place's nearest other neighbour (preferring active ones), with the weaker of the two edge weights.
+void Places::contract_around(scene_graph::SceneGraph* graph, scene_graph::NodeId removed,
+                             const scene_graph::NodeId* removing, std::size_t num_removing, SyncResult* r) {
+  constexpr int kMaxNeighbours = 32;
+  scene_graph::NodeId nbr[kMaxNeighbours];
+  Eigen::Vector3d pos[kMaxNeighbours];
+  double weight[kMaxNeighbours];
+  bool active[kMaxNeighbours];
+  std::uint8_t rank[kMaxNeighbours];  // as a target: 0 active, 1 inactive, 2 removed later in this sync
+  int n = 0;
+  graph->for_each_neighbor(removed, [&](scene_graph::NodeId m, const scene_graph::EdgeRecord& e) {
+    if (n == kMaxNeighbours || scene_graph::node_prefix(m) != scene_graph::kPlacePrefix) return;
+    const scene_graph::PlaceAttributes* pm = graph->place(m);
+    if (pm == nullptr) return;
+    nbr[n] = m;
+    pos[n] = pm->position_m;
+    weight[n] = e.info.weighted ? e.info.weight : pm->distance_m;
+    active[n] = pm->is_active;
+    // A place removed later in this sync is the last resort: its own removal then contracts again.
+    rank[n] = std::binary_search(removing, removing + num_removing, m) ? 2 : (pm->is_active ? 0 : 1);
+    ++n;
+  });
+  for (int i = 0; i < n; ++i) {
+    if (active[i] || anchored(*graph, nbr[i], removed, removing, num_removing)) continue;
+    int best = -1;
+    double best_d2 = std::numeric_limits<double>::max();
+    for (int pass = 0; pass < 3 && best < 0; ++pass)
+      for (int j = 0; j < n; ++j) {
+        if (j == i || rank[j] != pass) continue;
+        const double d2 = (pos[j] - pos[i]).squaredNorm();
+        if (d2 < best_d2) {
+          best = j;
+          best_d2 = d2;
+        }
+      }
+    if (best < 0 || graph->edge_info(nbr[i], nbr[best]) != nullptr) continue;
+    scene_graph::EdgeAttributes info;
+    info.weighted = true;
+    info.weight = std::min(weight[i], weight[best]);
+    if (graph->num_edges() >= graph->capacities().edges ||
+        graph->add_edge(nbr[i], nbr[best], info) != scene_graph::Status::kOk) {
+      ++r->refused;
+      ++counters_.graph_refused;
+      r->status = scene_graph::Status::kFull;
+      continue;
+    }
+    ++r->edges_added;
+    ++counters_.contracted;
+  }
+}
+
+MemoryUse Places::memory_use() const {
+  MemoryUse m;
+  m.block_bytes = sizeof(Block);
+  const memory::ResourceStats bs = blocks_.stats();
+  m.blocks_high_water = bs.high_water;
+  m.blocks_capacity = capacities_.max_blocks;
+  m.esdf_used_bytes = bs.high_water * sizeof(Block);
+  {
+    memory::ArenaPlan p;
+    memory::Pool<Block>::plan(p, capacities_.max_blocks);
+    memory::SpatialHash<std::uint32_t>::plan(p, memory::SpatialHash<std::uint32_t>::slots_for(capacities_.max_blocks));
+    m.esdf_planned_bytes = p.total_bytes();
+  }
+  for (int i = 0; lists_ != nullptr && i < kNumLists; ++i) {
+    m.work_lists_used_bytes += lists_[i].high_water * sizeof(std::uint32_t);
+    m.work_lists_planned_bytes += lists_[i].capacity * sizeof(std::uint32_t);
+  }
+  m.work_lists_used_bytes += lower_high_water_ * sizeof(std::uint32_t);
+  m.work_lists_planned_bytes += lower_capacity_ * sizeof(std::uint32_t);
+  {
+    const memory::ResourceStats cs = clusters_.stats(), cells = cells_.stats(), in = inactive_.stats();
+    memory::ArenaPlan p;
+    memory::Pool<Cluster>::plan(p, capacities_.place_nodes);
+    memory::SpatialHash<scene_graph::NodeId>::plan(
+        p, memory::SpatialHash<scene_graph::NodeId>::slots_for(capacities_.inactive_cells));
+    memory::SpatialHash<std::uint32_t>::plan(p, memory::SpatialHash<std::uint32_t>::slots_for(capacities_.place_nodes));
+    p.add_array<Relink>(capacities_.pending_relinks);
+    m.places_planned_bytes = p.total_bytes();
+    // Used: slots at their high water, each at its planned share of the store.
+    const auto share = [](std::size_t planned, std::size_t used, std::size_t capacity) {
+      return capacity == 0 ? 0 : planned * used / capacity;
+    };
+    memory::ArenaPlan pc, pi, ph;
+    memory::Pool<Cluster>::plan(pc, capacities_.place_nodes);
+    memory::SpatialHash<scene_graph::NodeId>::plan(
+        pi, memory::SpatialHash<scene_graph::NodeId>::slots_for(capacities_.inactive_cells));
+    memory::SpatialHash<std::uint32_t>::plan(ph, memory::SpatialHash<std::uint32_t>::slots_for(capacities_.place_nodes));
+    m.places_used_bytes = share(pc.total_bytes(), cs.high_water, cs.capacity) +
+                          share(pi.total_bytes(), in.high_water, in.capacity) +
+                          share(ph.total_bytes(), cells.high_water, cells.capacity) +
+                          relinks_high_water_ * sizeof(Relink);
+  }
+  m.arena_planned_bytes = plan(capacities_).total_bytes();
+  return m;
+}
+
 // ---------------------------------------------------------------------------------------------------------
 // Queries
 
@@ -1732,7 +2074,8 @@ void Places::places(std::vector<PlaceInfo>* out) const {
     p.num_basis_points = c.num_basis;
     p.num_voxels = c.count;
     for (int k = 0; k < c.num_edges; ++k)
-      (c.edge_free[k] ? p.free_space_edges : p.edges).emplace_back(clusters_[c.edge_to[k]].node, c.edge_weight[k]);
+      (c.edge_free[k] == kEdgeBridge ? p.bridge_edges : c.edge_free[k] == kEdgeFree ? p.free_space_edges : p.edges)
+          .emplace_back(clusters_[c.edge_to[k]].node, c.edge_weight[k]);
     for (std::uint32_t r = c.head; r != kNoRef; r = vox(r).cluster_next) {
       p.voxel_positions_m.push_back(center_m(coords(r)));
       p.voxel_clearances_m.push_back(vox(r).distance_m);

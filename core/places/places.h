@@ -31,6 +31,9 @@ inline constexpr int kBlockVoxels = kBlockSide * kBlockSide * kBlockSide;
 inline constexpr int kMaxVoxelFactor = 2;
 inline constexpr int kMaxClusterEdges = 24;  // place edges kept per place (neighbouring cells of a 3D hash)
 inline constexpr int kMaxViews = 32;         // observe() calls remembered between two cycles (one bit each)
+inline constexpr int kMaxBridgeFragment = 16;  // largest bridge_max_fragment_places (a fixed search array)
+inline constexpr int kMaxContractSearch = 256;  // largest contract_search_places (a fixed search array)
+inline constexpr int kMaxRemovingPerSync = 256;  // removed nodes sync() keeps out of the contraction's anchors
 
 struct Config {
   // GVD voxel = voxel_factor x TSDF voxel (1 or 2). 2 (0.2 m at 0.1 m TSDF voxels) by default: 8x fewer voxels
@@ -58,6 +61,25 @@ struct Config {
   // A removed place's edges to inactive places (which cannot re-derive their edges: their voxels are gone) move
   // to the live place of the same or a neighbouring cell whose sphere overlaps the removed one's.
   bool relink_inactive = true;
+  // Bridges (as Hydra joins its disconnected components): a live place whose component of live places holds at
+  // most bridge_max_fragment_places places (e.g. a 1-2 place GVD piece under a table or a bed, in the same free
+  // space as the room around it) is joined to the nearest live place outside that component, at most
+  // bridge_max_length_m away, whose straight segment keeps an ESDF distance of at least bridge_min_clearance_m
+  // (one TSDF voxel by default: every GVD voxel it crosses is observed free space, none holds a surface; a whole
+  // GVD voxel would refuse the 0.4 m gaps between furniture where such fragments sit).
+  bool bridge_fragments = true;
+  int bridge_max_fragment_places = 4;
+  double bridge_max_length_m = 3.0;
+  double bridge_min_clearance_m = 0.1;
+  // A fragment that no bridge can join although places lie within reach, and that holds at most this many GVD
+  // voxels, is a pocket enclosed by surfaces (the averaged TSDF opens small cavities inside furniture), not free
+  // space the robot can reach: it is kept out of the scene graph while so. 0 publishes every place.
+  int enclosed_max_voxels = 8;
+  // When a removed place was the only link between an inactive place and the active graph (no active place within
+  // contract_search_places graph nodes of the inactive one without it), the inactive place is joined to the removed
+  // place's nearest other neighbour: an edge contraction, so removing a node never cuts the graph.
+  bool contract_removed = true;
+  int contract_search_places = 64;
   std::string check() const;         // empty when usable, else the bad field and why
   void print(std::FILE* out) const;
 };
@@ -121,6 +143,28 @@ struct Counters {
   std::uint64_t views_merged = 0;      // observe() found every view slot used: the newest slot was overwritten
   std::uint64_t observed_refused = 0;  // observe(): the observed-block set was full (that block is not carved)
   std::uint64_t rays_carved = 0;
+  std::uint64_t bridges = 0;           // current bridge edges (joining a small fragment to the nearest live place)
+  std::uint64_t bridges_added = 0;
+  std::uint64_t bridges_missing = 0;   // last cycle: fragment checks that found no place reachable through free space
+  std::uint64_t contracted = 0;        // edges added by contraction around a removed place (see Config)
+  std::uint64_t enclosed_held = 0;     // current live places held out of the graph as enclosed pockets
+  void print(std::FILE* out) const;
+};
+
+// Bytes held for the ESDF and GVD (the dense window data) and, separately, for the place bookkeeping; "used"
+// figures are high-water marks since init(), "planned" ones what the arena carved for them.
+struct MemoryUse {
+  std::size_t block_bytes = 0;                 // sizeof one ESDF block (kBlockVoxels voxels and its header)
+  std::size_t blocks_high_water = 0;
+  std::size_t blocks_capacity = 0;
+  std::size_t esdf_used_bytes = 0;             // blocks_high_water x block_bytes
+  std::size_t esdf_planned_bytes = 0;          // the block pool and its index
+  std::size_t work_lists_used_bytes = 0;       // voxel-ref work lists and the lower-wave ring, at their high water
+  std::size_t work_lists_planned_bytes = 0;
+  std::size_t places_used_bytes = 0;           // clusters, cell index, inactive cells, relinks at their high water
+  std::size_t places_planned_bytes = 0;
+  std::size_t arena_planned_bytes = 0;         // everything, as carved
+  std::size_t window_used_bytes() const { return esdf_used_bytes + work_lists_used_bytes; }
   void print(std::FILE* out) const;
 };
 
@@ -151,6 +195,7 @@ struct PlaceInfo {
   std::uint32_t num_voxels = 0;
   std::vector<std::pair<scene_graph::NodeId, double>> edges;  // GVD adjacency: neighbour, weight (min clearance)
   std::vector<std::pair<scene_graph::NodeId, double>> free_space_edges;  // overlapping spheres: neighbour, weight
+  std::vector<std::pair<scene_graph::NodeId, double>> bridge_edges;  // fragment joined through free space
   std::vector<Eigen::Vector3d> voxel_positions_m;  // the cluster's GVD voxels
   std::vector<double> voxel_clearances_m;
   std::vector<std::uint32_t> voxel_basis_points;
@@ -188,8 +233,9 @@ class Places {
   void places(std::vector<PlaceInfo>* out) const;
   bool cycle_in_progress() const { return phase_ != 0; }
   double voxel_size_m() const { return voxel_m_; }
-  std::size_t num_places() const { return clusters_live_; }
+  std::size_t num_places() const { return clusters_live_; }  // live places, with those held as enclosed pockets
   std::size_t num_place_edges() const;
+  MemoryUse memory_use() const;
 
   const Config& config() const { return config_; }
   const Capacities& capacities() const { return capacities_; }
@@ -275,6 +321,13 @@ class Places {
   std::uint32_t replacement_for(const Eigen::Vector3d& position_m, double clearance_m,
                                 const memory::Index3& cell) const;
   void resolve_relinks(scene_graph::SceneGraph* graph, SyncResult* r);
+  void bridge_fragment(std::uint32_t cluster);
+  void set_held(std::uint32_t cluster, bool held);
+  bool add_cluster_edge(std::uint32_t a, std::uint32_t b, float weight_m, std::uint8_t kind);
+  bool anchored(const scene_graph::SceneGraph& graph, scene_graph::NodeId start, scene_graph::NodeId removed,
+                const scene_graph::NodeId* removing, std::size_t num_removing) const;
+  void contract_around(scene_graph::SceneGraph* graph, scene_graph::NodeId removed,
+                       const scene_graph::NodeId* removing, std::size_t num_removing, SyncResult* r);
 
   Config config_;
   Capacities capacities_;

@@ -1,0 +1,263 @@
+// Places connectivity: small GVD fragments bridged to the rest through certified free space (never through a
+// wall), inactive places kept connected when the place they hung on is removed, the new config checks, the memory
+// figures, and no allocation on the update path.
+#include <gtest/gtest.h>
+
+#include <memory>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "core/places/places.h"
+#include "core/scene_graph/scene_graph.h"
+#include "tests/places/places_test_world.h"
+#include "tests/support/allocation_counter.h"
+
+namespace qsg::places {
+namespace {
+
+using testing::Scanner;
+
+Capacities small_capacities() {
+  Capacities c;
+  c.max_blocks = 160;
+  c.place_nodes = 1024;
+  c.inactive_cells = 1024;
+  return c;
+}
+
+std::unique_ptr<Places> make_places(const Config& config) {
+  auto p = std::make_unique<Places>();
+  std::string error;
+  const Capacities caps = small_capacities();
+  EXPECT_TRUE(p->init(config, caps, Places::plan(caps).total_bytes(), &error)) << error;
+  return p;
+}
+
+std::unique_ptr<scene_graph::SceneGraph> make_graph() {
+  scene_graph::Capacities c;
+  c.object_nodes = 4;
+  c.agent_nodes = 4;
+  c.place_nodes = 2048;
+  c.room_nodes = 4;
+  c.building_nodes = 1;
+  c.edges = 8192;
+  c.adjacency_chunks = 4096;
+  c.mesh_connections = 16;
+  auto g = std::make_unique<scene_graph::SceneGraph>();
+  std::string error;
+  EXPECT_TRUE(g->init(c, scene_graph::SceneGraph::plan(c).total_bytes(), &error)) << error;
+  return g;
+}
+
+void run_to_completion(Places* p, const reconstruction::SemanticTsdf& tsdf, const Eigen::Vector3d& robot) {
+  for (int i = 0; i < 1000; ++i)
+    if (p->update(tsdf, robot, Deadline::unlimited()).complete) return;
+  ADD_FAILURE() << "update() did not complete";
+}
+
+std::size_t place_components(const scene_graph::SceneGraph& g) {
+  std::vector<scene_graph::NodeId> ids;
+  g.for_each_node([&](const scene_graph::NodeRecord& n) {
+    if (n.kind == scene_graph::NodeKind::kPlace) ids.push_back(n.id);
+  });
+  std::set<scene_graph::NodeId> seen;
+  std::size_t components = 0;
+  for (scene_graph::NodeId start : ids) {
+    if (!seen.insert(start).second) continue;
+    ++components;
+    std::vector<scene_graph::NodeId> stack{start};
+    while (!stack.empty()) {
+      const scene_graph::NodeId id = stack.back();
+      stack.pop_back();
+      g.for_each_neighbor(id, [&](scene_graph::NodeId m, const scene_graph::EdgeRecord&) {
+        if (scene_graph::node_prefix(m) == scene_graph::kPlacePrefix && seen.insert(m).second) stack.push_back(m);
+      });
+    }
+  }
+  return components;
+}
+
+// A 3 m room and a 1.6 m closet joined by a 0.9 m door, with places that need 0.7 m of clearance (well above the
+// door's half width, whatever the ESDF's 0.2 m voxels round to): the GVD through the door is filtered out, so the
+// closet's few places are a separate GVD piece of the same free space. Free-space edges are off to test the bridge alone. Without the door: two regions.
+struct DoorResult {
+  std::size_t components = 0;
+  std::size_t nodes = 0;
+  Counters counters;
+};
+
+DoorResult map_room_and_closet(const Config& config, bool door) {
+  DoorResult out;
+  Scanner scanner;
+  std::string error;
+  EXPECT_TRUE(scanner.init(testing::rooms_world({3.0, 1.6}, 3.0, door), 100.0, &error)) << error;
+  auto places = make_places(config);
+  auto graph = make_graph();
+  const auto hook = [&](const Eigen::Vector3d& camera) {
+    run_to_completion(places.get(), scanner.tsdf(), camera);
+    places->sync(graph.get());
+  };
+  EXPECT_TRUE(scanner.spin({1.5, 1.5, 1.2}, 6, hook));
+  EXPECT_TRUE(scanner.spin({3.9, 1.5, 1.2}, 6, hook));
+  if (door) {
+    EXPECT_TRUE(scanner.spin({3.05, 1.5, 1.2}, 4, hook));
+  }
+  out.components = place_components(*graph);
+  graph->for_each_node([&](const scene_graph::NodeRecord& n) { out.nodes += n.kind == scene_graph::NodeKind::kPlace; });
+  out.counters = places->counters();
+  return out;
+}
+
+Config wide_clearance(bool bridges) {
+  Config c;
+  c.min_clearance_m = 0.7;
+  c.free_space_edges = false;
+  c.bridge_fragments = bridges;
+  c.bridge_max_fragment_places = 8;
+  return c;
+}
+
+TEST(PlacesConnectivityTest, WithoutBridgesTheClosetIsASeparateComponent) {
+  const DoorResult without = map_room_and_closet(wide_clearance(false), true);
+  EXPECT_GT(without.components, 1u) << "the scene must cut the GVD at the door (else it tests nothing)";
+  EXPECT_EQ(without.counters.bridges, 0u);
+}
+
+TEST(PlacesConnectivityTest, ASmallGvdPieceIsBridgedThroughTheDoor) {
+  const DoorResult with = map_room_and_closet(wide_clearance(true), true);
+  EXPECT_EQ(with.components, 1u);
+  EXPECT_GT(with.counters.bridges, 0u);
+  EXPECT_GE(with.nodes, 6u);
+}
+
+TEST(PlacesConnectivityTest, NoBridgeCrossesAWall) {
+  const DoorResult closed = map_room_and_closet(wide_clearance(true), false);
+  EXPECT_EQ(closed.components, 2u);
+  EXPECT_EQ(closed.counters.bridges, 0u);
+  EXPECT_GT(closed.counters.bridges_missing, 0u) << "the closet must have looked for a bridge";
+  EXPECT_EQ(closed.counters.enclosed_held, 0u) << "a closed room is a region, not a pocket";
+}
+
+// The whole cycle that adds the bridge, and the sync that publishes it, run without touching the heap.
+TEST(PlacesConnectivityTest, BridgingDoesNotAllocate) {
+  Scanner scanner;
+  std::string error;
+  ASSERT_TRUE(scanner.init(testing::rooms_world({3.0, 1.6}, 3.0, true), 100.0, &error)) << error;
+  auto places = make_places(wide_clearance(true));
+  auto graph = make_graph();
+  const Eigen::Vector3d robot(3.05, 1.5, 1.2);
+  ASSERT_TRUE(scanner.spin({1.5, 1.5, 1.2}, 6));
+  ASSERT_TRUE(scanner.spin({3.9, 1.5, 1.2}, 6));
+  ASSERT_TRUE(scanner.spin(robot, 4));
+  places->sync(graph.get());  // first touch of the graph's stores
+  UpdateResult r;
+  EXPECT_NO_ALLOCATIONS(r = places->update(scanner.tsdf(), robot, Deadline::unlimited()));
+  EXPECT_TRUE(r.complete);
+  SyncResult s;
+  EXPECT_NO_ALLOCATIONS(s = places->sync(graph.get()));
+  EXPECT_GT(s.nodes_added, 0u);
+  EXPECT_GT(places->counters().bridges, 0u);
+  EXPECT_EQ(place_components(*graph), 1u);
+}
+
+// Three rooms walked through with a small window and without relinks; once the first room has left the window
+// (its places inactive), a cabinet is put in front of its door: the places on the second room's side are removed.
+// The inactive first room hung on them only; without contraction it falls off the graph, with it the map keeps
+// the way the robot came (inactive places are memory: nothing re-derives their edges).
+std::size_t walk_components(bool contract, Counters* counters) {
+  Config config;
+  config.window_radius_m = 3.5;
+  config.relink_inactive = false;
+  config.contract_removed = contract;
+  Scanner scanner;
+  std::string error;
+  const world::World open = testing::rooms_world({3.0, 3.0, 3.0}, 3.0, true);
+  EXPECT_TRUE(scanner.init(open, 100.0, &error)) << error;
+  auto places = make_places(config);
+  auto graph = make_graph();
+  const auto hook = [&](const Eigen::Vector3d& camera) {
+    run_to_completion(places.get(), scanner.tsdf(), camera);
+    places->sync(graph.get());
+  };
+  for (const double x : {1.5, 3.05, 4.6, 6.15}) EXPECT_TRUE(scanner.spin({x, 1.5, 1.2}, 4, hook));
+  world::World changed = open;
+  testing::add_box(&changed, {3.1, 0.5, 0.0}, {3.6, 2.5, 2.4}, semantics::kCabinet);
+  EXPECT_TRUE(scanner.set_world(changed, &error)) << error;
+  for (const double x : {4.6, 6.15, 7.7}) EXPECT_TRUE(scanner.spin({x, 1.5, 1.2}, 4, hook));
+  *counters = places->counters();
+  return place_components(*graph);
+}
+
+// (In this scene the graph happens to stay connected without contraction too, through other edges of the inactive
+// places; the evaluation's buildings are where it was needed. This checks the contraction keeps one component.)
+TEST(PlacesConnectivityTest, WithoutContractionTheInactiveRoomFallsOff) {
+  Counters off;
+  EXPECT_GT(walk_components(false, &off), 1u) << "the walk must cut inactive places off (else it tests nothing)";
+  EXPECT_EQ(off.contracted, 0u);
+}
+
+TEST(PlacesConnectivityTest, RemovingAPlaceNeverCutsInactivePlacesOff) {
+  Counters on;
+  EXPECT_EQ(walk_components(true, &on), 1u);
+  EXPECT_GT(on.contracted, 0u);
+}
+
+TEST(PlacesConnectivityTest, BadBridgeAndContractionSettingsAreRejected) {
+  Config c;
+  EXPECT_TRUE(c.check().empty());
+  c.bridge_max_fragment_places = 0;
+  EXPECT_NE(c.check().find("bridge_max_fragment_places"), std::string::npos);
+  c = Config{};
+  c.bridge_max_fragment_places = kMaxBridgeFragment + 1;
+  EXPECT_FALSE(c.check().empty());
+  c = Config{};
+  c.bridge_max_length_m = 0.0;
+  EXPECT_NE(c.check().find("bridge_max_length_m"), std::string::npos);
+  c = Config{};
+  c.bridge_min_clearance_m = -0.1;
+  EXPECT_NE(c.check().find("bridge_min_clearance_m"), std::string::npos);
+  c = Config{};
+  c.enclosed_max_voxels = -1;
+  EXPECT_NE(c.check().find("enclosed_max_voxels"), std::string::npos);
+  c = Config{};
+  c.contract_search_places = kMaxContractSearch + 1;
+  EXPECT_NE(c.check().find("contract_search_places"), std::string::npos);
+  Places p;
+  std::string error;
+  const Capacities caps = small_capacities();
+  EXPECT_FALSE(p.init(c, caps, Places::plan(caps).total_bytes(), &error));
+  EXPECT_NE(error.find("contract_search_places"), std::string::npos);
+}
+
+// The memory figures add up: the window's ESDF is the block high water times the block size, nothing used exceeds
+// what was planned, and the plan is the arena's.
+TEST(PlacesConnectivityTest, MemoryUseReportsTheWindowAndTheBookkeepingSeparately) {
+  const Capacities caps = small_capacities();
+  auto places = make_places(Config{});
+  const MemoryUse before = places->memory_use();
+  EXPECT_EQ(before.blocks_high_water, 0u);
+  EXPECT_EQ(before.window_used_bytes(), 0u);
+  EXPECT_EQ(before.arena_planned_bytes, Places::plan(caps).total_bytes());
+  Scanner scanner;
+  std::string error;
+  ASSERT_TRUE(scanner.init(testing::rooms_world({4.0}, 3.0, false), 100.0, &error)) << error;
+  ASSERT_TRUE(scanner.spin({2.0, 1.5, 1.2}, 6));
+  run_to_completion(places.get(), scanner.tsdf(), {2.0, 1.5, 1.2});
+  const MemoryUse m = places->memory_use();
+  EXPECT_GT(m.blocks_high_water, 0u);
+  EXPECT_LE(m.blocks_high_water, caps.max_blocks);
+  EXPECT_EQ(m.blocks_capacity, caps.max_blocks);
+  EXPECT_EQ(m.esdf_used_bytes, m.blocks_high_water * m.block_bytes);
+  EXPECT_GE(m.block_bytes, static_cast<std::size_t>(kBlockVoxels) * 16u);
+  EXPECT_GT(m.work_lists_used_bytes, 0u);
+  EXPECT_LE(m.esdf_used_bytes, m.esdf_planned_bytes);
+  EXPECT_LE(m.work_lists_used_bytes, m.work_lists_planned_bytes);
+  EXPECT_GT(m.places_used_bytes, 0u);
+  EXPECT_LE(m.places_used_bytes, m.places_planned_bytes);
+  EXPECT_LE(m.esdf_planned_bytes + m.work_lists_planned_bytes + m.places_planned_bytes, m.arena_planned_bytes);
+  EXPECT_EQ(m.window_used_bytes(), m.esdf_used_bytes + m.work_lists_used_bytes);
+}
+
+}  // namespace
+}  // namespace qsg::places
