@@ -482,21 +482,23 @@ std::size_t RoomFinder::seed_by_persistence(UpdateResult* r) {
     return split_[root] != 0 ||
            (size_[root] >= config_.min_component_size && birth_[root] - at_m >= config_.min_persistence_m - 1e-9);
   };
+  // A place enters the filtration as a component of its own, born at its clearance (capped at d+).
+  const auto enter = [&](std::uint32_t i) {
+    parent_[i] = i;
+    size_[i] = 1;
+    birth_[i] = std::min(clearance_[i], config_.max_dilation_m);
+    member_next_[i] = kNone;
+    member_tail_[i] = i;
+    split_[i] = 0;
+  };
   std::size_t seeds = 0;
   std::size_t next_node = 0;
   for (std::size_t k = 0; k < num_edges_; ++k) {
     const Edge& e = edges_[edge_order[k]];
     if (e.clearance_m < d_min) break;
     // Places at least as clear as this edge enter first (an edge's clearance never exceeds its ends').
-    for (; next_node < num_places_ && clearance_[node_order[next_node]] >= e.clearance_m; ++next_node) {
-      const std::uint32_t i = node_order[next_node];
-      parent_[i] = i;
-      size_[i] = 1;
-      birth_[i] = std::min(clearance_[i], config_.max_dilation_m);
-      member_next_[i] = kNone;
-      member_tail_[i] = i;
-      split_[i] = 0;
-    }
+    for (; next_node < num_places_ && clearance_[node_order[next_node]] >= e.clearance_m; ++next_node)
+      enter(node_order[next_node]);
     std::uint32_t ra = find(e.a), rb = find(e.b);
     if (ra == rb) continue;
     std::uint8_t split = split_[ra] | split_[rb];
@@ -515,15 +517,8 @@ std::size_t RoomFinder::seed_by_persistence(UpdateResult* r) {
     split_[ra] = split;
   }
   // Places above d- that no edge above d- reached are components of their own.
-  for (; next_node < num_places_ && clearance_[node_order[next_node]] >= d_min; ++next_node) {
-    const std::uint32_t i = node_order[next_node];
-    parent_[i] = i;
-    size_[i] = 1;
-    birth_[i] = std::min(clearance_[i], config_.max_dilation_m);
-    member_next_[i] = kNone;
-    member_tail_[i] = i;
-    split_[i] = 0;
-  }
+  for (; next_node < num_places_ && clearance_[node_order[next_node]] >= d_min; ++next_node)
+    enter(node_order[next_node]);
   for (std::size_t n = 0; n < next_node; ++n) {
     const std::uint32_t i = node_order[n];
     if (parent_[i] == i && split_[i] == 0 && size_[i] >= config_.min_component_size) emit_seed(i, &seeds, r);

@@ -17,6 +17,7 @@
 #include "core/scene_graph/scene_graph.h"
 #include "drivers/sim/ground_truth.h"
 #include "drivers/world/world_query.h"
+#include "tests/places/places_test_support.h"
 #include "tests/places/places_test_world.h"
 #include "tests/support/allocation_counter.h"
 
@@ -25,43 +26,11 @@ namespace {
 
 using testing::kHeight;
 using testing::Scanner;
-
-Capacities small_capacities() {
-  Capacities c;
-  c.max_blocks = 160;
-  c.place_nodes = 1024;
-  c.inactive_cells = 1024;
-  return c;
-}
-
-std::unique_ptr<Places> make_places(const Config& config = Config{}, const Capacities& caps = small_capacities()) {
-  auto p = std::make_unique<Places>();
-  std::string error;
-  EXPECT_TRUE(p->init(config, caps, Places::plan(caps).total_bytes(), &error)) << error;
-  return p;
-}
-
-std::unique_ptr<scene_graph::SceneGraph> make_graph(std::size_t place_nodes = 2048) {
-  scene_graph::Capacities c;
-  c.object_nodes = 4;
-  c.agent_nodes = 4;
-  c.place_nodes = place_nodes;
-  c.room_nodes = 4;
-  c.building_nodes = 1;
-  c.edges = 8192;
-  c.adjacency_chunks = 4096;
-  c.mesh_connections = 16;
-  auto g = std::make_unique<scene_graph::SceneGraph>();
-  std::string error;
-  EXPECT_TRUE(g->init(c, scene_graph::SceneGraph::plan(c).total_bytes(), &error)) << error;
-  return g;
-}
-
-void run_to_completion(Places* p, const reconstruction::SemanticTsdf& tsdf, const Eigen::Vector3d& robot) {
-  for (int i = 0; i < 1000; ++i)
-    if (p->update(tsdf, robot, Deadline::unlimited()).complete) return;
-  ADD_FAILURE() << "update() did not complete";
-}
+using testing::make_graph;
+using testing::make_places;
+using testing::place_components;
+using testing::run_to_completion;
+using testing::small_capacities;
 
 // The places update of every keyframe, with the robot at the camera.
 Scanner::Hook every_frame(Places* p, Scanner* scanner) {
@@ -69,29 +38,6 @@ Scanner::Hook every_frame(Places* p, Scanner* scanner) {
 }
 
 // Connected components of the places layer of a scene graph (all place nodes, all place-place edges).
-std::size_t place_components(const scene_graph::SceneGraph& g) {
-  std::vector<scene_graph::NodeId> ids;
-  g.for_each_node([&](const scene_graph::NodeRecord& n) {
-    if (n.kind == scene_graph::NodeKind::kPlace) ids.push_back(n.id);
-  });
-  std::set<scene_graph::NodeId> seen;
-  std::size_t components = 0;
-  for (scene_graph::NodeId start : ids) {
-    if (seen.count(start) != 0) continue;
-    ++components;
-    std::vector<scene_graph::NodeId> stack{start};
-    seen.insert(start);
-    while (!stack.empty()) {
-      const scene_graph::NodeId id = stack.back();
-      stack.pop_back();
-      g.for_each_neighbor(id, [&](scene_graph::NodeId m, const scene_graph::EdgeRecord&) {
-        if (scene_graph::node_prefix(m) == scene_graph::kPlacePrefix && seen.insert(m).second) stack.push_back(m);
-      });
-    }
-  }
-  return components;
-}
-
 // Distance from p to the nearest wall, floor or ceiling of the box room [0, 4] x [0, 3] x [0, kHeight].
 double box_distance(const Eigen::Vector3d& p) {
   return std::min({p.x(), 4.0 - p.x(), p.y(), 3.0 - p.y(), p.z(), kHeight - p.z()});
