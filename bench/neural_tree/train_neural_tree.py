@@ -3,8 +3,12 @@
 
 Commands (from the repository root, Debian's python3-torch; fixed seeds, one thread):
   /usr/bin/python3 bench/neural_tree/train_neural_tree.py cv        # 5x repeated stratified 5-fold CV, LR baseline too
+      (--jobs 2: folds in two processes, same figures; --seed-base: other fold splits, e.g. for tuning)
   /usr/bin/python3 bench/neural_tree/train_neural_tree.py ssl       # the paper's 70/10/20 node-classification protocol
   /usr/bin/python3 bench/neural_tree/train_neural_tree.py train     # all rooms -> weights file + parity fixture
+Any CONFIG entry can be overridden with --set key=value. Training-only switches (no C++ change): class_weight
+(loss weights count^-x), val_folds (training length from an inner split of the training rooms), word_onehot and
+word_scale (what the word table holds). cv-only ablations: box_relative, plain_graph, room_word_counts.
 """
 import argparse
 import base64
@@ -29,16 +33,28 @@ WORDS_JSON = os.path.join(DATA, "words", "glove100_scene_label_subset.json")
 WEIGHTS_OUT = os.path.join(REPO, "core", "neural_tree", "weights", "room_classifier_v1.json")
 FIXTURE_OUT = os.path.join(REPO, "tests", "neural_tree", "parity_fixture.json")
 
-WORD_DIM = 100
-# Input feature layout (kept in the weights file; core/neural_tree reads offsets from there).
-OFF_TYPE = 0
-OFF_WORD = OFF_TYPE + ht.NUM_TYPES
-OFF_OBJ_SIZE = OFF_WORD + WORD_DIM
-OFF_OBJ_REL = OFF_OBJ_SIZE + 3
-OFF_ROOM_SIZE = OFF_OBJ_REL + 3
-OFF_ROOM_COUNT = OFF_ROOM_SIZE + 3
-OFF_OBJ_LABEL_COUNT = OFF_ROOM_COUNT + 1  # log(1 + objects of the same label in the room)
-INPUT_DIM = OFF_OBJ_LABEL_COUNT + 1
+GLOVE_DIM = 100
+
+
+def set_layout(word_dim, room_words_dim=0):
+    """Input feature layout (kept in the weights file; core/neural_tree reads offsets and word_dim from there)."""
+    global WORD_DIM, OFF_TYPE, OFF_WORD, OFF_OBJ_SIZE, OFF_OBJ_REL, OFF_ROOM_SIZE, OFF_ROOM_COUNT
+    global OFF_OBJ_LABEL_COUNT, OFF_ROOM_WORDS, ROOM_WORDS_DIM, INPUT_DIM
+    WORD_DIM = word_dim
+    ROOM_WORDS_DIM = room_words_dim
+    OFF_TYPE = 0
+    OFF_WORD = OFF_TYPE + ht.NUM_TYPES
+    OFF_OBJ_SIZE = OFF_WORD + WORD_DIM
+    OFF_OBJ_REL = OFF_OBJ_SIZE + 3
+    OFF_ROOM_SIZE = OFF_OBJ_REL + 3
+    OFF_ROOM_COUNT = OFF_ROOM_SIZE + 3
+    OFF_OBJ_LABEL_COUNT = OFF_ROOM_COUNT + 1  # log(1 + objects of the same label in the room)
+    # Room leaves: log(1 + objects of each word-table row r < ROOM_WORDS_DIM in the room), the counts LR sees.
+    OFF_ROOM_WORDS = OFF_OBJ_LABEL_COUNT + 1
+    INPUT_DIM = OFF_ROOM_WORDS + ROOM_WORDS_DIM
+
+
+set_layout(GLOVE_DIM)
 MIN_SIZE_M = 0.01  # floor under box sizes before the log
 
 # Stanford3DSG room classes -> the paper's room labels (core/semantics/labels.h names).
@@ -54,7 +70,9 @@ MPCAT40 = ["void", "wall", "floor", "chair", "door", "table", "picture", "cabine
            "shelving", "blinds", "gym_equipment", "seating", "board_panel", "furniture", "appliances", "clothes",
            "objects", "misc", "unlabeled"]
 
-CONFIG = dict(label_count=0, box_relative=0, plain_graph=0, agg_sum=0, ensemble=3, pos_scale=1.0, hidden=32, layers=3, lr=0.005, weight_decay=5e-4, dropout=0.25, epochs=250, lr_l2=1e-2)
+CONFIG = dict(label_count=1, box_relative=0, plain_graph=0, agg_sum=0, ensemble=3, pos_scale=1.0, hidden=32, layers=3,
+              lr=0.005, weight_decay=5e-4, dropout=0.25, epochs=250, lr_l2=1e-2, word_onehot=1, class_weight=0.0,
+              val_folds=0, max_epochs=400, room_word_counts=0, word_scale=1.0)
 
 
 # ----------------------------------------------------------------------------------------------------------------
@@ -67,11 +85,24 @@ def load_words():
 def word_feature(words, name):
     """Mean of the word vectors of a (compound) label, L2-normalised; zeros when no word is known."""
     parts = [p for p in name.replace("-", "_").replace(" ", "_").split("_") if p]
-    vecs = [np.asarray(words[p][:WORD_DIM], dtype=np.float64) for p in parts if p in words]
+    vecs = [np.asarray(words[p][:GLOVE_DIM], dtype=np.float64) for p in parts if p in words]
     if not vecs:
-        return np.zeros(WORD_DIM, dtype=np.float32)
+        return np.zeros(GLOVE_DIM, dtype=np.float32)
     v = np.mean(vecs, axis=0)
     return (v / max(np.linalg.norm(v), 1e-9)).astype(np.float32)
+
+
+def word_table_for(words, names, object_names):
+    """Rows of the model's word table: the GloVe vector, then (word_onehot) a one-hot over the training set's object
+    classes, so the network can tell apart classes whose word vectors are close; other names get a zero one-hot."""
+    glove = np.stack([word_feature(words, n) for n in names]) * np.float32(CONFIG["word_scale"])
+    if not CONFIG["word_onehot"]:
+        return glove
+    onehot = np.zeros((len(names), len(object_names)), dtype=np.float32)
+    for i, n in enumerate(names):
+        if n in object_names:
+            onehot[i, object_names.index(n)] = 1.0
+    return np.concatenate([glove, onehot], axis=1)
 
 
 def load_rooms():
@@ -164,6 +195,9 @@ def htree_features(scene, word_table):
         elif scene.layers[v] == ht.LAYER_ROOM:
             x[i, OFF_ROOM_SIZE:OFF_ROOM_SIZE + 3] = log_box(scene.size[v])
             x[i, OFF_ROOM_COUNT] = math.log1p(counts.get(v, 0))
+            for (r, w), c in label_counts.items():
+                if r == v and 0 <= w < ROOM_WORDS_DIM:
+                    x[i, OFF_ROOM_WORDS + w] = math.log1p(c)
             pool_node.append(i)
             pool_room.append(v)
     # Mean relative position of each node's H-tree neighbours: the edge feature, the same for every layer.
@@ -254,25 +288,61 @@ def seed_all(seed):
     np.random.seed(seed)
 
 
-def train_model(train_batch, labels, num_classes, seed, cfg=CONFIG):
+def class_weights(labels, num_classes, exponent):
+    """Per-class loss weights count^-exponent (0: plain cross-entropy), scaled to mean 1 over the samples."""
+    counts = np.bincount(labels, minlength=num_classes).astype(np.float64)
+    w = np.where(counts > 0, np.maximum(counts, 1.0) ** -exponent, 0.0)
+    w *= len(labels) / float((w[labels]).sum())
+    return torch.tensor(w, dtype=torch.float32)
+
+
+def train_model(train_batch, labels, num_classes, seed, cfg=CONFIG, epochs=None, val_batch=None):
+    """Full-batch Adam. With a validation batch, also returns the validation probabilities every 10 epochs."""
     seed_all(seed)
     model = NeuralTree(INPUT_DIM, cfg["hidden"], cfg["layers"], num_classes, cfg["dropout"])
     opt = torch.optim.Adam(model.parameters(), lr=cfg["lr"], weight_decay=cfg["weight_decay"])
     y = torch.tensor(labels, dtype=torch.long)
-    model.train()
-    for _ in range(cfg["epochs"]):
+    weight = class_weights(np.asarray(labels), num_classes, cfg["class_weight"]) if cfg["class_weight"] else None
+    curve = []
+    for epoch in range(cfg["epochs"] if epochs is None else epochs):
+        model.train()
         opt.zero_grad()
-        loss = torch.nn.functional.cross_entropy(model(train_batch), y)
+        loss = torch.nn.functional.cross_entropy(model(train_batch), y, weight=weight)
         loss.backward()
         opt.step()
+        if val_batch is not None and epoch % 10 == 9:
+            model.eval()
+            with torch.no_grad():
+                curve.append(torch.softmax(model(val_batch), 1))
     model.eval()
-    return model
+    return (model, curve) if val_batch is not None else model
 
 
-def train_ensemble(train_batch, labels, num_classes, seed):
-    """CONFIG['ensemble'] members from consecutive seeds; the classifier averages their probabilities."""
+def choose_epochs(items, labels, num_classes, seed):
+    """Training length from an inner stratified split of the training rooms (1 / val_folds held out): the epoch
+    count (a multiple of 10) where the ensemble's held-out log-likelihood peaks. Only training rooms are used."""
+    labels = np.asarray(labels)
+    fold = stratified_folds(labels, int(CONFIG["val_folds"]), np.random.RandomState(50000 + seed))
+    tr, va = np.flatnonzero(fold != 0), np.flatnonzero(fold == 0)
+    tb, vb = Batch([items[i] for i in tr]), Batch([items[i] for i in va])
     k = int(CONFIG["ensemble"])
-    return [train_model(train_batch, labels, num_classes, seed=seed * k + j) for j in range(k)]
+    curves = [train_model(tb, labels[tr], num_classes, seed=seed * k + j, epochs=int(CONFIG["max_epochs"]),
+                          val_batch=vb)[1] for j in range(k)]
+    yv = torch.tensor(labels[va], dtype=torch.long)
+    nll = []
+    for t in range(len(curves[0])):
+        p = torch.stack([c[t] for c in curves]).mean(0)[torch.arange(len(va)), yv]
+        nll.append(float(-torch.log(p.clamp(min=1e-12)).mean()))
+    return 10 * (int(np.argmin(nll)) + 1)
+
+
+def train_ensemble(items, labels, num_classes, seed):
+    """CONFIG['ensemble'] members from consecutive seeds; the classifier averages their probabilities. With
+    val_folds > 1 the training length comes from an inner validation split first (choose_epochs)."""
+    k = int(CONFIG["ensemble"])
+    epochs = choose_epochs(items, labels, num_classes, seed) if CONFIG["val_folds"] > 1 else int(CONFIG["epochs"])
+    batch = Batch(items)
+    return [train_model(batch, labels, num_classes, seed=seed * k + j, epochs=epochs) for j in range(k)], epochs
 
 
 def predict_proba(models, batch):
@@ -332,11 +402,33 @@ def stratified_folds(y, k, rng):
 
 
 def prepare(graphs, object_names, words):
-    word_table = np.stack([word_feature(words, n) for n in object_names])
+    word_table = word_table_for(words, object_names, object_names)
+    set_layout(word_table.shape[1], len(object_names) if CONFIG["room_word_counts"] else 0)
     word_index = {n: i for i, n in enumerate(object_names)}
     scenes = [scene_from_stanford(g, word_index) for g in graphs]
     items = [htree_features(s, word_table) for s in scenes]
     return scenes, items, word_table
+
+
+_CV = {}  # the data one cv run shares with its fold workers (fork start: copied on write, never pickled)
+
+
+def cv_fold(task):
+    """One (repeat, fold) of the CV: neural tree and LR trained on the other folds, counted on this one."""
+    rep, k = task
+    d = _CV
+    torch.set_num_threads(1)
+    fold = stratified_folds(d["y"], d["folds"], np.random.RandomState(d["seed_base"] + rep))
+    tr = np.flatnonzero(fold != k)
+    te = np.flatnonzero(fold == k)
+    y, items = d["y"], d["items"]
+    c_nt, ep = 0, 0
+    if not d["lr_only"]:
+        models, ep = train_ensemble([items[i] for i in tr], y[tr], d["classes"], seed=rep * 100 + k)
+        pred = predict_proba(models, Batch([items[i] for i in te])).argmax(1).numpy()
+        c_nt = int((pred == y[te]).sum())
+    pred_lr = train_lr(d["f"][tr], y[tr], d["classes"], CONFIG["lr_l2"])(d["f"][te])
+    return rep, k, c_nt, int((pred_lr == y[te]).sum()), len(te), ep
 
 
 def cmd_cv(args):
@@ -347,34 +439,39 @@ def cmd_cv(args):
     widths = [it[0].width for it in items]
     print("rooms %d, H-tree nodes %d, width max %d mean %.2f" %
           (len(items), sum(len(it[0].members) for it in items), max(widths), np.mean(widths)))
-    f = lr_features(graphs, object_names)
-    acc_nt, acc_lr, fold_nt, fold_lr = [], [], [], []
+    _CV.update(y=y, items=items, f=lr_features(graphs, object_names), classes=len(classes), folds=args.folds,
+               seed_base=args.seed_base, lr_only=args.lr_only)
+    tasks = [(rep, k) for rep in range(args.repeats) for k in range(args.folds)]
     t0 = time.time()
+    # Every fold seeds its own training, so the figures do not depend on --jobs.
+    if args.jobs > 1:
+        import multiprocessing
+        with multiprocessing.get_context("fork").Pool(args.jobs) as pool:
+            results = pool.map(cv_fold, tasks, chunksize=1)
+    else:
+        results = [cv_fold(t) for t in tasks]
+    results.sort()
+    fold_nt = [r[2] / r[4] for r in results]
+    fold_lr = [r[3] / r[4] for r in results]
+    epochs_used = [r[5] for r in results if r[5]]
+    acc_nt, acc_lr = [], []
     for rep in range(args.repeats):
-        fold = stratified_folds(y, args.folds, np.random.RandomState(1000 + rep))
-        ok_nt = ok_lr = 0
-        for k in range(args.folds):
-            tr = np.flatnonzero(fold != k)
-            te = np.flatnonzero(fold == k)
-            c_nt = 0
-            if not args.lr_only:
-                models = train_ensemble(Batch([items[i] for i in tr]), y[tr], len(classes), seed=rep * 100 + k)
-                pred = predict_proba(models, Batch([items[i] for i in te])).argmax(1).numpy()
-                c_nt = int((pred == y[te]).sum())
-            pred_lr = train_lr(f[tr], y[tr], len(classes), CONFIG["lr_l2"])(f[te])
-            c_lr = int((pred_lr == y[te]).sum())
-            ok_nt += c_nt
-            ok_lr += c_lr
-            fold_nt.append(c_nt / len(te))
-            fold_lr.append(c_lr / len(te))
-        acc_nt.append(ok_nt / len(y))
-        acc_lr.append(ok_lr / len(y))
-        print("repeat %d: neural tree %.2f %%, logistic regression %.2f %%  (%.0f s)" %
-              (rep, 100 * acc_nt[-1], 100 * acc_lr[-1], time.time() - t0), flush=True)
+        rs = [r for r in results if r[0] == rep]
+        acc_nt.append(sum(r[2] for r in rs) / len(y))
+        acc_lr.append(sum(r[3] for r in rs) / len(y))
+        print("repeat %d: neural tree %.2f %%, logistic regression %.2f %%" % (rep, 100 * acc_nt[-1], 100 * acc_lr[-1]))
+    print("cv time %.0f s (%d jobs)" % (time.time() - t0, args.jobs))
     print("neural tree:         %.2f +- %.2f %% (std over repeats; over folds +- %.2f)" %
           (100 * np.mean(acc_nt), 100 * np.std(acc_nt), 100 * np.std(fold_nt)))
     print("logistic regression: %.2f +- %.2f %% (std over repeats; over folds +- %.2f)" %
           (100 * np.mean(acc_lr), 100 * np.std(acc_lr), 100 * np.std(fold_lr)))
+    print("neural tree over the %d folds:         %.2f +- %.2f %%" %
+          (len(fold_nt), 100 * np.mean(fold_nt), 100 * np.std(fold_nt)))
+    print("logistic regression over the %d folds: %.2f +- %.2f %%" %
+          (len(fold_lr), 100 * np.mean(fold_lr), 100 * np.std(fold_lr)))
+    if epochs_used:
+        print("training epochs per fold: mean %.0f, min %d, max %d" %
+              (np.mean(epochs_used), min(epochs_used), max(epochs_used)))
     print("config", json.dumps(CONFIG))
 
 
@@ -561,15 +658,17 @@ def fixture_scenes(graphs, object_names):
 
 def cmd_train(args):
     # core/neural_tree implements the shipped feature set only; the ablation switches stay in cv.
-    if CONFIG["box_relative"] or CONFIG["plain_graph"]:
-        sys.exit("train: box_relative and plain_graph are cv-only ablations; core/neural_tree does not read them")
+    if CONFIG["box_relative"] or CONFIG["plain_graph"] or CONFIG["room_word_counts"]:
+        sys.exit("train: box_relative, plain_graph and room_word_counts are cv-only ablations; core/neural_tree does "
+                 "not read them")
     graphs, classes, object_names = load_rooms()
     words = load_words()
     y = np.array([classes.index(next(n["label"] for n in g["nodes"] if n["type"] == "room")) for g in graphs])
     _, items, word_table = prepare(graphs, object_names, words)
-    models = train_ensemble(Batch(items), y, len(classes), seed=7)
+    models, epochs = train_ensemble(items, y, len(classes), seed=7)
+    print("epochs %d" % epochs)
     word_names = list(object_names) + [m for m in MPCAT40 if m not in object_names]
-    table = np.stack([word_feature(words, n) for n in word_names])
+    table = word_table_for(words, word_names, object_names)
     write_weights(models, classes, word_names, table, args.weights)
     stored = round_trip_models(models, args.weights)
     acc = float((predict_proba(models, Batch(items)).argmax(1).numpy() == y).mean())
@@ -606,6 +705,8 @@ def main():
     c.add_argument("--repeats", type=int, default=5)
     c.add_argument("--folds", type=int, default=5)
     c.add_argument("--lr-only", action="store_true", help="only the logistic-regression baseline")
+    c.add_argument("--jobs", type=int, default=1, help="folds trained in parallel processes (one torch thread each)")
+    c.add_argument("--seed-base", type=int, default=1000, help="fold split seeds seed_base .. seed_base + repeats - 1")
     s = sub.add_parser("ssl")
     s.add_argument("--runs", type=int, default=100)
     s.add_argument("--epochs", type=int, default=300)
