@@ -2,6 +2,8 @@
 // every room, the camera along it), plus the small statistics every program prints.
 #pragma once
 
+#include <cmath>
+
 #include <sys/resource.h>
 
 #include <Eigen/Geometry>
@@ -24,6 +26,12 @@ inline drivers::CameraIntrinsics camera_of_size(int width, int height) {
   return {width, height, f, f, (width - 1) / 2.0, (height - 1) / 2.0};
 }
 
+// A pinhole camera of the given size and horizontal field of view, principal point centred.
+inline drivers::CameraIntrinsics camera_of_fov(int width, int height, double hfov_deg) {
+  const double f = 0.5 * width / std::tan(0.5 * hfov_deg * 3.14159265358979 / 180.0);
+  return {width, height, f, f, (width - 1) / 2.0, (height - 1) / 2.0};
+}
+
 struct SimTour {
   sim::ExplorationResult tour;
   std::unique_ptr<sim::SimCamera> camera;
@@ -42,6 +50,23 @@ inline bool make_sim_tour(const world::World& world, const sim::ExplorationConfi
   if (!out->camera->init(camera_config, render_config, world, out->tour.trajectory, error))
     return *error = "sim camera: " + *error, false;
   return true;
+}
+
+// Reads the camera to its end and calls fn(frame, world_T_camera, t_ns) for every frame that reads and has a
+// pose (frames that fail to read or have none are skipped). Returns the number of frames passed to fn.
+template <typename Fn>
+std::size_t for_each_posed_frame(sim::SimCamera& camera, drivers::RgbdFrame& frame, Fn&& fn) {
+  std::size_t frames = 0;
+  for (;;) {
+    const drivers::ReadStatus status = camera.read(frame, 0);
+    if (status == drivers::ReadStatus::kEndOfStream) return frames;
+    if (status != drivers::ReadStatus::kOk) continue;
+    Eigen::Isometry3d world_T_camera;
+    std::int64_t t_ns = 0;
+    if (!camera.camera_pose(frame.sequence, &world_T_camera, &t_ns)) continue;
+    fn(frame, world_T_camera, t_ns);
+    ++frames;
+  }
 }
 
 // The value below which a fraction q of the samples lie (nearest rank).

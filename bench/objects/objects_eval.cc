@@ -180,16 +180,10 @@ bool run_building(std::uint64_t seed, const Options& opt, Score* score, std::vec
   }
 
   auto frame = std::make_unique<drivers::RgbdFrame>();
-  std::size_t frames = 0;
-  for (;;) {
-    const drivers::ReadStatus status = camera.read(*frame, 0);
-    if (status == drivers::ReadStatus::kEndOfStream) break;
-    if (status != drivers::ReadStatus::kOk) continue;
-    Eigen::Isometry3d T;
-    std::int64_t t_ns = 0;
-    if (!camera.camera_pose(frame->sequence, &T, &t_ns)) continue;
+  const std::size_t frames = bench::for_each_posed_frame(
+      camera, *frame, [&](const drivers::RgbdFrame& f, const Eigen::Isometry3d& T, std::int64_t t_ns) {
     const auto t0 = std::chrono::steady_clock::now();
-    tsdf.process(*frame, T);
+    tsdf.process(f, T);
     const auto t1 = std::chrono::steady_clock::now();
     const double cpu1 = thread_cpu_ms();
     layer.update(tsdf, static_cast<std::uint64_t>(t_ns));
@@ -200,8 +194,7 @@ bool run_building(std::uint64_t seed, const Options& opt, Score* score, std::vec
     agent_layer.add_keyframe(graph.get(), static_cast<std::uint64_t>(t_ns), T);
     recon_ms->push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
     update_ms->push_back(std::chrono::duration<double, std::milli>(t2 - t1).count());
-    ++frames;
-  }
+  });
   *keyframes += frames;
 
   reconstruction::Mesh mesh;

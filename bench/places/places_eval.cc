@@ -469,8 +469,7 @@ bool run_world(const Options& opt, const world::World& w, bool floor_plan, Build
   const std::uint64_t seed = out->seed;
   const sim::ExplorationConfig ec;
   sim::SimCamera::Config cc;
-  const double f = 0.5 * opt.width / std::tan(0.5 * opt.hfov_deg * 3.14159265358979 / 180.0);
-  cc.intrinsics = drivers::CameraIntrinsics{opt.width, opt.height, f, f, (opt.width - 1) / 2.0, (opt.height - 1) / 2.0};
+  cc.intrinsics = bench::camera_of_fov(opt.width, opt.height, opt.hfov_deg);
   cc.rate_hz = opt.rate_hz;
   bench::SimTour sim_tour;
   std::string error;
@@ -537,26 +536,22 @@ bool run_world(const Options& opt, const world::World& w, bool floor_plan, Build
 
   std::map<scene_graph::NodeId, NodeHistory> history;
   auto frame = std::make_unique<drivers::RgbdFrame>();
-  for (;;) {
-    const drivers::ReadStatus status = camera.read(*frame, 0);
-    if (status == drivers::ReadStatus::kEndOfStream) break;
-    if (status != drivers::ReadStatus::kOk) continue;
-    Eigen::Isometry3d pose;
-    if (!camera.camera_pose(frame->sequence, &pose, nullptr)) continue;
-    tsdf.process(*frame, pose);
+  bench::for_each_posed_frame(camera, *frame, [&](const drivers::RgbdFrame& f, const Eigen::Isometry3d& pose,
+                                                  std::int64_t) {
+    tsdf.process(f, pose);
     const auto t_obs = std::chrono::steady_clock::now();
     if (opt.observe) places.observe(tsdf, pose);
     const auto t0 = std::chrono::steady_clock::now();
     out->observe_ms.push_back(std::chrono::duration<double, std::milli>(t0 - t_obs).count());
     ++out->keyframes;
     // The frontend's cadence: every Nth keyframe (the last keyframes of the tour are flushed below).
-    if ((out->keyframes - 1) % static_cast<std::size_t>(opt.every_n) != 0) continue;
+    if ((out->keyframes - 1) % static_cast<std::size_t>(opt.every_n) != 0) return;
     places.update(tsdf, pose.translation(), places::Deadline::unlimited());
     places.sync(&graph);
     const auto t1 = std::chrono::steady_clock::now();
     out->update_ms.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
     if (opt.diagnose) track_history(graph, static_cast<int>(out->keyframes), &history);
-  }
+  });
   // Finish any cycle in flight, and take in the keyframes observed since the last update.
   places.update(tsdf, tour.trajectory.back().world_t_body_m, places::Deadline::unlimited());
   for (int i = 0; i < 100 && places.cycle_in_progress(); ++i)

@@ -311,8 +311,7 @@ bool run_pipeline(const Options& opt, const world::World& w, const std::string& 
   sim::ExplorationConfig ec;
   ec.robot_radius_m = opt.robot_radius_m;
   sim::SimCamera::Config cc;
-  const double f = 0.5 * opt.width / std::tan(0.5 * opt.hfov_deg * 3.14159265358979 / 180.0);
-  cc.intrinsics = drivers::CameraIntrinsics{opt.width, opt.height, f, f, (opt.width - 1) / 2.0, (opt.height - 1) / 2.0};
+  cc.intrinsics = bench::camera_of_fov(opt.width, opt.height, opt.hfov_deg);
   cc.rate_hz = opt.rate_hz;
   bench::SimTour sim_tour;
   std::string error;
@@ -349,20 +348,14 @@ bool run_pipeline(const Options& opt, const world::World& w, const std::string& 
   auto frame = std::make_unique<drivers::RgbdFrame>();
   Eigen::Vector3d last = Eigen::Vector3d::Zero();
   std::uint64_t t_last = 0;
-  for (;;) {
-    const drivers::ReadStatus status = camera.read(*frame, 0);
-    if (status == drivers::ReadStatus::kEndOfStream) break;
-    if (status != drivers::ReadStatus::kOk) continue;
-    Eigen::Isometry3d T;
-    std::int64_t t_ns = 0;
-    if (!camera.camera_pose(frame->sequence, &T, &t_ns)) continue;
-    tsdf->process(*frame, T);
-    fe->add_keyframe(graph, static_cast<std::uint64_t>(t_ns), T);
-    fe->update(*tsdf, T.translation(), static_cast<std::uint64_t>(t_ns), graph, frontend::Deadline{});
-    last = T.translation();
-    t_last = static_cast<std::uint64_t>(t_ns);
-    ++stats->keyframes;
-  }
+  stats->keyframes = bench::for_each_posed_frame(
+      camera, *frame, [&](const drivers::RgbdFrame& f, const Eigen::Isometry3d& T, std::int64_t t_ns) {
+        tsdf->process(f, T);
+        fe->add_keyframe(graph, static_cast<std::uint64_t>(t_ns), T);
+        fe->update(*tsdf, T.translation(), static_cast<std::uint64_t>(t_ns), graph, frontend::Deadline{});
+        last = T.translation();
+        t_last = static_cast<std::uint64_t>(t_ns);
+      });
   for (int i = 0; i < 100; ++i)
     if (fe->update(*tsdf, last, t_last, graph, frontend::Deadline{}).places_complete) break;
   if (!cache_path.empty() && !sg::write_spark_dsg_json_file(*graph, cache_path, &error))
