@@ -118,6 +118,25 @@ def hierarchical_tree_decomposition(graph, vertices):
     return bags, edges
 
 
+def connected(nodes, edges):
+    """True when the nodes (a non-empty list) are connected through the edges among them (undirected)."""
+    inside = set(nodes)
+    adj = {x: [] for x in inside}
+    for a, b in edges:
+        if a in inside and b in inside:
+            adj[a].append(b)
+            adj[b].append(a)
+    seen = {nodes[0]}
+    stack = [nodes[0]]
+    while stack:
+        x = stack.pop()
+        for y in adj[x]:
+            if y not in seen:
+                seen.add(y)
+                stack.append(y)
+    return len(seen) == len(inside)
+
+
 def check_tree_decomposition(graph, vertices, bags, edges):
     """Returns '' when (bags, edges) is a tree and a tree decomposition of graph[vertices], else the reason."""
     n = len(bags)
@@ -125,35 +144,14 @@ def check_tree_decomposition(graph, vertices, bags, edges):
         return "" if not vertices else "no bags"
     if len(edges) != n - 1:
         return "not a tree: %d bags, %d edges" % (n, len(edges))
-    adj = [[] for _ in range(n)]
-    for a, b in edges:
-        adj[a].append(b)
-        adj[b].append(a)
-    seen = {0}
-    stack = [0]
-    while stack:
-        x = stack.pop()
-        for y in adj[x]:
-            if y not in seen:
-                seen.add(y)
-                stack.append(y)
-    if len(seen) != n:
+    if not connected(list(range(n)), edges):
         return "not a tree: disconnected"
     vset = set(vertices)
     for v in vertices:
         holding = [i for i in range(n) if v in bags[i]]
         if not holding:
             return "vertex %d in no bag" % v
-        hs = set(holding)
-        seen = {holding[0]}
-        stack = [holding[0]]
-        while stack:
-            x = stack.pop()
-            for y in adj[x]:
-                if y in hs and y not in seen:
-                    seen.add(y)
-                    stack.append(y)
-        if len(seen) != len(hs):
+        if not connected(holding, edges):
             return "bags of vertex %d not connected" % v
     for a in vertices:
         for b in graph.adj[a]:
@@ -198,12 +196,16 @@ def is_complete(graph, members):
 
 
 def build_htree(graph):
-    """Algorithm 1 decomposition, then every bag split until the leaves are single graph nodes."""
+    """Algorithm 1 decomposition, then every bag split until the leaves are single graph nodes. Every tree built is
+    checked (a tree, a tree decomposition, leaves covering the graph); ValueError names what failed."""
     h = HTree()
     vertices = list(range(len(graph.layers)))
     if not vertices:
         return h
     bags, edges = hierarchical_tree_decomposition(graph, vertices)
+    why = check_tree_decomposition(graph, vertices, bags, edges)
+    if why:
+        raise ValueError("hierarchical tree decomposition: " + why)
     h.width = max(len(b) for b in bags) - 1
     base = len(h.members)
     for b in bags:
@@ -234,6 +236,9 @@ def build_htree(graph):
         h.edges.extend((sub_base + a, sub_base + b) for a, b in sub_edges)
         h.edges.append((node, sub_base))
         queue.extend(range(sub_base, sub_base + len(sub_bags)))
+    why = check_htree(graph, h)
+    if why:
+        raise ValueError(why)
     return h
 
 
@@ -242,19 +247,7 @@ def check_htree(graph, h):
     n = len(h.members)
     if len(h.edges) != n - 1:
         return "H-tree not a tree: %d nodes, %d edges" % (n, len(h.edges))
-    adj = [[] for _ in range(n)]
-    for a, b in h.edges:
-        adj[a].append(b)
-        adj[b].append(a)
-    seen = {0}
-    stack = [0]
-    while stack:
-        x = stack.pop()
-        for y in adj[x]:
-            if y not in seen:
-                seen.add(y)
-                stack.append(y)
-    if len(seen) != n:
+    if not connected(list(range(n)), h.edges):
         return "H-tree disconnected"
     covered = set(h.members[i][0] for i in range(n) if len(h.members[i]) == 1)
     if covered != set(range(len(graph.layers))):
