@@ -53,6 +53,8 @@ struct Options {
   bool relink = true;
   bool bridges = true;    // --no-bridges: no bridges and no enclosed pockets held back (the previous behaviour)
   bool contract = true;   // --no-contract
+  bool unobserved_obstacle = true;  // --no-unobserved-obstacle: Config::unobserved_is_obstacle off
+  bool rim_guard = true;            // --no-rim-guard: Config::rim_guard off
   std::string floorplan;   // --floorplan NAME: explore this extruded benchmark plan instead of generated buildings
   bool furnished = false;
   std::string plans_dir = std::string(QSG_SHARED_DATA_DIR) + "/floorplans/ipa";
@@ -63,7 +65,7 @@ struct Options {
 void usage(const char* argv0) {
   std::fprintf(stderr,
                "usage: %s [--seeds 1,2,3] [--rooms N] [--size WxH] [--hfov-deg D] [--rate-hz R] [--every-n N] "
-               "[--no-observe] [--no-free-space-edges] [--no-relink] [--no-bridges] [--no-contract] [--floorplan NAME [--furnished]] "
+               "[--no-observe] [--no-free-space-edges] [--no-relink] [--no-bridges] [--no-contract] [--no-unobserved-obstacle] [--no-rim-guard] [--floorplan NAME [--furnished]] "
                "[--plans-dir DIR] [--window-radius-m R] [--slab-above-m H] [--json FILE] [--verbose] [--diagnose]\n"
                "  NAME: a map of the plans dir (Freiburg52_scan, lab_c_scan, lab_intel, lab_ipa, office_a, office_e)\n",
                argv0);
@@ -95,6 +97,14 @@ bool parse(int argc, char** argv, Options* o) {
     }
     if (a == "--no-bridges") {
       o->bridges = false;
+      continue;
+    }
+    if (a == "--no-rim-guard") {
+      o->rim_guard = false;
+      continue;
+    }
+    if (a == "--no-unobserved-obstacle") {
+      o->unobserved_obstacle = false;
       continue;
     }
     if (a == "--no-contract") {
@@ -487,6 +497,8 @@ bool run_world(const Options& opt, const world::World& w, bool floor_plan, Build
   pc.bridge_fragments = opt.bridges;
   pc.enclosed_max_voxels = opt.bridges ? pc.enclosed_max_voxels : 0;
   pc.contract_removed = opt.contract;
+  pc.unobserved_is_obstacle = opt.unobserved_obstacle;
+  pc.rim_guard = opt.rim_guard;
   reconstruction::Capacities rcaps = reconstruction::capacities_from_budget();
   std::size_t tsdf_bytes = budgets::active::reconstruction::kArenaBytes;
   places::Capacities pcaps = places::capacities_from_budget();
@@ -587,10 +599,81 @@ bool run_world(const Options& opt, const world::World& w, bool floor_plan, Build
     std::printf("  nodes by height (0.5 m bins from -1 m):");
     for (int h : hist) std::printf(" %d", h);
     std::printf("\n");
+    // Where the error comes from: mean distance to the true GVD by the place's clearance and by its height.
+    const double clearance_edges[] = {0.0, 0.3, 0.4, 0.6, 1.0, 1e9};
+    std::printf("  distance to the true GVD by clearance:");
+    for (int b = 0; b + 1 < 6; ++b) {
+      double sum_b = 0.0;
+      int n_b = 0;
+      for (const auto& [d, id] : worst) {
+        const double c = graph.place(id)->distance_m;
+        if (c >= clearance_edges[b] && c < clearance_edges[b + 1]) {
+          sum_b += d;
+          ++n_b;
+        }
+      }
+      std::printf(" [%.1f, %.1f): %d nodes mean %.3f;", clearance_edges[b], std::min(9.9, clearance_edges[b + 1]), n_b,
+                  n_b > 0 ? sum_b / n_b : 0.0);
+    }
+    std::printf("\n  distance to the true GVD by height (0.5 m bins from -1 m):");
+    for (int b = 0; b < 8; ++b) {
+      double sum_b = 0.0;
+      int n_b = 0;
+      for (const auto& [d, id] : worst) {
+        const double z = graph.place(id)->position_m.z();
+        if (std::min(7, static_cast<int>(std::max(0.0, z + 1.0) / 0.5)) == b) {
+          sum_b += d;
+          ++n_b;
+        }
+      }
+      std::printf(" %.3f", n_b > 0 ? sum_b / n_b : 0.0);
+    }
+    std::printf("\n");
     for (std::size_t i = 0; i < std::min<std::size_t>(15, worst.size()); ++i) {
       const scene_graph::PlaceAttributes* a = graph.place(worst[i].second);
-      std::printf("  worst: %.2f %.2f %.2f clearance %.2f dist %.2f active %d\n", a->position_m.x(),
-                  a->position_m.y(), a->position_m.z(), a->distance_m, worst[i].first, a->is_active ? 1 : 0);
+      // What the ground truth holds at the node: its voxel's room (-2 occupied, -1 free outside every room)
+      // and true clearance.
+      const Eigen::Vector3i q =
+          ((a->position_m - truth.origin_m) / truth.config.voxel_size_m).array().floor().cast<int>();
+      int truth_room = -3;
+      double truth_clearance = -1.0;
+      if ((q.array() >= 0).all() && (q.array() < truth.dims.array()).all()) {
+        truth_room = truth.voxel_room[truth.index(q.x(), q.y(), q.z())];
+        truth_clearance = truth.clearance_m[truth.index(q.x(), q.y(), q.z())];
+      }
+      std::printf("  worst: %.2f %.2f %.2f clearance %.2f dist %.2f active %d; truth: room %d clearance %.2f\n",
+                  a->position_m.x(), a->position_m.y(), a->position_m.z(), a->distance_m, worst[i].first,
+                  a->is_active ? 1 : 0, truth_room, truth_clearance);
+      if (opt.diagnose && a->is_active) {
+        std::printf("    column:");
+        for (double dz = -1.0; dz <= 0.61; dz += 0.2) {
+          float d = -1.0f;
+          const bool ok = places.distance_at(a->position_m + Eigen::Vector3d(0, 0, dz), &d);
+          std::printf(" z%.1f=%s%.2f", a->position_m.z() + dz, ok ? "" : "x", ok ? d : 0.0);
+        }
+        std::printf("\n    row x:");
+        for (double dx = -1.0; dx <= 1.01; dx += 0.2) {
+          float d = -1.0f;
+          const bool ok = places.distance_at(a->position_m + Eigen::Vector3d(dx, 0, 0), &d);
+          std::printf(" %s%.2f", ok ? "" : "x", ok ? d : 0.0);
+        }
+        std::printf("\n    row y:");
+        for (double dy = -1.0; dy <= 1.01; dy += 0.2) {
+          float d = -1.0f;
+          const bool ok = places.distance_at(a->position_m + Eigen::Vector3d(0, dy, 0), &d);
+          std::printf(" %s%.2f", ok ? "" : "x", ok ? d : 0.0);
+        }
+        std::printf("\n");
+        std::vector<places::GvdVoxelInfo> gv;
+        places.gvd_voxels(&gv);
+        for (const places::GvdVoxelInfo& g : gv) {
+          if ((g.position_m - a->position_m).norm() > 0.25) continue;
+          std::printf("    gvd %.2f %.2f %.2f d %.2f basis:", g.position_m.x(), g.position_m.y(), g.position_m.z(),
+                      g.clearance_m);
+          for (const Eigen::Vector3d& b : g.basis_m) std::printf(" (%.2f %.2f %.2f)", b.x(), b.y(), b.z());
+          std::printf("\n");
+        }
+      }
     }
   }
   if (opt.verbose) {
@@ -602,9 +685,11 @@ bool run_world(const Options& opt, const world::World& w, bool floor_plan, Build
       std::vector<scene_graph::NodeId> stack{n.id};
       std::size_t size = 0, active = 0;
       Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+      std::set<scene_graph::NodeId> members;
       while (!stack.empty()) {
         const scene_graph::NodeId id = stack.back();
         stack.pop_back();
+        members.insert(id);
         ++size;
         active += graph.place(id)->is_active ? 1 : 0;
         sum += graph.place(id)->position_m;
@@ -613,6 +698,31 @@ bool run_world(const Options& opt, const world::World& w, bool floor_plan, Build
         });
       }
       comps.emplace_back(size, active, sum / static_cast<double>(size));
+      if (opt.diagnose && size <= 4) {
+        // A small fragment: the ESDF along the way to the nearest place outside it.
+        const Eigen::Vector3d c = sum / static_cast<double>(size);
+        double best = 1e9;
+        Eigen::Vector3d to = c;
+        graph.for_each_node([&](const scene_graph::NodeRecord& o) {
+          if (o.kind != scene_graph::NodeKind::kPlace || !graph.place(o.id)->is_active || members.count(o.id) != 0)
+            return;
+          const double d = (graph.place(o.id)->position_m - c).norm();
+          if (d < best) {
+            best = d;
+            to = graph.place(o.id)->position_m;
+          }
+        });
+        std::printf("    fragment %.2f %.2f %.2f -> %.2f %.2f %.2f:", c.x(), c.y(), c.z(), to.x(), to.y(), to.z());
+        for (int k = 0; k <= 12; ++k) {
+          float d = 0.0f;
+          const bool ok = places.distance_at(c + (to - c) * (k / 12.0), &d);
+          std::printf(" %s%.2f", ok ? "" : "x", ok ? d : 0.0);
+        }
+        std::printf("\n");
+        for (scene_graph::NodeId m : members)
+          std::printf("    member %.2f %.2f %.2f clearance %.2f\n", graph.place(m)->position_m.x(),
+                      graph.place(m)->position_m.y(), graph.place(m)->position_m.z(), graph.place(m)->distance_m);
+      }
     });
     std::sort(comps.begin(), comps.end(), [](const auto& a, const auto& b) { return std::get<0>(a) > std::get<0>(b); });
     for (const auto& [size, active, c] : comps)

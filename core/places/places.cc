@@ -18,6 +18,7 @@ constexpr std::uint32_t kSplitPending = 0xFFFFFFFEu;  // member of a cluster bei
 constexpr float kUnreached = std::numeric_limits<float>::max();
 constexpr float kEps = 1e-4f;
 constexpr int kMaxBasis = 8;
+constexpr int kRim = -1;  // evaluate_gvd: the voxel touches the window's rim
 
 // Voxel states, from the TSDF: seeds are fixed (their distance is the TSDF's), free voxels take their distance
 // from wavefronts, occupied (behind a surface) and unobserved voxels stop them. The TSDF only allocates blocks
@@ -149,6 +150,8 @@ std::string Config::check() const {
   if (!(min_clearance_m >= 0.0 && min_clearance_m < max_distance_m))
     return "min_clearance_m must be in [0, max_distance_m)";
   if (!(min_basis_angle_rad > 0.0 && min_basis_angle_rad <= 3.14159266)) return "min_basis_angle_rad must be in (0, pi]";
+  if (!(max_basis_excess_voxels >= 0.0 && max_basis_excess_voxels <= 10.0))
+    return "max_basis_excess_voxels must be in [0, 10] (0: off)";
   if (min_basis_points < 2 || min_basis_points > kMaxBasis) return "min_basis_points must be in [2, 8]";
   if (!(place_resolution_m > 0.0 && place_resolution_m <= 20.0)) return "place_resolution_m must be in (0, 20] m";
   if (!(window_radius_m > 0.0)) return "window_radius_m must be positive";
@@ -171,13 +174,14 @@ void Config::print(std::FILE* out) const {
                "min_basis_points=%d place_resolution_m=%.2f window_radius_m=%.1f slab_m=[-%.1f, +%.1f] "
                "min_tsdf_weight=%.2f free_space_edges=%d relink_inactive=%d bridge_fragments=%d "
                "bridge_max_fragment_places=%d bridge_max_length_m=%.2f bridge_min_clearance_m=%.2f "
-               "enclosed_max_voxels=%d contract_removed=%d contract_search_places=%d\n",
+               "enclosed_max_voxels=%d contract_removed=%d contract_search_places=%d unobserved_is_obstacle=%d "
+               "rim_guard=%d max_basis_excess_voxels=%.2f\n",
                voxel_factor, max_distance_m, min_clearance_m, min_basis_angle_rad * 180.0 / 3.14159265358979,
                min_basis_points, place_resolution_m, window_radius_m, slab_below_m, slab_above_m, min_tsdf_weight,
                free_space_edges ? 1 : 0, relink_inactive ? 1 : 0, bridge_fragments ? 1 : 0,
                bridge_max_fragment_places, bridge_max_length_m, bridge_min_clearance_m, enclosed_max_voxels,
                contract_removed ? 1 : 0,
-               contract_search_places);
+               contract_search_places, unobserved_is_obstacle ? 1 : 0, rim_guard ? 1 : 0, max_basis_excess_voxels);
 }
 
 void Capacities::print(std::FILE* out) const {
@@ -189,13 +193,15 @@ void Capacities::print(std::FILE* out) const {
 
 void Counters::print(std::FILE* out) const {
   std::fprintf(out,
-               "places: updates=%llu cycles=%llu tsdf_blocks_read=%llu voxels updated=%llu raised=%llu blocks "
+               "places: updates=%llu cycles=%llu tsdf_blocks_read=%llu voxels updated=%llu raised=%llu frontier_seeds=%llu "
+               "occupied_seeds=%llu blocks "
                "allocated=%llu freed=%llu refused=%llu gvd_voxels=%llu places=%llu merged=%llu split=%llu "
                "refused clusters=%llu edges=%llu graph=%llu free_space_edges=%llu relinked=%llu "
                "relinks_dropped=%llu relinks_refused=%llu views=%llu views_merged=%llu observed_refused=%llu "
                "rays=%llu bridges=%llu bridges_added=%llu bridges_missing=%llu contracted=%llu enclosed_held=%llu\n",
                (unsigned long long)updates, (unsigned long long)cycles, (unsigned long long)tsdf_blocks_read,
                (unsigned long long)voxels_updated, (unsigned long long)voxels_raised,
+               (unsigned long long)frontier_seeds, (unsigned long long)occupied_seeds,
                (unsigned long long)blocks_allocated, (unsigned long long)blocks_freed,
                (unsigned long long)blocks_refused, (unsigned long long)gvd_voxels, (unsigned long long)places,
                (unsigned long long)clusters_merged, (unsigned long long)clusters_split,
@@ -355,6 +361,14 @@ memory::ResourceStats Places::list_stats(int which) const {
 // Geometry
 
 Places::Voxel& Places::vox(std::uint32_t ref) { return blocks_[ref / kBlockVoxels].voxels[ref % kBlockVoxels]; }
+
+// A voxel whose distance spreads to its neighbours: a reached free voxel, a surface seed, or a frontier seed (an
+// unobserved voxel beside free space that is its own parent, see Config::unobserved_is_obstacle).
+bool Places::is_source(std::uint32_t ref) const {
+  const Voxel& v = vox(ref);
+  if (v.parent == kNoRef) return false;
+  return v.state == kFree || v.state == kSeed || ((v.state == kUnobserved || v.state == kOccupied) && v.parent == ref);
+}
 const Places::Voxel& Places::vox(std::uint32_t ref) const {
   return blocks_[ref / kBlockVoxels].voxels[ref % kBlockVoxels];
 }
@@ -496,7 +510,8 @@ void Places::apply_state(std::uint32_t ref, std::uint8_t state, float seed_m) {
       raise_dependents(ref, false);
       v.distance_m = seed_m;
     } else {
-      clear_parent(ref);
+      if (v.parent == ref) raise_dependents(ref, true);  // a frontier seed: its dependents took distance 0 from it
+      else clear_parent(ref);
       v.state = kSeed;
       set_parent(ref, ref, seed_m);
     }
@@ -506,7 +521,8 @@ void Places::apply_state(std::uint32_t ref, std::uint8_t state, float seed_m) {
     return;
   }
   if (state == old) return;
-  if (old == kSeed) raise_dependents(ref, true);
+  // A seed, or a frontier seed (an unobserved voxel that is its own parent), hands its dependents back.
+  if (old == kSeed || v.parent == ref) raise_dependents(ref, true);
   else clear_parent(ref);
   v.state = state;
   v.distance_m = kUnreached;
@@ -666,8 +682,7 @@ std::uint32_t Places::allocate_block(const reconstruction::SemanticTsdf& tsdf, c
     for (const Offset& o : kOffsets.o) {
       const std::uint32_t n = neighbor(ref, o.dx, o.dy, o.dz);
       if (n == kNoRef || n / kBlockVoxels == h) continue;
-      const Voxel& nv = vox(n);
-      if ((nv.state == kFree || nv.state == kSeed) && nv.parent != kNoRef) push_lower(n);
+      if (is_source(n)) push_lower(n);
     }
   }
   return h;
@@ -685,9 +700,9 @@ void Places::evict_block_voxels(std::uint32_t handle) {
       else clusters_[c].dirty = 1;
     }
     if ((v.flags & kGvd) != 0 && counters_.gvd_voxels > 0) --counters_.gvd_voxels;
-    if (v.state == kSeed) {
+    if (v.state == kSeed || v.parent == ref) {
       // Dependents outside the dying blocks lose their parent: raise them like a vanished seed (push_raise is a
-      // no-op for the dying blocks' own voxels).
+      // no-op for the dying blocks' own voxels). Frontier seeds too.
       raise_dependents(ref, /*include_seed=*/true);
     } else {
       clear_parent(ref);
@@ -786,19 +801,18 @@ bool Places::observe(const reconstruction::SemanticTsdf& tsdf, const Eigen::Isom
 void Places::raise_step(std::uint32_t ref) {
   Voxel& v = vox(ref);
   v.flags &= static_cast<std::uint8_t>(~kInRaise);
-  if ((v.state == kFree || v.state == kSeed) && v.parent != kNoRef) push_lower(ref);
+  if (is_source(ref)) push_lower(ref);
   for (const Offset& o : kOffsets.o) {
     const std::uint32_t n = neighbor(ref, o.dx, o.dy, o.dz);
     if (n == kNoRef) continue;
-    const Voxel& nv = vox(n);
-    if ((nv.state == kFree || nv.state == kSeed) && nv.parent != kNoRef) push_lower(n);
+    if (is_source(n)) push_lower(n);
   }
 }
 
 void Places::lower_step(const reconstruction::SemanticTsdf& tsdf, std::uint32_t ref) {
   Voxel& v = vox(ref);
   v.flags &= static_cast<std::uint8_t>(~kInLower);
-  if ((v.state != kFree && v.state != kSeed) || v.parent == kNoRef) return;
+  if (!is_source(ref)) return;
   const std::uint32_t parent = v.parent;
   const memory::Index3 pc = coords(parent);
   const float pd = vox(parent).distance_m;
@@ -818,6 +832,18 @@ void Places::lower_step(const reconstruction::SemanticTsdf& tsdf, std::uint32_t 
       if (n == kNoRef) continue;
     }
     Voxel& nv = vox(n);
+    if (v.state == kFree && nv.parent == kNoRef && !blocks_[n / kBlockVoxels].dying &&
+        ((nv.state == kUnobserved && config_.unobserved_is_obstacle) || nv.state == kOccupied)) {
+      // Free space meets space no sensor has seen: a surface may lie right there. The unobserved voxel becomes a
+      // frontier seed at distance 0, so distances here are bounded by it (unknown space counts as an obstacle);
+      // the GVD ignores frontier basis points (evaluate_gvd), so no sheet forms between a surface and the unknown.
+      // Free space right beside space behind a surface (a floor seen only at a grazing angle leaves no band voxel
+      // between them) has the surface within a voxel: the occupied voxel is a seed at distance 0, a real one.
+      set_parent(n, n, 0.0f);
+      push_lower(n);
+      ++(nv.state == kOccupied ? counters_.occupied_seeds : counters_.frontier_seeds);
+      continue;
+    }
     if (nv.state != kFree) continue;
     if (cand + kEps < nv.distance_m) {
       set_parent(n, parent, cand);
@@ -839,6 +865,8 @@ void Places::lower_step(const reconstruction::SemanticTsdf& tsdf, std::uint32_t 
 int Places::evaluate_gvd(std::uint32_t ref, std::uint32_t* basis_parents, int max_parents) const {
   const Voxel& v = vox(ref);
   if (v.state != kFree || v.parent == kNoRef || v.distance_m < static_cast<float>(config_.min_clearance_m)) return 0;
+  // Nearer unknown space than any surface: the true clearance and the true GVD are not known here.
+  if (vox(v.parent).state == kUnobserved) return 0;
   const memory::Index3 g = coords(ref);
   const memory::Index3 pv = coords(v.parent);
   const float pv_d = vox(v.parent).distance_m;
@@ -853,11 +881,22 @@ int Places::evaluate_gvd(std::uint32_t ref, std::uint32_t* basis_parents, int ma
   parents[0] = v.parent;
   for (const Offset& o : kOffsets.o) {
     const std::uint32_t n = neighbor(ref, o.dx, o.dy, o.dz);
-    if (n == kNoRef) continue;
+    // At the window's rim (the neighbour's block left the window, or never fit in it) the surfaces beyond are not
+    // known here: the distance is an upper bound (kRim: gvd_step adds no GVD voxel here and keeps the ones it has,
+    // whose places leave the window as they were).
+    if (n == kNoRef) {
+      if (config_.rim_guard && o.dz != 0) return kRim;
+      continue;
+    }
     const Voxel& nv = vox(n);
     if ((nv.state != kFree && nv.state != kSeed) || nv.parent == kNoRef || nv.parent == v.parent) continue;
+    if (vox(nv.parent).state == kUnobserved) continue;  // a frontier is not a basis point
     const memory::Index3 pn = coords(nv.parent);
-    if (chebyshev(pn, pv) <= 1) continue;
+    // The same obstacle: adjacent seeds, or a band seed (distance > 0, one voxel off its surface) and a surface
+    // seed two voxels away: a flat ceiling's band layer and its surface layer, seen from just beneath, would
+    // otherwise look like two obstacles 45-50 degrees apart and raise a sheet under every ceiling.
+    const int same_reach = 1 + ((pv_d > 0.0f) != (vox(nv.parent).distance_m > 0.0f) ? 1 : 0);
+    if (chebyshev(pn, pv) <= same_reach) continue;
     const Eigen::Vector3f b(static_cast<float>(pn.x - g.x), static_cast<float>(pn.y - g.y), static_cast<float>(pn.z - g.z));
     const float lb = b.norm();
     if (lb <= 0.0f || a.dot(b) > la * lb * cos_theta_) continue;
@@ -865,6 +904,10 @@ int Places::evaluate_gvd(std::uint32_t ref, std::uint32_t* basis_parents, int ma
       const float s_vn = vox(nv.parent).distance_m + lb * s - v.distance_m;
       const float s_nv = pv_d + dist_vox(add(g, o.dx, o.dy, o.dz), pv) * s - nv.distance_m;
       if (s_vn > s_nv + 1e-5f) continue;  // the neighbour is nearer the bisector: it is the GVD voxel
+      // Equidistant within a voxel, or the other obstacle is not a basis point of this voxel at all (noise on one
+      // flat surface, a bump in a ceiling seen at a grazing angle, would otherwise raise sheets beneath it).
+      if (config_.max_basis_excess_voxels > 0.0 && s_vn > static_cast<float>(config_.max_basis_excess_voxels) * s)
+        continue;
     }
     const Eigen::Vector3f u = b / lb;
     bool distinct = true;
@@ -883,6 +926,7 @@ void Places::gvd_step(std::uint32_t ref) {
   Voxel& v = vox(ref);
   v.flags &= static_cast<std::uint8_t>(~kEval);
   const int nb = evaluate_gvd(ref, nullptr, 0);
+  if (nb == kRim && (v.flags & kGvd) != 0) return;  // keeps its state until its block leaves the window
   const bool is = nb >= config_.min_basis_points;
   const bool was = (v.flags & kGvd) != 0;
   const std::uint8_t basis = static_cast<std::uint8_t>(is ? nb : 0);
@@ -1182,8 +1226,9 @@ void Places::compute_mesh_connections(const reconstruction::SemanticTsdf& tsdf, 
   c.connections.clear();
   if (c.rep == kNoRef) return;
   std::uint32_t parents[scene_graph::kMaxPlaceConnections];
-  const int n = std::min<int>(evaluate_gvd(c.rep, parents, static_cast<int>(scene_graph::kMaxPlaceConnections)),
-                              static_cast<int>(scene_graph::kMaxPlaceConnections));
+  const int n = std::min<int>(
+      std::max(0, evaluate_gvd(c.rep, parents, static_cast<int>(scene_graph::kMaxPlaceConnections))),
+      static_cast<int>(scene_graph::kMaxPlaceConnections));
   const double block_m = tsdf.block_size_m();
   const Eigen::Vector3d place = center_m(coords(c.rep));
   const auto block_of = [block_m](const Eigen::Vector3d& p) {
@@ -2057,6 +2102,9 @@ void Places::gvd_voxels(std::vector<GvdVoxelInfo>* out) const {
       info.position_m = center_m(coords(ref));
       info.clearance_m = v.distance_m;
       info.num_basis_points = v.num_basis;
+      std::uint32_t parents[kMaxBasis];
+      const int n = std::min(std::max(0, evaluate_gvd(ref, parents, kMaxBasis)), kMaxBasis);
+      for (int k = 0; k < n; ++k) info.basis_m.push_back(center_m(coords(parents[k])));
       out->push_back(info);
     }
   });

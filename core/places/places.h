@@ -44,15 +44,27 @@ struct Config {
   double min_clearance_m = 0.2;      // GVD voxels closer to an obstacle are dropped (unstable near surfaces)
   double min_basis_angle_rad = 0.785398163;  // theta of the theta-SMA: smallest angle between two basis points
   int min_basis_points = 2;          // n_b: GVD voxels with fewer basis points are not places
+  // A neighbour's obstacle is a basis point only when it is at most this many voxels farther from the voxel than
+  // the voxel's own obstacle (equidistance to a voxel, as the ground truth's skeleton); 0 turns the bound off.
+  double max_basis_excess_voxels = 1.0;
   double place_resolution_m = 1.0;   // delta_p: side of the spatial-hash cells that cluster GVD voxels
   double window_radius_m = 7.0;      // ESDF blocks whose centre is farther from the robot are freed; keep it
                                      // below the TSDF window minus one ESDF block so every read block exists
-  // The ESDF covers a vertical slab around the robot. Space no TSDF block covers is assumed free (the TSDF
-  // allocates blocks only around surfaces), so the slab bounds how far wavefronts leak through unobserved
-  // floors and ceilings.
+  // The ESDF covers a vertical slab around the robot: free space is what the TSDF observed or what camera rays
+  // carved, and the slab bounds the blocks a wavefront may allocate above and below.
   double slab_below_m = 2.0;
   double slab_above_m = 3.0;
   double min_tsdf_weight = 0.0;      // TSDF voxels with more weight than this count as observed
+  // Unobserved space beside free space may hold a surface (a floor under the camera's view, a ceiling above it):
+  // it bounds ESDF distances like an obstacle (a frontier seed at distance 0), and a voxel nearer to it than to
+  // any surface, or a frontier basis point, makes no GVD. Off, distances come from observed surfaces only and
+  // places form on sheets between a wall and a floor the camera never saw.
+  bool unobserved_is_obstacle = true;
+  // A voxel at the window's rim (a neighbouring block is outside the window) takes its distance from what is
+  // inside only: it becomes no new GVD voxel there, and a GVD voxel already there keeps its state until it leaves.
+  // Off, the rim grows sheets that are not in the world (e.g. above the floor blocks a spherical window drops
+  // first), which become inactive places when the robot moves on.
+  bool rim_guard = true;
   // The paper: each GVD voxel's distance "defines a sphere of free-space"; the union of the spheres is the free
   // space and carries its connectivity. Places of neighbouring hash cells whose spheres overlap are joined by a
   // free-space edge (weight: the smallest ESDF distance along the segment), which reconnects GVD pieces that the
@@ -124,6 +136,8 @@ struct Counters {
   std::uint64_t tsdf_blocks_read = 0;  // dirty TSDF blocks re-seeded
   std::uint64_t voxels_updated = 0;    // ESDF voxels whose distance or parent changed (lower wave and seeds)
   std::uint64_t voxels_raised = 0;     // ESDF voxels reset by raise waves
+  std::uint64_t frontier_seeds = 0;    // unobserved voxels made frontier seeds (see Config::unobserved_is_obstacle)
+  std::uint64_t occupied_seeds = 0;    // occupied voxels beside free ones (no band voxel between) made seeds
   std::uint64_t blocks_allocated = 0;
   std::uint64_t blocks_freed = 0;      // left the window
   std::uint64_t blocks_refused = 0;    // block pool full: the wavefront stopped there
@@ -186,6 +200,7 @@ struct GvdVoxelInfo {
   Eigen::Vector3d position_m;
   float clearance_m = 0.0f;
   std::uint8_t num_basis_points = 0;
+  std::vector<Eigen::Vector3d> basis_m;  // the basis points' voxel centres (surface seeds)
 };
 struct PlaceInfo {
   scene_graph::NodeId id = scene_graph::kNoNode;
@@ -273,6 +288,7 @@ class Places {
   // Geometry helpers.
   Voxel& vox(std::uint32_t ref);
   const Voxel& vox(std::uint32_t ref) const;
+  bool is_source(std::uint32_t ref) const;
   memory::Index3 coords(std::uint32_t ref) const;
   std::uint32_t neighbor(std::uint32_t ref, int dx, int dy, int dz) const;
   std::uint32_t find_voxel(const memory::Index3& g) const;

@@ -119,6 +119,64 @@ TEST(PlacesTest, GvdOfABoxRoomLiesOnTheMedialAxis) {
   EXPECT_LE(nearest, 0.35);
 }
 
+// A level camera 0.5 m above the floor (a quadruped's) never sees the floor beneath it or the ceiling above it.
+// Unobserved space next to free space bounds the distances like an obstacle, so no voxel claims more clearance
+// than the room has and no GVD sheet forms between a wall and an unseen floor; with the option off, both happen.
+struct LevelScan {
+  std::size_t gvd_voxels = 0;
+  std::size_t overclaimed = 0;  // ESDF distance above the true clearance by more than a voxel
+  double mean_gvd_distance_m = 0.0;
+  std::uint64_t frontier_seeds = 0;
+};
+LevelScan scan_level(bool unobserved_is_obstacle) {
+  Config config;
+  config.unobserved_is_obstacle = unobserved_is_obstacle;
+  Scanner scanner;
+  std::string error;
+  const world::World w = testing::rooms_world({6.0}, 4.0, false);
+  EXPECT_TRUE(scanner.init(w, 100.0, &error)) << error;
+  auto places = make_places(config);
+  for (const Eigen::Vector3d& p : {Eigen::Vector3d(1.5, 1.0, 0.5), Eigen::Vector3d(4.5, 3.0, 0.5)})
+    EXPECT_TRUE(scanner.spin_at_pitches(p, 8, {0.0}, every_frame(places.get(), &scanner)));
+  const world::FreeSpaceIndex free_space(w);
+  sim::GroundTruth truth;
+  EXPECT_TRUE(sim::compute_ground_truth(w, free_space, sim::GroundTruthConfig{}, &truth, &error)) << error;
+  LevelScan out;
+  std::vector<GvdVoxelInfo> gvd;
+  places->gvd_voxels(&gvd);
+  out.gvd_voxels = gvd.size();
+  double sum = 0.0;
+  for (const GvdVoxelInfo& v : gvd) {
+    sum += truth.distance_to_gvd(v.position_m);
+    const double true_clearance = std::min({v.position_m.x(), 6.0 - v.position_m.x(), v.position_m.y(),
+                                            4.0 - v.position_m.y(), v.position_m.z(), kHeight - v.position_m.z()});
+    if (v.clearance_m > true_clearance + places->voxel_size_m()) {
+      ++out.overclaimed;
+      if (std::getenv("QSG_PLACES_DEBUG") != nullptr)
+        std::printf("overclaimed: %.2f %.2f %.2f clearance %.2f true %.2f\n", v.position_m.x(), v.position_m.y(),
+                    v.position_m.z(), v.clearance_m, true_clearance);
+    }
+  }
+  out.mean_gvd_distance_m = gvd.empty() ? 0.0 : sum / static_cast<double>(gvd.size());
+  out.frontier_seeds = places->counters().frontier_seeds;
+  return out;
+}
+
+TEST(PlacesTest, UnobservedSpaceBoundsDistancesAndMakesNoGvd) {
+  const LevelScan on = scan_level(true);
+  const LevelScan off = scan_level(false);
+  std::printf("level camera: unobserved as obstacle %zu GVD voxels, %zu overclaimed, mean distance to the true "
+              "GVD %.3f m, %llu frontier seeds; off: %zu, %zu, %.3f m\n",
+              on.gvd_voxels, on.overclaimed, on.mean_gvd_distance_m, (unsigned long long)on.frontier_seeds,
+              off.gvd_voxels, off.overclaimed, off.mean_gvd_distance_m);
+  EXPECT_GT(on.frontier_seeds, 0u);
+  EXPECT_EQ(off.frontier_seeds, 0u);
+  EXPECT_GT(off.overclaimed, 0u) << "the scene must leave floor or ceiling unseen";
+  EXPECT_EQ(on.overclaimed, 0u);
+  EXPECT_GT(on.gvd_voxels, 20u);
+  EXPECT_LT(on.mean_gvd_distance_m, off.mean_gvd_distance_m);
+}
+
 // Two rooms joined by a door: one connected free-space region, so one connected places graph. Two closed rooms:
 // two regions, two components.
 std::size_t components_of_two_rooms(bool door, std::size_t* num_places) {
@@ -497,10 +555,22 @@ Config small_window_config() {
 // One free-space region: one places component, although places leave the window (inactive) while the GVD at
 // the window's edge is rebuilt: the edges of removed places to inactive ones move to their replacements.
 TEST(PlacesTest, AWalkThroughThreeRoomsGivesOneComponentWithFreeSpaceEdgesAndRelinks) {
-  const WalkResult with = walk_three_rooms(small_window_config());
-  std::printf("three rooms: %zu components (%zu nodes, %zu inactive, %llu free-space edges, %llu relinked)\n",
+  // With the defaults, one component.
+  const WalkResult defaults = walk_three_rooms(small_window_config());
+  EXPECT_GT(defaults.inactive, 0u) << "the walk must move places out of the window";
+  EXPECT_EQ(defaults.counters.relinks_refused, 0u);
+  EXPECT_EQ(defaults.components, 1u);
+  // Without unobserved space as an obstacle, the equidistance bound on basis points and the rim guard, the GVD here
+  // breaks up at the window's edge, which makes removed places next to inactive ones: the relinks under test.
+  Config legacy = small_window_config();
+  legacy.unobserved_is_obstacle = false;
+  legacy.max_basis_excess_voxels = 0.0;
+  legacy.rim_guard = false;
+  const WalkResult with = walk_three_rooms(legacy);
+  std::printf("three rooms: %zu components (%zu nodes, %zu inactive, %llu free-space edges, %llu relinked); "
+              "defaults: %zu components (%zu nodes, %zu inactive)\n",
               with.components, with.nodes, with.inactive, (unsigned long long)with.counters.free_space_edges,
-              (unsigned long long)with.counters.relinked);
+              (unsigned long long)with.counters.relinked, defaults.components, defaults.nodes, defaults.inactive);
   EXPECT_GT(with.inactive, 0u) << "the walk must move places out of the window";
   EXPECT_GT(with.counters.relinked, 0u) << "removed places next to inactive ones must hand their edges over";
   EXPECT_EQ(with.counters.relinks_refused, 0u);

@@ -102,9 +102,15 @@ class Scanner {
   // after_frame(camera position) runs after each integrated frame (the places update of a keyframe).
   using Hook = std::function<void(const Eigen::Vector3d&)>;
   bool spin(const Eigen::Vector3d& position_m, int yaws = 8, const Hook& after_frame = Hook()) {
+    return spin_at_pitches(position_m, yaws, {-1.0, 0.0, 1.0}, after_frame);
+  }
+  // The same at the given pitches only (e.g. {0.0}: a level camera that never sees the floor beneath it or the
+  // ceiling above it).
+  bool spin_at_pitches(const Eigen::Vector3d& position_m, int yaws, const std::vector<double>& pitches,
+                       const Hook& after_frame = Hook()) {
     const drivers::CameraIntrinsics camera{160, 120, 100.0, 100.0, 79.5, 59.5};
     std::string error;
-    for (double pitch : {-1.0, 0.0, 1.0})
+    for (double pitch : pitches)
       for (int k = 0; k < yaws; ++k) {
         const Eigen::Isometry3d T = camera_pose(position_m, 2 * kPi * k / yaws, pitch);
         if (!renderer_->render(T, camera, seq_++, *frame_, &error)) return false;
