@@ -8,8 +8,9 @@
 // produce (several labels; PCL runs once per label, the layer separates labels itself).
 //
 // For a partition to be comparable, our layer reports every connected component as an object: min vertex count 1
-// (no tentative objects), max count above the set's size (none dropped), and no centre-in-box merging (a rule on
-// top of the clustering that PCL does not have). PCL: min cluster size 1, max cluster size unlimited.
+// (no tentative objects), max count above the set's size (none dropped), and none of the merge rules on top of
+// the clustering that PCL does not have (centre-in-box, intersecting boxes, size prior). PCL: min cluster size 1,
+// max cluster size unlimited.
 //
 // What is timed. Ours: begin_update .. end_update of a fresh layer (feeding the points, the voxel-hash grid,
 // the flood fill, and creating the objects with their vertex references); init and teardown are not timed.
@@ -169,6 +170,8 @@ const std::vector<PointSet>& point_sets() {
 objects::Config layer_config(const PointSet& set) {
   objects::Config config;
   config.merge_overlapping = false;
+  config.merge_intersecting = false;
+  config.merge_by_size_prior = false;
   for (objects::LabelParams& p : config.labels) p.enabled = false;
   for (const semantics::Label l : set.labels) {
     objects::LabelParams& p = config.labels[l];

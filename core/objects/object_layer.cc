@@ -68,10 +68,24 @@ struct ObjectLayer::Block {
 struct ObjectLayer::Candidate {
   std::uint64_t key = 0;
   float p[3] = {0, 0, 0};
-  semantics::Label label = semantics::kVoid;
-  std::uint8_t visited = 0;
-  std::uint32_t cell_next = kInvalidHandle;
   memory::Index3 block;
+  std::uint32_t cell = kInvalidHandle;  // its clustering cell (cells_); kInvalidHandle if it fits none
+  semantics::Label label = semantics::kVoid;
+};
+
+// Sorting these puts the candidates of each clustering cell next to each other, the cells in key order.
+struct ObjectLayer::SortedCandidate {
+  std::uint64_t cell_key;
+  std::uint32_t candidate;
+};
+
+// An occupied clustering cell.
+struct ObjectLayer::CandidateCell {
+  std::uint64_t key;
+  std::uint32_t begin, end;  // its vertices: sorted_points_[begin, end)
+  float lo[3], hi[3];        // box of its vertices (tighter than the cell: more pairs of cells are ruled out)
+  std::uint32_t cluster;     // on the root of a set of joined cells: the number of its cluster
+  bool searched;             // for objects to join, by its cluster
 };
 
 namespace {
@@ -81,11 +95,25 @@ constexpr std::int32_t kCellOffset = 1 << (kCellBits - 1);
 constexpr std::uint64_t kCellMask = (std::uint64_t{1} << kCellBits) - 1;
 constexpr std::uint32_t kMaxLinked = 16;  // existing objects one cluster may join in one update
 
-// A grid cell of one label: 19 bits per axis (cells of >= 0.05 m cover +-13 km) and the label on top.
+// Clustering cells: two vertices of one cell are within the tolerance, so a vertex within the tolerance of another
+// is at most two cells away on each axis. Their coordinates are counted from the lowest cell of the label's
+// candidates in the update, plus this reach, so that every neighbour's coordinates fit the field too.
+constexpr std::uint64_t kNeighbourReach = 2;
+constexpr double kMaxClusterCell = static_cast<double>(kCellMask - kNeighbourReach);
+// Relative margin on squared distances, far above float rounding (~1e-7): a shortcut decided on a box or a cell
+// side with this margin agrees with the vertex-to-vertex test dist_sq <= tolerance^2.
+constexpr double kRoundingMargin = 1e-5;
+
+// A grid cell of one label: 19 bits per axis and the label on top.
+inline std::uint64_t pack_fields(semantics::Label label, std::uint64_t x, std::uint64_t y, std::uint64_t z) {
+  return (static_cast<std::uint64_t>(label) << (3 * kCellBits)) | (x << (2 * kCellBits)) | (y << kCellBits) | z;
+}
+
+// A cell of the grids keyed by absolute cell coordinates (cells of >= 0.05 m cover +-13 km; farther cells share
+// keys, which costs distance tests but never changes a result).
 inline std::uint64_t pack_cell(semantics::Label label, std::int32_t x, std::int32_t y, std::int32_t z) {
   const auto p = [](std::int32_t v) { return static_cast<std::uint64_t>(v + kCellOffset) & kCellMask; };
-  return (static_cast<std::uint64_t>(label) << (3 * kCellBits)) | (p(x) << (2 * kCellBits)) | (p(y) << kCellBits) |
-         p(z);
+  return pack_fields(label, p(x), p(y), p(z));
 }
 
 inline bool inside(const float* p, const float* lo, const float* hi) {
@@ -113,6 +141,16 @@ inline void empty_box(float* lo, float* hi) {
 inline float dist_sq(const float* a, const float* b) {
   const float dx = a[0] - b[0], dy = a[1] - b[1], dz = a[2] - b[2];
   return dx * dx + dy * dy + dz * dz;
+}
+
+// Squared distance from p to the box (0 inside).
+inline float box_dist_sq(const float* p, const float* lo, const float* hi) {
+  float d = 0.0f;
+  for (int i = 0; i < 3; ++i) {
+    const float g = std::max({0.0f, lo[i] - p[i], p[i] - hi[i]});
+    d += g * g;
+  }
+  return d;
 }
 
 bool is_large(semantics::Label l) {
@@ -253,7 +291,12 @@ ObjectLayer::ObjectLayer()
       key_chunks_("objects.key_chunks", memory::OverflowPolicy::kRefuse),
       candidates_("objects.candidates", memory::OverflowPolicy::kRefuse),
       candidate_index_("objects.candidate_index", memory::OverflowPolicy::kRefuse),
-      candidate_cells_("objects.candidate_cells", memory::OverflowPolicy::kRefuse),
+      sorted_candidates_("objects.sorted_candidates", memory::OverflowPolicy::kRefuse),
+      sorted_points_("objects.sorted_points", memory::OverflowPolicy::kRefuse),
+      cells_("objects.cluster_cells", memory::OverflowPolicy::kRefuse),
+      cell_parent_("objects.cell_parents", memory::OverflowPolicy::kRefuse),
+      cluster_begin_("objects.cluster_begin", memory::OverflowPolicy::kRefuse),
+      new_tracked_("objects.new_tracked", memory::OverflowPolicy::kRefuse),
       object_cells_("objects.object_cells", memory::OverflowPolicy::kRefuse),
       order_("objects.order", memory::OverflowPolicy::kRefuse),
       presented_blocks_("objects.presented_blocks", memory::OverflowPolicy::kRefuse),
@@ -279,7 +322,12 @@ memory::ArenaPlan ObjectLayer::plan(const Capacities& c) {
   memory::Pool<KeyChunk>::plan(p, key_chunk_count(c));
   memory::ArenaVector<Candidate>::plan(p, c.cluster_vertices);
   U64Map::plan(p, U64Map::slots_for(c.cluster_vertices));
-  U64Map::plan(p, U64Map::slots_for(c.cluster_vertices));
+  memory::ArenaVector<SortedCandidate>::plan(p, c.cluster_vertices);
+  memory::ArenaVector<Point>::plan(p, c.cluster_vertices);
+  memory::ArenaVector<CandidateCell>::plan(p, c.cluster_vertices);
+  memory::ArenaVector<std::uint32_t>::plan(p, c.cluster_vertices);
+  memory::ArenaVector<std::uint32_t>::plan(p, c.cluster_vertices + 1);
+  memory::ArenaVector<std::uint32_t>::plan(p, c.cluster_vertices);
   memory::ArenaVector<std::uint32_t>::plan(p, c.cluster_vertices);
   memory::ArenaVector<std::uint32_t>::plan(p, c.tracked_blocks);
   memory::ArenaVector<std::uint32_t>::plan(p, c.objects);
@@ -311,6 +359,10 @@ bool ObjectLayer::init(const Config& config, const Capacities& c, std::size_t bu
     const double tol = config.labels[l].tolerance_m;
     inv_tolerance_[l] = static_cast<float>(1.0 / tol);
     tolerance_sq_[l] = static_cast<float>(tol * tol);
+    tolerance_sq_above_[l] = static_cast<float>(tol * tol * (1.0 + kRoundingMargin));
+    tolerance_sq_below_[l] = static_cast<float>(tol * tol * (1.0 - kRoundingMargin));
+    // Cell side tol * sqrt((1 - margin) / 3): the cell's diagonal is within the tolerance, with the margin.
+    inv_cluster_cell_[l] = std::sqrt(3.0 / (1.0 - kRoundingMargin)) / tol;
   }
   inv_index_cell_ = static_cast<float>(1.0 / config.index_cell_m);
   label_head_.fill(kInvalidHandle);
@@ -324,7 +376,11 @@ bool ObjectLayer::init(const Config& config, const Capacities& c, std::size_t bu
                                      c.tracked_blocks) &&
                   key_chunks_.carve(arena_, key_chunk_count(c)) && candidates_.carve(arena_, c.cluster_vertices) &&
                   candidate_index_.carve(arena_, candidate_slots, c.cluster_vertices) &&
-                  candidate_cells_.carve(arena_, candidate_slots, c.cluster_vertices) &&
+                  sorted_candidates_.carve(arena_, c.cluster_vertices) &&
+                  sorted_points_.carve(arena_, c.cluster_vertices) && cells_.carve(arena_, c.cluster_vertices) &&
+                  cell_parent_.carve(arena_, c.cluster_vertices) &&
+                  cluster_begin_.carve(arena_, c.cluster_vertices + 1) &&
+                  new_tracked_.carve(arena_, c.cluster_vertices) &&
                   order_.carve(arena_, c.cluster_vertices) && presented_blocks_.carve(arena_, c.tracked_blocks) &&
                   changed_.carve(arena_, c.objects) && removed_nodes_.carve(arena_, c.objects) &&
                   synced_.carve(arena_, c.objects) &&
@@ -690,7 +746,8 @@ bool ObjectLayer::register_vertex(std::uint32_t h, const Candidate& c) {
   t.object = h;
   t.block = b;
   t.seen = stamp_;
-  cell_insert(tracked_cells_, cell_key(c.label, c.p), slot, &t.cell_next);
+  t.cell_next = kInvalidHandle;
+  new_tracked_.push_back(slot);  // cannot be refused: one entry per candidate; into tracked_cells_ at the end
   Block& block = blocks_[b];
   t.block_next = block.head;
   block.head = slot;
@@ -773,7 +830,7 @@ void ObjectLayer::add_vertex(const InputVertex& v) {
   c->p[1] = v.y;
   c->p[2] = v.z;
   c->label = v.label;
-  c->visited = 0;
+  c->cell = kInvalidHandle;
   c->block = current_index_;
 }
 
@@ -794,37 +851,214 @@ void ObjectLayer::release_block(const memory::Index3& index) {
   ++counters_.blocks_released;
 }
 
-std::uint32_t ObjectLayer::flood_fill(std::uint32_t seed, std::uint32_t* linked, std::uint32_t max_linked) {
+// ------------------------------------------------------------------------------------------------ clustering
+// Sorts the candidates into clustering cells (by label, then cell coordinates) and lists the occupied cells with
+// the boxes of their vertices. Cell coordinates count from the lowest cell of the label's candidates, so positions
+// far from the origin cluster as well as near ones; only the candidates of one label in one update must span less
+// than 2^19 cells (15 km at the smallest tolerance, against a mesh window of tens of metres). A candidate beyond
+// that is not clustered and counted as a candidate overflow.
+void ObjectLayer::sort_candidates_into_cells() {
+  sorted_candidates_.clear();
+  sorted_points_.clear();
+  cells_.clear();
+  cell_parent_.clear();
+  std::array<std::array<float, 3>, semantics::kNumObjectLabels> lowest;
+  for (auto& l : lowest) l.fill(std::numeric_limits<float>::max());
+  for (const Candidate& c : candidates_)
+    for (int i = 0; i < 3; ++i) lowest[c.label][i] = std::min(lowest[c.label][i], c.p[i]);
+  std::array<std::array<double, 3>, semantics::kNumObjectLabels> origin;
+  for (semantics::Label l = 0; l < semantics::kNumObjectLabels; ++l)
+    for (int i = 0; i < 3; ++i)
+      origin[l][i] = std::floor(static_cast<double>(lowest[l][i]) * inv_cluster_cell_[l]) - kNeighbourReach;
+  // Double precision: the cell of a vertex is exact to far below the rounding margin, wherever it is.
+  for (std::uint32_t k = 0; k < candidates_.size(); ++k) {
+    Candidate& c = candidates_[k];
+    const double inv = inv_cluster_cell_[c.label];
+    std::uint64_t field[3];
+    bool fits = true;
+    for (int i = 0; i < 3; ++i) {
+      const double cell = std::floor(static_cast<double>(c.p[i]) * inv) - origin[c.label][i];
+      fits = fits && cell <= kMaxClusterCell;
+      field[i] = fits ? static_cast<std::uint64_t>(cell) : 0;
+    }
+    if (!fits) {
+      ++counters_.candidate_overflow;
+      continue;
+    }
+    sorted_candidates_.push_back(SortedCandidate{pack_fields(c.label, field[0], field[1], field[2]), k});
+  }
+  std::sort(sorted_candidates_.begin(), sorted_candidates_.end(),
+            [](const SortedCandidate& a, const SortedCandidate& b) { return a.cell_key < b.cell_key; });
+  for (std::uint32_t k = 0; k < sorted_candidates_.size(); ++k) {
+    const SortedCandidate& s = sorted_candidates_[k];
+    if (cells_.empty() || cells_.back().key != s.cell_key) {
+      CandidateCell* cell = cells_.emplace_back();
+      cell->key = s.cell_key;
+      cell->begin = k;
+      empty_box(cell->lo, cell->hi);
+      cell_parent_.push_back(static_cast<std::uint32_t>(cells_.size() - 1));
+    }
+    CandidateCell& cell = cells_.back();
+    Candidate& c = candidates_[s.candidate];
+    cell.end = k + 1;
+    for (int i = 0; i < 3; ++i) {
+      cell.lo[i] = std::min(cell.lo[i], c.p[i]);
+      cell.hi[i] = std::max(cell.hi[i], c.p[i]);
+    }
+    sorted_points_.push_back(Point{{c.p[0], c.p[1], c.p[2]}});
+    c.cell = static_cast<std::uint32_t>(cells_.size() - 1);
+  }
+}
+
+std::uint32_t ObjectLayer::find_root(std::uint32_t cell) {
+  while (cell_parent_[cell] != cell) {
+    cell_parent_[cell] = cell_parent_[cell_parent_[cell]];  // path halving
+    cell = cell_parent_[cell];
+  }
+  return cell;
+}
+
+// Whether the boxes of the vertices of two cells of `label` are too far apart for any pair to be within the
+// tolerance (most pairs of cells of a sparse set).
+bool ObjectLayer::cells_apart(const CandidateCell& a, const CandidateCell& b, semantics::Label label) const {
+  float d = 0.0f;
+  for (int i = 0; i < 3; ++i) {
+    const float gap = std::max({0.0f, b.lo[i] - a.hi[i], a.lo[i] - b.hi[i]});
+    d += gap * gap;
+  }
+  return d > tolerance_sq_above_[label];
+}
+
+// Whether two cells of `label` that are not apart hold a pair of vertices within the tolerance: every pair is
+// when their joint box is small enough; otherwise vertices of `a` near the box of `b` are tested against those of
+// `b` until the first close pair.
+bool ObjectLayer::cells_connected(const CandidateCell& a, const CandidateCell& b, semantics::Label label) const {
+  float d = 0.0f;
+  for (int i = 0; i < 3; ++i) {
+    const float span = std::max(a.hi[i], b.hi[i]) - std::min(a.lo[i], b.lo[i]);
+    d += span * span;
+  }
+  if (d <= tolerance_sq_below_[label]) return true;
+  const float tol_sq = tolerance_sq_[label];
+  const float above = tolerance_sq_above_[label];
+  for (std::uint32_t i = a.begin; i < a.end; ++i) {
+    const float* p = sorted_points_[i].p;
+    if (box_dist_sq(p, b.lo, b.hi) > above) continue;
+    for (std::uint32_t j = b.begin; j < b.end; ++j)
+      if (dist_sq(p, sorted_points_[j].p) <= tol_sq) return true;
+  }
+  return false;
+}
+
+// Joins every two cells holding a pair of vertices within the tolerance (union-find; a set's root is its lowest
+// cell). Each pair of neighbouring cells is seen once, from the lower key: the next two cells up in the same (x, y)
+// column, then 12 columns ahead in (x, y), in each the run of at most five keys from two cells down to two cells
+// up. Neighbours' keys grow with the cell's, so each column's run is found by a cursor that only moves forward.
+void ObjectLayer::connect_cells() {
+  constexpr int kColumns[12][2] = {{0, 1},  {0, 2},  {1, -2}, {1, -1}, {1, 0}, {1, 1},
+                                   {1, 2},  {2, -2}, {2, -1}, {2, 0},  {2, 1}, {2, 2}};
+  constexpr std::int64_t kX = std::int64_t{1} << (2 * kCellBits);
+  constexpr std::int64_t kY = std::int64_t{1} << kCellBits;
+  std::uint64_t first_offset[12];  // from a cell's key to the lowest key of the column's run
+  for (int j = 0; j < 12; ++j)
+    first_offset[j] = static_cast<std::uint64_t>(kColumns[j][0] * kX + kColumns[j][1] * kY -
+                                                 static_cast<std::int64_t>(kNeighbourReach));
+  std::uint32_t cursor[12] = {};
+  const std::uint32_t n = static_cast<std::uint32_t>(cells_.size());
+  for (std::uint32_t a = 0; a < n; ++a) {
+    const std::uint64_t key = cells_[a].key;
+    const auto label = static_cast<semantics::Label>(key >> (3 * kCellBits));
+    std::uint32_t root = find_root(a);  // stays a's root: only this loop joins sets while it looks at a
+    const auto join = [&](std::uint32_t b) {
+      const std::uint32_t other = find_root(b);
+      if (other == root || cells_apart(cells_[a], cells_[b], label) || !cells_connected(cells_[a], cells_[b], label))
+        return;
+      if (root < other) {
+        cell_parent_[other] = root;
+      } else {
+        cell_parent_[root] = other;
+        root = other;
+      }
+    };
+    for (std::uint32_t b = a + 1; b < n && cells_[b].key <= key + kNeighbourReach; ++b) join(b);
+    for (int j = 0; j < 12; ++j) {
+      // Coordinates are at least kNeighbourReach and leave that much room at the top: no field overflows.
+      const std::uint64_t first = key + first_offset[j];
+      const std::uint64_t last = first + 2 * kNeighbourReach;
+      std::uint32_t& b = cursor[j];
+      while (b < n && cells_[b].key < first) ++b;
+      for (std::uint32_t k = b; k < n && cells_[k].key <= last; ++k) join(k);
+    }
+  }
+  // Every cell straight to its root: a parent is never above its child, so one pass in order.
+  for (std::uint32_t c = 0; c < n; ++c) cell_parent_[c] = cell_parent_[cell_parent_[c]];
+}
+
+// Numbers the clusters (sets of joined cells) in the order of their first candidate and lists the candidates of
+// each together in order_, in the order they were presented: cluster k is order_[cluster_begin_[k], [k + 1]).
+// Returns the number of clusters.
+std::uint32_t ObjectLayer::group_clusters() {
+  for (CandidateCell& cell : cells_) {
+    cell.cluster = kInvalidHandle;
+    cell.searched = false;
+  }
+  cluster_begin_.clear();
+  cluster_begin_.push_back(0);
+  order_.clear();
+  for (const Candidate& c : candidates_) {  // count the candidates of each cluster in cluster_begin_[k + 1]
+    if (c.cell == kInvalidHandle) continue;
+    CandidateCell& root = cells_[cell_parent_[c.cell]];
+    if (root.cluster == kInvalidHandle) {
+      root.cluster = static_cast<std::uint32_t>(cluster_begin_.size() - 1);
+      cluster_begin_.push_back(0);
+    }
+    ++cluster_begin_[root.cluster + 1];
+    order_.push_back(kInvalidHandle);
+  }
+  const std::uint32_t num_clusters = static_cast<std::uint32_t>(cluster_begin_.size() - 1);
+  for (std::uint32_t k = 1; k <= num_clusters; ++k) cluster_begin_[k] += cluster_begin_[k - 1];
+  // Each cluster's start serves as its write position, which leaves it at the next cluster's start: shift back.
+  for (std::uint32_t i = 0; i < candidates_.size(); ++i) {
+    const std::uint32_t cell = candidates_[i].cell;
+    if (cell != kInvalidHandle) order_[cluster_begin_[cells_[cell_parent_[cell]].cluster]++] = i;
+  }
+  for (std::uint32_t k = num_clusters; k > 0; --k) cluster_begin_[k] = cluster_begin_[k - 1];
+  cluster_begin_[0] = 0;
+  return num_clusters;
+}
+
+// The existing objects that the cluster order_[begin, end) touches (a tracked vertex of its label within the
+// tolerance of one of its vertices), at most max_linked, in the order found. Each cell of the cluster is searched
+// once, over the tracked grid cells next to the box of its vertices.
+std::uint32_t ObjectLayer::find_linked_objects(std::uint32_t begin, std::uint32_t end, std::uint32_t* linked,
+                                               std::uint32_t max_linked) {
   std::uint32_t num_linked = 0;
-  const std::size_t begin = order_.size();
-  candidates_[seed].visited = 1;
-  order_.push_back(seed);
-  for (std::size_t k = begin; k < order_.size(); ++k) {
-    const Candidate& c = candidates_[order_[k]];
-    const semantics::Label label = c.label;
-    const float tol_sq = tolerance_sq_[label];
-    std::int32_t cell[3];
-    cell_of(label, c.p, cell);
-    for (int dx = -1; dx <= 1; ++dx)
-      for (int dy = -1; dy <= 1; ++dy)
-        for (int dz = -1; dz <= 1; ++dz) {
-          const std::uint64_t key = pack_cell(label, cell[0] + dx, cell[1] + dy, cell[2] + dz);
-          if (const std::uint32_t* head = candidate_cells_.find(key)) {
-            for (std::uint32_t j = *head; j != kInvalidHandle; j = candidates_[j].cell_next) {
-              Candidate& o = candidates_[j];
-              if (o.visited == 0 && dist_sq(o.p, c.p) <= tol_sq) {
-                o.visited = 1;
-                order_.push_back(j);
-              }
-            }
-          }
-          if (const std::uint32_t* head = tracked_cells_.find(key)) {
-            for (std::uint32_t s = *head; s != kInvalidHandle; s = tracked_[s].cell_next) {
-              const TrackedVertex& t = tracked_[s];
-              if (dist_sq(t.p, c.p) > tol_sq) continue;
-              bool known = false;
-              for (std::uint32_t i = 0; i < num_linked && !known; ++i) known = linked[i] == t.object;
-              if (!known && num_linked < max_linked) linked[num_linked++] = t.object;
+  if (tracked_cells_.empty() || begin == end) return 0;
+  const semantics::Label label = candidates_[order_[begin]].label;
+  const float tol_sq = tolerance_sq_[label];
+  const float above = tolerance_sq_above_[label];
+  for (std::uint32_t k = begin; k < end; ++k) {
+    CandidateCell& cell = cells_[candidates_[order_[k]].cell];
+    if (cell.searched) continue;
+    cell.searched = true;
+    std::int32_t c0[3], c1[3];
+    cell_of(label, cell.lo, c0);
+    cell_of(label, cell.hi, c1);
+    for (std::int32_t x = c0[0] - 1; x <= c1[0] + 1; ++x)
+      for (std::int32_t y = c0[1] - 1; y <= c1[1] + 1; ++y)
+        for (std::int32_t z = c0[2] - 1; z <= c1[2] + 1; ++z) {
+          const std::uint32_t* head = tracked_cells_.find(pack_cell(label, x, y, z));
+          if (head == nullptr) continue;
+          for (std::uint32_t s = *head; s != kInvalidHandle; s = tracked_[s].cell_next) {
+            const TrackedVertex& t = tracked_[s];
+            bool known = false;
+            for (std::uint32_t i = 0; i < num_linked && !known; ++i) known = linked[i] == t.object;
+            if (known || box_dist_sq(t.p, cell.lo, cell.hi) > above) continue;
+            for (std::uint32_t i = cell.begin; i < cell.end; ++i) {
+              if (dist_sq(t.p, sorted_points_[i].p) > tol_sq) continue;
+              linked[num_linked++] = t.object;
+              if (num_linked == max_linked) return num_linked;
+              break;
             }
           }
         }
@@ -1005,9 +1239,16 @@ void ObjectLayer::process_cluster(std::uint32_t begin, std::uint32_t end, const 
   std::uint32_t target = kInvalidHandle;
   bool created = false;
   if (num_linked > 0) {
-    target = linked[0];  // the largest survives (keeps its node id; smaller tentative ones have none)
-    for (std::uint32_t i = 1; i < num_linked; ++i)
-      if (objects_[linked[i]].num_vertices > objects_[target].num_vertices) target = linked[i];
+    // The largest survives (keeps its node id; smaller tentative ones have none); of equal ones the oldest, so the
+    // choice does not depend on the order the cluster found them in.
+    target = linked[0];
+    for (std::uint32_t i = 1; i < num_linked; ++i) {
+      const Object& o = objects_[linked[i]];
+      const Object& t = objects_[target];
+      if (o.num_vertices > t.num_vertices ||
+          (o.num_vertices == t.num_vertices && scene_graph::node_index(o.node) < scene_graph::node_index(t.node)))
+        target = linked[i];
+    }
     for (std::uint32_t i = 0; i < num_linked; ++i)
       if (linked[i] != target && objects_.live(linked[i])) merge_objects(target, linked[i]);
     ++counters_.clusters_joined;
@@ -1062,26 +1303,31 @@ UpdateResult ObjectLayer::end_update() {
   for (const std::uint32_t b : presented_blocks_)
     if (blocks_.live(b)) sweep_block(b);
   // 2. Connected components of the candidates (and the objects they touch).
-  for (std::uint32_t i = 0; i < candidates_.size(); ++i)
-    cell_insert(candidate_cells_, cell_key(candidates_[i].label, candidates_[i].p), i, &candidates_[i].cell_next);
   counters_.candidates += candidates_.size();
   result_.candidates = static_cast<std::uint32_t>(candidates_.size());
-  order_.clear();
+  new_tracked_.clear();
+  sort_candidates_into_cells();
+  connect_cells();
+  const std::uint32_t num_clusters = group_clusters();
   std::uint32_t linked[kMaxLinked];
-  for (std::uint32_t i = 0; i < candidates_.size(); ++i) {
-    if (candidates_[i].visited != 0) continue;
-    const std::uint32_t begin = static_cast<std::uint32_t>(order_.size());
-    const std::uint32_t num_linked = flood_fill(i, linked, kMaxLinked);
-    process_cluster(begin, static_cast<std::uint32_t>(order_.size()), linked, num_linked);
+  for (std::uint32_t k = 0; k < num_clusters; ++k) {
+    const std::uint32_t begin = cluster_begin_[k], end = cluster_begin_[k + 1];
+    process_cluster(begin, end, linked, find_linked_objects(begin, end, linked, kMaxLinked));
+  }
+  for (const std::uint32_t slot : new_tracked_) {
+    TrackedVertex& t = tracked_[slot];
+    cell_insert(tracked_cells_, cell_key(t.label, t.p), slot, &t.cell_next);
   }
   // 3. Boxes that may have shrunk (stale or moved boundary vertices), then the centre-in-box rule between objects.
   for (const std::uint32_t h : changed_)
     if (objects_.live(h) && objects_[h].box_dirty) recompute_box(h);
   if (config_.merge_overlapping || config_.merge_intersecting || config_.merge_by_size_prior) merge_changed_objects();
-  // 4. Scratch maps back to empty, in time proportional to what this update used.
-  for (const Candidate& c : candidates_) {
-    candidate_index_.erase(c.key);
-    candidate_cells_.erase(cell_key(c.label, c.p));
+  // 4. The candidate map back to empty, in time proportional to what this update used: entry by entry, or by
+  // clearing every slot when that is less work (an erase hashes and shifts; clearing a slot is one store).
+  if (candidates_.size() * 16 >= candidate_index_.slot_count()) {
+    candidate_index_.clear();
+  } else {
+    for (const Candidate& c : candidates_) candidate_index_.erase(c.key);
   }
   candidates_.clear();
   std::uint32_t changed = 0;

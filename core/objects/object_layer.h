@@ -5,8 +5,12 @@
 //   - Only vertices of blocks re-meshed since the last update are presented. A vertex is identified by its global
 //     voxel-edge key (border duplicates share it; it survives re-meshing), so a vertex already assigned to an
 //     object keeps its object; only vertices with unseen keys ("candidates") are clustered.
-//   - Candidates of each label are clustered by connected components under distance <= the label's tolerance
-//     (a voxel-hash grid at the tolerance: 27 neighbour cells, no allocation). A cluster that comes within the
+//   - Candidates of each label are clustered by connected components under distance <= the label's tolerance.
+//     They are sorted into grid cells of side tolerance / sqrt(3), so any two vertices of one cell are connected
+//     without a distance check; a union-find over the occupied cells then joins neighbouring cells (up to two
+//     cells away) that hold a pair within the tolerance, found by walking the sorted cells, not by hashing.
+//     Pairs of cells already joined are skipped, and a pair's search stops at its first close pair, so the cost
+//     follows the number of cells rather than the density of the vertices. A cluster that comes within the
 //     tolerance of an existing object's tracked vertex of the same label joins that object (and joins objects it
 //     connects), so an object seen over several updates is the same connected component a single batch would give.
 //   - Any other cluster larger than the label's max vertex count is dropped. One with at least the min count is
@@ -128,7 +132,7 @@ struct Counters {
   std::uint64_t vertices_released = 0;     // their block left the active window
   std::uint64_t blocks_released = 0;
   // Overflows (each also counted and logged by the store that refused):
-  std::uint64_t candidate_overflow = 0;
+  std::uint64_t candidate_overflow = 0;  // also a candidate beyond the clustering grid's reach (not a store)
   std::uint64_t tracked_overflow = 0;
   std::uint64_t key_overflow = 0;
   std::uint64_t block_overflow = 0;
@@ -243,7 +247,12 @@ class ObjectLayer {
     fn(key_chunks_.stats());
     fn(candidates_.stats());
     fn(candidate_index_.stats());
-    fn(candidate_cells_.stats());
+    fn(sorted_candidates_.stats());
+    fn(sorted_points_.stats());
+    fn(cells_.stats());
+    fn(cell_parent_.stats());
+    fn(cluster_begin_.stats());
+    fn(new_tracked_.stats());
     fn(object_cells_.stats());
   }
 
@@ -258,6 +267,11 @@ class ObjectLayer {
     std::uint32_t count;
   };
   struct Candidate;
+  struct SortedCandidate;
+  struct CandidateCell;
+  struct Point {
+    float p[3];
+  };
 
  private:
   ObjectView view(std::uint32_t h) const;
@@ -281,7 +295,14 @@ class ObjectLayer {
   bool register_vertex(std::uint32_t object, const Candidate& c);
   bool append_key(std::uint32_t object, std::uint64_t key);
   void release_keys(std::uint32_t object);
-  std::uint32_t flood_fill(std::uint32_t seed, std::uint32_t* linked, std::uint32_t max_linked);
+  void sort_candidates_into_cells();
+  std::uint32_t find_root(std::uint32_t cell);
+  bool cells_apart(const CandidateCell& a, const CandidateCell& b, semantics::Label label) const;
+  bool cells_connected(const CandidateCell& a, const CandidateCell& b, semantics::Label label) const;
+  void connect_cells();
+  std::uint32_t group_clusters();
+  std::uint32_t find_linked_objects(std::uint32_t begin, std::uint32_t end, std::uint32_t* linked,
+                                    std::uint32_t max_linked);
   void process_cluster(std::uint32_t begin, std::uint32_t end, const std::uint32_t* linked, std::uint32_t num_linked);
   enum class MergeRule : std::uint8_t { kNone, kCentreInBox, kIntersect, kSizePrior };
   MergeRule merge_rule(semantics::Label label, const float* lo, const float* hi, std::uint32_t other,
@@ -301,6 +322,11 @@ class ObjectLayer {
   Counters counters_;
   std::array<float, semantics::kNumObjectLabels> inv_tolerance_{};
   std::array<float, semantics::kNumObjectLabels> tolerance_sq_{};
+  // Squared tolerance widened and narrowed by a margin larger than float rounding: a box test against the wider
+  // one never rejects a pair the vertex test would accept, one against the narrower never accepts one it would reject.
+  std::array<float, semantics::kNumObjectLabels> tolerance_sq_above_{};
+  std::array<float, semantics::kNumObjectLabels> tolerance_sq_below_{};
+  std::array<double, semantics::kNumObjectLabels> inv_cluster_cell_{};  // 1 / the clustering cell side
   float inv_index_cell_ = 0.5f;
 
   memory::Arena arena_;
@@ -313,14 +339,22 @@ class ObjectLayer {
   memory::Pool<KeyChunk> key_chunks_;
   memory::ArenaVector<Candidate> candidates_;
   memory::FixedHashMap<std::uint64_t, std::uint32_t, memory::U64Hash> candidate_index_;  // dedupe in one update
-  memory::FixedHashMap<std::uint64_t, std::uint32_t, memory::U64Hash> candidate_cells_;
+  // Clustering scratch, refilled by every update (see sort_candidates_into_cells()):
+  memory::ArenaVector<SortedCandidate> sorted_candidates_;  // candidates by cell key
+  memory::ArenaVector<Point> sorted_points_;                // their positions in that order, each cell contiguous
+  memory::ArenaVector<CandidateCell> cells_;                // the occupied cells, by key
+  memory::ArenaVector<std::uint32_t> cell_parent_;          // union-find forest over cells_
+  memory::ArenaVector<std::uint32_t> cluster_begin_;        // cluster k is order_[cluster_begin_[k], [k + 1])
+  // Slots registered by this update: entered into tracked_cells_ once every cluster has looked for objects to
+  // join (they cannot join another cluster of this update, which would be the same cluster).
+  memory::ArenaVector<std::uint32_t> new_tracked_;
   // (label, cell of the box centre) -> objects there, linked through Object::index_next.
   memory::FixedHashMap<std::uint64_t, std::uint32_t, memory::U64Hash> object_cells_;
   // Objects per label per half-extent class (in index cells; the last class is "larger"): how far a search reaches.
   static constexpr std::uint32_t kExtentClasses = 16;
   std::array<std::array<std::uint32_t, kExtentClasses>, semantics::kNumObjectLabels> extent_count_{};
   std::array<std::uint32_t, semantics::kNumObjectLabels> label_head_{};  // objects of each label (Object::label_*)
-  memory::ArenaVector<std::uint32_t> order_;            // candidates in flood-fill order
+  memory::ArenaVector<std::uint32_t> order_;            // candidates by cluster, in presentation order in each
   memory::ArenaVector<std::uint32_t> presented_blocks_;  // block records re-meshed this update
   memory::ArenaVector<std::uint32_t> changed_;           // objects changed since the last sync
   memory::ArenaVector<scene_graph::NodeId> removed_nodes_;  // nodes to remove at the next sync

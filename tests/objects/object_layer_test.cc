@@ -186,11 +186,15 @@ TEST(ObjectLayerTest, ABridgeBetweenTwoObjectsMergesThemAndRemovesOneNode) {
   ASSERT_EQ(layer->num_objects(), 2u);
   ASSERT_TRUE(layer->sync(graph.get()));
   ASSERT_EQ(graph->num_nodes(scene_graph::NodeKind::kObject), 2u);
+  const auto parts = objects_of(*layer);
+  ASSERT_EQ(parts[0].num_vertices, parts[1].num_vertices);
+  const NodeId older = std::min(parts[0].node, parts[1].node);
   present(layer.get(), box_surface({0.85, 0.2, 0.0}, {1.55, 0.3, 0.1}, semantics::kSofa, &key), 2);
   ASSERT_EQ(layer->num_objects(), 1u);
   ASSERT_TRUE(layer->sync(graph.get()));
   EXPECT_EQ(graph->num_nodes(scene_graph::NodeKind::kObject), 1u);
   EXPECT_EQ(layer->counters().objects_merged, 1u);
+  EXPECT_EQ(objects_of(*layer)[0].node, older) << "of two parts of equal size, the older keeps its node";
 }
 
 TEST(ObjectLayerTest, OverlappingClustersMergeByThePapersRuleUnlessDisabled) {
@@ -348,6 +352,99 @@ TEST(ObjectLayerTest, ClustersEqualBruteForceEuclideanClusteringOnRandomPoints) 
       expect_same_partition(*layer, pts, ref);
     }
   }
+}
+
+// The clustering's shortcuts (two vertices of one cell are connected; the boxes of two cells' vertices decide most
+// pairs of cells) must agree with the vertex test everywhere: dense blobs (many vertices per cell), chains spaced
+// at the tolerance (pairs on both sides of it), sparse points, two tolerances, near the origin and kilometres
+// from it; all at once and over updates (joining tracked vertices).
+TEST(ObjectLayerTest, ClustersEqualBruteForceAtTheToleranceDenseAndSparseFarFromTheOrigin) {
+  Config config;
+  config.merge_overlapping = false;
+  config.merge_intersecting = false;
+  config.merge_by_size_prior = false;
+  const double tolerance[2] = {0.2, 0.05};
+  const semantics::Label labels[2] = {semantics::kChair, semantics::kTable};
+  for (int i = 0; i < 2; ++i) {
+    config.labels[labels[i]].min_vertices = 1;
+    config.labels[labels[i]].tolerance_m = tolerance[i];
+  }
+  Capacities caps = small_capacities();
+  caps.objects = 4096;
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> unit(0.0f, 1.0f);
+  for (const Eigen::Vector3d& origin : {Eigen::Vector3d(0.0, 0.0, 0.0), Eigen::Vector3d(3000.5, -7000.25, 12.0)}) {
+    std::vector<Vertex> pts;
+    std::uint64_t key = 1;
+    const auto add = [&](const Eigen::Vector3d& p, int which) {
+      Vertex v;
+      const Eigen::Vector3d q = origin + p;
+      v.v = InputVertex{key++, static_cast<float>(q.x()), static_cast<float>(q.y()), static_cast<float>(q.z()),
+                        labels[which]};
+      v.block = block_of(q.x(), q.y(), q.z());
+      pts.push_back(v);
+    };
+    for (int which = 0; which < 2; ++which) {
+      const double tol = tolerance[which];
+      for (int blob = 0; blob < 4; ++blob) {  // dense: a blob of 150 within half a tolerance of its centre
+        const Eigen::Vector3d c(0.7 * blob + 0.3 * which, 0.5, 0.4);
+        for (int k = 0; k < 150; ++k)
+          add(c + 0.5 * tol * Eigen::Vector3d(unit(rng) - 0.5, unit(rng) - 0.5, unit(rng) - 0.5), which);
+      }
+      for (int chain = 0; chain < 6; ++chain) {  // steps within a part in a thousand of the tolerance
+        const Eigen::Vector3d dir = Eigen::Vector3d(unit(rng) - 0.5, unit(rng) - 0.5, unit(rng) - 0.5).normalized();
+        Eigen::Vector3d p(3.0 * unit(rng), 1.5 + unit(rng), unit(rng));
+        for (int k = 0; k < 30; ++k, p += dir * tol * (1.0 + 0.002 * (unit(rng) - 0.5))) add(p, which);
+      }
+      for (int k = 0; k < 250; ++k)  // sparse
+        add(Eigen::Vector3d(3.0 * unit(rng), 3.0 + 3.0 * unit(rng), unit(rng)), which);
+    }
+    std::vector<int> ref(pts.size());
+    for (int which = 0; which < 2; ++which) {
+      std::vector<Vertex> same;
+      std::vector<std::size_t> index;
+      for (std::size_t i = 0; i < pts.size(); ++i)
+        if (pts[i].v.label == labels[which]) {
+          same.push_back(pts[i]);
+          index.push_back(i);
+        }
+      const auto r = brute_force_components(same, tolerance[which]);
+      for (std::size_t i = 0; i < index.size(); ++i) ref[index[i]] = static_cast<int>(index[r[i]]);
+    }
+    {
+      auto layer = make_layer(config, caps);
+      present(layer.get(), pts);
+      expect_same_partition(*layer, pts, ref);
+      EXPECT_EQ(layer->counters().candidate_overflow, 0u);
+    }
+    {
+      auto layer = make_layer(config, caps);
+      for (int part = 0; part < 3; ++part) {
+        std::vector<Vertex> subset;
+        for (const Vertex& v : pts)
+          if ((((v.block.x + 2 * v.block.y + v.block.z) % 3) + 3) % 3 == part) subset.push_back(v);
+        present(layer.get(), subset, static_cast<std::uint64_t>(part + 1));
+      }
+      expect_same_partition(*layer, pts, ref);
+    }
+  }
+}
+
+// Clustering cells count from the lowest of a label's candidates in the update, 19 bits per axis: a candidate
+// farther than that (15 km at the smallest tolerance) from the others is counted, not put in a wrong cell.
+TEST(ObjectLayerTest, ACandidateBeyondTheClusteringGridIsCountedNotMisclustered) {
+  Config config;
+  config.labels[semantics::kChair].tolerance_m = 0.05;
+  config.labels[semantics::kChair].min_vertices = 1;
+  auto layer = make_layer(config);
+  const std::vector<Vertex> pts = {Vertex{InputVertex{1, 0.0f, 0.0f, 0.0f, semantics::kChair}, {0, 0, 0}},
+                                   Vertex{InputVertex{2, 0.03f, 0.0f, 0.0f, semantics::kChair}, {0, 0, 0}},
+                                   Vertex{InputVertex{3, 20000.0f, 0.0f, 0.0f, semantics::kChair}, {25000, 0, 0}}};
+  present(layer.get(), pts);
+  EXPECT_EQ(layer->counters().candidate_overflow, 1u);
+  const auto objs = objects_of(*layer);
+  ASSERT_EQ(objs.size(), 1u);
+  EXPECT_EQ(objs[0].num_vertices, 2u);
 }
 
 TEST(ObjectLayerTest, StaleVerticesLeaveTheirObjectAndReleasedBlocksKeepTheSummary) {
