@@ -138,7 +138,9 @@ bool AppConfig::load(const std::string& path, std::string* error) {
                               {"min_clearance_m", number(&pc.min_clearance_m)},
                               {"min_basis_angle_rad", number(&pc.min_basis_angle_rad)},
                               {"place_resolution_m", number(&pc.place_resolution_m)},
-                              {"window_radius_m", number(&pc.window_radius_m)}},
+                              {"window_radius_m", number(&pc.window_radius_m)},
+                              {"unobserved_is_obstacle", boolean(&pc.unobserved_is_obstacle)},
+                              {"unobserved_obstacle_above_m", number(&pc.unobserved_obstacle_above_m)}},
                              why);
        }},
       {"rooms", [&](const Json& v, std::string* why) {

@@ -60,13 +60,15 @@ struct Options {
   std::string plans_dir = std::string(QSG_SHARED_DATA_DIR) + "/floorplans/ipa";
   double window_radius_m = 0.0;  // --window-radius-m: places window (0: the Config default)
   double slab_above_m = 0.0;     // --slab-above-m: ESDF slab above the robot (0: the Config default)
+  int bridge_max_places = 0;     // --bridge-max-places: Config::bridge_max_fragment_places (0: the default)
+  double unobserved_above_m = -1.0;  // --unobserved-above-m: Config::unobserved_obstacle_above_m (< 0: the default)
 };
 
 void usage(const char* argv0) {
   std::fprintf(stderr,
                "usage: %s [--seeds 1,2,3] [--rooms N] [--size WxH] [--hfov-deg D] [--rate-hz R] [--every-n N] "
                "[--no-observe] [--no-free-space-edges] [--no-relink] [--no-bridges] [--no-contract] [--no-unobserved-obstacle] [--no-rim-guard] [--floorplan NAME [--furnished]] "
-               "[--plans-dir DIR] [--window-radius-m R] [--slab-above-m H] [--json FILE] [--verbose] [--diagnose]\n"
+               "[--plans-dir DIR] [--window-radius-m R] [--slab-above-m H] [--bridge-max-places N] [--unobserved-above-m H] [--json FILE] [--verbose] [--diagnose]\n"
                "  NAME: a map of the plans dir (Freiburg52_scan, lab_c_scan, lab_intel, lab_ipa, office_a, office_e)\n",
                argv0);
 }
@@ -155,6 +157,10 @@ bool parse(int argc, char** argv, Options* o) {
       continue;
     } else if (a == "--slab-above-m") {
       o->slab_above_m = std::strtod(v.c_str(), &end);
+    } else if (a == "--unobserved-above-m") {
+      o->unobserved_above_m = std::strtod(v.c_str(), &end);
+    } else if (a == "--bridge-max-places") {
+      o->bridge_max_places = static_cast<int>(std::strtol(v.c_str(), &end, 10));
     } else if (a == "--window-radius-m") {
       o->window_radius_m = std::strtod(v.c_str(), &end);
       if (end != v.c_str() && *end == '\0' && !(o->window_radius_m > 0.0 && o->window_radius_m <= 50.0)) {
@@ -293,6 +299,7 @@ struct NodeHistory {
   int reactivations = 0;
   std::size_t degree_at_deactivation = 0;
   std::size_t max_degree = 0;
+  std::vector<scene_graph::NodeId> neighbours_at_deactivation;
 };
 
 std::size_t place_degree(const scene_graph::SceneGraph& g, scene_graph::NodeId id) {
@@ -314,6 +321,10 @@ void track_history(const scene_graph::SceneGraph& g, int kf, std::map<scene_grap
     if (!active && e.deactivated_kf < 0) {
       e.deactivated_kf = kf;
       e.degree_at_deactivation = d;
+      e.neighbours_at_deactivation.clear();
+      g.for_each_neighbor(n.id, [&](scene_graph::NodeId m, const scene_graph::EdgeRecord&) {
+        if (scene_graph::node_prefix(m) == scene_graph::kPlacePrefix) e.neighbours_at_deactivation.push_back(m);
+      });
     } else if (active && e.deactivated_kf >= 0) {
       e.deactivated_kf = -1;
       ++e.reactivations;
@@ -401,6 +412,19 @@ void diagnose_components(const scene_graph::SceneGraph& g, const places::Places&
         cause = h.degree_at_deactivation > 0 ? "inactive: lost its edges after leaving"
                                             : (h.max_degree > 0 ? "inactive: lost its edges before leaving"
                                                                 : "inactive: never had an edge");
+        // Where its edges at deactivation went: to nodes now gone, or to nodes still there.
+        int gone = 0, still_there = 0, still_linked = 0;
+        for (scene_graph::NodeId m : h.neighbours_at_deactivation) {
+          if (g.place(m) == nullptr) {
+            ++gone;
+            continue;
+          }
+          ++still_there;
+          g.for_each_neighbor(id, [&](scene_graph::NodeId x, const scene_graph::EdgeRecord&) { still_linked += x == m; });
+        }
+        std::snprintf(extra, sizeof(extra), " (deactivated at keyframe %d with %zu place edges: %d to removed nodes, "
+                      "%d to nodes still in the graph, %d of them still linked)", h.deactivated_kf,
+                      h.degree_at_deactivation, gone, still_there, still_linked);
       } else {
         const auto pit = by_id.find(id);
         if (pit == by_id.end()) {
@@ -441,7 +465,7 @@ void diagnose_components(const scene_graph::SceneGraph& g, const places::Places&
         }
       }
       ++causes[cause];
-      if (comps[ci].size() <= 3 || id == comps[ci].front())
+      if (comps[ci].size() <= 12 || id == comps[ci].front())
         std::printf("    node %llx %s at %.2f %.2f %.2f clear %.2f basis %u true_gvd %.2f added %d deact %d "
                     "deg_at_deact %zu max_deg %zu reactiv %d%s\n",
                     static_cast<unsigned long long>(id), cause.c_str(), a->position_m.x(), a->position_m.y(),
@@ -504,6 +528,8 @@ bool run_world(const Options& opt, const world::World& w, bool floor_plan, Build
   places::Capacities pcaps = places::capacities_from_budget();
   std::size_t places_bytes = places::arena_bytes_from_budget();
   if (opt.slab_above_m > 0.0) pc.slab_above_m = opt.slab_above_m;
+  if (opt.bridge_max_places > 0) pc.bridge_max_fragment_places = opt.bridge_max_places;
+  if (opt.unobserved_above_m >= 0.0) pc.unobserved_obstacle_above_m = opt.unobserved_above_m;
   if (opt.window_radius_m > 0.0) {
     // Every ESDF block the places read must exist in the TSDF: its window is one ESDF block larger.
     const double esdf_block_m = places::kBlockSide * pc.voxel_factor * tc.voxel_size_m;

@@ -24,10 +24,10 @@ void Config::print(std::FILE* out) const {
 void Counters::print(std::FILE* out) const {
   std::fprintf(out,
                "frontend: updates=%llu places_cycles=%llu deadline_stops=%llu interlayer connected=%llu failed=%llu "
-               "graph_refused=%llu\n",
+               "reconnected=%llu graph_refused=%llu\n",
                (unsigned long long)updates, (unsigned long long)places_cycles, (unsigned long long)deadline_stops,
                (unsigned long long)interlayer_connected, (unsigned long long)interlayer_failed,
-               (unsigned long long)graph_refused);
+               (unsigned long long)interlayer_reconnected, (unsigned long long)graph_refused);
 }
 
 bool Frontend::init(const Config& config, std::string* error) {
@@ -90,6 +90,18 @@ void Frontend::connect_interlayer(scene_graph::SceneGraph* graph, UpdateSummary*
   const std::size_t keyframes = agents_.num_keyframes();
   std::size_t k = agents_connected_;
   for (; k < keyframes && !connect_nodes_.full(); ++k) connect_nodes_.push_back(agents_.node_of(k));
+  // Keyframes connected before whose place has since been removed.
+  constexpr std::size_t kOrphanChecksPerUpdate = 4096;
+  for (std::size_t checked = 0; checked < std::min(kOrphanChecksPerUpdate, agents_connected_) && !connect_nodes_.full();
+       ++checked) {
+    if (orphan_cursor_ >= agents_connected_) orphan_cursor_ = 0;
+    const scene_graph::NodeId id = agents_.node_of(orphan_cursor_++);
+    const scene_graph::NodeRecord* n = graph->node(id);
+    if (n != nullptr && n->parent == scene_graph::kNoNode) {
+      connect_nodes_.push_back(id);
+      ++counters_.interlayer_reconnected;
+    }
+  }
   agents_connected_ = k;
   summary->connect = connect_to_nearest_places(graph, index_, connect_nodes_.data(), connect_nodes_.size());
   counters_.interlayer_connected += summary->connect.connected;

@@ -44,6 +44,7 @@ struct Counters {
   std::uint64_t deadline_stops = 0;      // updates that stopped at the deadline with places work left
   std::uint64_t interlayer_connected = 0;
   std::uint64_t interlayer_failed = 0;   // edge stores full
+  std::uint64_t interlayer_reconnected = 0;  // keyframes whose place was removed, given the nearest one again
   std::uint64_t graph_refused = 0;       // a sync could not add everything (retried on the next one)
   void print(std::FILE* out) const;
 };
@@ -99,7 +100,10 @@ class Frontend {
   agents::AgentLayer agents_;
   NearestPlaceIndex index_;
   memory::FixedVector<scene_graph::NodeId, 8192> connect_nodes_{"frontend.connect_nodes"};
-  std::size_t agents_connected_ = 0;  // keyframes [0, agents_connected_) have their place edge
+  std::size_t agents_connected_ = 0;  // keyframes [0, agents_connected_) were given their place edge
+  // Those keyframes lose their place when it is removed (its GVD voxels vanished): a rotating sweep over them
+  // finds such orphans, a bounded number of keyframes per update, and connects them again.
+  std::size_t orphan_cursor_ = 0;
   Counters counters_;
   bool ready_ = false;
 };

@@ -833,7 +833,9 @@ void Places::lower_step(const reconstruction::SemanticTsdf& tsdf, std::uint32_t 
     }
     Voxel& nv = vox(n);
     if (v.state == kFree && nv.parent == kNoRef && !blocks_[n / kBlockVoxels].dying &&
-        ((nv.state == kUnobserved && config_.unobserved_is_obstacle) || nv.state == kOccupied)) {
+        ((nv.state == kUnobserved && config_.unobserved_is_obstacle &&
+          (gn.z + 1) * voxel_m_ <= cycle_robot_m_.z() + config_.unobserved_obstacle_above_m) ||
+         nv.state == kOccupied)) {
       // Free space meets space no sensor has seen: a surface may lie right there. The unobserved voxel becomes a
       // frontier seed at distance 0, so distances here are bounded by it (unknown space counts as an obstacle);
       // the GVD ignores frontier basis points (evaluate_gvd), so no sheet forms between a surface and the unknown.

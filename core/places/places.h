@@ -60,6 +60,12 @@ struct Config {
   // any surface, or a frontier basis point, makes no GVD. Off, distances come from observed surfaces only and
   // places form on sheets between a wall and a floor the camera never saw.
   bool unobserved_is_obstacle = true;
+  // ... up to this height above the robot (the camera). A quadruped's camera sees the floor around it but rarely
+  // the ceiling above it: bounding by the unseen space above keeps places off the sheets that the unseen ceiling
+  // would end (extruded plans: 0.15 m from the true GVD instead of 0.25), but it also removes every place in a
+  // room's middle, whose clearance the rooms layer needs (the main job: 1 room of 12 instead of 9). Hence 0 by
+  // default (the floor side only); a large value bounds everywhere.
+  double unobserved_obstacle_above_m = 0.0;
   // A voxel at the window's rim (a neighbouring block is outside the window) takes its distance from what is
   // inside only: it becomes no new GVD voxel there, and a GVD voxel already there keeps its state until it leaves.
   // Off, the rim grows sheets that are not in the world (e.g. above the floor blocks a spherical window drops

@@ -120,17 +120,20 @@ TEST(PlacesTest, GvdOfABoxRoomLiesOnTheMedialAxis) {
 }
 
 // A level camera 0.5 m above the floor (a quadruped's) never sees the floor beneath it or the ceiling above it.
-// Unobserved space next to free space bounds the distances like an obstacle, so no voxel claims more clearance
-// than the room has and no GVD sheet forms between a wall and an unseen floor; with the option off, both happen.
+// With unobserved space as an obstacle at every height, no voxel claims more clearance than the room has and no
+// GVD sheet forms between a wall and the unseen ceiling; with it off (or, the default, only below the camera),
+// voxels under the unseen ceiling overclaim. Below the camera nothing overclaims in any mode.
 struct LevelScan {
   std::size_t gvd_voxels = 0;
   std::size_t overclaimed = 0;  // ESDF distance above the true clearance by more than a voxel
+  std::size_t overclaimed_below_camera = 0;
   double mean_gvd_distance_m = 0.0;
   std::uint64_t frontier_seeds = 0;
 };
-LevelScan scan_level(bool unobserved_is_obstacle) {
+LevelScan scan_level(bool unobserved_is_obstacle, double above_m) {
   Config config;
   config.unobserved_is_obstacle = unobserved_is_obstacle;
+  config.unobserved_obstacle_above_m = above_m;
   Scanner scanner;
   std::string error;
   const world::World w = testing::rooms_world({6.0}, 4.0, false);
@@ -152,6 +155,7 @@ LevelScan scan_level(bool unobserved_is_obstacle) {
                                             4.0 - v.position_m.y(), v.position_m.z(), kHeight - v.position_m.z()});
     if (v.clearance_m > true_clearance + places->voxel_size_m()) {
       ++out.overclaimed;
+      out.overclaimed_below_camera += v.position_m.z() < 0.5 ? 1 : 0;
       if (std::getenv("QSG_PLACES_DEBUG") != nullptr)
         std::printf("overclaimed: %.2f %.2f %.2f clearance %.2f true %.2f\n", v.position_m.x(), v.position_m.y(),
                     v.position_m.z(), v.clearance_m, true_clearance);
@@ -163,18 +167,26 @@ LevelScan scan_level(bool unobserved_is_obstacle) {
 }
 
 TEST(PlacesTest, UnobservedSpaceBoundsDistancesAndMakesNoGvd) {
-  const LevelScan on = scan_level(true);
-  const LevelScan off = scan_level(false);
-  std::printf("level camera: unobserved as obstacle %zu GVD voxels, %zu overclaimed, mean distance to the true "
-              "GVD %.3f m, %llu frontier seeds; off: %zu, %zu, %.3f m\n",
-              on.gvd_voxels, on.overclaimed, on.mean_gvd_distance_m, (unsigned long long)on.frontier_seeds,
-              off.gvd_voxels, off.overclaimed, off.mean_gvd_distance_m);
-  EXPECT_GT(on.frontier_seeds, 0u);
+  const LevelScan all = scan_level(true, 100.0);  // unobserved space is an obstacle at every height
+  const LevelScan below = scan_level(true, Config{}.unobserved_obstacle_above_m);  // the default: below the camera
+  const LevelScan off = scan_level(false, 0.0);
+  std::printf("level camera: unobserved as obstacle everywhere %zu GVD voxels, %zu overclaimed, mean distance to the "
+              "true GVD %.3f m, %llu frontier seeds; below the camera %zu, %zu (%zu below it), %.3f m; off %zu, %zu "
+              "(%zu below the camera), %.3f m\n",
+              all.gvd_voxels, all.overclaimed, all.mean_gvd_distance_m, (unsigned long long)all.frontier_seeds,
+              below.gvd_voxels, below.overclaimed, below.overclaimed_below_camera, below.mean_gvd_distance_m,
+              off.gvd_voxels, off.overclaimed, off.overclaimed_below_camera, off.mean_gvd_distance_m);
+  EXPECT_GT(all.frontier_seeds, 0u);
+  EXPECT_GT(below.frontier_seeds, 0u);
   EXPECT_EQ(off.frontier_seeds, 0u);
-  EXPECT_GT(off.overclaimed, 0u) << "the scene must leave floor or ceiling unseen";
-  EXPECT_EQ(on.overclaimed, 0u);
-  EXPECT_GT(on.gvd_voxels, 20u);
-  EXPECT_LT(on.mean_gvd_distance_m, off.mean_gvd_distance_m);
+  EXPECT_GT(off.overclaimed, 0u) << "the scene must leave the ceiling unseen";
+  EXPECT_EQ(all.overclaimed, 0u);
+  // Below the camera nothing overclaims in any mode (an unseen floor under seen free space is an occupied seed or
+  // a frontier); above it, the default leaves unseen space open, as the off mode does.
+  EXPECT_EQ(below.overclaimed_below_camera, 0u);
+  EXPECT_EQ(off.overclaimed_below_camera, 0u);
+  EXPECT_GT(all.gvd_voxels, 20u);
+  EXPECT_LT(all.mean_gvd_distance_m, off.mean_gvd_distance_m);
 }
 
 // Two rooms joined by a door: one connected free-space region, so one connected places graph. Two closed rooms:

@@ -44,12 +44,14 @@ TEST(RoomsPipelineTest, TwoRenderedRoomsBecomeTwoRoomNodes) {
         const Eigen::Isometry3d T = camera_pose(p, 2 * kPi * k / 8, pitch);
         ASSERT_TRUE(renderer->render(T, camera, seq++, *frame, &error)) << error;
         ASSERT_TRUE(tsdf->process(*frame, T));
+        frontend->observe(*tsdf, T);  // as the app does per keyframe: the places carve from every view
         time_ns += 100000000;
         frontend->add_keyframe(graph.get(), time_ns, T);
       }
     ASSERT_TRUE(frontend->update(*tsdf, p, time_ns, graph.get(), frontend::Deadline{}).places_complete);
   }
   ASSERT_GT(graph->num_nodes(sg::NodeKind::kPlace), 0u);
+
 
   UpdateResult r;
   EXPECT_NO_ALLOCATIONS(r = finder->update(graph.get(), time_ns));
