@@ -617,44 +617,41 @@ bool run_world(const Options& opt, const world::World& w, bool floor_plan, Build
         worst.emplace_back(truth.distance_to_gvd(graph.place(n.id)->position_m), n.id);
     });
     std::sort(worst.rbegin(), worst.rend());
-    std::vector<int> hist(8, 0);
-    for (const auto& [d, id] : worst) {
-      const Eigen::Vector3d& p = graph.place(id)->position_m;
-      hist[std::min(7, static_cast<int>(std::max(0.0, p.z() + 1.0) / 0.5))]++;
-    }
-    std::printf("  nodes by height (0.5 m bins from -1 m):");
-    for (int h : hist) std::printf(" %d", h);
-    std::printf("\n");
     // Where the error comes from: mean distance to the true GVD by the place's clearance and by its height.
-    const double clearance_edges[] = {0.0, 0.3, 0.4, 0.6, 1.0, 1e9};
-    std::printf("  distance to the true GVD by clearance:");
-    for (int b = 0; b + 1 < 6; ++b) {
-      double sum_b = 0.0;
-      int n_b = 0;
-      for (const auto& [d, id] : worst) {
-        const double c = graph.place(id)->distance_m;
-        if (c >= clearance_edges[b] && c < clearance_edges[b + 1]) {
-          sum_b += d;
-          ++n_b;
+    const auto print_binned = [&](const char* what, const std::vector<double>& edges, auto&& value_of) {
+      std::printf("  distance to the true GVD by %s:", what);
+      for (std::size_t b = 0; b + 1 < edges.size(); ++b) {
+        double sum_b = 0.0;
+        int n_b = 0;
+        for (const auto& [d, id] : worst) {
+          const double x = value_of(id);
+          if (x >= edges[b] && x < edges[b + 1]) {
+            sum_b += d;
+            ++n_b;
+          }
         }
+        std::printf(" [%.1f, %.1f): %d nodes mean %.3f;", std::max(-9.9, edges[b]), std::min(9.9, edges[b + 1]), n_b,
+                    n_b > 0 ? sum_b / n_b : 0.0);
       }
-      std::printf(" [%.1f, %.1f): %d nodes mean %.3f;", clearance_edges[b], std::min(9.9, clearance_edges[b + 1]), n_b,
-                  n_b > 0 ? sum_b / n_b : 0.0);
-    }
-    std::printf("\n  distance to the true GVD by height (0.5 m bins from -1 m):");
-    for (int b = 0; b < 8; ++b) {
-      double sum_b = 0.0;
-      int n_b = 0;
-      for (const auto& [d, id] : worst) {
-        const double z = graph.place(id)->position_m.z();
-        if (std::min(7, static_cast<int>(std::max(0.0, z + 1.0) / 0.5)) == b) {
-          sum_b += d;
-          ++n_b;
-        }
+      std::printf("\n");
+    };
+    print_binned("clearance (m)", {0.0, 0.3, 0.4, 0.6, 1.0, 1e9},
+                 [&](scene_graph::NodeId id) { return graph.place(id)->distance_m; });
+    print_binned("height (m)", {-1e9, 0.0, 0.5, 1.0, 1.5, 2.0, 2.5, 1e9},
+                 [&](scene_graph::NodeId id) { return graph.place(id)->position_m.z(); });
+    // The ESDF along a line through p (x when no voxel holds a distance there).
+    const auto print_profile = [&](const char* what, const Eigen::Vector3d& p, const Eigen::Vector3d& step, int from,
+                                   int to) {
+      std::printf("    %s:", what);
+      for (int k = from; k <= to; ++k) {
+        float d = 0.0f;
+        if (places.distance_at(p + step * k, &d)) std::printf(" %.2f", d);
+        else std::printf(" x");
       }
-      std::printf(" %.3f", n_b > 0 ? sum_b / n_b : 0.0);
-    }
-    std::printf("\n");
+      std::printf("\n");
+    };
+    std::vector<places::GvdVoxelInfo> gvd_now;
+    if (opt.diagnose) places.gvd_voxels(&gvd_now);
     for (std::size_t i = 0; i < std::min<std::size_t>(15, worst.size()); ++i) {
       const scene_graph::PlaceAttributes* a = graph.place(worst[i].second);
       // What the ground truth holds at the node: its voxel's room (-2 occupied, -1 free outside every room)
@@ -671,28 +668,11 @@ bool run_world(const Options& opt, const world::World& w, bool floor_plan, Build
                   a->position_m.x(), a->position_m.y(), a->position_m.z(), a->distance_m, worst[i].first,
                   a->is_active ? 1 : 0, truth_room, truth_clearance);
       if (opt.diagnose && a->is_active) {
-        std::printf("    column:");
-        for (double dz = -1.0; dz <= 0.61; dz += 0.2) {
-          float d = -1.0f;
-          const bool ok = places.distance_at(a->position_m + Eigen::Vector3d(0, 0, dz), &d);
-          std::printf(" z%.1f=%s%.2f", a->position_m.z() + dz, ok ? "" : "x", ok ? d : 0.0);
-        }
-        std::printf("\n    row x:");
-        for (double dx = -1.0; dx <= 1.01; dx += 0.2) {
-          float d = -1.0f;
-          const bool ok = places.distance_at(a->position_m + Eigen::Vector3d(dx, 0, 0), &d);
-          std::printf(" %s%.2f", ok ? "" : "x", ok ? d : 0.0);
-        }
-        std::printf("\n    row y:");
-        for (double dy = -1.0; dy <= 1.01; dy += 0.2) {
-          float d = -1.0f;
-          const bool ok = places.distance_at(a->position_m + Eigen::Vector3d(0, dy, 0), &d);
-          std::printf(" %s%.2f", ok ? "" : "x", ok ? d : 0.0);
-        }
-        std::printf("\n");
-        std::vector<places::GvdVoxelInfo> gv;
-        places.gvd_voxels(&gv);
-        for (const places::GvdVoxelInfo& g : gv) {
+        const double s = places.voxel_size_m();
+        print_profile("ESDF along z from -1 m to +0.6 m", a->position_m, Eigen::Vector3d(0, 0, s), -5, 3);
+        print_profile("ESDF along x from -1 m to +1 m", a->position_m, Eigen::Vector3d(s, 0, 0), -5, 5);
+        print_profile("ESDF along y from -1 m to +1 m", a->position_m, Eigen::Vector3d(0, s, 0), -5, 5);
+        for (const places::GvdVoxelInfo& g : gvd_now) {
           if ((g.position_m - a->position_m).norm() > 0.25) continue;
           std::printf("    gvd %.2f %.2f %.2f d %.2f basis:", g.position_m.x(), g.position_m.y(), g.position_m.z(),
                       g.clearance_m);
@@ -738,11 +718,12 @@ bool run_world(const Options& opt, const world::World& w, bool floor_plan, Build
             to = graph.place(o.id)->position_m;
           }
         });
-        std::printf("    fragment %.2f %.2f %.2f -> %.2f %.2f %.2f:", c.x(), c.y(), c.z(), to.x(), to.y(), to.z());
+        std::printf("    fragment %.2f %.2f %.2f -> %.2f %.2f %.2f, ESDF on the way:", c.x(), c.y(), c.z(), to.x(),
+                    to.y(), to.z());
         for (int k = 0; k <= 12; ++k) {
           float d = 0.0f;
-          const bool ok = places.distance_at(c + (to - c) * (k / 12.0), &d);
-          std::printf(" %s%.2f", ok ? "" : "x", ok ? d : 0.0);
+          if (places.distance_at(c + (to - c) * (k / 12.0), &d)) std::printf(" %.2f", d);
+          else std::printf(" x");
         }
         std::printf("\n");
         for (scene_graph::NodeId m : members)

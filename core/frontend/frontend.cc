@@ -80,6 +80,8 @@ UpdateSummary Frontend::update(const reconstruction::SemanticTsdf& tsdf, const E
 }
 
 void Frontend::connect_interlayer(scene_graph::SceneGraph* graph, UpdateSummary* summary) {
+  // Places were removed: their keyframes may have lost their place (the sweep below; connected ones only).
+  if (summary->places_sync.nodes_removed > 0) orphan_checks_left_ = agents_connected_;
   if (index_.rebuild(*graph, /*active_only=*/true) == 0) return;
   // Every object in the window (an object's nearest place changes as places appear around it), and the
   // keyframes added since the last refresh.
@@ -92,8 +94,9 @@ void Frontend::connect_interlayer(scene_graph::SceneGraph* graph, UpdateSummary*
   for (; k < keyframes && !connect_nodes_.full(); ++k) connect_nodes_.push_back(agents_.node_of(k));
   // Keyframes connected before whose place has since been removed.
   constexpr std::size_t kOrphanChecksPerUpdate = 4096;
-  for (std::size_t checked = 0; checked < std::min(kOrphanChecksPerUpdate, agents_connected_) && !connect_nodes_.full();
-       ++checked) {
+  for (std::size_t checked = 0;
+       checked < kOrphanChecksPerUpdate && orphan_checks_left_ > 0 && !connect_nodes_.full(); ++checked) {
+    --orphan_checks_left_;
     if (orphan_cursor_ >= agents_connected_) orphan_cursor_ = 0;
     const scene_graph::NodeId id = agents_.node_of(orphan_cursor_++);
     const scene_graph::NodeRecord* n = graph->node(id);

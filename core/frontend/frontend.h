@@ -101,9 +101,11 @@ class Frontend {
   NearestPlaceIndex index_;
   memory::FixedVector<scene_graph::NodeId, 8192> connect_nodes_{"frontend.connect_nodes"};
   std::size_t agents_connected_ = 0;  // keyframes [0, agents_connected_) were given their place edge
-  // Those keyframes lose their place when it is removed (its GVD voxels vanished): a rotating sweep over them
-  // finds such orphans, a bounded number of keyframes per update, and connects them again.
+  // Those keyframes lose their place when it is removed (its GVD voxels vanished). After a sync that removed
+  // places, a rotating sweep checks every connected keyframe once, a bounded number per update, and connects the
+  // orphans again.
   std::size_t orphan_cursor_ = 0;
+  std::size_t orphan_checks_left_ = 0;
   Counters counters_;
   bool ready_ = false;
 };

@@ -150,8 +150,6 @@ std::string Config::check() const {
   if (!(min_clearance_m >= 0.0 && min_clearance_m < max_distance_m))
     return "min_clearance_m must be in [0, max_distance_m)";
   if (!(min_basis_angle_rad > 0.0 && min_basis_angle_rad <= 3.14159266)) return "min_basis_angle_rad must be in (0, pi]";
-  if (!(max_basis_excess_voxels >= 0.0 && max_basis_excess_voxels <= 10.0))
-    return "max_basis_excess_voxels must be in [0, 10] (0: off)";
   if (min_basis_points < 2 || min_basis_points > kMaxBasis) return "min_basis_points must be in [2, 8]";
   if (!(place_resolution_m > 0.0 && place_resolution_m <= 20.0)) return "place_resolution_m must be in (0, 20] m";
   if (!(window_radius_m > 0.0)) return "window_radius_m must be positive";
@@ -175,13 +173,14 @@ void Config::print(std::FILE* out) const {
                "min_tsdf_weight=%.2f free_space_edges=%d relink_inactive=%d bridge_fragments=%d "
                "bridge_max_fragment_places=%d bridge_max_length_m=%.2f bridge_min_clearance_m=%.2f "
                "enclosed_max_voxels=%d contract_removed=%d contract_search_places=%d unobserved_is_obstacle=%d "
-               "rim_guard=%d max_basis_excess_voxels=%.2f\n",
+               "unobserved_obstacle_above_m=%.2f rim_guard=%d\n",
                voxel_factor, max_distance_m, min_clearance_m, min_basis_angle_rad * 180.0 / 3.14159265358979,
                min_basis_points, place_resolution_m, window_radius_m, slab_below_m, slab_above_m, min_tsdf_weight,
                free_space_edges ? 1 : 0, relink_inactive ? 1 : 0, bridge_fragments ? 1 : 0,
                bridge_max_fragment_places, bridge_max_length_m, bridge_min_clearance_m, enclosed_max_voxels,
                contract_removed ? 1 : 0,
-               contract_search_places, unobserved_is_obstacle ? 1 : 0, rim_guard ? 1 : 0, max_basis_excess_voxels);
+               contract_search_places, unobserved_is_obstacle ? 1 : 0,
+               unobserved_obstacle_above_m, rim_guard ? 1 : 0);
 }
 
 void Capacities::print(std::FILE* out) const {
@@ -361,16 +360,16 @@ memory::ResourceStats Places::list_stats(int which) const {
 // Geometry
 
 Places::Voxel& Places::vox(std::uint32_t ref) { return blocks_[ref / kBlockVoxels].voxels[ref % kBlockVoxels]; }
+const Places::Voxel& Places::vox(std::uint32_t ref) const {
+  return blocks_[ref / kBlockVoxels].voxels[ref % kBlockVoxels];
+}
 
-// A voxel whose distance spreads to its neighbours: a reached free voxel, a surface seed, or a frontier seed (an
-// unobserved voxel beside free space that is its own parent, see Config::unobserved_is_obstacle).
+// A voxel whose distance spreads to its neighbours: a reached free voxel, a surface seed, or a seed made in
+// lower_step from an unobserved voxel (a frontier) or an occupied one beside free space (its own parent).
 bool Places::is_source(std::uint32_t ref) const {
   const Voxel& v = vox(ref);
   if (v.parent == kNoRef) return false;
   return v.state == kFree || v.state == kSeed || ((v.state == kUnobserved || v.state == kOccupied) && v.parent == ref);
-}
-const Places::Voxel& Places::vox(std::uint32_t ref) const {
-  return blocks_[ref / kBlockVoxels].voxels[ref % kBlockVoxels];
 }
 
 memory::Index3 Places::coords(std::uint32_t ref) const {
@@ -510,7 +509,7 @@ void Places::apply_state(std::uint32_t ref, std::uint8_t state, float seed_m) {
       raise_dependents(ref, false);
       v.distance_m = seed_m;
     } else {
-      if (v.parent == ref) raise_dependents(ref, true);  // a frontier seed: its dependents took distance 0 from it
+      if (v.parent == ref) raise_dependents(ref, true);  // a frontier or occupied seed: its dependents go with it
       else clear_parent(ref);
       v.state = kSeed;
       set_parent(ref, ref, seed_m);
@@ -521,7 +520,7 @@ void Places::apply_state(std::uint32_t ref, std::uint8_t state, float seed_m) {
     return;
   }
   if (state == old) return;
-  // A seed, or a frontier seed (an unobserved voxel that is its own parent), hands its dependents back.
+  // A seed, or a frontier or occupied seed (its own parent, see lower_step), hands its dependents back.
   if (old == kSeed || v.parent == ref) raise_dependents(ref, true);
   else clear_parent(ref);
   v.state = state;
@@ -702,7 +701,7 @@ void Places::evict_block_voxels(std::uint32_t handle) {
     if ((v.flags & kGvd) != 0 && counters_.gvd_voxels > 0) --counters_.gvd_voxels;
     if (v.state == kSeed || v.parent == ref) {
       // Dependents outside the dying blocks lose their parent: raise them like a vanished seed (push_raise is a
-      // no-op for the dying blocks' own voxels). Frontier seeds too.
+      // no-op for the dying blocks' own voxels). Frontier and occupied seeds too.
       raise_dependents(ref, /*include_seed=*/true);
     } else {
       clear_parent(ref);
@@ -883,9 +882,9 @@ int Places::evaluate_gvd(std::uint32_t ref, std::uint32_t* basis_parents, int ma
   parents[0] = v.parent;
   for (const Offset& o : kOffsets.o) {
     const std::uint32_t n = neighbor(ref, o.dx, o.dy, o.dz);
-    // At the window's rim (the neighbour's block left the window, or never fit in it) the surfaces beyond are not
-    // known here: the distance is an upper bound (kRim: gvd_step adds no GVD voxel here and keeps the ones it has,
-    // whose places leave the window as they were).
+    // At the window's vertical rim (the block above or below left the window, or never fit in it) the floor or
+    // ceiling beyond is not known here: the distance is an upper bound (kRim: gvd_step adds no GVD voxel here and
+    // keeps the ones it has, whose places leave the window as they were). See Config::rim_guard.
     if (n == kNoRef) {
       if (config_.rim_guard && o.dz != 0) return kRim;
       continue;
@@ -906,10 +905,6 @@ int Places::evaluate_gvd(std::uint32_t ref, std::uint32_t* basis_parents, int ma
       const float s_vn = vox(nv.parent).distance_m + lb * s - v.distance_m;
       const float s_nv = pv_d + dist_vox(add(g, o.dx, o.dy, o.dz), pv) * s - nv.distance_m;
       if (s_vn > s_nv + 1e-5f) continue;  // the neighbour is nearer the bisector: it is the GVD voxel
-      // Equidistant within a voxel, or the other obstacle is not a basis point of this voxel at all (noise on one
-      // flat surface, a bump in a ceiling seen at a grazing angle, would otherwise raise sheets beneath it).
-      if (config_.max_basis_excess_voxels > 0.0 && s_vn > static_cast<float>(config_.max_basis_excess_voxels) * s)
-        continue;
     }
     const Eigen::Vector3f u = b / lb;
     bool distinct = true;

@@ -44,9 +44,6 @@ struct Config {
   double min_clearance_m = 0.2;      // GVD voxels closer to an obstacle are dropped (unstable near surfaces)
   double min_basis_angle_rad = 0.785398163;  // theta of the theta-SMA: smallest angle between two basis points
   int min_basis_points = 2;          // n_b: GVD voxels with fewer basis points are not places
-  // A neighbour's obstacle is a basis point only when it is at most this many voxels farther from the voxel than
-  // the voxel's own obstacle (equidistance to a voxel, as the ground truth's skeleton); 0 turns the bound off.
-  double max_basis_excess_voxels = 1.0;
   double place_resolution_m = 1.0;   // delta_p: side of the spatial-hash cells that cluster GVD voxels
   double window_radius_m = 7.0;      // ESDF blocks whose centre is farther from the robot are freed; keep it
                                      // below the TSDF window minus one ESDF block so every read block exists
@@ -66,10 +63,10 @@ struct Config {
   // room's middle, whose clearance the rooms layer needs (the main job: 1 room of 12 instead of 9). Hence 0 by
   // default (the floor side only); a large value bounds everywhere.
   double unobserved_obstacle_above_m = 0.0;
-  // A voxel at the window's rim (a neighbouring block is outside the window) takes its distance from what is
-  // inside only: it becomes no new GVD voxel there, and a GVD voxel already there keeps its state until it leaves.
-  // Off, the rim grows sheets that are not in the world (e.g. above the floor blocks a spherical window drops
-  // first), which become inactive places when the robot moves on.
+  // A voxel at the window's vertical rim (the block above or below it is outside the window: the spherical window
+  // drops the floor's and the ceiling's blocks before those at the robot's height) takes its distance from the
+  // walls alone: it becomes no new GVD voxel there, and a GVD voxel already there keeps its state until it leaves.
+  // Off, such voxels grow sheets that are not in the world, which become inactive places when the robot moves on.
   bool rim_guard = true;
   // The paper: each GVD voxel's distance "defines a sphere of free-space"; the union of the spheres is the free
   // space and carries its connectivity. Places of neighbouring hash cells whose spheres overlap are joined by a

@@ -572,11 +572,10 @@ TEST(PlacesTest, AWalkThroughThreeRoomsGivesOneComponentWithFreeSpaceEdgesAndRel
   EXPECT_GT(defaults.inactive, 0u) << "the walk must move places out of the window";
   EXPECT_EQ(defaults.counters.relinks_refused, 0u);
   EXPECT_EQ(defaults.components, 1u);
-  // Without unobserved space as an obstacle, the equidistance bound on basis points and the rim guard, the GVD here
+  // Without unobserved space as an obstacle and without the rim guard, the GVD here
   // breaks up at the window's edge, which makes removed places next to inactive ones: the relinks under test.
   Config legacy = small_window_config();
   legacy.unobserved_is_obstacle = false;
-  legacy.max_basis_excess_voxels = 0.0;
   legacy.rim_guard = false;
   const WalkResult with = walk_three_rooms(legacy);
   std::printf("three rooms: %zu components (%zu nodes, %zu inactive, %llu free-space edges, %llu relinked); "
