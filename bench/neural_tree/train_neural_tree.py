@@ -16,6 +16,7 @@ import json
 import math
 import os
 import struct
+import subprocess
 import sys
 import time
 
@@ -431,6 +432,22 @@ def cv_fold(task):
     return rep, k, c_nt, int((pred_lr == y[te]).sum()), len(te), ep
 
 
+def write_figures(path, figures, conditions):
+    """Figures as JSON, the same form as bench/figures.h: [{name, value, unit, conditions, commit}, ...]."""
+    if not path:
+        return
+    try:
+        commit = subprocess.run(["git", "-C", REPO, "rev-parse", "--short", "HEAD"], capture_output=True,
+                                text=True, check=False).stdout.strip() or "unknown"
+    except OSError:
+        commit = "unknown"
+    with open(path, "w") as f:
+        json.dump([{"name": n, "value": float(v), "unit": u, "conditions": conditions, "commit": commit}
+                   for n, v, u in figures], f, indent=2)
+        f.write("\n")
+    print("wrote %s" % path)
+
+
 def cmd_cv(args):
     graphs, classes, object_names = load_rooms()
     words = load_words()
@@ -473,6 +490,13 @@ def cmd_cv(args):
         print("training epochs per fold: mean %.0f, min %d, max %d" %
               (np.mean(epochs_used), min(epochs_used), max(epochs_used)))
     print("config", json.dumps(CONFIG))
+    write_figures(args.json, [("neural_tree_cv_accuracy", 100 * np.mean(acc_nt), "%"),
+                              ("neural_tree_cv_accuracy_std_repeats", 100 * np.std(acc_nt), "%"),
+                              ("logistic_regression_cv_accuracy", 100 * np.mean(acc_lr), "%"),
+                              ("logistic_regression_cv_accuracy_std_repeats", 100 * np.std(acc_lr), "%"),
+                              ("cv_wall_time", time.time() - t0, "s")],
+                  "Stanford3DSG_rooms 482 rooms, %dx%d stratified CV, config %s" %
+                  (args.repeats, args.folds, json.dumps(CONFIG, sort_keys=True)))
 
 
 # ----------------------------------------------------------------------------------------------------------------
@@ -561,6 +585,11 @@ def cmd_ssl(args):
             print("run %d: mean test %.2f %% (%.0f s)" % (run, 100 * np.mean(accs), time.time() - t0), flush=True)
     print("semi-supervised node classification (70/10/20, %d runs): %.2f +- %.2f %%" %
           (args.runs, 100 * np.mean(accs), 100 * np.std(accs)))
+    write_figures(args.json, [("semi_supervised_node_accuracy", 100 * np.mean(accs), "%"),
+                              ("semi_supervised_node_accuracy_std", 100 * np.std(accs), "%"),
+                              ("semi_supervised_wall_time", time.time() - t0, "s")],
+                  "Stanford3DSG_rooms, all room and object nodes, 70/10/20 split, %d runs, %d epochs" %
+                  (args.runs, args.epochs))
 
 
 # ----------------------------------------------------------------------------------------------------------------
@@ -713,6 +742,8 @@ def main():
     t = sub.add_parser("train")
     t.add_argument("--weights", default=WEIGHTS_OUT)
     t.add_argument("--fixture", default=FIXTURE_OUT)
+    for sp in (c, s):
+        sp.add_argument("--json", default="", help="also write the figures to this JSON file")
     for sp in (c, s, t):
         sp.add_argument("--set", action="append", default=[], help="override a CONFIG entry, key=value")
     args = p.parse_args()

@@ -63,6 +63,9 @@ struct Options {
   std::vector<std::string> variants{"plain", "furnished"};
   int generated = 2;          // two-floor generated buildings (seeds 1..N)
   int generated_rooms = 12;
+  // Room labels alone on this many more generated two-floor buildings (seeds 1001..1000+N), on their ground-truth
+  // rooms and objects: no exploration, so it is cheap enough to score hundreds of rooms.
+  int label_buildings = 0;
   int width = 320;
   int height = 240;
   double hfov_deg = 90.0;
@@ -105,6 +108,7 @@ bool parse(int argc, char** argv, Options* o) {
     else if (a == "--images") o->images_dir = v;
     else if (a == "--generated") o->generated = std::atoi(v.c_str());
     else if (a == "--generated-rooms") o->generated_rooms = std::atoi(v.c_str());
+    else if (a == "--label-buildings") o->label_buildings = std::atoi(v.c_str());
     else if (a == "--size") {
       if (std::sscanf(v.c_str(), "%dx%d", &o->width, &o->height) != 2) return false;
     } else if (a == "--hfov-deg") number = &o->hfov_deg;
@@ -482,6 +486,8 @@ struct LabelScore {
   std::size_t rooms = 0, correct = 0, unknown = 0;
   std::map<std::string, std::size_t> confusions;  // "truth -> predicted"
   std::size_t truth_rooms = 0, truth_correct = 0;  // the classifier on the world's own rooms and objects
+  std::map<std::string, std::size_t> truth_confusions;
+  std::map<std::string, std::pair<std::size_t, std::size_t>> truth_per_type;  // type -> (correct, rooms)
 };
 
 neural_tree::RoomClassifier& shared_classifier() {
@@ -528,8 +534,13 @@ void label_truth_rooms(const world::World& w, LabelScore* out) {
   for (const neural_tree::RoomPrediction& p : classifier.predictions())
     for (const world::Room& room : w.rooms)
       if (node_of_room[room.id] == p.node) {
+        const std::string want = semantics::room_label_name(room.label);
         ++out->truth_rooms;
         out->truth_correct += p.label == room.label ? 1 : 0;
+        auto& per_type = out->truth_per_type[want];
+        ++per_type.second;
+        per_type.first += p.label == room.label ? 1 : 0;
+        if (p.label != room.label) ++out->truth_confusions[want + " -> " + semantics::room_label_name(p.label)];
       }
 }
 
@@ -641,7 +652,7 @@ int main(int argc, char** argv) {
   if (!parse(argc, argv, &opt)) {
     std::fprintf(stderr,
                  "usage: %s [--plans-dir DIR] [--maps a,b|none] [--variants plain,furnished] [--generated N] "
-                 "[--generated-rooms N] [--size WxH] [--hfov-deg D] [--rate-hz R] [--max-reach-m M] [--robot-radius-m R] [--alpha A] "
+                 "[--generated-rooms N] [--label-buildings N] [--size WxH] [--hfov-deg D] [--rate-hz R] [--max-reach-m M] [--robot-radius-m R] [--alpha A] "
                  "[--min-dilation-m D] [--max-dilation-m D] [--min-component N] [--seeding plateau|persistence] "
                  "[--min-persistence-m P] [--max-door-clearance-m D] [--cache-dir DIR] [--images DIR] [--json FILE]\n",
                  argv[0]);
@@ -724,6 +735,26 @@ int main(int argc, char** argv) {
                 labels.truth_rooms > 0 ? 100.0 * labels.truth_correct / labels.truth_rooms : 0.0);
     figures.add("rooms_eval.generated_two_floor.label_accuracy", accuracy, "fraction");
     figures.add("rooms_eval.generated_two_floor.labelled_rooms", static_cast<double>(labels.rooms), "rooms");
+  }
+  if (opt.label_buildings > 0) {
+    LabelScore truth;
+    for (int i = 1; i <= opt.label_buildings; ++i) {
+      world::BuildingConfig bc;
+      bc.seed = static_cast<std::uint64_t>(1000 + i);
+      bc.num_rooms = opt.generated_rooms;
+      bc.two_floors = true;
+      label_truth_rooms(world::generate_building(bc), &truth);
+    }
+    const double accuracy = truth.truth_rooms > 0 ? static_cast<double>(truth.truth_correct) / truth.truth_rooms : 0.0;
+    std::printf("room labels on the ground-truth rooms and objects of %d generated two-floor buildings (seeds "
+                "1001..%d): %zu of %zu (%.1f %%)\n",
+                opt.label_buildings, 1000 + opt.label_buildings, truth.truth_correct, truth.truth_rooms,
+                100.0 * accuracy);
+    for (const auto& [type, n] : truth.truth_per_type)
+      std::printf("  %-14s %3zu of %3zu\n", type.c_str(), n.first, n.second);
+    for (const auto& [pair, n] : truth.truth_confusions) std::printf("  wrong: %s x %zu\n", pair.c_str(), n);
+    figures.add("rooms_eval.generated_truth.label_accuracy", accuracy, "fraction");
+    figures.add("rooms_eval.generated_truth.labelled_rooms", static_cast<double>(truth.truth_rooms), "rooms");
   }
   if (!rooms_ms.empty()) figures.add("rooms_eval.rooms_update_ms_median", median(rooms_ms), "ms");
   if (!opt.json_path.empty() && !figures.write(opt.json_path)) return 1;

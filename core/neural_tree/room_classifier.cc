@@ -340,8 +340,9 @@ void ObjectRoomGraph::add_edge(int a, int b) {
 }
 
 void RoomClassifier::Config::print(std::FILE* out) const {
-  std::fprintf(out, "RoomClassifier::Config: weights_path=%s max_rooms=%d min_probability=%.3f\n",
-               weights_path.c_str(), max_rooms, static_cast<double>(min_probability));
+  std::fprintf(out, "RoomClassifier::Config: weights_path=%s max_rooms=%d min_probability=%.3f mpcat40_aliases=%s\n",
+               weights_path.c_str(), max_rooms, static_cast<double>(min_probability),
+               alias_mpcat40_to_training_classes ? "on" : "off");
   h_tree.print(out);
 }
 
@@ -380,6 +381,13 @@ bool RoomClassifier::init(std::string* error) {
   mpcat40_word_.assign(semantics::kNumObjectLabels, -1);
   for (semantics::Label l = 0; l < semantics::kNumObjectLabels; ++l)
     mpcat40_word_[l] = word_index(semantics::object_label(l).name);
+  if (config_.alias_mpcat40_to_training_classes) {
+    // mpcat40 name -> the COCO class (Stanford3DSG spelling) for the same object.
+    static constexpr std::pair<semantics::Label, const char*> kAliases[] = {
+        {semantics::kSofa, "couch"}, {semantics::kTvMonitor, "tv"}, {semantics::kTable, "dining_table"}};
+    for (const auto& [label, coco] : kAliases)
+      if (const int row = word_index(coco); row >= 0) mpcat40_word_[label] = row;
+  }
   const auto nodes = static_cast<Eigen::Index>(config_.h_tree.max_htree_nodes);
   const auto graph_nodes = static_cast<std::size_t>(config_.h_tree.max_graph_nodes);
   layered_.layers.reserve(graph_nodes);

@@ -74,6 +74,24 @@ TEST(RoomClassifier, ShippedWeightsLoad) {
   classifier.config().print(stdout);
 }
 
+// mpcat40 labels that name a COCO training class use that class's row (one-hot included); off, their own word.
+TEST(RoomClassifier, Mpcat40AliasesUseTheTrainingClassRow) {
+  RoomClassifier on;
+  std::string error;
+  ASSERT_TRUE(on.init(&error)) << error;
+  EXPECT_EQ(on.word_index(semantics::kSofa), on.word_index("couch"));
+  EXPECT_EQ(on.word_index(semantics::kTvMonitor), on.word_index("tv"));
+  EXPECT_EQ(on.word_index(semantics::kTable), on.word_index("dining_table"));
+  EXPECT_EQ(on.word_index(semantics::kChair), on.word_index("chair"));  // same name in both sets
+  RoomClassifier::Config config;
+  config.alias_mpcat40_to_training_classes = false;
+  RoomClassifier off(config);
+  ASSERT_TRUE(off.init(&error)) << error;
+  EXPECT_EQ(off.word_index(semantics::kSofa), off.word_index("sofa"));
+  EXPECT_NE(off.word_index(semantics::kSofa), off.word_index("couch"));
+  EXPECT_EQ(off.word_index(semantics::kTable), off.word_index("table"));
+}
+
 // C++ and PyTorch agree on the same weights: logits and probabilities within 1e-4, identical H-trees.
 TEST(RoomClassifier, ParityWithPyTorch) {
   std::ifstream in(fixture_path());
