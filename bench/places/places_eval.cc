@@ -55,20 +55,23 @@ struct Options {
   bool contract = true;   // --no-contract
   bool unobserved_obstacle = true;  // --no-unobserved-obstacle: Config::unobserved_is_obstacle off
   bool rim_guard = true;            // --no-rim-guard: Config::rim_guard off
+  bool signed_seeds = true;         // --no-signed-seeds: Config::signed_surface_seeds off
+  bool projective_correction = true;  // --no-projective-correction: Config::correct_projective_distance off
   std::string floorplan;   // --floorplan NAME: explore this extruded benchmark plan instead of generated buildings
   bool furnished = false;
   std::string plans_dir = std::string(QSG_SHARED_DATA_DIR) + "/floorplans/ipa";
   double window_radius_m = 0.0;  // --window-radius-m: places window (0: the Config default)
   double slab_above_m = 0.0;     // --slab-above-m: ESDF slab above the robot (0: the Config default)
   int bridge_max_places = 0;     // --bridge-max-places: Config::bridge_max_fragment_places (0: the default)
+  std::vector<Eigen::Vector3d> trace;  // --trace X,Y,Z (repeatable): the ESDF voxel there, whenever it changes
   double unobserved_above_m = -1.0;  // --unobserved-above-m: Config::unobserved_obstacle_above_m (< 0: the default)
 };
 
 void usage(const char* argv0) {
   std::fprintf(stderr,
                "usage: %s [--seeds 1,2,3] [--rooms N] [--size WxH] [--hfov-deg D] [--rate-hz R] [--every-n N] "
-               "[--no-observe] [--no-free-space-edges] [--no-relink] [--no-bridges] [--no-contract] [--no-unobserved-obstacle] [--no-rim-guard] [--floorplan NAME [--furnished]] "
-               "[--plans-dir DIR] [--window-radius-m R] [--slab-above-m H] [--bridge-max-places N] [--unobserved-above-m H] [--json FILE] [--verbose] [--diagnose]\n"
+               "[--no-observe] [--no-free-space-edges] [--no-relink] [--no-bridges] [--no-contract] [--no-unobserved-obstacle] [--no-rim-guard] [--no-signed-seeds] [--no-projective-correction] [--floorplan NAME [--furnished]] "
+               "[--plans-dir DIR] [--window-radius-m R] [--slab-above-m H] [--bridge-max-places N] [--unobserved-above-m H] [--trace X,Y,Z] [--json FILE] [--verbose] [--diagnose]\n"
                "  NAME: a map of the plans dir (Freiburg52_scan, lab_c_scan, lab_intel, lab_ipa, office_a, office_e)\n",
                argv0);
 }
@@ -99,6 +102,14 @@ bool parse(int argc, char** argv, Options* o) {
     }
     if (a == "--no-bridges") {
       o->bridges = false;
+      continue;
+    }
+    if (a == "--no-projective-correction") {
+      o->projective_correction = false;
+      continue;
+    }
+    if (a == "--no-signed-seeds") {
+      o->signed_seeds = false;
       continue;
     }
     if (a == "--no-rim-guard") {
@@ -159,6 +170,15 @@ bool parse(int argc, char** argv, Options* o) {
       o->slab_above_m = std::strtod(v.c_str(), &end);
     } else if (a == "--unobserved-above-m") {
       o->unobserved_above_m = std::strtod(v.c_str(), &end);
+    } else if (a == "--trace") {
+      Eigen::Vector3d p;
+      if (std::sscanf(v.c_str(), "%lf,%lf,%lf", &p.x(), &p.y(), &p.z()) != 3) {
+        std::fprintf(stderr, "--trace: expected X,Y,Z in metres, got '%s'\n", v.c_str());
+        return false;
+      }
+      o->trace.push_back(p);
+      continue;
+
     } else if (a == "--bridge-max-places") {
       o->bridge_max_places = static_cast<int>(std::strtol(v.c_str(), &end, 10));
     } else if (a == "--window-radius-m") {
@@ -523,6 +543,8 @@ bool run_world(const Options& opt, const world::World& w, bool floor_plan, Build
   pc.contract_removed = opt.contract;
   pc.unobserved_is_obstacle = opt.unobserved_obstacle;
   pc.rim_guard = opt.rim_guard;
+  pc.signed_surface_seeds = opt.signed_seeds;
+  pc.correct_projective_distance = opt.projective_correction;
   reconstruction::Capacities rcaps = reconstruction::capacities_from_budget();
   std::size_t tsdf_bytes = budgets::active::reconstruction::kArenaBytes;
   places::Capacities pcaps = places::capacities_from_budget();
@@ -573,6 +595,26 @@ bool run_world(const Options& opt, const world::World& w, bool floor_plan, Build
   }
 
   std::map<scene_graph::NodeId, NodeHistory> history;
+  std::vector<std::string> traced(opt.trace.size());
+  const auto trace_voxels = [&](std::size_t keyframe, const Eigen::Vector3d& robot_m) {
+    for (std::size_t i = 0; i < opt.trace.size(); ++i) {
+      places::VoxelProbe v;
+      char line[384];
+      if (!places.probe(opt.trace[i], &v)) {
+        std::snprintf(line, sizeof(line), "no block");
+      } else {
+        int n = std::snprintf(line, sizeof(line), "%s%s%s d %.2f basis %d", v.state, v.carved ? " carved" : "",
+                              v.gvd ? " GVD" : "", v.distance_m, v.num_basis_points);
+        if (v.has_parent)
+          std::snprintf(line + n, sizeof(line) - static_cast<std::size_t>(n), " parent %.2f %.2f %.2f (%s, d %.2f)",
+                        v.parent_m.x(), v.parent_m.y(), v.parent_m.z(), v.parent_state, v.parent_distance_m);
+      }
+      if (traced[i] == line) continue;
+      traced[i] = line;
+      std::printf("  trace %.2f %.2f %.2f keyframe %zu robot %.2f %.2f %.2f: %s\n", opt.trace[i].x(), opt.trace[i].y(),
+                  opt.trace[i].z(), keyframe, robot_m.x(), robot_m.y(), robot_m.z(), line);
+    }
+  };
   auto frame = std::make_unique<drivers::RgbdFrame>();
   bench::for_each_posed_frame(camera, *frame, [&](const drivers::RgbdFrame& f, const Eigen::Isometry3d& pose,
                                                   std::int64_t) {
@@ -589,6 +631,7 @@ bool run_world(const Options& opt, const world::World& w, bool floor_plan, Build
     const auto t1 = std::chrono::steady_clock::now();
     out->update_ms.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
     if (opt.diagnose) track_history(graph, static_cast<int>(out->keyframes), &history);
+    trace_voxels(out->keyframes, pose.translation());
   });
   // Finish any cycle in flight, and take in the keyframes observed since the last update.
   places.update(tsdf, tour.trajectory.back().world_t_body_m, places::Deadline::unlimited());

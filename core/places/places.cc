@@ -173,14 +173,15 @@ void Config::print(std::FILE* out) const {
                "min_tsdf_weight=%.2f free_space_edges=%d relink_inactive=%d bridge_fragments=%d "
                "bridge_max_fragment_places=%d bridge_max_length_m=%.2f bridge_min_clearance_m=%.2f "
                "enclosed_max_voxels=%d contract_removed=%d contract_search_places=%d unobserved_is_obstacle=%d "
-               "unobserved_obstacle_above_m=%.2f rim_guard=%d\n",
+               "unobserved_obstacle_above_m=%.2f rim_guard=%d signed_surface_seeds=%d correct_projective_distance=%d\n",
                voxel_factor, max_distance_m, min_clearance_m, min_basis_angle_rad * 180.0 / 3.14159265358979,
                min_basis_points, place_resolution_m, window_radius_m, slab_below_m, slab_above_m, min_tsdf_weight,
                free_space_edges ? 1 : 0, relink_inactive ? 1 : 0, bridge_fragments ? 1 : 0,
                bridge_max_fragment_places, bridge_max_length_m, bridge_min_clearance_m, enclosed_max_voxels,
                contract_removed ? 1 : 0,
                contract_search_places, unobserved_is_obstacle ? 1 : 0,
-               unobserved_obstacle_above_m, rim_guard ? 1 : 0);
+               unobserved_obstacle_above_m, rim_guard ? 1 : 0, signed_surface_seeds ? 1 : 0,
+               correct_projective_distance ? 1 : 0);
 }
 
 void Capacities::print(std::FILE* out) const {
@@ -537,6 +538,83 @@ void Places::apply_state(std::uint32_t ref, std::uint8_t state, float seed_m) {
 // averages its factor^3 TSDF voxels (its centre is their common corner, where the mean is the TSDF's trilinear
 // value): unobserved when none is observed (free if carved), free at the truncation distance, a seed inside the
 // band (and on a zero crossing), occupied behind the surface.
+// Distance from the centre of the ESDF voxel whose first TSDF voxel is (x0, y0, z0) of TSDF block `tb` to the
+// surface, from the TSDF's zero crossings: along each axis, each of the factor^2 TSDF columns through the voxel is
+// searched outwards from the centre (up to two TSDF voxels beyond the ESDF voxel) for the nearest sign change,
+// interpolated linearly; d_a is the mean crossing distance of the columns that have one. A plane at distance d
+// with normal n crosses axis a at d / |n_a|, so d = 1 / sqrt(sum 1 / d_a^2) over the axes with a crossing
+// (exact for a plane; nearer for corners). Interpolation uses ratios of TSDF values, so the projective
+// overestimate cancels. False when no column crosses.
+bool Places::crossing_distance(const reconstruction::SemanticTsdf& tsdf, const memory::Index3& tb, int x0, int y0,
+                               int z0, float* distance_m) const {
+  const int f = config_.voxel_factor;
+  constexpr int kSide = reconstruction::kBlockSide;
+  const std::uint16_t min_w = static_cast<std::uint16_t>(
+      std::min(65535.0, std::floor(config_.min_tsdf_weight * reconstruction::kWeightScale)));
+  // TSDF blocks around tb, looked up once each on first use.
+  bool looked[27] = {};
+  const reconstruction::Voxel* voxels[27] = {};
+  const auto sample = [&](int x, int y, int z, float* value) {
+    const int bx = x < 0 ? -1 : (x >= kSide ? 1 : 0), by = y < 0 ? -1 : (y >= kSide ? 1 : 0),
+              bz = z < 0 ? -1 : (z >= kSide ? 1 : 0);
+    const int slot = (bx + 1) + 3 * ((by + 1) + 3 * (bz + 1));
+    if (!looked[slot]) {
+      looked[slot] = true;
+      const std::uint32_t handle = tsdf.find_block({tb.x + bx, tb.y + by, tb.z + bz});
+      reconstruction::SemanticTsdf::BlockView view;
+      if (handle != memory::kInvalidHandle && tsdf.block_view(handle, &view)) voxels[slot] = view.voxels;
+    }
+    if (voxels[slot] == nullptr) return false;
+    const reconstruction::Voxel& v =
+        voxels[slot][(x - bx * kSide) + kSide * ((y - by * kSide) + kSide * (z - bz * kSide))];
+    if (v.weight_q <= min_w) return false;
+    *value = tsdf.sdf_m(v);
+    return true;
+  };
+  const float tv = static_cast<float>(tsdf_voxel_m_);
+  const float centre = 0.5f * static_cast<float>(f);  // the ESDF voxel's centre, in TSDF voxels from (x0, y0, z0)
+  float inv_sq = 0.0f;
+  for (int axis = 0; axis < 3; ++axis) {
+    float sum = 0.0f;
+    int count = 0;
+    for (int u = 0; u < f; ++u)
+      for (int w = 0; w < f; ++w) {
+        // Samples along the column at TSDF offsets k = -2 .. f + 1 (centres at k + 0.5).
+        float best = std::numeric_limits<float>::infinity();
+        float prev = 0.0f;
+        bool have_prev = false;
+        for (int k = -2; k <= f + 1; ++k) {
+          int c[3];
+          c[axis] = k;
+          c[(axis + 1) % 3] = u;
+          c[(axis + 2) % 3] = w;
+          float value = 0.0f;
+          if (!sample(x0 + c[0], y0 + c[1], z0 + c[2], &value)) {
+            have_prev = false;
+            continue;
+          }
+          if (have_prev && (prev > 0.0f) != (value > 0.0f)) {
+            const float at = static_cast<float>(k) - 0.5f + prev / (prev - value);  // crossing, in TSDF voxels
+            best = std::min(best, std::fabs(at - centre));
+          }
+          prev = value;
+          have_prev = true;
+        }
+        if (best < std::numeric_limits<float>::infinity()) {
+          sum += best;
+          ++count;
+        }
+      }
+    if (count > 0) {
+      const float d = std::max(1e-3f, sum / static_cast<float>(count) * tv);
+      inv_sq += 1.0f / (d * d);
+    }
+  }
+  if (inv_sq <= 0.0f) return false;
+  *distance_m = 1.0f / std::sqrt(inv_sq);
+  return true;
+}
+
 void Places::seed_sub_block(const reconstruction::SemanticTsdf& tsdf, std::uint32_t handle, int sub, bool carve) {
   const int f = config_.voxel_factor;
   Block& b = blocks_[handle];
@@ -584,16 +662,27 @@ void Places::seed_sub_block(const reconstruction::SemanticTsdf& tsdf, std::uint3
         std::uint8_t state = (vox(ref).flags & kCarved) != 0 ? kFree : kUnobserved;
         float seed = 0.0f;
         if (observed > 0) {
-          const float mean = sum / static_cast<float>(observed);
+          float mean = sum / static_cast<float>(observed);
+          // The TSDF's projective distances (along camera rays) overestimate the distance to a surface seen at a
+          // grazing angle by 1/sin(angle): a floor seen 2 m ahead from 0.5 m, x4, up to the truncation. Seeds
+          // that far off put every voxel near a floor or a ceiling farther from it than it is, and raise GVD
+          // sheets between patches of the same floor. Where the zero crossing is found near the voxel, its
+          // position (interpolated, so the projective scale cancels) gives the Euclidean distance instead.
+          if (config_.correct_projective_distance && mean < clamp_m) {
+            float d = 0.0f;
+            if (crossing_distance(tsdf, tb, ex * f, ey * f, ez * f, &d)) mean = std::copysign(d, mean);
+          }
           if (mean >= clamp_m) {
             state = kFree;
           } else if (mean > 0.0f) {
             state = kSeed;
             seed = mean;
           } else if (positive > 0) {
-            // A zero crossing inside the voxel: the surface itself, a seed at distance 0 (the TSDF's projective
-            // distances overestimate at grazing angles, so the band alone can miss a surface seen obliquely).
+            // A zero crossing inside the voxel: the surface itself, a seed (the TSDF's projective distances
+            // overestimate at grazing angles, so the band alone can miss a surface seen obliquely), at the signed
+            // distance of its centre behind the surface (<= 0; 0 when signed_surface_seeds is off).
             state = kSeed;
+            if (config_.signed_surface_seeds) seed = std::max(mean, -0.5f * static_cast<float>(voxel_m_));
           } else {
             state = kOccupied;
           }
@@ -2084,6 +2173,32 @@ bool Places::distance_at(const Eigen::Vector3d& p_m, float* distance_m) const {
   const Voxel& v = vox(ref);
   if ((v.state != kFree && v.state != kSeed) || v.parent == kNoRef) return false;
   *distance_m = v.distance_m;
+  return true;
+}
+
+bool Places::probe(const Eigen::Vector3d& p_m, VoxelProbe* out) const {
+  if (!ready_) return false;
+  const memory::Index3 g{static_cast<std::int32_t>(std::floor(p_m.x() / voxel_m_)),
+                         static_cast<std::int32_t>(std::floor(p_m.y() / voxel_m_)),
+                         static_cast<std::int32_t>(std::floor(p_m.z() / voxel_m_))};
+  const std::uint32_t ref = find_voxel(g);
+  if (ref == kNoRef) return false;
+  static constexpr const char* kStates[] = {"free", "seed", "occupied", "unobserved"};
+  const Voxel& v = vox(ref);
+  *out = VoxelProbe{};
+  out->position_m = center_m(g);
+  out->state = kStates[v.state & 3];
+  out->carved = (v.flags & kCarved) != 0;
+  out->gvd = (v.flags & kGvd) != 0;
+  out->distance_m = v.distance_m;
+  out->num_basis_points = v.num_basis;
+  if (v.parent != kNoRef) {
+    const Voxel& pv = vox(v.parent);
+    out->has_parent = true;
+    out->parent_m = center_m(coords(v.parent));
+    out->parent_state = kStates[pv.state & 3];
+    out->parent_distance_m = pv.distance_m;
+  }
   return true;
 }
 

@@ -52,6 +52,15 @@ struct Config {
   double slab_below_m = 2.0;
   double slab_above_m = 3.0;
   double min_tsdf_weight = 0.0;      // TSDF voxels with more weight than this count as observed
+  // A GVD voxel that holds the surface (a zero crossing among its TSDF voxels) seeds the wavefront with the TSDF's
+  // signed distance at its centre (down to -half a voxel behind the surface) rather than 0, so distances in free
+  // space count from the surface, not from the centre of the coarse voxel that holds it (which is up to half a
+  // GVD voxel, 0.1 m, off either way). Off: such seeds start at 0.
+  bool signed_surface_seeds = true;
+  // Seeds take their distance from the TSDF's zero crossings near them, interpolated along the three axes, rather
+  // than from the TSDF's value: projective distances at grazing angles overestimate by 1/sin(angle) (a floor seen
+  // from a 0.5 m camera: up to 4x, to the truncation); see crossing_distance. Off: the TSDF's value.
+  bool correct_projective_distance = true;
   // Unobserved space beside free space may hold a surface (a floor under the camera's view, a ceiling above it):
   // it bounds ESDF distances like an obstacle (a frontier seed at distance 0), and a voxel nearer to it than to
   // any surface, or a frontier basis point, makes no GVD. Off, distances come from observed surfaces only and
@@ -205,6 +214,18 @@ struct GvdVoxelInfo {
   std::uint8_t num_basis_points = 0;
   std::vector<Eigen::Vector3d> basis_m;  // the basis points' voxel centres (surface seeds)
 };
+// One ESDF voxel as the places see it (diagnosis: places_eval --trace).
+struct VoxelProbe {
+  Eigen::Vector3d position_m = Eigen::Vector3d::Zero();  // voxel centre
+  const char* state = "";      // free, seed, occupied, unobserved
+  bool carved = false, gvd = false;
+  float distance_m = 0.0f;
+  int num_basis_points = 0;
+  bool has_parent = false;
+  Eigen::Vector3d parent_m = Eigen::Vector3d::Zero();
+  const char* parent_state = "";
+  float parent_distance_m = 0.0f;
+};
 struct PlaceInfo {
   scene_graph::NodeId id = scene_graph::kNoNode;
   Eigen::Vector3d position_m;
@@ -248,6 +269,7 @@ class Places {
   // ESDF value at a point: false when the voxel is not allocated, not free or not reached by a wavefront.
   bool distance_at(const Eigen::Vector3d& p_m, float* distance_m) const;
   void gvd_voxels(std::vector<GvdVoxelInfo>* out) const;
+  bool probe(const Eigen::Vector3d& p_m, VoxelProbe* out) const;  // false when no block holds p
   void places(std::vector<PlaceInfo>* out) const;
   bool cycle_in_progress() const { return phase_ != 0; }
   double voxel_size_m() const { return voxel_m_; }
@@ -305,6 +327,8 @@ class Places {
   void evict_block_voxels(std::uint32_t handle);
   void release_block(std::uint32_t handle);
   void seed_sub_block(const reconstruction::SemanticTsdf& tsdf, std::uint32_t handle, int sub, bool carve);
+  bool crossing_distance(const reconstruction::SemanticTsdf& tsdf, const memory::Index3& tb, int x0, int y0, int z0,
+                         float* distance_m) const;
   void carve_ray(const reconstruction::SemanticTsdf& tsdf, const Eigen::Vector3d& origin_m, std::uint32_t target);
   void apply_state(std::uint32_t ref, std::uint8_t state, float seed_m);
   void raise_dependents(std::uint32_t seed_ref, bool include_seed);

@@ -189,6 +189,54 @@ TEST(PlacesTest, UnobservedSpaceBoundsDistancesAndMakesNoGvd) {
   EXPECT_LT(all.mean_gvd_distance_m, off.mean_gvd_distance_m);
 }
 
+// A level camera 0.5 m above the floor sees most of the floor at a grazing angle, where the TSDF's projective
+// distances overestimate (by 1/sin(angle), up to the truncation). Seeds measured from the TSDF's zero crossings
+// give ESDF distances near the floor that match the true clearance; seeds at the TSDF's values overclaim.
+struct FloorError {
+  double mean_abs_m = 0.0;
+  std::size_t samples = 0, overclaimed = 0;
+};
+FloorError floor_distance_error(bool corrected) {
+  Config config;
+  config.correct_projective_distance = corrected;
+  config.signed_surface_seeds = corrected;
+  Scanner scanner;
+  std::string error;
+  const world::World w = testing::rooms_world({6.0}, 4.0, false);
+  EXPECT_TRUE(scanner.init(w, 100.0, &error)) << error;
+  auto places = make_places(config);
+  for (const Eigen::Vector3d& p : {Eigen::Vector3d(1.5, 1.0, 0.5), Eigen::Vector3d(4.5, 3.0, 0.5)})
+    EXPECT_TRUE(scanner.spin_at_pitches(p, 8, {0.0}, every_frame(places.get(), &scanner)));
+  FloorError out;
+  double sum = 0.0;
+  const double s = places->voxel_size_m();
+  // Voxel centres 0.1-0.5 m above the floor, at least 1 m from every wall (the floor is the nearest surface).
+  for (double z = 0.5 * s; z < 0.6; z += s)
+    for (double y = 1.0 + 0.5 * s; y < 3.0; y += s)
+      for (double x = 1.0 + 0.5 * s; x < 5.0; x += s) {
+        float d = 0.0f;
+        if (!places->distance_at({x, y, z}, &d)) continue;
+        const double err = static_cast<double>(d) - z;
+        sum += std::fabs(err);
+        ++out.samples;
+        out.overclaimed += err > 0.5 * s ? 1 : 0;
+      }
+  out.mean_abs_m = out.samples > 0 ? sum / static_cast<double>(out.samples) : 0.0;
+  return out;
+}
+
+TEST(PlacesTest, SeedsFromZeroCrossingsUndoTheProjectiveOverestimate) {
+  const FloorError on = floor_distance_error(true), off = floor_distance_error(false);
+  std::printf("ESDF near the floor vs true clearance: zero-crossing seeds mean |error| %.3f m, %zu of %zu overclaim "
+              "by > half a voxel; TSDF-value seeds %.3f m, %zu of %zu\n",
+              on.mean_abs_m, on.overclaimed, on.samples, off.mean_abs_m, off.overclaimed, off.samples);
+  ASSERT_GT(on.samples, 100u);
+  ASSERT_GT(off.samples, 100u);
+  EXPECT_GT(off.overclaimed, off.samples / 4) << "the scene must show the projective overestimate";
+  EXPECT_LT(on.mean_abs_m, 0.5 * off.mean_abs_m);
+  EXPECT_LT(on.overclaimed, on.samples / 20);
+}
+
 // Two rooms joined by a door: one connected free-space region, so one connected places graph. Two closed rooms:
 // two regions, two components.
 std::size_t components_of_two_rooms(bool door, std::size_t* num_places) {
