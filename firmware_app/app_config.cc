@@ -140,7 +140,10 @@ bool AppConfig::load(const std::string& path, std::string* error) {
                               {"place_resolution_m", number(&pc.place_resolution_m)},
                               {"window_radius_m", number(&pc.window_radius_m)},
                               {"unobserved_is_obstacle", boolean(&pc.unobserved_is_obstacle)},
-                              {"unobserved_obstacle_above_m", number(&pc.unobserved_obstacle_above_m)}},
+                              {"unobserved_obstacle_above_m", number(&pc.unobserved_obstacle_above_m)},
+                              {"signed_surface_seeds", boolean(&pc.signed_surface_seeds)},
+                              {"correct_projective_distance", boolean(&pc.correct_projective_distance)},
+                              {"bridge_max_fragment_places", number(&pc.bridge_max_fragment_places)}},
                              why);
        }},
       {"rooms", [&](const Json& v, std::string* why) {

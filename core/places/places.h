@@ -92,7 +92,7 @@ struct Config {
   // (one TSDF voxel by default: every GVD voxel it crosses is observed free space, none holds a surface; a whole
   // GVD voxel would refuse the 0.4 m gaps between furniture where such fragments sit).
   bool bridge_fragments = true;
-  int bridge_max_fragment_places = 4;
+  int bridge_max_fragment_places = 16;  // 4 left 43- and 19-place groups of a furnished plan apart (Freiburg52)
   double bridge_max_length_m = 3.0;
   double bridge_min_clearance_m = 0.1;
   // A fragment that no bridge can join although places lie within reach, and that holds at most this many GVD
@@ -266,7 +266,8 @@ class Places {
   // Adds, updates, deactivates and removes only the place nodes and edges that changed since the last sync.
   SyncResult sync(scene_graph::SceneGraph* graph);
 
-  // ESDF value at a point: false when the voxel is not allocated, not free or not reached by a wavefront.
+  // ESDF value at a point: false when the voxel is not allocated, not free or not reached by a wavefront. Up to
+  // half a voxel negative in a surface voxel whose centre lies behind the surface (signed_surface_seeds).
   bool distance_at(const Eigen::Vector3d& p_m, float* distance_m) const;
   void gvd_voxels(std::vector<GvdVoxelInfo>* out) const;
   bool probe(const Eigen::Vector3d& p_m, VoxelProbe* out) const;  // false when no block holds p
