@@ -173,7 +173,8 @@ void Config::print(std::FILE* out) const {
                "min_tsdf_weight=%.2f free_space_edges=%d relink_inactive=%d bridge_fragments=%d "
                "bridge_max_fragment_places=%d bridge_max_length_m=%.2f bridge_min_clearance_m=%.2f "
                "enclosed_max_voxels=%d contract_removed=%d contract_search_places=%d unobserved_is_obstacle=%d "
-               "unobserved_obstacle_above_m=%.2f rim_guard=%d signed_surface_seeds=%d correct_projective_distance=%d\n",
+               "unobserved_obstacle_above_m=%.2f rim_guard=%d signed_surface_seeds=%d correct_projective_distance=%d "
+               "hold_distant_fragments=%d\n",
                voxel_factor, max_distance_m, min_clearance_m, min_basis_angle_rad * 180.0 / 3.14159265358979,
                min_basis_points, place_resolution_m, window_radius_m, slab_below_m, slab_above_m, min_tsdf_weight,
                free_space_edges ? 1 : 0, relink_inactive ? 1 : 0, bridge_fragments ? 1 : 0,
@@ -181,7 +182,7 @@ void Config::print(std::FILE* out) const {
                contract_removed ? 1 : 0,
                contract_search_places, unobserved_is_obstacle ? 1 : 0,
                unobserved_obstacle_above_m, rim_guard ? 1 : 0, signed_surface_seeds ? 1 : 0,
-               correct_projective_distance ? 1 : 0);
+               correct_projective_distance ? 1 : 0, hold_distant_fragments ? 1 : 0);
 }
 
 void Capacities::print(std::FILE* out) const {
@@ -1636,7 +1637,11 @@ void Places::bridge_fragment(std::uint32_t cluster) {
     std::uint32_t voxels = 0;
     for (int i = 0; i < num; ++i) voxels += clusters_[members[i]].count;
     const bool enclosed = candidates && static_cast<int>(voxels) <= config_.enclosed_max_voxels;
-    for (int i = 0; i < num; ++i) set_held(members[i], enclosed);
+    bool distant = config_.hold_distant_fragments;
+    for (int i = 0; i < num && distant; ++i)
+      distant = (clusters_[members[i]].position_m - cycle_robot_m_).squaredNorm() > max_len * max_len;
+    // Distance holds back only places not yet published: one in the graph stays there when the robot walks away.
+    for (int i = 0; i < num; ++i) set_held(members[i], enclosed || (distant && !clusters_[members[i]].synced));
     return;
   }
   clusters_[cluster].bridge_check = 0;

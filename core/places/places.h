@@ -99,6 +99,12 @@ struct Config {
   // voxels, is a pocket enclosed by surfaces (the averaged TSDF opens small cavities inside furniture), not free
   // space the robot can reach: it is kept out of the scene graph while so. 0 publishes every place.
   int enclosed_max_voxels = 8;
+  // A fragment that no bridge can join and that lies wholly farther than bridge_max_length_m from the robot is
+  // free space seen from afar (through a door, past furniture) that no observed free space joins to the robot's
+  // yet: its places not yet in the scene graph are kept out until a bridge joins them or the robot comes near,
+  // and dropped if they leave the window first (seen again when the robot comes back). Places already published
+  // stay. Off, such islands stay separate components of the graph.
+  bool hold_distant_fragments = true;
   // When a removed place was the only link between an inactive place and the active graph (no active place within
   // contract_search_places graph nodes of the inactive one without it), the inactive place is joined to the removed
   // place's nearest other neighbour: an edge contraction, so removing a node never cuts the graph.
@@ -173,7 +179,7 @@ struct Counters {
   std::uint64_t bridges_added = 0;
   std::uint64_t bridges_missing = 0;   // last cycle: fragment checks that found no place reachable through free space
   std::uint64_t contracted = 0;        // edges added by contraction around a removed place (see Config)
-  std::uint64_t enclosed_held = 0;     // current live places held out of the graph as enclosed pockets
+  std::uint64_t enclosed_held = 0;     // current live places held out of the graph (enclosed pockets, distant islands)
   void print(std::FILE* out) const;
 };
 

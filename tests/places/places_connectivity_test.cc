@@ -107,6 +107,37 @@ TEST(PlacesConnectivityTest, NoBridgeCrossesAWall) {
   EXPECT_EQ(closed.counters.enclosed_held, 0u) << "a closed room is a region, not a pocket";
 }
 
+// A closed closet is its own region: its places, published while the robot stood in it, stay in the graph when the
+// robot goes back to the room and the closet's fragment is far from it and can be bridged to nothing.
+TEST(PlacesConnectivityTest, PublishedPlacesStayWhenTheRobotWalksAway) {
+  Config config = wide_clearance(true);
+  config.bridge_max_length_m = 1.5;  // the closet's places are farther than this from the room's spin
+  ASSERT_TRUE(config.hold_distant_fragments);
+  Scanner scanner;
+  std::string error;
+  ASSERT_TRUE(scanner.init(testing::rooms_world({3.0, 1.6}, 3.0, false), 100.0, &error)) << error;
+  auto places = make_places(config);
+  auto graph = make_graph();
+  std::size_t in_closet = 0;
+  const auto closet_places = [&]() {
+    std::size_t n = 0;
+    graph->for_each_node([&](const scene_graph::NodeRecord& node) {
+      if (node.kind == scene_graph::NodeKind::kPlace && graph->place(node.id)->position_m.x() > kWallMaxX) ++n;
+    });
+    return n;
+  };
+  const auto hook = [&](const Eigen::Vector3d& camera) {
+    run_to_completion(places.get(), scanner.tsdf(), camera);
+    places->sync(graph.get());
+  };
+  ASSERT_TRUE(scanner.spin({3.9, 1.5, 1.2}, 6, hook));
+  in_closet = closet_places();
+  ASSERT_GT(in_closet, 0u);
+  ASSERT_TRUE(scanner.spin({1.0, 1.5, 1.2}, 6, hook));
+  EXPECT_GT(places->counters().bridges_missing, 0u) << "the closet must have looked for a bridge";
+  EXPECT_GE(closet_places(), in_closet) << "published places were withdrawn";
+}
+
 // The whole cycle that adds the bridge, and the sync that publishes it, run without touching the heap.
 TEST(PlacesConnectivityTest, BridgingDoesNotAllocate) {
   Scanner scanner;
