@@ -143,7 +143,8 @@ bool AppConfig::load(const std::string& path, std::string* error) {
                               {"unobserved_obstacle_above_m", number(&pc.unobserved_obstacle_above_m)},
                               {"signed_surface_seeds", boolean(&pc.signed_surface_seeds)},
                               {"correct_projective_distance", boolean(&pc.correct_projective_distance)},
-                              {"bridge_max_fragment_places", number(&pc.bridge_max_fragment_places)}},
+                              {"bridge_max_fragment_places", number(&pc.bridge_max_fragment_places)},
+                              {"hold_distant_fragments", boolean(&pc.hold_distant_fragments)}},
                              why);
        }},
       {"rooms", [&](const Json& v, std::string* why) {

@@ -228,6 +228,13 @@ TEST(AppConfigTest, LoadsKnownKeysAndNamesBadOnes) {
   EXPECT_EQ(shipped.camera.intrinsics.width, AppConfig().camera.intrinsics.width);
   EXPECT_EQ(shipped.rooms.seeding, AppConfig().rooms.seeding);
   EXPECT_EQ(shipped.rooms.min_component_size, AppConfig().rooms.min_component_size);
+  const places::Config& sp = shipped.frontend.places;
+  const places::Config dp = AppConfig().frontend.places;
+  EXPECT_EQ(sp.signed_surface_seeds, dp.signed_surface_seeds);
+  EXPECT_EQ(sp.correct_projective_distance, dp.correct_projective_distance);
+  EXPECT_EQ(sp.bridge_max_fragment_places, dp.bridge_max_fragment_places);
+  EXPECT_EQ(sp.hold_distant_fragments, dp.hold_distant_fragments);
+  EXPECT_EQ(sp.unobserved_obstacle_above_m, dp.unobserved_obstacle_above_m);
 }
 
 }  // namespace
