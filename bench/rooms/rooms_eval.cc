@@ -486,6 +486,7 @@ struct LabelScore {
   std::size_t rooms = 0, correct = 0, unknown = 0;
   std::map<std::string, std::size_t> confusions;  // "truth -> predicted"
   std::size_t truth_rooms = 0, truth_correct = 0;  // the classifier on the world's own rooms and objects
+  std::size_t truth_unknown = 0;  // rooms the classifier left "unknown" (no objects, or below min_probability)
   std::map<std::string, std::size_t> truth_confusions;
   std::map<std::string, std::pair<std::size_t, std::size_t>> truth_per_type;  // type -> (correct, rooms)
 };
@@ -537,6 +538,7 @@ void label_truth_rooms(const world::World& w, LabelScore* out) {
         const std::string want = semantics::room_label_name(room.label);
         ++out->truth_rooms;
         out->truth_correct += p.label == room.label ? 1 : 0;
+        out->truth_unknown += p.label == semantics::kRoomUnknown ? 1 : 0;
         auto& per_type = out->truth_per_type[want];
         ++per_type.second;
         per_type.first += p.label == room.label ? 1 : 0;
@@ -729,6 +731,9 @@ int main(int argc, char** argv) {
     std::printf("room labels (neural tree, generated two-floor): %zu of %zu estimated rooms correct (%.1f %%), %zu "
                 "unknown; each room scored against the ground-truth room holding most of its places\n",
                 labels.correct, labels.rooms, 100.0 * accuracy, labels.unknown);
+    const std::size_t labelled = labels.rooms - labels.unknown;
+    std::printf("  of the %zu labelled (not unknown), %zu correct (%.1f %%)\n", labelled, labels.correct,
+                labelled > 0 ? 100.0 * labels.correct / labelled : 0.0);
     for (const auto& [pair, n] : labels.confusions) std::printf("  wrong: %s x %zu\n", pair.c_str(), n);
     std::printf("room labels on the ground-truth rooms and objects of the same buildings: %zu of %zu (%.1f %%)\n",
                 labels.truth_correct, labels.truth_rooms,
@@ -750,6 +755,12 @@ int main(int argc, char** argv) {
                 "1001..%d): %zu of %zu (%.1f %%)\n",
                 opt.label_buildings, 1000 + opt.label_buildings, truth.truth_correct, truth.truth_rooms,
                 100.0 * accuracy);
+    const std::size_t labelled = truth.truth_rooms - truth.truth_unknown;
+    std::printf("  %zu left unknown; of the %zu labelled, %zu correct (%.1f %%)\n", truth.truth_unknown, labelled,
+                truth.truth_correct, labelled > 0 ? 100.0 * truth.truth_correct / labelled : 0.0);
+    figures.add("rooms_eval.generated_truth.unknown_rooms", static_cast<double>(truth.truth_unknown), "rooms");
+    figures.add("rooms_eval.generated_truth.labelled_precision",
+                labelled > 0 ? static_cast<double>(truth.truth_correct) / labelled : 0.0, "fraction");
     for (const auto& [type, n] : truth.truth_per_type)
       std::printf("  %-14s %3zu of %3zu\n", type.c_str(), n.first, n.second);
     for (const auto& [pair, n] : truth.truth_confusions) std::printf("  wrong: %s x %zu\n", pair.c_str(), n);

@@ -340,8 +340,10 @@ void ObjectRoomGraph::add_edge(int a, int b) {
 }
 
 void RoomClassifier::Config::print(std::FILE* out) const {
-  std::fprintf(out, "RoomClassifier::Config: weights_path=%s max_rooms=%d min_probability=%.3f mpcat40_aliases=%s\n",
-               weights_path.c_str(), max_rooms, static_cast<double>(min_probability),
+  std::fprintf(out,
+               "RoomClassifier::Config: weights_path=%s max_rooms=%d min_probability=%.3f min_objects=%d "
+               "mpcat40_aliases=%s\n",
+               weights_path.c_str(), max_rooms, static_cast<double>(min_probability), min_objects,
                alias_mpcat40_to_training_classes ? "on" : "off");
   h_tree.print(out);
 }
@@ -704,7 +706,8 @@ bool RoomClassifier::classify(const ObjectRoomGraph& graph, std::string* error) 
         p.probability = p.label_probabilities[l];
         p.label = l;
       }
-    if (p.probability < config_.min_probability) p.label = semantics::kRoomUnknown;
+    if (p.probability < config_.min_probability || object_count_[p.node] < config_.min_objects)
+      p.label = semantics::kRoomUnknown;
   }
   return true;
 }

@@ -95,9 +95,11 @@ std::string Config::check() const {
 void Config::print(std::FILE* out) const {
   std::fprintf(out,
                "rooms: seeding %s, dilation [%.3f, %.3f] m step %.3f m (%zu samples), min_component_size %u places, "
-               "plateau_alpha %.2f, min_persistence_m %.2f, max_door_clearance_m %.2f, building B(%llu)\n",
+               "plateau_alpha %.2f, min_persistence_m %.2f, max_door_clearance_m %.2f, box_from_free_space %d, "
+               "building B(%llu)\n",
                to_string(seeding), min_dilation_m, max_dilation_m, dilation_step_m, curve_samples(),
-               min_component_size, plateau_alpha, min_persistence_m, max_door_clearance_m, static_cast<unsigned long long>(building_index));
+               min_component_size, plateau_alpha, min_persistence_m, max_door_clearance_m, box_from_free_space ? 1 : 0,
+               static_cast<unsigned long long>(building_index));
 }
 
 Capacities Capacities::from_scene_graph(const sg::Capacities& graph) {
@@ -712,11 +714,14 @@ void RoomFinder::write_rooms(sg::SceneGraph* graph, std::size_t num_rooms, std::
   for (std::uint32_t i = 0; i < num_places_; ++i) {
     if (room_of_[i] < 0) continue;
     RoomAccumulator& a = room_acc_[room_of_[i]];
+    // The box holds each place's free-space sphere (radius: its clearance), so it spans the room's free space
+    // rather than only the GVD inside it (which stays a clearance away from every wall, floor and ceiling).
+    const double radius = config_.box_from_free_space ? std::max(0.0, clearance_[i]) : 0.0;
     for (int d = 0; d < 3; ++d) {
       const double v = position_[3 * i + d];
       a.sum[d] += v;
-      a.min[d] = std::min(a.min[d], v);
-      a.max[d] = std::max(a.max[d], v);
+      a.min[d] = std::min(a.min[d], v - radius);
+      a.max[d] = std::max(a.max[d], v + radius);
     }
     ++a.count;
     a.active = a.active || active_[i] != 0;

@@ -55,6 +55,10 @@ struct Config {
   // The paper's alpha: only flat intervals longer than alpha x the longest one are candidates; among them the one
   // with the most components wins. 0 over-segments, 1 picks the most persistent interval.
   double plateau_alpha = 0.5;
+  // A room's bounding box spans its places' free-space spheres (position +- clearance), i.e. the room's free
+  // space, as the room boxes the room classifier was trained on do; off, only the place positions (the GVD, a
+  // clearance inside the walls).
+  bool box_from_free_space = true;
   std::uint64_t building_index = 0;  // the building node is make_node_id('B', building_index)
 
   static Config paper();              // the paper's method and numbers: kPlateau, 15 places, alpha 0.5

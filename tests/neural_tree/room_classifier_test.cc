@@ -241,6 +241,36 @@ TEST(RoomClassifier, BadGraphIsAnErrorAndRoomsStayUnknown) {
   EXPECT_EQ(classifier.stats().dropped_edges, 1u);
 }
 
+// A room without objects (a hallway, a stairwell) stays "unknown": the training rooms all hold objects. Its
+// probabilities are still reported; with min_objects 0 it takes the best label.
+TEST(RoomClassifier, RoomsWithoutObjectsStayUnknown) {
+  ObjectRoomGraph g;
+  const int empty = g.add_room({0, 0, 1.25}, {1.8, 8, 2.5});
+  const int bedroom = g.add_room({4, 0, 1.25}, {4, 4, 2.5});
+  g.add_object(bedroom, -1, {4, 0, 0.4}, {2, 1.6, 0.6});
+  g.add_edge(empty, bedroom);
+  std::string error;
+  RoomClassifier strict;
+  ASSERT_TRUE(strict.init(&error)) << error;
+  const int bed = strict.word_index(semantics::kBed);
+  g.nodes[2].word = bed;
+  ASSERT_TRUE(strict.classify(g, &error)) << error;
+  ASSERT_EQ(strict.predictions().size(), 2u);
+  for (const RoomPrediction& p : strict.predictions()) {
+    float sum = 0.0f;
+    for (float q : p.label_probabilities) sum += q;
+    EXPECT_NEAR(sum, 1.0f, 1e-4f);
+    if (p.node == empty) EXPECT_EQ(p.label, semantics::kRoomUnknown);
+    else EXPECT_NE(p.label, semantics::kRoomUnknown);
+  }
+  RoomClassifier::Config config;
+  config.min_objects = 0;
+  RoomClassifier lenient(config);
+  ASSERT_TRUE(lenient.init(&error)) << error;
+  ASSERT_TRUE(lenient.classify(g, &error)) << error;
+  for (const RoomPrediction& p : lenient.predictions()) EXPECT_NE(p.label, semantics::kRoomUnknown);
+}
+
 TEST(RoomClassifier, SyntheticBuildingIsLabelledWithoutAllocating) {
   RoomClassifier classifier;
   std::string error;
