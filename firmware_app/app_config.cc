@@ -144,7 +144,8 @@ bool AppConfig::load(const std::string& path, std::string* error) {
                               {"signed_surface_seeds", boolean(&pc.signed_surface_seeds)},
                               {"correct_projective_distance", boolean(&pc.correct_projective_distance)},
                               {"bridge_max_fragment_places", number(&pc.bridge_max_fragment_places)},
-                              {"hold_distant_fragments", boolean(&pc.hold_distant_fragments)}},
+                              {"hold_distant_fragments", boolean(&pc.hold_distant_fragments)},
+                              {"bridge_path_search", boolean(&pc.bridge_path_search)}},
                              why);
        }},
       {"rooms", [&](const Json& v, std::string* why) {

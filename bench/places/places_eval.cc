@@ -56,6 +56,7 @@ struct Options {
   bool unobserved_obstacle = true;  // --no-unobserved-obstacle: Config::unobserved_is_obstacle off
   bool rim_guard = true;            // --no-rim-guard: Config::rim_guard off
   bool signed_seeds = true;         // --no-signed-seeds: Config::signed_surface_seeds off
+  bool bridge_paths = true;         // --no-bridge-paths: Config::bridge_path_search off
   bool hold_distant = true;         // --no-hold-distant: Config::hold_distant_fragments off
   bool projective_correction = true;  // --no-projective-correction: Config::correct_projective_distance off
   std::string floorplan;   // --floorplan NAME: explore this extruded benchmark plan instead of generated buildings
@@ -71,7 +72,7 @@ struct Options {
 void usage(const char* argv0) {
   std::fprintf(stderr,
                "usage: %s [--seeds 1,2,3] [--rooms N] [--size WxH] [--hfov-deg D] [--rate-hz R] [--every-n N] "
-               "[--no-observe] [--no-free-space-edges] [--no-relink] [--no-bridges] [--no-contract] [--no-unobserved-obstacle] [--no-rim-guard] [--no-signed-seeds] [--no-projective-correction] [--no-hold-distant] [--floorplan NAME [--furnished]] "
+               "[--no-observe] [--no-free-space-edges] [--no-relink] [--no-bridges] [--no-contract] [--no-unobserved-obstacle] [--no-rim-guard] [--no-signed-seeds] [--no-projective-correction] [--no-hold-distant] [--no-bridge-paths] [--floorplan NAME [--furnished]] "
                "[--plans-dir DIR] [--window-radius-m R] [--slab-above-m H] [--bridge-max-places N] [--unobserved-above-m H] [--trace X,Y,Z] [--json FILE] [--verbose] [--diagnose]\n"
                "  NAME: a map of the plans dir (Freiburg52_scan, lab_c_scan, lab_intel, lab_ipa, office_a, office_e)\n",
                argv0);
@@ -103,6 +104,10 @@ bool parse(int argc, char** argv, Options* o) {
     }
     if (a == "--no-bridges") {
       o->bridges = false;
+      continue;
+    }
+    if (a == "--no-bridge-paths") {
+      o->bridge_paths = false;
       continue;
     }
     if (a == "--no-hold-distant") {
@@ -551,6 +556,7 @@ bool run_world(const Options& opt, const world::World& w, bool floor_plan, Build
   pc.signed_surface_seeds = opt.signed_seeds;
   pc.correct_projective_distance = opt.projective_correction;
   pc.hold_distant_fragments = opt.hold_distant;
+  pc.bridge_path_search = opt.bridge_paths;
   reconstruction::Capacities rcaps = reconstruction::capacities_from_budget();
   std::size_t tsdf_bytes = budgets::active::reconstruction::kArenaBytes;
   places::Capacities pcaps = places::capacities_from_budget();

@@ -174,7 +174,7 @@ void Config::print(std::FILE* out) const {
                "bridge_max_fragment_places=%d bridge_max_length_m=%.2f bridge_min_clearance_m=%.2f "
                "enclosed_max_voxels=%d contract_removed=%d contract_search_places=%d unobserved_is_obstacle=%d "
                "unobserved_obstacle_above_m=%.2f rim_guard=%d signed_surface_seeds=%d correct_projective_distance=%d "
-               "hold_distant_fragments=%d\n",
+               "hold_distant_fragments=%d bridge_path_search=%d\n",
                voxel_factor, max_distance_m, min_clearance_m, min_basis_angle_rad * 180.0 / 3.14159265358979,
                min_basis_points, place_resolution_m, window_radius_m, slab_below_m, slab_above_m, min_tsdf_weight,
                free_space_edges ? 1 : 0, relink_inactive ? 1 : 0, bridge_fragments ? 1 : 0,
@@ -182,7 +182,8 @@ void Config::print(std::FILE* out) const {
                contract_removed ? 1 : 0,
                contract_search_places, unobserved_is_obstacle ? 1 : 0,
                unobserved_obstacle_above_m, rim_guard ? 1 : 0, signed_surface_seeds ? 1 : 0,
-               correct_projective_distance ? 1 : 0, hold_distant_fragments ? 1 : 0);
+               correct_projective_distance ? 1 : 0, hold_distant_fragments ? 1 : 0,
+               bridge_path_search ? 1 : 0);
 }
 
 void Capacities::print(std::FILE* out) const {
@@ -199,7 +200,8 @@ void Counters::print(std::FILE* out) const {
                "allocated=%llu freed=%llu refused=%llu gvd_voxels=%llu places=%llu merged=%llu split=%llu "
                "refused clusters=%llu edges=%llu graph=%llu free_space_edges=%llu relinked=%llu "
                "relinks_dropped=%llu relinks_refused=%llu views=%llu views_merged=%llu observed_refused=%llu "
-               "rays=%llu bridges=%llu bridges_added=%llu bridges_missing=%llu contracted=%llu enclosed_held=%llu\n",
+               "rays=%llu bridges=%llu bridges_added=%llu bridge_paths=%llu bridges_missing=%llu contracted=%llu "
+               "enclosed_held=%llu\n",
                (unsigned long long)updates, (unsigned long long)cycles, (unsigned long long)tsdf_blocks_read,
                (unsigned long long)voxels_updated, (unsigned long long)voxels_raised,
                (unsigned long long)frontier_seeds, (unsigned long long)occupied_seeds,
@@ -211,7 +213,8 @@ void Counters::print(std::FILE* out) const {
                (unsigned long long)relinked, (unsigned long long)relinks_dropped, (unsigned long long)relinks_refused,
                (unsigned long long)views_observed, (unsigned long long)views_merged,
                (unsigned long long)observed_refused, (unsigned long long)rays_carved, (unsigned long long)bridges,
-               (unsigned long long)bridges_added, (unsigned long long)bridges_missing,
+               (unsigned long long)bridges_added, (unsigned long long)bridge_paths,
+               (unsigned long long)bridges_missing,
                (unsigned long long)contracted, (unsigned long long)enclosed_held);
 }
 
@@ -1631,6 +1634,8 @@ void Places::bridge_fragment(std::uint32_t cluster) {
           }
         }
   }
+  if (best_to == kNoCluster && config_.bridge_path_search)
+    best_w = bridge_by_path(members, num, &best_from, &best_to);
   if (best_to == kNoCluster) {
     ++counters_.bridges_missing;  // stays flagged: retried next cycle, when more of the map is known
     // Places around, none reachable through free space, and only a few GVD voxels: a pocket enclosed by surfaces.
@@ -1647,6 +1652,74 @@ void Places::bridge_fragment(std::uint32_t cluster) {
   clusters_[cluster].bridge_check = 0;
   for (int i = 0; i < num; ++i) set_held(members[i], false);
   if (add_cluster_edge(best_from, best_to, best_w, kEdgeBridge)) ++counters_.bridges_added;
+}
+
+// No straight segment certified: a breadth-first search through the ESDF from the fragment's representative
+// voxels, over free voxels whose distance is at least bridge_min_clearance_m, at most bridge_max_length_m / voxel
+// steps, to the first GVD voxel of a live place outside the fragment (around furniture, past a pillar). Returns
+// the bridge's weight (the search's clearance bound, a lower bound of the path's smallest distance) and sets
+// from/to; to stays kNoCluster when nothing is reached. Scratch: the affected list (empty in this phase) and the
+// kVisited flags, cleared before returning.
+float Places::bridge_by_path(const std::uint32_t* members, int num, std::uint32_t* from, std::uint32_t* to) {
+  List& queue = lists_[kAffectedList];
+  queue.clear();
+  const float min_d = static_cast<float>(config_.bridge_min_clearance_m);
+  const int max_steps = static_cast<int>(std::ceil(config_.bridge_max_length_m / voxel_m_));
+  const auto member = [&](std::uint32_t c) {
+    for (int j = 0; j < num; ++j)
+      if (members[j] == c) return true;
+    return false;
+  };
+  for (int i = 0; i < num; ++i) {
+    const std::uint32_t r = clusters_[members[i]].rep;
+    if (r == kNoRef || (vox(r).flags & kVisited) != 0) continue;
+    vox(r).flags |= kVisited;
+    queue.push(r);
+  }
+  std::uint32_t found = kNoCluster;
+  std::size_t head = 0;
+  for (int step = 0; step < max_steps && found == kNoCluster && head < queue.size; ++step) {
+    const std::size_t layer_end = queue.size;
+    for (; head < layer_end && found == kNoCluster; ++head) {
+      const std::uint32_t r = queue.data[head];
+      ++units_;
+      for (const Offset& o : kOffsets.o) {
+        const std::uint32_t n = neighbor(r, o.dx, o.dy, o.dz);
+        if (n == kNoRef) continue;
+        Voxel& nv = vox(n);
+        if ((nv.flags & kVisited) != 0) continue;
+        if ((nv.state != kFree && nv.state != kSeed) || nv.parent == kNoRef || nv.distance_m < min_d) continue;
+        const std::uint32_t c = nv.cluster;
+        if (c < clusters_.capacity() && clusters_.live(c) && !member(c)) {
+          const Cluster& xc = clusters_[c];
+          if (xc.state == kLive && xc.rep != kNoRef && xc.num_edges < kMaxClusterEdges) {
+            found = c;
+            break;
+          }
+        }
+        nv.flags |= kVisited;
+        if (!queue.push(n)) break;  // full (counted by the list): give up this search
+      }
+    }
+  }
+  for (std::size_t k = 0; k < queue.size; ++k) vox(queue.data[k]).flags &= static_cast<std::uint8_t>(~kVisited);
+  queue.clear();
+  if (found == kNoCluster) return 0.0f;
+  // The fragment's place nearest the one reached (with room for one more edge) takes the bridge.
+  double best = std::numeric_limits<double>::max();
+  for (int i = 0; i < num; ++i) {
+    const Cluster& m = clusters_[members[i]];
+    if (m.num_edges == kMaxClusterEdges) continue;
+    const double d2 = (m.position_m - clusters_[found].position_m).squaredNorm();
+    if (d2 < best) {
+      best = d2;
+      *from = members[i];
+    }
+  }
+  if (best == std::numeric_limits<double>::max()) return 0.0f;
+  *to = found;
+  ++counters_.bridge_paths;
+  return min_d;
 }
 
 // Holding a place back (or releasing it) changes what sync() publishes; a released place's held neighbours are

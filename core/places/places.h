@@ -95,6 +95,9 @@ struct Config {
   int bridge_max_fragment_places = 16;  // 4 left 43- and 19-place groups of a furnished plan apart (Freiburg52)
   double bridge_max_length_m = 3.0;
   double bridge_min_clearance_m = 0.1;
+  // When no straight segment is certified, a breadth-first search through free ESDF voxels (distance >=
+  // bridge_min_clearance_m, at most bridge_max_length_m of steps) looks for a path around what is in the way.
+  bool bridge_path_search = true;
   // A fragment that no bridge can join although places lie within reach, and that holds at most this many GVD
   // voxels, is a pocket enclosed by surfaces (the averaged TSDF opens small cavities inside furniture), not free
   // space the robot can reach: it is kept out of the scene graph while so. 0 publishes every place.
@@ -178,6 +181,7 @@ struct Counters {
   std::uint64_t bridges = 0;           // current bridge edges (joining a small fragment to the nearest live place)
   std::uint64_t bridges_added = 0;
   std::uint64_t bridges_missing = 0;   // last cycle: fragment checks that found no place reachable through free space
+  std::uint64_t bridge_paths = 0;      // bridges found by the path search (no straight segment was certified)
   std::uint64_t contracted = 0;        // edges added by contraction around a removed place (see Config)
   std::uint64_t enclosed_held = 0;     // current live places held out of the graph (enclosed pockets, distant islands)
   void print(std::FILE* out) const;
@@ -372,6 +376,7 @@ class Places {
                                 const memory::Index3& cell) const;
   void resolve_relinks(scene_graph::SceneGraph* graph, SyncResult* r);
   void bridge_fragment(std::uint32_t cluster);
+  float bridge_by_path(const std::uint32_t* members, int num, std::uint32_t* from, std::uint32_t* to);
   void set_held(std::uint32_t cluster, bool held);
   bool add_cluster_edge(std::uint32_t a, std::uint32_t b, float weight_m, std::uint8_t kind);
   bool anchored(const scene_graph::SceneGraph& graph, scene_graph::NodeId start, scene_graph::NodeId removed,

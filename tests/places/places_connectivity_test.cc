@@ -107,6 +107,68 @@ TEST(PlacesConnectivityTest, NoBridgeCrossesAWall) {
   EXPECT_EQ(closed.counters.enclosed_held, 0u) << "a closed room is a region, not a pocket";
 }
 
+// A full-height pillar in the room in front of the door (0.5 m from the door's wall, spanning y 0.5-2.5 across
+// the 0.9 m door at y 1.05-1.95): every straight segment from the closet through the door ends in the pillar, so
+// only the path search joins the closet, around the pillar and through the door, and never through a wall.
+DoorResult map_room_pillar_and_closet(const Config& config) {
+  DoorResult out;
+  Scanner scanner;
+  std::string error;
+  world::World w = testing::rooms_world({3.0, 1.6}, 3.0, true);
+  testing::add_box(&w, {2.0, 0.5, 0.0}, {2.5, 2.5, testing::kHeight});
+  EXPECT_TRUE(scanner.init(w, 100.0, &error)) << error;
+  auto places = make_places(config);
+  auto graph = make_graph();
+  const auto hook = [&](const Eigen::Vector3d& camera) {
+    run_to_completion(places.get(), scanner.tsdf(), camera);
+    places->sync(graph.get());
+  };
+  EXPECT_TRUE(scanner.spin({1.0, 1.5, 1.2}, 6, hook));
+  EXPECT_TRUE(scanner.spin({2.75, 0.25, 1.2}, 6, hook));
+  EXPECT_TRUE(scanner.spin({3.05, 1.5, 1.2}, 6, hook));
+  EXPECT_TRUE(scanner.spin({3.9, 1.5, 1.2}, 6, hook));
+  out.components = place_components(*graph);
+  out.counters = places->counters();
+  std::vector<PlaceInfo> infos;
+  places->places(&infos);
+  std::map<scene_graph::NodeId, Eigen::Vector3d> at;
+  for (const PlaceInfo& p : infos) at[p.id] = p.position_m;
+  for (const PlaceInfo& p : infos)
+    for (const auto& edge : p.bridge_edges) {
+      const auto other = at.find(edge.first);
+      if (other == at.end()) continue;
+      const double lo = std::min(p.position_m.x(), other->second.x()), hi = std::max(p.position_m.x(), other->second.x());
+      out.bridges_across_wall += (lo < kWallMinX && hi > kWallMaxX) ? 1 : 0;
+    }
+  return out;
+}
+
+TEST(PlacesConnectivityTest, APathAroundAPillarBridgesTheCloset) {
+  Config on = wide_clearance(true);
+  on.bridge_max_length_m = 4.5;  // the room's places (0.7 m clearance) sit in its middle, 3-4 m from the closet
+  Config off = on;
+  off.bridge_path_search = false;
+  const DoorResult straight = map_room_pillar_and_closet(off);
+  const DoorResult path = map_room_pillar_and_closet(on);
+  std::printf("pillar before the door: straight segments only %zu components, %llu path bridges; with the path "
+              "search %zu components, %llu path bridges, %zu bridges across the wall\n",
+              straight.components, (unsigned long long)straight.counters.bridge_paths, path.components,
+              (unsigned long long)path.counters.bridge_paths, path.bridges_across_wall);
+  EXPECT_GT(straight.components, 1u) << "the pillar must block every straight bridge (else it tests nothing)";
+  EXPECT_EQ(straight.counters.bridge_paths, 0u);
+  EXPECT_EQ(path.components, 1u);
+  EXPECT_GT(path.counters.bridge_paths, 0u);
+  EXPECT_GT(path.bridges_across_wall, 0u) << "the closet joins the room";
+}
+
+// The path search never crosses a wall: a closed closet stays its own component.
+TEST(PlacesConnectivityTest, NoPathBridgeCrossesAWall) {
+  const DoorResult closed = map_room_and_closet(wide_clearance(true), false);
+  EXPECT_TRUE(wide_clearance(true).bridge_path_search);
+  EXPECT_EQ(closed.components, 2u);
+  EXPECT_EQ(closed.bridges_across_wall, 0u);
+}
+
 // A closed closet is its own region: its places, published while the robot stood in it, stay in the graph when the
 // robot goes back to the room and the closet's fragment is far from it and can be bridged to nothing.
 TEST(PlacesConnectivityTest, PublishedPlacesStayWhenTheRobotWalksAway) {
