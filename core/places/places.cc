@@ -2241,12 +2241,15 @@ MemoryUse Places::memory_use() const {
 // ---------------------------------------------------------------------------------------------------------
 // Queries
 
+std::uint32_t Places::voxel_at(const Eigen::Vector3d& p_m) const {
+  if (!ready_) return kNoRef;
+  return find_voxel({static_cast<std::int32_t>(std::floor(p_m.x() / voxel_m_)),
+                     static_cast<std::int32_t>(std::floor(p_m.y() / voxel_m_)),
+                     static_cast<std::int32_t>(std::floor(p_m.z() / voxel_m_))});
+}
+
 bool Places::distance_at(const Eigen::Vector3d& p_m, float* distance_m) const {
-  if (!ready_) return false;
-  const memory::Index3 g{static_cast<std::int32_t>(std::floor(p_m.x() / voxel_m_)),
-                         static_cast<std::int32_t>(std::floor(p_m.y() / voxel_m_)),
-                         static_cast<std::int32_t>(std::floor(p_m.z() / voxel_m_))};
-  const std::uint32_t ref = find_voxel(g);
+  const std::uint32_t ref = voxel_at(p_m);
   if (ref == kNoRef) return false;
   const Voxel& v = vox(ref);
   if ((v.state != kFree && v.state != kSeed) || v.parent == kNoRef) return false;
@@ -2255,16 +2258,12 @@ bool Places::distance_at(const Eigen::Vector3d& p_m, float* distance_m) const {
 }
 
 bool Places::probe(const Eigen::Vector3d& p_m, VoxelProbe* out) const {
-  if (!ready_) return false;
-  const memory::Index3 g{static_cast<std::int32_t>(std::floor(p_m.x() / voxel_m_)),
-                         static_cast<std::int32_t>(std::floor(p_m.y() / voxel_m_)),
-                         static_cast<std::int32_t>(std::floor(p_m.z() / voxel_m_))};
-  const std::uint32_t ref = find_voxel(g);
+  const std::uint32_t ref = voxel_at(p_m);
   if (ref == kNoRef) return false;
   static constexpr const char* kStates[] = {"free", "seed", "occupied", "unobserved"};
   const Voxel& v = vox(ref);
   *out = VoxelProbe{};
-  out->position_m = center_m(g);
+  out->position_m = center_m(coords(ref));
   out->state = kStates[v.state & 3];
   out->carved = (v.flags & kCarved) != 0;
   out->gvd = (v.flags & kGvd) != 0;

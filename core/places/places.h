@@ -338,6 +338,7 @@ class Places {
   void evict_block_voxels(std::uint32_t handle);
   void release_block(std::uint32_t handle);
   void seed_sub_block(const reconstruction::SemanticTsdf& tsdf, std::uint32_t handle, int sub, bool carve);
+  std::uint32_t voxel_at(const Eigen::Vector3d& p_m) const;  // kNoRef when no block holds p (or not ready)
   bool crossing_distance(const reconstruction::SemanticTsdf& tsdf, const memory::Index3& tb, int x0, int y0, int z0,
                          float* distance_m) const;
   void carve_ray(const reconstruction::SemanticTsdf& tsdf, const Eigen::Vector3d& origin_m, std::uint32_t target);

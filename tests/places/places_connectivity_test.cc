@@ -41,22 +41,20 @@ struct DoorResult {
 constexpr double kWallMinX = 3.0;
 constexpr double kWallMaxX = 3.1;
 
-DoorResult map_room_and_closet(const Config& config, bool door) {
+// Maps `w` from spins at the given camera positions (with the number of views of each) and scores the graph.
+DoorResult map_world(const Config& config, const world::World& w,
+                     const std::vector<std::pair<Eigen::Vector3d, int>>& spins) {
   DoorResult out;
   Scanner scanner;
   std::string error;
-  EXPECT_TRUE(scanner.init(testing::rooms_world({3.0, 1.6}, 3.0, door), 100.0, &error)) << error;
+  EXPECT_TRUE(scanner.init(w, 100.0, &error)) << error;
   auto places = make_places(config);
   auto graph = make_graph();
   const auto hook = [&](const Eigen::Vector3d& camera) {
     run_to_completion(places.get(), scanner.tsdf(), camera);
     places->sync(graph.get());
   };
-  EXPECT_TRUE(scanner.spin({1.5, 1.5, 1.2}, 6, hook));
-  EXPECT_TRUE(scanner.spin({3.9, 1.5, 1.2}, 6, hook));
-  if (door) {
-    EXPECT_TRUE(scanner.spin({3.05, 1.5, 1.2}, 4, hook));
-  }
+  for (const auto& [at, views] : spins) EXPECT_TRUE(scanner.spin(at, views, hook));
   out.components = place_components(*graph);
   graph->for_each_node([&](const scene_graph::NodeRecord& n) { out.nodes += n.kind == scene_graph::NodeKind::kPlace; });
   out.counters = places->counters();
@@ -72,6 +70,12 @@ DoorResult map_room_and_closet(const Config& config, bool door) {
       out.bridges_across_wall += (lo < kWallMinX && hi > kWallMaxX) ? 1 : 0;
     }
   return out;
+}
+
+DoorResult map_room_and_closet(const Config& config, bool door) {
+  std::vector<std::pair<Eigen::Vector3d, int>> spins{{{1.5, 1.5, 1.2}, 6}, {{3.9, 1.5, 1.2}, 6}};
+  if (door) spins.push_back({{3.05, 1.5, 1.2}, 4});
+  return map_world(config, testing::rooms_world({3.0, 1.6}, 3.0, door), spins);
 }
 
 Config wide_clearance(bool bridges) {
@@ -111,36 +115,10 @@ TEST(PlacesConnectivityTest, NoBridgeCrossesAWall) {
 // the 0.9 m door at y 1.05-1.95): every straight segment from the closet through the door ends in the pillar, so
 // only the path search joins the closet, around the pillar and through the door, and never through a wall.
 DoorResult map_room_pillar_and_closet(const Config& config) {
-  DoorResult out;
-  Scanner scanner;
-  std::string error;
   world::World w = testing::rooms_world({3.0, 1.6}, 3.0, true);
   testing::add_box(&w, {2.0, 0.5, 0.0}, {2.5, 2.5, testing::kHeight});
-  EXPECT_TRUE(scanner.init(w, 100.0, &error)) << error;
-  auto places = make_places(config);
-  auto graph = make_graph();
-  const auto hook = [&](const Eigen::Vector3d& camera) {
-    run_to_completion(places.get(), scanner.tsdf(), camera);
-    places->sync(graph.get());
-  };
-  EXPECT_TRUE(scanner.spin({1.0, 1.5, 1.2}, 6, hook));
-  EXPECT_TRUE(scanner.spin({2.75, 0.25, 1.2}, 6, hook));
-  EXPECT_TRUE(scanner.spin({3.05, 1.5, 1.2}, 6, hook));
-  EXPECT_TRUE(scanner.spin({3.9, 1.5, 1.2}, 6, hook));
-  out.components = place_components(*graph);
-  out.counters = places->counters();
-  std::vector<PlaceInfo> infos;
-  places->places(&infos);
-  std::map<scene_graph::NodeId, Eigen::Vector3d> at;
-  for (const PlaceInfo& p : infos) at[p.id] = p.position_m;
-  for (const PlaceInfo& p : infos)
-    for (const auto& edge : p.bridge_edges) {
-      const auto other = at.find(edge.first);
-      if (other == at.end()) continue;
-      const double lo = std::min(p.position_m.x(), other->second.x()), hi = std::max(p.position_m.x(), other->second.x());
-      out.bridges_across_wall += (lo < kWallMinX && hi > kWallMaxX) ? 1 : 0;
-    }
-  return out;
+  return map_world(config, w,
+                   {{{1.0, 1.5, 1.2}, 6}, {{2.75, 0.25, 1.2}, 6}, {{3.05, 1.5, 1.2}, 6}, {{3.9, 1.5, 1.2}, 6}});
 }
 
 TEST(PlacesConnectivityTest, APathAroundAPillarBridgesTheCloset) {

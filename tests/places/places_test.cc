@@ -130,17 +130,25 @@ struct LevelScan {
   double mean_gvd_distance_m = 0.0;
   std::uint64_t frontier_seeds = 0;
 };
+// A closed 6 m x 4 m room seen by a level camera 0.5 m high, from two spins.
+world::World level_room() { return testing::rooms_world({6.0}, 4.0, false); }
+std::unique_ptr<Places> map_level_room(const Config& config) {
+  Scanner scanner;
+  std::string error;
+  EXPECT_TRUE(scanner.init(level_room(), 100.0, &error)) << error;
+  auto places = make_places(config);
+  for (const Eigen::Vector3d& p : {Eigen::Vector3d(1.5, 1.0, 0.5), Eigen::Vector3d(4.5, 3.0, 0.5)})
+    EXPECT_TRUE(scanner.spin_at_pitches(p, 8, {0.0}, every_frame(places.get(), &scanner)));
+  return places;
+}
+
 LevelScan scan_level(bool unobserved_is_obstacle, double above_m) {
   Config config;
   config.unobserved_is_obstacle = unobserved_is_obstacle;
   config.unobserved_obstacle_above_m = above_m;
-  Scanner scanner;
+  const auto places = map_level_room(config);
   std::string error;
-  const world::World w = testing::rooms_world({6.0}, 4.0, false);
-  EXPECT_TRUE(scanner.init(w, 100.0, &error)) << error;
-  auto places = make_places(config);
-  for (const Eigen::Vector3d& p : {Eigen::Vector3d(1.5, 1.0, 0.5), Eigen::Vector3d(4.5, 3.0, 0.5)})
-    EXPECT_TRUE(scanner.spin_at_pitches(p, 8, {0.0}, every_frame(places.get(), &scanner)));
+  const world::World w = level_room();
   const world::FreeSpaceIndex free_space(w);
   sim::GroundTruth truth;
   EXPECT_TRUE(sim::compute_ground_truth(w, free_space, sim::GroundTruthConfig{}, &truth, &error)) << error;
@@ -200,13 +208,7 @@ FloorError floor_distance_error(bool corrected) {
   Config config;
   config.correct_projective_distance = corrected;
   config.signed_surface_seeds = corrected;
-  Scanner scanner;
-  std::string error;
-  const world::World w = testing::rooms_world({6.0}, 4.0, false);
-  EXPECT_TRUE(scanner.init(w, 100.0, &error)) << error;
-  auto places = make_places(config);
-  for (const Eigen::Vector3d& p : {Eigen::Vector3d(1.5, 1.0, 0.5), Eigen::Vector3d(4.5, 3.0, 0.5)})
-    EXPECT_TRUE(scanner.spin_at_pitches(p, 8, {0.0}, every_frame(places.get(), &scanner)));
+  const auto places = map_level_room(config);
   FloorError out;
   double sum = 0.0;
   const double s = places->voxel_size_m();
