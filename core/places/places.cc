@@ -538,10 +538,6 @@ void Places::apply_state(std::uint32_t ref, std::uint8_t state, float seed_m) {
 // ---------------------------------------------------------------------------------------------------------
 // Blocks
 
-// Classifies the ESDF voxels covered by one TSDF block (sub-block `sub` of the ESDF block). An ESDF voxel
-// averages its factor^3 TSDF voxels (its centre is their common corner, where the mean is the TSDF's trilinear
-// value): unobserved when none is observed (free if carved), free at the truncation distance, a seed inside the
-// band (and on a zero crossing), occupied behind the surface.
 // Distance from the centre of the ESDF voxel whose first TSDF voxel is (x0, y0, z0) of TSDF block `tb` to the
 // surface, from the TSDF's zero crossings: along each axis, each of the factor^2 TSDF columns through the voxel is
 // searched outwards from the centre (up to two TSDF voxels beyond the ESDF voxel) for the nearest sign change,
@@ -619,6 +615,10 @@ bool Places::crossing_distance(const reconstruction::SemanticTsdf& tsdf, const m
   return true;
 }
 
+// Classifies the ESDF voxels covered by one TSDF block (sub-block `sub` of the ESDF block). An ESDF voxel
+// averages its factor^3 TSDF voxels (its centre is their common corner, where the mean is the TSDF's trilinear
+// value): unobserved when none is observed (free if carved), free at the truncation distance, a seed inside the
+// band (and on a zero crossing), occupied behind the surface.
 void Places::seed_sub_block(const reconstruction::SemanticTsdf& tsdf, std::uint32_t handle, int sub, bool carve) {
   const int f = config_.voxel_factor;
   Block& b = blocks_[handle];
@@ -1672,9 +1672,8 @@ float Places::bridge_by_path(const std::uint32_t* members, int num, std::uint32_
   };
   for (int i = 0; i < num; ++i) {
     const std::uint32_t r = clusters_[members[i]].rep;
-    if (r == kNoRef || (vox(r).flags & kVisited) != 0) continue;
-    vox(r).flags |= kVisited;
-    queue.push(r);
+    if (r == kNoRef || (vox(r).flags & kVisited) != 0 || !queue.push(r)) continue;
+    vox(r).flags |= kVisited;  // only voxels in the queue carry the flag, so all of it is cleared below
   }
   std::uint32_t found = kNoCluster;
   std::size_t head = 0;
@@ -1697,8 +1696,8 @@ float Places::bridge_by_path(const std::uint32_t* members, int num, std::uint32_
             break;
           }
         }
+        if (!queue.push(n)) break;  // full (counted by the list): this voxel's neighbours stay unexplored
         nv.flags |= kVisited;
-        if (!queue.push(n)) break;  // full (counted by the list): give up this search
       }
     }
   }
