@@ -4,13 +4,15 @@
 
 #include <cstdio>
 
+#include "bench/commit.h"
+
 int main(int argc, char** argv) {
 #ifdef QSG_HAVE_BENCHMARK_CONTEXT
-  benchmark::AddCustomContext("commit", QSG_GIT_COMMIT);
+  benchmark::AddCustomContext("commit", qsg::bench::git_commit());
   benchmark::AddCustomContext("board", QSG_BOARD_NAME);
   benchmark::AddCustomContext("build_type", QSG_BUILD_TYPE);
 #else
-  std::fprintf(stderr, "commit %s, board %s, build %s\n", QSG_GIT_COMMIT, QSG_BOARD_NAME, QSG_BUILD_TYPE);
+  std::fprintf(stderr, "commit %s, board %s, build %s\n", qsg::bench::git_commit(), QSG_BOARD_NAME, QSG_BUILD_TYPE);
 #endif
   benchmark::Initialize(&argc, argv);
   if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;

@@ -7,9 +7,7 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
-#ifndef QSG_GIT_COMMIT
-#define QSG_GIT_COMMIT "unknown"
-#endif
+#include "bench/commit.h"
 
 namespace qsg::bench {
 
@@ -18,7 +16,7 @@ class Figures {
   explicit Figures(std::string conditions) : conditions_(std::move(conditions)) {}
   void add(const std::string& name, double value, const std::string& unit) {
     out_.push_back({{"name", name}, {"value", value}, {"unit", unit}, {"conditions", conditions_},
-                    {"commit", QSG_GIT_COMMIT}});
+                    {"commit", git_commit()}});
   }
   // False (with a message on stderr) when the file cannot be written.
   bool write(const std::string& path) const {
