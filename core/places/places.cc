@@ -200,8 +200,8 @@ void Counters::print(std::FILE* out) const {
                "allocated=%llu freed=%llu refused=%llu gvd_voxels=%llu places=%llu merged=%llu split=%llu "
                "refused clusters=%llu edges=%llu graph=%llu free_space_edges=%llu relinked=%llu "
                "relinks_dropped=%llu relinks_refused=%llu views=%llu views_merged=%llu observed_refused=%llu "
-               "rays=%llu bridges=%llu bridges_added=%llu bridge_paths=%llu bridges_missing=%llu contracted=%llu "
-               "enclosed_held=%llu\n",
+               "rays=%llu bridges=%llu bridges_added=%llu bridge_paths=%llu bridge_searches_cut=%llu bridges_missing=%llu "
+               "contracted=%llu enclosed_held=%llu\n",
                (unsigned long long)updates, (unsigned long long)cycles, (unsigned long long)tsdf_blocks_read,
                (unsigned long long)voxels_updated, (unsigned long long)voxels_raised,
                (unsigned long long)frontier_seeds, (unsigned long long)occupied_seeds,
@@ -214,7 +214,7 @@ void Counters::print(std::FILE* out) const {
                (unsigned long long)views_observed, (unsigned long long)views_merged,
                (unsigned long long)observed_refused, (unsigned long long)rays_carved, (unsigned long long)bridges,
                (unsigned long long)bridges_added, (unsigned long long)bridge_paths,
-               (unsigned long long)bridges_missing,
+               (unsigned long long)bridge_searches_cut, (unsigned long long)bridges_missing,
                (unsigned long long)contracted, (unsigned long long)enclosed_held);
 }
 
@@ -1634,8 +1634,14 @@ void Places::bridge_fragment(std::uint32_t cluster) {
           }
         }
   }
-  if (best_to == kNoCluster && config_.bridge_path_search)
-    best_w = bridge_by_path(members, num, &best_from, &best_to);
+  if (best_to == kNoCluster && config_.bridge_path_search) {
+    bool interrupted = false;
+    best_w = bridge_by_path(members, num, &best_from, &best_to, &interrupted);
+    if (interrupted) {
+      ++counters_.bridge_searches_cut;  // out of time: bridge_check stays set and the held states as they were
+      return;
+    }
+  }
   if (best_to == kNoCluster) {
     ++counters_.bridges_missing;  // stays flagged: retried next cycle, when more of the map is known
     // Places around, none reachable through free space, and only a few GVD voxels: a pocket enclosed by surfaces.
@@ -1659,8 +1665,15 @@ void Places::bridge_fragment(std::uint32_t cluster) {
 // steps, to the first GVD voxel of a live place outside the fragment (around furniture, past a pillar). Returns
 // the bridge's weight (the search's clearance bound, a lower bound of the path's smallest distance) and sets
 // from/to; to stays kNoCluster when nothing is reached. Scratch: the affected list (empty in this phase) and the
-// kVisited flags, cleared before returning.
-float Places::bridge_by_path(const std::uint32_t* members, int num, std::uint32_t* from, std::uint32_t* to) {
+// kVisited flags, cleared before returning. One search can visit tens of thousands of voxels, so it checks the
+// deadline's clock as the cycle's loops do and gives up when it has expired (*interrupted; the fragment is tried
+// again next cycle). The work-unit cap is not checked here: lockstep runs stay identical however they are sliced.
+float Places::bridge_by_path(const std::uint32_t* members, int num, std::uint32_t* from, std::uint32_t* to,
+                             bool* interrupted) {
+  *interrupted = false;
+  const Deadline* deadline = deadline_;
+  const std::uint32_t every =
+      deadline == nullptr || deadline->check_every == 0 ? 1 : deadline->check_every;
   List& queue = lists_[kAffectedList];
   queue.clear();
   const float min_d = static_cast<float>(config_.bridge_min_clearance_m);
@@ -1677,11 +1690,16 @@ float Places::bridge_by_path(const std::uint32_t* members, int num, std::uint32_
   }
   std::uint32_t found = kNoCluster;
   std::size_t head = 0;
-  for (int step = 0; step < max_steps && found == kNoCluster && head < queue.size; ++step) {
+  for (int step = 0; step < max_steps && found == kNoCluster && !*interrupted && head < queue.size; ++step) {
     const std::size_t layer_end = queue.size;
-    for (; head < layer_end && found == kNoCluster; ++head) {
+    for (; head < layer_end && found == kNoCluster && !*interrupted; ++head) {
       const std::uint32_t r = queue.data[head];
       ++units_;
+      if (deadline != nullptr && deadline->expired != nullptr && units_ % every == 0 &&
+          deadline->expired(deadline->context)) {
+        *interrupted = true;
+        break;
+      }
       for (const Offset& o : kOffsets.o) {
         const std::uint32_t n = neighbor(r, o.dx, o.dy, o.dz);
         if (n == kNoRef) continue;
@@ -1703,7 +1721,7 @@ float Places::bridge_by_path(const std::uint32_t* members, int num, std::uint32_
   }
   for (std::size_t k = 0; k < queue.size; ++k) vox(queue.data[k]).flags &= static_cast<std::uint8_t>(~kVisited);
   queue.clear();
-  if (found == kNoCluster) return 0.0f;
+  if (*interrupted || found == kNoCluster) return 0.0f;
   // The fragment's place nearest the one reached (with room for one more edge) takes the bridge.
   double best = std::numeric_limits<double>::max();
   for (int i = 0; i < num; ++i) {
@@ -1742,6 +1760,12 @@ UpdateResult Places::update(const reconstruction::SemanticTsdf& tsdf, const Eige
   if (!ready_) return result;
   ++counters_.updates;
   units_ = 0;
+  // The path search reads the deadline too; the pointer lives exactly as long as this call.
+  struct DeadlineScope {
+    const Deadline** slot;
+    ~DeadlineScope() { *slot = nullptr; }
+  } scope{&deadline_};
+  deadline_ = &deadline;
   const std::uint32_t every = deadline.check_every == 0 ? 1 : deadline.check_every;
   // At least one unit of work per call, so repeated calls always finish a cycle.
   const auto expired = [&]() {

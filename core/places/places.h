@@ -182,6 +182,7 @@ struct Counters {
   std::uint64_t bridges_added = 0;
   std::uint64_t bridges_missing = 0;   // last cycle: fragment checks that found no place reachable through free space
   std::uint64_t bridge_paths = 0;      // bridges found by the path search (no straight segment was certified)
+  std::uint64_t bridge_searches_cut = 0;  // path searches stopped by the deadline's clock: retried next cycle
   std::uint64_t contracted = 0;        // edges added by contraction around a removed place (see Config)
   std::uint64_t enclosed_held = 0;     // current live places held out of the graph (enclosed pockets, distant islands)
   void print(std::FILE* out) const;
@@ -377,7 +378,9 @@ class Places {
                                 const memory::Index3& cell) const;
   void resolve_relinks(scene_graph::SceneGraph* graph, SyncResult* r);
   void bridge_fragment(std::uint32_t cluster);
-  float bridge_by_path(const std::uint32_t* members, int num, std::uint32_t* from, std::uint32_t* to);
+  // interrupted: the deadline's clock expired during the search (to stays kNoCluster; nothing else changed).
+  float bridge_by_path(const std::uint32_t* members, int num, std::uint32_t* from, std::uint32_t* to,
+                       bool* interrupted);
   void set_held(std::uint32_t cluster, bool held);
   bool add_cluster_edge(std::uint32_t a, std::uint32_t b, float weight_m, std::uint8_t kind);
   bool anchored(const scene_graph::SceneGraph& graph, scene_graph::NodeId start, scene_graph::NodeId removed,
@@ -413,6 +416,7 @@ class Places {
   std::size_t cursor_ = 0;
   Eigen::Vector3d cycle_robot_m_ = Eigen::Vector3d::Zero();
   std::uint64_t units_ = 0;
+  const Deadline* deadline_ = nullptr;  // the running update()'s deadline (the path search checks its clock)
 
   double voxel_m_ = 0.2;
   double tsdf_voxel_m_ = 0.1;

@@ -41,25 +41,14 @@ struct DoorResult {
 constexpr double kWallMinX = 3.0;
 constexpr double kWallMaxX = 3.1;
 
-// Maps `w` from spins at the given camera positions (with the number of views of each) and scores the graph.
-DoorResult map_world(const Config& config, const world::World& w,
-                     const std::vector<std::pair<Eigen::Vector3d, int>>& spins) {
+// Scores the places graph: components, place nodes, counters and the bridges that cross the wall.
+DoorResult score(const Places& places, const scene_graph::SceneGraph& graph) {
   DoorResult out;
-  Scanner scanner;
-  std::string error;
-  EXPECT_TRUE(scanner.init(w, 100.0, &error)) << error;
-  auto places = make_places(config);
-  auto graph = make_graph();
-  const auto hook = [&](const Eigen::Vector3d& camera) {
-    run_to_completion(places.get(), scanner.tsdf(), camera);
-    places->sync(graph.get());
-  };
-  for (const auto& [at, views] : spins) EXPECT_TRUE(scanner.spin(at, views, hook));
-  out.components = place_components(*graph);
-  graph->for_each_node([&](const scene_graph::NodeRecord& n) { out.nodes += n.kind == scene_graph::NodeKind::kPlace; });
-  out.counters = places->counters();
+  out.components = place_components(graph);
+  graph.for_each_node([&](const scene_graph::NodeRecord& n) { out.nodes += n.kind == scene_graph::NodeKind::kPlace; });
+  out.counters = places.counters();
   std::vector<PlaceInfo> infos;
-  places->places(&infos);
+  places.places(&infos);
   std::map<scene_graph::NodeId, double> x_of;
   for (const PlaceInfo& p : infos) x_of[p.id] = p.position_m.x();
   for (const PlaceInfo& p : infos)
@@ -69,6 +58,33 @@ DoorResult map_world(const Config& config, const world::World& w,
       const double lo = std::min(p.position_m.x(), other->second), hi = std::max(p.position_m.x(), other->second);
       out.bridges_across_wall += (lo < kWallMinX && hi > kWallMaxX) ? 1 : 0;
     }
+  return out;
+}
+
+// Maps `w` from spins at the given camera positions (with the number of views of each) and scores the graph.
+// Every cycle runs in update() calls under `deadline` until it completes. With `then_unlimited`, one more cycle
+// without a deadline follows, scored there.
+DoorResult map_world(const Config& config, const world::World& w,
+                     const std::vector<std::pair<Eigen::Vector3d, int>>& spins,
+                     const Deadline& deadline = Deadline::unlimited(), DoorResult* then_unlimited = nullptr) {
+  Scanner scanner;
+  std::string error;
+  EXPECT_TRUE(scanner.init(w, 100.0, &error)) << error;
+  auto places = make_places(config);
+  auto graph = make_graph();
+  const auto hook = [&](const Eigen::Vector3d& camera) {
+    bool complete = false;
+    for (int i = 0; i < 1000000 && !complete; ++i) complete = places->update(scanner.tsdf(), camera, deadline).complete;
+    EXPECT_TRUE(complete) << "update() did not complete";
+    places->sync(graph.get());
+  };
+  for (const auto& [at, views] : spins) EXPECT_TRUE(scanner.spin(at, views, hook));
+  const DoorResult out = score(*places, *graph);
+  if (then_unlimited != nullptr) {
+    run_to_completion(places.get(), scanner.tsdf(), spins.back().first);
+    places->sync(graph.get());
+    *then_unlimited = score(*places, *graph);
+  }
   return out;
 }
 
@@ -114,11 +130,13 @@ TEST(PlacesConnectivityTest, NoBridgeCrossesAWall) {
 // A full-height pillar in the room in front of the door (0.5 m from the door's wall, spanning y 0.5-2.5 across
 // the 0.9 m door at y 1.05-1.95): every straight segment from the closet through the door ends in the pillar, so
 // only the path search joins the closet, around the pillar and through the door, and never through a wall.
-DoorResult map_room_pillar_and_closet(const Config& config) {
+DoorResult map_room_pillar_and_closet(const Config& config, const Deadline& deadline = Deadline::unlimited(),
+                                      DoorResult* then_unlimited = nullptr) {
   world::World w = testing::rooms_world({3.0, 1.6}, 3.0, true);
   testing::add_box(&w, {2.0, 0.5, 0.0}, {2.5, 2.5, testing::kHeight});
   return map_world(config, w,
-                   {{{1.0, 1.5, 1.2}, 6}, {{2.75, 0.25, 1.2}, 6}, {{3.05, 1.5, 1.2}, 6}, {{3.9, 1.5, 1.2}, 6}});
+                   {{{1.0, 1.5, 1.2}, 6}, {{2.75, 0.25, 1.2}, 6}, {{3.05, 1.5, 1.2}, 6}, {{3.9, 1.5, 1.2}, 6}},
+                   deadline, then_unlimited);
 }
 
 TEST(PlacesConnectivityTest, APathAroundAPillarBridgesTheCloset) {
@@ -137,6 +155,29 @@ TEST(PlacesConnectivityTest, APathAroundAPillarBridgesTheCloset) {
   EXPECT_EQ(path.components, 1u);
   EXPECT_GT(path.counters.bridge_paths, 0u);
   EXPECT_GT(path.bridges_across_wall, 0u) << "the closet joins the room";
+}
+
+// One path search can visit tens of thousands of voxels, so it obeys the deadline's clock, not only the loops
+// around it: under a clock that has always run out, every search stops at its first check, is counted, and leaves
+// its fragment to the next cycle, which (unlimited) bridges it. The cycles still complete.
+bool clock_always_expired(const void*) { return true; }
+
+TEST(PlacesConnectivityTest, APathSearchStopsWhenTheClockRunsOut) {
+  Config config = wide_clearance(true);
+  config.bridge_max_length_m = 4.5;
+  Deadline clock;
+  clock.expired = clock_always_expired;
+  DoorResult after;
+  const DoorResult cut = map_room_pillar_and_closet(config, clock, &after);
+  std::printf("clock always expired: %llu searches cut, %llu path bridges, %zu components; then unlimited: %llu "
+              "path bridges, %zu components\n",
+              (unsigned long long)cut.counters.bridge_searches_cut, (unsigned long long)cut.counters.bridge_paths,
+              cut.components, (unsigned long long)after.counters.bridge_paths, after.components);
+  EXPECT_GT(cut.counters.bridge_searches_cut, 0u);
+  EXPECT_EQ(cut.counters.bridge_paths, 0u) << "a search ran on after the deadline";
+  EXPECT_GT(cut.components, 1u);
+  EXPECT_GT(after.counters.bridge_paths, 0u) << "the cut search was not retried";
+  EXPECT_EQ(after.components, 1u);
 }
 
 // The path search never crosses a wall: a closed closet stays its own component.
