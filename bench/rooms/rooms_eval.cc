@@ -489,6 +489,9 @@ struct LabelScore {
   std::size_t truth_unknown = 0;  // rooms the classifier left "unknown" (no objects, or below min_probability)
   std::map<std::string, std::size_t> truth_confusions;
   std::map<std::string, std::pair<std::size_t, std::size_t>> truth_per_type;  // type -> (correct, rooms)
+  // Objects inside a ground-truth room with a parent place, and those whose parent place is in the same room
+  // (the room the classifier then sees the object in follows that place).
+  std::size_t objects = 0, objects_in_own_room = 0;
 };
 
 neural_tree::RoomClassifier& shared_classifier() {
@@ -547,6 +550,15 @@ void label_truth_rooms(const world::World& w, LabelScore* out) {
 }
 
 bool label_rooms(const world::World& w, const sg::SceneGraph& g, LabelScore* out) {
+  g.for_each_node([&](const sg::NodeRecord& n) {
+    if (n.kind != sg::NodeKind::kObject || n.parent == sg::kNoNode || g.place(n.parent) == nullptr) return;
+    const Eigen::Vector3d& o = g.object(n.id)->position_m;
+    const Eigen::Vector3d& p = g.place(n.parent)->position_m;
+    const std::int32_t t = world::room_at(w, o.x(), o.y(), o.z());
+    if (t < 0) return;
+    ++out->objects;
+    out->objects_in_own_room += world::room_at(w, p.x(), p.y(), p.z()) == t ? 1 : 0;
+  });
   neural_tree::RoomClassifier& classifier = shared_classifier();
   std::string error;
   if (!classifier.ready()) return false;
@@ -735,11 +747,16 @@ int main(int argc, char** argv) {
     std::printf("  of the %zu labelled (not unknown), %zu correct (%.1f %%)\n", labelled, labels.correct,
                 labelled > 0 ? 100.0 * labels.correct / labelled : 0.0);
     for (const auto& [pair, n] : labels.confusions) std::printf("  wrong: %s x %zu\n", pair.c_str(), n);
+    std::printf("  objects whose parent place is in their own ground-truth room: %zu of %zu (%.1f %%)\n",
+                labels.objects_in_own_room, labels.objects,
+                labels.objects > 0 ? 100.0 * labels.objects_in_own_room / labels.objects : 0.0);
     std::printf("room labels on the ground-truth rooms and objects of the same buildings: %zu of %zu (%.1f %%)\n",
                 labels.truth_correct, labels.truth_rooms,
                 labels.truth_rooms > 0 ? 100.0 * labels.truth_correct / labels.truth_rooms : 0.0);
     figures.add("rooms_eval.generated_two_floor.label_accuracy", accuracy, "fraction");
     figures.add("rooms_eval.generated_two_floor.labelled_rooms", static_cast<double>(labels.rooms), "rooms");
+    figures.add("rooms_eval.generated_two_floor.objects_in_own_room",
+                labels.objects > 0 ? static_cast<double>(labels.objects_in_own_room) / labels.objects : 0.0, "fraction");
   }
   if (opt.label_buildings > 0) {
     LabelScore truth;

@@ -183,8 +183,20 @@ ConnectStats connect_to_nearest_places(scene_graph::SceneGraph* graph, const Nea
       ++stats.no_place;
       continue;
     }
+    PlaceNeighbor candidates[kParentCandidates];
+    const std::size_t found = index.nearest(position, kParentCandidates, candidates);
     PlaceNeighbor nearest;
-    if (index.nearest(position, 1, &nearest) == 0 || graph->place(nearest.id) == nullptr) {
+    double best_gap = std::numeric_limits<double>::infinity();
+    for (std::size_t c = 0; c < found; ++c) {
+      const scene_graph::PlaceAttributes* p = graph->place(candidates[c].id);
+      if (p == nullptr) continue;
+      const double gap = candidates[c].distance_m - std::max(0.0, p->distance_m);
+      if (gap < best_gap) {
+        best_gap = gap;
+        nearest = candidates[c];
+      }
+    }
+    if (nearest.id == scene_graph::kNoNode) {
       ++stats.no_place;
       continue;
     }

@@ -79,6 +79,10 @@ struct ConnectStats {
 
 // For each node (object or agent), makes its nearest indexed place its parent: an edge to a different previous
 // parent place is removed, the new edge added. Never allocates; full edge stores are counted, not fatal.
+// "Nearest" is by the gap to the place's free-space sphere (distance minus the place's clearance) among the
+// kParentCandidates nearest places: the spheres are free space, so they stop at walls, while the plain nearest
+// place of an object by a wall is often the one just behind the wall, in the next room.
+constexpr std::size_t kParentCandidates = 8;
 ConnectStats connect_to_nearest_places(scene_graph::SceneGraph* graph, const NearestPlaceIndex& index,
                                        const scene_graph::NodeId* nodes, std::size_t count);
 

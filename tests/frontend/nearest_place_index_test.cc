@@ -84,6 +84,7 @@ TEST(NearestPlaceIndexTest, RebuildAndQueryDoNotAllocateAndCapacityIsBounded) {
   EXPECT_EQ(index->rebuild(*graph, false), 50u);
 }
 
+// Places of equal clearance: the nearest sphere is the nearest place.
 TEST(NearestPlaceIndexTest, ObjectsAndAgentsGetTheirNearestPlaceAsParent) {
   auto graph = scene_graph::testing::make_graph();
   for (int i = 0; i < 5; ++i) {
@@ -120,6 +121,30 @@ TEST(NearestPlaceIndexTest, ObjectsAndAgentsGetTheirNearestPlaceAsParent) {
   auto empty = make_index(4);
   s = connect_to_nearest_places(graph.get(), *empty, nodes, 2);
   EXPECT_EQ(s.no_place, 2u);
+}
+
+// A bed against a wall: the place just behind the wall (0.9 m from the bed's centre, in the corridor, 0.4 m of
+// clearance) is nearer than the bedroom's (1.4 m away, 1.3 m of clearance). The bedroom place's free-space sphere
+// reaches to 0.1 m of the bed; the corridor's stops 0.5 m short, at the wall. The parent is the bedroom's place.
+TEST(NearestPlaceIndexTest, TheParentIsThePlaceWhoseFreeSphereIsNearest) {
+  auto graph = scene_graph::testing::make_graph();
+  const NodeId corridor = make_node_id('p', 0), bedroom = make_node_id('p', 1);
+  scene_graph::PlaceAttributes behind_wall = scene_graph::testing::place_at(-0.9, 0, 0.4);
+  scene_graph::PlaceAttributes in_room = scene_graph::testing::place_at(1.4, 0, 1.3);
+  behind_wall.is_active = in_room.is_active = true;
+  ASSERT_EQ(graph->add_place(corridor, behind_wall), scene_graph::Status::kOk);
+  ASSERT_EQ(graph->add_place(bedroom, in_room), scene_graph::Status::kOk);
+  scene_graph::ObjectAttributes bed;
+  bed.position_m = Eigen::Vector3d(0, 0, 1.0);
+  const NodeId obj = make_node_id('O', 0);
+  ASSERT_EQ(graph->add_object(obj, bed), scene_graph::Status::kOk);
+  auto index = make_index(8);
+  index->rebuild(*graph);
+  PlaceNeighbor nearest;
+  ASSERT_EQ(index->nearest(bed.position_m, 1, &nearest), 1u);
+  ASSERT_EQ(nearest.id, corridor) << "the scene must put the corridor's place nearer (else it tests nothing)";
+  EXPECT_EQ(connect_to_nearest_places(graph.get(), *index, &obj, 1).connected, 1u);
+  EXPECT_EQ(graph->parent(obj), bedroom);
 }
 
 TEST(NearestPlaceIndexTest, AFullEdgeStoreIsCountedNotFatal) {
