@@ -8,7 +8,8 @@ Commands (from the repository root, Debian's python3-torch; fixed seeds, one thr
   /usr/bin/python3 bench/neural_tree/train_neural_tree.py train     # all rooms -> weights file + parity fixture
 Any CONFIG entry can be overridden with --set key=value. Training-only switches (no C++ change): class_weight
 (loss weights count^-x), val_folds (training length from an inner split of the training rooms), word_onehot and
-word_scale (what the word table holds). cv-only ablations: box_relative, plain_graph, room_word_counts.
+word_scale (what the word table holds), swa (weights averaged over that last fraction of the epochs). cv-only
+ablations: box_relative, plain_graph, room_word_counts.
 """
 import argparse
 import base64
@@ -73,7 +74,7 @@ MPCAT40 = ["void", "wall", "floor", "chair", "door", "table", "picture", "cabine
 
 CONFIG = dict(label_count=1, box_relative=0, plain_graph=0, agg_sum=0, ensemble=3, pos_scale=1.0, hidden=32, layers=3,
               lr=0.005, weight_decay=5e-4, dropout=0.25, epochs=250, lr_l2=1e-2, word_onehot=1, class_weight=0.0,
-              val_folds=0, max_epochs=400, room_word_counts=0, word_scale=1.0)
+              val_folds=0, max_epochs=400, room_word_counts=0, word_scale=1.0, swa=0.0)
 
 
 # ----------------------------------------------------------------------------------------------------------------
@@ -305,16 +306,32 @@ def train_model(train_batch, labels, num_classes, seed, cfg=CONFIG, epochs=None,
     y = torch.tensor(labels, dtype=torch.long)
     weight = class_weights(np.asarray(labels), num_classes, cfg["class_weight"]) if cfg["class_weight"] else None
     curve = []
-    for epoch in range(cfg["epochs"] if epochs is None else epochs):
+    total = cfg["epochs"] if epochs is None else epochs
+    # swa > 0: the weights returned are the mean of the weights after each of the last swa x total epochs.
+    swa_start = int(total * (1.0 - cfg["swa"])) if cfg["swa"] > 0 else total
+    swa_sum, swa_n = None, 0
+    for epoch in range(total):
         model.train()
         opt.zero_grad()
         loss = torch.nn.functional.cross_entropy(model(train_batch), y, weight=weight)
         loss.backward()
         opt.step()
+        if epoch >= swa_start:
+            with torch.no_grad():
+                if swa_sum is None:
+                    swa_sum = [p.detach().clone() for p in model.parameters()]
+                else:
+                    for a, p in zip(swa_sum, model.parameters()):
+                        a += p
+            swa_n += 1
         if val_batch is not None and epoch % 10 == 9:
             model.eval()
             with torch.no_grad():
                 curve.append(torch.softmax(model(val_batch), 1))
+    if swa_n > 0:
+        with torch.no_grad():
+            for a, p in zip(swa_sum, model.parameters()):
+                p.copy_(a / swa_n)
     model.eval()
     return (model, curve) if val_batch is not None else model
 
@@ -437,8 +454,8 @@ def write_figures(path, figures, conditions):
     if not path:
         return
     try:
-        commit = subprocess.run(["git", "-C", REPO, "rev-parse", "--short", "HEAD"], capture_output=True,
-                                text=True, check=False).stdout.strip() or "unknown"
+        commit = subprocess.run(["git", "-C", REPO, "describe", "--always", "--dirty=-dirty", "--abbrev=12"],
+                                capture_output=True, text=True, check=False).stdout.strip() or "unknown"
     except OSError:
         commit = "unknown"
     with open(path, "w") as f:
