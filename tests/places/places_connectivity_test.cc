@@ -73,9 +73,7 @@ DoorResult map_world(const Config& config, const world::World& w,
   auto places = make_places(config);
   auto graph = make_graph();
   const auto hook = [&](const Eigen::Vector3d& camera) {
-    bool complete = false;
-    for (int i = 0; i < 1000000 && !complete; ++i) complete = places->update(scanner.tsdf(), camera, deadline).complete;
-    EXPECT_TRUE(complete) << "update() did not complete";
+    run_to_completion(places.get(), scanner.tsdf(), camera, deadline);
     places->sync(graph.get());
   };
   for (const auto& [at, views] : spins) EXPECT_TRUE(scanner.spin(at, views, hook));

@@ -48,9 +48,11 @@ inline std::unique_ptr<scene_graph::SceneGraph> make_graph(std::size_t place_nod
   return g;
 }
 
-inline void run_to_completion(Places* p, const reconstruction::SemanticTsdf& tsdf, const Eigen::Vector3d& robot) {
-  for (int i = 0; i < 1000; ++i)
-    if (p->update(tsdf, robot, Deadline::unlimited()).complete) return;
+// Calls update() under `deadline` until a cycle completes (a tight deadline needs many calls).
+inline void run_to_completion(Places* p, const reconstruction::SemanticTsdf& tsdf, const Eigen::Vector3d& robot,
+                              const Deadline& deadline = Deadline::unlimited()) {
+  for (int i = 0; i < 1000000; ++i)
+    if (p->update(tsdf, robot, deadline).complete) return;
   ADD_FAILURE() << "update() did not complete";
 }
 
