@@ -35,6 +35,9 @@ enum : std::uint8_t {
   kVisited = 64,
   kCarved = 128,
 };
+// Voxel::aux: the voxel kept its distance when its parent's block left the window; it is its own parent until a
+// real wavefront reaches it (Config::keep_distances_at_rim).
+enum : std::uint8_t { kOrphan = 1 };
 enum : std::uint8_t { kLive = 0, kRemoved = 1, kLeft = 2 };  // cluster states; the last two await sync()
 enum Phase : int { kIdle = 0, kSeedPhase, kRaisePhase, kLowerPhase, kGvdExpand, kGvdEval, kSparsify, kFinalize, kBridge };
 enum : std::uint8_t { kEdgeGvd = 0, kEdgeFree = 1, kEdgeBridge = 2 };  // Cluster::edge_free values
@@ -79,7 +82,7 @@ struct Places::Voxel {
   std::uint8_t state = kUnobserved;
   std::uint8_t flags = 0;
   std::uint8_t num_basis = 0;
-  std::uint8_t pad = 0;
+  std::uint8_t aux = 0;  // kOrphan
 };
 
 struct Places::Block {
@@ -174,7 +177,7 @@ void Config::print(std::FILE* out) const {
                "bridge_max_fragment_places=%d bridge_max_length_m=%.2f bridge_min_clearance_m=%.2f "
                "enclosed_max_voxels=%d contract_removed=%d contract_search_places=%d unobserved_is_obstacle=%d "
                "unobserved_obstacle_above_m=%.2f rim_guard=%d signed_surface_seeds=%d correct_projective_distance=%d "
-               "hold_distant_fragments=%d bridge_path_search=%d\n",
+               "hold_distant_fragments=%d bridge_path_search=%d keep_distances_at_rim=%d\n",
                voxel_factor, max_distance_m, min_clearance_m, min_basis_angle_rad * 180.0 / 3.14159265358979,
                min_basis_points, place_resolution_m, window_radius_m, slab_below_m, slab_above_m, min_tsdf_weight,
                free_space_edges ? 1 : 0, relink_inactive ? 1 : 0, bridge_fragments ? 1 : 0,
@@ -183,7 +186,7 @@ void Config::print(std::FILE* out) const {
                contract_search_places, unobserved_is_obstacle ? 1 : 0,
                unobserved_obstacle_above_m, rim_guard ? 1 : 0, signed_surface_seeds ? 1 : 0,
                correct_projective_distance ? 1 : 0, hold_distant_fragments ? 1 : 0,
-               bridge_path_search ? 1 : 0);
+               bridge_path_search ? 1 : 0, keep_distances_at_rim ? 1 : 0);
 }
 
 void Capacities::print(std::FILE* out) const {
@@ -195,7 +198,8 @@ void Capacities::print(std::FILE* out) const {
 
 void Counters::print(std::FILE* out) const {
   std::fprintf(out,
-               "places: updates=%llu cycles=%llu tsdf_blocks_read=%llu voxels updated=%llu raised=%llu frontier_seeds=%llu "
+               "places: updates=%llu cycles=%llu tsdf_blocks_read=%llu voxels updated=%llu raised=%llu orphaned=%llu "
+               "frontier_seeds=%llu "
                "occupied_seeds=%llu blocks "
                "allocated=%llu freed=%llu refused=%llu gvd_voxels=%llu places=%llu merged=%llu split=%llu "
                "refused clusters=%llu edges=%llu graph=%llu free_space_edges=%llu relinked=%llu "
@@ -204,7 +208,7 @@ void Counters::print(std::FILE* out) const {
                "contracted=%llu enclosed_held=%llu\n",
                (unsigned long long)updates, (unsigned long long)cycles, (unsigned long long)tsdf_blocks_read,
                (unsigned long long)voxels_updated, (unsigned long long)voxels_raised,
-               (unsigned long long)frontier_seeds, (unsigned long long)occupied_seeds,
+               (unsigned long long)voxels_orphaned, (unsigned long long)frontier_seeds, (unsigned long long)occupied_seeds,
                (unsigned long long)blocks_allocated, (unsigned long long)blocks_freed,
                (unsigned long long)blocks_refused, (unsigned long long)gvd_voxels, (unsigned long long)places,
                (unsigned long long)clusters_merged, (unsigned long long)clusters_split,
@@ -452,7 +456,7 @@ void Places::mark_affected(std::uint32_t ref) {
 
 void Places::set_parent(std::uint32_t ref, std::uint32_t parent, float distance_m) {
   Voxel& v = vox(ref);
-  if (v.parent != parent) {
+  if (v.parent != parent || (v.aux & kOrphan) != 0) {
     clear_parent(ref);
     if (parent != ref) {
       Voxel& p = vox(parent);
@@ -468,6 +472,7 @@ void Places::set_parent(std::uint32_t ref, std::uint32_t parent, float distance_
 
 void Places::clear_parent(std::uint32_t ref) {
   Voxel& v = vox(ref);
+  v.aux &= static_cast<std::uint8_t>(~kOrphan);
   if (v.parent == kNoRef) return;
   if (v.parent != ref) {
     if (v.prev != kNoRef) vox(v.prev).next = v.next;
@@ -500,7 +505,34 @@ void Places::raise_dependents(std::uint32_t seed_ref, bool include_seed) {
   if (include_seed) {
     s.parent = kNoRef;
     s.distance_m = kUnreached;
+    s.aux &= static_cast<std::uint8_t>(~kOrphan);
   }
+}
+
+// The dependents of a voxel whose block is leaving the window: those in blocks that stay keep their distance and
+// become their own parents (orphans, see Config::keep_distances_at_rim); those in dying blocks are just unlinked.
+void Places::orphan_dependents(std::uint32_t parent_ref) {
+  Voxel& s = vox(parent_ref);
+  std::uint32_t d = s.next;
+  while (d != kNoRef) {
+    Voxel& dv = vox(d);
+    const std::uint32_t next = dv.next;
+    dv.prev = kNoRef;
+    dv.next = kNoRef;
+    if (blocks_[d / kBlockVoxels].dying) {
+      dv.parent = kNoRef;
+      dv.distance_m = kUnreached;
+    } else {
+      dv.parent = d;
+      dv.aux |= kOrphan;
+      ++counters_.voxels_orphaned;
+    }
+    d = next;
+  }
+  s.next = kNoRef;
+  s.parent = kNoRef;
+  s.distance_m = kUnreached;
+  s.aux &= static_cast<std::uint8_t>(~kOrphan);
 }
 
 void Places::apply_state(std::uint32_t ref, std::uint8_t state, float seed_m) {
@@ -793,13 +825,16 @@ void Places::evict_block_voxels(std::uint32_t handle) {
     }
     if ((v.flags & kGvd) != 0 && counters_.gvd_voxels > 0) --counters_.gvd_voxels;
     if (v.state == kSeed || v.parent == ref) {
-      // Dependents outside the dying blocks lose their parent: raise them like a vanished seed (push_raise is a
-      // no-op for the dying blocks' own voxels). Frontier and occupied seeds too.
-      raise_dependents(ref, /*include_seed=*/true);
+      // Dependents outside the dying blocks lose their parent (frontier, occupied and orphan parents too). The
+      // obstacle is still there, only outside the window: they keep their distance as orphans. Off, they are
+      // raised like the dependents of a vanished seed (push_raise is a no-op for the dying blocks' own voxels).
+      if (config_.keep_distances_at_rim) orphan_dependents(ref);
+      else raise_dependents(ref, /*include_seed=*/true);
     } else {
       clear_parent(ref);
     }
     v.flags = 0;
+    v.aux = 0;
   }
 }
 
@@ -939,7 +974,11 @@ void Places::lower_step(const reconstruction::SemanticTsdf& tsdf, std::uint32_t 
       continue;
     }
     if (nv.state != kFree) continue;
-    if (cand + kEps < nv.distance_m) {
+    // An orphan takes a real parent again when the wave offers about its distance (within half a voxel: the same
+    // obstacle, re-read, or one as near); its own dependents are refilled first (their lists hang off it).
+    const bool adopt = (nv.aux & kOrphan) != 0 && cand <= nv.distance_m + 0.5f * s;
+    if (cand + kEps < nv.distance_m || adopt) {
+      if ((nv.aux & kOrphan) != 0) raise_dependents(n, false);
       set_parent(n, parent, cand);
       push_lower(n);
       mark_affected(n);
@@ -961,6 +1000,8 @@ int Places::evaluate_gvd(std::uint32_t ref, std::uint32_t* basis_parents, int ma
   if (v.state != kFree || v.parent == kNoRef || v.distance_m < static_cast<float>(config_.min_clearance_m)) return 0;
   // Nearer unknown space than any surface: the true clearance and the true GVD are not known here.
   if (vox(v.parent).state == kUnobserved) return 0;
+  // Beside an orphan (its obstacle left the window) the basis points are not known: keep the state, as at the rim.
+  if ((v.aux & kOrphan) != 0 || (vox(v.parent).aux & kOrphan) != 0) return kRim;
   const memory::Index3 g = coords(ref);
   const memory::Index3 pv = coords(v.parent);
   const float pv_d = vox(v.parent).distance_m;
@@ -984,6 +1025,7 @@ int Places::evaluate_gvd(std::uint32_t ref, std::uint32_t* basis_parents, int ma
     }
     const Voxel& nv = vox(n);
     if ((nv.state != kFree && nv.state != kSeed) || nv.parent == kNoRef || nv.parent == v.parent) continue;
+    if ((nv.aux & kOrphan) != 0 || (vox(nv.parent).aux & kOrphan) != 0) return kRim;
     if (vox(nv.parent).state == kUnobserved) continue;  // a frontier is not a basis point
     const memory::Index3 pn = coords(nv.parent);
     // The same obstacle: adjacent seeds, or a band seed (distance > 0, one voxel off its surface) and a surface

@@ -77,6 +77,14 @@ struct Config {
   // walls alone: it becomes no new GVD voxel there, and a GVD voxel already there keeps its state until it leaves.
   // Off, such voxels grow sheets that are not in the world, which become inactive places when the robot moves on.
   bool rim_guard = true;
+  // An obstacle whose ESDF block leaves the window (the window's horizontal rim) is still there: the free voxels
+  // left inside that took their distance from it keep that distance (each becomes its own parent, an "orphan",
+  // counted in Counters::voxels_orphaned) and the GVD around them keeps its state, as at the vertical rim, until
+  // a real wavefront reaches them again (the robot comes back) or their block leaves too. Off (the FIESTA rule for
+  // a vanished obstacle), they are raised and refilled from the obstacles still inside, e.g. the floor alone
+  // beside a wall that just left: corridor places went inactive with 1.3-1.5 m clearance where the walls were
+  // 0.4-0.55 m away, which merged rooms through their doors (rooms_eval, IPA plans).
+  bool keep_distances_at_rim = true;
   // The paper: each GVD voxel's distance "defines a sphere of free-space"; the union of the spheres is the free
   // space and carries its connectivity. Places of neighbouring hash cells whose spheres overlap are joined by a
   // free-space edge (weight: the smallest ESDF distance along the segment), which reconnects GVD pieces that the
@@ -157,6 +165,7 @@ struct Counters {
   std::uint64_t tsdf_blocks_read = 0;  // dirty TSDF blocks re-seeded
   std::uint64_t voxels_updated = 0;    // ESDF voxels whose distance or parent changed (lower wave and seeds)
   std::uint64_t voxels_raised = 0;     // ESDF voxels reset by raise waves
+  std::uint64_t voxels_orphaned = 0;   // kept their distance when its obstacle's block left (keep_distances_at_rim)
   std::uint64_t frontier_seeds = 0;    // unobserved voxels made frontier seeds (see Config::unobserved_is_obstacle)
   std::uint64_t occupied_seeds = 0;    // occupied voxels beside free ones (no band voxel between) made seeds
   std::uint64_t blocks_allocated = 0;
@@ -345,6 +354,7 @@ class Places {
   void carve_ray(const reconstruction::SemanticTsdf& tsdf, const Eigen::Vector3d& origin_m, std::uint32_t target);
   void apply_state(std::uint32_t ref, std::uint8_t state, float seed_m);
   void raise_dependents(std::uint32_t seed_ref, bool include_seed);
+  void orphan_dependents(std::uint32_t parent_ref);
   void set_parent(std::uint32_t ref, std::uint32_t parent, float distance_m);
   void clear_parent(std::uint32_t ref);
   void push_lower(std::uint32_t ref);

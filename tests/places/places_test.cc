@@ -467,6 +467,68 @@ TEST(PlacesTest, PlacesThatLeaveTheWindowStayInTheGraphInactive) {
   places->for_each_resource([](const memory::ResourceStats& s) { EXPECT_EQ(s.failed, 0u) << s.name; });
 }
 
+// An obstacle whose ESDF block leaves the window is still there: the distances left inside the window, and the
+// clearance of the places there, stay as they were (Config::keep_distances_at_rim). The FIESTA rule for a vanished
+// obstacle (the switch off) refills them from the obstacles still inside, so some grow: the test can tell.
+TEST(PlacesTest, DistancesDoNotGrowWhenTheirObstacleLeavesTheWindow) {
+  const auto grown_after_walking_away = [](bool keep, std::size_t* held, std::size_t* orphans, double* worst_m,
+                                           std::size_t* places_grown) {
+    Scanner scanner;
+    std::string error;
+    ASSERT_TRUE(scanner.init(testing::rooms_world({3.0, 3.0}, 3.0, true), 100.0, &error)) << error;
+    Config config;
+    config.keep_distances_at_rim = keep;
+    auto places = make_places(config);
+    ASSERT_TRUE(scanner.spin({1.5, 1.5, 1.2}, 8, every_frame(places.get(), &scanner)));
+    ASSERT_TRUE(scanner.spin({4.6, 1.5, 1.2}, 8, every_frame(places.get(), &scanner)));
+    const double s = places->voxel_size_m();
+    std::vector<std::pair<Eigen::Vector3d, float>> before;
+    for (double x = 0.1; x < 6.1; x += s)
+      for (double y = 0.1; y < 3.0; y += s)
+        for (double z = 0.1; z < kHeight; z += s) {
+          float d = 0.0f;
+          if (places->distance_at({x, y, z}, &d) && d < 10.0f) before.emplace_back(Eigen::Vector3d(x, y, z), d);
+        }
+    std::vector<PlaceInfo> places_before;
+    places->places(&places_before);
+    // The robot steps away along +x: the ESDF blocks up to x = 3.2 m (the first room and the wall between the
+    // rooms) leave the 7 m window, those of the second room stay; free space beside that wall took its distance
+    // from it.
+    run_to_completion(places.get(), scanner.tsdf(), {10.5, 1.5, 1.2});
+    ASSERT_GT(places->counters().blocks_freed, 0u);
+    *held = 0;
+    *worst_m = 0.0;
+    for (const auto& [p, d] : before) {
+      float now = 0.0f;
+      if (!places->distance_at(p, &now)) continue;
+      ++*held;
+      *worst_m = std::max(*worst_m, static_cast<double>(now - d));
+    }
+    std::vector<PlaceInfo> places_after;
+    places->places(&places_after);
+    *places_grown = 0;
+    for (const PlaceInfo& a : places_after)
+      for (const PlaceInfo& b : places_before)
+        if (a.id == b.id && a.clearance_m > b.clearance_m + 1e-6) ++*places_grown;
+    *orphans = places->counters().voxels_orphaned;
+  };
+  std::size_t held = 0, orphans = 0, grown = 0;
+  double worst = 0.0;
+  grown_after_walking_away(true, &held, &orphans, &worst, &grown);
+  std::printf("kept: %zu distances still in the window, %zu orphaned voxels, largest growth %.3f m, %zu places "
+              "grew\n", held, orphans, worst, grown);
+  EXPECT_GT(held, 100u);
+  EXPECT_GT(orphans, 0u);
+  EXPECT_LE(worst, 1e-6);
+  EXPECT_EQ(grown, 0u);
+  grown_after_walking_away(false, &held, &orphans, &worst, &grown);
+  std::printf("raised (switch off): %zu distances still in the window, largest growth %.3f m, %zu places grew\n",
+              held, worst, grown);
+  EXPECT_EQ(orphans, 0u);
+  EXPECT_GT(worst, 0.1) << "the set-up should have distances that the obstacles leaving the window would raise";
+  EXPECT_GT(grown, 0u);
+}
+
 // The anytime split: the same work cut into many small calls gives exactly the result of one call, also over
 // an incremental second scan.
 TEST(PlacesTest, SplittingTheWorkAcrossCallsGivesTheSameResult) {
