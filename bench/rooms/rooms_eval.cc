@@ -172,19 +172,36 @@ struct Raster {
 };
 
 // Labels free cells with the room of the geodesically nearest place (multi-source BFS from the places' cells).
-void label_from_places(const sg::SceneGraph& g, double z_min_m, double z_max_m, double max_reach_m, Raster* ras) {
+// oracle: every place (with a room or not) takes the ground-truth room of its cell instead (the nearest within 3
+// cells when its cell has none), so the score is the bound any room finder could reach on these places: what the
+// tour observed and the rasterization keep, with a perfect assignment of places to rooms.
+void label_from_places(const sg::SceneGraph& g, double z_min_m, double z_max_m, double max_reach_m, Raster* ras,
+                       bool oracle = false) {
   ras->estimate.assign(ras->free.size(), 0);
   std::vector<int> dist(ras->free.size(), -1);
   std::deque<std::pair<int, int>> queue;
   std::map<sg::NodeId, std::int32_t> room_label;
   g.for_each_node([&](const sg::NodeRecord& n) {
-    if (n.kind != sg::NodeKind::kPlace || n.parent == sg::kNoNode) return;
+    if (n.kind != sg::NodeKind::kPlace || (!oracle && n.parent == sg::kNoNode)) return;
     const Eigen::Vector3d& p = g.place(n.id)->position_m;
     if (p.z() < z_min_m || p.z() >= z_max_m) return;
-    auto it = room_label.find(n.parent);
-    if (it == room_label.end()) it = room_label.emplace(n.parent, static_cast<std::int32_t>(room_label.size() + 1)).first;
     int c, r;
     if (!ras->cell_of(p, &c, &r)) return;
+    std::int32_t label = 0;
+    if (oracle) {
+      for (int d = 0; d <= 3 && label == 0; ++d)
+        for (int dr = -d; dr <= d && label == 0; ++dr)
+          for (int dc = -d; dc <= d && label == 0; ++dc) {
+            const int cc = c + dc, rr = r + dr;
+            if (cc >= 0 && rr >= 0 && cc < ras->cols && rr < ras->rows) label = ras->truth[ras->idx(cc, rr)];
+          }
+      if (label <= 0) return;
+    } else {
+      auto it = room_label.find(n.parent);
+      if (it == room_label.end())
+        it = room_label.emplace(n.parent, static_cast<std::int32_t>(room_label.size() + 1)).first;
+      label = it->second;
+    }
     // A place on a wall cell (rasterization): the nearest free cell within 2 cells.
     int best_c = -1, best_r = -1;
     for (int d = 0; d <= 2 && best_c < 0; ++d)
@@ -198,7 +215,7 @@ void label_from_places(const sg::SceneGraph& g, double z_min_m, double z_max_m, 
         }
     if (best_c < 0 || dist[ras->idx(best_c, best_r)] == 0) return;
     dist[ras->idx(best_c, best_r)] = 0;
-    ras->estimate[ras->idx(best_c, best_r)] = it->second;
+    ras->estimate[ras->idx(best_c, best_r)] = label;
     queue.emplace_back(best_c, best_r);
   });
   const int max_steps = static_cast<int>(std::lround(max_reach_m / ras->res_m));
@@ -407,7 +424,7 @@ void print_line(const std::string& name, const Score& s, const RunStats& st) {
 }
 
 bool eval_plan(const Options& opt, const std::string& map, bool furnished, Score* out, RunStats* st,
-               Score* reachable) {
+               Score* reachable, Score* oracle) {
   const std::string occ_path = opt.plans_dir + "/" + map + (furnished ? "_furnitures" : "") + ".png";
   const std::string gt_path = world::floor_plan_gt_path(occ_path);
   world::FloorPlanConfig fc;
@@ -444,6 +461,10 @@ bool eval_plan(const Options& opt, const std::string& map, bool furnished, Score
       const int l = labels.at<int>(r, c);
       ras.truth[ras.idx(c, r)] = l > 0 && stats.at<int>(l, cv::CC_STAT_AREA) >= fc.min_room_area_px ? l : 0;
     }
+  if (oracle != nullptr) {
+    label_from_places(*graph, -1e9, 1e9, opt.max_reach_m, &ras, /*oracle=*/true);
+    *oracle = score(ras);
+  }
   label_from_places(*graph, -1e9, 1e9, opt.max_reach_m, &ras);
   *out = score(ras);
   if (!opt.images_dir.empty())
@@ -613,7 +634,8 @@ bool label_rooms(const world::World& w, const sg::SceneGraph& g, LabelScore* out
   return true;
 }
 
-bool eval_generated(const Options& opt, std::uint64_t seed, Score* out, RunStats* st, LabelScore* labels) {
+bool eval_generated(const Options& opt, std::uint64_t seed, Score* out, RunStats* st, LabelScore* labels,
+                    Score* oracle) {
   world::BuildingConfig bc;
   bc.seed = seed;
   bc.num_rooms = opt.generated_rooms;
@@ -630,7 +652,7 @@ bool eval_generated(const Options& opt, std::uint64_t seed, Score* out, RunStats
   const world::Aabb box = world::world_bounds(w);
   std::map<std::int32_t, double> floors;  // floor index -> floor z
   for (const world::Room& room : w.rooms) floors[room.floor_index] = room.floor_z_m;
-  Score total;
+  Score total, bound;
   for (const auto& [floor, z] : floors) {
     Raster ras;
     ras.res_m = 0.05;
@@ -652,10 +674,14 @@ bool eval_generated(const Options& opt, std::uint64_t seed, Score* out, RunStats
         }
     }
     // Places of this floor: from its floor up to the next floor's (stair places go with the floor below).
-    label_from_places(*graph, z - 0.3, z + bc.ceiling_height_m - 0.3 + bc.slab_thickness_m, opt.max_reach_m, &ras);
+    const double z_lo = z - 0.3, z_hi = z + bc.ceiling_height_m - 0.3 + bc.slab_thickness_m;
+    label_from_places(*graph, z_lo, z_hi, opt.max_reach_m, &ras, /*oracle=*/true);
+    bound.add(score(ras));
+    label_from_places(*graph, z_lo, z_hi, opt.max_reach_m, &ras);
     total.add(score(ras));
   }
   *out = total;
+  *oracle = bound;
   return true;
 }
 
@@ -696,11 +722,11 @@ int main(int argc, char** argv) {
   std::vector<double> rooms_ms;
   for (const std::string& variant : opt.variants) {
     if (opt.maps.empty()) break;
-    Score overall, overall_reachable;
+    Score overall, overall_reachable, overall_oracle;
     for (const std::string& map : opt.maps) {
-      Score s, reachable;
+      Score s, reachable, oracle;
       RunStats st;
-      if (!eval_plan(opt, map, variant == "furnished", &s, &st, &reachable)) {
+      if (!eval_plan(opt, map, variant == "furnished", &s, &st, &reachable, &oracle)) {
         ++failures;
         continue;
       }
@@ -709,6 +735,7 @@ int main(int argc, char** argv) {
       rooms_ms.push_back(st.rooms_ms);
       overall.add(s);
       overall_reachable.add(reachable);
+      overall_oracle.add(oracle);
     }
     std::printf("%-30s P %.3f R %.3f | area P %.3f R %.3f | rooms %zu / truth %zu (means pooled over all rooms)\n",
                 ("ALL (" + variant + ")").c_str(), overall.precision_mean, overall.recall_mean, overall.precision_area,
@@ -717,15 +744,21 @@ int main(int argc, char** argv) {
                 ("ALL reachable (" + variant + ")").c_str(), overall_reachable.precision_mean,
                 overall_reachable.recall_mean, overall_reachable.precision_area, overall_reachable.recall_area,
                 overall_reachable.rooms_found, overall_reachable.rooms_truth);
+    std::printf("%-30s P %.3f R %.3f | area P %.3f R %.3f | rooms %zu / truth %zu (bound: each place in its "
+                "ground-truth room)\n",
+                ("ALL oracle (" + variant + ")").c_str(), overall_oracle.precision_mean, overall_oracle.recall_mean,
+                overall_oracle.precision_area, overall_oracle.recall_area, overall_oracle.rooms_found,
+                overall_oracle.rooms_truth);
     add("rooms_eval.ipa." + variant + ".all", overall);
+    add("rooms_eval.ipa." + variant + ".oracle", overall_oracle);
     add("rooms_eval.ipa." + variant + ".reachable", overall_reachable);
   }
-  Score generated;
+  Score generated, generated_oracle;
   LabelScore labels;
   for (int seed = 1; seed <= opt.generated; ++seed) {
-    Score s;
+    Score s, oracle;
     RunStats st;
-    if (!eval_generated(opt, static_cast<std::uint64_t>(seed), &s, &st, &labels)) {
+    if (!eval_generated(opt, static_cast<std::uint64_t>(seed), &s, &st, &labels, &oracle)) {
       ++failures;
       continue;
     }
@@ -733,12 +766,19 @@ int main(int argc, char** argv) {
     add("rooms_eval.generated_two_floor.seed" + std::to_string(seed), s);
     rooms_ms.push_back(st.rooms_ms);
     generated.add(s);
+    generated_oracle.add(oracle);
   }
   if (opt.generated > 0) {
     std::printf("%-30s P %.3f R %.3f | area P %.3f R %.3f | rooms %zu / truth %zu\n", "ALL generated two-floor",
                 generated.precision_mean, generated.recall_mean, generated.precision_area, generated.recall_area,
                 generated.rooms_found, generated.rooms_truth);
+    std::printf("%-30s P %.3f R %.3f | area P %.3f R %.3f | rooms %zu / truth %zu (bound: each place in its "
+                "ground-truth room)\n",
+                "ALL generated oracle", generated_oracle.precision_mean, generated_oracle.recall_mean,
+                generated_oracle.precision_area, generated_oracle.recall_area, generated_oracle.rooms_found,
+                generated_oracle.rooms_truth);
     add("rooms_eval.generated_two_floor.all", generated);
+    add("rooms_eval.generated_two_floor.oracle", generated_oracle);
     const double accuracy = labels.rooms > 0 ? static_cast<double>(labels.correct) / labels.rooms : 0.0;
     std::printf("room labels (neural tree, generated two-floor): %zu of %zu estimated rooms correct (%.1f %%), %zu "
                 "unknown; each room scored against the ground-truth room holding most of its places\n",
