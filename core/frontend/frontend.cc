@@ -18,16 +18,18 @@ void Config::print(std::FILE* out) const {
   places.print(out);
   objects.print(out);
   agents.print(out);
-  std::fprintf(out, "frontend: connect_interlayer=%d\n", connect_interlayer ? 1 : 0);
+  std::fprintf(out, "frontend: connect_interlayer=%d reparent_untracked_every=%u\n", connect_interlayer ? 1 : 0,
+               reparent_untracked_every);
 }
 
 void Counters::print(std::FILE* out) const {
   std::fprintf(out,
                "frontend: updates=%llu places_cycles=%llu deadline_stops=%llu interlayer connected=%llu failed=%llu "
-               "reconnected=%llu graph_refused=%llu\n",
+               "reconnected=%llu reparent_refreshes=%llu objects_reparented=%llu graph_refused=%llu\n",
                (unsigned long long)updates, (unsigned long long)places_cycles, (unsigned long long)deadline_stops,
                (unsigned long long)interlayer_connected, (unsigned long long)interlayer_failed,
-               (unsigned long long)interlayer_reconnected, (unsigned long long)graph_refused);
+               (unsigned long long)interlayer_reconnected, (unsigned long long)reparent_refreshes,
+               (unsigned long long)objects_reparented, (unsigned long long)graph_refused);
 }
 
 bool Frontend::init(const Config& config, std::string* error) {
@@ -39,7 +41,9 @@ bool Frontend::init(const Config& config, std::string* error) {
       !agents_.init(config.agents, agents::capacities_from_budget(), error))
     return false;
   const NearestPlaceCapacities index_caps = nearest_place_capacities_from_budget();
-  if (!index_.init(index_caps, NearestPlaceIndex::plan(index_caps).total_bytes(), error)) return false;
+  if (!index_.init(index_caps, NearestPlaceIndex::plan(index_caps).total_bytes(), error) ||
+      !all_places_index_.init(index_caps, NearestPlaceIndex::plan(index_caps).total_bytes(), error))
+    return false;
   ready_ = true;
   return true;
 }
@@ -75,19 +79,33 @@ UpdateSummary Frontend::update(const reconstruction::SemanticTsdf& tsdf, const E
   ++counters_.places_cycles;
   summary.places_sync = places_.sync(graph);
   if (summary.places_sync.status != scene_graph::Status::kOk) ++counters_.graph_refused;
-  if (config_.connect_interlayer) connect_interlayer(graph, &summary);
+  if (config_.connect_interlayer) connect_interlayer(graph, robot_m, &summary);
   return summary;
 }
 
-void Frontend::connect_interlayer(scene_graph::SceneGraph* graph, UpdateSummary* summary) {
+bool Frontend::near_active_places(const objects::ObjectView& o, const Eigen::Vector3d& robot_m) const {
+  if (o.num_tracked == 0) return false;
+  if (config_.reparent_untracked_every == 0) return true;
+  const double reach = std::max(0.0, config_.places.window_radius_m - 1.0);
+  return (o.position_m - robot_m).squaredNorm() <= reach * reach;
+}
+
+void Frontend::connect_interlayer(scene_graph::SceneGraph* graph, const Eigen::Vector3d& robot_m,
+                                  UpdateSummary* summary) {
   // Places were removed: their keyframes may have lost their place (the sweep below; connected ones only).
   if (summary->places_sync.nodes_removed > 0) orphan_checks_left_ = agents_connected_;
+  // Objects out of the window among all places (also when no place is active, e.g. far from everything mapped).
+  if (config_.reparent_untracked_every > 0 && ++cycles_since_reparent_ >= config_.reparent_untracked_every) {
+    cycles_since_reparent_ = 0;
+    reparent_untracked(graph, robot_m, summary);
+  }
   if (index_.rebuild(*graph, /*active_only=*/true) == 0) return;
   // Every object in the window (an object's nearest place changes as places appear around it), and the
   // keyframes added since the last refresh.
   connect_nodes_.clear();
   objects_.for_each_object([&](const objects::ObjectView& o) {
-    if (o.node != scene_graph::kNoNode && o.num_tracked > 0 && graph->has_node(o.node)) connect_nodes_.push_back(o.node);
+    if (o.node != scene_graph::kNoNode && near_active_places(o, robot_m) && graph->has_node(o.node))
+      connect_nodes_.push_back(o.node);
   });
   const std::size_t keyframes = agents_.num_keyframes();
   std::size_t k = agents_connected_;
@@ -109,6 +127,21 @@ void Frontend::connect_interlayer(scene_graph::SceneGraph* graph, UpdateSummary*
   summary->connect = connect_to_nearest_places(graph, index_, connect_nodes_.data(), connect_nodes_.size());
   counters_.interlayer_connected += summary->connect.connected;
   counters_.interlayer_failed += summary->connect.failed;
+}
+
+void Frontend::reparent_untracked(scene_graph::SceneGraph* graph, const Eigen::Vector3d& robot_m,
+                                  UpdateSummary* summary) {
+  connect_nodes_.clear();
+  objects_.for_each_object([&](const objects::ObjectView& o) {
+    if (o.node != scene_graph::kNoNode && !near_active_places(o, robot_m) && !connect_nodes_.full() &&
+        graph->has_node(o.node))
+      connect_nodes_.push_back(o.node);
+  });
+  ++counters_.reparent_refreshes;
+  if (connect_nodes_.empty() || all_places_index_.rebuild(*graph, /*active_only=*/false) == 0) return;
+  summary->reparent = connect_to_nearest_places(graph, all_places_index_, connect_nodes_.data(), connect_nodes_.size());
+  counters_.objects_reparented += summary->reparent.connected;
+  counters_.interlayer_failed += summary->reparent.failed;
 }
 
 }  // namespace qsg::frontend

@@ -3,9 +3,11 @@
 // no heap allocation per update.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <map>
 #include <memory>
 #include <set>
+#include <vector>
 
 #include "core/frontend/frontend.h"
 #include "core/scene_graph/scene_graph.h"
@@ -160,6 +162,74 @@ TEST(FrontendTest, DeadlineSplitEndsInTheSameGraphWithoutAllocating) {
     EXPECT_DOUBLE_EQ(b.at(id).second, value.second);
   }
   EXPECT_EQ(whole.graph->num_edges(), split.graph->num_edges());
+}
+
+// An object out of the window whose parent place is wrong (as when it was first seen from afar, before its own
+// room had places) gets the place of the whole graph whose free-space sphere is nearest at the next refresh;
+// the per-cycle refresh only sees tracked objects and active places, so with the periodic one off it keeps the
+// wrong parent.
+TEST(FrontendTest, ObjectsOutOfTheWindowAreReparentedAmongAllPlaces) {
+  const auto run = [](std::uint32_t every, std::size_t* wrong, std::size_t* untracked, std::uint64_t* reparented) {
+    Config config;
+    config.reparent_untracked_every = every;
+    Rig rig;
+    std::string error;
+    ASSERT_TRUE(rig.init(&error, config)) << error;
+    const Eigen::Vector3d room_a(2.0, 2.0, 1.0);
+    rig.spin(room_a);
+    ASSERT_TRUE(rig.frontend->update(*rig.tsdf, room_a, rig.time_ns, rig.graph.get(), Deadline{}).places_complete);
+    // The robot goes 40 m away (frames of nothing): the mesh and the places of room A leave the window.
+    const Eigen::Vector3d far(45.0, 2.0, 1.0);
+    rig.spin(far);
+    ASSERT_TRUE(rig.frontend->update(*rig.tsdf, far, rig.time_ns, rig.graph.get(), Deadline{}).places_complete);
+    *untracked = 0;
+    rig.frontend->objects().for_each_object([&](const objects::ObjectView& o) {
+      if (o.node != scene_graph::kNoNode && o.num_tracked == 0) ++*untracked;
+    });
+    // Every object of room A now hangs from the place farthest from it.
+    scene_graph::SceneGraph& g = *rig.graph;
+    std::vector<scene_graph::NodeId> objects, places;
+    g.for_each_node([&](const scene_graph::NodeRecord& n) {
+      if (n.kind == scene_graph::NodeKind::kObject) objects.push_back(n.id);
+      if (n.kind == scene_graph::NodeKind::kPlace) places.push_back(n.id);
+    });
+    ASSERT_FALSE(objects.empty());
+    ASSERT_GE(places.size(), 4u);
+    for (const scene_graph::NodeId o : objects) {
+      const Eigen::Vector3d p = g.object(o)->position_m;
+      const scene_graph::NodeId far_place = *std::max_element(places.begin(), places.end(), [&](auto a, auto b) {
+        return (g.place(a)->position_m - p).norm() < (g.place(b)->position_m - p).norm();
+      });
+      if (g.parent(o) != scene_graph::kNoNode) g.remove_edge(o, g.parent(o));
+      ASSERT_EQ(g.add_edge(o, far_place), scene_graph::Status::kOk);
+    }
+    // A few more cycles far away.
+    for (int i = 0; i < 3; ++i)
+      ASSERT_TRUE(rig.frontend->update(*rig.tsdf, far, rig.time_ns, rig.graph.get(), Deadline{}).places_complete);
+    *reparented = rig.frontend->counters().objects_reparented;
+    *wrong = 0;
+    for (const scene_graph::NodeId o : objects) {
+      const Eigen::Vector3d p = g.object(o)->position_m;
+      // The parent's free-space sphere must be the nearest of all places' (what connect_to_nearest_places picks).
+      double best = 1e9;
+      for (const scene_graph::NodeId q : places)
+        best = std::min(best, (g.place(q)->position_m - p).norm() - g.place(q)->distance_m);
+      const scene_graph::NodeId parent = g.parent(o);
+      const double gap = parent == scene_graph::kNoNode
+                             ? 1e9
+                             : (g.place(parent)->position_m - p).norm() - g.place(parent)->distance_m;
+      *wrong += gap > best + 1e-9 ? 1 : 0;
+    }
+  };
+  std::size_t wrong = 0, untracked = 0;
+  std::uint64_t reparented = 0;
+  run(1, &wrong, &untracked, &reparented);
+  EXPECT_EQ(wrong, 0u);
+  EXPECT_GE(untracked, 2u) << "room A's objects should have left the window";
+  EXPECT_GE(reparented, untracked);
+  run(0, &wrong, &untracked, &reparented);
+  EXPECT_GT(wrong, 0u) << "off: the wrong parents stay";
+  EXPECT_EQ(reparented, 0u);
 }
 
 TEST(FrontendTest, BadConfigIsRefusedByName) {

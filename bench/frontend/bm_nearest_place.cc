@@ -1,0 +1,94 @@
+// BM_nearest_place_*: the frontend's k-d tree over place positions (core/frontend/nearest_place_index). Rebuild
+// over N places (each places cycle rebuilds the active places' tree; every Config::reparent_untracked_every cycles
+// the whole graph's), and the 8-nearest query of one object or agent, against a brute-force scan over the same
+// points (partial sort of all N distances) in the same run.
+#include <benchmark/benchmark.h>
+
+#include <Eigen/Core>
+#include <algorithm>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "core/frontend/nearest_place_index.h"
+
+namespace {
+
+using qsg::frontend::NearestPlaceCapacities;
+using qsg::frontend::NearestPlaceIndex;
+using qsg::frontend::PlaceNeighbor;
+
+// Places of a building floor: a 2D spread over sqrt(N/3.5) m squared at 3.5 places per m^2 (rooms_eval's density),
+// three heights, frozen by the seed.
+std::vector<Eigen::Vector3d> places(std::size_t n) {
+  std::mt19937 rng(7);
+  const double side = std::sqrt(static_cast<double>(n) / 3.5);
+  std::uniform_real_distribution<double> xy(0.0, side), z(0.3, 2.2);
+  std::vector<Eigen::Vector3d> out(n);
+  for (Eigen::Vector3d& p : out) p = Eigen::Vector3d(xy(rng), xy(rng), z(rng));
+  return out;
+}
+
+std::vector<Eigen::Vector3d> queries(std::size_t n, std::size_t places_n) {
+  std::mt19937 rng(8);
+  const double side = std::sqrt(static_cast<double>(places_n) / 3.5);
+  std::uniform_real_distribution<double> xy(0.0, side), z(0.0, 2.0);
+  std::vector<Eigen::Vector3d> out(n);
+  for (Eigen::Vector3d& p : out) p = Eigen::Vector3d(xy(rng), xy(rng), z(rng));
+  return out;
+}
+
+void BM_nearest_place_rebuild(benchmark::State& state) {
+  const std::size_t n = static_cast<std::size_t>(state.range(0));
+  const std::vector<Eigen::Vector3d> pts = places(n);
+  NearestPlaceIndex index;
+  std::string error;
+  const NearestPlaceCapacities caps{n};
+  if (!index.init(caps, NearestPlaceIndex::plan(caps).total_bytes(), &error)) {
+    state.SkipWithError(error.c_str());
+    return;
+  }
+  for (auto _ : state) benchmark::DoNotOptimize(index.rebuild(pts.data(), nullptr, n));
+  state.SetItemsProcessed(static_cast<std::int64_t>(state.iterations() * n));
+  state.counters["places"] = static_cast<double>(n);
+}
+
+// 300 objects' 8 nearest places (one refresh of the objects out of the window).
+constexpr std::size_t kQueries = 300;
+constexpr std::size_t kK = 8;
+
+void BM_nearest_place_query_kdtree(benchmark::State& state) {
+  const std::size_t n = static_cast<std::size_t>(state.range(0));
+  const std::vector<Eigen::Vector3d> pts = places(n), q = queries(kQueries, n);
+  NearestPlaceIndex index;
+  std::string error;
+  const NearestPlaceCapacities caps{n};
+  if (!index.init(caps, NearestPlaceIndex::plan(caps).total_bytes(), &error)) {
+    state.SkipWithError(error.c_str());
+    return;
+  }
+  index.rebuild(pts.data(), nullptr, n);
+  PlaceNeighbor out[kK];
+  for (auto _ : state)
+    for (const Eigen::Vector3d& p : q) benchmark::DoNotOptimize(index.nearest(p, kK, out));
+  state.SetItemsProcessed(static_cast<std::int64_t>(state.iterations() * kQueries));
+}
+
+void BM_nearest_place_query_brute_force(benchmark::State& state) {
+  const std::size_t n = static_cast<std::size_t>(state.range(0));
+  const std::vector<Eigen::Vector3d> pts = places(n), q = queries(kQueries, n);
+  std::vector<std::pair<double, std::size_t>> d(n);
+  for (auto _ : state)
+    for (const Eigen::Vector3d& p : q) {
+      for (std::size_t i = 0; i < n; ++i) d[i] = {(pts[i] - p).squaredNorm(), i};
+      std::partial_sort(d.begin(), d.begin() + kK, d.end());
+      benchmark::DoNotOptimize(d.data());
+    }
+  state.SetItemsProcessed(static_cast<std::int64_t>(state.iterations() * kQueries));
+}
+
+BENCHMARK(BM_nearest_place_rebuild)->Arg(1000)->Arg(8000)->Arg(32768)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_nearest_place_query_kdtree)->Arg(1000)->Arg(8000)->Arg(32768)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_nearest_place_query_brute_force)->Arg(1000)->Arg(8000)->Arg(32768)->Unit(benchmark::kMicrosecond);
+
+}  // namespace
