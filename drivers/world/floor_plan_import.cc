@@ -48,10 +48,10 @@ void FloorPlanConfig::print(std::FILE* out) const {
   std::fprintf(out,
                "FloorPlanConfig: resolution_m_per_px=%.4f free_threshold=%d gt_room_threshold=%d min_room_area_px=%d "
                "wall_height_m=%.2f door_height_m=%.2f contour_epsilon_px=%.2f crop_margin_px=%d "
-               "add_floor_and_ceiling=%d min_door_width_m=%.2f separator_search_px=%d\n",
+               "add_floor_and_ceiling=%d min_door_width_m=%.2f separator_search_px=%d furniture_height_m=%.2f\n",
                resolution_m_per_px, free_threshold, gt_room_threshold, min_room_area_px, wall_height_m, door_height_m,
                contour_epsilon_px, crop_margin_px, add_floor_and_ceiling ? 1 : 0, min_door_width_m,
-               separator_search_px);
+               separator_search_px, furniture_height_m);
 }
 
 std::string floor_plan_gt_path(const std::string& occupancy_path) {
@@ -66,7 +66,7 @@ std::string floor_plan_gt_path(const std::string& occupancy_path) {
 }
 
 WorldResult import_floor_plan(const cv::Mat& occupancy_in, const cv::Mat& gt_in, const FloorPlanConfig& config,
-                              const std::string& name, FloorPlanStats* stats_out) {
+                              const std::string& name, FloorPlanStats* stats_out, const cv::Mat& furniture) {
   using namespace semantics;
   WorldResult result;
   FloorPlanStats stats;
@@ -102,35 +102,53 @@ WorldResult import_floor_plan(const cv::Mat& occupancy_in, const cv::Mat& gt_in,
   world.name = name;
 
   // Greedy rectangle merging: take the longest run of unclaimed occupied pixels, grow it downwards while the next
-  // row's span is entirely unclaimed and occupied. Keeps the box count to a few per wall segment.
+  // row's span is entirely unclaimed and occupied. Keeps the box count to a few per wall segment. Pixels of the
+  // furniture mask (when given, with furniture_height_m > 0) are merged apart and extruded to that height.
+  if (!furniture.empty() && (furniture.size() != occ.size() || furniture.type() != CV_8UC1)) {
+    result.error = "furniture mask must be 8-bit single-channel and the occupancy image's size";
+    return result;
+  }
+  const bool low_furniture = !furniture.empty() && config.furniture_height_m > 0.0;
   Material wall;
   wall.label = kWall;
   wall.color = {{205, 200, 190}};
   wall.texture = Texture::kNoise;
   wall.texture_scale_m = 0.3f;
+  Material furniture_m;
+  furniture_m.label = kFurniture;
+  furniture_m.color = {{140, 109, 49}};
+  furniture_m.texture = Texture::kNoise;
+  furniture_m.texture_scale_m = 0.2f;
   cv::Mat claimed = cv::Mat::zeros(rows, cols, CV_8U);
   const double h = config.wall_height_m;
-  for (int r = crop.y; r < crop.y + crop.height; ++r) {
-    const std::uint8_t* orow = occ.ptr<std::uint8_t>(r);
-    std::uint8_t* crow = claimed.ptr<std::uint8_t>(r);
-    for (int c = crop.x; c < crop.x + crop.width; ++c) {
-      if (orow[c] >= config.free_threshold || crow[c]) continue;
-      ++stats.occupied_px;
-      int w = 1;
-      while (c + w < crop.x + crop.width && orow[c + w] < config.free_threshold && !crow[c + w]) ++w;
-      int hgt = 1;
-      for (; r + hgt < crop.y + crop.height; ++hgt) {
-        const std::uint8_t* o2 = occ.ptr<std::uint8_t>(r + hgt);
-        const std::uint8_t* c2 = claimed.ptr<std::uint8_t>(r + hgt);
-        bool full = true;
-        for (int k = c; k < c + w && full; ++k) full = o2[k] < config.free_threshold && !c2[k];
-        if (!full) break;
+  for (int pass = 0; pass < (low_furniture ? 2 : 1); ++pass) {
+    // Pass 0: walls (every occupied pixel unless furniture is low); pass 1: the furniture mask's pixels.
+    const auto in_class = [&](int r, int c) {
+      if (occ.ptr<std::uint8_t>(r)[c] >= config.free_threshold) return false;
+      if (!low_furniture) return true;
+      return (furniture.ptr<std::uint8_t>(r)[c] != 0) == (pass == 1);
+    };
+    const double top = pass == 1 ? config.furniture_height_m : h;
+    for (int r = crop.y; r < crop.y + crop.height; ++r) {
+      std::uint8_t* crow = claimed.ptr<std::uint8_t>(r);
+      for (int c = crop.x; c < crop.x + crop.width; ++c) {
+        if (!in_class(r, c) || crow[c]) continue;
+        ++stats.occupied_px;
+        int w = 1;
+        while (c + w < crop.x + crop.width && in_class(r, c + w) && !crow[c + w]) ++w;
+        int hgt = 1;
+        for (; r + hgt < crop.y + crop.height; ++hgt) {
+          const std::uint8_t* c2 = claimed.ptr<std::uint8_t>(r + hgt);
+          bool full = true;
+          for (int k = c; k < c + w && full; ++k) full = in_class(r + hgt, k) && !c2[k];
+          if (!full) break;
+        }
+        for (int rr = r; rr < r + hgt; ++rr) std::fill_n(claimed.ptr<std::uint8_t>(rr) + c, w, std::uint8_t{1});
+        stats.occupied_px += w * hgt - 1;
+        world.add_box(axis_box(px_x(c), px_y(r + hgt), 0.0, px_x(c + w), px_y(r), top), pass == 1 ? furniture_m : wall);
+        ++(pass == 1 ? stats.furniture_boxes : stats.wall_boxes);
+        c += w - 1;
       }
-      for (int rr = r; rr < r + hgt; ++rr) std::fill_n(claimed.ptr<std::uint8_t>(rr) + c, w, std::uint8_t{1});
-      stats.occupied_px += w * hgt - 1;
-      world.add_box(axis_box(px_x(c), px_y(r + hgt), 0.0, px_x(c + w), px_y(r), h), wall);
-      ++stats.wall_boxes;
-      c += w - 1;
     }
   }
   if (config.add_floor_and_ceiling) {
@@ -287,6 +305,35 @@ WorldResult import_floor_plan(const cv::Mat& occupancy_in, const cv::Mat& gt_in,
   }
   if (stats_out) *stats_out = stats;
   result.ok = true;
+  return result;
+}
+
+WorldResult import_furnished_floor_plan_files(const std::string& plain_path, const std::string& furnished_path,
+                                              const std::string& gt_path, const FloorPlanConfig& config,
+                                              FloorPlanStats* stats) {
+  WorldResult result;
+  const cv::Mat plain = cv::imread(plain_path, cv::IMREAD_GRAYSCALE);
+  const cv::Mat furnished = cv::imread(furnished_path, cv::IMREAD_GRAYSCALE);
+  if (plain.empty() || furnished.empty()) {
+    result.error = (plain.empty() ? plain_path : furnished_path) + ": cannot read the occupancy image";
+    return result;
+  }
+  if (plain.size() != furnished.size()) {
+    result.error = furnished_path + ": not the size of " + plain_path;
+    return result;
+  }
+  cv::Mat gt;
+  if (!gt_path.empty()) {
+    gt = cv::imread(gt_path, cv::IMREAD_GRAYSCALE);
+    if (gt.empty()) {
+      result.error = gt_path + ": cannot read the ground-truth image";
+      return result;
+    }
+  }
+  // Furniture: occupied in the furnished plan, free in the plain one.
+  const cv::Mat mask = (furnished < config.free_threshold) & (plain >= config.free_threshold);
+  result = import_floor_plan(furnished, gt, config, stem_of(furnished_path), stats, mask);
+  if (!result.ok) result.error = furnished_path + ": " + result.error;
   return result;
 }
 

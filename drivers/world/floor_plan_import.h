@@ -24,6 +24,10 @@ struct FloorPlanConfig {
   bool add_floor_and_ceiling = true;
   double min_door_width_m = 0.4;  // separator pieces shorter than this are not recorded as doors
   int separator_search_px = 2;    // how far from a separator pixel to look for the rooms it separates
+  // > 0: pixels of a furniture mask (import_furnished_floor_plan_files: occupied in the furnished plan, free in the
+  // plain one) are extruded to this height, as furniture, instead of to the walls' height. 0: every occupied pixel
+  // is a wall (the benchmark's own use of its furnished plans: furniture as 2.5 m posts).
+  double furniture_height_m = 0.0;
 
   void print(std::FILE* out) const;
 };
@@ -32,6 +36,7 @@ struct FloorPlanConfig {
 struct FloorPlanStats {
   int occupied_px = 0;
   int wall_boxes = 0;
+  int furniture_boxes = 0;
   int gt_regions = 0;  // 8-connected white regions before the size filter
   int rooms = 0;
   int doors = 0;
@@ -39,12 +44,20 @@ struct FloorPlanStats {
 
 // Image pixel (col, row) maps to world x = (col + 0.5) * res, y = (rows - row - 0.5) * res: the image's up is +y.
 // The occupancy image must be 8-bit with 1-4 channels (converted to grey); ground truth may be empty (no rooms).
+// furniture (optional, 8-bit, the occupancy image's size): non-zero pixels are furniture, extruded to
+// config.furniture_height_m when that is > 0.
 WorldResult import_floor_plan(const cv::Mat& occupancy, const cv::Mat& ground_truth, const FloorPlanConfig& config,
-                              const std::string& name = "floor_plan", FloorPlanStats* stats = nullptr);
+                              const std::string& name = "floor_plan", FloorPlanStats* stats = nullptr,
+                              const cv::Mat& furniture = cv::Mat());
 
 // Reads the images with cv::imread. gt_path may be empty (no rooms).
 WorldResult import_floor_plan_files(const std::string& occupancy_path, const std::string& gt_path,
                                     const FloorPlanConfig& config, FloorPlanStats* stats = nullptr);
+
+// A furnished plan with its furniture (occupied there, free in the plain plan) at config.furniture_height_m.
+WorldResult import_furnished_floor_plan_files(const std::string& plain_path, const std::string& furnished_path,
+                                              const std::string& gt_path, const FloorPlanConfig& config,
+                                              FloorPlanStats* stats = nullptr);
 
 // The benchmark's ground-truth file for a map: "<dir>/<map>_gt_segmentation.png", with a "_furnitures" suffix of the
 // map name dropped (furnished variants share the plain map's ground truth).

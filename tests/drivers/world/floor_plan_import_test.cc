@@ -66,6 +66,41 @@ TEST(FloorPlanImport, SyntheticPlanGivesTwoRoomsOneDoorAndWalls) {
   EXPECT_TRUE(index.is_free(Eigen::Vector3d(2.0, 3.0, 1.25), 1.0));
 }
 
+// Furniture pixels (a furniture mask) stand at furniture_height_m, labelled furniture; the walls keep theirs.
+// Without the height (or without the mask) every occupied pixel is a wall, as the benchmark extrudes its plans.
+TEST(FloorPlanImport, FurnitureOfTheMaskStandsAtItsOwnHeight) {
+  const SyntheticPlan plan;
+  cv::Mat furnished = plan.occupancy.clone();
+  cv::rectangle(furnished, cv::Rect(30, 40, 20, 10), cv::Scalar(0), cv::FILLED);  // a 1 m x 0.5 m desk at x 2 m
+  const cv::Mat mask = (furnished < 250) & (plan.occupancy >= 250);
+  FloorPlanConfig config;
+  config.furniture_height_m = 0.8;
+  FloorPlanStats stats;
+  WorldResult r = import_floor_plan(furnished, plan.ground_truth, config, "furnished", &stats, mask);
+  ASSERT_TRUE(r.ok) << r.error;
+  EXPECT_EQ(stats.furniture_boxes, 1);
+  EXPECT_EQ(stats.occupied_px, 120 * 160 - 152 * 112 + 4 * 112 - 4 * 20 + 20 * 10);
+  const double desk_y = (120 - 45) * config.resolution_m_per_px;
+  {
+    const FreeSpaceIndex index(r.world);
+    EXPECT_FALSE(index.is_free(Eigen::Vector3d(2.0, desk_y, 0.5), 0.0));  // in the desk
+    EXPECT_TRUE(index.is_free(Eigen::Vector3d(2.0, desk_y, 1.5), 0.3));   // above it
+    EXPECT_FALSE(index.is_free(Eigen::Vector3d(4.0, 1.0, 2.0), 0.0));     // the inner wall keeps its height
+  }
+  std::size_t furniture = 0;
+  for (const Shape& s : r.world.shapes) furniture += s.material.label == semantics::kFurniture ? 1 : 0;
+  EXPECT_EQ(furniture, 1u);
+  // The benchmark's extrusion: no height, so the desk is a 2.5 m post.
+  r = import_floor_plan(furnished, plan.ground_truth, FloorPlanConfig(), "furnished", &stats, mask);
+  ASSERT_TRUE(r.ok) << r.error;
+  EXPECT_EQ(stats.furniture_boxes, 0);
+  EXPECT_FALSE(FreeSpaceIndex(r.world).is_free(Eigen::Vector3d(2.0, desk_y, 1.5), 0.0));
+  // A mask of the wrong size is a clear error.
+  r = import_floor_plan(furnished, plan.ground_truth, config, "furnished", &stats, mask(cv::Rect(0, 0, 10, 10)).clone());
+  EXPECT_FALSE(r.ok);
+  EXPECT_NE(r.error.find("furniture mask"), std::string::npos) << r.error;
+}
+
 TEST(FloorPlanImport, ImportedPlanRoundTripsThroughTheWorldFile) {
   const SyntheticPlan plan;
   const WorldResult r = import_floor_plan(plan.occupancy, plan.ground_truth, FloorPlanConfig(), "synthetic");
