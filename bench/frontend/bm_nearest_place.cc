@@ -18,25 +18,18 @@ using qsg::frontend::NearestPlaceCapacities;
 using qsg::frontend::NearestPlaceIndex;
 using qsg::frontend::PlaceNeighbor;
 
-// Places of a building floor: a 2D spread over sqrt(N/3.5) m squared at 3.5 places per m^2 (rooms_eval's density),
-// three heights, frozen by the seed.
-std::vector<Eigen::Vector3d> places(std::size_t n) {
-  std::mt19937 rng(7);
-  const double side = std::sqrt(static_cast<double>(n) / 3.5);
-  std::uniform_real_distribution<double> xy(0.0, side), z(0.3, 2.2);
-  std::vector<Eigen::Vector3d> out(n);
-  for (Eigen::Vector3d& p : out) p = Eigen::Vector3d(xy(rng), xy(rng), z(rng));
-  return out;
-}
-
-std::vector<Eigen::Vector3d> queries(std::size_t n, std::size_t places_n) {
-  std::mt19937 rng(8);
+// Points over a building floor of sqrt(places_n / 3.5) m squared (3.5 places per m^2, rooms_eval's density) between
+// heights z_lo and z_hi, frozen by the seed: the places (z 0.3-2.2 m) and the objects queried (z 0-2 m).
+std::vector<Eigen::Vector3d> points(std::size_t n, std::size_t places_n, double z_lo, double z_hi, unsigned seed) {
+  std::mt19937 rng(seed);
   const double side = std::sqrt(static_cast<double>(places_n) / 3.5);
-  std::uniform_real_distribution<double> xy(0.0, side), z(0.0, 2.0);
+  std::uniform_real_distribution<double> xy(0.0, side), z(z_lo, z_hi);
   std::vector<Eigen::Vector3d> out(n);
   for (Eigen::Vector3d& p : out) p = Eigen::Vector3d(xy(rng), xy(rng), z(rng));
   return out;
 }
+std::vector<Eigen::Vector3d> places(std::size_t n) { return points(n, n, 0.3, 2.2, 7); }
+std::vector<Eigen::Vector3d> queries(std::size_t n, std::size_t places_n) { return points(n, places_n, 0.0, 2.0, 8); }
 
 void BM_nearest_place_rebuild(benchmark::State& state) {
   const std::size_t n = static_cast<std::size_t>(state.range(0));

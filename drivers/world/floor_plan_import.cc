@@ -308,27 +308,38 @@ WorldResult import_floor_plan(const cv::Mat& occupancy_in, const cv::Mat& gt_in,
   return result;
 }
 
+namespace {
+
+// Reads a plan's images as grey: the occupancy image (required) and the ground truth (when gt_path is not empty).
+bool read_plan_images(const std::string& occupancy_path, const std::string& gt_path, cv::Mat* occupancy, cv::Mat* gt,
+                      std::string* error) {
+  *occupancy = cv::imread(occupancy_path, cv::IMREAD_GRAYSCALE);
+  if (occupancy->empty()) {
+    *error = occupancy_path + ": cannot read the occupancy image";
+    return false;
+  }
+  if (gt_path.empty()) return true;
+  *gt = cv::imread(gt_path, cv::IMREAD_GRAYSCALE);
+  if (gt->empty()) {
+    *error = gt_path + ": cannot read the ground-truth image";
+    return false;
+  }
+  return true;
+}
+
+}  // namespace
+
 WorldResult import_furnished_floor_plan_files(const std::string& plain_path, const std::string& furnished_path,
                                               const std::string& gt_path, const FloorPlanConfig& config,
                                               FloorPlanStats* stats) {
   WorldResult result;
-  const cv::Mat plain = cv::imread(plain_path, cv::IMREAD_GRAYSCALE);
-  const cv::Mat furnished = cv::imread(furnished_path, cv::IMREAD_GRAYSCALE);
-  if (plain.empty() || furnished.empty()) {
-    result.error = (plain.empty() ? plain_path : furnished_path) + ": cannot read the occupancy image";
+  cv::Mat plain, furnished, gt, unused;
+  if (!read_plan_images(plain_path, "", &plain, &unused, &result.error) ||
+      !read_plan_images(furnished_path, gt_path, &furnished, &gt, &result.error))
     return result;
-  }
   if (plain.size() != furnished.size()) {
     result.error = furnished_path + ": not the size of " + plain_path;
     return result;
-  }
-  cv::Mat gt;
-  if (!gt_path.empty()) {
-    gt = cv::imread(gt_path, cv::IMREAD_GRAYSCALE);
-    if (gt.empty()) {
-      result.error = gt_path + ": cannot read the ground-truth image";
-      return result;
-    }
   }
   // Furniture: occupied in the furnished plan, free in the plain one.
   const cv::Mat mask = (furnished < config.free_threshold) & (plain >= config.free_threshold);
@@ -340,19 +351,8 @@ WorldResult import_furnished_floor_plan_files(const std::string& plain_path, con
 WorldResult import_floor_plan_files(const std::string& occupancy_path, const std::string& gt_path,
                                     const FloorPlanConfig& config, FloorPlanStats* stats) {
   WorldResult result;
-  const cv::Mat occ = cv::imread(occupancy_path, cv::IMREAD_GRAYSCALE);
-  if (occ.empty()) {
-    result.error = occupancy_path + ": cannot read the occupancy image";
-    return result;
-  }
-  cv::Mat gt;
-  if (!gt_path.empty()) {
-    gt = cv::imread(gt_path, cv::IMREAD_GRAYSCALE);
-    if (gt.empty()) {
-      result.error = gt_path + ": cannot read the ground-truth image";
-      return result;
-    }
-  }
+  cv::Mat occ, gt;
+  if (!read_plan_images(occupancy_path, gt_path, &occ, &gt, &result.error)) return result;
   result = import_floor_plan(occ, gt, config, stem_of(occupancy_path), stats);
   if (!result.ok) result.error = occupancy_path + ": " + result.error;
   return result;
