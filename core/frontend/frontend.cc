@@ -41,6 +41,8 @@ bool Frontend::init(const Config& config, std::string* error) {
       !agents_.init(config.agents, agents::capacities_from_budget(), error))
     return false;
   const NearestPlaceCapacities index_caps = nearest_place_capacities_from_budget();
+  index_.set_name("frontend.active_places_index");
+  all_places_index_.set_name("frontend.all_places_index");
   if (!index_.init(index_caps, NearestPlaceIndex::plan(index_caps).total_bytes(), error) ||
       !all_places_index_.init(index_caps, NearestPlaceIndex::plan(index_caps).total_bytes(), error))
     return false;

@@ -100,6 +100,8 @@ class Frontend {
     places_.for_each_resource(fn);
     objects_.for_each_resource(fn);
     fn(connect_nodes_.stats());
+    fn(index_.stats());
+    fn(all_places_index_.stats());
   }
 
  private:

@@ -82,6 +82,7 @@ std::size_t NearestPlaceIndex::rebuild(const Eigen::Vector3d* points, const scen
     p.id = ids != nullptr ? ids[i] : static_cast<scene_graph::NodeId>(i);
   }
   build(0, static_cast<std::uint32_t>(size_));
+  high_water_ = std::max(high_water_, size_);
   return size_;
 }
 
@@ -102,6 +103,7 @@ std::size_t NearestPlaceIndex::rebuild(const scene_graph::SceneGraph& graph, boo
     p.id = n.id;
   });
   build(0, static_cast<std::uint32_t>(size_));
+  high_water_ = std::max(high_water_, size_);
   return size_;
 }
 

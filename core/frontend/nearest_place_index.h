@@ -8,6 +8,7 @@
 #include <string>
 
 #include "core/memory/arena.h"
+#include "core/memory/resource_stats.h"
 #include "core/scene_graph/node_id.h"
 
 namespace qsg::scene_graph {
@@ -51,6 +52,9 @@ class NearestPlaceIndex {
   std::size_t size() const { return size_; }
   std::size_t capacity() const { return capacity_; }
   std::uint64_t dropped() const { return dropped_; }  // points left out of rebuilds for lack of capacity
+  // Capacity, points held, their high-water mark and the points dropped, under this name (telemetry).
+  void set_name(const char* name) { name_ = name; }
+  memory::ResourceStats stats() const { return {name_, "points", capacity_, size_, high_water_, dropped_}; }
 
   struct Point {
     double p[3];
@@ -67,7 +71,9 @@ class NearestPlaceIndex {
   std::uint8_t* split_dim_ = nullptr;
   std::size_t capacity_ = 0;
   std::size_t size_ = 0;
+  std::size_t high_water_ = 0;
   std::uint64_t dropped_ = 0;
+  const char* name_ = "frontend.place_index";
 };
 
 struct ConnectStats {

@@ -65,6 +65,11 @@ TEST(NearestPlaceIndexTest, RebuildAndQueryDoNotAllocateAndCapacityIsBounded) {
   EXPECT_NO_ALLOCATIONS(built = index->rebuild(pts.data(), nullptr, pts.size()));
   EXPECT_EQ(built, 500u);
   EXPECT_EQ(index->dropped(), 100u);
+  memory::ResourceStats st = index->stats();
+  EXPECT_EQ(st.capacity, 500u);
+  EXPECT_EQ(st.in_use, 500u);
+  EXPECT_EQ(st.high_water, 500u);
+  EXPECT_EQ(st.failed, 100u);
   PlaceNeighbor out[4];
   std::size_t got = 0;
   EXPECT_NO_ALLOCATIONS(for (int i = 0; i < 100; ++i) got += index->nearest(Eigen::Vector3d(u(rng), u(rng), 1.0), 4, out));
@@ -79,6 +84,9 @@ TEST(NearestPlaceIndexTest, RebuildAndQueryDoNotAllocateAndCapacityIsBounded) {
   }
   EXPECT_NO_ALLOCATIONS(built = index->rebuild(*graph));
   EXPECT_EQ(built, 25u);
+  st = index->stats();
+  EXPECT_EQ(st.in_use, 25u);
+  EXPECT_EQ(st.high_water, 500u) << "the high-water mark stays";
   ASSERT_EQ(index->nearest(Eigen::Vector3d(3.1, 0, 1), 1, out), 1u);
   EXPECT_EQ(out[0].id, make_node_id('p', 4)) << "p3 is inactive";
   EXPECT_EQ(index->rebuild(*graph, false), 50u);
