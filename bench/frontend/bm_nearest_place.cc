@@ -31,16 +31,20 @@ std::vector<Eigen::Vector3d> points(std::size_t n, std::size_t places_n, double 
 std::vector<Eigen::Vector3d> places(std::size_t n) { return points(n, n, 0.3, 2.2, 7); }
 std::vector<Eigen::Vector3d> queries(std::size_t n, std::size_t places_n) { return points(n, places_n, 0.0, 2.0, 8); }
 
+// An index holding up to n places; false (the benchmark skipped with the error) when init fails.
+bool init_index(benchmark::State& state, std::size_t n, NearestPlaceIndex* index) {
+  std::string error;
+  const NearestPlaceCapacities caps{n};
+  if (index->init(caps, NearestPlaceIndex::plan(caps).total_bytes(), &error)) return true;
+  state.SkipWithError(error.c_str());
+  return false;
+}
+
 void BM_nearest_place_rebuild(benchmark::State& state) {
   const std::size_t n = static_cast<std::size_t>(state.range(0));
   const std::vector<Eigen::Vector3d> pts = places(n);
   NearestPlaceIndex index;
-  std::string error;
-  const NearestPlaceCapacities caps{n};
-  if (!index.init(caps, NearestPlaceIndex::plan(caps).total_bytes(), &error)) {
-    state.SkipWithError(error.c_str());
-    return;
-  }
+  if (!init_index(state, n, &index)) return;
   for (auto _ : state) benchmark::DoNotOptimize(index.rebuild(pts.data(), nullptr, n));
   state.SetItemsProcessed(static_cast<std::int64_t>(state.iterations() * n));
   state.counters["places"] = static_cast<double>(n);
@@ -54,12 +58,7 @@ void BM_nearest_place_query_kdtree(benchmark::State& state) {
   const std::size_t n = static_cast<std::size_t>(state.range(0));
   const std::vector<Eigen::Vector3d> pts = places(n), q = queries(kQueries, n);
   NearestPlaceIndex index;
-  std::string error;
-  const NearestPlaceCapacities caps{n};
-  if (!index.init(caps, NearestPlaceIndex::plan(caps).total_bytes(), &error)) {
-    state.SkipWithError(error.c_str());
-    return;
-  }
+  if (!init_index(state, n, &index)) return;
   index.rebuild(pts.data(), nullptr, n);
   PlaceNeighbor out[kK];
   for (auto _ : state)

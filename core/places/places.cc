@@ -484,25 +484,34 @@ void Places::clear_parent(std::uint32_t ref) {
   v.distance_m = kUnreached;
 }
 
-// Every voxel whose distance came from this seed is reset and queued for the raise wave, which hands the hole
-// back to the neighbours that still have valid parents (FIESTA-style: exact, no stale distances remain).
-void Places::raise_dependents(std::uint32_t seed_ref, bool include_seed) {
-  Voxel& s = vox(seed_ref);
+// Unlinks every voxel whose distance came from parent_ref (its list of dependents) and hands each to fn(ref, voxel).
+template <typename Fn>
+void Places::detach_dependents(std::uint32_t parent_ref, Fn&& fn) {
+  Voxel& s = vox(parent_ref);
   std::uint32_t d = s.next;
   while (d != kNoRef) {
     Voxel& dv = vox(d);
     const std::uint32_t next = dv.next;
-    dv.parent = kNoRef;
     dv.prev = kNoRef;
     dv.next = kNoRef;
+    fn(d, dv);
+    d = next;
+  }
+  s.next = kNoRef;
+}
+
+// Every voxel whose distance came from this seed is reset and queued for the raise wave, which hands the hole
+// back to the neighbours that still have valid parents (FIESTA-style: exact, no stale distances remain).
+void Places::raise_dependents(std::uint32_t seed_ref, bool include_seed) {
+  detach_dependents(seed_ref, [&](std::uint32_t d, Voxel& dv) {
+    dv.parent = kNoRef;
     dv.distance_m = kUnreached;
     push_raise(d);
     mark_affected(d);
     ++counters_.voxels_raised;
-    d = next;
-  }
-  s.next = kNoRef;
+  });
   if (include_seed) {
+    Voxel& s = vox(seed_ref);
     s.parent = kNoRef;
     s.distance_m = kUnreached;
     s.aux &= static_cast<std::uint8_t>(~kOrphan);
@@ -512,13 +521,7 @@ void Places::raise_dependents(std::uint32_t seed_ref, bool include_seed) {
 // The dependents of a voxel whose block is leaving the window: those in blocks that stay keep their distance and
 // become their own parents (orphans, see Config::keep_distances_at_rim); those in dying blocks are just unlinked.
 void Places::orphan_dependents(std::uint32_t parent_ref) {
-  Voxel& s = vox(parent_ref);
-  std::uint32_t d = s.next;
-  while (d != kNoRef) {
-    Voxel& dv = vox(d);
-    const std::uint32_t next = dv.next;
-    dv.prev = kNoRef;
-    dv.next = kNoRef;
+  detach_dependents(parent_ref, [&](std::uint32_t d, Voxel& dv) {
     if (blocks_[d / kBlockVoxels].dying) {
       dv.parent = kNoRef;
       dv.distance_m = kUnreached;
@@ -527,9 +530,8 @@ void Places::orphan_dependents(std::uint32_t parent_ref) {
       dv.aux |= kOrphan;
       ++counters_.voxels_orphaned;
     }
-    d = next;
-  }
-  s.next = kNoRef;
+  });
+  Voxel& s = vox(parent_ref);
   s.parent = kNoRef;
   s.distance_m = kUnreached;
   s.aux &= static_cast<std::uint8_t>(~kOrphan);

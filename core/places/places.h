@@ -355,6 +355,8 @@ class Places {
   void apply_state(std::uint32_t ref, std::uint8_t state, float seed_m);
   void raise_dependents(std::uint32_t seed_ref, bool include_seed);
   void orphan_dependents(std::uint32_t parent_ref);
+  template <typename Fn>
+  void detach_dependents(std::uint32_t parent_ref, Fn&& fn);
   void set_parent(std::uint32_t ref, std::uint32_t parent, float distance_m);
   void clear_parent(std::uint32_t ref);
   void push_lower(std::uint32_t ref);
