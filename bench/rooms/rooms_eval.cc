@@ -81,6 +81,9 @@ struct Options {
   // instead of exploring again, so room parameters can be swept in seconds. Empty: always explore.
   std::string cache_dir;
   std::string images_dir;  // --images DIR: per plan, a PNG of the estimated rooms beside the ground truth
+  // --dump-places DIR: per plan, a text file of its places and place-place edges with their estimated and
+  // ground-truth rooms, for offline study of the room finder (bench/rooms/finder_sandbox.py reads it).
+  std::string dump_dir;
 };
 
 std::vector<std::string> split(const std::string& s) {
@@ -109,6 +112,7 @@ bool parse(int argc, char** argv, Options* o) {
     else if (a == "--json") o->json_path = v;
     else if (a == "--cache-dir") o->cache_dir = v;
     else if (a == "--images") o->images_dir = v;
+    else if (a == "--dump-places") o->dump_dir = v;
     else if (a == "--generated") o->generated = std::atoi(v.c_str());
     else if (a == "--generated-rooms") o->generated_rooms = std::atoi(v.c_str());
     else if (a == "--label-buildings") o->label_buildings = std::atoi(v.c_str());
@@ -175,6 +179,45 @@ struct Raster {
   }
 };
 
+// The ground-truth room of cell (c, r), or of the nearest cell within 3 cells that has one (a place on a wall cell
+// after rasterization); 0: none.
+std::int32_t truth_near(const Raster& ras, int c, int r) {
+  for (int d = 0; d <= 3; ++d)
+    for (int dr = -d; dr <= d; ++dr)
+      for (int dc = -d; dc <= d; ++dc) {
+        const int cc = c + dc, rr = r + dr;
+        if (cc >= 0 && rr >= 0 && cc < ras.cols && rr < ras.rows && ras.truth[ras.idx(cc, rr)] > 0)
+          return ras.truth[ras.idx(cc, rr)];
+      }
+  return 0;
+}
+
+// One line per place, "P id x y z clearance room truth" (room: the parent's node id, 0 without one; truth: the
+// ground-truth room of its cell as the oracle takes it, 0: none), and per place-place edge "E id id weight"
+// (weight -1 when unweighted).
+bool dump_places(const sg::SceneGraph& g, const Raster& ras, const std::string& path) {
+  std::FILE* f = std::fopen(path.c_str(), "w");
+  if (f == nullptr) {
+    std::fprintf(stderr, "--dump-places: cannot write %s\n", path.c_str());
+    return false;
+  }
+  g.for_each_node([&](const sg::NodeRecord& n) {
+    if (n.kind != sg::NodeKind::kPlace) return;
+    const sg::PlaceAttributes* a = g.place(n.id);
+    int c, r;
+    const std::int32_t truth = ras.cell_of(a->position_m, &c, &r) ? truth_near(ras, c, r) : 0;
+    std::fprintf(f, "P %llu %.6f %.6f %.6f %.6f %llu %d\n", static_cast<unsigned long long>(n.id), a->position_m.x(),
+                 a->position_m.y(), a->position_m.z(), a->distance_m,
+                 static_cast<unsigned long long>(n.parent == sg::kNoNode ? 0 : n.parent), truth);
+    g.for_each_neighbor(n.id, [&](sg::NodeId other, const sg::EdgeRecord& e) {
+      if (other > n.id && g.place(other) != nullptr)
+        std::fprintf(f, "E %llu %llu %.6f\n", static_cast<unsigned long long>(n.id),
+                     static_cast<unsigned long long>(other), e.info.weighted ? e.info.weight : -1.0);
+    });
+  });
+  return std::fclose(f) == 0;
+}
+
 // Labels free cells with the room of the geodesically nearest place (multi-source BFS from the places' cells).
 // oracle: every place (with a room or not) takes the ground-truth room of its cell instead (the nearest within 3
 // cells when its cell has none), so the score is the bound any room finder could reach on these places: what the
@@ -193,12 +236,7 @@ void label_from_places(const sg::SceneGraph& g, double z_min_m, double z_max_m, 
     if (!ras->cell_of(p, &c, &r)) return;
     std::int32_t label = 0;
     if (oracle) {
-      for (int d = 0; d <= 3 && label == 0; ++d)
-        for (int dr = -d; dr <= d && label == 0; ++dr)
-          for (int dc = -d; dc <= d && label == 0; ++dc) {
-            const int cc = c + dc, rr = r + dr;
-            if (cc >= 0 && rr >= 0 && cc < ras->cols && rr < ras->rows) label = ras->truth[ras->idx(cc, rr)];
-          }
+      label = truth_near(*ras, c, r);
       if (label <= 0) return;
     } else {
       auto it = room_label.find(n.parent);
@@ -478,6 +516,8 @@ bool eval_plan(const Options& opt, const std::string& map, bool furnished, Score
   }
   label_from_places(*graph, -1e9, 1e9, opt.max_reach_m, &ras);
   *out = score(ras);
+  if (!opt.dump_dir.empty())
+    dump_places(*graph, ras, opt.dump_dir + "/" + map + (furnished ? "_furnished" : "_plain") + ".txt");
   if (!opt.images_dir.empty())
     write_image(ras, opt.images_dir + "/" + map + (furnished ? "_furnished" : "_plain") + "_rooms.png");
   // The same score over the rooms the robot could enter: ground-truth rooms the tour could not reach (closed doors
@@ -705,7 +745,7 @@ int main(int argc, char** argv) {
                  "usage: %s [--plans-dir DIR] [--maps a,b|none] [--variants plain,furnished] [--generated N] "
                  "[--generated-rooms N] [--label-buildings N] [--size WxH] [--hfov-deg D] [--rate-hz R] [--max-reach-m M] [--robot-radius-m R] [--furniture-height-m H] [--alpha A] "
                  "[--min-dilation-m D] [--max-dilation-m D] [--min-component N] [--seeding plateau|persistence] "
-                 "[--min-persistence-m P] [--max-door-clearance-m D] [--cache-dir DIR] [--images DIR] [--json FILE]\n",
+                 "[--min-persistence-m P] [--max-door-clearance-m D] [--cache-dir DIR] [--images DIR] [--dump-places DIR] [--json FILE]\n",
                  argv[0]);
     return 2;
   }

@@ -1,0 +1,168 @@
+#!/usr/bin/python3
+"""Sandbox for room-finder ideas: a Python mirror of core/rooms' persistence seeding and flood fill, run on the
+places that `rooms_eval --dump-places DIR` wrote, scored per place against the ground-truth rooms.
+
+    build/release/bench/rooms/rooms_eval --cache-dir C --generated 0 --dump-places D   # once (cached: seconds)
+    /usr/bin/python3 bench/rooms/finder_sandbox.py D [--min-persistence-m P] [--min-component N]
+
+It prints, per variant (plain, furnished), the same place-level score for the C++ rooms of the dump and for this
+mirror; with the dump's own parameters the two agree (the check that the mirror is faithful), so a change tried here
+first can be judged in well under a second before it is written in C++. The score is a proxy of rooms_eval's: it
+counts places, not free cells (max-overlap precision per estimated room and recall per ground-truth room, means over
+rooms, and the precision weighted by places); places outside every ground-truth room are left out, and a place
+without a room counts as a room of its own. The real figures stay rooms_eval's.
+"""
+import argparse
+import collections
+import glob
+import heapq
+import os
+
+
+def load(path):
+    """Places {id: dict(x, y, z, d, room, truth)} and edges [(a, b, weight or -1)] of one dump file."""
+    places, edges = {}, []
+    with open(path) as f:
+        for line in f:
+            t = line.split()
+            if t[0] == "P":
+                places[int(t[1])] = dict(x=float(t[2]), y=float(t[3]), z=float(t[4]), d=float(t[5]),
+                                         room=int(t[6]), truth=int(t[7]))
+            elif t[0] == "E":
+                edges.append((int(t[1]), int(t[2]), float(t[3])))
+    return places, edges
+
+
+def find_rooms(places, edges, min_component=6, min_persistence_m=0.4, d_min=0.5, d_max=1.2):
+    """Room index per place id (-1: none), as RoomFinder with Seeding::kPersistence (no door-clearance limit)."""
+    ids = list(places)
+    index = {p: i for i, p in enumerate(ids)}
+    n = len(ids)
+    clearance = [places[p]["d"] for p in ids]
+    edge_list = []
+    for a, b, w in edges:
+        i, j = index[a], index[b]
+        c = min(clearance[i], clearance[j])
+        edge_list.append((min(c, w) if w >= 0 else c, i, j))
+    adjacency = [[] for _ in range(n)]
+    for c, i, j in edge_list:
+        adjacency[i].append((c, j))
+        adjacency[j].append((c, i))
+    edge_order = sorted(range(len(edge_list)), key=lambda k: (-edge_list[k][0], k))
+    node_order = sorted(range(n), key=lambda i: (-clearance[i], i))
+    parent, size, birth, members, split = [None] * n, [0] * n, [0.0] * n, [None] * n, [False] * n
+    room = [-1] * n
+    rooms = [0]
+
+    def find(i):
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+
+    def worthy(r, at):
+        return split[r] or (size[r] >= min_component and birth[r] - at >= min_persistence_m - 1e-9)
+
+    def emit(r):
+        split[r] = True
+        for i in members[r]:
+            room[i] = rooms[0]
+        rooms[0] += 1
+
+    def enter(i):
+        parent[i], size[i], birth[i], members[i], split[i] = i, 1, min(clearance[i], d_max), [i], False
+
+    entered = 0
+    for k in edge_order:
+        c, a, b = edge_list[k]
+        if c < d_min - 1e-9:
+            break
+        while entered < n and clearance[node_order[entered]] >= c:
+            enter(node_order[entered])
+            entered += 1
+        ra, rb = find(a), find(b)
+        if ra == rb:
+            continue
+        now_split = split[ra] or split[rb]
+        if worthy(ra, c) and worthy(rb, c):
+            for r in (ra, rb):
+                if not split[r]:
+                    emit(r)
+            now_split = True
+        if size[ra] < size[rb]:
+            ra, rb = rb, ra
+        parent[rb] = ra
+        size[ra] += size[rb]
+        birth[ra] = max(birth[ra], birth[rb])
+        members[ra] += members[rb]
+        members[rb] = None
+        split[ra] = now_split
+    while entered < n and clearance[node_order[entered]] >= d_min - 1e-9:
+        enter(node_order[entered])
+        entered += 1
+    for t in range(entered):
+        i = node_order[t]
+        if parent[i] == i and not split[i] and size[i] >= min_component:
+            emit(i)
+    # Flood fill: the frontier edge of largest clearance first, ties in push order.
+    heap, sequence = [], 0
+    for i in range(n):
+        if room[i] >= 0:
+            for c, j in adjacency[i]:
+                if room[j] < 0:
+                    heapq.heappush(heap, (-c, sequence, j, room[i]))
+                    sequence += 1
+    while heap:
+        _, _, j, r = heapq.heappop(heap)
+        if room[j] >= 0:
+            continue
+        room[j] = r
+        for c, k in adjacency[j]:
+            if room[k] < 0:
+                heapq.heappush(heap, (-c, sequence, k, r))
+                sequence += 1
+    return {ids[i]: room[i] for i in range(n)}
+
+
+def score(places, room_of):
+    """(sum of precisions, estimated rooms, sum of recalls, ground-truth rooms, overlapping places, places)."""
+    estimated = collections.defaultdict(collections.Counter)
+    truth = collections.defaultdict(collections.Counter)
+    for p, a in places.items():
+        if a["truth"] <= 0:
+            continue
+        r = room_of[p] if room_of[p] is not None and room_of[p] >= 0 else ("none", p)
+        estimated[r][a["truth"]] += 1
+        truth[a["truth"]][r] += 1
+    overlap = sum(max(c.values()) for c in estimated.values())
+    return (sum(max(c.values()) / sum(c.values()) for c in estimated.values()), len(estimated),
+            sum(max(c.values()) / sum(c.values()) for c in truth.values()), len(truth), overlap,
+            sum(sum(c.values()) for c in estimated.values()))
+
+
+def pooled(scores):
+    s = [sum(x[i] for x in scores) for i in range(6)]
+    return s[0] / max(1, s[1]), s[2] / max(1, s[3]), s[4] / max(1, s[5]), s[1]
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("dump_dir")
+    ap.add_argument("--min-persistence-m", type=float, default=0.4)
+    ap.add_argument("--min-component", type=int, default=6)
+    args = ap.parse_args()
+    for variant in ("plain", "furnished"):
+        files = sorted(glob.glob(os.path.join(args.dump_dir, "*_%s.txt" % variant)))
+        if not files:
+            continue
+        cpp, mirror = [], []
+        for path in files:
+            places, edges = load(path)
+            cpp.append(score(places, {p: (a["room"] if a["room"] != 0 else -1) for p, a in places.items()}))
+            mirror.append(score(places, find_rooms(places, edges, args.min_component, args.min_persistence_m)))
+        for name, s in (("C++ (dump)", cpp), ("mirror", mirror)):
+            print("%-10s %-10s places: P %.3f R %.3f | P weighted %.3f | rooms %d" % ((variant, name) + pooled(s)))
+
+
+if __name__ == "__main__":
+    main()
