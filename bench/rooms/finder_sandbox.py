@@ -20,14 +20,14 @@ import os
 
 
 def load(path):
-    """Places {id: dict(x, y, z, d, room, truth)} and edges [(a, b, weight or -1)] of one dump file."""
+    """Places {id: dict(x, y, z, d, room, truth, plan_d)} and edges [(a, b, weight or -1)] of one dump file."""
     places, edges = {}, []
     with open(path) as f:
         for line in f:
             t = line.split()
             if t[0] == "P":
                 places[int(t[1])] = dict(x=float(t[2]), y=float(t[3]), z=float(t[4]), d=float(t[5]),
-                                         room=int(t[6]), truth=int(t[7]))
+                                         room=int(t[6]), truth=int(t[7]), plan_d=float(t[8]))
             elif t[0] == "E":
                 edges.append((int(t[1]), int(t[2]), float(t[3])))
     return places, edges

@@ -192,23 +192,31 @@ std::int32_t truth_near(const Raster& ras, int c, int r) {
   return 0;
 }
 
-// One line per place, "P id x y z clearance room truth" (room: the parent's node id, 0 without one; truth: the
-// ground-truth room of its cell as the oracle takes it, 0: none), and per place-place edge "E id id weight"
-// (weight -1 when unweighted).
+// One line per place, "P id x y z clearance room truth plan_clearance" (room: the parent's node id, 0 without one;
+// truth: the ground-truth room of its cell as the oracle takes it, 0: none; plan_clearance: the horizontal distance
+// from its cell to the plan's nearest occupied cell, the 2D clearance a map-based method sees), and per place-place
+// edge "E id id weight" (weight -1 when unweighted).
 bool dump_places(const sg::SceneGraph& g, const Raster& ras, const std::string& path) {
   std::FILE* f = std::fopen(path.c_str(), "w");
   if (f == nullptr) {
     std::fprintf(stderr, "--dump-places: cannot write %s\n", path.c_str());
     return false;
   }
+  // Distance of every free cell to the plan's nearest occupied cell.
+  cv::Mat free_mask(ras.rows, ras.cols, CV_8U), distance_px;
+  for (int r = 0; r < ras.rows; ++r)
+    for (int c = 0; c < ras.cols; ++c) free_mask.at<std::uint8_t>(r, c) = ras.free[ras.idx(c, r)] ? 255 : 0;
+  cv::distanceTransform(free_mask, distance_px, cv::DIST_L2, cv::DIST_MASK_PRECISE);
   g.for_each_node([&](const sg::NodeRecord& n) {
     if (n.kind != sg::NodeKind::kPlace) return;
     const sg::PlaceAttributes* a = g.place(n.id);
     int c, r;
-    const std::int32_t truth = ras.cell_of(a->position_m, &c, &r) ? truth_near(ras, c, r) : 0;
-    std::fprintf(f, "P %llu %.6f %.6f %.6f %.6f %llu %d\n", static_cast<unsigned long long>(n.id), a->position_m.x(),
-                 a->position_m.y(), a->position_m.z(), a->distance_m,
-                 static_cast<unsigned long long>(n.parent == sg::kNoNode ? 0 : n.parent), truth);
+    const bool inside = ras.cell_of(a->position_m, &c, &r);
+    const std::int32_t truth = inside ? truth_near(ras, c, r) : 0;
+    const double plan_clearance = inside ? distance_px.at<float>(r, c) * ras.res_m : 0.0;
+    std::fprintf(f, "P %llu %.6f %.6f %.6f %.6f %llu %d %.6f\n", static_cast<unsigned long long>(n.id),
+                 a->position_m.x(), a->position_m.y(), a->position_m.z(), a->distance_m,
+                 static_cast<unsigned long long>(n.parent == sg::kNoNode ? 0 : n.parent), truth, plan_clearance);
     g.for_each_neighbor(n.id, [&](sg::NodeId other, const sg::EdgeRecord& e) {
       if (other > n.id && g.place(other) != nullptr)
         std::fprintf(f, "E %llu %llu %.6f\n", static_cast<unsigned long long>(n.id),
