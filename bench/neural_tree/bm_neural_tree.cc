@@ -1,4 +1,5 @@
-// BM_neural_tree_*: room labels for a frozen synthetic building (H-tree + message passing), and the H-tree alone.
+// BM_neural_tree_*: room labels for a frozen synthetic building (H-tree, message passing, LR head, blend), and the
+// H-tree alone.
 #include <benchmark/benchmark.h>
 
 #include <algorithm>

@@ -1,15 +1,28 @@
 #!/usr/bin/python3
-"""Offline training and evaluation of the room-classifying neural tree (core/neural_tree) on Stanford3DSG rooms.
+"""Offline training and evaluation of the room classifier (core/neural_tree) on Stanford3DSG rooms.
+
+The classifier is a neural tree (GraphSAGE-style message passing on the H-tree of the object-room graph, an ensemble
+of CONFIG['ensemble'] networks) whose class probabilities are averaged with those of a logistic-regression head on
+the room's log object counts and box (lr_features): p = (1 - a) p_tree + a p_lr with a = lr_blend x the share of
+the room's objects the LR can count (blend_log: a weighted geometric mean instead). The two are complementary: the
+blend beats either alone under the same CV. Every Stanford object is in the LR's vocabulary (share 1); the share
+matters for the pipeline's mpcat40 objects (appliances, cabinet, shelving, ...), which the LR cannot see but the
+neural tree reads through their word vectors.
 
 Commands (from the repository root, Debian's python3-torch; fixed seeds, one thread):
-  /usr/bin/python3 bench/neural_tree/train_neural_tree.py cv        # 5x repeated stratified 5-fold CV, LR baseline too
-      (--jobs 2: folds in two processes, same figures; --seed-base: other fold splits, e.g. for tuning)
+  /usr/bin/python3 bench/neural_tree/train_neural_tree.py cv        # 5x repeated stratified 5-fold CV: the neural
+      tree alone, the LR alone and their blend, mean +- std over repeats (about 11 min on one core)
+      (--jobs 2: folds in two processes, same figures; --seed-base: other fold splits, for tuning, e.g. 2001;
+      --sweep: accuracy over LR l2, blend weight and mode and ensemble size; --oof FILE: the out-of-fold
+      probabilities. Tune on a tuning split, never on the reported default one.)
   /usr/bin/python3 bench/neural_tree/train_neural_tree.py ssl       # the paper's 70/10/20 node-classification protocol
-  /usr/bin/python3 bench/neural_tree/train_neural_tree.py train     # all rooms -> weights file + parity fixture
-Any CONFIG entry can be overridden with --set key=value. Training-only switches (no C++ change): class_weight
-(loss weights count^-x), val_folds (training length from an inner split of the training rooms), word_onehot and
-word_scale (what the word table holds), swa (weights averaged over that last fraction of the epochs). cv-only
-ablations: box_relative, plain_graph, room_word_counts.
+  /usr/bin/python3 bench/neural_tree/train_neural_tree.py train     # all rooms -> weights file (version 2: neural tree
+      + LR head + blend weight) + parity fixture (neural tree, LR and blended probabilities)
+Any CONFIG entry can be overridden with --set key=value. Switches that need no C++ change: class_weight (loss
+weights count^-x), val_folds (training length from an inner split of the training rooms), word_onehot and
+word_scale (what the word table holds), swa (weights averaged over that last fraction of the epochs), lr_l2 (the LR
+head's L2), lr_blend and blend_log (the blend; both travel in the weights file). cv-only ablations: box_relative,
+plain_graph, room_word_counts.
 """
 import argparse
 import base64
@@ -32,7 +45,8 @@ REPO = os.path.abspath(os.path.join(os.path.dirname(os.path.abspath(__file__)), 
 DATA = os.environ.get("QSG_SHARED_DATA", os.path.join(REPO, "..", "shared", "data"))
 ROOMS_JSON = os.path.join(DATA, "scene_graphs", "Stanford3DSG_rooms.json")
 WORDS_JSON = os.path.join(DATA, "words", "glove100_scene_label_subset.json")
-WEIGHTS_OUT = os.path.join(REPO, "core", "neural_tree", "weights", "room_classifier_v1.json")
+WEIGHTS_VERSION = 2  # 2: the neural tree plus the LR head it is blended with (1: the neural tree alone)
+WEIGHTS_OUT = os.path.join(REPO, "core", "neural_tree", "weights", "room_classifier_v%d.json" % WEIGHTS_VERSION)
 FIXTURE_OUT = os.path.join(REPO, "tests", "neural_tree", "parity_fixture.json")
 
 GLOVE_DIM = 100
@@ -74,7 +88,8 @@ MPCAT40 = ["void", "wall", "floor", "chair", "door", "table", "picture", "cabine
 
 CONFIG = dict(label_count=1, box_relative=0, plain_graph=0, agg_sum=0, ensemble=3, pos_scale=1.0, hidden=32, layers=3,
               lr=0.005, weight_decay=5e-4, dropout=0.25, epochs=250, lr_l2=1e-2, word_onehot=1, class_weight=0.0,
-              val_folds=0, max_epochs=400, room_word_counts=0, word_scale=1.0, swa=0.0)
+              val_folds=0, max_epochs=400, room_word_counts=0, word_scale=1.0, swa=0.0, lr_blend=0.6, blend_log=0)
+SWEEP_LR_L2 = [1e-3, 3e-3, 1e-2, 3e-2, 1e-1, 3e-1]  # cv --sweep
 
 
 # ----------------------------------------------------------------------------------------------------------------
@@ -369,25 +384,59 @@ def predict_proba(models, batch):
 
 
 # ----------------------------------------------------------------------------------------------------------------
-# Logistic-regression baseline: log object counts + room box geometry, standardised, L2-regularised.
-def lr_features(graphs, object_names):
-    idx = {n: i for i, n in enumerate(object_names)}
-    f = np.zeros((len(graphs), len(object_names) + 6))
-    for k, g in enumerate(graphs):
-        for n in g["nodes"]:
-            if n["type"] == "room":
-                s = np.log(np.maximum(n["x"][3:6], MIN_SIZE_M))
-                f[k, -6:-3] = s
-                f[k, -3] = max(s[0], s[1])
-                f[k, -2] = min(s[0], s[1])
-                f[k, -1] = s[0] + s[1]  # log floor area
-            else:
-                f[k, idx[n["label"]]] += 1
-        f[k, :len(object_names)] = np.log1p(f[k, :len(object_names)])
+# Logistic-regression head: log object counts + room box geometry, standardised, L2-regularised. On its own the
+# baseline the neural tree is measured against; averaged with the neural tree (lr_blend) the shipped classifier.
+LR_BOX_FEATURES = ["log_size_x", "log_size_y", "log_size_z", "log_size_max_xy", "log_size_min_xy", "log_area_xy"]
+
+
+def lr_room_features(counts, size, vocab_size):
+    """One room's LR features: log(1 + objects per vocabulary name), then the box (LR_BOX_FEATURES, sizes floored at
+    MIN_SIZE_M; x and y as stored, not sorted). counts: {vocabulary index: count}."""
+    f = np.zeros(vocab_size + len(LR_BOX_FEATURES))
+    for i, c in counts.items():
+        f[i] = math.log1p(c)
+    s = np.log(np.maximum(np.asarray(size, dtype=np.float64)[:3], MIN_SIZE_M))
+    f[vocab_size:] = [s[0], s[1], s[2], max(s[0], s[1]), min(s[0], s[1]), s[0] + s[1]]
     return f
 
 
+def lr_features(graphs, object_names):
+    idx = {n: i for i, n in enumerate(object_names)}
+    f = np.zeros((len(graphs), len(object_names) + len(LR_BOX_FEATURES)))
+    for k, g in enumerate(graphs):
+        counts = {}
+        for n in g["nodes"]:
+            if n["type"] != "room":
+                counts[idx[n["label"]]] = counts.get(idx[n["label"]], 0) + 1
+        room = next(n for n in g["nodes"] if n["type"] == "room")
+        f[k] = lr_room_features(counts, room["x"][3:6], len(object_names))
+    return f
+
+
+def lr_scene_features(scene, word_names, vocab):
+    """LR features of every room of a SceneInput (rows in room node order), objects counted by word name; names
+    outside the LR vocabulary (and objects without a word) are not counted. Also each room's coverage: the share of
+    its objects that were counted (1 for a room without objects). The C++ RoomClassifier's rule."""
+    vi = {n: i for i, n in enumerate(vocab)}
+    rooms = [v for v, l in enumerate(scene.layers) if l == ht.LAYER_ROOM]
+    rows, coverage = [], []
+    for r in rooms:
+        counts, objects, counted = {}, 0, 0
+        for v, l in enumerate(scene.layers):
+            if l == ht.LAYER_OBJECT and scene.parent_room[v] == r:
+                objects += 1
+                i = vi.get(word_names[scene.word[v]]) if scene.word[v] >= 0 else None
+                if i is not None:
+                    counts[i] = counts.get(i, 0) + 1
+                    counted += 1
+        rows.append(lr_room_features(counts, scene.size[r], len(vocab)))
+        coverage.append(counted / objects if objects > 0 else 1.0)
+    return np.array(rows).reshape(len(rooms), len(vocab) + len(LR_BOX_FEATURES)), np.array(coverage)
+
+
 def train_lr(f, y, num_classes, l2=1e-2):
+    """Multinomial LR by L-BFGS in float64. Returns the head: mean, std (features standardised by them), w
+    (features x classes), b."""
     mu, sd = f.mean(0), f.std(0) + 1e-6
     x = torch.tensor((f - mu) / sd, dtype=torch.float64)
     yt = torch.tensor(y, dtype=torch.long)
@@ -402,7 +451,30 @@ def train_lr(f, y, num_classes, l2=1e-2):
         return loss
 
     opt.step(closure)
-    return lambda ft: (torch.tensor((ft - mu) / sd) @ w + b).argmax(1).detach().numpy()
+    return {"mean": mu, "std": sd, "w": w.detach().numpy().copy(), "b": b.detach().numpy().copy()}
+
+
+def lr_proba(head, f):
+    """Class probabilities of the LR head for feature rows f (float64)."""
+    z = ((np.asarray(f, dtype=np.float64) - head["mean"]) / head["std"]) @ head["w"] + head["b"]
+    z -= z.max(1, keepdims=True)
+    e = np.exp(z)
+    return e / e.sum(1, keepdims=True)
+
+
+def blend_proba(p_nt, p_lr, lr_weight, log_pool, coverage=None):
+    """The shipped classifier's output: a convex average of the two models' class probabilities with the LR's weight
+    a = lr_weight x coverage (per room: the share of its objects the LR counts; 1 when not given), or (log_pool) the
+    normalised weighted geometric mean p_nt^(1-a) p_lr^a."""
+    p_nt = np.asarray(p_nt, dtype=np.float64)
+    p_lr = np.asarray(p_lr, dtype=np.float64)
+    a = lr_weight * (np.ones((p_nt.shape[0], 1)) if coverage is None else np.asarray(coverage, np.float64)[:, None])
+    if not log_pool:
+        return (1.0 - a) * p_nt + a * p_lr
+    z = (1.0 - a) * np.log(np.maximum(p_nt, 1e-30)) + a * np.log(np.maximum(p_lr, 1e-30))
+    z -= z.max(1, keepdims=True)
+    e = np.exp(z)
+    return e / e.sum(1, keepdims=True)
 
 
 # ----------------------------------------------------------------------------------------------------------------
@@ -432,7 +504,8 @@ _CV = {}  # the data one cv run shares with its fold workers (fork start: copied
 
 
 def cv_fold(task):
-    """One (repeat, fold) of the CV: neural tree and LR trained on the other folds, counted on this one."""
+    """One (repeat, fold) of the CV: neural tree and LR trained on the other folds. Returns the test rooms' class
+    probabilities: each ensemble member's, and the LR's for every l2 in d["lr_l2s"] (the first is CONFIG's)."""
     rep, k = task
     d = _CV
     torch.set_num_threads(1)
@@ -440,13 +513,14 @@ def cv_fold(task):
     tr = np.flatnonzero(fold != k)
     te = np.flatnonzero(fold == k)
     y, items = d["y"], d["items"]
-    c_nt, ep = 0, 0
+    p_members, ep = None, 0
     if not d["lr_only"]:
         models, ep = train_ensemble([items[i] for i in tr], y[tr], d["classes"], seed=rep * 100 + k)
-        pred = predict_proba(models, Batch([items[i] for i in te])).argmax(1).numpy()
-        c_nt = int((pred == y[te]).sum())
-    pred_lr = train_lr(d["f"][tr], y[tr], d["classes"], CONFIG["lr_l2"])(d["f"][te])
-    return rep, k, c_nt, int((pred_lr == y[te]).sum()), len(te), ep
+        test = Batch([items[i] for i in te])
+        with torch.no_grad():
+            p_members = np.stack([torch.softmax(m(test), 1).double().numpy() for m in models])
+    p_lr = [lr_proba(train_lr(d["f"][tr], y[tr], d["classes"], l2), d["f"][te]) for l2 in d["lr_l2s"]]
+    return rep, k, te, p_members, p_lr, ep
 
 
 def write_figures(path, figures, conditions):
@@ -473,8 +547,9 @@ def cmd_cv(args):
     widths = [it[0].width for it in items]
     print("rooms %d, H-tree nodes %d, width max %d mean %.2f" %
           (len(items), sum(len(it[0].members) for it in items), max(widths), np.mean(widths)))
+    l2s = [CONFIG["lr_l2"]] + ([v for v in SWEEP_LR_L2 if v != CONFIG["lr_l2"]] if args.sweep else [])
     _CV.update(y=y, items=items, f=lr_features(graphs, object_names), classes=len(classes), folds=args.folds,
-               seed_base=args.seed_base, lr_only=args.lr_only)
+               seed_base=args.seed_base, lr_only=args.lr_only, lr_l2s=l2s)
     tasks = [(rep, k) for rep in range(args.repeats) for k in range(args.folds)]
     t0 = time.time()
     # Every fold seeds its own training, so the figures do not depend on --jobs.
@@ -484,36 +559,81 @@ def cmd_cv(args):
             results = pool.map(cv_fold, tasks, chunksize=1)
     else:
         results = [cv_fold(t) for t in tasks]
-    results.sort()
-    fold_nt = [r[2] / r[4] for r in results]
-    fold_lr = [r[3] / r[4] for r in results]
+    wall_s = time.time() - t0
+    results.sort(key=lambda r: (r[0], r[1]))
+    # Out-of-fold probabilities per repeat: every room is a test room exactly once per repeat.
+    n, c = len(y), len(classes)
+    members = 0 if args.lr_only else results[0][3].shape[0]
+    oof_members = np.zeros((args.repeats, members, n, c))
+    oof_lr = np.zeros((args.repeats, len(l2s), n, c))
+    for rep, k, te, p_members, p_lr, _ in results:
+        if members:
+            oof_members[rep][:, te] = p_members
+        for j in range(len(l2s)):
+            oof_lr[rep, j, te] = p_lr[j]
     epochs_used = [r[5] for r in results if r[5]]
-    acc_nt, acc_lr = [], []
+    if args.oof:  # out-of-fold probabilities, for trying other blends offline (tuning splits only)
+        np.savez_compressed(args.oof, y=y, members=oof_members, lr=oof_lr, lr_l2=np.array(l2s))
+        print("wrote %s" % args.oof)
+
+    def accuracy(p):  # per repeat
+        return np.array([float((p[rep].argmax(1) == y).mean()) for rep in range(args.repeats)])
+
+    def fold_accuracy(p):
+        return np.array([float((p[r[0]][r[2]].argmax(1) == y[r[2]]).mean()) for r in results])
+
+    p_lr = oof_lr[:, 0]
+    p_nt = oof_members.mean(1) if members else np.zeros_like(p_lr)
+    a_blend, log_pool = float(CONFIG["lr_blend"]), bool(CONFIG["blend_log"])
+    p_blend = np.stack([blend_proba(p_nt[rep], p_lr[rep], a_blend, log_pool) for rep in range(args.repeats)])
+    acc_lr = accuracy(p_lr)
+    acc_nt = accuracy(p_nt) if members else np.zeros(args.repeats)
+    acc_blend = accuracy(p_blend) if members else np.zeros(args.repeats)
     for rep in range(args.repeats):
-        rs = [r for r in results if r[0] == rep]
-        acc_nt.append(sum(r[2] for r in rs) / len(y))
-        acc_lr.append(sum(r[3] for r in rs) / len(y))
-        print("repeat %d: neural tree %.2f %%, logistic regression %.2f %%" % (rep, 100 * acc_nt[-1], 100 * acc_lr[-1]))
-    print("cv time %.0f s (%d jobs)" % (time.time() - t0, args.jobs))
-    print("neural tree:         %.2f +- %.2f %% (std over repeats; over folds +- %.2f)" %
-          (100 * np.mean(acc_nt), 100 * np.std(acc_nt), 100 * np.std(fold_nt)))
-    print("logistic regression: %.2f +- %.2f %% (std over repeats; over folds +- %.2f)" %
-          (100 * np.mean(acc_lr), 100 * np.std(acc_lr), 100 * np.std(fold_lr)))
-    print("neural tree over the %d folds:         %.2f +- %.2f %%" %
-          (len(fold_nt), 100 * np.mean(fold_nt), 100 * np.std(fold_nt)))
-    print("logistic regression over the %d folds: %.2f +- %.2f %%" %
-          (len(fold_lr), 100 * np.mean(fold_lr), 100 * np.std(fold_lr)))
+        if members:
+            print("repeat %d: neural tree %.2f %%, logistic regression %.2f %%, blend %.2f %%" %
+                  (rep, 100 * acc_nt[rep], 100 * acc_lr[rep], 100 * acc_blend[rep]))
+        else:
+            print("repeat %d: logistic regression %.2f %%" % (rep, 100 * acc_lr[rep]))
+    print("cv time %.0f s (%d jobs)" % (wall_s, args.jobs))
+    blend_name = "blend (LR weight %.2f, %s)" % (a_blend, "log-linear pool" if log_pool else "linear average")
+    for name, acc, p in (("neural tree", acc_nt, p_nt), ("logistic regression", acc_lr, p_lr),
+                         (blend_name, acc_blend, p_blend)):
+        if members or name == "logistic regression":
+            print("%-40s %.2f +- %.2f %% (std over repeats; over the %d folds +- %.2f)" %
+                  (name + ":", 100 * np.mean(acc), 100 * np.std(acc), len(results), 100 * np.std(fold_accuracy(p))))
     if epochs_used:
         print("training epochs per fold: mean %.0f, min %d, max %d" %
               (np.mean(epochs_used), min(epochs_used), max(epochs_used)))
+    if args.sweep:
+        # Tuning aid (use a tuning --seed-base, never the reported split): accuracy (mean over repeats) per LR l2,
+        # blend mode and LR weight, and of the first j ensemble members alone.
+        weights = [i / 10 for i in range(11)] if members else [1.0]
+        print("sweep, accuracy %% over LR weight %s" % " ".join("%5.1f" % a for a in weights))
+        for j, l2 in enumerate(l2s):
+            for lp in ((0, 1) if members else (0,)):
+                accs = [np.mean(accuracy(np.stack([blend_proba(p_nt[r], oof_lr[r, j], a, lp)
+                                                   for r in range(args.repeats)]) if members else oof_lr[:, j]))
+                        for a in weights]
+                print("  lr_l2 %-7g %-6s %s" %
+                      (l2, "log" if lp else "linear", " ".join("%5.2f" % (100 * v) for v in accs)))
+        for j in range(1, members + 1):
+            print("  neural tree, first %d member(s): %.2f %%; linear blend with LR weight %.2f: %.2f %%" %
+                  (j, 100 * np.mean(accuracy(oof_members[:, :j].mean(1))), a_blend,
+                   100 * np.mean(accuracy(np.stack([blend_proba(oof_members[r, :j].mean(0), p_lr[r], a_blend, 0)
+                                                      for r in range(args.repeats)])))))
     print("config", json.dumps(CONFIG))
-    write_figures(args.json, [("neural_tree_cv_accuracy", 100 * np.mean(acc_nt), "%"),
-                              ("neural_tree_cv_accuracy_std_repeats", 100 * np.std(acc_nt), "%"),
-                              ("logistic_regression_cv_accuracy", 100 * np.mean(acc_lr), "%"),
-                              ("logistic_regression_cv_accuracy_std_repeats", 100 * np.std(acc_lr), "%"),
-                              ("cv_wall_time", time.time() - t0, "s")],
-                  "Stanford3DSG_rooms 482 rooms, %dx%d stratified CV, config %s" %
-                  (args.repeats, args.folds, json.dumps(CONFIG, sort_keys=True)))
+    figures = [("logistic_regression_cv_accuracy", 100 * np.mean(acc_lr), "%"),
+               ("logistic_regression_cv_accuracy_std_repeats", 100 * np.std(acc_lr), "%")]
+    if members:
+        figures = [("neural_tree_cv_accuracy", 100 * np.mean(acc_nt), "%"),
+                   ("neural_tree_cv_accuracy_std_repeats", 100 * np.std(acc_nt), "%")] + figures + [
+                   ("blend_cv_accuracy", 100 * np.mean(acc_blend), "%"),
+                   ("blend_cv_accuracy_std_repeats", 100 * np.std(acc_blend), "%")]
+    figures.append(("cv_wall_time", wall_s, "s"))
+    write_figures(args.json, figures,
+                  "Stanford3DSG_rooms 482 rooms, %dx%d stratified CV, seed base %d, %d jobs, config %s" %
+                  (args.repeats, args.folds, args.seed_base, args.jobs, json.dumps(CONFIG, sort_keys=True)))
 
 
 # ----------------------------------------------------------------------------------------------------------------
@@ -637,9 +757,25 @@ def member_json(model):
                      "w": f32b64(model.head.weight.detach()), "b": f32b64(model.head.bias.detach())}}
 
 
-def write_weights(models, classes, word_names, word_table, path):
+def lr_head_json(head, vocab):
+    return {
+        "features": {"object_counts": {"transform": "log1p", "vocabulary": list(vocab)},
+                     "room_box": LR_BOX_FEATURES, "min_size_m": MIN_SIZE_M,
+                     "definition": "x = [log(1 + objects per vocabulary name in the room, by the object's word-table "
+                                   "row name), log(max(size_x, min_size_m)), log(max(size_y, ..)), log(max(size_z, "
+                                   "..)), max and min of the two horizontal logs, their sum]; p = softmax(((x - mean) "
+                                   "/ std) w^T + b)"},
+        "num_features": len(vocab) + len(LR_BOX_FEATURES), "num_classes": head["w"].shape[1],
+        "mean": f32b64(head["mean"]), "std": f32b64(head["std"]),
+        "w": f32b64(head["w"].T), "b": f32b64(head["b"]),  # w stored classes x features (out x in, as the layers)
+        "blend": {"lr_weight": float(CONFIG["lr_blend"]), "pool": "log" if CONFIG["blend_log"] else "linear",
+                  "weight_by_coverage": True},
+    }
+
+
+def write_weights(models, classes, word_names, word_table, path, lr_head, lr_vocab):
     doc = {
-        "header": {"format": "qsg_neural_tree_weights", "version": 1,
+        "header": {"format": "qsg_neural_tree_weights", "version": WEIGHTS_VERSION,
                    "trained_on": "Stanford3DSG_rooms.json (482 rooms), bench/neural_tree/train_neural_tree.py train",
                    "config": CONFIG},
         "input_dim": INPUT_DIM, "hidden": CONFIG["hidden"], "num_layers": CONFIG["layers"],
@@ -652,6 +788,7 @@ def write_weights(models, classes, word_names, word_table, path):
         "class_room_labels": [ROOM_LABEL_MAP[c] for c in classes],
         "words": {n: f32b64(v) for n, v in zip(word_names, word_table)},
         "members": [member_json(m) for m in models],
+        "lr_head": lr_head_json(lr_head, lr_vocab),
     }
     os.makedirs(os.path.dirname(path), exist_ok=True)
     with open(path, "w") as f:
@@ -672,7 +809,11 @@ def round_trip_models(models, path):
                 we.weight.copy_(torch.tensor(from_b64(l["w_edge"])).view_as(we.weight))
             model.head.weight.copy_(torch.tensor(from_b64(member["head"]["w"])).view_as(model.head.weight))
             model.head.bias.copy_(torch.tensor(from_b64(member["head"]["b"])))
-    return {n: from_b64(v) for n, v in doc["words"].items()}
+    lr = doc["lr_head"]
+    c, f = lr["num_classes"], lr["num_features"]
+    head = {"mean": from_b64(lr["mean"]).astype(np.float64), "std": from_b64(lr["std"]).astype(np.float64),
+            "w": from_b64(lr["w"]).astype(np.float64).reshape(c, f).T.copy(), "b": from_b64(lr["b"]).astype(np.float64)}
+    return {n: from_b64(v) for n, v in doc["words"].items()}, head
 
 
 def fixture_scenes(graphs, object_names):
@@ -713,12 +854,16 @@ def cmd_train(args):
     _, items, word_table = prepare(graphs, object_names, words)
     models, epochs = train_ensemble(items, y, len(classes), seed=7)
     print("epochs %d" % epochs)
+    lr_head = train_lr(lr_features(graphs, object_names), y, len(classes), CONFIG["lr_l2"])
     word_names = list(object_names) + [m for m in MPCAT40 if m not in object_names]
     table = word_table_for(words, word_names, object_names)
-    write_weights(models, classes, word_names, table, args.weights)
-    stored = round_trip_models(models, args.weights)
-    acc = float((predict_proba(models, Batch(items)).argmax(1).numpy() == y).mean())
-    print("training accuracy %.2f %%" % (100 * acc))
+    write_weights(models, classes, word_names, table, args.weights, lr_head, object_names)
+    stored, stored_lr = round_trip_models(models, args.weights)
+    a_blend, log_pool = float(CONFIG["lr_blend"]), bool(CONFIG["blend_log"])
+    p_nt = predict_proba(models, Batch(items)).double().numpy()
+    p_lr = lr_proba(stored_lr, lr_features(graphs, object_names))
+    for name, p in (("neural tree", p_nt), ("LR head", p_lr), ("blend", blend_proba(p_nt, p_lr, a_blend, log_pool))):
+        print("training accuracy, %s: %.2f %%" % (name, 100 * float((p.argmax(1) == y).mean())))
     # Parity fixture: inputs exactly as the C++ API takes them, and the PyTorch room probabilities.
     cases = []
     for s in fixture_scenes(graphs, object_names):
@@ -726,19 +871,28 @@ def cmd_train(args):
         s.word = [word_names.index(n) if n else -1 for n in s.word_names]
         item = htree_features(s, wt)
         b = Batch([item])
-        probs = predict_proba(models, b)
-        logits = torch.log(probs.clamp(min=1e-30))  # the ensemble's log-probabilities, as C++ reports them
+        nt = predict_proba(models, b).double().numpy()
+        f, coverage = lr_scene_features(s, word_names, object_names)  # rooms in node order, as the Batch's segments
+        lr = lr_proba(stored_lr, f)
+        probs = blend_proba(nt, lr, a_blend, log_pool, coverage)
         cases.append({
             "layers": s.layers, "labels": s.word_names, "centroids": s.centroid.ravel().tolist(),
             "sizes": s.size.ravel().tolist(), "edges": [list(e) for e in s.edges],
             "htree_nodes": len(item[0].members), "htree_width": item[0].width,
             "htree_types": item[0].types,
             "rooms": [r for _, r in b.room_of_seg],
-            "logits": [f32list(r) for r in logits], "probabilities": [f32list(r) for r in probs],
+            "nt_probabilities": [f32list(r) for r in nt], "lr_features": f.tolist(),
+            "lr_probabilities": [f32list(r) for r in lr], "lr_coverage": coverage.tolist(),
+            # The classifier's output (the blend) and its log, as C++ reports them.
+            "log_probabilities": [f32list(np.log(np.maximum(r, 1e-30))) for r in probs],
+            "probabilities": [f32list(r) for r in probs],
         })
     with open(args.fixture, "w") as f:
-        json.dump({"header": {"format": "qsg_neural_tree_parity", "version": 1,
-                              "weights": os.path.relpath(args.weights, REPO)}, "cases": cases}, f, indent=1)
+        json.dump({"header": {"format": "qsg_neural_tree_parity", "version": WEIGHTS_VERSION,
+                              "weights": os.path.relpath(args.weights, REPO),
+                              "blend": {"lr_weight": a_blend, "pool": "log" if log_pool else "linear",
+                                        "weight_by_coverage": True}},
+                   "cases": cases}, f, indent=1)
     print("wrote %s (%d cases)" % (args.fixture, len(cases)))
 
 
@@ -753,6 +907,9 @@ def main():
     c.add_argument("--lr-only", action="store_true", help="only the logistic-regression baseline")
     c.add_argument("--jobs", type=int, default=1, help="folds trained in parallel processes (one torch thread each)")
     c.add_argument("--seed-base", type=int, default=1000, help="fold split seeds seed_base .. seed_base + repeats - 1")
+    c.add_argument("--sweep", action="store_true",
+                   help="also print accuracy over LR l2, blend weight and mode, and ensemble size (for tuning splits)")
+    c.add_argument("--oof", default="", help="also save the out-of-fold class probabilities to this .npz file")
     s = sub.add_parser("ssl")
     s.add_argument("--runs", type=int, default=100)
     s.add_argument("--epochs", type=int, default=300)

@@ -559,9 +559,9 @@ bool eval_plan(const Options& opt, const std::string& map, bool furnished, Score
   return true;
 }
 
-// Room labels on a generated building (whose rooms have known types): the neural tree labels the graph's rooms as
-// the app does (objects in the room of the place they hang from, room-room edges), and each estimated room is
-// scored against the ground-truth room that holds most of its places.
+// Room labels on a generated building (whose rooms have known types): the room classifier (the neural tree blended
+// with its LR head) labels the graph's rooms as the app does (objects in the room of the place they hang from,
+// room-room edges), and each estimated room is scored against the ground-truth room that holds most of its places.
 struct LabelScore {
   std::size_t rooms = 0, correct = 0, unknown = 0;
   std::map<std::string, std::size_t> confusions;  // "truth -> predicted"
@@ -845,7 +845,7 @@ int main(int argc, char** argv) {
     add("rooms_eval.generated_two_floor.all", generated);
     add("rooms_eval.generated_two_floor.oracle", generated_oracle);
     const double accuracy = labels.rooms > 0 ? static_cast<double>(labels.correct) / labels.rooms : 0.0;
-    std::printf("room labels (neural tree, generated two-floor): %zu of %zu estimated rooms correct (%.1f %%), %zu "
+    std::printf("room labels (room classifier, generated two-floor): %zu of %zu estimated rooms correct (%.1f %%), %zu "
                 "unknown; each room scored against the ground-truth room holding most of its places\n",
                 labels.correct, labels.rooms, 100.0 * accuracy, labels.unknown);
     const std::size_t labelled = labels.rooms - labels.unknown;

@@ -1,4 +1,5 @@
-// Neural-tree room classification: weight loading with shape checks, H-tree features, message passing, pooling.
+// Neural-tree room classification: weight loading with shape checks, H-tree features, message passing, pooling,
+// and the logistic-regression head blended with it.
 #include "core/neural_tree/room_classifier.h"
 
 #include <algorithm>
@@ -108,6 +109,109 @@ bool read_matrix(const json& doc, const char* key, const std::string& field, int
                      static_cast<std::size_t>(rows) * cols, out->data(), error);
 }
 
+// The LR head (version 2): its feature definition must be exactly the one this build computes.
+bool parse_lr_head(const json& doc, NeuralTreeWeights* w, std::string* error) {
+  static constexpr const char* kBoxFeatures[NeuralTreeWeights::kNumLrBoxFeatures] = {
+      "log_size_x", "log_size_y", "log_size_z", "log_size_max_xy", "log_size_min_xy", "log_area_xy"};
+  const auto head = doc.find("lr_head");
+  if (head == doc.end() || !head->is_object()) {
+    *error = "lr_head: missing or not an object (a version 2 file carries the logistic-regression head)";
+    return false;
+  }
+  NeuralTreeWeights::LrHead& lr = w->lr;
+  const auto features = head->find("features");
+  if (features == head->end() || !features->is_object()) {
+    *error = "lr_head.features: missing";
+    return false;
+  }
+  const auto counts = features->find("object_counts");
+  if (counts == features->end() || !counts->is_object() || counts->value("transform", std::string()) != "log1p") {
+    *error = "lr_head.features.object_counts: missing, or its transform is not \"log1p\"";
+    return false;
+  }
+  const auto vocabulary = counts->find("vocabulary");
+  if (vocabulary == counts->end() || !vocabulary->is_array() || vocabulary->empty() || vocabulary->size() > 4096) {
+    *error = "lr_head.features.object_counts.vocabulary: expected an array of 1 to 4096 object names";
+    return false;
+  }
+  for (std::size_t i = 0; i < vocabulary->size(); ++i) {
+    const std::string field = "lr_head.features.object_counts.vocabulary[" + std::to_string(i) + "]";
+    if (!(*vocabulary)[i].is_string()) {
+      *error = field + ": not a string";
+      return false;
+    }
+    const std::string name = (*vocabulary)[i].get<std::string>();
+    if (std::find(w->word_names.begin(), w->word_names.end(), name) == w->word_names.end()) {
+      *error = field + ": \"" + name + "\" has no row in words";
+      return false;
+    }
+    if (std::find(lr.vocabulary.begin(), lr.vocabulary.end(), name) != lr.vocabulary.end()) {
+      *error = field + ": \"" + name + "\" listed twice";
+      return false;
+    }
+    lr.vocabulary.push_back(name);
+  }
+  const auto box = features->find("room_box");
+  bool box_ok = box != features->end() && box->is_array() && box->size() == NeuralTreeWeights::kNumLrBoxFeatures;
+  for (int i = 0; box_ok && i < NeuralTreeWeights::kNumLrBoxFeatures; ++i)
+    box_ok = (*box)[i].is_string() && (*box)[i].get<std::string>() == kBoxFeatures[i];
+  if (!box_ok) {
+    *error = "lr_head.features.room_box: expected [log_size_x, log_size_y, log_size_z, log_size_max_xy, "
+             "log_size_min_xy, log_area_xy]";
+    return false;
+  }
+  const auto ms = features->find("min_size_m");
+  if (ms == features->end() || !ms->is_number() || !(ms->get<double>() > 0.0)) {
+    *error = "lr_head.features.min_size_m: missing or not a positive number";
+    return false;
+  }
+  lr.min_size_m = ms->get<float>();
+  const int f = lr.num_features();
+  int num_features = 0, num_classes = 0;
+  if (!read_int(*head, "num_features", "lr_head.num_features", f, f, &num_features, error) ||
+      !read_int(*head, "num_classes", "lr_head.num_classes", w->num_classes, w->num_classes, &num_classes, error))
+    return false;
+  RowMatrixXf mean, std, bias;
+  if (!read_matrix(*head, "mean", "lr_head", 1, f, &mean, error) ||
+      !read_matrix(*head, "std", "lr_head", 1, f, &std, error) ||
+      !read_matrix(*head, "w", "lr_head", num_classes, f, &lr.w, error) ||
+      !read_matrix(*head, "b", "lr_head", 1, num_classes, &bias, error))
+    return false;
+  for (int i = 0; i < f; ++i) {
+    if (!(std(0, i) > 0.0f)) {
+      *error = "lr_head.std[" + std::to_string(i) + "]: not positive";
+      return false;
+    }
+  }
+  lr.mean = mean.row(0).transpose().cast<double>();
+  lr.std = std.row(0).transpose().cast<double>();
+  lr.b = bias.row(0).transpose();
+  const auto blend = head->find("blend");
+  if (blend == head->end() || !blend->is_object()) {
+    *error = "lr_head.blend: missing";
+    return false;
+  }
+  const json weight = blend->value("lr_weight", json());
+  if (!weight.is_number() || !(weight.get<double>() >= 0.0) || !(weight.get<double>() <= 1.0)) {
+    *error = "lr_head.blend.lr_weight: missing or not a number in [0, 1]";
+    return false;
+  }
+  lr.lr_weight = weight.get<double>();
+  const std::string pool = blend->value("pool", std::string());
+  if (pool != "linear" && pool != "log") {
+    *error = "lr_head.blend.pool: expected \"linear\" or \"log\"";
+    return false;
+  }
+  lr.log_pool = pool == "log";
+  const auto by_coverage = blend->find("weight_by_coverage");
+  if (by_coverage == blend->end() || !by_coverage->is_boolean()) {
+    *error = "lr_head.blend.weight_by_coverage: missing or not true/false";
+    return false;
+  }
+  lr.weight_by_coverage = by_coverage->get<bool>();
+  return true;
+}
+
 bool parse_weights(const json& doc, NeuralTreeWeights* w, std::string* error) {
   const auto header = doc.find("header");
   if (header == doc.end() || !header->is_object()) {
@@ -121,8 +225,12 @@ bool parse_weights(const json& doc, NeuralTreeWeights* w, std::string* error) {
   int version = 0;
   if (!read_int(*header, "version", "header.version", 0, 1 << 30, &version, error)) return false;
   if (version != NeuralTreeWeights::kFormatVersion) {
+    // Version 1 held the neural tree alone; the classifier is now its blend with the LR head, so a v1 file would
+    // silently give other labels than the ones the CV measured.
     *error = "header.version: " + std::to_string(version) + " unsupported (this build reads version " +
-             std::to_string(NeuralTreeWeights::kFormatVersion) + ")";
+             std::to_string(NeuralTreeWeights::kFormatVersion) +
+             ", the neural tree with its logistic-regression head; write it with bench/neural_tree/"
+             "train_neural_tree.py train)";
     return false;
   }
   int num_layers = 0, num_types = 0;
@@ -256,7 +364,7 @@ bool parse_weights(const json& doc, NeuralTreeWeights* w, std::string* error) {
     member.head_b = hb.row(0).transpose();
     w->members.push_back(std::move(member));
   }
-  return true;
+  return parse_lr_head(doc, w, error);
 }
 
 }  // namespace
@@ -413,6 +521,17 @@ bool RoomClassifier::init(std::string* error) {
   logits_.resize(config_.max_rooms, w.num_classes);
   probabilities_.resize(config_.max_rooms, w.num_classes);
   log_probabilities_.resize(config_.max_rooms, w.num_classes);
+  nt_probabilities_.resize(config_.max_rooms, w.num_classes);
+  // LR head: each word-table row counts under its name's feature (so mpcat40 aliases count as their COCO class).
+  lr_column_of_word_.assign(w.word_names.size(), -1);
+  for (std::size_t v = 0; v < w.lr.vocabulary.size(); ++v)
+    lr_column_of_word_[static_cast<std::size_t>(word_index(w.lr.vocabulary[v]))] = static_cast<int>(v);
+  lr_w_ = w.lr.w.transpose().cast<double>();
+  lr_b_ = w.lr.b.transpose().cast<double>();
+  lr_features_.resize(config_.max_rooms, w.lr.num_features());
+  lr_probabilities_.resize(config_.max_rooms, w.num_classes);
+  lr_coverage_.resize(config_.max_rooms);
+  lr_objects_.resize(config_.max_rooms);
   // Size the H-tree storage now rather than on the first classify().
   LayeredGraph empty;
   builder_.build(empty, &h_tree_, nullptr);
@@ -649,6 +768,52 @@ void RoomClassifier::run_member(std::size_t m) {
   }
 }
 
+void RoomClassifier::run_lr(const ObjectRoomGraph& graph) {
+  const NeuralTreeWeights::LrHead& lr = weights_.lr;
+  const int vocabulary = static_cast<int>(lr.vocabulary.size());
+  auto x = lr_features_.topRows(num_rooms_);
+  x.setZero();
+  auto counted = lr_coverage_.head(num_rooms_);
+  auto objects = lr_objects_.head(num_rooms_);
+  counted.setZero();
+  objects.setZero();
+  for (std::size_t v = 0; v < graph.nodes.size(); ++v) {
+    const auto& node = graph.nodes[v];
+    if (node.layer != NodeLayer::kObject || node.room < 0) continue;
+    const int slot = room_slot_[node.room];
+    objects[slot] += 1.0;
+    if (graph_word_[v] < 0) continue;
+    const int column = lr_column_of_word_[static_cast<std::size_t>(graph_word_[v])];
+    if (column < 0) continue;
+    x(slot, column) += 1.0;
+    counted[slot] += 1.0;
+  }
+  for (int r = 0; r < num_rooms_; ++r) counted[r] = objects[r] > 0.0 ? counted[r] / objects[r] : 1.0;
+  const double min_size = lr.min_size_m;
+  for (int r = 0; r < num_rooms_; ++r) {
+    for (int c = 0; c < vocabulary; ++c) x(r, c) = std::log1p(x(r, c));
+    // The box as the trainer's lr_room_features: x and y as stored (not sorted), then max, min and sum.
+    const Eigen::Vector3d& size = graph.nodes[predictions_[r].node].size_m;
+    const double sx = std::log(std::max(size.x(), min_size)), sy = std::log(std::max(size.y(), min_size)),
+                 sz = std::log(std::max(size.z(), min_size));
+    x(r, vocabulary) = sx;
+    x(r, vocabulary + 1) = sy;
+    x(r, vocabulary + 2) = sz;
+    x(r, vocabulary + 3) = std::max(sx, sy);
+    x(r, vocabulary + 4) = std::min(sx, sy);
+    x(r, vocabulary + 5) = sx + sy;
+  }
+  auto p = lr_probabilities_.topRows(num_rooms_);
+  for (int r = 0; r < num_rooms_; ++r) {
+    // Logits ((x - mean) / std) w + b; lr_features_ keeps the raw features (parity tests read them).
+    p.row(r) = lr_b_;
+    for (int f = 0; f < lr.num_features(); ++f) p.row(r) += ((x(r, f) - lr.mean[f]) / lr.std[f]) * lr_w_.row(f);
+    const double top = p.row(r).maxCoeff();
+    p.row(r) = (p.row(r).array() - top).exp();
+    p.row(r) /= p.row(r).sum();
+  }
+}
+
 bool RoomClassifier::classify(const ObjectRoomGraph& graph, std::string* error) {
   ++stats_.runs;
   predictions_.clear();
@@ -690,12 +855,25 @@ bool RoomClassifier::classify(const ObjectRoomGraph& graph, std::string* error) 
   compute_features(graph);
   probabilities_.topRows(num_rooms_).setZero();
   for (std::size_t m = 0; m < weights_.members.size(); ++m) run_member(m);
-  const float inv_members = 1.0f / static_cast<float>(weights_.members.size());
+  nt_probabilities_.topRows(num_rooms_) =
+      probabilities_.topRows(num_rooms_) * (1.0f / static_cast<float>(weights_.members.size()));
+  run_lr(graph);
   for (int r = 0; r < num_rooms_; ++r) {
     RoomPrediction& p = predictions_[r];
+    const double a = weights_.lr.lr_weight * (weights_.lr.weight_by_coverage ? lr_coverage_[r] : 1.0);
+    // The blend: (1 - a) p_nt + a p_lr, or with log pooling p_nt^(1 - a) p_lr^a normalised.
+    double sum = 0.0;
+    for (int c = 0; c < weights_.num_classes; ++c) {
+      const double nt = nt_probabilities_(r, c), lr = lr_probabilities_(r, c);
+      const double q = weights_.lr.log_pool
+                           ? std::exp((1.0 - a) * std::log(std::max(nt, 1e-30)) + a * std::log(std::max(lr, 1e-30)))
+                           : (1.0 - a) * nt + a * lr;
+      probabilities_(r, c) = static_cast<float>(q);
+      sum += q;
+    }
     p.label_probabilities.fill(0.0f);
     for (int c = 0; c < weights_.num_classes; ++c) {
-      const float q = probabilities_(r, c) * inv_members;
+      const float q = static_cast<float>(probabilities_(r, c) / sum);
       log_probabilities_(r, c) = std::log(std::max(q, 1e-30f));
       p.label_probabilities[weights_.class_room_labels[c]] += q;
     }

@@ -1,5 +1,6 @@
-// Room labels from a neural tree: GraphSAGE message passing on the H-tree of the object-room(-building) graph,
-// Eigen only, weights from a versioned file; a room keeps "unknown" whenever the classifier cannot run.
+// Room labels from a neural tree (GraphSAGE message passing on the H-tree of the object-room(-building) graph)
+// averaged with a logistic-regression head on the room's object counts and box; Eigen only, weights from a
+// versioned file; a room keeps "unknown" whenever the classifier cannot run.
 #pragma once
 
 #include <Eigen/Core>
@@ -15,10 +16,15 @@
 namespace qsg::neural_tree {
 
 using RowMatrixXf = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+using RowMatrixXd = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
 
-// A trained neural tree as stored in core/neural_tree/weights/room_classifier_v<version>.json.
+// A trained classifier as stored in core/neural_tree/weights/room_classifier_v<version>.json: the neural tree and
+// (from version 2) the logistic-regression head whose class probabilities are blended with it.
 struct NeuralTreeWeights {
-  static constexpr int kFormatVersion = 1;
+  static constexpr int kFormatVersion = 2;
+  // The LR head's box features after the count features, in this order (the trainer's LR_BOX_FEATURES): log of
+  // each box side (x, y as the room stores them, z), max and min of the two horizontal ones, their sum.
+  static constexpr int kNumLrBoxFeatures = 6;
   struct Offsets {
     int type = 0, word = 0, object_size = 0, object_relative_position = 0, room_size = 0, room_object_count = 0;
     int object_label_count = -1;  // log(1 + objects of the same label in the room); -1 = not used
@@ -45,6 +51,23 @@ struct NeuralTreeWeights {
     Eigen::VectorXf head_b;
   };
   std::vector<Member> members;
+  // Multinomial logistic regression on one room: log(1 + objects per vocabulary name), then the box features;
+  // standardised by mean and std. Objects count under their word-table row's name (mpcat40 aliases included).
+  struct LrHead {
+    std::vector<std::string> vocabulary;  // count features, in feature order
+    float min_size_m = 0.01f;             // floor under the box sides before the log
+    Eigen::VectorXd mean, std;            // num_features
+    RowMatrixXf w;                        // num_classes x num_features
+    Eigen::VectorXf b;
+    double lr_weight = 0.0;  // the LR's weight in the blend; the neural tree's is 1 - lr_weight
+    bool log_pool = false;   // false: convex average of probabilities; true: normalised weighted geometric mean
+    // The LR's weight in a room is lr_weight x the share of the room's objects it counts (1 without objects): it is
+    // blind to labels outside its vocabulary (mpcat40 appliances, cabinet, shelving, ...), which the neural tree
+    // reads through their word vectors. Every training room has share 1.
+    bool weight_by_coverage = false;
+    int num_features() const { return static_cast<int>(vocabulary.size()) + kNumLrBoxFeatures; }
+  };
+  LrHead lr;
 };
 
 // A relative position without the room's orientation (the scene's z is up): horizontal distance, height
@@ -121,11 +144,23 @@ class RoomClassifier {
   bool classify(const ObjectRoomGraph& graph, std::string* error);
 
   const std::vector<RoomPrediction>& predictions() const { return predictions_; }
-  // Log class probabilities per room (rows follow predictions()), in the model's class order, floored at 1e-30;
-  // for parity tests.
+  // Log of the blended class probabilities per room (rows follow predictions()), in the model's class order,
+  // floored at 1e-30; the neural tree's and the LR head's own probabilities and the LR's raw features (before
+  // standardisation): for parity tests.
   Eigen::Block<const RowMatrixXf, Eigen::Dynamic, Eigen::Dynamic, true> room_log_probabilities() const {
     return log_probabilities_.topRows(num_rooms_);
   }
+  Eigen::Block<const RowMatrixXf, Eigen::Dynamic, Eigen::Dynamic, true> room_nt_probabilities() const {
+    return nt_probabilities_.topRows(num_rooms_);
+  }
+  Eigen::Block<const RowMatrixXd, Eigen::Dynamic, Eigen::Dynamic, true> room_lr_probabilities() const {
+    return lr_probabilities_.topRows(num_rooms_);
+  }
+  Eigen::Block<const RowMatrixXd, Eigen::Dynamic, Eigen::Dynamic, true> room_lr_features() const {
+    return lr_features_.topRows(num_rooms_);
+  }
+  // Per room: the share of its objects the LR head counted (1 for a room without objects).
+  Eigen::VectorBlock<const Eigen::VectorXd> room_lr_coverage() const { return lr_coverage_.head(num_rooms_); }
   const HTree& h_tree() const { return h_tree_; }
   const LayeredGraph& layered_graph() const { return layered_; }  // the hierarchical graph the H-tree was built on
   const NeuralTreeWeights& weights() const { return weights_; }
@@ -137,6 +172,7 @@ class RoomClassifier {
   bool build_graph(const ObjectRoomGraph& graph, std::string* error);
   void compute_features(const ObjectRoomGraph& graph);  // graph-side inputs shared by every member
   void run_member(std::size_t m);                       // adds the member's probabilities to probabilities_
+  void run_lr(const ObjectRoomGraph& graph);            // lr_features_ and lr_probabilities_ of every room
 
   Config config_;
   bool ready_ = false;
@@ -153,7 +189,12 @@ class RoomClassifier {
   std::vector<std::int32_t> graph_word_, adj_begin_, adj_, adj_fill_, room_slot_, object_count_, leaf_begin_, leaves_;
   Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> positions_;  // mean member centroid per node
   RowMatrixXf relative_, log_size_, offset_, h_, h_next_, aggregate_, self_, neigh_, pooled_, logits_;
-  RowMatrixXf probabilities_, log_probabilities_;
+  RowMatrixXf probabilities_, log_probabilities_, nt_probabilities_;
+  std::vector<int> lr_column_of_word_;  // per word-table row: its LR count feature, -1 = not counted
+  RowMatrixXd lr_w_;                    // num_features x num_classes (the head's w, transposed, in double)
+  Eigen::RowVectorXd lr_b_;
+  RowMatrixXd lr_features_, lr_probabilities_;  // per room, sized at init for Config::max_rooms rows
+  Eigen::VectorXd lr_coverage_, lr_objects_;     // per room: counted share of its objects, and their number
   Stats stats_;
 };
 

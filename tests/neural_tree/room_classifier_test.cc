@@ -1,4 +1,5 @@
-// Room classifier tests: PyTorch parity on the shipped weights, bad weight files, allocation-free inference.
+// Room classifier tests: PyTorch parity on the shipped weights (neural tree, LR head, blend), bad weight files,
+// the LR head's features, allocation-free inference.
 #include "core/neural_tree/room_classifier.h"
 
 #include <gtest/gtest.h>
@@ -92,19 +93,23 @@ TEST(RoomClassifier, Mpcat40AliasesUseTheTrainingClassRow) {
   EXPECT_EQ(off.word_index(semantics::kTable), off.word_index("table"));
 }
 
-// C++ and PyTorch agree on the same weights: logits and probabilities within 1e-4, identical H-trees.
+// C++ and PyTorch agree on the same weights: the neural tree's, the LR head's and the blended probabilities within
+// 1e-4, the LR features exactly (to rounding), identical H-trees.
 TEST(RoomClassifier, ParityWithPyTorch) {
   std::ifstream in(fixture_path());
   ASSERT_TRUE(in) << fixture_path();
   const nlohmann::json doc = nlohmann::json::parse(in, nullptr, false);
   ASSERT_FALSE(doc.is_discarded());
+  ASSERT_EQ(doc["header"]["version"].get<int>(), NeuralTreeWeights::kFormatVersion)
+      << "rerun bench/neural_tree/train_neural_tree.py train";
   RoomClassifier::Config config;
   config.weights_path = std::string(QSG_SOURCE_DIR) + "/" + doc["header"]["weights"].get<std::string>();
   RoomClassifier classifier(config);
   std::string error;
   ASSERT_TRUE(classifier.init(&error)) << error;
+  EXPECT_DOUBLE_EQ(classifier.weights().lr.lr_weight, doc["header"]["blend"]["lr_weight"].get<double>());
   int cases = 0;
-  double max_dp = 0.0;  // largest probability difference seen, printed for the record
+  double max_dp = 0.0, max_dp_nt = 0.0, max_dp_lr = 0.0;  // largest differences seen, printed for the record
   for (const auto& c : doc["cases"]) {
     const ObjectRoomGraph g = graph_from_case(c, classifier);
     ASSERT_TRUE(classifier.classify(g, &error)) << error;
@@ -116,14 +121,27 @@ TEST(RoomClassifier, ParityWithPyTorch) {
     const auto& rooms = c["rooms"];
     ASSERT_EQ(classifier.predictions().size(), rooms.size());
     const auto log_p = classifier.room_log_probabilities();
+    const auto nt_p = classifier.room_nt_probabilities();
+    const auto lr_p = classifier.room_lr_probabilities();
+    const auto lr_x = classifier.room_lr_features();
     for (std::size_t r = 0; r < rooms.size(); ++r) {
       EXPECT_EQ(classifier.predictions()[r].node, rooms[r].get<int>());
-      const auto& expected = c["logits"][r];  // the ensemble's log-probabilities
+      const auto& expected = c["log_probabilities"][r];  // log of the blend
       const auto& expected_p = c["probabilities"][r];
       const auto row = static_cast<Eigen::Index>(r);
+      EXPECT_NEAR(classifier.room_lr_coverage()[row], c["lr_coverage"][r].get<double>(), 1e-12) << "case " << cases;
+      ASSERT_EQ(lr_x.cols(), static_cast<Eigen::Index>(c["lr_features"][r].size()));
+      for (Eigen::Index f = 0; f < lr_x.cols(); ++f)
+        EXPECT_NEAR(lr_x(row, f), c["lr_features"][r][f].get<double>(), 1e-9) << "case " << cases << " feature " << f;
       for (int k = 0; k < log_p.cols(); ++k) {
         max_dp = std::max(max_dp, std::fabs(std::exp(static_cast<double>(log_p(row, k))) - expected_p[k].get<double>()));
+        max_dp_nt = std::max(max_dp_nt, std::fabs(nt_p(row, k) - c["nt_probabilities"][r][k].get<double>()));
+        max_dp_lr = std::max(max_dp_lr, std::fabs(lr_p(row, k) - c["lr_probabilities"][r][k].get<double>()));
         EXPECT_NEAR(std::exp(log_p(row, k)), expected_p[k].get<float>(), 1e-4)
+            << "case " << cases << " room " << r << " class " << k;
+        EXPECT_NEAR(nt_p(row, k), c["nt_probabilities"][r][k].get<float>(), 1e-4)
+            << "case " << cases << " room " << r << " class " << k;
+        EXPECT_NEAR(lr_p(row, k), c["lr_probabilities"][r][k].get<double>(), 1e-4)
             << "case " << cases << " room " << r << " class " << k;
         // Log-probabilities too, where float32 still resolves them (p > 1e-20).
         if (expected[k].get<float>() > -46.0f) {
@@ -135,16 +153,84 @@ TEST(RoomClassifier, ParityWithPyTorch) {
     ++cases;
   }
   EXPECT_EQ(cases, 5);
-  std::printf("parity with PyTorch: max |probability difference| %.3g over %d cases\n", max_dp, cases);
+  std::printf("parity with PyTorch over %d cases: max |probability difference| blend %.3g, neural tree %.3g, "
+              "LR head %.3g\n", cases, max_dp, max_dp_nt, max_dp_lr);
+}
+
+// The LR head counts an object under its word-table row's name: an mpcat40 sofa (aliased to COCO's couch) counts as
+// a couch; a label outside the LR vocabulary, or no word, is not counted. The box features follow lr_features.
+TEST(RoomClassifier, LrFeaturesCountAliasedLabelsAndTheBox) {
+  RoomClassifier classifier;
+  std::string error;
+  ASSERT_TRUE(classifier.init(&error)) << error;
+  const NeuralTreeWeights::LrHead& lr = classifier.weights().lr;
+  const auto column = [&](const std::string& name) {
+    const auto it = std::find(lr.vocabulary.begin(), lr.vocabulary.end(), name);
+    return static_cast<Eigen::Index>(it - lr.vocabulary.begin());
+  };
+  const Eigen::Index couch = column("couch"), chair = column("chair");
+  ASSERT_LT(couch, static_cast<Eigen::Index>(lr.vocabulary.size()));
+  ASSERT_LT(chair, static_cast<Eigen::Index>(lr.vocabulary.size()));
+  ASSERT_EQ(column("cushion"), static_cast<Eigen::Index>(lr.vocabulary.size())) << "mpcat40 only, not counted";
+  ObjectRoomGraph g;
+  const int other = g.add_room({9, 0, 1.2}, {2.0, 5.0, 2.4});
+  const int room = g.add_room({0, 0, 1.2}, {6.0, 0.005, 2.4});  // y below min_size_m
+  g.add_object(room, classifier.word_index(semantics::kSofa), {0, 0, 0.4}, {2, 1, 0.8});
+  g.add_object(room, classifier.word_index("couch"), {1, 0, 0.4}, {2, 1, 0.8});
+  g.add_object(room, classifier.word_index(semantics::kChair), {1, 1, 0.4}, {0.5, 0.5, 0.9});
+  g.add_object(room, classifier.word_index(semantics::kCushion), {1, 1, 0.6}, {0.3, 0.3, 0.1});
+  g.add_object(room, -1, {2, 1, 0.6}, {0.3, 0.3, 0.1});
+  g.add_object(-1, classifier.word_index(semantics::kChair), {2, 2, 0.6}, {0.3, 0.3, 0.1});  // no room
+  g.add_object(other, classifier.word_index(semantics::kChair), {9, 0, 0.4}, {0.5, 0.5, 0.9});
+  g.add_edge(other, room);
+  ASSERT_TRUE(classifier.classify(g, &error)) << error;
+  const auto x = classifier.room_lr_features();
+  ASSERT_EQ(x.rows(), 2);
+  const Eigen::Index v = static_cast<Eigen::Index>(lr.vocabulary.size());
+  ASSERT_EQ(x.cols(), v + NeuralTreeWeights::kNumLrBoxFeatures);
+  EXPECT_DOUBLE_EQ(x(1, couch), std::log1p(2.0));
+  EXPECT_DOUBLE_EQ(x(1, chair), std::log1p(1.0));
+  EXPECT_DOUBLE_EQ(x.row(1).head(v).sum(), std::log1p(2.0) + std::log1p(1.0));
+  EXPECT_DOUBLE_EQ(x(0, chair), std::log1p(1.0));
+  EXPECT_DOUBLE_EQ(x.row(0).head(v).sum(), std::log1p(1.0));
+  const double min_size = lr.min_size_m;
+  const double lx = std::log(6.0), ly = std::log(min_size), lz = std::log(2.4);
+  EXPECT_DOUBLE_EQ(x(1, v), lx);
+  EXPECT_DOUBLE_EQ(x(1, v + 1), ly);
+  EXPECT_DOUBLE_EQ(x(1, v + 2), lz);
+  EXPECT_DOUBLE_EQ(x(1, v + 3), lx);
+  EXPECT_DOUBLE_EQ(x(1, v + 4), ly);
+  EXPECT_DOUBLE_EQ(x(1, v + 5), lx + ly);
+  EXPECT_DOUBLE_EQ(x(0, v + 3), std::log(5.0));  // x and y as stored; max and min sort them
+  EXPECT_DOUBLE_EQ(x(0, v + 4), std::log(2.0));
+  // Coverage: room 1 holds 5 objects, 3 of them counted (two couches and the chair; not the cushion, nor the
+  // object without a word); room 0 one counted chair.
+  ASSERT_TRUE(lr.weight_by_coverage);
+  EXPECT_DOUBLE_EQ(classifier.room_lr_coverage()[1], 3.0 / 5.0);
+  EXPECT_DOUBLE_EQ(classifier.room_lr_coverage()[0], 1.0);
+  // The reported probabilities are the blend of the two heads, the LR weighted by its coverage of the room.
+  const int classes = classifier.weights().num_classes;
+  for (int r = 0; r < 2; ++r) {
+    const double a = lr.lr_weight * classifier.room_lr_coverage()[r];
+    Eigen::VectorXd q(classes);
+    for (int c = 0; c < classes; ++c) {
+      const double nt = classifier.room_nt_probabilities()(r, c), p_lr = classifier.room_lr_probabilities()(r, c);
+      q[c] = lr.log_pool ? std::pow(std::max(nt, 1e-30), 1.0 - a) * std::pow(std::max(p_lr, 1e-30), a)
+                         : (1.0 - a) * nt + a * p_lr;
+    }
+    q /= q.sum();
+    for (int c = 0; c < classes; ++c)
+      EXPECT_NEAR(std::exp(classifier.room_log_probabilities()(r, c)), q[c], 1e-6) << "room " << r << " class " << c;
+  }
 }
 
 TEST(RoomClassifier, MissingWeightsLeaveRoomsUnknown) {
   RoomClassifier::Config config;
-  config.weights_path = "/nonexistent/room_classifier_v1.json";
+  config.weights_path = "/nonexistent/room_classifier_v2.json";
   RoomClassifier classifier(config);
   std::string error;
   EXPECT_FALSE(classifier.init(&error));
-  EXPECT_NE(error.find("/nonexistent/room_classifier_v1.json"), std::string::npos) << error;
+  EXPECT_NE(error.find("/nonexistent/room_classifier_v2.json"), std::string::npos) << error;
   ObjectRoomGraph g;
   make_synthetic_building(3, 4, 1, classifier, &g);
   EXPECT_FALSE(classifier.classify(g, &error));
@@ -178,7 +264,12 @@ TEST(RoomClassifier, CorruptWeightsNameFileAndField) {
   nlohmann::json bad_b64 = doc;
   bad_b64["members"][0]["head"]["w"] = "!!!!";
   nlohmann::json new_version = doc;
-  new_version["header"]["version"] = 2;
+  new_version["header"]["version"] = NeuralTreeWeights::kFormatVersion + 1;
+  const std::string new_version_message =
+      "header.version: " + std::to_string(NeuralTreeWeights::kFormatVersion + 1) + " unsupported";
+  nlohmann::json v1 = doc;  // the neural tree alone (before the LR head): refused, naming the version
+  v1["header"]["version"] = 1;
+  v1.erase("lr_head");
   nlohmann::json bad_label = doc;
   bad_label["class_room_labels"][3] = "dungeon";
   nlohmann::json nan_head = doc;
@@ -188,7 +279,8 @@ TEST(RoomClassifier, CorruptWeightsNameFileAndField) {
   const Case cases[] = {
       {"truncated.json", good.substr(0, good.size() / 2), "not valid JSON"},
       {"short_layer.json", short_layer.dump(), short_message.c_str()},
-      {"new_version.json", new_version.dump(), "header.version: 2 unsupported"},
+      {"new_version.json", new_version.dump(), new_version_message.c_str()},
+      {"v1.json", v1.dump(), "header.version: 1 unsupported (this build reads version 2"},
       {"bad_label.json", bad_label.dump(), "class_room_labels[3]: \"dungeon\" is not a room label"},
       {"nan_head.json", nan_head.dump(), "members[0].head.b (1 x 15)[0]: not a finite number"},
       {"short_b64.json", short_b64.dump(), short_b64_message.c_str()},
@@ -207,6 +299,93 @@ TEST(RoomClassifier, CorruptWeightsNameFileAndField) {
     ObjectRoomGraph g;
     make_synthetic_building(2, 3, 1, classifier, &g);
     EXPECT_FALSE(classifier.classify(g, &error));
+    for (const auto& p : classifier.predictions()) EXPECT_EQ(p.label, semantics::kRoomUnknown);
+  }
+}
+
+// A version 2 file whose LR head is missing, corrupt or of the wrong shape is refused (the field named), and the
+// classifier then leaves every room "unknown", as for any bad file.
+TEST(RoomClassifier, CorruptLrHeadIsAnError) {
+  const nlohmann::json doc = nlohmann::json::parse(read_text(RoomClassifier::Config().weights_path));
+  ASSERT_TRUE(doc.contains("lr_head"));
+  const int classes = doc["num_classes"].get<int>();
+  const int features = doc["lr_head"]["num_features"].get<int>();
+  const int vocabulary = static_cast<int>(doc["lr_head"]["features"]["object_counts"]["vocabulary"].size());
+  ASSERT_EQ(features, vocabulary + NeuralTreeWeights::kNumLrBoxFeatures);
+  struct Case {
+    std::string name;
+    nlohmann::json doc;
+    std::string expect;
+  };
+  std::vector<Case> cases;
+  auto edit = [&](const std::string& name, const std::string& expect, auto&& change) {
+    nlohmann::json d = doc;
+    change(d["lr_head"], d);
+    cases.push_back({name, std::move(d), expect});
+  };
+  const std::string fc = std::to_string(features), cc = std::to_string(classes);
+  edit("lr_missing.json", "lr_head: missing", [](nlohmann::json&, nlohmann::json& d) { d.erase("lr_head"); });
+  edit("lr_not_object.json", "lr_head: missing", [](nlohmann::json& h, nlohmann::json&) { h = "garbage"; });
+  edit("lr_w_short.json",
+       "lr_head.w (" + cc + " x " + fc + "): expected " + std::to_string(classes * features) + " numbers, got " +
+           std::to_string(classes * features - 1),
+       [&](nlohmann::json& h, nlohmann::json&) {
+         h["w"] = std::vector<float>(static_cast<std::size_t>(classes * features - 1));
+       });
+  edit("lr_w_bad_b64.json", "lr_head.w (" + cc + " x " + fc + "): not valid base64",
+       [](nlohmann::json& h, nlohmann::json&) { h["w"] = "@@@@"; });
+  edit("lr_num_features.json", "lr_head.num_features: " + std::to_string(features + 1) + " outside",
+       [&](nlohmann::json& h, nlohmann::json&) { h["num_features"] = features + 1; });
+  edit("lr_classes.json", "lr_head.num_classes: " + std::to_string(classes - 1) + " outside",
+       [&](nlohmann::json& h, nlohmann::json&) { h["num_classes"] = classes - 1; });
+  edit("lr_mean_long.json",
+       "lr_head.mean (1 x " + fc + "): expected " + fc + " numbers, got " + std::to_string(features + 1),
+       [&](nlohmann::json& h, nlohmann::json&) {
+         h["mean"] = std::vector<float>(static_cast<std::size_t>(features + 1));
+       });
+  edit("lr_b_missing.json", "lr_head.b (1 x " + cc + "): missing",
+       [](nlohmann::json& h, nlohmann::json&) { h.erase("b"); });
+  edit("lr_std_zero.json", "lr_head.std[2]: not positive", [&](nlohmann::json& h, nlohmann::json&) {
+    std::vector<float> s(static_cast<std::size_t>(features), 1.0f);
+    s[2] = 0.0f;
+    h["std"] = s;
+  });
+  edit("lr_vocab_unknown.json", "vocabulary[1]: \"spaceship\" has no row in words",
+       [](nlohmann::json& h, nlohmann::json&) { h["features"]["object_counts"]["vocabulary"][1] = "spaceship"; });
+  const std::string first_name = doc["lr_head"]["features"]["object_counts"]["vocabulary"][0].get<std::string>();
+  edit("lr_vocab_twice.json", "vocabulary[1]: \"" + first_name + "\" listed twice",
+       [](nlohmann::json& h, nlohmann::json&) {
+         h["features"]["object_counts"]["vocabulary"][1] = h["features"]["object_counts"]["vocabulary"][0];
+       });
+  edit("lr_vocab_shorter.json", "lr_head.num_features: " + fc + " outside", [](nlohmann::json& h, nlohmann::json&) {
+    h["features"]["object_counts"]["vocabulary"].erase(h["features"]["object_counts"]["vocabulary"].size() - 1);
+  });
+  edit("lr_transform.json", "lr_head.features.object_counts: missing, or its transform",
+       [](nlohmann::json& h, nlohmann::json&) { h["features"]["object_counts"]["transform"] = "identity"; });
+  edit("lr_box.json", "lr_head.features.room_box: expected [log_size_x", [](nlohmann::json& h, nlohmann::json&) {
+    std::swap(h["features"]["room_box"][0], h["features"]["room_box"][3]);
+  });
+  edit("lr_blend_weight.json", "lr_head.blend.lr_weight: missing or not a number in [0, 1]",
+       [](nlohmann::json& h, nlohmann::json&) { h["blend"]["lr_weight"] = 1.5; });
+  edit("lr_blend_pool.json", "lr_head.blend.pool: expected", [](nlohmann::json& h, nlohmann::json&) {
+    h["blend"]["pool"] = "max";
+  });
+  edit("lr_blend_coverage_missing.json", "lr_head.blend.weight_by_coverage: missing or not true/false",
+       [](nlohmann::json& h, nlohmann::json&) { h["blend"].erase("weight_by_coverage"); });
+  edit("lr_blend_coverage_number.json", "lr_head.blend.weight_by_coverage: missing or not true/false",
+       [](nlohmann::json& h, nlohmann::json&) { h["blend"]["weight_by_coverage"] = 1; });
+  for (const Case& c : cases) {
+    RoomClassifier::Config config;
+    config.weights_path = write_temp(c.name, c.doc.dump());
+    RoomClassifier classifier(config);
+    std::string error;
+    EXPECT_FALSE(classifier.init(&error)) << c.name;
+    EXPECT_NE(error.find(config.weights_path + ": "), std::string::npos) << error;
+    EXPECT_NE(error.find(c.expect), std::string::npos) << c.name << ": " << error;
+    ObjectRoomGraph g;
+    make_synthetic_building(2, 3, 1, classifier, &g);
+    EXPECT_FALSE(classifier.classify(g, &error));
+    ASSERT_EQ(classifier.predictions().size(), 2u);
     for (const auto& p : classifier.predictions()) EXPECT_EQ(p.label, semantics::kRoomUnknown);
   }
 }
@@ -313,8 +492,9 @@ TEST(RoomClassifier, SyntheticBuildingIsLabelledWithoutAllocating) {
               classifier.h_tree().width);
 }
 
-// End to end through the C++ path on all 482 Stanford rooms with the shipped model (trained on all of them, so
-// this is a training-set figure: it proves the pipeline, not generalisation; see bench/neural_tree for CV).
+// End to end through the C++ path on all 482 Stanford rooms with the shipped model (neural tree blended with the LR
+// head, both trained on all of them, so this is a training-set figure: it proves the pipeline, not
+// generalisation; see bench/neural_tree for CV).
 TEST(RoomClassifier, Stanford3DSGTrainingSetAccuracy) {
   QSG_REQUIRE_SHARED_DATA(path, "scene_graphs/Stanford3DSG_rooms.json");
   std::ifstream in(path);
@@ -349,7 +529,7 @@ TEST(RoomClassifier, Stanford3DSGTrainingSetAccuracy) {
     ++total;
   }
   EXPECT_EQ(total, 482);
-  std::printf("C++ neural tree on Stanford3DSG (training set): %.2f %%\n", 100.0 * correct / total);
+  std::printf("C++ neural tree + LR blend on Stanford3DSG (training set): %.2f %%\n", 100.0 * correct / total);
   EXPECT_GT(correct, total * 85 / 100);
 }
 
