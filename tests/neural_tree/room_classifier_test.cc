@@ -33,6 +33,23 @@ std::string write_temp(const std::string& name, const std::string& text) {
   return path;
 }
 
+// A weights file init() must refuse: the error names the file and `expect`, and classify() then leaves every room
+// "unknown".
+void expect_weights_refused(const std::string& name, const std::string& text, const std::string& expect) {
+  RoomClassifier::Config config;
+  config.weights_path = write_temp(name, text);
+  RoomClassifier classifier(config);
+  std::string error;
+  EXPECT_FALSE(classifier.init(&error)) << name;
+  EXPECT_NE(error.find(config.weights_path + ": "), std::string::npos) << error;
+  EXPECT_NE(error.find(expect), std::string::npos) << name << ": " << error;
+  ObjectRoomGraph g;
+  make_synthetic_building(2, 3, 1, classifier, &g);
+  EXPECT_FALSE(classifier.classify(g, &error));
+  EXPECT_EQ(classifier.predictions().size(), 2u) << name;
+  for (const auto& p : classifier.predictions()) EXPECT_EQ(p.label, semantics::kRoomUnknown);
+}
+
 // The fixture's scenes as the C++ API takes them (object rooms from their object-room edges).
 ObjectRoomGraph graph_from_case(const nlohmann::json& c, const RoomClassifier& classifier) {
   ObjectRoomGraph g;
@@ -288,19 +305,7 @@ TEST(RoomClassifier, CorruptWeightsNameFileAndField) {
       {"bad_b64_reason.json", bad_b64.dump(), "not valid base64"},
       {"empty.json", "", "not valid JSON"},
   };
-  for (const Case& c : cases) {
-    RoomClassifier::Config config;
-    config.weights_path = write_temp(c.name, c.text);
-    RoomClassifier classifier(config);
-    std::string error;
-    EXPECT_FALSE(classifier.init(&error)) << c.name;
-    EXPECT_NE(error.find(config.weights_path + ": "), std::string::npos) << error;
-    EXPECT_NE(error.find(c.expect), std::string::npos) << c.name << ": " << error;
-    ObjectRoomGraph g;
-    make_synthetic_building(2, 3, 1, classifier, &g);
-    EXPECT_FALSE(classifier.classify(g, &error));
-    for (const auto& p : classifier.predictions()) EXPECT_EQ(p.label, semantics::kRoomUnknown);
-  }
+  for (const Case& c : cases) expect_weights_refused(c.name, c.text, c.expect);
 }
 
 // A version 2 file whose LR head is missing, corrupt or of the wrong shape is refused (the field named), and the
@@ -374,20 +379,7 @@ TEST(RoomClassifier, CorruptLrHeadIsAnError) {
        [](nlohmann::json& h, nlohmann::json&) { h["blend"].erase("weight_by_coverage"); });
   edit("lr_blend_coverage_number.json", "lr_head.blend.weight_by_coverage: missing or not true/false",
        [](nlohmann::json& h, nlohmann::json&) { h["blend"]["weight_by_coverage"] = 1; });
-  for (const Case& c : cases) {
-    RoomClassifier::Config config;
-    config.weights_path = write_temp(c.name, c.doc.dump());
-    RoomClassifier classifier(config);
-    std::string error;
-    EXPECT_FALSE(classifier.init(&error)) << c.name;
-    EXPECT_NE(error.find(config.weights_path + ": "), std::string::npos) << error;
-    EXPECT_NE(error.find(c.expect), std::string::npos) << c.name << ": " << error;
-    ObjectRoomGraph g;
-    make_synthetic_building(2, 3, 1, classifier, &g);
-    EXPECT_FALSE(classifier.classify(g, &error));
-    ASSERT_EQ(classifier.predictions().size(), 2u);
-    for (const auto& p : classifier.predictions()) EXPECT_EQ(p.label, semantics::kRoomUnknown);
-  }
+  for (const Case& c : cases) expect_weights_refused(c.name, c.doc.dump(), c.expect);
 }
 
 TEST(RoomClassifier, BadGraphIsAnErrorAndRoomsStayUnknown) {
