@@ -21,6 +21,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <deque>
 #include <fstream>
 #include <map>
@@ -84,6 +85,10 @@ struct Options {
   // --dump-places DIR: per plan, a text file of its places and place-place edges with their estimated and
   // ground-truth rooms, for offline study of the room finder (bench/rooms/finder_sandbox.py reads it).
   std::string dump_dir;
+  // --door-oracle-m C (IPA plans): before the room finder's scored run, every place-place edge between two
+  // ground-truth rooms gets clearance C, a perfect door and opening detector. The score is then the bound such a
+  // cue would give the room finder, not the room finder's own. Negative: off.
+  double door_oracle_m = -1.0;
 };
 
 std::vector<std::string> split(const std::string& s) {
@@ -113,6 +118,7 @@ bool parse(int argc, char** argv, Options* o) {
     else if (a == "--cache-dir") o->cache_dir = v;
     else if (a == "--images") o->images_dir = v;
     else if (a == "--dump-places") o->dump_dir = v;
+    else if (a == "--door-oracle-m") number = &o->door_oracle_m;
     else if (a == "--generated") o->generated = std::atoi(v.c_str());
     else if (a == "--generated-rooms") o->generated_rooms = std::atoi(v.c_str());
     else if (a == "--label-buildings") o->label_buildings = std::atoi(v.c_str());
@@ -224,6 +230,33 @@ bool dump_places(const sg::SceneGraph& g, const Raster& ras, const std::string& 
     });
   });
   return std::fclose(f) == 0;
+}
+
+// --door-oracle-m: every place-place edge whose ends lie in two different ground-truth rooms gets clearance
+// clearance_m, and the rooms (and building) of the earlier run leave the graph so the finder can run again.
+// Returns the number of edges changed.
+std::size_t apply_door_oracle(const Raster& ras, double clearance_m, sg::SceneGraph* g) {
+  std::map<sg::NodeId, std::int32_t> truth;
+  std::vector<sg::NodeId> remove;
+  g->for_each_node([&](const sg::NodeRecord& n) {
+    if (n.kind == sg::NodeKind::kRoom || n.kind == sg::NodeKind::kBuilding) remove.push_back(n.id);
+    if (n.kind != sg::NodeKind::kPlace) return;
+    int c, r;
+    truth[n.id] = ras.cell_of(g->place(n.id)->position_m, &c, &r) ? truth_near(ras, c, r) : 0;
+  });
+  for (sg::NodeId id : remove) g->remove_node(id);
+  std::vector<std::pair<sg::NodeId, sg::NodeId>> doors;
+  for (const auto& [id, t] : truth)
+    g->for_each_neighbor(id, [&](sg::NodeId other, const sg::EdgeRecord&) {
+      const auto o = truth.find(other);
+      if (other > id && o != truth.end() && t > 0 && o->second > 0 && o->second != t) doors.emplace_back(id, other);
+    });
+  for (const auto& [a, b] : doors) {
+    sg::EdgeAttributes* e = g->edge_info(a, b);
+    e->weighted = true;
+    e->weight = clearance_m;
+  }
+  return doors.size();
 }
 
 // Labels free cells with the room of the geodesically nearest place (multi-source BFS from the places' cells).
@@ -518,6 +551,12 @@ bool eval_plan(const Options& opt, const std::string& map, bool furnished, Score
       const int l = labels.at<int>(r, c);
       ras.truth[ras.idx(c, r)] = l > 0 && stats.at<int>(l, cv::CC_STAT_AREA) >= fc.min_room_area_px ? l : 0;
     }
+  if (opt.door_oracle_m >= 0.0) {
+    const std::size_t doors = apply_door_oracle(ras, opt.door_oracle_m, graph.get());
+    std::printf("  %s: door oracle: %zu place edges between ground-truth rooms set to %.2f m\n", map.c_str(), doors,
+                opt.door_oracle_m);
+    if (!run_rooms(opt, map, graph.get(), st)) return false;
+  }
   if (oracle != nullptr) {
     label_from_places(*graph, -1e9, 1e9, opt.max_reach_m, &ras, /*oracle=*/true);
     *oracle = score(ras);
@@ -753,11 +792,15 @@ int main(int argc, char** argv) {
                  "usage: %s [--plans-dir DIR] [--maps a,b|none] [--variants plain,furnished] [--generated N] "
                  "[--generated-rooms N] [--label-buildings N] [--size WxH] [--hfov-deg D] [--rate-hz R] [--max-reach-m M] [--robot-radius-m R] [--furniture-height-m H] [--alpha A] "
                  "[--min-dilation-m D] [--max-dilation-m D] [--min-component N] [--seeding plateau|persistence] "
-                 "[--min-persistence-m P] [--max-door-clearance-m D] [--cache-dir DIR] [--images DIR] [--dump-places DIR] [--json FILE]\n",
+                 "[--min-persistence-m P] [--max-door-clearance-m D] [--cache-dir DIR] [--images DIR] [--dump-places DIR] [--door-oracle-m C] [--json FILE]\n",
                  argv[0]);
     return 2;
   }
   opt.rooms.print(stdout);
+  if (opt.door_oracle_m >= 0.0)
+    std::printf("DOOR ORACLE: on the IPA plans every place edge between two ground-truth rooms has clearance %.2f m; "
+                "the scores are the bound a perfect door and opening cue gives the room finder\n",
+                opt.door_oracle_m);
   std::printf("camera %dx%d, %.0f deg hfov, %.1f Hz keyframes, ground-truth poses, noise-free depth; labels reach "
               "%.1f m from places\n",
               opt.width, opt.height, opt.hfov_deg, opt.rate_hz, opt.max_reach_m);
@@ -768,6 +811,8 @@ int main(int argc, char** argv) {
                 opt.width, opt.height, opt.hfov_deg, opt.rate_hz, rooms::to_string(opt.rooms.seeding),
                 opt.rooms.plateau_alpha, opt.rooms.min_persistence_m, opt.rooms.min_dilation_m,
                 opt.rooms.max_dilation_m, opt.rooms.min_component_size);
+  if (opt.door_oracle_m >= 0.0)
+    std::snprintf(cond + std::strlen(cond), sizeof(cond) - std::strlen(cond), ", door oracle %.2f m", opt.door_oracle_m);
   bench::Figures figures(cond);
   const auto add = [&](const std::string& prefix, const Score& s) {
     figures.add(prefix + ".precision_mean", s.precision_mean, "fraction");
