@@ -246,11 +246,14 @@ std::size_t apply_door_oracle(const Raster& ras, double clearance_m, sg::SceneGr
   });
   for (sg::NodeId id : remove) g->remove_node(id);
   std::vector<std::pair<sg::NodeId, sg::NodeId>> doors;
-  for (const auto& [id, t] : truth)
+  for (const auto& entry : truth) {
+    const sg::NodeId id = entry.first;
+    const std::int32_t t = entry.second;  // a plain variable: C++17 lambdas cannot capture structured bindings
     g->for_each_neighbor(id, [&](sg::NodeId other, const sg::EdgeRecord&) {
       const auto o = truth.find(other);
       if (other > id && o != truth.end() && t > 0 && o->second > 0 && o->second != t) doors.emplace_back(id, other);
     });
+  }
   for (const auto& [a, b] : doors) {
     sg::EdgeAttributes* e = g->edge_info(a, b);
     e->weighted = true;
