@@ -249,9 +249,10 @@ std::size_t apply_door_oracle(const Raster& ras, double clearance_m, sg::SceneGr
   for (const auto& entry : truth) {
     const sg::NodeId id = entry.first;
     const std::int32_t t = entry.second;  // a plain variable: C++17 lambdas cannot capture structured bindings
+    if (t <= 0) continue;
     g->for_each_neighbor(id, [&](sg::NodeId other, const sg::EdgeRecord&) {
       const auto o = truth.find(other);
-      if (other > id && o != truth.end() && t > 0 && o->second > 0 && o->second != t) doors.emplace_back(id, other);
+      if (other > id && o != truth.end() && o->second > 0 && o->second != t) doors.emplace_back(id, other);
     });
   }
   for (const auto& [a, b] : doors) {

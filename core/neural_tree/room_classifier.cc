@@ -531,7 +531,6 @@ bool RoomClassifier::init(std::string* error) {
   lr_features_.resize(config_.max_rooms, w.lr.num_features());
   lr_probabilities_.resize(config_.max_rooms, w.num_classes);
   lr_coverage_.resize(config_.max_rooms);
-  lr_objects_.resize(config_.max_rooms);
   // Size the H-tree storage now rather than on the first classify().
   LayeredGraph empty;
   builder_.build(empty, &h_tree_, nullptr);
@@ -774,21 +773,20 @@ void RoomClassifier::run_lr(const ObjectRoomGraph& graph) {
   auto x = lr_features_.topRows(num_rooms_);
   x.setZero();
   auto counted = lr_coverage_.head(num_rooms_);
-  auto objects = lr_objects_.head(num_rooms_);
   counted.setZero();
-  objects.setZero();
   for (std::size_t v = 0; v < graph.nodes.size(); ++v) {
     const auto& node = graph.nodes[v];
-    if (node.layer != NodeLayer::kObject || node.room < 0) continue;
-    const int slot = room_slot_[node.room];
-    objects[slot] += 1.0;
-    if (graph_word_[v] < 0) continue;
+    if (node.layer != NodeLayer::kObject || node.room < 0 || graph_word_[v] < 0) continue;
     const int column = lr_column_of_word_[static_cast<std::size_t>(graph_word_[v])];
     if (column < 0) continue;
-    x(slot, column) += 1.0;
-    counted[slot] += 1.0;
+    x(room_slot_[node.room], column) += 1.0;
+    counted[room_slot_[node.room]] += 1.0;
   }
-  for (int r = 0; r < num_rooms_; ++r) counted[r] = objects[r] > 0.0 ? counted[r] / objects[r] : 1.0;
+  // Coverage: the counted share of the room's objects (object_count_, from compute_features); 1 without objects.
+  for (int r = 0; r < num_rooms_; ++r) {
+    const int objects = object_count_[predictions_[r].node];
+    counted[r] = objects > 0 ? counted[r] / objects : 1.0;
+  }
   const double min_size = lr.min_size_m;
   for (int r = 0; r < num_rooms_; ++r) {
     for (int c = 0; c < vocabulary; ++c) x(r, c) = std::log1p(x(r, c));

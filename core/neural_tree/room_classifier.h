@@ -194,7 +194,7 @@ class RoomClassifier {
   RowMatrixXd lr_w_;                    // num_features x num_classes (the head's w, transposed, in double)
   Eigen::RowVectorXd lr_b_;
   RowMatrixXd lr_features_, lr_probabilities_;  // per room, sized at init for Config::max_rooms rows
-  Eigen::VectorXd lr_coverage_, lr_objects_;     // per room: counted share of its objects, and their number
+  Eigen::VectorXd lr_coverage_;                  // per room: the share of its objects the LR counted
   Stats stats_;
 };
 
