@@ -47,6 +47,7 @@
 #include "drivers/sim/sim_camera.h"
 #include "drivers/world/building_generator.h"
 #include "drivers/world/floor_plan_import.h"
+#include "drivers/world/floor_plan_rooms.h"
 #include "drivers/world/world_query.h"
 
 #ifndef QSG_SHARED_DATA_DIR
@@ -158,6 +159,8 @@ bool parse(int argc, char** argv, Options* o) {
     if (v != "plain" && v != "furnished") return false;
   return o->width > 0 && o->height > 0 && o->rate_hz > 0 && o->rooms.check().empty();
 }
+
+double ratio(double a, double b) { return b > 0.0 ? a / b : 0.0; }
 
 double median(std::vector<double> v) {
   if (v.empty()) return 0.0;
@@ -324,30 +327,7 @@ void label_from_places(const sg::SceneGraph& g, double z_min_m, double z_max_m, 
   }
 }
 
-struct Score {
-  double precision_mean = 0.0, recall_mean = 0.0;
-  double precision_area = 0.0, recall_area = 0.0;
-  std::size_t rooms_found = 0, rooms_truth = 0;
-  // Sums for pooling over maps.
-  double p_sum = 0.0, r_sum = 0.0, p_overlap = 0.0, p_size = 0.0, r_overlap = 0.0, r_size = 0.0;
-  void add(const Score& o) {
-    p_sum += o.p_sum;
-    r_sum += o.r_sum;
-    p_overlap += o.p_overlap;
-    p_size += o.p_size;
-    r_overlap += o.r_overlap;
-    r_size += o.r_size;
-    rooms_found += o.rooms_found;
-    rooms_truth += o.rooms_truth;
-    finish();
-  }
-  void finish() {
-    precision_mean = rooms_found > 0 ? p_sum / static_cast<double>(rooms_found) : 0.0;
-    recall_mean = rooms_truth > 0 ? r_sum / static_cast<double>(rooms_truth) : 0.0;
-    precision_area = p_size > 0 ? p_overlap / p_size : 0.0;
-    recall_area = r_size > 0 ? r_overlap / r_size : 0.0;
-  }
-};
+using Score = world::RoomSegmentationScore;
 
 // Left: the estimated rooms, right: the ground truth, each room a colour from its id (black: occupied, grey: free but
 // unlabelled).
@@ -369,44 +349,20 @@ void write_image(const Raster& ras, const std::string& path) {
   if (!cv::imwrite(path, out)) std::fprintf(stderr, "cannot write %s\n", path.c_str());
 }
 
-// Max-overlap precision and recall over the cells that are free and inside a ground-truth room.
-Score score(const Raster& ras) {
-  std::map<std::pair<std::int32_t, std::int32_t>, double> overlap;
-  std::map<std::int32_t, double> est_size, gt_size;
-  for (std::size_t k = 0; k < ras.free.size(); ++k) {
-    if (!ras.free[k] || ras.truth[k] <= 0) continue;
-    gt_size[ras.truth[k]] += 1.0;
-    if (ras.estimate[k] <= 0) continue;
-    est_size[ras.estimate[k]] += 1.0;
-    overlap[{ras.estimate[k], ras.truth[k]}] += 1.0;
-  }
-  std::map<std::int32_t, double> best_e, best_g;
-  for (const auto& [key, n] : overlap) {
-    best_e[key.first] = std::max(best_e[key.first], n);
-    best_g[key.second] = std::max(best_g[key.second], n);
-  }
-  Score s;
-  for (const auto& [e, n] : est_size) {
-    s.p_sum += best_e[e] / n;
-    s.p_overlap += best_e[e];
-    s.p_size += n;
-  }
-  for (const auto& [g, n] : gt_size) {
-    s.r_sum += best_g[g] / n;
-    s.r_overlap += best_g[g];
-    s.r_size += n;
-  }
-  s.rooms_found = est_size.size();
-  s.rooms_truth = gt_size.size();
-  s.finish();
-  return s;
-}
+// The benchmark's max-overlap precision and recall over the cells that are free and inside a ground-truth room.
+Score score(const Raster& ras) { return world::score_room_segmentation(ras.free, ras.truth, ras.estimate); }
 
 struct RunStats {
   std::size_t keyframes = 0, places = 0, rooms = 0;
   double tour_m = 0.0, rooms_ms = 0.0, dilation_m = 0.0, wall_s = 0.0;
   std::size_t unreachable = 0;
   std::vector<std::int32_t> unreachable_ids;  // world rooms outside the start's free-space component
+};
+
+// The classical 2D segmentations of the complete plan (IPA plans), scored like ours: the peers that see everything.
+struct Peers {
+  Score distance, erosion;
+  double distance_level_m = 0.0, erosion_level_m = 0.0;
 };
 
 // Explores, reconstructs, runs the frontend every keyframe and the room finder at the end.
@@ -510,8 +466,16 @@ void print_line(const std::string& name, const Score& s, const RunStats& st) {
   std::fflush(stdout);
 }
 
+// *peers: the classical distance-transform and morphological segmentations of the complete plan (the benchmark's own
+// occupancy image, furniture included in the furnished variant), scored the same way.
+void print_peer(const std::string& name, const Score& s, const char* level_name, double level_m) {
+  std::printf("%-30s P %.3f R %.3f | area P %.3f R %.3f | rooms %zu / truth %zu | complete plan, %s %.2f m\n",
+              name.c_str(), s.precision_mean, s.recall_mean, s.precision_area, s.recall_area, s.rooms_found,
+              s.rooms_truth, level_name, level_m);
+}
+
 bool eval_plan(const Options& opt, const std::string& map, bool furnished, Score* out, RunStats* st,
-               Score* reachable, Score* oracle) {
+               Score* reachable, Score* oracle, Peers* peers) {
   const std::string occ_path = opt.plans_dir + "/" + map + (furnished ? "_furnitures" : "") + ".png";
   const std::string gt_path = world::floor_plan_gt_path(occ_path);
   world::FloorPlanConfig fc;
@@ -535,26 +499,35 @@ bool eval_plan(const Options& opt, const std::string& map, bool furnished, Score
   if (!run_pipeline(opt, wr.world, map + (furnished ? "_furnished" : "_plain") + furniture_key, graph.get(), st))
     return false;
   // Ground truth straight from the benchmark's image: 8-connected white regions of more than 100 px.
-  const cv::Mat occ = cv::imread(occ_path, cv::IMREAD_GRAYSCALE), gt = cv::imread(gt_path, cv::IMREAD_GRAYSCALE);
-  if (occ.empty() || gt.empty() || occ.size() != gt.size()) {
-    std::fprintf(stderr, "%s: cannot read the plan and its ground truth, or their sizes differ\n", occ_path.c_str());
+  world::PlanRaster plan;
+  std::string read_error;
+  if (!world::read_plan_raster(occ_path, gt_path, fc, &plan, &read_error)) {
+    std::fprintf(stderr, "%s\n", read_error.c_str());
     return false;
   }
-  cv::Mat labels, stats, centroids;
-  const cv::Mat white = gt > fc.gt_room_threshold;
-  cv::connectedComponentsWithStats(white, labels, stats, centroids, 8, CV_32S);
   Raster ras;
-  ras.cols = occ.cols;
-  ras.rows = occ.rows;
+  ras.cols = plan.cols;
+  ras.rows = plan.rows;
   ras.res_m = fc.resolution_m_per_px;
-  ras.free.resize(static_cast<std::size_t>(occ.total()));
-  ras.truth.resize(ras.free.size());
-  for (int r = 0; r < occ.rows; ++r)
-    for (int c = 0; c < occ.cols; ++c) {
-      ras.free[ras.idx(c, r)] = occ.at<std::uint8_t>(r, c) >= fc.free_threshold ? 1 : 0;
-      const int l = labels.at<int>(r, c);
-      ras.truth[ras.idx(c, r)] = l > 0 && stats.at<int>(l, cv::CC_STAT_AREA) >= fc.min_room_area_px ? l : 0;
+  ras.free = std::move(plan.free);
+  ras.truth = std::move(plan.truth);
+  if (peers != nullptr) {
+    world::DistanceSegmentationConfig dc;
+    dc.resolution_m = ras.res_m;
+    world::MorphologicalSegmentationConfig mc;
+    mc.resolution_m = ras.res_m;
+    world::PlanSegmentation by_distance, by_erosion;
+    const char* why = nullptr;
+    if (!world::segment_by_distance_transform(ras.free, ras.cols, ras.rows, dc, &by_distance, &why) ||
+        !world::segment_by_erosion(ras.free, ras.cols, ras.rows, mc, &by_erosion, &why)) {
+      std::fprintf(stderr, "%s: %s\n", map.c_str(), why);
+      return false;
     }
+    peers->distance = world::score_room_segmentation(ras.free, ras.truth, by_distance.labels);
+    peers->erosion = world::score_room_segmentation(ras.free, ras.truth, by_erosion.labels);
+    peers->distance_level_m = by_distance.level_m;
+    peers->erosion_level_m = by_erosion.level_m;
+  }
   if (opt.door_oracle_m >= 0.0) {
     const std::size_t doors = apply_door_oracle(ras, opt.door_oracle_m, graph.get());
     std::printf("  %s: door oracle: %zu place edges between ground-truth rooms set to %.2f m\n", map.c_str(), doors,
@@ -836,16 +809,23 @@ int main(int argc, char** argv) {
     if (variant == "furnished_low")
       std::printf("furnished_low: the furnished plans with their furniture extruded to %.2f m, not to the walls' "
                   "%.2f m\n", opt.furniture_height_m, world::FloorPlanConfig{}.wall_height_m);
-    Score overall, overall_reachable, overall_oracle;
+    Score overall, overall_reachable, overall_oracle, overall_distance, overall_erosion;
     for (const std::string& map : opt.maps) {
       Score s, reachable, oracle;
+      Peers peers;
       RunStats st;
-      if (!eval_plan(opt, map, furnished, &s, &st, &reachable, &oracle)) {
+      if (!eval_plan(opt, map, furnished, &s, &st, &reachable, &oracle, &peers)) {
         ++failures;
         continue;
       }
       print_line(map + " (" + variant + ")", s, st);
+      print_peer("  peer: distance transform", peers.distance, "threshold", peers.distance_level_m);
+      print_peer("  peer: morphological", peers.erosion, "deepest erosion", peers.erosion_level_m);
       add("rooms_eval.ipa." + variant + "." + map, s);
+      add("rooms_eval.ipa." + variant + "." + map + ".peer_distance_transform", peers.distance);
+      add("rooms_eval.ipa." + variant + "." + map + ".peer_morphological", peers.erosion);
+      overall_distance.add(peers.distance);
+      overall_erosion.add(peers.erosion);
       rooms_ms.push_back(st.rooms_ms);
       overall.add(s);
       overall_reachable.add(reachable);
@@ -863,6 +843,30 @@ int main(int argc, char** argv) {
                 ("ALL oracle (" + variant + ")").c_str(), overall_oracle.precision_mean, overall_oracle.recall_mean,
                 overall_oracle.precision_area, overall_oracle.recall_area, overall_oracle.rooms_found,
                 overall_oracle.rooms_truth);
+    struct PeerTotal {
+      const char* name;
+      const char* short_name;
+      const Score* score;
+    };
+    for (const PeerTotal& total : {PeerTotal{"distance_transform", "dist", &overall_distance},
+                                   PeerTotal{"morphological", "morph", &overall_erosion}}) {
+      const char* name = total.name;
+      const char* short_name = total.short_name;
+      const Score* peer = total.score;
+      std::printf("%-30s P %.3f R %.3f | area P %.3f R %.3f | rooms %zu / truth %zu (the complete plan; ours over "
+                  "it: P %.3f R %.3f area P %.3f)\n",
+                  ("ALL peer " + std::string(short_name) + " (" + variant + ")").c_str(), peer->precision_mean,
+                  peer->recall_mean, peer->precision_area, peer->recall_area, peer->rooms_found, peer->rooms_truth,
+                  ratio(overall.precision_mean, peer->precision_mean), ratio(overall.recall_mean, peer->recall_mean),
+                  ratio(overall.precision_area, peer->precision_area));
+      const std::string prefix = "rooms_eval.ipa." + variant + ".peer_" + name;
+      add(prefix, *peer);
+      figures.add(prefix + ".ours_over_peer.precision_mean", ratio(overall.precision_mean, peer->precision_mean),
+                  "ratio");
+      figures.add(prefix + ".ours_over_peer.recall_mean", ratio(overall.recall_mean, peer->recall_mean), "ratio");
+      figures.add(prefix + ".ours_over_peer.precision_area", ratio(overall.precision_area, peer->precision_area),
+                  "ratio");
+    }
     add("rooms_eval.ipa." + variant + ".all", overall);
     add("rooms_eval.ipa." + variant + ".oracle", overall_oracle);
     add("rooms_eval.ipa." + variant + ".reachable", overall_reachable);
