@@ -151,13 +151,20 @@ bool AppConfig::load(const std::string& path, std::string* error) {
       {"rooms", [&](const Json& v, std::string* why) {
          std::string seeding = rooms::to_string(rooms.seeding);
          double min_component = rooms.min_component_size;
+         double split_min_component = rooms.split_min_component_size;
          const bool ok = read_section(v, "rooms",
                                       {{"seeding", text(&seeding)},
                                        {"min_persistence_m", number(&rooms.min_persistence_m)},
                                        {"min_component_size", number(&min_component)},
                                        {"plateau_alpha", number(&rooms.plateau_alpha)},
                                        {"min_dilation_m", number(&rooms.min_dilation_m)},
-                                       {"max_dilation_m", number(&rooms.max_dilation_m)}},
+                                       {"max_dilation_m", number(&rooms.max_dilation_m)},
+                                       {"split_by_extent", boolean(&rooms.split_by_extent)},
+                                       {"extent_saturation_m", number(&rooms.extent_saturation_m)},
+                                       {"split_min_extent_m", number(&rooms.split_min_extent_m)},
+                                       {"split_max_extent_m", number(&rooms.split_max_extent_m)},
+                                       {"split_min_persistence_m", number(&rooms.split_min_persistence_m)},
+                                       {"split_min_component_size", number(&split_min_component)}},
                                       why);
          if (!ok) return false;
          if (seeding == "plateau") rooms.seeding = rooms::Seeding::kPlateau;
@@ -166,6 +173,9 @@ bool AppConfig::load(const std::string& path, std::string* error) {
          if (!(min_component >= 1.0 && min_component <= 1e6))
            return *why = "rooms.min_component_size: expected 1 .. 1000000", false;
          rooms.min_component_size = static_cast<std::uint32_t>(min_component);
+         if (!(split_min_component >= 1.0 && split_min_component <= 1e6))
+           return *why = "rooms.split_min_component_size: expected 1 .. 1000000", false;
+         rooms.split_min_component_size = static_cast<std::uint32_t>(split_min_component);
          return true;
        }},
       {"frontend", [&](const Json& v, std::string* why) {

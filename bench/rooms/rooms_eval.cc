@@ -135,6 +135,13 @@ bool parse(int argc, char** argv, Options* o) {
     else if (a == "--max-dilation-m") number = &o->rooms.max_dilation_m;
     else if (a == "--min-persistence-m") number = &o->rooms.min_persistence_m;
     else if (a == "--max-door-clearance-m") number = &o->rooms.max_door_clearance_m;
+    else if (a == "--split-by-extent") o->rooms.split_by_extent = std::atoi(v.c_str()) != 0;
+    else if (a == "--extent-saturation-m") number = &o->rooms.extent_saturation_m;
+    else if (a == "--split-min-extent-m") number = &o->rooms.split_min_extent_m;
+    else if (a == "--split-max-extent-m") number = &o->rooms.split_max_extent_m;
+    else if (a == "--split-min-persistence-m") number = &o->rooms.split_min_persistence_m;
+    else if (a == "--split-min-component")
+      o->rooms.split_min_component_size = static_cast<std::uint32_t>(std::atoi(v.c_str()));
     else if (a == "--seeding") {
       if (v == "plateau") o->rooms.seeding = rooms::Seeding::kPlateau;
       else if (v == "persistence") o->rooms.seeding = rooms::Seeding::kPersistence;
@@ -769,7 +776,8 @@ int main(int argc, char** argv) {
                  "usage: %s [--plans-dir DIR] [--maps a,b|none] [--variants plain,furnished] [--generated N] "
                  "[--generated-rooms N] [--label-buildings N] [--size WxH] [--hfov-deg D] [--rate-hz R] [--max-reach-m M] [--robot-radius-m R] [--furniture-height-m H] [--alpha A] "
                  "[--min-dilation-m D] [--max-dilation-m D] [--min-component N] [--seeding plateau|persistence] "
-                 "[--min-persistence-m P] [--max-door-clearance-m D] [--cache-dir DIR] [--images DIR] [--dump-places DIR] [--door-oracle-m C] [--json FILE]\n",
+                 "[--min-persistence-m P] [--max-door-clearance-m D] [--split-by-extent 0|1] [--extent-saturation-m S] "
+                 "[--split-min-extent-m E] [--split-max-extent-m E] [--split-min-persistence-m P] [--split-min-component N] [--cache-dir DIR] [--images DIR] [--dump-places DIR] [--door-oracle-m C] [--json FILE]\n",
                  argv[0]);
     return 2;
   }
@@ -781,13 +789,20 @@ int main(int argc, char** argv) {
   std::printf("camera %dx%d, %.0f deg hfov, %.1f Hz keyframes, ground-truth poses, noise-free depth; labels reach "
               "%.1f m from places\n",
               opt.width, opt.height, opt.hfov_deg, opt.rate_hz, opt.max_reach_m);
-  char cond[256];
+  char cond[512];
   std::snprintf(cond, sizeof(cond),
                 "sim camera %dx%d %.0f deg hfov %.1f Hz, ground-truth poses, noise-free depth, TSDF 0.1 m, frontend "
                 "every keyframe, rooms seeding %s alpha %.2f persistence %.2f m [%.2f, %.2f] m min %u",
                 opt.width, opt.height, opt.hfov_deg, opt.rate_hz, rooms::to_string(opt.rooms.seeding),
                 opt.rooms.plateau_alpha, opt.rooms.min_persistence_m, opt.rooms.min_dilation_m,
                 opt.rooms.max_dilation_m, opt.rooms.min_component_size);
+  if (opt.rooms.split_by_extent)
+    std::snprintf(cond + std::strlen(cond), sizeof(cond) - std::strlen(cond),
+                  ", extent split saturation %.2f m [%.2f, %.2f] m persistence %.2f m min %u",
+                  opt.rooms.extent_saturation_m, opt.rooms.split_min_extent_m, opt.rooms.split_max_extent_m,
+                  opt.rooms.split_min_persistence_m, opt.rooms.split_min_component_size);
+  else
+    std::snprintf(cond + std::strlen(cond), sizeof(cond) - std::strlen(cond), ", no extent split");
   if (opt.door_oracle_m >= 0.0)
     std::snprintf(cond + std::strlen(cond), sizeof(cond) - std::strlen(cond), ", door oracle %.2f m", opt.door_oracle_m);
   bench::Figures figures(cond);

@@ -88,6 +88,16 @@ std::string Config::check() const {
   if (min_component_size < 1) return "rooms.min_component_size: must be >= 1";
   if (!(plateau_alpha >= 0.0 && plateau_alpha <= 1.0))
     return "rooms.plateau_alpha: must be in [0, 1], got " + std::to_string(plateau_alpha);
+  if (!std::isfinite(extent_saturation_m) || extent_saturation_m < 0.0)
+    return "rooms.extent_saturation_m: must be finite and >= 0, got " + std::to_string(extent_saturation_m);
+  if (!std::isfinite(split_min_extent_m) || split_min_extent_m < 0.0)
+    return "rooms.split_min_extent_m: must be finite and >= 0, got " + std::to_string(split_min_extent_m);
+  if (!std::isfinite(split_max_extent_m) || split_max_extent_m < split_min_extent_m)
+    return "rooms.split_max_extent_m: must be finite and >= split_min_extent_m, got " +
+           std::to_string(split_max_extent_m);
+  if (!std::isfinite(split_min_persistence_m) || split_min_persistence_m < 0.0)
+    return "rooms.split_min_persistence_m: must be finite and >= 0, got " + std::to_string(split_min_persistence_m);
+  if (split_min_component_size < 1) return "rooms.split_min_component_size: must be >= 1";
   if (building_index > sg::kIndexMask) return "rooms.building_index: larger than a node index";
   return "";
 }
@@ -100,6 +110,14 @@ void Config::print(std::FILE* out) const {
                to_string(seeding), min_dilation_m, max_dilation_m, dilation_step_m, curve_samples(),
                min_component_size, plateau_alpha, min_persistence_m, max_door_clearance_m, box_from_free_space ? 1 : 0,
                static_cast<unsigned long long>(building_index));
+  if (split_by_extent)
+    std::fprintf(out,
+                 "rooms: split by extent: saturation %.2f m, extent [%.2f, %.2f] m, min_persistence %.2f m, "
+                 "min_component_size %u places\n",
+                 extent_saturation_m, split_min_extent_m, split_max_extent_m, split_min_persistence_m,
+                 split_min_component_size);
+  else
+    std::fprintf(out, "rooms: split by extent off\n");
 }
 
 Capacities Capacities::from_scene_graph(const sg::Capacities& graph) {
@@ -214,6 +232,9 @@ memory::ArenaPlan RoomFinder::plan(const Config& config, const Capacities& c) {
   p.add_array<std::uint32_t>(c.places);
   p.add_array<std::uint32_t>(c.places);
   p.add_array<std::uint8_t>(c.places);
+  p.add_array<double>(c.places);
+  p.add_array<std::uint32_t>(c.places);
+  p.add_array<std::uint32_t>(c.rooms);
   return p;
 }
 
@@ -260,11 +281,15 @@ bool RoomFinder::init(const Config& config, const Capacities& c, std::size_t bud
   member_next_ = arena_.carve_array<std::uint32_t>(c.places);
   member_tail_ = arena_.carve_array<std::uint32_t>(c.places);
   split_ = arena_.carve_array<std::uint8_t>(c.places);
+  extent_ = arena_.carve_array<double>(c.places);
+  sub_seeds_ = arena_.carve_array<std::uint32_t>(c.places);
+  room_seeds_ = arena_.carve_array<std::uint32_t>(c.rooms);
   // A heap, matches or curve of zero size would be a null carve; the plan never asks for those.
   ok = ok && place_ids_ && clearance_ && position_ && active_ && (edges_ || c.place_edges == 0) && adjacency_offset_ &&
        (adjacency_ || c.place_edges == 0) && order_ && parent_ && size_ && room_of_ && (heap_ || c.place_edges == 0) &&
        pairs_ && matches_ && curve_ && room_ids_ && room_acc_ && root_room_ && previous_ids_ &&
-       previous_taken_ && saved_ && saved_valid_ && birth_ && member_next_ && member_tail_ && split_;
+       previous_taken_ && saved_ && saved_valid_ && birth_ && member_next_ && member_tail_ && split_ && extent_ &&
+       sub_seeds_ && room_seeds_;
   arena_.align_to_plan_boundary();
   if (!ok || !arena_.seal()) {
     if (error != nullptr) *error = "rooms: arena carve did not match its plan";
@@ -307,7 +332,7 @@ UpdateResult RoomFinder::update(sg::SceneGraph* graph, std::uint64_t time_ns) {
   }
   r.dilation_m = dilation_at(static_cast<std::size_t>(chosen));
   r.betti_at_dilation = curve_[chosen];
-  const std::size_t rooms =
+  std::size_t rooms =
       config_.seeding == Seeding::kPersistence ? seed_by_persistence(&r) : seed_rooms(r.dilation_m, &r);
   if (rooms == 0) {
     r.outcome = Outcome::kNoRooms;
@@ -317,6 +342,7 @@ UpdateResult RoomFinder::update(sg::SceneGraph* graph, std::uint64_t time_ns) {
     return r;
   }
   flood_fill(rooms);
+  if (config_.split_by_extent) rooms = split_by_extent(rooms, &r);
   assign_ids(*graph, rooms, &r);
   write_rooms(graph, rooms, time_ns, &r);
   counters_.graph_refused += r.refused;
@@ -594,6 +620,174 @@ void RoomFinder::flood_fill(std::size_t num_rooms) {
     room_of_[top.place] = static_cast<std::int32_t>(top.room);
     push_frontier(top.place);
   }
+}
+
+// Extended clearance (Config::split_by_extent): a multi-source Dijkstra over the place edges with horizontal
+// lengths, from every place below the saturation clearance; a saturated place adds its distance to them (none when
+// no such place is connected to it).
+void RoomFinder::compute_extent() {
+  constexpr double kUnreached = std::numeric_limits<double>::infinity();
+  const double saturation = config_.extent_saturation_m;
+  double* depth = extent_;
+  for (std::uint32_t i = 0; i < num_places_; ++i) depth[i] = clearance_[i] < saturation ? 0.0 : kUnreached;
+  heap_size_ = 0;
+  std::uint32_t sequence = 0;
+  // Max-heap on clearance_m, so the distance goes in negated. Each place relaxes its edges once (stale entries
+  // are skipped), so at most one entry per directed edge: the heap's 2 x edges capacity holds them all.
+  const auto relax = [&](std::uint32_t i) {
+    for (std::uint32_t k = adjacency_offset_[i]; k < adjacency_offset_[i + 1]; ++k) {
+      const Edge& e = edges_[adjacency_[k]];
+      const std::uint32_t j = e.a == i ? e.b : e.a;
+      const double d = depth[i] + std::hypot(position_[3 * j] - position_[3 * i],
+                                             position_[3 * j + 1] - position_[3 * i + 1]);
+      if (d < depth[j]) {
+        depth[j] = d;
+        heap_push(HeapEntry{-d, sequence++, j, 0});
+      }
+    }
+  };
+  for (std::uint32_t i = 0; i < num_places_; ++i)
+    if (depth[i] == 0.0) relax(i);
+  while (heap_size_ > 0) {
+    const HeapEntry top = heap_pop();
+    if (-top.clearance_m > depth[top.place]) continue;  // stale
+    relax(top.place);
+  }
+  for (std::uint32_t i = 0; i < num_places_; ++i)
+    extent_[i] = clearance_[i] + (depth[i] == kUnreached ? 0.0 : depth[i]);
+}
+
+// Re-seeds every room on the extended clearance through its own edges (the persistence rule of
+// seed_by_persistence, with the split_* settings), splits the rooms that get two or more seeds (the first keeps the
+// room's slot, the others take new slots while the room capacity lasts) and flood-fills their other places among
+// their seeds through the room's own edges, largest extended clearance first. Returns the new number of rooms.
+std::size_t RoomFinder::split_by_extent(std::size_t num_rooms, UpdateResult* r) {
+  compute_extent();
+  const double top = config_.split_max_extent_m;
+  const double d_min = config_.split_min_extent_m - kDilationTolerance;
+  const auto edge_extent = [&](const Edge& e) { return std::min(extent_[e.a], extent_[e.b]); };
+  std::uint32_t* node_order = order_;
+  std::uint32_t* edge_order = order_ + num_places_;
+  std::size_t num_inner = 0;
+  for (std::uint32_t i = 0; i < num_places_; ++i) node_order[i] = i;
+  for (std::uint32_t e = 0; e < num_edges_; ++e)
+    if (room_of_[edges_[e].a] >= 0 && room_of_[edges_[e].a] == room_of_[edges_[e].b]) edge_order[num_inner++] = e;
+  std::sort(node_order, node_order + num_places_, [&](std::uint32_t a, std::uint32_t b) {
+    return extent_[a] != extent_[b] ? extent_[a] > extent_[b] : a < b;
+  });
+  std::sort(edge_order, edge_order + num_inner, [&](std::uint32_t a, std::uint32_t b) {
+    const double ea = edge_extent(edges_[a]), eb = edge_extent(edges_[b]);
+    return ea != eb ? ea > eb : a < b;
+  });
+  std::fill(room_seeds_, room_seeds_ + num_rooms, 0u);
+  for (std::uint32_t i = 0; i < num_places_; ++i) {
+    parent_[i] = kNone;
+    root_room_[i] = kNone;  // the place's seed, if any
+  }
+  std::uint32_t num_seeds = 0;
+  const auto emit = [&](std::uint32_t root) {
+    split_[root] = 1;
+    if (room_of_[root] < 0) return;
+    sub_seeds_[num_seeds] = static_cast<std::uint32_t>(room_of_[root]);  // the seed's room, for now
+    ++room_seeds_[room_of_[root]];
+    for (std::uint32_t i = root; i != kNone; i = member_next_[i]) root_room_[i] = num_seeds;
+    ++num_seeds;
+  };
+  const auto worthy = [&](std::uint32_t root, double at_m) {
+    return split_[root] != 0 || (size_[root] >= config_.split_min_component_size &&
+                                 birth_[root] - at_m >= config_.split_min_persistence_m - 1e-9);
+  };
+  const auto enter = [&](std::uint32_t i) {
+    parent_[i] = i;
+    size_[i] = 1;
+    birth_[i] = std::min(extent_[i], top);
+    member_next_[i] = kNone;
+    member_tail_[i] = i;
+    split_[i] = 0;
+  };
+  std::size_t next_node = 0;
+  for (std::size_t k = 0; k < num_inner; ++k) {
+    const Edge& e = edges_[edge_order[k]];
+    const double c = edge_extent(e);
+    if (c < d_min) break;
+    for (; next_node < num_places_ && extent_[node_order[next_node]] >= c; ++next_node) enter(node_order[next_node]);
+    std::uint32_t ra = find(e.a), rb = find(e.b);
+    if (ra == rb) continue;
+    std::uint8_t split = split_[ra] | split_[rb];
+    if (worthy(ra, c) && worthy(rb, c)) {
+      if (split_[ra] == 0) emit(ra);
+      if (split_[rb] == 0) emit(rb);
+      split = 1;
+    }
+    if (size_[ra] < size_[rb]) std::swap(ra, rb);
+    parent_[rb] = ra;
+    size_[ra] += size_[rb];
+    birth_[ra] = std::max(birth_[ra], birth_[rb]);
+    member_next_[member_tail_[ra]] = rb;
+    member_tail_[ra] = member_tail_[rb];
+    split_[ra] = split;
+  }
+  for (; next_node < num_places_ && extent_[node_order[next_node]] >= d_min; ++next_node) enter(node_order[next_node]);
+  for (std::size_t n = 0; n < next_node; ++n) {
+    const std::uint32_t i = node_order[n];
+    if (parent_[i] == i && split_[i] == 0 && size_[i] >= config_.split_min_component_size) emit(i);
+  }
+
+  // Slots: a room's first seed keeps its slot, each further one takes a new slot (room_seeds_ counts down as they
+  // are handed out, so 0 marks "first seen").
+  std::size_t rooms = num_rooms;
+  for (std::uint32_t q = 0; q < num_seeds; ++q) {
+    const std::uint32_t room = sub_seeds_[q];
+    if (room_seeds_[room] < 2) {
+      sub_seeds_[q] = room;  // one seed: the room stays as it is
+      continue;
+    }
+    room_seeds_[room] |= 0x80000000u;  // split: its places are re-filled below
+    if ((room_seeds_[room] & 0x40000000u) == 0) {
+      room_seeds_[room] |= 0x40000000u;  // the first seed keeps the slot
+      sub_seeds_[q] = room;
+      ++r->rooms_split;
+    } else if (rooms < capacities_.rooms) {
+      sub_seeds_[q] = static_cast<std::uint32_t>(rooms++);
+      ++r->split_rooms_added;
+    } else {
+      sub_seeds_[q] = room;  // no slot left: stays in its room
+      ++r->seeds_dropped;
+      ++counters_.seeds_dropped;
+    }
+  }
+  // Places of split rooms: seed members take their seed's slot, the others are filled again among them. parent_
+  // now holds each such place's room before the split (kNone elsewhere), the bound of the fill.
+  for (std::uint32_t i = 0; i < num_places_; ++i) {
+    parent_[i] = kNone;
+    const std::int32_t room = room_of_[i];
+    if (room < 0 || (room_seeds_[room] & 0x80000000u) == 0) continue;
+    parent_[i] = static_cast<std::uint32_t>(room);
+    room_of_[i] = root_room_[i] != kNone ? static_cast<std::int32_t>(sub_seeds_[root_room_[i]]) : -1;
+  }
+  heap_size_ = 0;
+  std::uint32_t sequence = 0;
+  const auto push_frontier = [&](std::uint32_t i) {
+    for (std::uint32_t k = adjacency_offset_[i]; k < adjacency_offset_[i + 1]; ++k) {
+      const Edge& e = edges_[adjacency_[k]];
+      const std::uint32_t j = e.a == i ? e.b : e.a;
+      if (room_of_[j] < 0 && parent_[j] == parent_[i])
+        heap_push(HeapEntry{edge_extent(e), sequence++, j, static_cast<std::uint32_t>(room_of_[i])});
+    }
+  };
+  for (std::uint32_t i = 0; i < num_places_; ++i)
+    if (parent_[i] != kNone && room_of_[i] >= 0) push_frontier(i);
+  while (heap_size_ > 0) {
+    const HeapEntry next = heap_pop();
+    if (room_of_[next.place] >= 0) continue;
+    room_of_[next.place] = static_cast<std::int32_t>(next.room);
+    push_frontier(next.place);
+  }
+  // A room is connected through its own edges, so the fill reaches all of it; should a place be left, it stays in
+  // its room.
+  for (std::uint32_t i = 0; i < num_places_; ++i)
+    if (parent_[i] != kNone && room_of_[i] < 0) room_of_[i] = static_cast<std::int32_t>(parent_[i]);
+  return rooms;
 }
 
 // A new room takes the id of the previous room it shares most places with (each id once, largest overlaps

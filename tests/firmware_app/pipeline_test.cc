@@ -221,6 +221,14 @@ TEST(AppConfigTest, LoadsKnownKeysAndNamesBadOnes) {
   EXPECT_NE(error.find("rooms.seeding: expected plateau or persistence"), std::string::npos) << error;
   EXPECT_FALSE(c.load(write("alpha.json", "{\"rooms\": {\"plateau_alpha\": 2}}"), &error));
   EXPECT_NE(error.find("rooms.plateau_alpha"), std::string::npos) << error;
+  AppConfig split;
+  ASSERT_TRUE(split.load(write("split.json", "{\"rooms\": {\"split_by_extent\": false, \"split_min_component_size\": 4}}"),
+                         &error))
+      << error;
+  EXPECT_FALSE(split.rooms.split_by_extent);
+  EXPECT_EQ(split.rooms.split_min_component_size, 4u);
+  EXPECT_FALSE(split.load(write("extent.json", "{\"rooms\": {\"split_max_extent_m\": 0.5}}"), &error));
+  EXPECT_NE(error.find("rooms.split_max_extent_m"), std::string::npos) << error;
   // The shipped default file loads and equals the built-in defaults where it spells them out.
   AppConfig shipped;
   ASSERT_TRUE(shipped.load(std::string(QSG_SOURCE_DIR) + "/firmware_app/config/default.json", &error)) << error;
@@ -228,6 +236,14 @@ TEST(AppConfigTest, LoadsKnownKeysAndNamesBadOnes) {
   EXPECT_EQ(shipped.camera.intrinsics.width, AppConfig().camera.intrinsics.width);
   EXPECT_EQ(shipped.rooms.seeding, AppConfig().rooms.seeding);
   EXPECT_EQ(shipped.rooms.min_component_size, AppConfig().rooms.min_component_size);
+  const rooms::Config& sr = shipped.rooms;
+  const rooms::Config dr = AppConfig().rooms;
+  EXPECT_EQ(sr.split_by_extent, dr.split_by_extent);
+  EXPECT_EQ(sr.extent_saturation_m, dr.extent_saturation_m);
+  EXPECT_EQ(sr.split_min_extent_m, dr.split_min_extent_m);
+  EXPECT_EQ(sr.split_max_extent_m, dr.split_max_extent_m);
+  EXPECT_EQ(sr.split_min_persistence_m, dr.split_min_persistence_m);
+  EXPECT_EQ(sr.split_min_component_size, dr.split_min_component_size);
   const places::Config& sp = shipped.frontend.places;
   const places::Config dp = AppConfig().frontend.places;
   EXPECT_EQ(sp.signed_surface_seeds, dp.signed_surface_seeds);

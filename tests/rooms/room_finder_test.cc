@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <map>
 #include <memory>
 #include <random>
@@ -66,6 +67,25 @@ void expect_one_room_per_tag(const sg::SceneGraph& g, const SyntheticPlaces& s) 
     ASSERT_NE(room, sg::kNoNode) << "room " << tag << " has unassigned places";
     EXPECT_EQ(sg::node_prefix(room), sg::kRoomPrefix);
     EXPECT_TRUE(used.insert(room).second) << "two ground-truth rooms merged into " << sg::node_label(room);
+  }
+}
+
+// Each tag's places are mostly (at least min_share) in one room, a different room per tag.
+void expect_majority_room_per_tag(const sg::SceneGraph& g, const SyntheticPlaces& s, double min_share) {
+  std::map<int, std::map<sg::NodeId, int>> counts;
+  for (const auto& p : s.places)
+    if (p.room >= 0) ++counts[p.room][g.parent(p.id)];
+  std::set<sg::NodeId> used;
+  for (const auto& [tag, rooms] : counts) {
+    int total = 0, best = 0;
+    sg::NodeId best_room = sg::kNoNode;
+    for (const auto& [room, n] : rooms) {
+      total += n;
+      if (n > best) best = n, best_room = room;
+    }
+    EXPECT_NE(best_room, sg::kNoNode) << "tag " << tag;
+    EXPECT_GE(best, min_share * total) << "tag " << tag << ": " << best << " of " << total << " places in one room";
+    EXPECT_TRUE(used.insert(best_room).second) << "two tags share room " << sg::node_label(best_room);
   }
 }
 
@@ -193,9 +213,12 @@ TEST(RoomFinderTest, ComponentsBelowTheMinimumSizeAreIgnored) {
   EXPECT_EQ(make_finder(c)->update(g2.get()).rooms, 3u);
 }
 
+// The persistence seeding alone (these plans' clearances are 2D distances, not capped by a ceiling; the extent
+// split has its own tests below).
 Config persistence_config() {
   Config c;
   c.seeding = Seeding::kPersistence;
+  c.split_by_extent = false;
   return c;
 }
 
@@ -289,6 +312,108 @@ TEST(RoomFinderTest, PersistenceHandlesTheCorridorAndFloorsLikeThePlateau) {
   ASSERT_EQ(r.outcome, Outcome::kOk);
   EXPECT_EQ(r.rooms, 7u) << "six rooms and the corridor";
   expect_one_room_per_tag(*g, s);
+}
+
+// Two 6.25 m halls (tags 0 and 1) joined by an opening 2.5 m wide (tag -1), every clearance capped at 1.25 m as a
+// 2.5 m storey caps a real place's: the filtration sees no constriction between the halls.
+GridPlan wide_opening_plan() {
+  GridPlan plan(51, 26, testing::kCellM);
+  plan.carve(1, 1, 25, 25, 0);
+  plan.carve(26, 1, 50, 25, 1);
+  plan.carve(25, 8, 26, 18, -1);
+  return plan;
+}
+constexpr double kStoreyCapM = 1.25;
+
+TEST(RoomFinderTest, ExtentSplitSeparatesHallsJoinedByAWideOpening) {
+  SyntheticPlaces s;
+  wide_opening_plan().add_to(&s, 1.0, Eigen::Vector2d::Zero(), kStoreyCapM);
+  Config off;
+  off.split_by_extent = false;
+  auto g = make_graph();
+  ASSERT_TRUE(s.write(g.get()));
+  EXPECT_EQ(make_finder(off)->update(g.get()).rooms, 1u) << "capped clearance: one room without the split";
+
+  auto g2 = make_graph();
+  ASSERT_TRUE(s.write(g2.get()));
+  const UpdateResult r = make_finder()->update(g2.get());
+  ASSERT_EQ(r.outcome, Outcome::kOk);
+  EXPECT_EQ(r.rooms, 2u);
+  EXPECT_EQ(r.rooms_split, 1u);
+  EXPECT_EQ(r.split_rooms_added, 1u);
+  // The cut follows the opening up to its edge: a place or two beside it may go to the other hall.
+  expect_majority_room_per_tag(*g2, s, 0.99);
+  for (const auto& p : s.places) EXPECT_NE(g2->parent(p.id), sg::kNoNode) << "every place keeps a room";
+}
+
+TEST(RoomFinderTest, ExtentSplitKeepsAUniformCorridorWhole) {
+  // 3 m x 20 m: the capped clearance and the extension are the same along it.
+  GridPlan plan(82, 14, testing::kCellM);
+  plan.carve(1, 1, 81, 13, 0);
+  SyntheticPlaces s;
+  plan.add_to(&s, 1.0, Eigen::Vector2d::Zero(), kStoreyCapM);
+  auto g = make_graph();
+  ASSERT_TRUE(s.write(g.get()));
+  const UpdateResult r = make_finder()->update(g.get());
+  EXPECT_EQ(r.rooms, 1u);
+  EXPECT_EQ(r.rooms_split, 0u);
+}
+
+TEST(RoomFinderTest, ExtentSplitKeepsRoomsApartAndCountsAFullRoomStore) {
+  // The halls and the corridor-with-rooms plan side by side (not connected): the corridor's rooms stay as they are.
+  SyntheticPlaces s;
+  wide_opening_plan().add_to(&s, 1.0, Eigen::Vector2d::Zero(), kStoreyCapM);
+  const std::size_t first_corridor = s.places.size();
+  testing::corridor_plan(2).add_to(&s, 1.0, Eigen::Vector2d(0.0, 20.0), kStoreyCapM);
+  for (std::size_t i = first_corridor; i < s.places.size(); ++i)
+    if (s.places[i].room >= 0) s.places[i].room += 10;
+  auto g = make_graph();
+  ASSERT_TRUE(s.write(g.get()));
+  const UpdateResult r = make_finder()->update(g.get());
+  ASSERT_EQ(r.outcome, Outcome::kOk);
+  EXPECT_EQ(r.rooms, 2u + 5u) << "two halls, a corridor and four rooms";
+  expect_majority_room_per_tag(*g, s, 0.99);
+  // The corridor's rooms are exactly those of the seeding (the split never moves a place between rooms).
+  std::map<int, std::set<sg::NodeId>> by_tag = rooms_by_tag(*g, s);
+  for (int tag = 10; tag <= 14; ++tag) EXPECT_EQ(by_tag[tag].size(), 1u) << "tag " << tag;
+
+  // One room slot: the merged halls cannot be split; the refused seed is counted, no place loses its room.
+  Capacities one = Capacities::from_scene_graph(small_graph_capacities());
+  one.rooms = 1;
+  SyntheticPlaces halls;
+  wide_opening_plan().add_to(&halls, 1.0, Eigen::Vector2d::Zero(), kStoreyCapM);
+  auto g2 = make_graph();
+  ASSERT_TRUE(halls.write(g2.get()));
+  auto finder = make_finder(Config{}, one);
+  const UpdateResult full = finder->update(g2.get());
+  EXPECT_EQ(full.rooms, 1u);
+  EXPECT_EQ(full.split_rooms_added, 0u);
+  EXPECT_GE(full.seeds_dropped, 1u);
+  EXPECT_GE(finder->counters().seeds_dropped, 1u);
+  for (const auto& p : halls.places) EXPECT_NE(g2->parent(p.id), sg::kNoNode);
+}
+
+TEST(RoomFinderTest, ExtentSplitSettingsAreChecked) {
+  const auto refused = [](Config c, const char* field) {
+    std::string error;
+    EXPECT_FALSE(RoomFinder().init(c, Capacities::from_scene_graph(small_graph_capacities()), 0, &error)) << field;
+    EXPECT_NE(error.find(field), std::string::npos) << error;
+  };
+  Config c;
+  c.extent_saturation_m = -0.1;
+  refused(c, "extent_saturation_m");
+  c = Config{};
+  c.split_min_extent_m = std::nan("");
+  refused(c, "split_min_extent_m");
+  c = Config{};
+  c.split_max_extent_m = c.split_min_extent_m - 0.1;
+  refused(c, "split_max_extent_m");
+  c = Config{};
+  c.split_min_persistence_m = -1.0;
+  refused(c, "split_min_persistence_m");
+  c = Config{};
+  c.split_min_component_size = 0;
+  refused(c, "split_min_component_size");
 }
 
 // Brute force: for every sampled dilation, the components (BFS) of the places and edges that survive it.

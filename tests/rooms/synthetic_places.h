@@ -76,14 +76,17 @@ class GridPlan {
 
   // Places at the free cells' centres (z = z_m), clearance to the nearest occupied cell (or the plan's border),
   // edges between free 8-neighbours weighted with the smaller clearance. Returns the index of the first place.
-  std::size_t add_to(SyntheticPlaces* out, double z_m, const Eigen::Vector2d& origin_m = Eigen::Vector2d::Zero()) const {
+  // max_clearance_m caps every clearance, as floor and ceiling cap a real place's (half the storey height).
+  std::size_t add_to(SyntheticPlaces* out, double z_m, const Eigen::Vector2d& origin_m = Eigen::Vector2d::Zero(),
+                     double max_clearance_m = HUGE_VAL) const {
     const std::size_t first = out->places.size();
     std::vector<std::size_t> place_of(tag_.size(), SIZE_MAX);
     for (int y = 0; y < height_; ++y)
       for (int x = 0; x < width_; ++x) {
         if (!free(x, y)) continue;
         const Eigen::Vector2d c = origin_m + cell_m_ * Eigen::Vector2d(x + 0.5, y + 0.5);
-        place_of[index(x, y)] = out->add_place(Eigen::Vector3d(c.x(), c.y(), z_m), clearance(x, y), tag_[index(x, y)]);
+        place_of[index(x, y)] = out->add_place(Eigen::Vector3d(c.x(), c.y(), z_m),
+                                               std::min(clearance(x, y), max_clearance_m), tag_[index(x, y)]);
       }
     for (int y = 0; y < height_; ++y)
       for (int x = 0; x < width_; ++x) {
