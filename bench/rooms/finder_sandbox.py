@@ -1,9 +1,9 @@
 #!/usr/bin/python3
-"""Sandbox for room-finder ideas: a Python mirror of core/rooms' persistence seeding and flood fill, run on the
-places that `rooms_eval --dump-places DIR` wrote, scored per place against the ground-truth rooms.
+"""Sandbox for room-finder ideas: a Python mirror of core/rooms' persistence seeding, flood fill and extent split,
+run on the places that `rooms_eval --dump-places DIR` wrote, scored per place against the ground-truth rooms.
 
     build/release/bench/rooms/rooms_eval --cache-dir C --generated 0 --dump-places D   # once (cached: seconds)
-    /usr/bin/python3 bench/rooms/finder_sandbox.py D [--min-persistence-m P] [--min-component N]
+    /usr/bin/python3 bench/rooms/finder_sandbox.py D [--min-persistence-m P] [--min-component N] [--no-extent-split]
 
 It prints, per variant (plain, furnished), the same place-level score for the C++ rooms of the dump and for this
 mirror; with the dump's own parameters the two agree (the check that the mirror is faithful), so a change tried here
@@ -16,6 +16,7 @@ import argparse
 import collections
 import glob
 import heapq
+import math
 import os
 
 
@@ -124,6 +125,58 @@ def find_rooms(places, edges, min_component=6, min_persistence_m=0.4, d_min=0.5,
     return {ids[i]: room[i] for i in range(n)}
 
 
+def extend_clearance(places, edges, saturation_m):
+    """Per place id: its clearance plus, when it is at least saturation_m, its horizontal graph distance to the
+    nearest place below saturation_m (multi-source Dijkstra over all edges; none when unreachable), as
+    RoomFinder::compute_extent."""
+    adjacency = collections.defaultdict(list)
+    for a, b, _ in edges:
+        length = math.hypot(places[a]["x"] - places[b]["x"], places[a]["y"] - places[b]["y"])
+        adjacency[a].append((b, length))
+        adjacency[b].append((a, length))
+    depth = {p: (0.0 if a["d"] < saturation_m else math.inf) for p, a in places.items()}
+    heap = [(0.0, p) for p, d in depth.items() if d == 0.0]
+    heapq.heapify(heap)
+    while heap:
+        d, p = heapq.heappop(heap)
+        if d > depth[p]:
+            continue
+        for q, length in adjacency[p]:
+            if d + length < depth[q]:
+                depth[q] = d + length
+                heapq.heappush(heap, (depth[q], q))
+    return {p: a["d"] + (depth[p] if depth[p] != math.inf else 0.0) for p, a in places.items()}
+
+
+def split_by_extent(places, edges, room_of, saturation_m=1.0, min_extent_m=1.0, max_extent_m=2.5,
+                    min_persistence_m=0.5, min_component=6):
+    """RoomFinder's extent split: every room seeded again on the extended clearance through its own edges; a room
+    with two or more seeds is split and its other places filled among them, through its own edges."""
+    extent = extend_clearance(places, edges, saturation_m)
+    by_room = collections.defaultdict(list)
+    for p, r in room_of.items():
+        if r is not None and r >= 0:
+            by_room[r].append(p)
+    out = dict(room_of)
+    next_room = max([r for r in room_of.values() if r is not None] + [0]) + 1
+    for r, members in by_room.items():
+        inside = set(members)
+        sub = {p: dict(places[p], d=extent[p]) for p in members}
+        sub_edges = [(a, b, -1.0) for a, b, _ in edges if a in inside and b in inside]
+        parts = find_rooms(sub, sub_edges, min_component, min_persistence_m, min_extent_m, max_extent_m)
+        labels = sorted(set(v for v in parts.values() if v >= 0))
+        if len(labels) < 2:
+            continue
+        new_room = {labels[0]: r}
+        for v in labels[1:]:
+            new_room[v] = next_room
+            next_room += 1
+        for p in members:
+            if parts[p] >= 0:
+                out[p] = new_room[parts[p]]
+    return out
+
+
 def score(places, room_of):
     """(sum of precisions, estimated rooms, sum of recalls, ground-truth rooms, overlapping places, places)."""
     estimated = collections.defaultdict(collections.Counter)
@@ -150,6 +203,12 @@ def main():
     ap.add_argument("dump_dir")
     ap.add_argument("--min-persistence-m", type=float, default=0.4)
     ap.add_argument("--min-component", type=int, default=6)
+    ap.add_argument("--no-extent-split", action="store_true", help="the room finder without its extent split")
+    ap.add_argument("--extent-saturation-m", type=float, default=1.0)
+    ap.add_argument("--split-min-extent-m", type=float, default=1.0)
+    ap.add_argument("--split-max-extent-m", type=float, default=2.5)
+    ap.add_argument("--split-min-persistence-m", type=float, default=0.5)
+    ap.add_argument("--split-min-component", type=int, default=6)
     ap.add_argument("--door-oracle-m", type=float, default=None, metavar="C",
                     help="a perfect door detector: every place edge between two ground-truth rooms gets clearance C "
                          "(0: cut), what any door or opening cue could give the persistence seeding at best")
@@ -165,7 +224,12 @@ def main():
             if args.door_oracle_m is not None:
                 edges = [(a, b, args.door_oracle_m if 0 < places[a]["truth"] != places[b]["truth"] > 0 else w)
                          for a, b, w in edges]
-            mirror.append(score(places, find_rooms(places, edges, args.min_component, args.min_persistence_m)))
+            rooms = find_rooms(places, edges, args.min_component, args.min_persistence_m)
+            if not args.no_extent_split:
+                rooms = split_by_extent(places, edges, rooms, args.extent_saturation_m, args.split_min_extent_m,
+                                        args.split_max_extent_m, args.split_min_persistence_m,
+                                        args.split_min_component)
+            mirror.append(score(places, rooms))
         for name, s in (("C++ (dump)", cpp), ("mirror", mirror)):
             print("%-10s %-10s places: P %.3f R %.3f | P weighted %.3f | rooms %d" % ((variant, name) + pooled(s)))
 
