@@ -682,6 +682,16 @@ TEST(RoomFinderTest, UpdatesDoNotAllocate) {
   auto persistence = make_finder(persistence_config());
   EXPECT_NO_ALLOCATIONS(first = persistence->update(g.get()));
   EXPECT_EQ(first.rooms, 7u);
+  // A room split by its extent: the extended clearance, the second seeding and the fill use the arena only.
+  SyntheticPlaces halls;
+  wide_opening_plan().add_to(&halls, 1.0, Eigen::Vector2d::Zero(), kStoreyCapM);
+  auto g2 = make_graph();
+  ASSERT_TRUE(halls.write(g2.get()));
+  auto splitting = make_finder();
+  EXPECT_NO_ALLOCATIONS(first = splitting->update(g2.get()));
+  EXPECT_NO_ALLOCATIONS(second = splitting->update(g2.get()));
+  EXPECT_EQ(first.rooms_split, 1u);
+  EXPECT_EQ(second.rooms_kept, 2u);
 }
 
 }  // namespace
