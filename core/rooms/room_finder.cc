@@ -59,6 +59,7 @@ Config Config::paper() {
   c.seeding = Seeding::kPlateau;
   c.min_component_size = 15;
   c.plateau_alpha = 0.5;
+  c.split_by_extent = false;
   return c;
 }
 

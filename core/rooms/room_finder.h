@@ -81,7 +81,7 @@ struct Config {
   bool box_from_free_space = true;
   std::uint64_t building_index = 0;  // the building node is make_node_id('B', building_index)
 
-  static Config paper();              // the paper's method and numbers: kPlateau, 15 places, alpha 0.5
+  static Config paper();              // the paper's method and numbers: kPlateau, 15 places, alpha 0.5, no split
   std::size_t curve_samples() const;  // samples of the Betti curve (d-, d- + step, ..., d+)
   std::string check() const;          // empty when usable, else the bad field and why
   void print(std::FILE* out) const;
