@@ -393,6 +393,26 @@ TEST(RoomFinderTest, ExtentSplitKeepsRoomsApartAndCountsAFullRoomStore) {
   for (const auto& p : halls.places) EXPECT_NE(g2->parent(p.id), sg::kNoNode);
 }
 
+TEST(RoomFinderTest, ExtentSplitToleratesNonFiniteInput) {
+  // A place at a NaN position and one of infinite clearance, joined to the halls: the halls still split, and
+  // every place (the bad ones too) keeps a room.
+  SyntheticPlaces s;
+  wide_opening_plan().add_to(&s, 1.0, Eigen::Vector2d::Zero(), kStoreyCapM);
+  const double nan = std::nan("");
+  const std::size_t at_nan = s.add_place({nan, nan, nan}, 1.2, -1);
+  const std::size_t unbounded = s.add_place({3.0, 3.0, 1.0}, HUGE_VAL, -1);
+  s.add_edge(0, at_nan, 0.5);
+  s.add_edge(at_nan, unbounded, 1.0);
+  s.add_edge(unbounded, s.places.size() / 2, 1.0);
+  auto g = make_graph();
+  ASSERT_TRUE(s.write(g.get()));
+  const UpdateResult r = make_finder()->update(g.get());
+  ASSERT_EQ(r.outcome, Outcome::kOk);
+  EXPECT_EQ(r.rooms_split, 1u);
+  expect_majority_room_per_tag(*g, s, 0.99);
+  for (const auto& p : s.places) EXPECT_NE(g->parent(p.id), sg::kNoNode);
+}
+
 TEST(RoomFinderTest, ExtentSplitSettingsAreChecked) {
   const auto refused = [](Config c, const char* field) {
     std::string error;
