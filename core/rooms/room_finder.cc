@@ -342,7 +342,7 @@ UpdateResult RoomFinder::update(sg::SceneGraph* graph, std::uint64_t time_ns) {
     r.places_unassigned = num_places_;
     return r;
   }
-  flood_fill(rooms);
+  flood_fill();
   if (config_.split_by_extent) rooms = split_by_extent(rooms, &r);
   assign_ids(*graph, rooms, &r);
   write_rooms(graph, rooms, time_ns, &r);
@@ -537,13 +537,7 @@ std::size_t RoomFinder::seed_by_persistence(UpdateResult* r) {
       if (split_[rb] == 0) emit_seed(rb, &seeds, r);
       split = 1;
     }
-    if (size_[ra] < size_[rb]) std::swap(ra, rb);
-    parent_[rb] = ra;
-    size_[ra] += size_[rb];
-    birth_[ra] = std::max(birth_[ra], birth_[rb]);
-    member_next_[member_tail_[ra]] = rb;
-    member_tail_[ra] = member_tail_[rb];
-    split_[ra] = split;
+    join(ra, rb, split);
   }
   // Places above d- that no edge above d- reached are components of their own.
   for (; next_node < num_places_ && clearance_[node_order[next_node]] >= d_min; ++next_node)
@@ -601,16 +595,30 @@ RoomFinder::HeapEntry RoomFinder::heap_pop() {
   return top;
 }
 
-// Every unassigned place joins the room whose frontier reaches it through the edge of largest clearance first.
-void RoomFinder::flood_fill(std::size_t num_rooms) {
-  (void)num_rooms;
+// Merge-tree union: the smaller component joins the larger, which keeps the larger birth, both member lists and
+// the given seed flag.
+void RoomFinder::join(std::uint32_t ra, std::uint32_t rb, std::uint8_t split) {
+  if (size_[ra] < size_[rb]) std::swap(ra, rb);
+  parent_[rb] = ra;
+  size_[ra] += size_[rb];
+  birth_[ra] = std::max(birth_[ra], birth_[rb]);
+  member_next_[member_tail_[ra]] = rb;
+  member_tail_[ra] = member_tail_[rb];
+  split_[ra] = split;
+}
+
+// Every unassigned place that may_enter(from, to) allows joins the room whose frontier reaches it through the edge
+// of largest value(edge) first (ties: push order).
+template <typename Value, typename MayEnter>
+void RoomFinder::fill(Value value, MayEnter may_enter) {
   heap_size_ = 0;
   std::uint32_t sequence = 0;
   const auto push_frontier = [&](std::uint32_t i) {
     for (std::uint32_t k = adjacency_offset_[i]; k < adjacency_offset_[i + 1]; ++k) {
       const Edge& e = edges_[adjacency_[k]];
       const std::uint32_t j = e.a == i ? e.b : e.a;
-      if (room_of_[j] < 0) heap_push(HeapEntry{e.clearance_m, sequence++, j, static_cast<std::uint32_t>(room_of_[i])});
+      if (room_of_[j] < 0 && may_enter(i, j))
+        heap_push(HeapEntry{value(e), sequence++, j, static_cast<std::uint32_t>(room_of_[i])});
     }
   };
   for (std::uint32_t i = 0; i < num_places_; ++i)
@@ -621,6 +629,10 @@ void RoomFinder::flood_fill(std::size_t num_rooms) {
     room_of_[top.place] = static_cast<std::int32_t>(top.room);
     push_frontier(top.place);
   }
+}
+
+void RoomFinder::flood_fill() {
+  fill([](const Edge& e) { return e.clearance_m; }, [](std::uint32_t, std::uint32_t) { return true; });
 }
 
 // Extended clearance (Config::split_by_extent): a multi-source Dijkstra over the place edges with horizontal
@@ -720,13 +732,7 @@ std::size_t RoomFinder::split_by_extent(std::size_t num_rooms, UpdateResult* r) 
       if (split_[rb] == 0) emit(rb);
       split = 1;
     }
-    if (size_[ra] < size_[rb]) std::swap(ra, rb);
-    parent_[rb] = ra;
-    size_[ra] += size_[rb];
-    birth_[ra] = std::max(birth_[ra], birth_[rb]);
-    member_next_[member_tail_[ra]] = rb;
-    member_tail_[ra] = member_tail_[rb];
-    split_[ra] = split;
+    join(ra, rb, split);
   }
   for (; next_node < num_places_ && extent_[node_order[next_node]] >= d_min; ++next_node) enter(node_order[next_node]);
   for (std::size_t n = 0; n < next_node; ++n) {
@@ -766,24 +772,9 @@ std::size_t RoomFinder::split_by_extent(std::size_t num_rooms, UpdateResult* r) 
     parent_[i] = static_cast<std::uint32_t>(room);
     room_of_[i] = root_room_[i] != kNone ? static_cast<std::int32_t>(sub_seeds_[root_room_[i]]) : -1;
   }
-  heap_size_ = 0;
-  std::uint32_t sequence = 0;
-  const auto push_frontier = [&](std::uint32_t i) {
-    for (std::uint32_t k = adjacency_offset_[i]; k < adjacency_offset_[i + 1]; ++k) {
-      const Edge& e = edges_[adjacency_[k]];
-      const std::uint32_t j = e.a == i ? e.b : e.a;
-      if (room_of_[j] < 0 && parent_[j] == parent_[i])
-        heap_push(HeapEntry{edge_extent(e), sequence++, j, static_cast<std::uint32_t>(room_of_[i])});
-    }
-  };
-  for (std::uint32_t i = 0; i < num_places_; ++i)
-    if (parent_[i] != kNone && room_of_[i] >= 0) push_frontier(i);
-  while (heap_size_ > 0) {
-    const HeapEntry next = heap_pop();
-    if (room_of_[next.place] >= 0) continue;
-    room_of_[next.place] = static_cast<std::int32_t>(next.room);
-    push_frontier(next.place);
-  }
+  fill(edge_extent, [&](std::uint32_t from, std::uint32_t to) {
+    return parent_[from] != kNone && parent_[to] == parent_[from];
+  });
   // A room is connected through its own edges, so the fill reaches all of it; should a place be left, it stays in
   // its room.
   for (std::uint32_t i = 0; i < num_places_; ++i)

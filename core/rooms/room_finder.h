@@ -194,7 +194,10 @@ class RoomFinder {
   std::size_t seed_rooms(double dilation_m, UpdateResult* r);
   std::size_t seed_by_persistence(UpdateResult* r);
   void emit_seed(std::uint32_t root, std::size_t* seeds, UpdateResult* r);
-  void flood_fill(std::size_t num_rooms);
+  void join(std::uint32_t ra, std::uint32_t rb, std::uint8_t split);
+  template <typename Value, typename MayEnter>
+  void fill(Value value, MayEnter may_enter);
+  void flood_fill();
   void compute_extent();
   std::size_t split_by_extent(std::size_t num_rooms, UpdateResult* r);
   void assign_ids(const scene_graph::SceneGraph& graph, std::size_t num_rooms, UpdateResult* r);
