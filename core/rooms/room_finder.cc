@@ -740,8 +740,8 @@ std::size_t RoomFinder::split_by_extent(std::size_t num_rooms, UpdateResult* r) 
     if (parent_[i] == i && split_[i] == 0 && size_[i] >= config_.split_min_component_size) emit(i);
   }
 
-  // Slots: a room's first seed keeps its slot, each further one takes a new slot (room_seeds_ counts down as they
-  // are handed out, so 0 marks "first seen").
+  // Slots: a room's first seed keeps its slot, each further one takes a new slot. room_seeds_[room] holds the
+  // room's seed count in its low bits, then two flags: split (bit 31) and first slot handed out (bit 30).
   std::size_t rooms = num_rooms;
   for (std::uint32_t q = 0; q < num_seeds; ++q) {
     const std::uint32_t room = sub_seeds_[q];
