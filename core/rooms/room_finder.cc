@@ -607,6 +607,15 @@ void RoomFinder::join(std::uint32_t ra, std::uint32_t rb, std::uint8_t split) {
   split_[ra] = split;
 }
 
+// fn(edge, other end) for every place edge of place i (the CSR adjacency).
+template <typename Fn>
+void RoomFinder::for_each_place_edge(std::uint32_t i, Fn&& fn) const {
+  for (std::uint32_t k = adjacency_offset_[i]; k < adjacency_offset_[i + 1]; ++k) {
+    const Edge& e = edges_[adjacency_[k]];
+    fn(e, e.a == i ? e.b : e.a);
+  }
+}
+
 // Every unassigned place that may_enter(from, to) allows joins the room whose frontier reaches it through the edge
 // of largest value(edge) first (ties: push order).
 template <typename Value, typename MayEnter>
@@ -614,12 +623,10 @@ void RoomFinder::fill(Value value, MayEnter may_enter) {
   heap_size_ = 0;
   std::uint32_t sequence = 0;
   const auto push_frontier = [&](std::uint32_t i) {
-    for (std::uint32_t k = adjacency_offset_[i]; k < adjacency_offset_[i + 1]; ++k) {
-      const Edge& e = edges_[adjacency_[k]];
-      const std::uint32_t j = e.a == i ? e.b : e.a;
+    for_each_place_edge(i, [&](const Edge& e, std::uint32_t j) {
       if (room_of_[j] < 0 && may_enter(i, j))
         heap_push(HeapEntry{value(e), sequence++, j, static_cast<std::uint32_t>(room_of_[i])});
-    }
+    });
   };
   for (std::uint32_t i = 0; i < num_places_; ++i)
     if (room_of_[i] >= 0) push_frontier(i);
@@ -648,16 +655,14 @@ void RoomFinder::compute_extent() {
   // Max-heap on clearance_m, so the distance goes in negated. Each place relaxes its edges once (stale entries
   // are skipped), so at most one entry per directed edge: the heap's 2 x edges capacity holds them all.
   const auto relax = [&](std::uint32_t i) {
-    for (std::uint32_t k = adjacency_offset_[i]; k < adjacency_offset_[i + 1]; ++k) {
-      const Edge& e = edges_[adjacency_[k]];
-      const std::uint32_t j = e.a == i ? e.b : e.a;
+    for_each_place_edge(i, [&](const Edge&, std::uint32_t j) {
       const double d = depth[i] + std::hypot(position_[3 * j] - position_[3 * i],
                                              position_[3 * j + 1] - position_[3 * i + 1]);
       if (d < depth[j]) {
         depth[j] = d;
         heap_push(HeapEntry{-d, sequence++, j, 0});
       }
-    }
+    });
   };
   for (std::uint32_t i = 0; i < num_places_; ++i)
     if (depth[i] == 0.0) relax(i);

@@ -195,6 +195,8 @@ class RoomFinder {
   std::size_t seed_by_persistence(UpdateResult* r);
   void emit_seed(std::uint32_t root, std::size_t* seeds, UpdateResult* r);
   void join(std::uint32_t ra, std::uint32_t rb, std::uint8_t split);
+  template <typename Fn>
+  void for_each_place_edge(std::uint32_t i, Fn&& fn) const;
   template <typename Value, typename MayEnter>
   void fill(Value value, MayEnter may_enter);
   void flood_fill();
