@@ -368,8 +368,8 @@ struct RunStats {
 
 // The classical 2D segmentations of the complete plan (IPA plans), scored like ours: the peers that see everything.
 struct Peers {
-  Score distance, erosion;
-  double distance_level_m = 0.0, erosion_level_m = 0.0;
+  Score distance, distance_plateau, erosion;
+  double distance_level_m = 0.0, distance_plateau_level_m = 0.0, erosion_level_m = 0.0;
 };
 
 // Explores, reconstructs, runs the frontend every keyframe and the room finder at the end.
@@ -473,7 +473,8 @@ void print_line(const std::string& name, const Score& s, const RunStats& st) {
   std::fflush(stdout);
 }
 
-// *peers: the classical distance-transform and morphological segmentations of the complete plan (the benchmark's own
+// *peers: the classical distance-transform (its level by the most regions, and by the alpha plateau of their curve) and
+// morphological segmentations of the complete plan (the benchmark's own
 // occupancy image, furniture included in the furnished variant), scored the same way.
 void print_peer(const std::string& name, const Score& s, const char* level_name, double level_m) {
   std::printf("%-30s P %.3f R %.3f | area P %.3f R %.3f | rooms %zu / truth %zu | complete plan, %s %.2f m\n",
@@ -523,16 +524,21 @@ bool eval_plan(const Options& opt, const std::string& map, bool furnished, Score
     dc.resolution_m = ras.res_m;
     world::MorphologicalSegmentationConfig mc;
     mc.resolution_m = ras.res_m;
-    world::PlanSegmentation by_distance, by_erosion;
+    world::DistanceSegmentationConfig dpc = dc;
+    dpc.level = world::DistanceSegmentationConfig::Level::kPlateau;
+    world::PlanSegmentation by_distance, by_distance_plateau, by_erosion;
     const char* why = nullptr;
     if (!world::segment_by_distance_transform(ras.free, ras.cols, ras.rows, dc, &by_distance, &why) ||
+        !world::segment_by_distance_transform(ras.free, ras.cols, ras.rows, dpc, &by_distance_plateau, &why) ||
         !world::segment_by_erosion(ras.free, ras.cols, ras.rows, mc, &by_erosion, &why)) {
       std::fprintf(stderr, "%s: %s\n", map.c_str(), why);
       return false;
     }
     peers->distance = world::score_room_segmentation(ras.free, ras.truth, by_distance.labels);
+    peers->distance_plateau = world::score_room_segmentation(ras.free, ras.truth, by_distance_plateau.labels);
     peers->erosion = world::score_room_segmentation(ras.free, ras.truth, by_erosion.labels);
     peers->distance_level_m = by_distance.level_m;
+    peers->distance_plateau_level_m = by_distance_plateau.level_m;
     peers->erosion_level_m = by_erosion.level_m;
   }
   if (opt.door_oracle_m >= 0.0) {
@@ -824,7 +830,7 @@ int main(int argc, char** argv) {
     if (variant == "furnished_low")
       std::printf("furnished_low: the furnished plans with their furniture extruded to %.2f m, not to the walls' "
                   "%.2f m\n", opt.furniture_height_m, world::FloorPlanConfig{}.wall_height_m);
-    Score overall, overall_reachable, overall_oracle, overall_distance, overall_erosion;
+    Score overall, overall_reachable, overall_oracle, overall_distance, overall_distance_plateau, overall_erosion;
     for (const std::string& map : opt.maps) {
       Score s, reachable, oracle;
       Peers peers;
@@ -835,11 +841,14 @@ int main(int argc, char** argv) {
       }
       print_line(map + " (" + variant + ")", s, st);
       print_peer("  peer: distance transform", peers.distance, "threshold", peers.distance_level_m);
+      print_peer("  peer: distance, PH plateau", peers.distance_plateau, "threshold", peers.distance_plateau_level_m);
       print_peer("  peer: morphological", peers.erosion, "deepest erosion", peers.erosion_level_m);
       add("rooms_eval.ipa." + variant + "." + map, s);
       add("rooms_eval.ipa." + variant + "." + map + ".peer_distance_transform", peers.distance);
+      add("rooms_eval.ipa." + variant + "." + map + ".peer_distance_plateau", peers.distance_plateau);
       add("rooms_eval.ipa." + variant + "." + map + ".peer_morphological", peers.erosion);
       overall_distance.add(peers.distance);
+      overall_distance_plateau.add(peers.distance_plateau);
       overall_erosion.add(peers.erosion);
       rooms_ms.push_back(st.rooms_ms);
       overall.add(s);
@@ -864,6 +873,7 @@ int main(int argc, char** argv) {
       const Score* score;
     };
     for (const PeerTotal& total : {PeerTotal{"distance_transform", "dist", &overall_distance},
+                                   PeerTotal{"distance_plateau", "dist PH", &overall_distance_plateau},
                                    PeerTotal{"morphological", "morph", &overall_erosion}}) {
       const char* name = total.name;
       const char* short_name = total.short_name;

@@ -1,5 +1,7 @@
 #include "drivers/world/floor_plan_rooms.h"
 
+#include "core/rooms/room_finder.h"
+
 #include <algorithm>
 #include <deque>
 #include <map>
@@ -155,6 +157,14 @@ bool segment_by_distance_transform(const std::vector<std::uint8_t>& free, int co
     *error = "distance segmentation: step_m must be positive";
     return false;
   }
+  if (!(config.plateau_alpha >= 0.0 && config.plateau_alpha <= 1.0)) {
+    *error = "distance segmentation: plateau_alpha must lie in [0, 1]";
+    return false;
+  }
+  if (!(config.plateau_min_level_m > 0.0 && config.plateau_max_level_m >= config.plateau_min_level_m)) {
+    *error = "distance segmentation: the plateau range must be positive and not empty";
+    return false;
+  }
   const cv::Mat mask = free_mask(free, cols, rows);
   cv::Mat distance_px;
   cv::distanceTransform(mask, distance_px, cv::DIST_L2, cv::DIST_MASK_PRECISE, CV_32F);
@@ -166,23 +176,40 @@ bool segment_by_distance_transform(const std::vector<std::uint8_t>& free, int co
     return a >= config.min_room_area_m2 && a <= config.max_room_area_m2;
   };
 
-  // The level with the most room-sized regions; its regions are the seeds.
-  int best_count = 0;
-  double best_px = 0.0;
-  cv::Mat labels, stats, centroids, best_labels, best_stats;
+  // The number of room-sized regions at every level (a Betti-0 curve of the room-sized regions).
+  cv::Mat labels, stats, centroids;
   const double step_px = config.step_m / config.resolution_m;
-  for (double t = step_px; t < max_px; t += step_px) {
-    const cv::Mat above = distance_px > t;
+  const auto count_at = [&](double t_px) {
+    const cv::Mat above = distance_px > t_px;
     const int n = cv::connectedComponentsWithStats(above, labels, stats, centroids, 8, CV_32S);
-    int count = 0;
+    std::uint32_t count = 0;
     for (int l = 1; l < n; ++l) count += room_sized(stats.at<int>(l, cv::CC_STAT_AREA)) ? 1 : 0;
-    if (count > best_count) {
-      best_count = count;
-      best_px = t;
-      best_labels = labels.clone();
-      best_stats = stats.clone();
+    return count;
+  };
+  std::vector<std::uint32_t> counts;
+  for (int i = 1; i * step_px < max_px; ++i) counts.push_back(count_at(i * step_px));
+  // The chosen level: the most regions (the lowest on ties), or the alpha plateau of the curve.
+  int chosen = -1;
+  if (config.level == DistanceSegmentationConfig::Level::kPlateau) {
+    // Level i + 1 steps is counts[i]; the curve over [min, max] level, clipped to the levels that exist.
+    const double step_m = config.step_m;
+    const auto first = static_cast<std::size_t>(std::max(0.0, std::ceil(config.plateau_min_level_m / step_m - 1e-9) - 1));
+    const auto last = std::min(counts.size(),
+                               static_cast<std::size_t>(std::floor(config.plateau_max_level_m / step_m + 1e-9)));
+    if (first < last) {
+      const int run = rooms::choose_plateau(counts.data() + first, last - first, config.plateau_alpha);
+      if (run >= 0) chosen = static_cast<int>(first) + run;
     }
+  } else {
+    for (std::size_t i = 0; i < counts.size(); ++i)
+      if (counts[i] > 0 && (chosen < 0 || counts[i] > counts[static_cast<std::size_t>(chosen)]))
+        chosen = static_cast<int>(i);
   }
+  const int best_count = chosen < 0 ? 0 : static_cast<int>(counts[static_cast<std::size_t>(chosen)]);
+  const double best_px = chosen < 0 ? 0.0 : (chosen + 1) * step_px;
+  if (best_count > 0) count_at(best_px);  // the seeds: the chosen level's regions, in labels / stats
+  const cv::Mat& best_labels = labels;
+  const cv::Mat& best_stats = stats;
 
   out->labels.assign(free.size(), 0);
   out->rooms = 0;

@@ -52,11 +52,23 @@ RoomSegmentationScore score_room_segmentation(const std::vector<std::uint8_t>& f
 // counted, and the level with the most such regions (the lowest on ties) gives the seeds; a wavefront from the seeds
 // then gives every reachable free cell the room of its geodesically nearest seed. The defaults are the areas the
 // benchmark's authors use for this method.
+//
+// Level::kPlateau picks the level from the same counts by persistent homology instead: the curve of room-sized
+// regions over the levels is a Betti-0 curve, and the paper's alpha plateau rule (rooms::choose_plateau: among the
+// flat runs longer than alpha x the longest, the one with the most regions) gives one threshold per map, the kind of
+// per-map persistent-homology threshold the 2D anchor uses. As in the room finder, the curve spans
+// [plateau_min_level_m, plateau_max_level_m] (rooms::Config's d- and d+): over all levels the top run of one region
+// (the largest room alone) is the longest and the rule picks it.
 struct DistanceSegmentationConfig {
+  enum class Level { kMostRooms, kPlateau };
   double resolution_m = 0.05;     // cell size
   double min_room_area_m2 = 0.35;
   double max_room_area_m2 = 163.0;
   double step_m = 0.05;           // threshold increment
+  Level level = Level::kMostRooms;
+  double plateau_alpha = 0.5;     // kPlateau only, in [0, 1]
+  double plateau_min_level_m = 0.5;
+  double plateau_max_level_m = 1.2;
 };
 
 struct PlanSegmentation {
@@ -65,7 +77,8 @@ struct PlanSegmentation {
   int rooms = 0;
 };
 
-// Returns false with *error set on bad input (sizes, non-positive resolution or step, an empty area range).
+// Returns false with *error set on bad input (sizes, non-positive resolution or step, an empty area range, an alpha
+// outside [0, 1], an empty plateau range).
 bool segment_by_distance_transform(const std::vector<std::uint8_t>& free, int cols, int rows,
                                    const DistanceSegmentationConfig& config, PlanSegmentation* out,
                                    const char** error);

@@ -77,17 +77,26 @@ TEST(FloorPlanRooms, PerfectMergedAndEmptyEstimatesScoreAsTheBenchmarkDefines) {
   EXPECT_EQ(score_room_segmentation(free, truth, {1}).rooms_truth, 0u);
 }
 
-TEST(FloorPlanRooms, TwoRoomsAreSplitAtTheirDoorByBothPeers) {
+DistanceSegmentationConfig plateau_config() {
+  DistanceSegmentationConfig dc;
+  dc.level = DistanceSegmentationConfig::Level::kPlateau;
+  return dc;
+}
+
+TEST(FloorPlanRooms, TwoRoomsAreSplitAtTheirDoorByEveryPeer) {
   const TwoRooms plan;
-  PlanSegmentation by_distance, by_erosion;
+  PlanSegmentation by_distance, by_plateau, by_erosion;
   const char* error = nullptr;
   ASSERT_TRUE(segment_by_distance_transform(plan.free, TwoRooms::kCols, TwoRooms::kRows, DistanceSegmentationConfig{},
                                             &by_distance, &error))
       << error;
+  ASSERT_TRUE(segment_by_distance_transform(plan.free, TwoRooms::kCols, TwoRooms::kRows, plateau_config(),
+                                            &by_plateau, &error))
+      << error;
   ASSERT_TRUE(segment_by_erosion(plan.free, TwoRooms::kCols, TwoRooms::kRows, MorphologicalSegmentationConfig{},
                                  &by_erosion, &error))
       << error;
-  for (const PlanSegmentation* seg : {&by_distance, &by_erosion}) {
+  for (const PlanSegmentation* seg : {&by_distance, &by_plateau, &by_erosion}) {
     EXPECT_EQ(seg->rooms, 2);
     // Every free cell is reached, and each room's cells carry one label, a different one per room.
     std::set<std::int32_t> left, right;
@@ -112,6 +121,31 @@ TEST(FloorPlanRooms, TwoRoomsAreSplitAtTheirDoorByBothPeers) {
   // The distance transform splits them once the doorway (0.5 m from its jambs at most) is below the threshold.
   EXPECT_GE(by_distance.level_m, 0.5);
   EXPECT_LT(by_distance.level_m, 3.7);
+  // Two regions at every level of [0.5, 1.2] m: one plateau, taken from its start.
+  EXPECT_NEAR(by_plateau.level_m, 0.5, 1e-9);
+}
+
+TEST(FloorPlanRooms, PlateauLevelStaysInItsRange) {
+  const TwoRooms plan;
+  PlanSegmentation seg;
+  const char* error = nullptr;
+  // A one-level range forces that level, and the rooms still split there.
+  DistanceSegmentationConfig dc = plateau_config();
+  dc.plateau_min_level_m = 0.9;
+  dc.plateau_max_level_m = 0.9;
+  ASSERT_TRUE(segment_by_distance_transform(plan.free, TwoRooms::kCols, TwoRooms::kRows, dc, &seg, &error)) << error;
+  EXPECT_NEAR(seg.level_m, 0.9, 1e-9);
+  EXPECT_EQ(seg.rooms, 2);
+  // A range above every level of the plan has no curve: no seeds, nothing labelled (the most-regions rule, which
+  // has no range, still finds both rooms).
+  dc.plateau_min_level_m = 50.0;
+  dc.plateau_max_level_m = 60.0;
+  ASSERT_TRUE(segment_by_distance_transform(plan.free, TwoRooms::kCols, TwoRooms::kRows, dc, &seg, &error)) << error;
+  EXPECT_EQ(seg.rooms, 0);
+  for (const std::int32_t l : seg.labels) EXPECT_EQ(l, 0);
+  dc.level = DistanceSegmentationConfig::Level::kMostRooms;
+  ASSERT_TRUE(segment_by_distance_transform(plan.free, TwoRooms::kCols, TwoRooms::kRows, dc, &seg, &error)) << error;
+  EXPECT_EQ(seg.rooms, 2);
 }
 
 TEST(FloorPlanRooms, RoomsOutsideTheAreaRangeAreNotSeeds) {
@@ -151,6 +185,14 @@ TEST(FloorPlanRooms, BadInputGivesClearErrors) {
   dc.step_m = -1.0;
   EXPECT_FALSE(segment_by_distance_transform(plan.free, TwoRooms::kCols, TwoRooms::kRows, dc, &seg, &error));
   EXPECT_NE(std::string(error).find("step_m"), std::string::npos) << error;
+  dc = plateau_config();
+  dc.plateau_alpha = 1.5;
+  EXPECT_FALSE(segment_by_distance_transform(plan.free, TwoRooms::kCols, TwoRooms::kRows, dc, &seg, &error));
+  EXPECT_NE(std::string(error).find("plateau_alpha"), std::string::npos) << error;
+  dc = plateau_config();
+  dc.plateau_max_level_m = 0.2;  // below the minimum, 0.5
+  EXPECT_FALSE(segment_by_distance_transform(plan.free, TwoRooms::kCols, TwoRooms::kRows, dc, &seg, &error));
+  EXPECT_NE(std::string(error).find("plateau range"), std::string::npos) << error;
   // A null error pointer is allowed.
   EXPECT_FALSE(segment_by_distance_transform(plan.free, 0, 0, DistanceSegmentationConfig{}, &seg, nullptr));
 
@@ -168,8 +210,8 @@ TEST(FloorPlanRooms, PeersSegmentRealBenchmarkPlans) {
     const char* map;
     double min_precision, min_recall;
   };
-  // Measured (distance transform / morphological), mean P and R: Freiburg52_scan 0.946 / 1.000 for both;
-  // office_e 0.999 / 0.999 and 0.952 / 0.994.
+  // Measured (distance transform, the same with the plateau level / morphological), mean P and R: Freiburg52_scan
+  // 0.946 / 1.000 for all three; office_e 0.999 / 0.999 for both distance levels and 0.952 / 0.994.
   for (const Case& c : {Case{"Freiburg52_scan", 0.9, 0.95}, Case{"office_e", 0.9, 0.95}}) {
     const std::string base = std::string("floorplans/ipa/") + c.map;
     QSG_REQUIRE_SHARED_DATA(occupancy, base + ".png");
@@ -180,13 +222,17 @@ TEST(FloorPlanRooms, PeersSegmentRealBenchmarkPlans) {
     std::set<std::int32_t> rooms(raster.truth.begin(), raster.truth.end());
     rooms.erase(0);
     EXPECT_EQ(rooms.size(), c.map == std::string("office_e") ? 32u : 10u);
-    PlanSegmentation by_distance, by_erosion;
+    PlanSegmentation by_distance, by_plateau, by_erosion;
     const char* error = nullptr;
     ASSERT_TRUE(segment_by_distance_transform(raster.free, raster.cols, raster.rows, DistanceSegmentationConfig{},
                                               &by_distance, &error));
+    ASSERT_TRUE(segment_by_distance_transform(raster.free, raster.cols, raster.rows, plateau_config(), &by_plateau,
+                                              &error));
     ASSERT_TRUE(segment_by_erosion(raster.free, raster.cols, raster.rows, MorphologicalSegmentationConfig{},
                                    &by_erosion, &error));
-    for (const PlanSegmentation* seg : {&by_distance, &by_erosion}) {
+    EXPECT_GE(by_plateau.level_m, 0.5 - 1e-9) << c.map;
+    EXPECT_LE(by_plateau.level_m, 1.2 + 1e-9) << c.map;
+    for (const PlanSegmentation* seg : {&by_distance, &by_plateau, &by_erosion}) {
       const RoomSegmentationScore s = score_room_segmentation(raster.free, raster.truth, seg->labels);
       EXPECT_GE(s.precision_mean, c.min_precision) << c.map;
       EXPECT_GE(s.recall_mean, c.min_recall) << c.map;
