@@ -473,9 +473,9 @@ void print_line(const std::string& name, const Score& s, const RunStats& st) {
   std::fflush(stdout);
 }
 
-// *peers: the classical distance-transform (its level by the most regions, and by the alpha plateau of their curve) and
-// morphological segmentations of the complete plan (the benchmark's own
-// occupancy image, furniture included in the furnished variant), scored the same way.
+// *peers: the classical distance-transform (its level by the most regions, and by the alpha plateau of their curve)
+// and morphological segmentations of the complete plan (the benchmark's own occupancy image, furniture included in
+// the furnished variant), scored the same way.
 void print_peer(const std::string& name, const Score& s, const char* level_name, double level_m) {
   std::printf("%-30s P %.3f R %.3f | area P %.3f R %.3f | rooms %zu / truth %zu | complete plan, %s %.2f m\n",
               name.c_str(), s.precision_mean, s.recall_mean, s.precision_area, s.recall_area, s.rooms_found,

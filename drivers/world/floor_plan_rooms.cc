@@ -191,11 +191,11 @@ bool segment_by_distance_transform(const std::vector<std::uint8_t>& free, int co
   // The chosen level: the most regions (the lowest on ties), or the alpha plateau of the curve.
   int chosen = -1;
   if (config.level == DistanceSegmentationConfig::Level::kPlateau) {
-    // Level i + 1 steps is counts[i]; the curve over [min, max] level, clipped to the levels that exist.
-    const double step_m = config.step_m;
-    const auto first = static_cast<std::size_t>(std::max(0.0, std::ceil(config.plateau_min_level_m / step_m - 1e-9) - 1));
+    // counts[i] is the level (i + 1) x step; the curve over [min, max] level, clipped to the levels that exist.
+    const double first_step = std::ceil(config.plateau_min_level_m / config.step_m - 1e-9);
+    const auto first = static_cast<std::size_t>(std::max(0.0, first_step - 1.0));
     const auto last = std::min(counts.size(),
-                               static_cast<std::size_t>(std::floor(config.plateau_max_level_m / step_m + 1e-9)));
+                               static_cast<std::size_t>(std::floor(config.plateau_max_level_m / config.step_m + 1e-9)));
     if (first < last) {
       const int run = rooms::choose_plateau(counts.data() + first, last - first, config.plateau_alpha);
       if (run >= 0) chosen = static_cast<int>(first) + run;
@@ -207,20 +207,18 @@ bool segment_by_distance_transform(const std::vector<std::uint8_t>& free, int co
   }
   const int best_count = chosen < 0 ? 0 : static_cast<int>(counts[static_cast<std::size_t>(chosen)]);
   const double best_px = chosen < 0 ? 0.0 : (chosen + 1) * step_px;
-  if (best_count > 0) count_at(best_px);  // the seeds: the chosen level's regions, in labels / stats
-  const cv::Mat& best_labels = labels;
-  const cv::Mat& best_stats = stats;
+  if (best_count > 0) count_at(best_px);  // the seeds: the chosen level's regions, left in labels and stats
 
   out->labels.assign(free.size(), 0);
   out->rooms = 0;
   out->level_m = best_px * config.resolution_m;
   if (best_count == 0) return true;
-  std::vector<std::int32_t> room_of_component(static_cast<std::size_t>(best_stats.rows), 0);
-  for (int l = 1; l < best_stats.rows; ++l)
-    if (room_sized(best_stats.at<int>(l, cv::CC_STAT_AREA))) room_of_component[l] = ++out->rooms;
+  std::vector<std::int32_t> room_of_component(static_cast<std::size_t>(stats.rows), 0);
+  for (int l = 1; l < stats.rows; ++l)
+    if (room_sized(stats.at<int>(l, cv::CC_STAT_AREA))) room_of_component[l] = ++out->rooms;
   for (int r = 0; r < rows; ++r)
     for (int c = 0; c < cols; ++c)
-      out->labels[static_cast<std::size_t>(r) * cols + c] = room_of_component[best_labels.at<int>(r, c)];
+      out->labels[static_cast<std::size_t>(r) * cols + c] = room_of_component[labels.at<int>(r, c)];
   grow_rooms(free, cols, rows, &out->labels);
   return true;
 }
