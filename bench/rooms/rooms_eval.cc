@@ -39,6 +39,7 @@
 #include "core/frontend/frontend.h"
 #include "core/neural_tree/room_classifier.h"
 #include "core/reconstruction/semantic_tsdf.h"
+#include "core/rooms/door_detector.h"
 #include "core/rooms/room_finder.h"
 #include "core/scene_graph/scene_graph.h"
 #include "core/scene_graph/spark_dsg_json.h"
@@ -90,6 +91,11 @@ struct Options {
   // ground-truth rooms gets clearance C, a perfect door and opening detector. The score is then the bound such a
   // cue would give the room finder, not the room finder's own. Negative: off.
   double door_oracle_m = -1.0;
+  // --doors 1: doors and openings detected on the robot's own surface (rooms::find_doors, one slice per storey the
+  // robot walked) close the place edges that cross them before the room finder runs, as the app does when a run
+  // finishes.
+  bool doors = true;
+  rooms::DoorConfig door;
 };
 
 std::vector<std::string> split(const std::string& s) {
@@ -120,6 +126,16 @@ bool parse(int argc, char** argv, Options* o) {
     else if (a == "--images") o->images_dir = v;
     else if (a == "--dump-places") o->dump_dir = v;
     else if (a == "--door-oracle-m") number = &o->door_oracle_m;
+    else if (a == "--doors") o->doors = std::atoi(v.c_str()) != 0;
+    else if (a == "--door-slice-above-robot-m") number = &o->door.slice_above_robot_m;
+    else if (a == "--door-extension-m") number = &o->door.cut_extension_m;
+    else if (a == "--door-min-width-m") number = &o->door.min_width_m;
+    else if (a == "--door-max-width-m") number = &o->door.max_width_m;
+    else if (a == "--door-min-rise-m") number = &o->door.min_rise_m;
+    else if (a == "--door-rise-reach-m") number = &o->door.rise_reach_m;
+    else if (a == "--door-max-off-centre") number = &o->door.max_off_centre;
+    else if (a == "--door-min-wall-height-m") number = &o->door.min_wall_height_m;
+    else if (a == "--door-mapped-radius-m") number = &o->door.mapped_radius_m;
     else if (a == "--generated") o->generated = std::atoi(v.c_str());
     else if (a == "--generated-rooms") o->generated_rooms = std::atoi(v.c_str());
     else if (a == "--label-buildings") o->label_buildings = std::atoi(v.c_str());
@@ -338,7 +354,7 @@ using Score = world::RoomSegmentationScore;
 
 // Left: the estimated rooms, right: the ground truth, each room a colour from its id (black: occupied, grey: free but
 // unlabelled).
-void write_image(const Raster& ras, const std::string& path) {
+void write_image(const Raster& ras, const std::string& path, const std::vector<rooms::Door>& doors = {}) {
   cv::Mat out(ras.rows, 2 * ras.cols + 10, CV_8UC3, cv::Scalar(255, 255, 255));
   const auto colour = [](std::int32_t id) {
     const std::uint32_t h = static_cast<std::uint32_t>(id) * 2654435761u;
@@ -353,6 +369,14 @@ void write_image(const Raster& ras, const std::string& path) {
       out.at<cv::Vec3b>(r, ras.cols + 10 + c) =
           !ras.free[k] ? cv::Vec3b(0, 0, 0) : ras.truth[k] > 0 ? colour(ras.truth[k] + 1000) : free_grey;
     }
+  // Doors found on the robot's surface (--doors), in red on both halves.
+  for (const rooms::Door& d : doors) {
+    const auto px = [&](const Eigen::Vector2d& p, int offset) {
+      return cv::Point(static_cast<int>(std::floor((p.x() - ras.origin_m.x()) / ras.res_m)) + offset,
+                       ras.rows - 1 - static_cast<int>(std::floor((p.y() - ras.origin_m.y()) / ras.res_m)));
+    };
+    for (const int offset : {0, ras.cols + 10}) cv::line(out, px(d.a, offset), px(d.b, offset), cv::Scalar(0, 0, 255), 2);
+  }
   if (!cv::imwrite(path, out)) std::fprintf(stderr, "cannot write %s\n", path.c_str());
 }
 
@@ -364,6 +388,7 @@ struct RunStats {
   double tour_m = 0.0, rooms_ms = 0.0, dilation_m = 0.0, wall_s = 0.0;
   std::size_t unreachable = 0;
   std::vector<std::int32_t> unreachable_ids;  // world rooms outside the start's free-space component
+  std::vector<rooms::Door> doors;             // --doors: the doors found on the robot's surface
 };
 
 // The classical 2D segmentations of the complete plan (IPA plans), scored like ours: the peers that see everything.
@@ -372,13 +397,57 @@ struct Peers {
   double distance_level_m = 0.0, distance_plateau_level_m = 0.0, erosion_level_m = 0.0;
 };
 
-// Explores, reconstructs, runs the frontend every keyframe and the room finder at the end.
+// The robot's surface: the vertices of its reconstructed mesh (archive and active window), as float x y z triples in
+// a raw file beside the cached graph.
+bool write_surface(const std::vector<Eigen::Vector3f>& surface, const std::string& path) {
+  std::FILE* f = std::fopen(path.c_str(), "wb");
+  if (f == nullptr) return false;
+  const bool ok = surface.empty() || std::fwrite(surface.data(), sizeof(Eigen::Vector3f), surface.size(), f) == surface.size();
+  return std::fclose(f) == 0 && ok;
+}
+
+bool read_surface(const std::string& path, std::vector<Eigen::Vector3f>* surface) {
+  std::ifstream in(path, std::ios::binary | std::ios::ate);
+  if (!in) return false;
+  const std::streamsize bytes = in.tellg();
+  if (bytes < 0 || bytes % static_cast<std::streamsize>(sizeof(Eigen::Vector3f)) != 0) return false;
+  surface->resize(static_cast<std::size_t>(bytes) / sizeof(Eigen::Vector3f));
+  in.seekg(0);
+  return static_cast<bool>(in.read(reinterpret_cast<char*>(surface->data()), bytes));
+}
+
+// Explores, reconstructs, runs the frontend every keyframe and the room finder at the end. *surface: the robot's
+// mesh vertices (from the cache when the graph comes from there; empty when the cache has none).
 bool run_rooms(const Options& opt, const std::string& name, sg::SceneGraph* graph, RunStats* stats);
 
+// --doors: detect doors on the robot's surface and close the place edges that cross them.
+bool apply_doors(const Options& opt, const std::string& name, const std::vector<Eigen::Vector3f>& surface,
+                 sg::SceneGraph* graph, std::vector<rooms::Door>* found) {
+  if (!opt.doors) return true;
+  if (surface.empty()) {
+    std::fprintf(stderr, "%s: --doors needs the robot's surface (a cache without .surface.f32 files: explore again)\n",
+                 name.c_str());
+    return false;
+  }
+  rooms::DoorStats ds;
+  std::string error;
+  const auto t0 = std::chrono::steady_clock::now();
+  if (!rooms::find_doors(surface, *graph, opt.door, found, &ds, &error)) {
+    std::fprintf(stderr, "%s: %s\n", name.c_str(), error.c_str());
+    return false;
+  }
+  const std::size_t cut = rooms::cut_place_edges(*found, opt.door, graph);
+  std::printf("  %s: doors: %zu (%zu candidates) in %zu storey slice(s), %zu place edges closed, %.0f ms\n",
+              name.c_str(), found->size(), ds.candidates, ds.slices, cut,
+              std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+  return true;
+}
+
 bool run_pipeline(const Options& opt, const world::World& w, const std::string& key, sg::SceneGraph* graph,
-                  RunStats* stats) {
+                  std::vector<Eigen::Vector3f>* surface, RunStats* stats) {
   const auto start = std::chrono::steady_clock::now();
   const std::string cache_path = opt.cache_dir.empty() ? "" : opt.cache_dir + "/" + key + ".json";
+  const std::string surface_path = opt.cache_dir.empty() ? "" : opt.cache_dir + "/" + key + ".surface.f32";
   sim::ExplorationConfig ec;
   ec.robot_radius_m = opt.robot_radius_m;
   sim::SimCamera::Config cc;
@@ -401,6 +470,9 @@ bool run_pipeline(const Options& opt, const world::World& w, const std::string& 
       std::fprintf(stderr, "%s: %s\n", cache_path.c_str(), in.error.c_str());
       return false;
     }
+    surface->clear();
+    if (!read_surface(surface_path, surface)) surface->clear();
+    if (!apply_doors(opt, w.name, *surface, graph, &stats->doors)) return false;
     const bool ok = run_rooms(opt, w.name, graph, stats);
     stats->wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return ok;
@@ -429,8 +501,18 @@ bool run_pipeline(const Options& opt, const world::World& w, const std::string& 
       });
   for (int i = 0; i < 100; ++i)
     if (fe->update(*tsdf, last, t_last, graph, frontend::Deadline{}).places_complete) break;
+  {
+    reconstruction::Mesh mesh;
+    tsdf->extract_full_mesh(&mesh);
+    surface->clear();
+    surface->reserve(mesh.vertices.size());
+    for (const reconstruction::MeshVertex& v : mesh.vertices) surface->emplace_back(v.x, v.y, v.z);
+  }
   if (!cache_path.empty() && !sg::write_spark_dsg_json_file(*graph, cache_path, &error))
     std::fprintf(stderr, "cache: %s\n", error.c_str());
+  if (!surface_path.empty() && !write_surface(*surface, surface_path))
+    std::fprintf(stderr, "cache: cannot write %s\n", surface_path.c_str());
+  if (!apply_doors(opt, w.name, *surface, graph, &stats->doors)) return false;
   const bool ok = run_rooms(opt, w.name, graph, stats);
   stats->wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return ok;
@@ -504,7 +586,9 @@ bool eval_plan(const Options& opt, const std::string& map, bool furnished, Score
   }
   char furniture_key[32] = "";
   if (fc.furniture_height_m > 0.0) std::snprintf(furniture_key, sizeof(furniture_key), "_h%.2f", fc.furniture_height_m);
-  if (!run_pipeline(opt, wr.world, map + (furnished ? "_furnished" : "_plain") + furniture_key, graph.get(), st))
+  std::vector<Eigen::Vector3f> surface;
+  if (!run_pipeline(opt, wr.world, map + (furnished ? "_furnished" : "_plain") + furniture_key, graph.get(), &surface,
+                    st))
     return false;
   // Ground truth straight from the benchmark's image: 8-connected white regions of more than 100 px.
   world::PlanRaster plan;
@@ -553,10 +637,14 @@ bool eval_plan(const Options& opt, const std::string& map, bool furnished, Score
   }
   label_from_places(*graph, -1e9, 1e9, opt.max_reach_m, &ras);
   *out = score(ras);
-  if (!opt.dump_dir.empty())
-    dump_places(*graph, ras, opt.dump_dir + "/" + map + (furnished ? "_furnished" : "_plain") + ".txt");
+  if (!opt.dump_dir.empty()) {
+    const std::string stem = opt.dump_dir + "/" + map + (furnished ? "_furnished" : "_plain");
+    dump_places(*graph, ras, stem + ".txt");
+    if (!surface.empty() && !write_surface(surface, stem + ".surface.f32"))
+      std::fprintf(stderr, "--dump-places: cannot write %s.surface.f32\n", stem.c_str());
+  }
   if (!opt.images_dir.empty())
-    write_image(ras, opt.images_dir + "/" + map + (furnished ? "_furnished" : "_plain") + "_rooms.png");
+    write_image(ras, opt.images_dir + "/" + map + (furnished ? "_furnished" : "_plain") + "_rooms.png", st->doors);
   // The same score over the rooms the robot could enter: ground-truth rooms the tour could not reach (closed doors
   // in the scan, or doors narrower than the robot) are left out. Each unreachable world room is the ground-truth
   // region holding most of its footprint's cells.
@@ -733,7 +821,8 @@ bool eval_generated(const Options& opt, std::uint64_t seed, Score* out, RunStats
   auto graph = std::make_unique<sg::SceneGraph>();
   std::string error;
   if (!graph->init(sg::capacities_from_budget(), sg::arena_bytes_from_budget(), &error)) return false;
-  if (!run_pipeline(opt, w, w.name, graph.get(), st)) return false;
+  std::vector<Eigen::Vector3f> surface;
+  if (!run_pipeline(opt, w, w.name, graph.get(), &surface, st)) return false;
   label_rooms(w, *graph, labels);
   label_truth_rooms(w, labels);
   // One raster per floor over the building's footprint: room interiors are free, labelled by room id + 1.
@@ -783,11 +872,27 @@ int main(int argc, char** argv) {
                  "[--generated-rooms N] [--label-buildings N] [--size WxH] [--hfov-deg D] [--rate-hz R] [--max-reach-m M] [--robot-radius-m R] [--furniture-height-m H] [--alpha A] "
                  "[--min-dilation-m D] [--max-dilation-m D] [--min-component N] [--seeding plateau|persistence] "
                  "[--min-persistence-m P] [--max-door-clearance-m D] [--split-by-extent 0|1] [--extent-saturation-m S] "
-                 "[--split-min-extent-m E] [--split-max-extent-m E] [--split-min-persistence-m P] [--split-min-component N] [--cache-dir DIR] [--images DIR] [--dump-places DIR] [--door-oracle-m C] [--json FILE]\n",
+                 "[--split-min-extent-m E] [--split-max-extent-m E] [--split-min-persistence-m P] [--split-min-component N] [--cache-dir DIR] [--images DIR] [--dump-places DIR] [--door-oracle-m C] [--doors 0|1] "
+                 "[--door-slice-above-robot-m H] [--door-min-width-m W] [--door-max-width-m W] [--door-min-rise-m R] "
+                 "[--door-rise-reach-m R] [--door-max-off-centre F] [--door-min-wall-height-m H] "
+                 "[--door-mapped-radius-m R] [--door-extension-m E] [--json FILE]\n",
                  argv[0]);
     return 2;
   }
   opt.rooms.print(stdout);
+  if (opt.doors) {
+    std::string door_error;
+    if (!opt.door.validate(&door_error)) {
+      std::fprintf(stderr, "%s\n", door_error.c_str());
+      return 2;
+    }
+    std::printf("doors: found on the robot's surface, %.2f m above its height on each storey, widths %.2f .. %.2f m, "
+                "clearance rise %.2f m within %.2f m; crossing place edges closed (--doors 0: off)\n",
+                opt.door.slice_above_robot_m, opt.door.min_width_m, opt.door.max_width_m, opt.door.min_rise_m,
+                opt.door.rise_reach_m);
+  } else {
+    std::printf("doors: off\n");
+  }
   if (opt.door_oracle_m >= 0.0)
     std::printf("DOOR ORACLE: on the IPA plans every place edge between two ground-truth rooms has clearance %.2f m; "
                 "the scores are the bound a perfect door and opening cue gives the room finder\n",

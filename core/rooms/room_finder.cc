@@ -15,12 +15,17 @@ constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
 // Grid dilations are d- + i x step in double; a clearance equal to a grid value must count as alive.
 constexpr double kDilationTolerance = 1e-9;
 constexpr std::size_t kMaxCurveSamples = 100000;
+// The clearance of a closed passage (edge weight <= 0, a door stage's mark): below every dilation and every open
+// edge (clearances are >= 0), so the filtration never crosses it and the flood fill takes it last.
+constexpr double kClosed = -1.0;
 }  // namespace
 
 struct RoomFinder::Edge {
   std::uint32_t a;
   std::uint32_t b;
-  double clearance_m;  // min(edge weight, clearance of both ends): an edge never outlives its ends
+  // min(edge weight, clearance of both ends): an edge never outlives its ends. kClosed for a closed passage.
+  double clearance_m;
+  bool closed() const { return clearance_m < 0.0; }
 };
 
 struct RoomFinder::HeapEntry {
@@ -60,6 +65,7 @@ Config Config::paper() {
   c.min_component_size = 15;
   c.plateau_alpha = 0.5;
   c.split_by_extent = false;
+  c.seed_closed_regions = false;
   return c;
 }
 
@@ -119,6 +125,7 @@ void Config::print(std::FILE* out) const {
                  split_min_component_size);
   else
     std::fprintf(out, "rooms: split by extent off\n");
+  std::fprintf(out, "rooms: closed-off regions seed rooms: %s\n", seed_closed_regions ? "on" : "off");
 }
 
 Capacities Capacities::from_scene_graph(const sg::Capacities& graph) {
@@ -335,6 +342,7 @@ UpdateResult RoomFinder::update(sg::SceneGraph* graph, std::uint64_t time_ns) {
   r.betti_at_dilation = curve_[chosen];
   std::size_t rooms =
       config_.seeding == Seeding::kPersistence ? seed_by_persistence(&r) : seed_rooms(r.dilation_m, &r);
+  if (config_.seed_closed_regions) rooms = seed_closed_regions(rooms, &r);
   if (rooms == 0) {
     r.outcome = Outcome::kNoRooms;
     ++counters_.no_rooms;
@@ -364,7 +372,8 @@ bool RoomFinder::read_places(const sg::SceneGraph& graph, UpdateResult* r) {
     const sg::PlaceAttributes* a = graph.place(n.id);
     const std::uint32_t i = static_cast<std::uint32_t>(num_places_++);
     place_ids_[i] = n.id;
-    clearance_[i] = std::isfinite(a->distance_m) ? a->distance_m : 0.0;
+    // Non-finite or negative clearances count as 0 (negative edge clearances mark closed passages).
+    clearance_[i] = std::isfinite(a->distance_m) ? std::max(0.0, a->distance_m) : 0.0;
     position_[3 * i + 0] = a->position_m.x();
     position_[3 * i + 1] = a->position_m.y();
     position_[3 * i + 2] = a->position_m.z();
@@ -381,6 +390,10 @@ bool RoomFinder::read_places(const sg::SceneGraph& graph, UpdateResult* r) {
       }
       double w = std::min(clearance_[i], clearance_[*j]);
       if (e.info.weighted && std::isfinite(e.info.weight)) w = std::min(w, e.info.weight);
+      if (e.info.weighted && e.info.weight <= 0.0) {
+        w = kClosed;
+        ++r->closed_edges;
+      }
       edges_[num_edges_++] = Edge{i, *j, w};
     });
   }
@@ -547,6 +560,48 @@ std::size_t RoomFinder::seed_by_persistence(UpdateResult* r) {
     if (parent_[i] == i && split_[i] == 0 && size_[i] >= config_.min_component_size) emit_seed(i, &seeds, r);
   }
   r->seeds = seeds + r->seeds_dropped;
+  return seeds;
+}
+
+// Closed-off regions (Config::seed_closed_regions): the components of the places graph without its closed edges;
+// each that holds no seed and has at least min_component_size places becomes a seed with all its places (while the
+// room capacity lasts; beyond it, counted as dropped). Returns the new number of seeds.
+std::size_t RoomFinder::seed_closed_regions(std::size_t seeds, UpdateResult* r) {
+  if (r->closed_edges == 0) return seeds;
+  for (std::uint32_t i = 0; i < num_places_; ++i) {
+    parent_[i] = i;
+    size_[i] = 1;
+    split_[i] = 0;  // per root: holds a seed (or is refused)
+    root_room_[i] = kNone;
+  }
+  for (std::size_t k = 0; k < num_edges_; ++k) {
+    const Edge& e = edges_[k];
+    if (e.closed()) continue;
+    std::uint32_t ra = find(e.a), rb = find(e.b);
+    if (ra == rb) continue;
+    if (size_[ra] < size_[rb]) std::swap(ra, rb);
+    parent_[rb] = ra;
+    size_[ra] += size_[rb];
+  }
+  for (std::uint32_t i = 0; i < num_places_; ++i)
+    if (room_of_[i] >= 0) split_[find(i)] = 1;
+  for (std::uint32_t i = 0; i < num_places_; ++i) {
+    const std::uint32_t root = find(i);
+    if (split_[root] != 0 || size_[root] < config_.min_component_size) continue;
+    if (root_room_[root] == kNone) {
+      if (seeds == capacities_.rooms) {
+        split_[root] = 1;
+        ++r->seeds_dropped;
+        ++counters_.seeds_dropped;
+        continue;
+      }
+      root_room_[root] = static_cast<std::uint32_t>(seeds++);
+      ++r->closed_region_rooms;
+      ++r->seeds;
+    }
+    room_of_[i] = static_cast<std::int32_t>(root_room_[root]);
+    ++r->seeded_places;
+  }
   return seeds;
 }
 

@@ -70,6 +70,12 @@ struct Config {
   // varying width are cut too) for far fewer rooms merged with their corridor, and a merged room is the costlier
   // error downstream (one label for two rooms).
   bool split_by_extent = true;
+  // Closed passages: a place-place edge of weight 0 or less is a passage a door stage closed (rooms::cut_place_edges,
+  // doors found on the robot's surface). The filtration never crosses it (its clearance is 0, below d-), and with
+  // this on, every piece of the places graph that the closed edges cut off and that holds no seed (at least
+  // min_component_size places) is a room of its own: a corridor narrower than d- whose doors were all found, say,
+  // which the flood fill would otherwise hand to the rooms on its doors. Without closed edges it does nothing.
+  bool seed_closed_regions = true;
   double extent_saturation_m = 1.0;
   double split_min_extent_m = 1.0;
   double split_max_extent_m = 2.5;
@@ -126,6 +132,8 @@ struct UpdateResult {
   std::size_t seeds_dropped = 0;     // seed components beyond the room capacity
   std::size_t rooms_split = 0;       // split_by_extent: rooms split in two or more
   std::size_t split_rooms_added = 0; // split_by_extent: rooms those splits added (beyond capacity: not added)
+  std::size_t closed_edges = 0;      // place edges read as closed (weight <= 0)
+  std::size_t closed_region_rooms = 0;  // seed_closed_regions: rooms seeded by a closed-off region
 };
 
 struct Counters {
@@ -193,6 +201,7 @@ class RoomFinder {
   void compute_curve();
   std::size_t seed_rooms(double dilation_m, UpdateResult* r);
   std::size_t seed_by_persistence(UpdateResult* r);
+  std::size_t seed_closed_regions(std::size_t seeds, UpdateResult* r);
   void emit_seed(std::uint32_t root, std::size_t* seeds, UpdateResult* r);
   void join(std::uint32_t ra, std::uint32_t rb, std::uint8_t split);
   template <typename Fn>

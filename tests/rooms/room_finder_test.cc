@@ -474,6 +474,101 @@ std::vector<std::uint32_t> brute_force_curve(const SyntheticPlaces& s, const Con
   return curve;
 }
 
+// Two 4 m x 4 m rooms joined by a corridor 0.75 m wide and 4 m long: its clearance (0.375 m) is below d-, so
+// without doors the flood fill hands it to the rooms. Tags: rooms 0 and 1, corridor 2.
+testing::GridPlan narrow_corridor_plan() {
+  testing::GridPlan plan(50, 18, testing::kCellM);
+  plan.carve(1, 1, 17, 17, 0);
+  plan.carve(17, 7, 33, 10, 2);
+  plan.carve(33, 1, 49, 17, 1);
+  return plan;
+}
+
+// Closes (weight 0) every edge that crosses one of the corridor's two ends, as rooms::cut_place_edges does for a
+// door found there. Returns the number closed.
+std::size_t close_corridor_ends(SyntheticPlaces* s) {
+  std::size_t closed = 0;
+  for (testing::SyntheticEdge& e : s->edges) {
+    const double xa = s->places[e.a].position_m.x(), xb = s->places[e.b].position_m.x();
+    for (const double end_x : {17 * testing::kCellM, 33 * testing::kCellM})
+      if ((xa < end_x) != (xb < end_x)) {
+        e.weight_m = 0.0;
+        ++closed;
+      }
+  }
+  return closed;
+}
+
+TEST(RoomFinderTest, ClosedPassagesMakeARegionWithoutSeedARoom) {
+  // Without doors: two rooms, the corridor shared between them.
+  {
+    SyntheticPlaces s;
+    narrow_corridor_plan().add_to(&s, 1.0);
+    auto g = make_graph();
+    ASSERT_TRUE(s.write(g.get()));
+    const UpdateResult r = make_finder()->update(g.get());
+    ASSERT_EQ(r.outcome, Outcome::kOk);
+    EXPECT_EQ(r.rooms, 2u);
+    EXPECT_EQ(r.closed_edges, 0u);
+    EXPECT_EQ(r.closed_region_rooms, 0u);
+  }
+  // Doors found at both ends: the corridor is a room of its own.
+  SyntheticPlaces s;
+  narrow_corridor_plan().add_to(&s, 1.0);
+  const std::size_t closed = close_corridor_ends(&s);
+  ASSERT_GT(closed, 0u);
+  auto g = make_graph();
+  ASSERT_TRUE(s.write(g.get()));
+  const UpdateResult r = make_finder()->update(g.get());
+  ASSERT_EQ(r.outcome, Outcome::kOk);
+  EXPECT_EQ(r.rooms, 3u);
+  EXPECT_EQ(r.closed_edges, closed);
+  EXPECT_EQ(r.closed_region_rooms, 1u);
+  EXPECT_EQ(r.places_assigned, s.places.size());
+  expect_one_room_per_tag(*g, s);
+  // The corridor's room touches both rooms: closed passages are still where rooms meet.
+  EXPECT_EQ(r.room_edges, 2u);
+
+  // Each finder below works on a graph of its own (a graph's rooms belong to the finder that wrote them).
+  const auto fresh = [&]() {
+    auto graph = make_graph();
+    EXPECT_TRUE(s.write(graph.get()));
+    return graph;
+  };
+  // Off (the paper's setting), the closed corridor has no seed and the fill still hands it out.
+  Config off;
+  off.seed_closed_regions = false;
+  EXPECT_FALSE(Config::paper().seed_closed_regions);
+  const UpdateResult r_off = make_finder(off)->update(fresh().get());
+  EXPECT_EQ(r_off.rooms, 2u);
+  EXPECT_EQ(r_off.closed_region_rooms, 0u);
+  EXPECT_EQ(r_off.places_assigned, s.places.size());
+
+  // A region smaller than min_component_size stays without a room of its own (48 corridor places < 100).
+  Config big;
+  big.min_component_size = 100;
+  const UpdateResult r_big = make_finder(big)->update(fresh().get());
+  EXPECT_EQ(r_big.rooms, 2u);
+  EXPECT_EQ(r_big.closed_region_rooms, 0u);
+  EXPECT_EQ(r_big.places_assigned, s.places.size());
+
+  // A full room store refuses the region's room and counts it; every place still gets a room.
+  Capacities two = Capacities::from_scene_graph(small_graph_capacities());
+  two.rooms = 2;
+  const UpdateResult r_full = make_finder(Config{}, two)->update(fresh().get());
+  EXPECT_EQ(r_full.rooms, 2u);
+  EXPECT_EQ(r_full.closed_region_rooms, 0u);
+  EXPECT_GE(r_full.seeds_dropped, 1u);
+  EXPECT_EQ(r_full.places_assigned, s.places.size());
+
+  // Seeding closed-off regions allocates nothing either.
+  auto finder = make_finder();
+  auto g2 = fresh();
+  UpdateResult again;
+  EXPECT_NO_ALLOCATIONS(again = finder->update(g2.get()));
+  EXPECT_EQ(again.closed_region_rooms, 1u);
+}
+
 TEST(RoomFinderTest, BettiCurveMatchesBruteForce) {
   std::mt19937 rng(7);
   for (int trial = 0; trial < 20; ++trial) {

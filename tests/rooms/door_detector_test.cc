@@ -1,0 +1,287 @@
+// The door detector on synthetic surfaces (walls as vertical columns of vertices, with floor and ceiling): a door
+// between two rooms, a wide opening, a corridor and an opening too wide to be a door, storeys from the robot's
+// heights, closing the place edges through a door, bad input; and on a real benchmark plan extruded into a surface,
+// where the doors found must lie on the ground truth's room boundaries.
+#include "core/rooms/door_detector.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "drivers/world/floor_plan_rooms.h"
+#include "tests/support/test_data.h"
+
+namespace qsg::rooms {
+namespace {
+
+namespace sg = scene_graph;
+
+constexpr double kStoreyM = 2.5;
+
+struct Scene {
+  std::vector<Eigen::Vector3f> surface;
+  std::vector<Eigen::Vector3d> places;
+
+  // A wall from (x0, y0) to (x1, y1): vertices every 0.05 m along it and every 0.1 m from floor to ceiling.
+  void wall(double x0, double y0, double x1, double y1, double floor_z = 0.0) {
+    const double len = std::hypot(x1 - x0, y1 - y0);
+    const int n = std::max(1, static_cast<int>(std::ceil(len / 0.05)));
+    for (int i = 0; i <= n; ++i) {
+      const double t = static_cast<double>(i) / n;
+      for (double z = 0.0; z <= kStoreyM + 1e-9; z += 0.1)
+        surface.emplace_back(static_cast<float>(x0 + t * (x1 - x0)), static_cast<float>(y0 + t * (y1 - y0)),
+                             static_cast<float>(floor_z + z));
+    }
+  }
+  // Floor and ceiling over [x0, x1] x [y0, y1]: flat, they must not count as walls.
+  void slabs(double x0, double y0, double x1, double y1, double floor_z = 0.0) {
+    for (double x = x0; x <= x1 + 1e-9; x += 0.1)
+      for (double y = y0; y <= y1 + 1e-9; y += 0.1)
+        for (const double z : {floor_z, floor_z + kStoreyM})
+          surface.emplace_back(static_cast<float>(x), static_cast<float>(y), static_cast<float>(z));
+  }
+  // Places every 0.5 m over [x0, x1] x [y0, y1] at z, as the mapped space.
+  void place_grid(double x0, double y0, double x1, double y1, double z = 1.0) {
+    for (double x = x0; x <= x1 + 1e-9; x += 0.5)
+      for (double y = y0; y <= y1 + 1e-9; y += 0.5) places.emplace_back(x, y, z);
+  }
+};
+
+// Two 4 x 4 m rooms side by side; the wall between them at x = 4 has an opening over y in [y0, y1].
+Scene two_rooms(double y0, double y1) {
+  Scene s;
+  s.wall(0, 0, 8, 0);
+  s.wall(8, 0, 8, 4);
+  s.wall(8, 4, 0, 4);
+  s.wall(0, 4, 0, 0);
+  s.wall(4, 0, 4, y0);
+  s.wall(4, y1, 4, 4);
+  s.slabs(0, 0, 8, 4);
+  s.place_grid(0.25, 0.25, 7.75, 3.75);
+  return s;
+}
+
+std::vector<Door> detect(const Scene& s, const DoorConfig& config = DoorConfig{}, double slice_z = 1.2) {
+  std::vector<Door> doors;
+  DoorStats st;
+  std::string error;
+  EXPECT_TRUE(detect_doors(s.surface, s.places, slice_z, config, &doors, &st, &error)) << error;
+  EXPECT_GT(st.free_cells, 0u);
+  return doors;
+}
+
+TEST(DoorDetector, FindsTheDoorBetweenTwoRooms) {
+  const Scene s = two_rooms(1.6, 2.5);  // a 0.9 m door
+  const std::vector<Door> doors = detect(s);
+  ASSERT_EQ(doors.size(), 1u);
+  const Eigen::Vector2d mid = 0.5 * (doors[0].a + doors[0].b);
+  EXPECT_NEAR(mid.x(), 4.0, 0.15);
+  EXPECT_NEAR(mid.y(), 2.05, 0.15);
+  // Jamb to jamb along the wall, less the walls' one-cell dilation on each side.
+  EXPECT_NEAR(doors[0].width_m(), 0.9, 0.2);
+  EXPECT_LT(std::abs((doors[0].b - doors[0].a).normalized().x()), 0.2) << "the line runs along the wall";
+  EXPECT_DOUBLE_EQ(doors[0].z_m, 1.2);
+}
+
+TEST(DoorDetector, FindsAWideOpeningButNotOneWiderThanTheLimit) {
+  const std::vector<Door> wide = detect(two_rooms(1.0, 3.0));  // 2 m
+  ASSERT_EQ(wide.size(), 1u);
+  EXPECT_NEAR(wide[0].width_m(), 2.0, 0.2);
+  DoorConfig narrow;
+  narrow.max_width_m = 1.5;
+  EXPECT_TRUE(detect(two_rooms(1.0, 3.0), narrow).empty()) << "wider than max_width_m";
+}
+
+TEST(DoorDetector, ACorridorIsNotADoor) {
+  // A 1.2 m wide, 8 m long corridor, closed at both ends: its clearance never rises on both sides of a line.
+  Scene s;
+  s.wall(0, 0, 8, 0);
+  s.wall(8, 0, 8, 1.2);
+  s.wall(8, 1.2, 0, 1.2);
+  s.wall(0, 1.2, 0, 0);
+  s.slabs(0, 0, 8, 1.2);
+  for (double x = 0.25; x < 8.0; x += 0.5) s.places.emplace_back(x, 0.6, 1.0);
+  EXPECT_TRUE(detect(s).empty());
+  // A room without any opening has no door either.
+  const Scene closed = two_rooms(2.0, 2.0);
+  EXPECT_TRUE(detect(closed).empty());
+}
+
+TEST(DoorDetector, FloorsAndCeilingsAreNotWalls) {
+  // The same door, with the slice's band reaching the floor and ceiling (a place-height slice at 0.3 m): flat
+  // surfaces span no height inside a cell, so the free space is still open.
+  const Scene s = two_rooms(1.6, 2.5);
+  DoorConfig c;
+  c.slice_half_band_m = 0.5;
+  const std::vector<Door> doors = detect(s, c, 0.3);
+  ASSERT_EQ(doors.size(), 1u);
+  EXPECT_NEAR(0.5 * (doors[0].a + doors[0].b).x(), 4.0, 0.15);
+}
+
+TEST(DoorDetector, StoreysComeFromTheRobotsHeights) {
+  DoorConfig c;
+  std::vector<double> z(300, 0.5);
+  z.insert(z.end(), 200, 3.5);
+  for (int i = 0; i < 30; ++i) z.push_back(0.5 + 3.0 * i / 29.0);  // the stairs between them
+  z.push_back(std::numeric_limits<double>::quiet_NaN());
+  const std::vector<double> slices = door_slice_heights(z, c);
+  ASSERT_EQ(slices.size(), 2u);
+  EXPECT_NEAR(slices[0], 0.5 + c.slice_above_robot_m, 0.06);
+  EXPECT_NEAR(slices[1], 3.5 + c.slice_above_robot_m, 0.06);
+  // One storey walked at two nearby heights (a ramp) is one slice; no poses, no slices.
+  std::vector<double> ramp(100, 0.5);
+  ramp.insert(ramp.end(), 80, 0.9);
+  EXPECT_EQ(door_slice_heights(ramp, c).size(), 1u);
+  EXPECT_TRUE(door_slice_heights({}, c).empty());
+}
+
+TEST(DoorDetector, ClosesThePlaceEdgesThroughTheDoorOnly) {
+  Scene s = two_rooms(1.6, 2.5);
+  sg::Capacities caps;
+  caps.object_nodes = 4;
+  caps.agent_nodes = 16;
+  caps.place_nodes = 256;
+  caps.room_nodes = 4;
+  caps.building_nodes = 1;
+  caps.edges = 2048;
+  caps.adjacency_chunks = 2048;
+  caps.mesh_connections = 4;
+  sg::SceneGraph graph;
+  std::string error;
+  ASSERT_TRUE(graph.init(caps, sg::SceneGraph::plan(caps).total_bytes(), &error)) << error;
+  // Places on the 0.5 m grid; 4-neighbour edges that do not pass through the wall at x = 4 (except the door).
+  std::vector<sg::NodeId> ids;
+  for (std::size_t i = 0; i < s.places.size(); ++i) {
+    sg::PlaceAttributes a;
+    a.position_m = s.places[i];
+    a.distance_m = 0.25;
+    ids.push_back(sg::make_node_id(sg::kPlacePrefix, i));
+    ASSERT_EQ(graph.add_place(ids.back(), a), sg::Status::kOk);
+  }
+  std::size_t through_door = 0;
+  for (std::size_t i = 0; i < s.places.size(); ++i)
+    for (std::size_t j = i + 1; j < s.places.size(); ++j) {
+      const Eigen::Vector3d d = s.places[j] - s.places[i];
+      if (std::abs(d.norm() - 0.5) > 1e-6) continue;
+      const bool crosses_wall = (s.places[i].x() < 4.0) != (s.places[j].x() < 4.0);
+      const double y = s.places[i].y();
+      if (crosses_wall && !(y > 1.6 && y < 2.5)) continue;
+      through_door += crosses_wall ? 1 : 0;
+      sg::EdgeAttributes info;
+      info.weighted = true;
+      info.weight = 0.25;
+      ASSERT_EQ(graph.add_edge(ids[i], ids[j], info), sg::Status::kOk);
+    }
+  ASSERT_EQ(through_door, 2u);  // y = 1.75 and 2.25
+  // A robot pose on the storey: the slice is 0.7 m above it.
+  sg::AgentAttributes robot;
+  robot.position_m = Eigen::Vector3d(2.0, 2.0, 0.5);
+  ASSERT_EQ(graph.add_agent(sg::make_node_id(sg::kDefaultAgentPrefix, 0), sg::kDefaultAgentPrefix, robot),
+            sg::Status::kOk);
+
+  std::vector<Door> doors;
+  DoorStats st;
+  ASSERT_TRUE(find_doors(s.surface, graph, DoorConfig{}, &doors, &st, &error)) << error;
+  EXPECT_EQ(st.slices, 1u);
+  ASSERT_EQ(doors.size(), 1u);
+  EXPECT_DOUBLE_EQ(doors[0].z_m, 1.2);
+  EXPECT_EQ(cut_place_edges(doors, DoorConfig{}, &graph), 2u);
+  std::size_t closed = 0;
+  graph.for_each_edge([&](const sg::EdgeRecord& e) {
+    if (e.info.weight <= 0.0) {
+      ++closed;
+      EXPECT_NE(graph.place(e.source)->position_m.x() < 4.0, graph.place(e.target)->position_m.x() < 4.0);
+    }
+  });
+  EXPECT_EQ(closed, 2u);
+  // The same door a storey up (beyond cut_max_dz_m of these places) closes nothing; no graph, nothing.
+  std::vector<Door> upstairs = doors;
+  upstairs[0].z_m = 1.2 + 3.0;
+  EXPECT_EQ(cut_place_edges(upstairs, DoorConfig{}, &graph), 0u);
+  EXPECT_EQ(cut_place_edges(doors, DoorConfig{}, nullptr), 0u);
+}
+
+TEST(DoorDetector, BadInputGivesClearErrors) {
+  const Scene s = two_rooms(1.6, 2.5);
+  std::vector<Door> doors;
+  std::string error;
+  DoorConfig c;
+  c.min_width_m = 2.0;
+  c.max_width_m = 1.0;
+  EXPECT_FALSE(detect_doors(s.surface, s.places, 1.2, c, &doors, nullptr, &error));
+  EXPECT_NE(error.find("min_width_m"), std::string::npos) << error;
+  c = DoorConfig{};
+  c.cell_m = 0.0;
+  EXPECT_FALSE(detect_doors(s.surface, s.places, 1.2, c, &doors, nullptr, &error));
+  EXPECT_NE(error.find("cell_m"), std::string::npos) << error;
+  c = DoorConfig{};
+  c.max_cells = 1000;
+  EXPECT_FALSE(detect_doors(s.surface, s.places, 1.2, c, &doors, nullptr, &error));
+  EXPECT_NE(error.find("max_cells"), std::string::npos) << error;
+  EXPECT_FALSE(detect_doors(s.surface, s.places, std::numeric_limits<double>::quiet_NaN(), DoorConfig{}, &doors,
+                            nullptr, &error));
+  EXPECT_FALSE(detect_doors(s.surface, s.places, 1.2, DoorConfig{}, nullptr, nullptr, &error));
+  // No surface in the band, no places, non-finite vertices: no doors, no error.
+  EXPECT_TRUE(detect_doors({}, s.places, 1.2, DoorConfig{}, &doors, nullptr, &error));
+  EXPECT_TRUE(doors.empty());
+  EXPECT_TRUE(detect_doors(s.surface, {}, 1.2, DoorConfig{}, &doors, nullptr, &error));
+  EXPECT_TRUE(doors.empty());
+  Scene noisy = two_rooms(1.6, 2.5);
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  noisy.surface.emplace_back(nan, 1.0f, 1.0f);
+  noisy.surface.emplace_back(std::numeric_limits<float>::infinity(), 1.0f, 1.2f);
+  noisy.places.emplace_back(std::numeric_limits<double>::quiet_NaN(), 0.0, 1.0);
+  EXPECT_EQ(detect(noisy).size(), 1u);
+}
+
+// Freiburg52_scan, a real benchmark plan, extruded into a surface (its walls' boundary cells as vertical columns),
+// with places on its free cells: the doors found must lie where the ground truth changes room.
+TEST(DoorDetector, DoorsOfARealPlanLieOnItsRoomBoundaries) {
+  QSG_REQUIRE_SHARED_DATA(occupancy, "floorplans/ipa/Freiburg52_scan.png");
+  QSG_REQUIRE_SHARED_DATA(gt, "floorplans/ipa/Freiburg52_scan_gt_segmentation.png");
+  world::PlanRaster plan;
+  std::string why;
+  const world::FloorPlanConfig fc;
+  ASSERT_TRUE(world::read_plan_raster(occupancy, gt, fc, &plan, &why)) << why;
+  const double res = fc.resolution_m_per_px;
+  const auto free_at = [&](int c, int r) {
+    return c >= 0 && r >= 0 && c < plan.cols && r < plan.rows && plan.free[static_cast<std::size_t>(r) * plan.cols + c];
+  };
+  Scene s;
+  for (int r = 0; r < plan.rows; ++r)
+    for (int c = 0; c < plan.cols; ++c) {
+      const double x = (c + 0.5) * res, y = (plan.rows - r - 0.5) * res;
+      if (free_at(c, r)) {
+        if (r % 10 == 0 && c % 10 == 0) s.places.emplace_back(x, y, 1.0);
+        continue;
+      }
+      if (free_at(c - 1, r) || free_at(c + 1, r) || free_at(c, r - 1) || free_at(c, r + 1))
+        for (double z = 0.0; z <= kStoreyM + 1e-9; z += 0.1)
+          s.surface.emplace_back(static_cast<float>(x), static_cast<float>(y), static_cast<float>(z));
+    }
+  const std::vector<Door> doors = detect(s);
+  // A door lies on a boundary when ground-truth cells of two rooms lie within 0.4 m of its midpoint.
+  std::size_t on_boundary = 0;
+  for (const Door& d : doors) {
+    const Eigen::Vector2d mid = 0.5 * (d.a + d.b);
+    const int c0 = static_cast<int>(mid.x() / res), r0 = plan.rows - 1 - static_cast<int>(mid.y() / res);
+    std::set<std::int32_t> rooms;
+    for (int r = r0 - 8; r <= r0 + 8; ++r)
+      for (int c = c0 - 8; c <= c0 + 8; ++c)
+        if (c >= 0 && r >= 0 && c < plan.cols && r < plan.rows) {
+          const std::int32_t t = plan.truth[static_cast<std::size_t>(r) * plan.cols + c];
+          if (t > 0) rooms.insert(t);
+        }
+    on_boundary += rooms.size() >= 2 ? 1 : 0;
+  }
+  // Measured: 15 doors, all 15 on a boundary (the plan has 10 rooms).
+  EXPECT_GE(doors.size(), 10u);
+  EXPECT_GE(static_cast<double>(on_boundary), 0.9 * static_cast<double>(doors.size()));
+}
+
+}  // namespace
+}  // namespace qsg::rooms
