@@ -178,6 +178,16 @@ bool AppConfig::load(const std::string& path, std::string* error) {
          rooms.split_min_component_size = static_cast<std::uint32_t>(split_min_component);
          return true;
        }},
+      {"doors", [&](const Json& v, std::string* why) {
+         return read_section(v, "doors",
+                             {{"at_finish", boolean(&doors_at_finish)},
+                              {"slice_above_robot_m", number(&doors.slice_above_robot_m)},
+                              {"min_width_m", number(&doors.min_width_m)},
+                              {"max_width_m", number(&doors.max_width_m)},
+                              {"min_rise_m", number(&doors.min_rise_m)},
+                              {"rise_reach_m", number(&doors.rise_reach_m)}},
+                             why);
+       }},
       {"frontend", [&](const Json& v, std::string* why) {
          return read_section(v, "frontend", {{"connect_interlayer", boolean(&frontend.connect_interlayer)}}, why);
        }},
@@ -264,6 +274,7 @@ std::string AppConfig::check() const {
   if (const std::string r = reconstruction.check(); !r.empty()) return "reconstruction: " + r;
   if (const std::string f = frontend.check(); !f.empty()) return "frontend: " + f;
   if (const std::string r = rooms.check(); !r.empty()) return r;
+  if (std::string d; !doors.validate(&d)) return d;
   if (const std::string k = keyframes.check(); !k.empty()) return "keyframes: " + k;
   if (const std::string s = scheduler.check(); !s.empty()) return "scheduler: " + s;
   return {};
@@ -289,6 +300,11 @@ void AppConfig::print(std::FILE* out) const {
                segmentation.model_path.empty() ? "" : " label_map=",
                segmentation.model_path.empty() ? "" : segmentation.label_map_path.c_str(), segmentation.deadline_s,
                segmentation.min_confidence);
+  std::fprintf(out,
+               "doors: %s, slice %.2f m above the robot on each storey, widths %.2f .. %.2f m, rise %.2f m within "
+               "%.2f m\n",
+               doors_at_finish ? "found when the run finishes" : "off", doors.slice_above_robot_m, doors.min_width_m,
+               doors.max_width_m, doors.min_rise_m, doors.rise_reach_m);
   std::fprintf(out, "room_labels: weights_path=%s\n",
                room_weights_path.empty() ? "(built-in: core/neural_tree/weights/room_classifier_v2.json)"
                                          : room_weights_path.c_str());

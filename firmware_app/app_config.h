@@ -8,6 +8,7 @@
 
 #include "core/frontend/frontend.h"
 #include "core/reconstruction/semantic_tsdf.h"
+#include "core/rooms/door_detector.h"
 #include "core/rooms/room_finder.h"
 #include "drivers/sim/exploration.h"
 #include "drivers/sim/sim_camera.h"
@@ -72,6 +73,11 @@ struct AppConfig {
   reconstruction::Config reconstruction;
   frontend::Config frontend;
   rooms::Config rooms;
+  // Doors found on the robot's surface when a run finishes (rooms::find_doors): the place edges through them close
+  // and the rooms and their labels are found once more before the final outputs. Not during the run: the detector
+  // allocates its raster (off the real-time path).
+  bool doors_at_finish = true;
+  rooms::DoorConfig doors;
   runtime::KeyframeConfig keyframes;
   runtime::SchedulerConfig scheduler;
 

@@ -164,5 +164,10 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "qsg_app: writing the outputs failed: %s\n", error.c_str());
     return 1;
   }
+  std::printf("final: %llu rooms (%llu labelled), %llu doors closing %llu place edges, %llu room updates\n",
+              (unsigned long long)pipeline.counters().rooms, (unsigned long long)pipeline.counters().rooms_labelled,
+              (unsigned long long)pipeline.counters().doors,
+              (unsigned long long)pipeline.counters().door_edges_closed,
+              (unsigned long long)pipeline.counters().backend_updates);
   return 0;
 }

@@ -647,11 +647,35 @@ bool Pipeline::write_snapshot(std::string* error) {
   return true;
 }
 
+// Doors on the final surface close the place edges through them (see AppConfig::doors_at_finish). A failure is
+// logged and counted; the rooms then stay as the run found them.
+void Pipeline::close_doors(const reconstruction::Mesh& mesh) {
+  std::vector<Eigen::Vector3f> surface;
+  surface.reserve(mesh.vertices.size());
+  for (const reconstruction::MeshVertex& v : mesh.vertices) surface.emplace_back(v.x, v.y, v.z);
+  std::lock_guard<std::mutex> lock(graph_mutex_);
+  std::vector<rooms::Door> doors;
+  rooms::DoorStats stats;
+  std::string why;
+  if (!rooms::find_doors(surface, graph_, config_.doors, &doors, &stats, &why)) {
+    ++counters_.door_failures;
+    std::fprintf(stderr, "doors: %s; the rooms stay as the run found them\n", why.c_str());
+    return;
+  }
+  counters_.doors = doors.size();
+  counters_.door_edges_closed = rooms::cut_place_edges(doors, config_.doors, &graph_);
+  std::printf("doors: %zu in %zu storey slice(s) of the final surface, %llu place edges closed\n", doors.size(),
+              stats.slices, static_cast<unsigned long long>(counters_.door_edges_closed));
+}
+
 bool Pipeline::finish(std::string* error) {
   // The backend finishes its last update first (a final one covers what the last keyframes changed).
   backend_stop_.store(true);
   backend_queue_.close();
   if (backend_thread_.joinable()) backend_thread_.join();
+  reconstruction::Mesh mesh;
+  tsdf_.extract_full_mesh(&mesh);
+  if (config_.doors_at_finish) close_doors(mesh);
   run_backend_update(latest_keyframe_ns_);
   counters_.backend_updates = backend_updates_.load();
   counters_.rooms = rooms_count_.load();
@@ -659,8 +683,6 @@ bool Pipeline::finish(std::string* error) {
   std::lock_guard<std::mutex> lock(graph_mutex_);
   const std::string dir = config_.output_dir;
   if (!write_file_atomically(dir + "/scene_graph.json", scene_graph::write_spark_dsg_json(graph_), error)) return false;
-  reconstruction::Mesh mesh;
-  tsdf_.extract_full_mesh(&mesh);
   if (!reconstruction::write_ply(dir + "/mesh.ply", mesh, error)) return false;
   if (!write_graph_picture(graph_, world_, trajectory_m_, dir + "/top_down.png", error)) return false;
   std::printf("outputs: %s/scene_graph.json (%zu nodes), %s/mesh.ply (%zu vertices, %zu triangles), %s/top_down.png\n",

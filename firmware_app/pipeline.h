@@ -55,6 +55,9 @@ struct PipelineCounters {
   std::uint64_t backend_updates = 0;      // room updates run by the backend
   std::uint64_t rooms = 0;                // rooms after the latest backend update
   std::uint64_t rooms_labelled = 0;       // rooms the neural tree gave a label (latest update)
+  std::uint64_t doors = 0;                // doors found when the run finished (AppConfig::doors_at_finish)
+  std::uint64_t door_edges_closed = 0;    // place edges they closed
+  std::uint64_t door_failures = 0;        // the door stage failed (logged; the rooms stay as the run left them)
   std::uint64_t keyframes_segmented = 0;
   std::uint64_t keyframes_unlabelled = 0; // waited past the segmentation deadline (or segmentation failed)
   std::uint64_t telemetry_lines = 0;
@@ -74,7 +77,8 @@ class Pipeline {
   bool step();
   void request_stop() { stop_requested_.store(true); }
   bool done() const { return done_; }
-  // Final outputs: scene_graph.json, mesh.ply, top_down.png in the output folder.
+  // Final outputs: scene_graph.json, mesh.ply, top_down.png in the output folder. With doors_at_finish, doors are
+  // found on the final surface first and the rooms and labels updated once more.
   bool finish(std::string* error);
 
   const PipelineCounters& counters() const { return counters_; }
@@ -121,6 +125,7 @@ class Pipeline {
   bool init_backend(std::string* error);
   void backend_worker();
   void run_backend_update(std::uint64_t time_ns);
+  void close_doors(const reconstruction::Mesh& mesh);
   bool segment_frame(int index);
   bool init_gpio(std::string* error);
   void integrate_keyframe(const runtime::TaskContext& c);

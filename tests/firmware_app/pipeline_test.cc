@@ -105,6 +105,39 @@ TEST(PipelineTest, StopWritesFinalOutputsAndSnapshotsReplaceAtomically) {
   EXPECT_GT(mesh.triangles.size(), 1000u);
 }
 
+// When the run finishes, doors found on the final surface close place edges, and the rooms are found again.
+TEST(PipelineTest, DoorsFoundWhenTheRunFinishesCloseEdgesAndRoomsFollow) {
+  for (const bool doors : {true, false}) {
+    runtime::SteppedClock clock;
+    Pipeline p;
+    std::string error;
+    AppConfig config = small_config(doors ? "doors" : "no_doors");
+    config.doors_at_finish = doors;
+    ASSERT_TRUE(p.init(config, &clock, &error)) << error;
+    while (p.step()) {
+    }
+    const std::uint64_t updates = p.counters().backend_updates;
+    ASSERT_TRUE(p.finish(&error)) << error;
+    EXPECT_EQ(p.counters().door_failures, 0u);
+    std::size_t closed = 0;
+    p.graph().for_each_edge([&](const scene_graph::EdgeRecord& e) {
+      closed += e.info.weighted && e.info.weight <= 0.0 ? 1 : 0;
+    });
+    EXPECT_EQ(closed, p.counters().door_edges_closed);
+    EXPECT_GT(p.counters().rooms, 0u);
+    EXPECT_GT(p.counters().backend_updates, updates) << "the final room update ran";
+    if (doors) {
+      // The 4-room building has a door per room: they are found and close place edges (a door line that no place
+      // edge crosses, at a gap in the mapped walls, closes none).
+      EXPECT_GE(p.counters().doors, 2u);
+      EXPECT_GE(p.counters().door_edges_closed, 2u);
+    } else {
+      EXPECT_EQ(p.counters().doors, 0u);
+      EXPECT_EQ(closed, 0u);
+    }
+  }
+}
+
 TEST(PipelineTest, RunsOnAV4l2DepthAndColourPair) {
   // Two fake nodes of one RealSense-style camera (shared clock): a wall 2 m ahead in every depth frame.
   v4l2::FakeClock fake_clock;
@@ -229,6 +262,13 @@ TEST(AppConfigTest, LoadsKnownKeysAndNamesBadOnes) {
   EXPECT_EQ(split.rooms.split_min_component_size, 4u);
   EXPECT_FALSE(split.load(write("extent.json", "{\"rooms\": {\"split_max_extent_m\": 0.5}}"), &error));
   EXPECT_NE(error.find("rooms.split_max_extent_m"), std::string::npos) << error;
+  AppConfig doors;
+  ASSERT_TRUE(doors.load(write("doors.json", "{\"doors\": {\"at_finish\": false, \"max_width_m\": 2.0}}"), &error))
+      << error;
+  EXPECT_FALSE(doors.doors_at_finish);
+  EXPECT_EQ(doors.doors.max_width_m, 2.0);
+  EXPECT_FALSE(doors.load(write("door_widths.json", "{\"doors\": {\"min_width_m\": 3.0}}"), &error));
+  EXPECT_NE(error.find("min_width_m"), std::string::npos) << error;
   // The shipped default file loads and equals the built-in defaults where it spells them out.
   AppConfig shipped;
   ASSERT_TRUE(shipped.load(std::string(QSG_SOURCE_DIR) + "/firmware_app/config/default.json", &error)) << error;
@@ -244,6 +284,12 @@ TEST(AppConfigTest, LoadsKnownKeysAndNamesBadOnes) {
   EXPECT_EQ(sr.split_max_extent_m, dr.split_max_extent_m);
   EXPECT_EQ(sr.split_min_persistence_m, dr.split_min_persistence_m);
   EXPECT_EQ(sr.split_min_component_size, dr.split_min_component_size);
+  EXPECT_EQ(shipped.doors_at_finish, AppConfig().doors_at_finish);
+  EXPECT_EQ(shipped.doors.slice_above_robot_m, AppConfig().doors.slice_above_robot_m);
+  EXPECT_EQ(shipped.doors.min_width_m, AppConfig().doors.min_width_m);
+  EXPECT_EQ(shipped.doors.max_width_m, AppConfig().doors.max_width_m);
+  EXPECT_EQ(shipped.doors.min_rise_m, AppConfig().doors.min_rise_m);
+  EXPECT_EQ(shipped.doors.rise_reach_m, AppConfig().doors.rise_reach_m);
   const places::Config& sp = shipped.frontend.places;
   const places::Config dp = AppConfig().frontend.places;
   EXPECT_EQ(sp.signed_surface_seeds, dp.signed_surface_seeds);
