@@ -389,6 +389,8 @@ struct RunStats {
   std::size_t unreachable = 0;
   std::vector<std::int32_t> unreachable_ids;  // world rooms outside the start's free-space component
   std::vector<rooms::Door> doors;             // --doors: the doors found on the robot's surface
+  std::size_t door_edges_closed = 0;
+  double door_ms = 0.0;                       // the door stage's wall time (find_doors + cut_place_edges)
 };
 
 // The classical 2D segmentations of the complete plan (IPA plans), scored like ours: the peers that see everything.
@@ -422,7 +424,8 @@ bool run_rooms(const Options& opt, const std::string& name, sg::SceneGraph* grap
 
 // --doors: detect doors on the robot's surface and close the place edges that cross them.
 bool apply_doors(const Options& opt, const std::string& name, const std::vector<Eigen::Vector3f>& surface,
-                 sg::SceneGraph* graph, std::vector<rooms::Door>* found) {
+                 sg::SceneGraph* graph, RunStats* stats) {
+  std::vector<rooms::Door>* found = &stats->doors;
   if (!opt.doors) return true;
   if (surface.empty()) {
     std::fprintf(stderr, "%s: --doors needs the robot's surface (a cache without .surface.f32 files: explore again)\n",
@@ -436,10 +439,10 @@ bool apply_doors(const Options& opt, const std::string& name, const std::vector<
     std::fprintf(stderr, "%s: %s\n", name.c_str(), error.c_str());
     return false;
   }
-  const std::size_t cut = rooms::cut_place_edges(*found, opt.door, graph);
+  stats->door_edges_closed = rooms::cut_place_edges(*found, opt.door, graph);
+  stats->door_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   std::printf("  %s: doors: %zu (%zu candidates) in %zu storey slice(s), %zu place edges closed, %.0f ms\n",
-              name.c_str(), found->size(), ds.candidates, ds.slices, cut,
-              std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+              name.c_str(), found->size(), ds.candidates, ds.slices, stats->door_edges_closed, stats->door_ms);
   return true;
 }
 
@@ -472,7 +475,7 @@ bool run_pipeline(const Options& opt, const world::World& w, const std::string& 
     }
     surface->clear();
     if (!read_surface(surface_path, surface)) surface->clear();
-    if (!apply_doors(opt, w.name, *surface, graph, &stats->doors)) return false;
+    if (!apply_doors(opt, w.name, *surface, graph, stats)) return false;
     const bool ok = run_rooms(opt, w.name, graph, stats);
     stats->wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return ok;
@@ -512,7 +515,7 @@ bool run_pipeline(const Options& opt, const world::World& w, const std::string& 
     std::fprintf(stderr, "cache: %s\n", error.c_str());
   if (!surface_path.empty() && !write_surface(*surface, surface_path))
     std::fprintf(stderr, "cache: cannot write %s\n", surface_path.c_str());
-  if (!apply_doors(opt, w.name, *surface, graph, &stats->doors)) return false;
+  if (!apply_doors(opt, w.name, *surface, graph, stats)) return false;
   const bool ok = run_rooms(opt, w.name, graph, stats);
   stats->wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return ok;
@@ -916,6 +919,13 @@ int main(int argc, char** argv) {
     std::snprintf(cond + std::strlen(cond), sizeof(cond) - std::strlen(cond), ", no extent split");
   if (opt.door_oracle_m >= 0.0)
     std::snprintf(cond + std::strlen(cond), sizeof(cond) - std::strlen(cond), ", door oracle %.2f m", opt.door_oracle_m);
+  if (opt.doors)
+    std::snprintf(cond + std::strlen(cond), sizeof(cond) - std::strlen(cond),
+                  ", doors on the robot's surface (slice +%.2f m, widths %.2f-%.2f m, rise %.2f m in %.2f m)",
+                  opt.door.slice_above_robot_m, opt.door.min_width_m, opt.door.max_width_m, opt.door.min_rise_m,
+                  opt.door.rise_reach_m);
+  else
+    std::snprintf(cond + std::strlen(cond), sizeof(cond) - std::strlen(cond), ", no doors");
   bench::Figures figures(cond);
   const auto add = [&](const std::string& prefix, const Score& s) {
     figures.add(prefix + ".precision_mean", s.precision_mean, "fraction");
@@ -926,7 +936,14 @@ int main(int argc, char** argv) {
     figures.add(prefix + ".rooms_truth", static_cast<double>(s.rooms_truth), "rooms");
   };
   int failures = 0;
-  std::vector<double> rooms_ms;
+  std::vector<double> rooms_ms, door_ms;
+  // Per run: the door stage's doors, closed edges and time (--doors).
+  const auto add_doors = [&](const std::string& prefix, const RunStats& st) {
+    if (!opt.doors) return;
+    figures.add(prefix + ".doors", static_cast<double>(st.doors.size()), "doors");
+    figures.add(prefix + ".door_edges_closed", static_cast<double>(st.door_edges_closed), "edges");
+    door_ms.push_back(st.door_ms);
+  };
   for (const std::string& plan_variant : opt.variants) {
     if (opt.maps.empty()) break;
     const bool furnished = plan_variant == "furnished";
@@ -956,6 +973,7 @@ int main(int argc, char** argv) {
       overall_distance_plateau.add(peers.distance_plateau);
       overall_erosion.add(peers.erosion);
       rooms_ms.push_back(st.rooms_ms);
+      add_doors("rooms_eval.ipa." + variant + "." + map, st);
       overall.add(s);
       overall_reachable.add(reachable);
       overall_oracle.add(oracle);
@@ -1013,6 +1031,7 @@ int main(int argc, char** argv) {
     print_line("generated two-floor seed " + std::to_string(seed), s, st);
     add("rooms_eval.generated_two_floor.seed" + std::to_string(seed), s);
     rooms_ms.push_back(st.rooms_ms);
+    add_doors("rooms_eval.generated_two_floor.seed" + std::to_string(seed), st);
     generated.add(s);
     generated_oracle.add(oracle);
   }
@@ -1073,6 +1092,7 @@ int main(int argc, char** argv) {
     figures.add("rooms_eval.generated_truth.labelled_rooms", static_cast<double>(truth.truth_rooms), "rooms");
   }
   if (!rooms_ms.empty()) figures.add("rooms_eval.rooms_update_ms_median", median(rooms_ms), "ms");
+  if (!door_ms.empty()) figures.add("rooms_eval.door_stage_ms_median", median(door_ms), "ms");
   if (!opt.json_path.empty() && !figures.write(opt.json_path)) return 1;
   return failures == 0 ? 0 : 1;
 }
