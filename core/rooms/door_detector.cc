@@ -95,19 +95,24 @@ bool detect_doors(const std::vector<Eigen::Vector3f>& surface, const std::vector
     if (error != nullptr) *error = "doors: the slice height is not finite";
     return false;
   }
-  // The raster spans the band's surface and the places near the slice.
-  Eigen::Vector2d lo(std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity());
-  Eigen::Vector2d hi = -lo;
+  // The raster spans the mapped space: the places near the slice, widened by the mapped radius. Surface outside it
+  // (a stray vertex far away) is ignored; no surface in the band means no walls and no doors.
   const auto in_band = [&](const Eigen::Vector3f& v) {
     return std::isfinite(v.x()) && std::isfinite(v.y()) && std::isfinite(v.z()) &&
            std::abs(v.z() - slice_z_m) <= config.slice_half_band_m;
   };
-  for (const Eigen::Vector3f& v : surface)
-    if (in_band(v)) {
-      lo = lo.cwiseMin(v.head<2>().cast<double>());
-      hi = hi.cwiseMax(v.head<2>().cast<double>());
+  const auto place_in_band = [&](const Eigen::Vector3d& p) {
+    return p.allFinite() && std::abs(p.z() - slice_z_m) <= config.place_band_m;
+  };
+  if (std::none_of(surface.begin(), surface.end(), in_band)) return true;
+  Eigen::Vector2d lo(std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity());
+  Eigen::Vector2d hi = -lo;
+  for (const Eigen::Vector3d& p : places)
+    if (place_in_band(p)) {
+      lo = lo.cwiseMin(p.head<2>());
+      hi = hi.cwiseMax(p.head<2>());
     }
-  if (!(lo.x() <= hi.x())) return true;  // nothing in the band
+  if (!(lo.x() <= hi.x())) return true;  // no mapped space near the slice
   const double margin = config.mapped_radius_m + 2.0 * config.cell_m;
   lo -= Eigen::Vector2d::Constant(margin);
   hi += Eigen::Vector2d::Constant(margin);
@@ -151,8 +156,7 @@ bool detect_doors(const std::vector<Eigen::Vector3f>& surface, const std::vector
   std::vector<cv::Point> place_cells;
   for (const Eigen::Vector3d& p : places) {
     int c, r;
-    if (!p.allFinite() || std::abs(p.z() - slice_z_m) > config.place_band_m || !cell_of(p.x(), p.y(), &c, &r))
-      continue;
+    if (!place_in_band(p) || !cell_of(p.x(), p.y(), &c, &r)) continue;
     cv::circle(free, cv::Point(c, r), radius_px, cv::Scalar(255), cv::FILLED);
     place_cells.emplace_back(c, r);
   }

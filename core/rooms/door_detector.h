@@ -42,7 +42,9 @@ struct DoorConfig {
   double rise_reach_m = 1.0;          // ... within this distance of it
   double max_off_centre = 0.35;       // |d1 - d2| / (d1 + d2) of the jambs' distances from the axis cell
   double suppression_m = 0.4;         // of two critical cells closer than this, the narrower stays
-  std::size_t max_cells = 16u << 20;  // the raster's size limit (a bad surface must not exhaust memory)
+  // The raster's size limit, about 19 bytes a cell while a slice is worked on: 4 Mi cells (a 100 m x 100 m storey
+  // at 0.05 m) is about 80 MB. A surface beyond it (or a stray vertex far away) is an error, not an allocation.
+  std::size_t max_cells = 4u << 20;
   // Storeys and slices.
   double slice_above_robot_m = 0.7;   // the slice's height above the robot's (camera's) height on a storey
   double storey_bin_m = 0.1;          // robot heights are binned this finely ...
@@ -69,8 +71,9 @@ struct DoorStats {
 // The slice heights for the robot's pose heights: one per storey (see DoorConfig), ascending.
 std::vector<double> door_slice_heights(const std::vector<double>& robot_z_m, const DoorConfig& config);
 
-// Doors in the slice at slice_z_m of the surface (mesh vertices); place positions mark the mapped space. False with
-// *error set on a bad config or a raster beyond max_cells; an empty surface gives no doors.
+// Doors in the slice at slice_z_m of the surface (mesh vertices); place positions mark the mapped space (and the
+// raster's extent). False with *error set on a bad config or a raster beyond max_cells; no surface or no places near
+// the slice gives no doors.
 bool detect_doors(const std::vector<Eigen::Vector3f>& surface, const std::vector<Eigen::Vector3d>& places,
                   double slice_z_m, const DoorConfig& config, std::vector<Door>* doors, DoorStats* stats,
                   std::string* error);

@@ -2,11 +2,12 @@
 // Persistent Homology"), flood fill of the remaining places, room and building nodes written into the scene graph.
 //
 // One update reads every place node (clearance distance_m) and place-place edge (weight = clearance along the
-// edge) from the graph, computes the Betti-0 curve of the clearance filtration over [d-, d+] in one union-find
-// pass, picks the dilation by the paper's alpha plateau rule, seeds rooms with the components at that dilation,
-// assigns the other places by a flood fill that expands the edge of largest clearance first, and replaces the
-// rooms of the previous update (ids kept where a new room overlaps an old one most). Works on the 3D graph: no
-// floor slicing. Every store is carved once from one arena at init(); update() never allocates.
+// edge; 0 or less: a passage a door stage closed, see Config::seed_closed_regions) from the graph, computes the
+// Betti-0 curve of the clearance filtration over [d-, d+] in one union-find pass, picks the dilation by the paper's
+// alpha plateau rule, seeds rooms with the components at that dilation, assigns the other places by a flood fill
+// that expands the edge of largest clearance first, and replaces the rooms of the previous update (ids kept where a
+// new room overlaps an old one most). Works on the 3D graph: no floor slicing. Every store is carved once from one
+// arena at init(); update() never allocates.
 #pragma once
 
 #include <cstddef>

@@ -235,6 +235,7 @@ TEST(DoorDetector, BadInputGivesClearErrors) {
   noisy.surface.emplace_back(nan, 1.0f, 1.0f);
   noisy.surface.emplace_back(std::numeric_limits<float>::infinity(), 1.0f, 1.2f);
   noisy.places.emplace_back(std::numeric_limits<double>::quiet_NaN(), 0.0, 1.0);
+  noisy.surface.emplace_back(1e6f, 1e6f, 1.2f);  // a stray vertex far away: outside the mapped space, ignored
   EXPECT_EQ(detect(noisy).size(), 1u);
 }
 
