@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "drivers/world/floor_plan_rooms.h"
+#include "tests/scene_graph/test_graph.h"
 #include "tests/support/test_data.h"
 
 namespace qsg::rooms {
@@ -141,18 +142,9 @@ TEST(DoorDetector, StoreysComeFromTheRobotsHeights) {
 
 TEST(DoorDetector, ClosesThePlaceEdgesThroughTheDoorOnly) {
   Scene s = two_rooms(1.6, 2.5);
-  sg::Capacities caps;
-  caps.object_nodes = 4;
-  caps.agent_nodes = 16;
-  caps.place_nodes = 256;
-  caps.room_nodes = 4;
-  caps.building_nodes = 1;
-  caps.edges = 2048;
-  caps.adjacency_chunks = 2048;
-  caps.mesh_connections = 4;
-  sg::SceneGraph graph;
+  auto owned = sg::testing::make_graph();
+  sg::SceneGraph& graph = *owned;
   std::string error;
-  ASSERT_TRUE(graph.init(caps, sg::SceneGraph::plan(caps).total_bytes(), &error)) << error;
   // Places on the 0.5 m grid; 4-neighbour edges that do not pass through the wall at x = 4 (except the door).
   std::vector<sg::NodeId> ids;
   for (std::size_t i = 0; i < s.places.size(); ++i) {
