@@ -116,7 +116,8 @@ bool detect_doors(const std::vector<Eigen::Vector3f>& surface, const std::vector
   const double margin = config.mapped_radius_m + 2.0 * config.cell_m;
   lo -= Eigen::Vector2d::Constant(margin);
   hi += Eigen::Vector2d::Constant(margin);
-  const double cols_d = std::ceil((hi.x() - lo.x()) / config.cell_m), rows_d = std::ceil((hi.y() - lo.y()) / config.cell_m);
+  const double cols_d = std::ceil((hi.x() - lo.x()) / config.cell_m);
+  const double rows_d = std::ceil((hi.y() - lo.y()) / config.cell_m);
   if (!(cols_d * rows_d <= static_cast<double>(config.max_cells))) {
     if (error != nullptr) *error = "doors: the slice's raster exceeds max_cells";
     return false;

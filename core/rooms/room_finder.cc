@@ -738,7 +738,8 @@ std::size_t RoomFinder::split_by_extent(std::size_t num_rooms, UpdateResult* r) 
   compute_extent();
   const double top = config_.split_max_extent_m;
   const double d_min = config_.split_min_extent_m - kDilationTolerance;
-  const auto edge_extent = [&](const Edge& e) { return std::min(extent_[e.a], extent_[e.b]); };
+  // A closed passage stays closed to the split too.
+  const auto edge_extent = [&](const Edge& e) { return e.closed() ? kClosed : std::min(extent_[e.a], extent_[e.b]); };
   std::uint32_t* node_order = order_;
   std::uint32_t* edge_order = order_ + num_places_;
   std::size_t num_inner = 0;
