@@ -418,15 +418,13 @@ bool read_surface(const std::string& path, std::vector<Eigen::Vector3f>* surface
   return static_cast<bool>(in.read(reinterpret_cast<char*>(surface->data()), bytes));
 }
 
-// Explores, reconstructs, runs the frontend every keyframe and the room finder at the end. *surface: the robot's
-// mesh vertices (from the cache when the graph comes from there; empty when the cache has none).
 bool run_rooms(const Options& opt, const std::string& name, sg::SceneGraph* graph, RunStats* stats);
 
 // --doors: detect doors on the robot's surface and close the place edges that cross them.
 bool apply_doors(const Options& opt, const std::string& name, const std::vector<Eigen::Vector3f>& surface,
                  sg::SceneGraph* graph, RunStats* stats) {
-  std::vector<rooms::Door>* found = &stats->doors;
   if (!opt.doors) return true;
+  std::vector<rooms::Door>* found = &stats->doors;
   if (surface.empty()) {
     std::fprintf(stderr, "%s: --doors needs the robot's surface (a cache without .surface.f32 files: explore again)\n",
                  name.c_str());
@@ -446,6 +444,9 @@ bool apply_doors(const Options& opt, const std::string& name, const std::vector<
   return true;
 }
 
+// Explores, reconstructs, runs the frontend every keyframe, the door stage (--doors) and the room finder at the end.
+// *surface: the robot's mesh vertices (from the cache when the graph comes from there; empty when the cache has
+// none).
 bool run_pipeline(const Options& opt, const world::World& w, const std::string& key, sg::SceneGraph* graph,
                   std::vector<Eigen::Vector3f>* surface, RunStats* stats) {
   const auto start = std::chrono::steady_clock::now();
@@ -473,7 +474,6 @@ bool run_pipeline(const Options& opt, const world::World& w, const std::string& 
       std::fprintf(stderr, "%s: %s\n", cache_path.c_str(), in.error.c_str());
       return false;
     }
-    surface->clear();
     if (!read_surface(surface_path, surface)) surface->clear();
     if (!apply_doors(opt, w.name, *surface, graph, stats)) return false;
     const bool ok = run_rooms(opt, w.name, graph, stats);
