@@ -1,11 +1,11 @@
 #include "core/rooms/door_detector.h"
 
+#include "core/memory/fixed_hash_map.h"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <limits>
-#include <opencv2/core.hpp>
-#include <opencv2/imgproc.hpp>
 #include <utility>
 
 namespace qsg::rooms {
@@ -35,34 +35,142 @@ bool DoorConfig::validate(std::string* error) const {
   return true;
 }
 
+memory::ArenaPlan DoorWorkspace::plan(const Capacities& c) {
+  memory::ArenaPlan p;
+  p.add_array<std::uint8_t>(c.cells);   // wall
+  p.add_array<std::uint8_t>(c.cells);   // free
+  p.add_array<std::uint8_t>(c.cells);   // axis
+  p.add_array<float>(c.cells);          // clearance
+  p.add_array<std::uint32_t>(c.cells);  // stack
+  p.add_array<std::uint32_t>(c.cells);  // list
+  p.add_array<std::uint32_t>(c.places);
+  p.add_array<double>(c.max_side);
+  p.add_array<double>(c.max_side);
+  p.add_array<std::int32_t>(c.max_side);
+  p.add_array<double>(c.max_side + 1);
+  p.add_array<Candidate>(c.candidates);
+  return p;
+}
+
+bool DoorWorkspace::carve(memory::Arena& arena, const Capacities& c) {
+  wall_ = arena.carve_array<std::uint8_t>(c.cells);
+  free_ = arena.carve_array<std::uint8_t>(c.cells);
+  axis_ = arena.carve_array<std::uint8_t>(c.cells);
+  clearance_ = arena.carve_array<float>(c.cells);
+  stack_ = arena.carve_array<std::uint32_t>(c.cells);
+  list_ = arena.carve_array<std::uint32_t>(c.cells);
+  place_cells_ = arena.carve_array<std::uint32_t>(c.places);
+  line_f_ = arena.carve_array<double>(c.max_side);
+  line_d_ = arena.carve_array<double>(c.max_side);
+  line_v_ = arena.carve_array<std::int32_t>(c.max_side);
+  line_z_ = arena.carve_array<double>(c.max_side + 1);
+  candidates_ = arena.carve_array<Candidate>(c.candidates);
+  const bool ok = wall_ != nullptr && free_ != nullptr && axis_ != nullptr && clearance_ != nullptr &&
+                  stack_ != nullptr && list_ != nullptr && (place_cells_ != nullptr || c.places == 0) && line_f_ != nullptr &&
+                  line_d_ != nullptr && line_v_ != nullptr && line_z_ != nullptr &&
+                  (candidates_ != nullptr || c.candidates == 0);
+  capacities_ = ok ? c : Capacities{};
+  return ok;
+}
+
+bool DoorWorkspace::allocate(const Capacities& c, std::string* error) {
+  const memory::ArenaPlan p = plan(c);
+  if (!own_.create("door_workspace", p, p.total_bytes(), error)) return false;
+  if (!carve(own_, c) || (own_.align_to_plan_boundary(), !own_.seal())) {
+    if (error != nullptr) *error = "doors: the workspace's carve does not match its plan";
+    return false;
+  }
+  return true;
+}
+
 namespace {
 
-// Zhang-Suen thinning of a 0/1 image (1: foreground), in place; the border row and column stay 0.
-void thin(cv::Mat1b* img) {
-  cv::Mat1b& m = *img;
-  std::vector<std::pair<int, int>> marked;
+constexpr double kFar = 1e20;  // "no wall yet" in the squared distance transform
+
+// Squared distance transform of one line (Felzenszwalb & Huttenlocher's lower envelope of parabolas): d[q] =
+// min over p of (q - p)^2 + f[p].
+void distance_1d(const double* f, int n, double* d, std::int32_t* v, double* z) {
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  const auto meet = [f](int q, int p) {  // where the parabolas from q and p intersect
+    return ((f[q] + static_cast<double>(q) * q) - (f[p] + static_cast<double>(p) * p)) / (2.0 * (q - p));
+  };
+  int k = 0;
+  v[0] = 0;
+  z[0] = -kInf;
+  z[1] = kInf;
+  for (int q = 1; q < n; ++q) {
+    double s = meet(q, v[k]);
+    while (s <= z[k]) s = meet(q, v[--k]);  // z[0] is -inf: ends at k = 0
+    ++k;
+    v[k] = q;
+    z[k] = s;
+    z[k + 1] = kInf;
+  }
+  k = 0;
+  for (int q = 0; q < n; ++q) {
+    while (z[k + 1] < q) ++k;
+    const double dq = q - v[k];
+    d[q] = dq * dq + f[v[k]];
+  }
+}
+
+// Zhang-Suen thinning of a 0/1 image (1: foreground), in place; the border row and column must be 0. Only a
+// foreground cell with a background neighbour can be removed (one with eight foreground neighbours fails the
+// count test), so each sub-iteration tests the current border list only, which gives the same skeleton as testing
+// every cell. list and marks hold up to cols x rows cell indices; in_list is a cols x rows scratch (cleared here).
+void thin(std::uint8_t* m, int cols, int rows, std::uint32_t* list, std::uint32_t* marks, std::uint8_t* in_list) {
+  const std::size_t n = static_cast<std::size_t>(cols) * rows;
+  std::fill(in_list, in_list + n, std::uint8_t{0});
+  const std::ptrdiff_t w = cols;
+  const std::ptrdiff_t around[8] = {-w, -w + 1, 1, w + 1, w, w - 1, -1, -w - 1};  // p2 .. p9, clockwise from north
+  std::size_t size = 0;
+  for (int r = 1; r + 1 < rows; ++r)
+    for (int c = 1; c + 1 < cols; ++c) {
+      const std::size_t i = static_cast<std::size_t>(r) * cols + c;
+      if (m[i] == 0) continue;
+      bool border = false;
+      for (const std::ptrdiff_t d : around) border = border || m[static_cast<std::ptrdiff_t>(i) + d] == 0;
+      if (border) {
+        in_list[i] = 1;
+        list[size++] = static_cast<std::uint32_t>(i);
+      }
+    }
   for (bool changed = true; changed;) {
     changed = false;
     for (int pass = 0; pass < 2; ++pass) {
-      marked.clear();
-      for (int r = 1; r + 1 < m.rows; ++r)
-        for (int c = 1; c + 1 < m.cols; ++c) {
-          if (m(r, c) == 0) continue;
-          // Neighbours clockwise from north: p2 .. p9.
-          const int p[8] = {m(r - 1, c), m(r - 1, c + 1), m(r, c + 1), m(r + 1, c + 1),
-                            m(r + 1, c), m(r + 1, c - 1), m(r, c - 1), m(r - 1, c - 1)};
-          int count = 0, transitions = 0;
-          for (int k = 0; k < 8; ++k) {
-            count += p[k];
-            transitions += (p[k] == 0 && p[(k + 1) % 8] == 1) ? 1 : 0;
-          }
-          if (count < 2 || count > 6 || transitions != 1) continue;
-          const bool remove = pass == 0 ? (p[0] * p[2] * p[4] == 0 && p[2] * p[4] * p[6] == 0)
-                                        : (p[0] * p[2] * p[6] == 0 && p[0] * p[4] * p[6] == 0);
-          if (remove) marked.emplace_back(r, c);
+      std::size_t marked = 0;
+      for (std::size_t k = 0; k < size; ++k) {
+        const std::ptrdiff_t i = list[k];
+        if (m[i] == 0) continue;
+        int p[8];
+        for (int j = 0; j < 8; ++j) p[j] = m[i + around[j]];
+        int count = 0, transitions = 0;
+        for (int j = 0; j < 8; ++j) {
+          count += p[j];
+          transitions += (p[j] == 0 && p[(j + 1) % 8] == 1) ? 1 : 0;
         }
-      for (const auto& [r, c] : marked) m(r, c) = 0;
-      changed = changed || !marked.empty();
+        if (count < 2 || count > 6 || transitions != 1) continue;
+        const bool remove = pass == 0 ? (p[0] * p[2] * p[4] == 0 && p[2] * p[4] * p[6] == 0)
+                                      : (p[0] * p[2] * p[6] == 0 && p[0] * p[4] * p[6] == 0);
+        if (remove) marks[marked++] = static_cast<std::uint32_t>(i);
+      }
+      for (std::size_t k = 0; k < marked; ++k) m[marks[k]] = 0;
+      changed = changed || marked > 0;
+      // The next list: the survivors, then the foreground neighbours of the removed cells.
+      std::size_t kept = 0;
+      for (std::size_t k = 0; k < size; ++k) {
+        if (m[list[k]] != 0) list[kept++] = list[k];
+        else in_list[list[k]] = 0;
+      }
+      size = kept;
+      for (std::size_t k = 0; k < marked; ++k)
+        for (const std::ptrdiff_t d : around) {
+          const std::size_t q = static_cast<std::size_t>(static_cast<std::ptrdiff_t>(marks[k]) + d);
+          if (m[q] != 0 && in_list[q] == 0) {
+            in_list[q] = 1;
+            list[size++] = static_cast<std::uint32_t>(q);
+          }
+        }
     }
   }
 }
@@ -78,6 +186,223 @@ bool segments_cross(const Eigen::Vector2d& p, const Eigen::Vector2d& q, const Ei
 }
 
 }  // namespace
+
+bool detect_doors_in_raster(DoorWorkspace* ws, const DoorRaster& raster, std::size_t num_place_cells,
+                            double slice_z_m, const DoorConfig& config, Door* out, std::size_t out_capacity,
+                            std::size_t* num_out, DoorStats* stats) {
+  DoorStats local;
+  DoorStats& st = stats != nullptr ? *stats : local;
+  st = DoorStats{};
+  if (num_out != nullptr) *num_out = 0;
+  if (ws == nullptr || num_out == nullptr || (out == nullptr && out_capacity > 0)) return false;
+  if (!config.validate(nullptr) || !std::isfinite(slice_z_m) || std::abs(raster.cell_m - config.cell_m) > 1e-9)
+    return false;
+  const DoorWorkspace::Capacities& cap = ws->capacities_;
+  const int cols = raster.cols, rows = raster.rows;
+  if (cols < 3 || rows < 3 || raster.cells() > cap.cells || static_cast<std::size_t>(cols) > cap.max_side ||
+      static_cast<std::size_t>(rows) > cap.max_side || num_place_cells > cap.places)
+    return false;
+  st.cols = static_cast<std::size_t>(cols);
+  st.rows = static_cast<std::size_t>(rows);
+  const std::size_t n = raster.cells();
+  std::uint8_t* wall = ws->wall_;
+  std::uint8_t* free = ws->free_;
+  std::uint8_t* axis = ws->axis_;
+  float* clearance = ws->clearance_;
+  std::uint32_t* stack = ws->stack_;
+  const std::uint32_t* place_cells = ws->place_cells_;
+
+  // Walls dilated by one cell (into `axis` for now), so that the free space does not leak between diagonal wall
+  // cells.
+  for (int r = 0; r < rows; ++r)
+    for (int c = 0; c < cols; ++c) {
+      std::uint8_t any = 0;
+      for (int dr = -1; dr <= 1 && any == 0; ++dr) {
+        const int rr = r + dr;
+        if (rr < 0 || rr >= rows) continue;
+        for (int dc = -1; dc <= 1; ++dc) {
+          const int cc = c + dc;
+          if (cc >= 0 && cc < cols && wall[static_cast<std::size_t>(rr) * cols + cc] != 0) {
+            any = 1;
+            break;
+          }
+        }
+      }
+      axis[static_cast<std::size_t>(r) * cols + c] = any;
+    }
+  // Mapped free space: the non-wall cells within mapped_radius_m of a place that a place reaches without crossing a
+  // wall (not the space behind an outer wall that the radius alone would take in). A one-cell frame stays non-free,
+  // so the thinning and the distance transform see a closed border.
+  std::fill(free, free + n, std::uint8_t{0});
+  const int radius = std::max(1, static_cast<int>(std::lround(config.mapped_radius_m / config.cell_m)));
+  for (std::size_t k = 0; k < num_place_cells; ++k) {
+    if (place_cells[k] >= n) continue;
+    const int pc = static_cast<int>(place_cells[k] % static_cast<std::uint32_t>(cols));
+    const int pr = static_cast<int>(place_cells[k] / static_cast<std::uint32_t>(cols));
+    for (int dr = -radius; dr <= radius; ++dr) {
+      const int r = pr + dr;
+      if (r < 1 || r >= rows - 1) continue;
+      const int half = static_cast<int>(std::floor(std::sqrt(static_cast<double>(radius * radius - dr * dr))));
+      const int c0 = std::max(1, pc - half), c1 = std::min(cols - 2, pc + half);
+      if (c0 <= c1) std::fill(free + static_cast<std::size_t>(r) * cols + c0, free + static_cast<std::size_t>(r) * cols + c1 + 1, std::uint8_t{1});
+    }
+  }
+  std::size_t wall_cells = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    wall_cells += axis[i];
+    if (axis[i] != 0) free[i] = 0;
+  }
+  st.wall_cells = wall_cells;
+  // Keep what the places reach (4-connected); `axis` marks the reached cells.
+  std::fill(axis, axis + n, std::uint8_t{0});
+  std::size_t top = 0;
+  for (std::size_t k = 0; k < num_place_cells; ++k) {
+    const std::uint32_t i = place_cells[k];
+    if (i >= n || free[i] == 0 || axis[i] != 0) continue;
+    axis[i] = 1;
+    stack[top++] = i;
+    while (top > 0) {
+      const std::uint32_t j = stack[--top];
+      const std::uint32_t next[4] = {j - 1, j + 1, j - static_cast<std::uint32_t>(cols), j + static_cast<std::uint32_t>(cols)};
+      for (const std::uint32_t q : next)  // the frame is never free, so neighbours of a free cell are inside
+        if (free[q] != 0 && axis[q] == 0) {
+          axis[q] = 1;
+          stack[top++] = q;
+        }
+    }
+  }
+  std::size_t free_cells = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    free[i] = axis[i];
+    free_cells += free[i];
+  }
+  st.free_cells = free_cells;
+  if (free_cells == 0) return true;
+
+  // Clearance of every free cell (metres): the exact Euclidean distance to the nearest non-free cell, columns
+  // then rows.
+  double* f = ws->line_f_;
+  double* d = ws->line_d_;
+  for (int c = 0; c < cols; ++c) {
+    for (int r = 0; r < rows; ++r) f[r] = free[static_cast<std::size_t>(r) * cols + c] != 0 ? kFar : 0.0;
+    distance_1d(f, rows, d, ws->line_v_, ws->line_z_);
+    for (int r = 0; r < rows; ++r) clearance[static_cast<std::size_t>(r) * cols + c] = static_cast<float>(std::min(d[r], kFar));
+  }
+  for (int r = 0; r < rows; ++r) {
+    float* row = clearance + static_cast<std::size_t>(r) * cols;
+    for (int c = 0; c < cols; ++c) f[c] = row[c];
+    distance_1d(f, cols, d, ws->line_v_, ws->line_z_);
+    for (int c = 0; c < cols; ++c) row[c] = static_cast<float>(std::sqrt(d[c]) * config.cell_m);
+  }
+  std::copy(free, free + n, axis);
+  thin(axis, cols, rows, ws->list_, stack, wall);  // the wall raster is not needed any more
+  std::size_t axis_cells = 0;
+  for (std::size_t i = 0; i < n; ++i) axis_cells += axis[i];
+  st.axis_cells = axis_cells;
+
+  const auto at = [cols](int c, int r) { return static_cast<std::size_t>(r) * cols + c; };
+  // The first non-free cell from p along direction u (unit), within max_m; false when none.
+  const auto ray = [&](const Eigen::Vector2d& p, const Eigen::Vector2d& u, double max_m, Eigen::Vector2d* hit) {
+    const double step = 0.5 * config.cell_m;
+    for (double t = step; t <= max_m; t += step) {
+      const Eigen::Vector2d q = p + t * u;
+      int c, r;
+      if (!raster.cell_of(q.x(), q.y(), &c, &r) || free[at(c, r)] == 0) {
+        *hit = q;
+        return true;
+      }
+    }
+    return false;
+  };
+  const auto clearance_at = [&](const Eigen::Vector2d& q) {
+    int c, r;
+    return raster.cell_of(q.x(), q.y(), &c, &r) ? static_cast<double>(clearance[at(c, r)]) : 0.0;
+  };
+
+  DoorWorkspace::Candidate* candidates = ws->candidates_;
+  std::size_t num_candidates = 0;
+  const double min_half = 0.5 * config.min_width_m, max_half = 0.5 * config.max_width_m;
+  constexpr int kAngles = 36;
+  for (int r = 1; r + 1 < rows; ++r)
+    for (int c = 1; c + 1 < cols; ++c) {
+      if (axis[at(c, r)] == 0) continue;
+      const double dc = clearance[at(c, r)];
+      if (dc < min_half || dc > max_half) continue;
+      // A local minimum of clearance among its axis neighbours.
+      bool minimum = true;
+      for (int dr = -1; dr <= 1 && minimum; ++dr)
+        for (int dq = -1; dq <= 1; ++dq)
+          if ((dr != 0 || dq != 0) && axis[at(c + dq, r + dr)] != 0 && clearance[at(c + dq, r + dr)] < dc) {
+            minimum = false;
+            break;
+          }
+      if (!minimum) continue;
+      // The shortest wall-to-wall line through the cell: its ends are the jambs.
+      const Eigen::Vector2d p = raster.centre_of(c, r);
+      double best = std::numeric_limits<double>::infinity();
+      Eigen::Vector2d best_a = p, best_b = p;
+      for (int k = 0; k < kAngles; ++k) {
+        const double th = M_PI * k / kAngles;
+        const Eigen::Vector2d u(std::cos(th), std::sin(th));
+        Eigen::Vector2d a, b;
+        // A line no shorter than the best so far cannot win: each ray stops at what is left of it.
+        const double reach = std::min(config.max_width_m, best);
+        if (!ray(p, u, reach, &a)) continue;
+        if (!ray(p, -u, std::min(config.max_width_m, best - (a - p).norm()), &b)) continue;
+        const double len = (a - b).norm();
+        if (len < best) {
+          best = len;
+          best_a = a;
+          best_b = b;
+        }
+      }
+      if (!(best >= config.min_width_m && best <= config.max_width_m + config.cell_m)) continue;
+      const double da = (best_a - p).norm(), db = (best_b - p).norm();
+      if (std::abs(da - db) > config.max_off_centre * (da + db)) continue;
+      const Eigen::Vector2d u = (best_b - best_a).normalized();
+      const Eigen::Vector2d nrm(-u.y(), u.x());
+      // The clearance rises on both sides of the jamb-to-jamb line.
+      bool opens = true;
+      for (const double side : {1.0, -1.0}) {
+        double peak = 0.0;
+        for (double t = config.cell_m; t <= config.rise_reach_m; t += config.cell_m)
+          peak = std::max(peak, clearance_at(p + side * t * nrm));
+        opens = opens && peak >= dc + config.min_rise_m;
+      }
+      if (!opens) continue;
+      if (num_candidates == ws->capacities_.candidates) {
+        ++st.candidates_dropped;
+        continue;
+      }
+      // The jambs' wall surface: the rays stopped at the walls' one-cell dilation.
+      DoorWorkspace::Candidate& cand = candidates[num_candidates++];
+      cand.door.a = best_a - u * config.cell_m;
+      cand.door.b = best_b + u * config.cell_m;
+      cand.door.z_m = slice_z_m;
+      cand.half_width = dc;
+    }
+  st.candidates = num_candidates + st.candidates_dropped;
+  // Of candidates closer than suppression_m (line midpoints), the narrowest stays (ties: raster order).
+  std::sort(candidates, candidates + num_candidates,
+            [](const DoorWorkspace::Candidate& x, const DoorWorkspace::Candidate& y) {
+              return x.half_width < y.half_width;
+            });
+  std::size_t kept = 0;
+  for (std::size_t k = 0; k < num_candidates; ++k) {
+    const DoorWorkspace::Candidate& cand = candidates[k];
+    const Eigen::Vector2d mid = 0.5 * (cand.door.a + cand.door.b);
+    bool near = false;
+    // Earlier (narrower) candidates that were kept sit, in order, at the front of the array.
+    for (std::size_t j = 0; j < kept && !near; ++j)
+      near = (0.5 * (candidates[j].door.a + candidates[j].door.b) - mid).norm() < config.suppression_m;
+    if (!near) candidates[kept++] = cand;
+  }
+  const std::size_t written = std::min(kept, out_capacity);
+  for (std::size_t k = 0; k < written; ++k) out[k] = candidates[k].door;
+  st.doors_dropped = kept - written;
+  *num_out = written;
+  return true;
+}
 
 bool detect_doors(const std::vector<Eigen::Vector3f>& surface, const std::vector<Eigen::Vector3d>& places,
                   double slice_z_m, const DoorConfig& config, std::vector<Door>* doors, DoorStats* stats,
@@ -107,10 +432,12 @@ bool detect_doors(const std::vector<Eigen::Vector3f>& surface, const std::vector
   if (std::none_of(surface.begin(), surface.end(), in_band)) return true;
   Eigen::Vector2d lo(std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity());
   Eigen::Vector2d hi = -lo;
+  std::size_t num_places = 0;
   for (const Eigen::Vector3d& p : places)
     if (place_in_band(p)) {
       lo = lo.cwiseMin(p.head<2>());
       hi = hi.cwiseMax(p.head<2>());
+      ++num_places;
     }
   if (!(lo.x() <= hi.x())) return true;  // no mapped space near the slice
   const double margin = config.mapped_radius_m + 2.0 * config.cell_m;
@@ -122,164 +449,45 @@ bool detect_doors(const std::vector<Eigen::Vector3f>& surface, const std::vector
     if (error != nullptr) *error = "doors: the slice's raster exceeds max_cells";
     return false;
   }
-  const int cols = static_cast<int>(cols_d), rows = static_cast<int>(rows_d);
-  st.cols = static_cast<std::size_t>(cols);
-  st.rows = static_cast<std::size_t>(rows);
-  const auto cell_of = [&](double x, double y, int* c, int* r) {
-    *c = static_cast<int>(std::floor((x - lo.x()) / config.cell_m));
-    *r = static_cast<int>(std::floor((y - lo.y()) / config.cell_m));
-    return *c >= 0 && *r >= 0 && *c < cols && *r < rows;
-  };
-  const auto centre_of = [&](int c, int r) {
-    return Eigen::Vector2d(lo.x() + (c + 0.5) * config.cell_m, lo.y() + (r + 0.5) * config.cell_m);
-  };
+  DoorRaster raster;
+  raster.lo = lo;
+  raster.cols = static_cast<int>(cols_d);
+  raster.rows = static_cast<int>(rows_d);
+  raster.cell_m = config.cell_m;
+  DoorWorkspace ws;
+  DoorWorkspace::Capacities cap;
+  cap.cells = raster.cells();
+  cap.max_side = static_cast<std::size_t>(std::max(raster.cols, raster.rows));
+  cap.places = num_places;
+  cap.candidates = std::min<std::size_t>(cap.cells, std::size_t{1} << 16);
+  if (!ws.allocate(cap, error)) return false;
 
-  // Walls: cells whose surface spans min_wall_height_m within the band; dilated by one cell so that the free space
-  // does not leak between diagonal wall cells.
-  cv::Mat1f zmin(rows, cols, std::numeric_limits<float>::infinity());
-  cv::Mat1f zmax(rows, cols, -std::numeric_limits<float>::infinity());
+  // Walls: cells whose surface spans min_wall_height_m within the band.
+  std::vector<float> zmin(raster.cells(), std::numeric_limits<float>::infinity());
+  std::vector<float> zmax(raster.cells(), -std::numeric_limits<float>::infinity());
   for (const Eigen::Vector3f& v : surface) {
     int c, r;
-    if (!in_band(v) || !cell_of(v.x(), v.y(), &c, &r)) continue;
-    zmin(r, c) = std::min(zmin(r, c), v.z());
-    zmax(r, c) = std::max(zmax(r, c), v.z());
+    if (!in_band(v) || !raster.cell_of(v.x(), v.y(), &c, &r)) continue;
+    const std::size_t i = static_cast<std::size_t>(r) * raster.cols + c;
+    zmin[i] = std::min(zmin[i], v.z());
+    zmax[i] = std::max(zmax[i], v.z());
   }
-  cv::Mat1b wall(rows, cols, std::uint8_t{0});
-  for (int r = 0; r < rows; ++r)
-    for (int c = 0; c < cols; ++c)
-      if (zmax(r, c) - zmin(r, c) >= config.min_wall_height_m) wall(r, c) = 255;
-  cv::dilate(wall, wall, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(3, 3)));
-
-  // Mapped free space: the non-wall cells within mapped_radius_m of a place near the slice that a place reaches
-  // without crossing a wall (not the space behind an outer wall that the radius alone would take in).
-  cv::Mat1b free(rows, cols, std::uint8_t{0});
-  const int radius_px = std::max(1, static_cast<int>(std::lround(config.mapped_radius_m / config.cell_m)));
-  std::vector<cv::Point> place_cells;
+  std::uint8_t* wall = ws.wall();
+  for (std::size_t i = 0; i < raster.cells(); ++i) wall[i] = zmax[i] - zmin[i] >= config.min_wall_height_m ? 1 : 0;
+  std::size_t k = 0;
   for (const Eigen::Vector3d& p : places) {
     int c, r;
-    if (!place_in_band(p) || !cell_of(p.x(), p.y(), &c, &r)) continue;
-    cv::circle(free, cv::Point(c, r), radius_px, cv::Scalar(255), cv::FILLED);
-    place_cells.emplace_back(c, r);
+    if (place_in_band(p) && raster.cell_of(p.x(), p.y(), &c, &r))
+      ws.place_cells()[k++] = static_cast<std::uint32_t>(static_cast<std::size_t>(r) * raster.cols + c);
   }
-  free.setTo(0, wall);
-  {
-    cv::Mat1i component;
-    const int n = cv::connectedComponents(free, component, 4, CV_32S);
-    std::vector<std::uint8_t> reached(static_cast<std::size_t>(n), 0);
-    for (const cv::Point& q : place_cells) reached[static_cast<std::size_t>(component(q))] = 1;
-    reached[0] = 0;  // the background (walls and unmapped cells)
-    for (int r = 0; r < rows; ++r)
-      for (int c = 0; c < cols; ++c)
-        if (free(r, c) != 0 && reached[static_cast<std::size_t>(component(r, c))] == 0) free(r, c) = 0;
-  }
-  // A one-cell frame of non-free cells, so thinning and the distance transform see a closed border.
-  free.row(0).setTo(0);
-  free.row(rows - 1).setTo(0);
-  free.col(0).setTo(0);
-  free.col(cols - 1).setTo(0);
-  st.wall_cells = static_cast<std::size_t>(cv::countNonZero(wall));
-  st.free_cells = static_cast<std::size_t>(cv::countNonZero(free));
-  if (st.free_cells == 0) return true;
-
-  // Clearance of every free cell (metres) and the medial axis of the free space.
-  cv::Mat1f clearance;
-  cv::distanceTransform(free, clearance, cv::DIST_L2, cv::DIST_MASK_PRECISE, CV_32F);
-  clearance *= static_cast<float>(config.cell_m);
-  cv::Mat1b axis;
-  cv::threshold(free, axis, 0, 1, cv::THRESH_BINARY);
-  thin(&axis);
-  st.axis_cells = static_cast<std::size_t>(cv::countNonZero(axis));
-
-  // The first non-free cell from p along direction u (unit), within max_m; false when none.
-  const auto ray = [&](const Eigen::Vector2d& p, const Eigen::Vector2d& u, double max_m, Eigen::Vector2d* hit) {
-    const double step = 0.5 * config.cell_m;
-    for (double t = step; t <= max_m; t += step) {
-      const Eigen::Vector2d q = p + t * u;
-      int c, r;
-      if (!cell_of(q.x(), q.y(), &c, &r) || free(r, c) == 0) {
-        *hit = q;
-        return true;
-      }
-    }
+  std::vector<Door> found(4096);
+  std::size_t num = 0;
+  if (!detect_doors_in_raster(&ws, raster, k, slice_z_m, config, found.data(), found.size(), &num, &st)) {
+    if (error != nullptr) *error = "doors: the slice's detection failed";
     return false;
-  };
-  const auto clearance_at = [&](const Eigen::Vector2d& q) {
-    int c, r;
-    return cell_of(q.x(), q.y(), &c, &r) ? static_cast<double>(clearance(r, c)) : 0.0;
-  };
-
-  struct Candidate {
-    Door door;
-    double half_width;
-  };
-  std::vector<Candidate> candidates;
-  const double min_half = 0.5 * config.min_width_m, max_half = 0.5 * config.max_width_m;
-  constexpr int kAngles = 36;
-  for (int r = 1; r + 1 < rows; ++r)
-    for (int c = 1; c + 1 < cols; ++c) {
-      if (axis(r, c) == 0) continue;
-      const double d = clearance(r, c);
-      if (d < min_half || d > max_half) continue;
-      // A local minimum of clearance among its axis neighbours.
-      bool minimum = true;
-      for (int dr = -1; dr <= 1 && minimum; ++dr)
-        for (int dc = -1; dc <= 1; ++dc)
-          if ((dr != 0 || dc != 0) && axis(r + dr, c + dc) != 0 && clearance(r + dr, c + dc) < d) {
-            minimum = false;
-            break;
-          }
-      if (!minimum) continue;
-      // The shortest wall-to-wall line through the cell: its ends are the jambs.
-      const Eigen::Vector2d p = centre_of(c, r);
-      double best = std::numeric_limits<double>::infinity();
-      Eigen::Vector2d best_a = p, best_b = p;
-      for (int k = 0; k < kAngles; ++k) {
-        const double th = M_PI * k / kAngles;
-        const Eigen::Vector2d u(std::cos(th), std::sin(th));
-        Eigen::Vector2d a, b;
-        if (!ray(p, u, config.max_width_m, &a) || !ray(p, -u, config.max_width_m, &b)) continue;
-        const double len = (a - b).norm();
-        if (len < best) {
-          best = len;
-          best_a = a;
-          best_b = b;
-        }
-      }
-      if (!(best >= config.min_width_m && best <= config.max_width_m + config.cell_m)) continue;
-      const double da = (best_a - p).norm(), db = (best_b - p).norm();
-      if (std::abs(da - db) > config.max_off_centre * (da + db)) continue;
-      const Eigen::Vector2d u = (best_b - best_a).normalized();
-      const Eigen::Vector2d n(-u.y(), u.x());
-      // The clearance rises on both sides of the jamb-to-jamb line.
-      bool opens = true;
-      for (const double side : {1.0, -1.0}) {
-        double peak = 0.0;
-        for (double t = config.cell_m; t <= config.rise_reach_m; t += config.cell_m)
-          peak = std::max(peak, clearance_at(p + side * t * n));
-        opens = opens && peak >= d + config.min_rise_m;
-      }
-      if (!opens) continue;
-      // The jambs' wall surface: the rays stopped at the walls' one-cell dilation.
-      Door door;
-      door.a = best_a - u * config.cell_m;
-      door.b = best_b + u * config.cell_m;
-      door.z_m = slice_z_m;
-      candidates.push_back({door, d});
-    }
-  st.candidates = candidates.size();
-  // Of candidates closer than suppression_m (line midpoints), the narrowest stays.
-  std::sort(candidates.begin(), candidates.end(),
-            [](const Candidate& x, const Candidate& y) { return x.half_width < y.half_width; });
-  for (const Candidate& cand : candidates) {
-    const Eigen::Vector2d mid = 0.5 * (cand.door.a + cand.door.b);
-    bool near = false;
-    for (const Door& kept : *doors)
-      if ((0.5 * (kept.a + kept.b) - mid).norm() < config.suppression_m) {
-        near = true;
-        break;
-      }
-    if (!near) doors->push_back(cand.door);
   }
+  found.resize(num);
+  *doors = std::move(found);
   return true;
 }
 
@@ -354,23 +562,25 @@ bool find_doors(const std::vector<Eigen::Vector3f>& surface, const sg::SceneGrap
   return true;
 }
 
+bool door_closes_edge(const Door& d, const DoorConfig& config, const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+  if (!a.allFinite() || !b.allFinite()) return false;
+  if (std::abs(a.z() - d.z_m) > config.cut_max_dz_m || std::abs(b.z() - d.z_m) > config.cut_max_dz_m) return false;
+  const Eigen::Vector2d u = (d.b - d.a).normalized() * config.cut_extension_m;
+  return segments_cross(a.head<2>(), b.head<2>(), d.a - u, d.b + u);
+}
+
 std::size_t cut_place_edges(const std::vector<Door>& doors, const DoorConfig& config, sg::SceneGraph* graph) {
   if (graph == nullptr || doors.empty()) return 0;
   std::vector<std::pair<sg::NodeId, sg::NodeId>> cut;
   graph->for_each_edge([&](const sg::EdgeRecord& e) {
     const sg::PlaceAttributes* a = graph->place(e.source);
     const sg::PlaceAttributes* b = graph->place(e.target);
-    if (a == nullptr || b == nullptr || !a->position_m.allFinite() || !b->position_m.allFinite()) return;
-    for (const Door& d : doors) {
-      if (std::abs(a->position_m.z() - d.z_m) > config.cut_max_dz_m ||
-          std::abs(b->position_m.z() - d.z_m) > config.cut_max_dz_m)
-        continue;
-      const Eigen::Vector2d u = (d.b - d.a).normalized() * config.cut_extension_m;
-      if (segments_cross(a->position_m.head<2>(), b->position_m.head<2>(), d.a - u, d.b + u)) {
+    if (a == nullptr || b == nullptr) return;
+    for (const Door& d : doors)
+      if (door_closes_edge(d, config, a->position_m, b->position_m)) {
         cut.emplace_back(e.source, e.target);
         break;
       }
-    }
   });
   for (const auto& [s, t] : cut) {
     sg::EdgeAttributes* info = graph->edge_info(s, t);
@@ -378,6 +588,90 @@ std::size_t cut_place_edges(const std::vector<Door>& doors, const DoorConfig& co
     info->weight = 0.0;
   }
   return cut.size();
+}
+
+// DoorSet: doors bucketed by the grid cell of their midpoint (a hash of the cell into a power-of-two table).
+std::size_t DoorSet::buckets_for(std::size_t max_doors) {
+  std::size_t b = 16;
+  while (b < 2 * max_doors) b <<= 1;
+  return b;
+}
+
+memory::ArenaPlan DoorSet::plan(std::size_t max_doors) {
+  memory::ArenaPlan p;
+  p.add_array<Door>(max_doors);
+  p.add_array<std::uint32_t>(max_doors);
+  p.add_array<std::uint32_t>(buckets_for(max_doors));
+  return p;
+}
+
+bool DoorSet::carve(memory::Arena& arena, std::size_t max_doors, const DoorConfig& config) {
+  config_ = config;
+  // A door's line reaches at most half its width plus the extension from its midpoint; one grid cell of that.
+  grid_m_ = std::max(0.5, 0.5 * (config.max_width_m + 2.0 * config.cell_m) + config.cut_extension_m);
+  doors_ = arena.carve_array<Door>(max_doors);
+  next_ = arena.carve_array<std::uint32_t>(max_doors);
+  buckets_ = buckets_for(max_doors);
+  head_ = arena.carve_array<std::uint32_t>(buckets_);
+  const bool ok = (max_doors == 0 || (doors_ != nullptr && next_ != nullptr)) && head_ != nullptr;
+  counter_.set_capacity(ok ? max_doors : 0);
+  clear();
+  return ok;
+}
+
+std::size_t DoorSet::bucket_of(long gx, long gy) const {
+  const std::uint64_t h = memory::mix64((static_cast<std::uint64_t>(static_cast<std::uint32_t>(gx)) << 32) ^
+                                        static_cast<std::uint32_t>(gy));
+  return static_cast<std::size_t>(h & (buckets_ - 1));
+}
+
+void DoorSet::link(std::size_t i) {
+  const Eigen::Vector2d mid = 0.5 * (doors_[i].a + doors_[i].b);
+  const std::size_t b = bucket_of(static_cast<long>(std::floor(mid.x() / grid_m_)),
+                                  static_cast<long>(std::floor(mid.y() / grid_m_)));
+  next_[i] = head_[b];
+  head_[b] = static_cast<std::uint32_t>(i);
+}
+
+void DoorSet::reindex() {
+  if (head_ == nullptr) return;
+  std::fill(head_, head_ + buckets_, std::numeric_limits<std::uint32_t>::max());
+  for (std::size_t i = 0; i < size_; ++i) link(i);
+}
+
+void DoorSet::clear() {
+  size_ = 0;
+  counter_.set_in_use(0);
+  reindex();
+}
+
+bool DoorSet::add(const Door& door) {
+  if (!door.a.allFinite() || !door.b.allFinite() || !std::isfinite(door.z_m)) return false;
+  if (size_ >= counter_.capacity()) return counter_.refuse(1);
+  doors_[size_] = door;
+  link(size_++);
+  counter_.set_in_use(size_);
+  return true;
+}
+
+bool DoorSet::closes(const Eigen::Vector3d& a, const Eigen::Vector3d& b) const {
+  if (size_ == 0 || !a.allFinite() || !b.allFinite()) return false;
+  // Every door whose midpoint lies within one grid cell of the edge's box: their lines are the only ones that
+  // can reach it. A bucket shared by two cells is read twice at most, which does not change the answer.
+  const long x0 = static_cast<long>(std::floor(std::min(a.x(), b.x()) / grid_m_)) - 1;
+  const long x1 = static_cast<long>(std::floor(std::max(a.x(), b.x()) / grid_m_)) + 1;
+  const long y0 = static_cast<long>(std::floor(std::min(a.y(), b.y()) / grid_m_)) - 1;
+  const long y1 = static_cast<long>(std::floor(std::max(a.y(), b.y()) / grid_m_)) + 1;
+  if ((x1 - x0 + 1) * (y1 - y0 + 1) > static_cast<long>(buckets_)) {  // a long edge: test every door
+    for (std::size_t i = 0; i < size_; ++i)
+      if (door_closes_edge(doors_[i], config_, a, b)) return true;
+    return false;
+  }
+  for (long gx = x0; gx <= x1; ++gx)
+    for (long gy = y0; gy <= y1; ++gy)
+      for (std::uint32_t i = head_[bucket_of(gx, gy)]; i != std::numeric_limits<std::uint32_t>::max(); i = next_[i])
+        if (door_closes_edge(doors_[i], config_, a, b)) return true;
+  return false;
 }
 
 }  // namespace qsg::rooms

@@ -17,15 +17,22 @@
 // below the lintels. find_doors() reads the places and the robot's poses (agent nodes) from the scene graph and
 // runs every slice.
 //
-// Not on the per-frame path: the detector works on heap buffers sized by the slice (the app runs it once when a
-// run finishes; bench/rooms/rooms_eval once per explored plan).
+// Two ways to run it. Offline (find_doors, detect_doors): heap buffers sized by the slice, on the final surface (the
+// app when a run finishes; bench/rooms/rooms_eval once per explored plan). Online (core/rooms/online_doors.h): the
+// same detection (detect_doors_in_raster) on a fixed window around the robot, in buffers carved at start-up, so a
+// backend update can see doors without allocating. A DoorSet holds doors for the room finder, which reads an edge
+// that crosses one as closed, exactly as cut_place_edges marks it.
 #pragma once
 
 #include <Eigen/Core>
+#include <cmath>
 #include <cstddef>
+#include <cstdint>
 #include <string>
 #include <vector>
 
+#include "core/memory/arena.h"
+#include "core/memory/resource_stats.h"
 #include "core/scene_graph/scene_graph.h"
 
 namespace qsg::rooms {
@@ -66,6 +73,131 @@ struct Door {
 struct DoorStats {
   std::size_t slices = 0;  // find_doors: storeys sliced
   std::size_t cols = 0, rows = 0, wall_cells = 0, free_cells = 0, axis_cells = 0, candidates = 0;  // summed
+  std::size_t candidates_dropped = 0;  // beyond the workspace's candidate capacity (counted, not an error)
+  std::size_t doors_dropped = 0;       // beyond the output capacity
+};
+
+// A slice raster: cell (c, r) covers [lo + (c, r) x cell_m, lo + (c + 1, r + 1) x cell_m); row-major, cols wide.
+struct DoorRaster {
+  Eigen::Vector2d lo = Eigen::Vector2d::Zero();
+  int cols = 0;
+  int rows = 0;
+  double cell_m = 0.05;
+  std::size_t cells() const { return static_cast<std::size_t>(cols) * static_cast<std::size_t>(rows); }
+  bool cell_of(double x, double y, int* c, int* r) const {
+    const double fc = std::floor((x - lo.x()) / cell_m), fr = std::floor((y - lo.y()) / cell_m);
+    if (!(fc >= 0.0 && fr >= 0.0 && fc < cols && fr < rows)) return false;  // also false for NaN
+    *c = static_cast<int>(fc);
+    *r = static_cast<int>(fr);
+    return true;
+  }
+  Eigen::Vector2d centre_of(int c, int r) const {
+    return Eigen::Vector2d(lo.x() + (c + 0.5) * cell_m, lo.y() + (r + 0.5) * cell_m);
+  }
+};
+
+// The buffers one slice is worked on in, about 15 bytes a cell plus the candidates: carved from an arena (online)
+// or held on the heap (offline). The caller fills wall() (1: wall, before the one-cell dilation) for the raster
+// and place_cells() with the places' cells (index r x cols + c), then calls detect_doors_in_raster().
+class DoorWorkspace {
+ public:
+  struct Capacities {
+    std::size_t cells = 0;        // raster cells (cols x rows at most this)
+    std::size_t max_side = 0;     // cols and rows at most this
+    std::size_t places = 0;       // place cells
+    std::size_t candidates = 0;   // critical cells that pass every test, before suppression
+  };
+  DoorWorkspace() = default;
+  DoorWorkspace(const DoorWorkspace&) = delete;
+  DoorWorkspace& operator=(const DoorWorkspace&) = delete;
+  static memory::ArenaPlan plan(const Capacities& capacities);
+  bool carve(memory::Arena& arena, const Capacities& capacities);
+  bool allocate(const Capacities& capacities, std::string* error);  // its own arena (offline use)
+  const Capacities& capacities() const { return capacities_; }
+  std::uint8_t* wall() { return wall_; }
+  std::uint32_t* place_cells() { return place_cells_; }
+  // After a detection: the mapped free space (1) and the clearance (metres) of the last raster, for pictures.
+  const std::uint8_t* free_space() const { return free_; }
+  const float* clearance() const { return clearance_; }
+
+  struct Candidate {
+    Door door;
+    double half_width = 0.0;
+  };
+
+ private:
+  friend bool detect_doors_in_raster(DoorWorkspace*, const DoorRaster&, std::size_t, double, const DoorConfig&,
+                                     Door*, std::size_t, std::size_t*, DoorStats*);
+  Capacities capacities_;
+  memory::Arena own_;                // allocate(): the workspace's own arena (offline use)
+  std::uint8_t* wall_ = nullptr;
+  std::uint8_t* free_ = nullptr;
+  std::uint8_t* axis_ = nullptr;
+  float* clearance_ = nullptr;
+  std::uint32_t* stack_ = nullptr;   // flood fill, then thinning's marks
+  std::uint32_t* list_ = nullptr;    // thinning's border list
+  std::uint32_t* place_cells_ = nullptr;
+  double* line_f_ = nullptr;         // 1D distance transform: samples, output, parabola apexes and bounds
+  double* line_d_ = nullptr;
+  std::int32_t* line_v_ = nullptr;
+  double* line_z_ = nullptr;
+  Candidate* candidates_ = nullptr;
+};
+
+// The detection on a filled workspace (see DoorWorkspace): dilated walls, the mapped free space the place cells
+// reach, its exact Euclidean distance transform and Zhang-Suen medial axis, the critical cells and their door
+// lines, narrowest first with suppression. Writes at most out_capacity doors (more are counted in
+// stats->doors_dropped) and their number in *num_out. Never allocates. False on a bad config or a raster beyond the
+// workspace.
+bool detect_doors_in_raster(DoorWorkspace* workspace, const DoorRaster& raster, std::size_t num_place_cells,
+                            double slice_z_m, const DoorConfig& config, Door* out, std::size_t out_capacity,
+                            std::size_t* num_out, DoorStats* stats);
+
+// Whether the place edge a-b crosses the door in plan (its line lengthened by cut_extension_m at both ends, into
+// the jambs, so that no edge squeezes past a jamb's corner) with both ends within cut_max_dz_m of the door's height.
+bool door_closes_edge(const Door& door, const DoorConfig& config, const Eigen::Vector3d& a, const Eigen::Vector3d& b);
+
+// Doors for the room finder (RoomFinder::update): a fixed store with a grid index on the doors' midpoints, so an
+// edge is tested against the doors near it only. Full: add() refuses and counts.
+class DoorSet {
+ public:
+  DoorSet() = default;
+  DoorSet(const DoorSet&) = delete;
+  DoorSet& operator=(const DoorSet&) = delete;
+  static memory::ArenaPlan plan(std::size_t max_doors);
+  bool carve(memory::Arena& arena, std::size_t max_doors, const DoorConfig& config);
+  bool add(const Door& door);
+  void clear();
+  // Removes every door pred(door) is true for; returns how many.
+  template <typename Pred>
+  std::size_t remove_if(Pred&& pred) {
+    std::size_t kept = 0;
+    for (std::size_t i = 0; i < size_; ++i)
+      if (!pred(doors_[i])) doors_[kept++] = doors_[i];
+    const std::size_t removed = size_ - kept;
+    size_ = kept;
+    counter_.set_in_use(size_);
+    reindex();
+    return removed;
+  }
+  bool closes(const Eigen::Vector3d& a, const Eigen::Vector3d& b) const;
+  std::size_t size() const { return size_; }
+  const Door& operator[](std::size_t i) const { return doors_[i]; }
+  memory::ResourceStats stats() const { return counter_.stats(); }
+
+ private:
+  static std::size_t buckets_for(std::size_t max_doors);
+  std::size_t bucket_of(long gx, long gy) const;
+  void link(std::size_t i);
+  void reindex();
+  DoorConfig config_;
+  double grid_m_ = 2.0;
+  Door* doors_ = nullptr;
+  std::uint32_t* next_ = nullptr;    // per door: the next in its bucket
+  std::uint32_t* head_ = nullptr;    // per bucket: the first door
+  std::size_t buckets_ = 0;
+  std::size_t size_ = 0;
+  memory::UsageCounter counter_{"door_set", "doors", 0, memory::OverflowPolicy::kRefuse};
 };
 
 // The slice heights for the robot's pose heights: one per storey (see DoorConfig), ascending.
@@ -82,9 +214,7 @@ bool detect_doors(const std::vector<Eigen::Vector3f>& surface, const std::vector
 bool find_doors(const std::vector<Eigen::Vector3f>& surface, const scene_graph::SceneGraph& graph,
                 const DoorConfig& config, std::vector<Door>* doors, DoorStats* stats, std::string* error);
 
-// Every place-place edge whose plan projection crosses a door (its line lengthened by cut_extension_m at both ends,
-// into the jambs, so that no edge squeezes past a jamb's corner), with both ends within cut_max_dz_m of the door's
-// height, gets weight 0: a closed passage for the room finder (Config::seed_closed_regions). Returns the number of
+// Every place-place edge a door closes (door_closes_edge) gets weight 0: a closed passage for the room finder (Config::seed_closed_regions). Returns the number of
 // edges closed.
 std::size_t cut_place_edges(const std::vector<Door>& doors, const DoorConfig& config,
                             scene_graph::SceneGraph* graph);

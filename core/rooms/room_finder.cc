@@ -319,7 +319,7 @@ bool RoomFinder::init(const Config& config, const Capacities& c, std::size_t bud
 // ---------------------------------------------------------------------------------------------------------------
 // Update.
 
-UpdateResult RoomFinder::update(sg::SceneGraph* graph, std::uint64_t time_ns) {
+UpdateResult RoomFinder::update(sg::SceneGraph* graph, std::uint64_t time_ns, const DoorSet* doors) {
   UpdateResult r;
   if (!ready_) return r;
   if (graph == nullptr || !graph->initialized()) {
@@ -327,7 +327,7 @@ UpdateResult RoomFinder::update(sg::SceneGraph* graph, std::uint64_t time_ns) {
     return r;
   }
   ++counters_.updates;
-  read_places(*graph, &r);
+  read_places(*graph, doors, &r);
   counters_.truncated += r.truncated;
   compute_curve();
   const int chosen = num_places_ == 0 ? -1 : choose_plateau(curve_, curve_size_, config_.plateau_alpha);
@@ -359,7 +359,7 @@ UpdateResult RoomFinder::update(sg::SceneGraph* graph, std::uint64_t time_ns) {
   return r;
 }
 
-bool RoomFinder::read_places(const sg::SceneGraph& graph, UpdateResult* r) {
+bool RoomFinder::read_places(const sg::SceneGraph& graph, const DoorSet* doors, UpdateResult* r) {
   index_.clear();
   num_places_ = 0;
   num_edges_ = 0;
@@ -390,7 +390,10 @@ bool RoomFinder::read_places(const sg::SceneGraph& graph, UpdateResult* r) {
       }
       double w = std::min(clearance_[i], clearance_[*j]);
       if (e.info.weighted && std::isfinite(e.info.weight)) w = std::min(w, e.info.weight);
-      if (e.info.weighted && e.info.weight <= 0.0) {
+      const auto at = [this](std::uint32_t k) {
+        return Eigen::Vector3d(position_[3 * k], position_[3 * k + 1], position_[3 * k + 2]);
+      };
+      if ((e.info.weighted && e.info.weight <= 0.0) || (doors != nullptr && doors->closes(at(i), at(*j)))) {
         w = kClosed;
         ++r->closed_edges;
       }

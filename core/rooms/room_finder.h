@@ -19,6 +19,7 @@
 #include "core/memory/arena.h"
 #include "core/memory/fixed_hash_map.h"
 #include "core/memory/resource_stats.h"
+#include "core/rooms/door_detector.h"
 #include "core/scene_graph/node_id.h"
 #include "core/scene_graph/scene_graph.h"
 
@@ -133,7 +134,7 @@ struct UpdateResult {
   std::size_t seeds_dropped = 0;     // seed components beyond the room capacity
   std::size_t rooms_split = 0;       // split_by_extent: rooms split in two or more
   std::size_t split_rooms_added = 0; // split_by_extent: rooms those splits added (beyond capacity: not added)
-  std::size_t closed_edges = 0;      // place edges read as closed (weight <= 0)
+  std::size_t closed_edges = 0;      // place edges read as closed (weight <= 0, or a DoorSet door)
   std::size_t closed_region_rooms = 0;  // seed_closed_regions: rooms seeded by a closed-off region
 };
 
@@ -168,8 +169,10 @@ class RoomFinder {
   bool init(const Config& config, const Capacities& capacities, std::size_t budget_bytes, std::string* error);
   bool initialized() const { return ready_; }
 
-  // Recomputes the rooms and the building from the graph's places. Never allocates.
-  UpdateResult update(scene_graph::SceneGraph* graph, std::uint64_t time_ns = 0);
+  // Recomputes the rooms and the building from the graph's places. A place edge that one of `doors` closes
+  // (door_closes_edge) is read as closed, as an edge of weight <= 0 is (the online door stage's doors; the final
+  // stage writes weights instead). Never allocates.
+  UpdateResult update(scene_graph::SceneGraph* graph, std::uint64_t time_ns = 0, const DoorSet* doors = nullptr);
 
   // The Betti curve of the last update: value i at dilation_at(i) (ascending), curve_size() samples.
   std::size_t curve_size() const { return curve_size_; }
@@ -198,7 +201,7 @@ class RoomFinder {
   struct RoomAccumulator;
 
  private:
-  bool read_places(const scene_graph::SceneGraph& graph, UpdateResult* r);
+  bool read_places(const scene_graph::SceneGraph& graph, const DoorSet* doors, UpdateResult* r);
   void compute_curve();
   std::size_t seed_rooms(double dilation_m, UpdateResult* r);
   std::size_t seed_by_persistence(UpdateResult* r);

@@ -499,6 +499,42 @@ std::size_t close_corridor_ends(SyntheticPlaces* s) {
   return closed;
 }
 
+// The online door stage's doors (a DoorSet, not weights in the graph) close the same passages: doors across the
+// corridor's two ends make it a room, exactly as weight-0 edges there do, and leave the graph's weights alone.
+TEST(RoomFinderTest, DoorsOfADoorSetCloseThePassagesTheyCross) {
+  SyntheticPlaces s;
+  narrow_corridor_plan().add_to(&s, 1.0);
+  SyntheticPlaces weighted = s;
+  const std::size_t closed = close_corridor_ends(&weighted);
+  ASSERT_GT(closed, 0u);
+  memory::Arena arena;
+  DoorSet doors;
+  std::string error;
+  const DoorConfig config;
+  ASSERT_TRUE(arena.create("doors", DoorSet::plan(4), DoorSet::plan(4).total_bytes(), &error)) << error;
+  ASSERT_TRUE(doors.carve(arena, 4, config));
+  for (const double end_x : {17 * testing::kCellM, 33 * testing::kCellM}) {
+    Door d;
+    d.a = Eigen::Vector2d(end_x, 7 * testing::kCellM);
+    d.b = Eigen::Vector2d(end_x, 10 * testing::kCellM);
+    d.z_m = 1.2;
+    ASSERT_TRUE(doors.add(d));
+  }
+  auto g = make_graph();
+  ASSERT_TRUE(s.write(g.get()));
+  auto finder = make_finder();
+  UpdateResult r;
+  EXPECT_NO_ALLOCATIONS(r = finder->update(g.get(), 0, &doors));
+  ASSERT_EQ(r.outcome, Outcome::kOk);
+  EXPECT_EQ(r.rooms, 3u);
+  EXPECT_EQ(r.closed_edges, closed);
+  EXPECT_EQ(r.closed_region_rooms, 1u);
+  expect_one_room_per_tag(*g, s);
+  g->for_each_edge([](const scene_graph::EdgeRecord& e) { EXPECT_FALSE(e.info.weighted && e.info.weight <= 0.0); });
+  // Without the set, the same graph gives two rooms again.
+  EXPECT_EQ(finder->update(g.get()).rooms, 2u);
+}
+
 TEST(RoomFinderTest, ClosedPassagesMakeARegionWithoutSeedARoom) {
   // Without doors: two rooms, the corridor shared between them.
   {

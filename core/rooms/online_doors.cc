@@ -1,0 +1,144 @@
+#include "core/rooms/online_doors.h"
+
+#include <cmath>
+
+namespace qsg::rooms {
+
+std::string OnlineDoorCapacities::check() const {
+  if (wall_tiles == 0) return "doors.wall_tiles: must be positive";
+  if (window_side < 16) return "doors.window_side: must be at least 16 cells, got " + std::to_string(window_side);
+  if (places == 0 || doors == 0 || candidates == 0) return "doors: places, doors and candidates must be positive";
+  return {};
+}
+
+namespace {
+
+DoorWorkspace::Capacities workspace_capacities(const OnlineDoorCapacities& c) {
+  DoorWorkspace::Capacities w;
+  w.cells = c.window_side * c.window_side;
+  w.max_side = c.window_side;
+  w.places = c.places;
+  w.candidates = c.candidates;
+  return w;
+}
+
+}  // namespace
+
+memory::ArenaPlan OnlineDoors::plan(const OnlineDoorCapacities& c) {
+  memory::ArenaPlan p;
+  p.add_plan(WallMap::plan(c.wall_tiles));
+  p.add_plan(DoorSet::plan(c.doors));
+  p.add_plan(DoorWorkspace::plan(workspace_capacities(c)));
+  p.add_array<Door>(c.candidates);
+  return p;
+}
+
+bool OnlineDoors::init(const DoorConfig& config, const OnlineDoorCapacities& capacities, std::size_t budget_bytes,
+                       std::string* error) {
+  ready_ = false;
+  if (!config.validate(error)) return false;
+  const std::string bad = capacities.check();
+  if (!bad.empty()) {
+    if (error != nullptr) *error = bad;
+    return false;
+  }
+  if (2.0 * config.slice_half_band_m / config.cell_m >= 31.0) {
+    if (error != nullptr) *error = "doors: the online stage needs a slice band under 31 cells tall";
+    return false;
+  }
+  config_ = config;
+  capacities_ = capacities;
+  const memory::ArenaPlan p = plan(capacities);
+  if (!arena_.create("doors", p, budget_bytes == 0 ? p.total_bytes() : budget_bytes, error)) return false;
+  bool ok = wall_map_.carve(arena_, capacities.wall_tiles, config.cell_m);
+  arena_.align_to_plan_boundary();
+  ok = ok && doors_.carve(arena_, capacities.doors, config);
+  arena_.align_to_plan_boundary();
+  ok = ok && workspace_.carve(arena_, workspace_capacities(capacities));
+  arena_.align_to_plan_boundary();
+  found_ = arena_.carve_array<Door>(capacities.candidates);
+  arena_.align_to_plan_boundary();
+  ok = ok && found_ != nullptr && arena_.seal();
+  if (!ok) {
+    if (error != nullptr) *error = "doors: the arena's carve does not match its plan";
+    return false;
+  }
+  ready_ = true;
+  return true;
+}
+
+void OnlineDoors::begin_pass(const Eigen::Vector3d& robot_m) {
+  begun_ = false;
+  climbing_ = false;
+  num_places_ = 0;
+  places_dropped_ = 0;
+  if (!ready_ || !robot_m.allFinite()) return;
+  const double previous = last_robot_z_m_;
+  last_robot_z_m_ = robot_m.z();
+  if (std::isfinite(previous) && std::abs(robot_m.z() - previous) > config_.storey_bin_m) {
+    climbing_ = true;
+    return;
+  }
+  const int side = static_cast<int>(capacities_.window_side);
+  // Cell-aligned, so that the WallMap's cells are the raster's.
+  raster_.cell_m = config_.cell_m;
+  raster_.cols = side;
+  raster_.rows = side;
+  raster_.lo = Eigen::Vector2d(std::floor(robot_m.x() / config_.cell_m) - side / 2,
+                               std::floor(robot_m.y() / config_.cell_m) - side / 2) *
+               config_.cell_m;
+  slice_z_m_ = robot_m.z() + config_.slice_above_robot_m;
+  begun_ = true;
+}
+
+void OnlineDoors::add_place(const Eigen::Vector3d& p) {
+  if (!begun_ || !p.allFinite() || std::abs(p.z() - slice_z_m_) > config_.place_band_m) return;
+  int c, r;
+  if (!raster_.cell_of(p.x(), p.y(), &c, &r)) return;
+  if (num_places_ == capacities_.places) {
+    ++places_dropped_;
+    return;
+  }
+  workspace_.place_cells()[num_places_++] = static_cast<std::uint32_t>(static_cast<std::size_t>(r) * raster_.cols + c);
+}
+
+void OnlineDoors::rasterize() {
+  if (!begun_) return;
+  wall_map_.slice(raster_, slice_z_m_, config_.slice_half_band_m, config_.min_wall_height_m, workspace_.wall());
+}
+
+bool OnlineDoors::inside_interior(const Eigen::Vector2d& p) const {
+  const double margin = config_.mapped_radius_m;
+  const Eigen::Vector2d hi = raster_.lo + Eigen::Vector2d(raster_.cols, raster_.rows) * raster_.cell_m;
+  return p.x() >= raster_.lo.x() + margin && p.y() >= raster_.lo.y() + margin && p.x() < hi.x() - margin &&
+         p.y() < hi.y() - margin;
+}
+
+PassResult OnlineDoors::detect() {
+  PassResult result;
+  result.slice_z_m = slice_z_m_;
+  result.places = num_places_;
+  result.places_dropped = places_dropped_;
+  result.climbing = climbing_;
+  if (!begun_) return result;
+  begun_ = false;
+  std::size_t num = 0;
+  if (!detect_doors_in_raster(&workspace_, raster_, num_places_, slice_z_m_, config_, found_,
+                              capacities_.candidates, &num, &result.stats))
+    return result;
+  result.ran = true;
+  // The interior's doors on this storey are replaced; near the window's edge the free space is cut off by the
+  // window, so doors there wait for a window that holds them.
+  const double same_storey = 0.5 * config_.storey_separation_m;
+  result.removed = doors_.remove_if([&](const Door& d) {
+    return std::abs(d.z_m - slice_z_m_) < same_storey && inside_interior(0.5 * (d.a + d.b));
+  });
+  for (std::size_t k = 0; k < num; ++k) {
+    if (!inside_interior(0.5 * (found_[k].a + found_[k].b))) continue;
+    ++result.found;
+    if (!doors_.add(found_[k])) ++result.refused;
+  }
+  return result;
+}
+
+}  // namespace qsg::rooms

@@ -1,0 +1,106 @@
+// The door stage during a run: the offline detector (detect_doors_in_raster) on a fixed square window around the
+// robot, sliced from the robot's surface as the loop paints it into a WallMap, in buffers carved at start-up. Each
+// pass replaces the doors of the window's interior (the window less the mapped radius, on the robot's storey) in a
+// DoorSet that the room finder reads (RoomFinder::update), so rooms found during a run are split at doors without
+// allocating. The final pass on the whole mesh (find_doors, when a run finishes) is unchanged.
+//
+// A pass runs only while the robot's height holds still (not on stairs), in steps that let the caller keep its locks
+// short:
+//   begin_pass(robot)   the window and the slice height (robot height + slice_above_robot_m);
+//   add_place(p)        for every place (the caller holds whatever guards the graph);
+//   rasterize()         the wall raster from the WallMap (the caller holds whatever guards the painting);
+//   detect()            the detection and the DoorSet's update (no shared state but the DoorSet).
+#pragma once
+
+#include <Eigen/Core>
+#include <cstddef>
+#include <cstdint>
+#include <limits>
+#include <string>
+
+#include "core/memory/arena.h"
+#include "core/rooms/door_detector.h"
+#include "core/rooms/wall_map.h"
+
+namespace qsg::rooms {
+
+// Resources (the budget table's "doors" arena).
+struct OnlineDoorCapacities {
+  std::size_t wall_tiles = 2048;  // WallMap tiles (4 KB each): 2048 cover about 5,000 m^2 of one storey
+  std::size_t window_side = 384;  // cells; the window is window_side x cell_m wide (19.2 m at 0.05 m)
+  std::size_t places = 8192;      // places in one window
+  std::size_t doors = 1024;       // doors kept (the DoorSet)
+  std::size_t candidates = 4096;  // critical cells in one window
+  std::string check() const;
+};
+
+struct PassResult {
+  bool ran = false;            // false: not begun, climbing, or the detection refused its inputs
+  bool climbing = false;       // the robot's height moved more than storey_bin_m since the previous pass: no slice
+  double slice_z_m = 0.0;
+  std::size_t places = 0;      // places in the window and the slice's band
+  std::size_t places_dropped = 0;  // beyond OnlineDoorCapacities::places
+  std::size_t found = 0;       // doors in the window's interior
+  std::size_t removed = 0;     // doors of the interior the pass replaced
+  std::size_t refused = 0;     // the DoorSet was full
+  DoorStats stats;
+};
+
+class OnlineDoors {
+ public:
+  OnlineDoors() = default;
+  OnlineDoors(const OnlineDoors&) = delete;
+  OnlineDoors& operator=(const OnlineDoors&) = delete;
+
+  static memory::ArenaPlan plan(const OnlineDoorCapacities& capacities);
+  // Checks the config and capacities and carves every buffer from one arena of at most budget_bytes (0: exactly
+  // the plan). Start-up only; false with the reason in *error.
+  bool init(const DoorConfig& config, const OnlineDoorCapacities& capacities, std::size_t budget_bytes,
+            std::string* error);
+  bool initialized() const { return ready_; }
+
+  WallMap& wall_map() { return wall_map_; }
+  const WallMap& wall_map() const { return wall_map_; }
+  const DoorSet& doors() const { return doors_; }
+
+  // A robot whose height moved more than storey_bin_m since the previous begin_pass is on stairs or a ramp: its
+  // slice would cut the storey at the wrong height (and replace the doors there), so that pass does not run.
+  void begin_pass(const Eigen::Vector3d& robot_m);
+  void add_place(const Eigen::Vector3d& position_m);
+  void rasterize();
+  PassResult detect();
+
+  // Forgets every door (the final pass's doors replace them, for example).
+  void clear_doors() { doors_.clear(); }
+
+  const DoorConfig& config() const { return config_; }
+  const OnlineDoorCapacities& capacities() const { return capacities_; }
+  const DoorRaster& window() const { return raster_; }
+  const memory::Arena& arena() const { return arena_; }
+  template <typename Fn>
+  void for_each_resource(Fn&& fn) const {  // fn(const memory::ResourceStats&)
+    fn(arena_.stats());
+    fn(wall_map_.tile_stats());
+    fn(doors_.stats());
+  }
+
+ private:
+  bool inside_interior(const Eigen::Vector2d& p) const;
+  DoorConfig config_;
+  OnlineDoorCapacities capacities_;
+  memory::Arena arena_;
+  WallMap wall_map_;
+  DoorSet doors_;
+  DoorWorkspace workspace_;
+  Door* found_ = nullptr;  // one pass's doors (capacities_.candidates)
+  DoorRaster raster_;
+  double slice_z_m_ = 0.0;
+  bool begun_ = false;
+  bool climbing_ = false;
+  double last_robot_z_m_ = std::numeric_limits<double>::quiet_NaN();
+  std::size_t num_places_ = 0;
+  std::size_t places_dropped_ = 0;
+  bool ready_ = false;
+};
+
+}  // namespace qsg::rooms

@@ -1,0 +1,280 @@
+// The online door stage: the wall map (painting, repainting a block, slicing, a full tile pool), the DoorSet (the
+// room finder's test agrees with cut_place_edges' on random edges), and a window pass that finds the door the final
+// stage finds, without allocating, and replaces only the doors of its window's interior.
+#include "core/rooms/online_doors.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "core/rooms/room_finder.h"
+#include "tests/support/allocation_counter.h"
+
+namespace qsg::rooms {
+namespace {
+
+constexpr double kStoreyM = 2.5;
+
+// Walls as columns of vertices every 0.05 m along them and 0.1 m up, floor and ceiling slabs, places on a grid.
+struct Scene {
+  std::vector<Eigen::Vector3f> surface;
+  std::vector<Eigen::Vector3d> places;
+  void wall(double x0, double y0, double x1, double y1) {
+    const double len = std::hypot(x1 - x0, y1 - y0);
+    const int n = std::max(1, static_cast<int>(std::ceil(len / 0.05)));
+    for (int i = 0; i <= n; ++i) {
+      const double t = static_cast<double>(i) / n;
+      for (double z = 0.0; z <= kStoreyM + 1e-9; z += 0.1)
+        surface.emplace_back(static_cast<float>(x0 + t * (x1 - x0)), static_cast<float>(y0 + t * (y1 - y0)),
+                             static_cast<float>(z));
+    }
+  }
+  void slabs(double x0, double y0, double x1, double y1) {
+    for (double x = x0; x <= x1 + 1e-9; x += 0.1)
+      for (double y = y0; y <= y1 + 1e-9; y += 0.1)
+        for (const double z : {0.0, kStoreyM})
+          surface.emplace_back(static_cast<float>(x), static_cast<float>(y), static_cast<float>(z));
+  }
+  void place_grid(double x0, double y0, double x1, double y1, double z = 1.0) {
+    for (double x = x0; x <= x1 + 1e-9; x += 0.5)
+      for (double y = y0; y <= y1 + 1e-9; y += 0.5) places.emplace_back(x, y, z);
+  }
+};
+
+// Two 4 x 4 m rooms; the wall between them at x = 4 has a door over y in [y0, y1].
+Scene two_rooms(double y0, double y1) {
+  Scene s;
+  s.wall(0, 0, 8, 0);
+  s.wall(8, 0, 8, 4);
+  s.wall(8, 4, 0, 4);
+  s.wall(0, 4, 0, 0);
+  s.wall(4, 0, 4, y0);
+  s.wall(4, y1, 4, 4);
+  s.slabs(0, 0, 8, 4);
+  s.place_grid(0.25, 0.25, 7.75, 3.75);
+  return s;
+}
+
+OnlineDoorCapacities small_capacities() {
+  OnlineDoorCapacities c;
+  c.wall_tiles = 64;
+  c.window_side = 320;  // 16 m
+  c.places = 512;
+  c.doors = 16;
+  c.candidates = 256;
+  return c;
+}
+
+void paint(const Scene& s, WallMap* map) {
+  for (const Eigen::Vector3f& v : s.surface) map->add(v.x(), v.y(), v.z());
+}
+
+PassResult pass(OnlineDoors* online, const Scene& s, const Eigen::Vector3d& robot) {
+  online->begin_pass(robot);
+  for (const Eigen::Vector3d& p : s.places) online->add_place(p);
+  online->rasterize();
+  return online->detect();
+}
+
+TEST(WallMap, PaintsSlicesAndRepaintsABlock) {
+  memory::Arena arena;
+  WallMap map;
+  std::string error;
+  // 8 m x 4 m x 2.5 m: 6 x 3 x 2 tiles of 1.6 m.
+  const memory::ArenaPlan plan = WallMap::plan(64);
+  ASSERT_TRUE(arena.create("wall_map", plan, plan.total_bytes(), &error)) << error;
+  ASSERT_TRUE(map.carve(arena, 64, 0.05));
+  const Scene s = two_rooms(1.6, 2.5);
+  paint(s, &map);
+  DoorRaster r;
+  r.lo = Eigen::Vector2d(-0.5, -0.5);
+  r.cols = r.rows = 200;
+  r.cell_m = 0.05;
+  std::vector<std::uint8_t> wall(r.cells());
+  map.slice(r, 1.2, 0.4, 0.3, wall.data());
+  const auto at = [&](double x, double y) {
+    int c = 0, q = 0;
+    EXPECT_TRUE(r.cell_of(x, y, &c, &q));
+    return wall[static_cast<std::size_t>(q) * r.cols + c];
+  };
+  EXPECT_EQ(at(4.01, 1.0), 1) << "the wall between the rooms";
+  EXPECT_EQ(at(4.01, 2.0), 0) << "the door";
+  EXPECT_EQ(at(2.0, 2.0), 0) << "floor and ceiling only";
+  EXPECT_EQ(at(0.01, 2.0), 1) << "an outer wall";
+  // A slice near the ceiling sees the ceiling but it spans no height: no wall there either.
+  map.slice(r, 2.5, 0.4, 0.3, wall.data());
+  EXPECT_EQ(at(2.0, 2.0), 0);
+  // Repainting a block: its volume cleared, the wall at x = 4, y in [0.8, 1.6) gone; the rest stays.
+  map.clear_box(Eigen::Vector3d(3.2, 0.8, 0.0), Eigen::Vector3d(4.8, 1.6, 3.2));
+  map.slice(r, 1.2, 0.4, 0.3, wall.data());
+  EXPECT_EQ(at(4.01, 1.0), 0);
+  EXPECT_EQ(at(4.01, 0.5), 1);
+  EXPECT_EQ(at(4.01, 3.0), 1);
+  paint(s, &map);
+  map.slice(r, 1.2, 0.4, 0.3, wall.data());
+  EXPECT_EQ(at(4.01, 1.0), 1);
+  EXPECT_EQ(map.tile_stats().failed, 0u);
+  EXPECT_EQ(map.tile_stats().in_use, 36u);
+}
+
+TEST(WallMap, AFullTilePoolIsCountedNotFatal) {
+  memory::Arena arena;
+  WallMap map;
+  std::string error;
+  const memory::ArenaPlan plan = WallMap::plan(2);
+  ASSERT_TRUE(arena.create("wall_map", plan, plan.total_bytes(), &error)) << error;
+  ASSERT_TRUE(map.carve(arena, 2, 0.05));
+  EXPECT_TRUE(map.add(0.1f, 0.1f, 0.1f));
+  EXPECT_TRUE(map.add(5.1f, 0.1f, 0.1f));  // a second tile (tiles are 1.6 m wide)
+  EXPECT_FALSE(map.add(10.1f, 0.1f, 0.1f)) << "a third tile does not fit";
+  EXPECT_FALSE(map.add(std::nanf(""), 0.1f, 0.1f));
+  EXPECT_TRUE(map.add(0.2f, 0.1f, 0.1f)) << "an existing tile still takes vertices";
+  EXPECT_EQ(map.tile_stats().in_use, 2u);
+  EXPECT_EQ(map.tile_stats().failed, 1u);
+  EXPECT_EQ(map.dropped_vertices(), 1u);
+}
+
+TEST(DoorSet, ClosesExactlyTheEdgesCutPlaceEdgesWould) {
+  const DoorConfig config;
+  memory::Arena arena;
+  DoorSet set;
+  std::string error;
+  const memory::ArenaPlan plan = DoorSet::plan(40);
+  ASSERT_TRUE(arena.create("door_set", plan, plan.total_bytes(), &error)) << error;
+  ASSERT_TRUE(set.carve(arena, 40, config));
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> pos(-20.0, 20.0), len(0.5, 2.5), ang(0.0, 2.0 * M_PI), dz(-2.0, 2.0);
+  std::vector<Door> doors;
+  for (int i = 0; i < 40; ++i) {
+    Door d;
+    d.a = Eigen::Vector2d(pos(rng), pos(rng));
+    const double t = ang(rng);
+    d.b = d.a + len(rng) * Eigen::Vector2d(std::cos(t), std::sin(t));
+    d.z_m = 1.2;
+    doors.push_back(d);
+    ASSERT_TRUE(set.add(d));
+  }
+  Door extra;
+  EXPECT_FALSE(set.add(extra)) << "full";
+  EXPECT_EQ(set.stats().failed, 1u);
+  std::size_t closed = 0;
+  for (int i = 0; i < 20000; ++i) {
+    const Eigen::Vector3d a(pos(rng), pos(rng), 1.0 + dz(rng));
+    const double t = ang(rng);
+    const double l = i % 100 == 0 ? 30.0 : 0.3 + 2.0 * std::abs(std::sin(t * 7.0));  // some long edges too
+    const Eigen::Vector3d b = a + Eigen::Vector3d(l * std::cos(t), l * std::sin(t), 0.3 * dz(rng));
+    bool expected = false;
+    for (const Door& d : doors) expected = expected || door_closes_edge(d, config, a, b);
+    ASSERT_EQ(set.closes(a, b), expected) << "edge " << i;
+    closed += expected ? 1 : 0;
+  }
+  EXPECT_GT(closed, 100u) << "the random edges must cross doors often enough to test something";
+  // Removal keeps the index right.
+  const std::size_t removed = set.remove_if([](const Door& d) { return d.a.x() < 0.0; });
+  EXPECT_GT(removed, 0u);
+  std::vector<Door> kept;
+  for (const Door& d : doors)
+    if (d.a.x() >= 0.0) kept.push_back(d);
+  ASSERT_EQ(set.size(), kept.size());
+  for (int i = 0; i < 5000; ++i) {
+    const Eigen::Vector3d a(pos(rng), pos(rng), 1.0);
+    const Eigen::Vector3d b = a + Eigen::Vector3d(len(rng), len(rng) - 1.5, 0.0);
+    bool expected = false;
+    for (const Door& d : kept) expected = expected || door_closes_edge(d, config, a, b);
+    ASSERT_EQ(set.closes(a, b), expected);
+  }
+}
+
+TEST(OnlineDoors, AWindowPassFindsTheFinalStagesDoorWithoutAllocating) {
+  OnlineDoors online;
+  std::string error;
+  ASSERT_TRUE(online.init(DoorConfig{}, small_capacities(), 0, &error)) << error;
+  const Scene s = two_rooms(1.6, 2.5);
+  paint(s, &online.wall_map());
+  const Eigen::Vector3d robot(2.0, 2.0, 0.5);  // the slice: 1.2 m
+  PassResult r;
+  EXPECT_NO_ALLOCATIONS(r = pass(&online, s, robot));
+  ASSERT_TRUE(r.ran);
+  EXPECT_DOUBLE_EQ(r.slice_z_m, 1.2);
+  EXPECT_EQ(r.places, s.places.size());
+  ASSERT_EQ(online.doors().size(), 1u);
+  std::vector<Door> final_doors;
+  ASSERT_TRUE(detect_doors(s.surface, s.places, 1.2, DoorConfig{}, &final_doors, nullptr, &error)) << error;
+  ASSERT_EQ(final_doors.size(), 1u);
+  EXPECT_LT((0.5 * (online.doors()[0].a + online.doors()[0].b) - 0.5 * (final_doors[0].a + final_doors[0].b)).norm(),
+            0.1);
+  EXPECT_NEAR(online.doors()[0].width_m(), final_doors[0].width_m(), 0.1);
+  // The room finder reads the edges through it as closed.
+  const Eigen::Vector3d left(3.75, 2.25, 1.0), right(4.25, 2.25, 1.0), wall_side(4.25, 0.75, 1.0);
+  EXPECT_TRUE(online.doors().closes(left, right));
+  EXPECT_FALSE(online.doors().closes(Eigen::Vector3d(3.75, 0.75, 1.0), wall_side));
+  // The door walled up: the next pass over the same window drops it.
+  Scene closed = two_rooms(1.6, 2.5);
+  closed.wall(4, 1.6, 4, 2.5);
+  paint(closed, &online.wall_map());
+  r = pass(&online, closed, robot);
+  EXPECT_EQ(r.removed, 1u);
+  EXPECT_EQ(online.doors().size(), 0u);
+}
+
+TEST(OnlineDoors, APassReplacesOnlyItsInteriorsDoorsOnItsStorey) {
+  OnlineDoors online;
+  std::string error;
+  ASSERT_TRUE(online.init(DoorConfig{}, small_capacities(), 0, &error)) << error;
+  const Scene s = two_rooms(1.6, 2.5);
+  paint(s, &online.wall_map());
+  ASSERT_TRUE(pass(&online, s, Eigen::Vector3d(2.0, 2.0, 0.5)).ran);
+  ASSERT_EQ(online.doors().size(), 1u);
+  // Far away (the door outside the window) and a storey up (over the door, beyond half a storey separation): the
+  // door stays.
+  EXPECT_TRUE(pass(&online, s, Eigen::Vector3d(30.0, 2.0, 0.5)).ran);
+  EXPECT_EQ(online.doors().size(), 1u);
+  const PassResult climbing = pass(&online, s, Eigen::Vector3d(2.0, 2.0, 1.7));
+  EXPECT_TRUE(climbing.climbing) << "1.2 m up since the previous pass: on the stairs";
+  EXPECT_FALSE(climbing.ran);
+  EXPECT_EQ(online.doors().size(), 1u);
+  const PassResult landing = pass(&online, s, Eigen::Vector3d(2.0, 2.0, 3.5));
+  EXPECT_TRUE(landing.climbing);
+  const PassResult up = pass(&online, s, Eigen::Vector3d(2.0, 2.0, 3.55));
+  EXPECT_FALSE(up.climbing) << "within storey_bin_m of the previous pass";
+  EXPECT_TRUE(up.ran);
+  EXPECT_EQ(up.removed, 0u);
+  EXPECT_EQ(online.doors().size(), 1u);
+  ASSERT_TRUE(pass(&online, s, Eigen::Vector3d(2.0, 2.0, 0.5)).climbing);  // back down: the next pass runs
+  // A window whose interior does not reach the door (it lies within the mapped radius of the edge): kept, not
+  // re-found.
+  const PassResult edge = pass(&online, s, Eigen::Vector3d(4.0 + 8.0 - 1.0, 2.0, 0.5));
+  EXPECT_EQ(edge.removed, 0u);
+  EXPECT_EQ(online.doors().size(), 1u);
+  online.clear_doors();
+  EXPECT_EQ(online.doors().size(), 0u);
+}
+
+TEST(OnlineDoors, BadConfigAndCapacitiesAreClearErrors) {
+  OnlineDoors online;
+  std::string error;
+  OnlineDoorCapacities c = small_capacities();
+  c.window_side = 4;
+  EXPECT_FALSE(online.init(DoorConfig{}, c, 0, &error));
+  EXPECT_NE(error.find("window_side"), std::string::npos) << error;
+  DoorConfig tall;
+  tall.slice_half_band_m = 1.0;  // 40 cells: more than a word of bins
+  EXPECT_FALSE(online.init(tall, small_capacities(), 0, &error));
+  EXPECT_NE(error.find("band"), std::string::npos) << error;
+  EXPECT_FALSE(online.init(DoorConfig{}, small_capacities(), 1024, &error)) << "the budget is too small";
+  EXPECT_NE(error.find("budget"), std::string::npos) << error;
+  EXPECT_FALSE(online.initialized());
+  // Not initialised: a pass does nothing.
+  online.begin_pass(Eigen::Vector3d::Zero());
+  EXPECT_FALSE(online.detect().ran);
+  // NaN robot position: no pass.
+  ASSERT_TRUE(online.init(DoorConfig{}, small_capacities(), 0, &error)) << error;
+  online.begin_pass(Eigen::Vector3d(std::nan(""), 0.0, 0.0));
+  EXPECT_FALSE(online.detect().ran);
+}
+
+}  // namespace
+}  // namespace qsg::rooms
