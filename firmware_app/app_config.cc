@@ -1,6 +1,7 @@
 // Loading and checking the app's configuration.
 #include "firmware_app/app_config.h"
 
+#include <cmath>
 #include <fstream>
 #include <functional>
 #include <map>
@@ -179,14 +180,22 @@ bool AppConfig::load(const std::string& path, std::string* error) {
          return true;
        }},
       {"doors", [&](const Json& v, std::string* why) {
-         return read_section(v, "doors",
+         double every_n = doors_online_every_n;
+         if (!read_section(v, "doors",
                              {{"at_finish", boolean(&doors_at_finish)},
+                              {"online", boolean(&doors_online)},
+                              {"online_every_n_updates", number(&every_n)},
                               {"slice_above_robot_m", number(&doors.slice_above_robot_m)},
                               {"min_width_m", number(&doors.min_width_m)},
                               {"max_width_m", number(&doors.max_width_m)},
                               {"min_rise_m", number(&doors.min_rise_m)},
                               {"rise_reach_m", number(&doors.rise_reach_m)}},
-                             why);
+                             why))
+           return false;
+         if (!(every_n >= 1.0 && every_n <= 1e6 && every_n == std::floor(every_n)))
+           return *why = "doors.online_every_n_updates: expected an integer 1 .. 1000000", false;
+         doors_online_every_n = static_cast<std::uint32_t>(every_n);
+         return true;
        }},
       {"frontend", [&](const Json& v, std::string* why) {
          return read_section(v, "frontend", {{"connect_interlayer", boolean(&frontend.connect_interlayer)}}, why);
@@ -301,9 +310,11 @@ void AppConfig::print(std::FILE* out) const {
                segmentation.model_path.empty() ? "" : segmentation.label_map_path.c_str(), segmentation.deadline_s,
                segmentation.min_confidence);
   std::fprintf(out,
-               "doors: %s, slice %.2f m above the robot on each storey, widths %.2f .. %.2f m, rise %.2f m within "
-               "%.2f m\n",
-               doors_at_finish ? "found when the run finishes" : "off", doors.slice_above_robot_m, doors.min_width_m,
+               "doors: %s%s%s, slice %.2f m above the robot on each storey, widths %.2f .. %.2f m, rise %.2f m "
+               "within %.2f m\n",
+               doors_online ? "online (every " : "",
+               doors_online ? (std::to_string(doors_online_every_n) + ". backend update), ").c_str() : "",
+               doors_at_finish ? "found when the run finishes" : "not at the finish", doors.slice_above_robot_m, doors.min_width_m,
                doors.max_width_m, doors.min_rise_m, doors.rise_reach_m);
   std::fprintf(out, "room_labels: weights_path=%s\n",
                room_weights_path.empty() ? "(built-in: core/neural_tree/weights/room_classifier_v2.json)"

@@ -74,9 +74,13 @@ struct AppConfig {
   frontend::Config frontend;
   rooms::Config rooms;
   // Doors found on the robot's surface when a run finishes (rooms::find_doors): the place edges through them close
-  // and the rooms and their labels are found once more before the final outputs. Not during the run: the detector
-  // allocates its raster (off the real-time path).
+  // and the rooms and their labels are found once more before the final outputs.
   bool doors_at_finish = true;
+  // Doors during the run (rooms::OnlineDoors): the loop paints the re-meshed blocks into the "doors" arena's wall
+  // map, and every doors_online_every_n-th backend update detects doors in a window around the robot first; the
+  // room finder reads the place edges through them as closed. Its buffers are the budget table's "doors" arena.
+  bool doors_online = true;
+  std::uint32_t doors_online_every_n = 4;
   rooms::DoorConfig doors;
   runtime::KeyframeConfig keyframes;
   runtime::SchedulerConfig scheduler;

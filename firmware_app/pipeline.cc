@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <chrono>
 #include <cmath>
 #include <algorithm>
 #include <cstring>
@@ -236,6 +237,7 @@ bool Pipeline::init_backend(std::string* error) {
   const auto collate = [](BackendUpdate& queued, BackendUpdate&& incoming) {
     queued.time_ns = incoming.time_ns;  // the backend works on the latest graph anyway: one update covers both
     queued.frontend_cycles += incoming.frontend_cycles;
+    queued.robot_m = incoming.robot_m;
   };
   if (!backend_queue_.init(q->depth, q->policy, collate, error)) return false;
   // A missing or corrupt weight file is reported and the rooms keep the label "unknown": the run goes on.
@@ -246,13 +248,52 @@ bool Pipeline::init_backend(std::string* error) {
   if (!classifier_->init(&why))
     std::fprintf(stderr, "qsg_app: room labels off: %s (rooms stay \"unknown\")\n", why.c_str());
   room_graph_.reserve(2048, 8192);
+  if (config_.doors_online) {
+    rooms::OnlineDoorCapacities dc;
+    dc.wall_tiles = budgets::active::doors::kWallTiles;
+    dc.window_side = budgets::active::doors::kWindowSide;
+    dc.places = budgets::active::doors::kPlaces;
+    dc.doors = budgets::active::doors::kDoors;
+    dc.candidates = budgets::active::doors::kCandidates;
+    if (!online_doors_.init(config_.doors, dc, budgets::active::doors::kArenaBytes, error)) return false;
+    painted_stamp_.assign(tsdf_.block_slots(), 0u);
+    painted_block_.assign(tsdf_.block_slots(), memory::Index3{});
+  }
   if (!config_.lockstep) backend_thread_ = std::thread([this] { backend_worker(); });
   return true;
 }
 
-void Pipeline::run_backend_update(std::uint64_t time_ns) {
+// One online door pass (backend thread): the places under the graph's lock, the wall raster under the wall map's,
+// the detection under neither.
+void Pipeline::run_door_pass(const Eigen::Vector3d& robot_m) {
+  const auto start = std::chrono::steady_clock::now();
+  online_doors_.begin_pass(robot_m);
+  {
+    std::lock_guard<std::mutex> lock(graph_mutex_);
+    graph_.for_each_node([&](const scene_graph::NodeRecord& n) {
+      if (n.kind == scene_graph::NodeKind::kPlace) online_doors_.add_place(graph_.place(n.id)->position_m);
+    });
+  }
+  {
+    std::lock_guard<std::mutex> lock(wall_mutex_);
+    online_doors_.rasterize();
+  }
+  const rooms::PassResult r = online_doors_.detect();
+  const auto us = static_cast<std::uint64_t>(
+      std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::steady_clock::now() - start).count());
+  if (r.climbing) door_passes_climbing_.fetch_add(1);
+  if (!r.ran) return;
+  door_passes_.fetch_add(1);
+  online_doors_count_.store(online_doors_.doors().size());
+  if (us > door_pass_max_us_.load()) door_pass_max_us_.store(us);
+}
+
+void Pipeline::run_backend_update(const BackendUpdate& u, bool door_pass) {
+  const bool online = config_.doors_online && online_doors_.initialized();
+  if (online && door_pass && backend_passes_due_++ % config_.doors_online_every_n == 0) run_door_pass(u.robot_m);
+  const std::uint64_t time_ns = u.time_ns;
   std::lock_guard<std::mutex> lock(graph_mutex_);
-  const rooms::UpdateResult r = rooms_.update(&graph_, time_ns);
+  const rooms::UpdateResult r = rooms_.update(&graph_, time_ns, online ? &online_doors_.doors() : nullptr);
   backend_updates_.fetch_add(1);
   rooms_count_.store(r.rooms);
   if (r.rooms > 0 && classifier_ != nullptr && classifier_->ready()) label_rooms();
@@ -317,7 +358,7 @@ void Pipeline::label_rooms() {
 void Pipeline::backend_worker() {
   BackendUpdate u;
   while (!backend_stop_.load())
-    if (backend_queue_.pop_wait(&u, 100000000)) run_backend_update(u.time_ns);
+    if (backend_queue_.pop_wait(&u, 100000000)) run_backend_update(u);
 }
 
 bool Pipeline::segment_frame(int index) {
@@ -424,11 +465,15 @@ bool Pipeline::step() {
   }
   if (config_.lockstep) {
     BackendUpdate u;
-    if (backend_queue_.try_pop(&u)) run_backend_update(u.time_ns);
+    if (backend_queue_.try_pop(&u)) run_backend_update(u);
   }
   counters_.backend_updates = backend_updates_.load();
   counters_.rooms = rooms_count_.load();
   counters_.rooms_labelled = rooms_labelled_.load();
+  counters_.door_passes = door_passes_.load();
+  counters_.door_passes_climbing = door_passes_climbing_.load();
+  counters_.online_doors = online_doors_count_.load();
+  counters_.door_pass_max_us = door_pass_max_us_.load();
   if (tick_start >= next_snapshot_ns_) {
     std::string error;
     if (!write_snapshot(&error)) {
@@ -559,6 +604,7 @@ void Pipeline::integrate_keyframe(const runtime::TaskContext& c) {
     return;
   }
   ++counters_.keyframes_integrated;
+  paint_walls();
   frontend_.observe(tsdf_, world_T_camera);
   robot_m_ = world_T_camera.translation();
   latest_keyframe_ns_ = static_cast<std::uint64_t>(frame.sample_time_ns);
@@ -571,6 +617,34 @@ void Pipeline::integrate_keyframe(const runtime::TaskContext& c) {
     ++counters_.agent_refused;
   }
   (void)c;
+}
+
+// The blocks marching cubes re-ran on since they were last painted go into the online door stage's wall map: their
+// volume is cleared and their vertices painted. Allocation-free; skipped (and counted) while a door pass reads the
+// map, in which case the next keyframe paints them.
+void Pipeline::paint_walls() {
+  if (!online_doors_.initialized()) return;
+  std::unique_lock<std::mutex> lock(wall_mutex_, std::try_to_lock);
+  if (!lock.owns_lock()) {
+    ++counters_.wall_paint_deferred;
+    return;
+  }
+  rooms::WallMap& walls = online_doors_.wall_map();
+  const double side = tsdf_.block_size_m();
+  tsdf_.for_each_block([&](std::uint32_t h, const reconstruction::SemanticTsdf::BlockView& view) {
+    if (h >= painted_stamp_.size() || view.meshed_stamp == 0 ||
+        (painted_stamp_[h] == view.meshed_stamp && painted_block_[h] == view.index))
+      return;
+    painted_stamp_[h] = view.meshed_stamp;
+    painted_block_[h] = view.index;
+    const Eigen::Vector3d lo(view.index.x * side, view.index.y * side, view.index.z * side);
+    walls.clear_box(lo, lo + Eigen::Vector3d::Constant(side));
+    reconstruction::SemanticTsdf::VertexCursor cursor;
+    reconstruction::MeshVertex v;
+    std::uint64_t key = 0;
+    while (tsdf_.next_block_vertex(h, &cursor, &v, &key)) walls.add(v.x, v.y, v.z);
+    ++counters_.blocks_painted;
+  });
 }
 
 void Pipeline::update_frontend(const runtime::TaskContext& c) {
@@ -586,7 +660,7 @@ void Pipeline::update_frontend(const runtime::TaskContext& c) {
   }
   ++counters_.frontend_updates;
   if (!s.places_complete) ++counters_.frontend_deadline_stops;
-  else backend_queue_.push(BackendUpdate{latest_keyframe_ns_, 1});  // collates while the backend is busy
+  else backend_queue_.push(BackendUpdate{latest_keyframe_ns_, 1, robot_m_});  // collates while the backend is busy
 }
 
 // ---------------------------------------------------------------------------------------------------------
@@ -623,6 +697,7 @@ void Pipeline::print_telemetry(std::FILE* out) {
     graph_.for_each_resource(watch);
   }
   frontend_.for_each_resource(watch);
+  if (online_doors_.initialized()) online_doors_.for_each_resource(watch);
   std::fprintf(out,
                "[t=%7.1fs] kf/s=%.1f keyframes=%llu | max_us recon=%lld frontend=%lld overruns=%zu | blocks=%zu/%zu "
                "archive=%zu tri | graph nodes=%zu rooms=%llu | frames queue hw=%u drops=%llu | driver drops=%llu stalls=%llu "
@@ -664,6 +739,7 @@ void Pipeline::close_doors(const reconstruction::Mesh& mesh) {
   }
   counters_.doors = doors.size();
   counters_.door_edges_closed = rooms::cut_place_edges(doors, config_.doors, &graph_);
+  online_doors_.clear_doors();  // the final doors, every storey on the whole mesh, replace the online ones
   std::printf("doors: %zu in %zu storey slice(s) of the final surface, %llu place edges closed\n", doors.size(),
               stats.slices, static_cast<unsigned long long>(counters_.door_edges_closed));
 }
@@ -676,7 +752,7 @@ bool Pipeline::finish(std::string* error) {
   reconstruction::Mesh mesh;
   tsdf_.extract_full_mesh(&mesh);
   if (config_.doors_at_finish) close_doors(mesh);
-  run_backend_update(latest_keyframe_ns_);
+  run_backend_update(BackendUpdate{latest_keyframe_ns_, 0, robot_m_}, false);
   counters_.backend_updates = backend_updates_.load();
   counters_.rooms = rooms_count_.load();
   counters_.rooms_labelled = rooms_labelled_.load();

@@ -17,6 +17,7 @@
 #include "core/frontend/frontend.h"
 #include "core/reconstruction/semantic_tsdf.h"
 #include "core/neural_tree/room_classifier.h"
+#include "core/rooms/online_doors.h"
 #include "core/rooms/room_finder.h"
 #include "core/segmentation/segmenter.h"
 #include "core/scene_graph/scene_graph.h"
@@ -58,6 +59,13 @@ struct PipelineCounters {
   std::uint64_t doors = 0;                // doors found when the run finished (AppConfig::doors_at_finish)
   std::uint64_t door_edges_closed = 0;    // place edges they closed
   std::uint64_t door_failures = 0;        // the door stage failed (logged; the rooms stay as the run left them)
+  // Online doors (AppConfig::doors_online).
+  std::uint64_t door_passes = 0;          // window passes run before a room update
+  std::uint64_t door_passes_climbing = 0; // passes skipped: the robot's height was changing (stairs)
+  std::uint64_t online_doors = 0;         // doors the room finder reads (latest pass)
+  std::uint64_t door_pass_max_us = 0;     // the longest pass (backend thread; wall time)
+  std::uint64_t blocks_painted = 0;       // re-meshed blocks painted into the wall map
+  std::uint64_t wall_paint_deferred = 0;  // keyframes whose painting waited for the next (a pass held the map)
   std::uint64_t keyframes_segmented = 0;
   std::uint64_t keyframes_unlabelled = 0; // waited past the segmentation deadline (or segmentation failed)
   std::uint64_t telemetry_lines = 0;
@@ -94,6 +102,7 @@ class Pipeline {
   runtime::QueueStats segmentation_queue_stats() const { return segmentation_queue_.stats(); }
   runtime::QueueStats backend_queue_stats() const { return backend_queue_.stats(); }
   const rooms::RoomFinder& room_finder() const { return rooms_; }
+  const rooms::OnlineDoors& online_doors() const { return online_doors_; }
   // Fraction of the source consumed, when the source knows its length (else a negative number).
   double progress() const;
   // Wall-clock view of a stage's cost: the scheduler measures with this clock (the loop clock unless set).
@@ -124,7 +133,8 @@ class Pipeline {
   void collect_segmented();
   bool init_backend(std::string* error);
   void backend_worker();
-  void run_backend_update(std::uint64_t time_ns);
+  struct BackendUpdate;
+  void run_backend_update(const BackendUpdate& u, bool door_pass = true);
   void close_doors(const reconstruction::Mesh& mesh);
   bool segment_frame(int index);
   bool init_gpio(std::string* error);
@@ -176,8 +186,22 @@ class Pipeline {
   struct BackendUpdate {
     std::uint64_t time_ns = 0;
     std::uint32_t frontend_cycles = 0;
+    Eigen::Vector3d robot_m = Eigen::Vector3d::Zero();  // the camera at time_ns: the online door window's centre
   };
   rooms::RoomFinder rooms_;
+  // Online doors: the loop paints re-meshed blocks into the wall map under wall_mutex_ (try-lock: a keyframe never
+  // waits; what it skips is painted with the next one), the backend slices it around the robot.
+  rooms::OnlineDoors online_doors_;
+  std::mutex wall_mutex_;
+  std::vector<std::uint32_t> painted_stamp_;    // per TSDF block slot: the meshed_stamp last painted
+  std::vector<memory::Index3> painted_block_;   // ... and the block it was
+  std::uint64_t backend_passes_due_ = 0;        // backend thread only
+  std::atomic<std::uint64_t> door_passes_{0};
+  std::atomic<std::uint64_t> door_passes_climbing_{0};
+  std::atomic<std::uint64_t> online_doors_count_{0};
+  std::atomic<std::uint64_t> door_pass_max_us_{0};
+  void paint_walls();
+  void run_door_pass(const Eigen::Vector3d& robot_m);
   // Room labels: the neural tree over objects, rooms and the building. Without weights rooms stay "unknown".
   std::unique_ptr<neural_tree::RoomClassifier> classifier_;
   neural_tree::ObjectRoomGraph room_graph_;

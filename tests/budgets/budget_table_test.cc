@@ -9,6 +9,7 @@
 #include "budgets/budget_table.h"
 #include "core/reconstruction/semantic_tsdf.h"
 #include "core/places/places.h"
+#include "core/rooms/online_doors.h"
 #include "core/rooms/room_finder.h"
 #include "core/scene_graph/scene_graph.h"
 
@@ -95,6 +96,26 @@ void expect_rooms_fit(const char* board, std::size_t arena_bytes) {
 TEST(BudgetTableTest, RoomsArenaHoldsTheRoomFinder) {
   expect_rooms_fit<HostSimSceneGraph>("host_sim", budgets::host_sim::rooms::kArenaBytes);
   expect_rooms_fit<XavierNxSceneGraph>("xavier_nx", budgets::xavier_nx::rooms::kArenaBytes);
+}
+
+// The online door stage's arena holds its wall map, door set and window workspace.
+#define QSG_DOORS_FIT(board)                                                                                  \
+  do {                                                                                                        \
+    rooms::OnlineDoorCapacities c;                                                                            \
+    c.wall_tiles = budgets::board::doors::kWallTiles;                                                         \
+    c.window_side = budgets::board::doors::kWindowSide;                                                       \
+    c.places = budgets::board::doors::kPlaces;                                                                \
+    c.doors = budgets::board::doors::kDoors;                                                                  \
+    c.candidates = budgets::board::doors::kCandidates;                                                        \
+    EXPECT_EQ(c.check(), "") << #board;                                                                       \
+    const std::size_t planned = rooms::OnlineDoors::plan(c).total_bytes();                                    \
+    EXPECT_LE(planned, budgets::board::doors::kArenaBytes) << #board ": door capacities need " << planned;    \
+    std::printf(#board " doors arena: planned %zu of %zu bytes\n", planned, budgets::board::doors::kArenaBytes); \
+  } while (0)
+
+TEST(BudgetTableTest, DoorsArenaHoldsTheOnlineDoorStage) {
+  QSG_DOORS_FIT(host_sim);
+  QSG_DOORS_FIT(xavier_nx);
 }
 
 template <typename Ns>

@@ -37,11 +37,19 @@ TEST(PipelineTest, LockstepRunIsAllocationFreeInSteadyStateAndWithinCapacity) {
   while (p.counters().keyframes_integrated < 20 && p.step()) ++steps;
   ASSERT_GE(p.counters().keyframes_integrated, 20u);
   const std::uint64_t before = p.counters().keyframes_integrated;
+  const std::uint64_t passes_before = p.counters().door_passes;
   EXPECT_NO_ALLOCATIONS({
     for (int k = 0; k < 2000 && p.step(); ++k) {
     }
   });
   EXPECT_GE(p.counters().keyframes_integrated, before + 30) << "the measured steps must include keyframes";
+  // ... and online door passes (the backend runs inline in lockstep), with the wall map painted every keyframe.
+  EXPECT_GT(p.counters().door_passes, passes_before);
+  EXPECT_GT(p.counters().blocks_painted, 0u);
+  p.online_doors().for_each_resource([](const memory::ResourceStats& s) {
+    EXPECT_EQ(s.failed, 0u) << s.name;
+    EXPECT_LE(s.high_water, s.capacity) << s.name;
+  });
   EXPECT_EQ(p.counters().keyframes_refused, 0u);
   EXPECT_EQ(p.counters().agent_refused, 0u);
   // Every store of the graph and of the reconstruction stayed below capacity, nothing was refused.
@@ -135,6 +143,44 @@ TEST(PipelineTest, DoorsFoundWhenTheRunFinishesCloseEdgesAndRoomsFollow) {
       EXPECT_EQ(p.counters().doors, 0u);
       EXPECT_EQ(closed, 0u);
     }
+  }
+}
+
+TEST(PipelineTest, OnlineDoorsCloseEdgesForTheRoomsDuringTheRun) {
+  for (const bool online : {true, false}) {
+    runtime::SteppedClock clock;
+    Pipeline p;
+    std::string error;
+    AppConfig config = small_config(online ? "online_doors" : "no_online_doors");
+    config.doors_at_finish = false;
+    config.doors_online = online;
+    config.doors_online_every_n = 2;
+    ASSERT_TRUE(p.init(config, &clock, &error)) << error;
+    while (p.step()) {
+    }
+    EXPECT_GT(p.counters().rooms, 0u);
+    if (online) {
+      // The 4-room building's doors are found in the windows around the robot and the room finder reads the place
+      // edges through them as closed (the graph's weights stay as the places layer wrote them).
+      EXPECT_GT(p.counters().door_passes, p.counters().backend_updates / 3);
+      EXPECT_GE(p.counters().online_doors, 2u);
+      EXPECT_EQ(p.online_doors().doors().size(), p.counters().online_doors);
+      EXPECT_GT(p.counters().blocks_painted, 0u);
+      EXPECT_GT(p.counters().door_pass_max_us, 0u);
+      std::size_t closed = 0;
+      p.graph().for_each_edge([&](const scene_graph::EdgeRecord& e) {
+        const scene_graph::PlaceAttributes* a = p.graph().place(e.source);
+        const scene_graph::PlaceAttributes* b = p.graph().place(e.target);
+        if (a != nullptr && b != nullptr && p.online_doors().doors().closes(a->position_m, b->position_m)) ++closed;
+        EXPECT_FALSE(e.info.weighted && e.info.weight <= 0.0) << "online doors do not write the graph";
+      });
+      EXPECT_GE(closed, 2u);
+    } else {
+      EXPECT_FALSE(p.online_doors().initialized());
+      EXPECT_EQ(p.counters().door_passes, 0u);
+      EXPECT_EQ(p.counters().blocks_painted, 0u);
+    }
+    ASSERT_TRUE(p.finish(&error)) << error;
   }
 }
 
@@ -269,6 +315,15 @@ TEST(AppConfigTest, LoadsKnownKeysAndNamesBadOnes) {
   EXPECT_EQ(doors.doors.max_width_m, 2.0);
   EXPECT_FALSE(doors.load(write("door_widths.json", "{\"doors\": {\"min_width_m\": 3.0}}"), &error));
   EXPECT_NE(error.find("min_width_m"), std::string::npos) << error;
+  AppConfig online;
+  ASSERT_TRUE(online.load(write("online.json", "{\"doors\": {\"online\": false, \"online_every_n_updates\": 7}}"),
+                          &error))
+      << error;
+  EXPECT_FALSE(online.doors_online);
+  EXPECT_EQ(online.doors_online_every_n, 7u);
+  EXPECT_FALSE(online.load(write("online_n.json", "{\"doors\": {\"online_every_n_updates\": 0}}"), &error));
+  EXPECT_NE(error.find("online_every_n_updates"), std::string::npos) << error;
+  EXPECT_FALSE(online.load(write("online_frac.json", "{\"doors\": {\"online_every_n_updates\": 1.5}}"), &error));
   // The shipped default file loads and equals the built-in defaults where it spells them out.
   AppConfig shipped;
   ASSERT_TRUE(shipped.load(std::string(QSG_SOURCE_DIR) + "/firmware_app/config/default.json", &error)) << error;
@@ -285,6 +340,8 @@ TEST(AppConfigTest, LoadsKnownKeysAndNamesBadOnes) {
   EXPECT_EQ(sr.split_min_persistence_m, dr.split_min_persistence_m);
   EXPECT_EQ(sr.split_min_component_size, dr.split_min_component_size);
   EXPECT_EQ(shipped.doors_at_finish, AppConfig().doors_at_finish);
+  EXPECT_EQ(shipped.doors_online, AppConfig().doors_online);
+  EXPECT_EQ(shipped.doors_online_every_n, AppConfig().doors_online_every_n);
   EXPECT_EQ(shipped.doors.slice_above_robot_m, AppConfig().doors.slice_above_robot_m);
   EXPECT_EQ(shipped.doors.min_width_m, AppConfig().doors.min_width_m);
   EXPECT_EQ(shipped.doors.max_width_m, AppConfig().doors.max_width_m);
