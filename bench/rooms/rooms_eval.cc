@@ -40,6 +40,7 @@
 #include "core/neural_tree/room_classifier.h"
 #include "core/reconstruction/semantic_tsdf.h"
 #include "core/rooms/door_detector.h"
+#include "core/rooms/online_doors.h"
 #include "core/rooms/room_finder.h"
 #include "core/scene_graph/scene_graph.h"
 #include "core/scene_graph/spark_dsg_json.h"
@@ -95,6 +96,11 @@ struct Options {
   // robot walked) close the place edges that cross them before the room finder runs, as the app does when a run
   // finishes.
   bool doors = true;
+  // --doors online: the door stage the app runs during a run instead (rooms::OnlineDoors): the loop paints each
+  // re-meshed block into the wall map, every --online-every N-th frontend update runs a window pass around the
+  // robot, and the room finder reads the online doors (no final stage). The doors are cached beside the graph.
+  bool online_doors = false;
+  int online_every = 4;
   rooms::DoorConfig door;
 };
 
@@ -126,7 +132,10 @@ bool parse(int argc, char** argv, Options* o) {
     else if (a == "--images") o->images_dir = v;
     else if (a == "--dump-places") o->dump_dir = v;
     else if (a == "--door-oracle-m") number = &o->door_oracle_m;
-    else if (a == "--doors") o->doors = std::atoi(v.c_str()) != 0;
+    else if (a == "--doors") {
+      o->online_doors = v == "online";
+      o->doors = !o->online_doors && std::atoi(v.c_str()) != 0;
+    } else if (a == "--online-every") o->online_every = std::max(1, std::atoi(v.c_str()));
     else if (a == "--door-slice-above-robot-m") number = &o->door.slice_above_robot_m;
     else if (a == "--door-extension-m") number = &o->door.cut_extension_m;
     else if (a == "--door-min-width-m") number = &o->door.min_width_m;
@@ -391,7 +400,38 @@ struct RunStats {
   std::vector<rooms::Door> doors;             // --doors: the doors found on the robot's surface
   std::size_t door_edges_closed = 0;
   double door_ms = 0.0;                       // the door stage's wall time (find_doors + cut_place_edges)
+  std::vector<rooms::Door> online_doors;      // --doors online: the DoorSet when the exploration ended
+  std::vector<double> pass_ms;                // ... each window pass's wall time
+  std::size_t wall_tiles = 0;                 // ... the wall map's tiles in use
+  std::size_t passes_climbing = 0;            // ... passes skipped on stairs
 };
+
+// --doors online: a run's online doors, cached beside its graph as 5 doubles a door (a.x a.y b.x b.y z).
+bool write_doors(const std::vector<rooms::Door>& doors, const std::string& path) {
+  std::FILE* f = std::fopen(path.c_str(), "wb");
+  if (f == nullptr) return false;
+  bool ok = true;
+  for (const rooms::Door& d : doors) {
+    const double v[5] = {d.a.x(), d.a.y(), d.b.x(), d.b.y(), d.z_m};
+    ok = ok && std::fwrite(v, sizeof(double), 5, f) == 5;
+  }
+  return std::fclose(f) == 0 && ok;
+}
+
+bool read_doors(const std::string& path, std::vector<rooms::Door>* doors) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return false;
+  doors->clear();
+  double v[5];
+  while (in.read(reinterpret_cast<char*>(v), sizeof(v))) {
+    rooms::Door d;
+    d.a = Eigen::Vector2d(v[0], v[1]);
+    d.b = Eigen::Vector2d(v[2], v[3]);
+    d.z_m = v[4];
+    doors->push_back(d);
+  }
+  return in.eof() && in.gcount() == 0;
+}
 
 // The classical 2D segmentations of the complete plan (IPA plans), scored like ours: the peers that see everything.
 struct Peers {
@@ -419,6 +459,9 @@ bool read_surface(const std::string& path, std::vector<Eigen::Vector3f>* surface
 }
 
 bool run_rooms(const Options& opt, const std::string& name, sg::SceneGraph* graph, RunStats* stats);
+
+// The room finder reading the online doors (--doors online), or plain run_rooms.
+bool run_rooms_with_doors(const Options& opt, const std::string& name, sg::SceneGraph* graph, RunStats* stats);
 
 // --doors: detect doors on the robot's surface and close the place edges that cross them.
 bool apply_doors(const Options& opt, const std::string& name, const std::vector<Eigen::Vector3f>& surface,
@@ -452,6 +495,7 @@ bool run_pipeline(const Options& opt, const world::World& w, const std::string& 
   const auto start = std::chrono::steady_clock::now();
   const std::string cache_path = opt.cache_dir.empty() ? "" : opt.cache_dir + "/" + key + ".json";
   const std::string surface_path = opt.cache_dir.empty() ? "" : opt.cache_dir + "/" + key + ".surface.f32";
+  const std::string doors_path = opt.cache_dir.empty() ? "" : opt.cache_dir + "/" + key + ".online_doors.f64";
   sim::ExplorationConfig ec;
   ec.robot_radius_m = opt.robot_radius_m;
   sim::SimCamera::Config cc;
@@ -475,8 +519,13 @@ bool run_pipeline(const Options& opt, const world::World& w, const std::string& 
       return false;
     }
     if (!read_surface(surface_path, surface)) surface->clear();
+    if (opt.online_doors && !read_doors(doors_path, &stats->online_doors)) {
+      std::fprintf(stderr, "%s: --doors online needs %s (a cache made without --doors online: explore again)\n",
+                   w.name.c_str(), doors_path.c_str());
+      return false;
+    }
     if (!apply_doors(opt, w.name, *surface, graph, stats)) return false;
-    const bool ok = run_rooms(opt, w.name, graph, stats);
+    const bool ok = run_rooms_with_doors(opt, w.name, graph, stats);
     stats->wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return ok;
   }
@@ -491,19 +540,80 @@ bool run_pipeline(const Options& opt, const world::World& w, const std::string& 
     std::fprintf(stderr, "frontend: %s\n", error.c_str());
     return false;
   }
+  // --doors online: the app's online door stage, sized by the board's "doors" arena.
+  std::unique_ptr<rooms::OnlineDoors> online;
+  std::vector<std::uint32_t> painted_stamp;
+  std::vector<memory::Index3> painted_block;
+  if (opt.online_doors) {
+    online = std::make_unique<rooms::OnlineDoors>();
+    rooms::OnlineDoorCapacities dc;
+    dc.wall_tiles = budgets::active::doors::kWallTiles;
+    dc.window_side = budgets::active::doors::kWindowSide;
+    dc.places = budgets::active::doors::kPlaces;
+    dc.doors = budgets::active::doors::kDoors;
+    dc.candidates = budgets::active::doors::kCandidates;
+    if (!online->init(opt.door, dc, budgets::active::doors::kArenaBytes, &error)) {
+      std::fprintf(stderr, "doors: %s\n", error.c_str());
+      return false;
+    }
+    painted_stamp.assign(tsdf->block_slots(), 0u);
+    painted_block.assign(tsdf->block_slots(), memory::Index3{});
+  }
+  const auto paint = [&]() {
+    const double side = tsdf->block_size_m();
+    tsdf->for_each_block([&](std::uint32_t h, const reconstruction::SemanticTsdf::BlockView& view) {
+      if (view.meshed_stamp == 0 || (painted_stamp[h] == view.meshed_stamp && painted_block[h] == view.index)) return;
+      painted_stamp[h] = view.meshed_stamp;
+      painted_block[h] = view.index;
+      const Eigen::Vector3d lo(view.index.x * side, view.index.y * side, view.index.z * side);
+      online->wall_map().clear_box(lo, lo + Eigen::Vector3d::Constant(side));
+      reconstruction::SemanticTsdf::VertexCursor cursor;
+      reconstruction::MeshVertex v;
+      std::uint64_t edge_key = 0;
+      while (tsdf->next_block_vertex(h, &cursor, &v, &edge_key)) online->wall_map().add(v.x, v.y, v.z);
+    });
+  };
+  const auto pass = [&](const Eigen::Vector3d& robot) {
+    const auto t0 = std::chrono::steady_clock::now();
+    online->begin_pass(robot);
+    graph->for_each_node([&](const sg::NodeRecord& n) {
+      if (n.kind == sg::NodeKind::kPlace) online->add_place(graph->place(n.id)->position_m);
+    });
+    online->rasterize();
+    const rooms::PassResult pr = online->detect();
+    if (pr.climbing) ++stats->passes_climbing;
+    if (!pr.ran) return;
+    stats->pass_ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+  };
   auto frame = std::make_unique<drivers::RgbdFrame>();
   Eigen::Vector3d last = Eigen::Vector3d::Zero();
   std::uint64_t t_last = 0;
+  std::size_t frontend_updates = 0;
   stats->keyframes = bench::for_each_posed_frame(
       camera, *frame, [&](const drivers::RgbdFrame& f, const Eigen::Isometry3d& T, std::int64_t t_ns) {
         tsdf->process(f, T);
+        if (online) paint();
         fe->add_keyframe(graph, static_cast<std::uint64_t>(t_ns), T);
         fe->update(*tsdf, T.translation(), static_cast<std::uint64_t>(t_ns), graph, frontend::Deadline{});
+        if (online && frontend_updates++ % static_cast<std::size_t>(opt.online_every) == 0) pass(T.translation());
         last = T.translation();
         t_last = static_cast<std::uint64_t>(t_ns);
       });
   for (int i = 0; i < 100; ++i)
     if (fe->update(*tsdf, last, t_last, graph, frontend::Deadline{}).places_complete) break;
+  if (online) {
+    pass(last);  // the latest places, as the app's last backend update sees them
+    for (std::size_t i = 0; i < online->doors().size(); ++i) stats->online_doors.push_back(online->doors()[i]);
+    stats->wall_tiles = online->wall_map().tile_stats().in_use;
+    std::sort(stats->pass_ms.begin(), stats->pass_ms.end());
+    std::printf("  %s: online doors: %zu after %zu window passes (median %.1f ms, max %.1f ms; %zu skipped on stairs), "
+                "%zu wall tiles\n",
+                w.name.c_str(), stats->online_doors.size(), stats->pass_ms.size(),
+                stats->pass_ms.empty() ? 0.0 : stats->pass_ms[stats->pass_ms.size() / 2],
+                stats->pass_ms.empty() ? 0.0 : stats->pass_ms.back(), stats->passes_climbing, stats->wall_tiles);
+    if (!doors_path.empty() && !write_doors(stats->online_doors, doors_path))
+      std::fprintf(stderr, "cache: cannot write %s\n", doors_path.c_str());
+  }
   {
     reconstruction::Mesh mesh;
     tsdf->extract_full_mesh(&mesh);
@@ -516,13 +626,37 @@ bool run_pipeline(const Options& opt, const world::World& w, const std::string& 
   if (!surface_path.empty() && !write_surface(*surface, surface_path))
     std::fprintf(stderr, "cache: cannot write %s\n", surface_path.c_str());
   if (!apply_doors(opt, w.name, *surface, graph, stats)) return false;
-  const bool ok = run_rooms(opt, w.name, graph, stats);
+  const bool ok = run_rooms_with_doors(opt, w.name, graph, stats);
   stats->wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return ok;
 }
 
-// The room finder on the final graph (five updates, the median time reported).
+bool run_rooms(const Options& opt, const std::string& name, sg::SceneGraph* graph, RunStats* stats,
+               const rooms::DoorSet* doors);
+
+bool run_rooms_with_doors(const Options& opt, const std::string& name, sg::SceneGraph* graph, RunStats* stats) {
+  if (!opt.online_doors) return run_rooms(opt, name, graph, stats, nullptr);
+  memory::Arena arena;
+  rooms::DoorSet set;
+  const memory::ArenaPlan plan = rooms::DoorSet::plan(std::max<std::size_t>(1, stats->online_doors.size()));
+  std::string error;
+  if (!arena.create("online_doors", plan, plan.total_bytes(), &error) ||
+      !set.carve(arena, std::max<std::size_t>(1, stats->online_doors.size()), opt.door)) {
+    std::fprintf(stderr, "%s: %s\n", name.c_str(), error.c_str());
+    return false;
+  }
+  for (const rooms::Door& d : stats->online_doors) set.add(d);
+  return run_rooms(opt, name, graph, stats, &set);
+}
+
 bool run_rooms(const Options& opt, const std::string& name, sg::SceneGraph* graph, RunStats* stats) {
+  return run_rooms(opt, name, graph, stats, nullptr);
+}
+
+// The room finder on the final graph (five updates, the median time reported); `doors` closes the place edges
+// through them (--doors online).
+bool run_rooms(const Options& opt, const std::string& name, sg::SceneGraph* graph, RunStats* stats,
+               const rooms::DoorSet* doors) {
   std::string error;
   const std::uint64_t time_ns = 0;  // room timestamps do not matter here
 
@@ -535,7 +669,7 @@ bool run_rooms(const Options& opt, const std::string& name, sg::SceneGraph* grap
   rooms::UpdateResult r;
   for (int i = 0; i < 5; ++i) {
     const auto t0 = std::chrono::steady_clock::now();
-    r = finder->update(graph, time_ns);
+    r = finder->update(graph, time_ns, doors);
     ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
   }
   std::printf("  %s: Betti curve (delta m: components):", name.c_str());
@@ -875,7 +1009,7 @@ int main(int argc, char** argv) {
                  "[--generated-rooms N] [--label-buildings N] [--size WxH] [--hfov-deg D] [--rate-hz R] [--max-reach-m M] [--robot-radius-m R] [--furniture-height-m H] [--alpha A] "
                  "[--min-dilation-m D] [--max-dilation-m D] [--min-component N] [--seeding plateau|persistence] "
                  "[--min-persistence-m P] [--max-door-clearance-m D] [--split-by-extent 0|1] [--extent-saturation-m S] "
-                 "[--split-min-extent-m E] [--split-max-extent-m E] [--split-min-persistence-m P] [--split-min-component N] [--cache-dir DIR] [--images DIR] [--dump-places DIR] [--door-oracle-m C] [--doors 0|1] "
+                 "[--split-min-extent-m E] [--split-max-extent-m E] [--split-min-persistence-m P] [--split-min-component N] [--cache-dir DIR] [--images DIR] [--dump-places DIR] [--door-oracle-m C] [--doors 0|1|online] [--online-every N] "
                  "[--door-slice-above-robot-m H] [--door-min-width-m W] [--door-max-width-m W] [--door-min-rise-m R] "
                  "[--door-rise-reach-m R] [--door-max-off-centre F] [--door-min-wall-height-m H] "
                  "[--door-mapped-radius-m R] [--door-extension-m E] [--json FILE]\n",
@@ -893,6 +1027,14 @@ int main(int argc, char** argv) {
                 "clearance rise %.2f m within %.2f m; crossing place edges closed (--doors 0: off)\n",
                 opt.door.slice_above_robot_m, opt.door.min_width_m, opt.door.max_width_m, opt.door.min_rise_m,
                 opt.door.rise_reach_m);
+  } else if (opt.online_doors) {
+    std::string door_error;
+    if (!opt.door.validate(&door_error)) {
+      std::fprintf(stderr, "%s\n", door_error.c_str());
+      return 2;
+    }
+    std::printf("doors: online (the app's window passes during the run, every %d. frontend update; no final stage)\n",
+                opt.online_every);
   } else {
     std::printf("doors: off\n");
   }
@@ -924,6 +1066,10 @@ int main(int argc, char** argv) {
                   ", doors on the robot's surface (slice +%.2f m, widths %.2f-%.2f m, rise %.2f m in %.2f m)",
                   opt.door.slice_above_robot_m, opt.door.min_width_m, opt.door.max_width_m, opt.door.min_rise_m,
                   opt.door.rise_reach_m);
+  else if (opt.online_doors)
+    std::snprintf(cond + std::strlen(cond), sizeof(cond) - std::strlen(cond),
+                  ", online doors every %d. frontend update (window passes, slice +%.2f m)", opt.online_every,
+                  opt.door.slice_above_robot_m);
   else
     std::snprintf(cond + std::strlen(cond), sizeof(cond) - std::strlen(cond), ", no doors");
   bench::Figures figures(cond);
@@ -938,7 +1084,14 @@ int main(int argc, char** argv) {
   int failures = 0;
   std::vector<double> rooms_ms, door_ms;
   // Per run: the door stage's doors, closed edges and time (--doors).
+  std::vector<double> pass_ms;
+  std::size_t wall_tiles_max = 0;
   const auto add_doors = [&](const std::string& prefix, const RunStats& st) {
+    if (opt.online_doors) {
+      figures.add(prefix + ".online_doors", static_cast<double>(st.online_doors.size()), "doors");
+      pass_ms.insert(pass_ms.end(), st.pass_ms.begin(), st.pass_ms.end());
+      wall_tiles_max = std::max(wall_tiles_max, st.wall_tiles);
+    }
     if (!opt.doors) return;
     figures.add(prefix + ".doors", static_cast<double>(st.doors.size()), "doors");
     figures.add(prefix + ".door_edges_closed", static_cast<double>(st.door_edges_closed), "edges");
@@ -1093,6 +1246,16 @@ int main(int argc, char** argv) {
   }
   if (!rooms_ms.empty()) figures.add("rooms_eval.rooms_update_ms_median", median(rooms_ms), "ms");
   if (!door_ms.empty()) figures.add("rooms_eval.door_stage_ms_median", median(door_ms), "ms");
+  if (!pass_ms.empty()) {
+    std::sort(pass_ms.begin(), pass_ms.end());
+    figures.add("rooms_eval.online_door_pass_ms_median", pass_ms[pass_ms.size() / 2], "ms");
+    figures.add("rooms_eval.online_door_pass_ms_p99", pass_ms[pass_ms.size() * 99 / 100], "ms");
+    figures.add("rooms_eval.online_door_pass_ms_max", pass_ms.back(), "ms");
+    figures.add("rooms_eval.online_wall_tiles_max", static_cast<double>(wall_tiles_max), "tiles");
+    std::printf("online door passes: %zu, median %.1f ms, p99 %.1f ms, max %.1f ms; wall tiles at most %zu\n",
+                pass_ms.size(), pass_ms[pass_ms.size() / 2], pass_ms[pass_ms.size() * 99 / 100], pass_ms.back(),
+                wall_tiles_max);
+  }
   if (!opt.json_path.empty() && !figures.write(opt.json_path)) return 1;
   return failures == 0 ? 0 : 1;
 }
