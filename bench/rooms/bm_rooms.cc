@@ -3,6 +3,12 @@
 // turns the extent split off or on, the default, so its cost shows beside the same update without it)
 // over a frozen synthetic places graph: a corridor with 4 m rooms on both sides at 0.5 m place spacing, in a scene
 // graph and a finder sized by the board's budget table. Reports the median and max per update as well as the mean.
+//
+// BM_online_door_pass: one online door pass (rooms::OnlineDoors, the budget table's "doors" capacities: the window
+// around the robot, its places, the wall raster from the painted wall map, the detection and the door set's
+// update) over the same corridor plan extruded into a surface (its walls as columns of vertices 0.05 m apart, 2.5 m
+// tall) with the robot in the middle of the corridor. Reports the doors found against the plan's doors in the
+// window, the median and max per pass.
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
@@ -10,6 +16,8 @@
 #include <memory>
 #include <vector>
 
+#include "budgets/budget_table.h"
+#include "core/rooms/online_doors.h"
 #include "core/rooms/room_finder.h"
 #include "core/scene_graph/scene_graph.h"
 #include "tests/rooms/synthetic_places.h"
@@ -62,5 +70,84 @@ BENCHMARK(BM_rooms_update)
     ->ArgsProduct({{6, 24}, {0, 1}, {0, 1}})
     ->ArgNames({"rooms_per_side", "persistence", "extent_split"})
     ->Unit(benchmark::kMillisecond);
+
+void BM_online_door_pass(benchmark::State& state) {
+  const int rooms_per_side = static_cast<int>(state.range(0));
+  const rooms::testing::GridPlan plan = rooms::testing::corridor_plan(rooms_per_side, 0.25);
+  rooms::testing::SyntheticPlaces places;
+  plan.add_to(&places, 1.0);
+  rooms::OnlineDoorCapacities c;
+  c.wall_tiles = budgets::active::doors::kWallTiles;
+  c.window_side = budgets::active::doors::kWindowSide;
+  c.places = budgets::active::doors::kPlaces;
+  c.doors = budgets::active::doors::kDoors;
+  c.candidates = budgets::active::doors::kCandidates;
+  auto online = std::make_unique<rooms::OnlineDoors>();
+  std::string error;
+  if (!online->init(rooms::DoorConfig{}, c, budgets::active::doors::kArenaBytes, &error)) {
+    state.SkipWithError(error.c_str());
+    return;
+  }
+  // Walls: the sides of every occupied cell that face a free one, as vertex columns.
+  const double cell = plan.cell_m();
+  Eigen::Vector2d hi = Eigen::Vector2d::Zero();
+  for (int y = -1; y < 200; ++y)
+    for (int x = -1; x < 1000; ++x) {
+      if (plan.free(x, y)) {
+        hi = hi.cwiseMax(Eigen::Vector2d((x + 1) * cell, (y + 1) * cell));
+        continue;
+      }
+      const int dx[4] = {1, -1, 0, 0}, dy[4] = {0, 0, 1, -1};
+      for (int k = 0; k < 4; ++k) {
+        if (!plan.free(x + dx[k], y + dy[k])) continue;
+        // The shared side, from one corner to the other.
+        const Eigen::Vector2d centre((x + 0.5) * cell, (y + 0.5) * cell);
+        const Eigen::Vector2d normal(dx[k], dy[k]), along(-dy[k], dx[k]);
+        for (double t = -0.5 * cell; t <= 0.5 * cell + 1e-9; t += 0.05) {
+          const Eigen::Vector2d p = centre + 0.5 * cell * normal + t * along;
+          for (double z = 0.0; z <= 2.5 + 1e-9; z += 0.1)
+            online->wall_map().add(static_cast<float>(p.x()), static_cast<float>(p.y()), static_cast<float>(z));
+        }
+      }
+    }
+  const Eigen::Vector3d robot(0.5 * hi.x(), 0.5 * hi.y(), 0.5);  // mid-corridor: the slice is 1.2 m
+  std::vector<double> ms;
+  ms.reserve(1 << 16);
+  rooms::PassResult r;
+  for (auto _ : state) {
+    const auto t0 = std::chrono::steady_clock::now();
+    online->begin_pass(robot);
+    for (const auto& p : places.places) online->add_place(p.position_m);
+    online->rasterize();
+    r = online->detect();
+    const auto t1 = std::chrono::steady_clock::now();
+    if (ms.size() < ms.capacity()) ms.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
+    benchmark::DoNotOptimize(r);
+  }
+  if (!r.ran) {
+    state.SkipWithError("the pass did not run");
+    return;
+  }
+  // The plan's doors whose centres lie in the window's interior (the window less the mapped radius).
+  const rooms::DoorRaster& w = online->window();
+  const double margin = rooms::DoorConfig{}.mapped_radius_m;
+  const int room = 16;
+  int expected = 0;
+  for (int i = 0; i < rooms_per_side; ++i) {
+    const double x = (1 + i * (room + 1) + room / 2) * cell;
+    if (x >= w.lo.x() + margin && x < w.lo.x() + w.cols * w.cell_m - margin) expected += 2;
+  }
+  std::sort(ms.begin(), ms.end());
+  state.counters["window_cells"] = static_cast<double>(w.cells());
+  state.counters["places_in_window"] = static_cast<double>(r.places);
+  state.counters["doors"] = static_cast<double>(r.found);
+  state.counters["expected_doors"] = expected;
+  state.counters["median_ms"] = ms.empty() ? 0.0 : ms[ms.size() / 2];
+  state.counters["max_ms"] = ms.empty() ? 0.0 : ms.back();
+  state.counters["arena_MB"] = static_cast<double>(online->arena().capacity_bytes()) / (1 << 20);
+}
+
+// 6 rooms per side: a 24 m corridor, wider than the window; 3: all of it inside.
+BENCHMARK(BM_online_door_pass)->Arg(3)->Arg(6)->ArgName("rooms_per_side")->Unit(benchmark::kMillisecond);
 
 }  // namespace
