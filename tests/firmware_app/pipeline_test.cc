@@ -121,6 +121,7 @@ TEST(PipelineTest, DoorsFoundWhenTheRunFinishesCloseEdgesAndRoomsFollow) {
     std::string error;
     AppConfig config = small_config(doors ? "doors" : "no_doors");
     config.doors_at_finish = doors;
+    config.doors_online = false;  // the final stage alone (the online stage has its own test)
     ASSERT_TRUE(p.init(config, &clock, &error)) << error;
     while (p.step()) {
     }
@@ -154,15 +155,16 @@ TEST(PipelineTest, OnlineDoorsCloseEdgesForTheRoomsDuringTheRun) {
     AppConfig config = small_config(online ? "online_doors" : "no_online_doors");
     config.doors_at_finish = false;
     config.doors_online = online;
-    config.doors_online_every_n = 2;
     ASSERT_TRUE(p.init(config, &clock, &error)) << error;
-    while (p.step()) {
+    // Off, a part of the run shows it (the test runs under qemu too).
+    for (int k = 0; (online || k < 3000) && p.step(); ++k) {
     }
-    EXPECT_GT(p.counters().rooms, 0u);
+    EXPECT_GT(p.counters().backend_updates, 0u);
     if (online) {
+      EXPECT_GT(p.counters().rooms, 0u);
       // The 4-room building's doors are found in the windows around the robot and the room finder reads the place
       // edges through them as closed (the graph's weights stay as the places layer wrote them).
-      EXPECT_GT(p.counters().door_passes, p.counters().backend_updates / 3);
+      EXPECT_GE(p.counters().door_passes, p.counters().backend_updates / 5);  // every 4th update
       EXPECT_GE(p.counters().online_doors, 2u);
       EXPECT_EQ(p.online_doors().doors().size(), p.counters().online_doors);
       EXPECT_GT(p.counters().blocks_painted, 0u);
