@@ -26,7 +26,7 @@ namespace qsg::rooms {
 
 // Resources (the budget table's "doors" arena).
 struct OnlineDoorCapacities {
-  std::size_t wall_tiles = 2048;  // WallMap tiles (4 KB each): 2048 cover about 5,000 m^2 of one storey
+  std::size_t wall_tiles = 4096;  // WallMap tiles (4 KB each, 1.6 m x 1.6 m x 1.6 m): a storey takes two per column
   std::size_t window_side = 384;  // cells; the window is window_side x cell_m wide (19.2 m at 0.05 m)
   std::size_t places = 8192;      // places in one window
   std::size_t doors = 1024;       // doors kept (the DoorSet)
