@@ -249,13 +249,9 @@ bool Pipeline::init_backend(std::string* error) {
     std::fprintf(stderr, "qsg_app: room labels off: %s (rooms stay \"unknown\")\n", why.c_str());
   room_graph_.reserve(2048, 8192);
   if (config_.doors_online) {
-    rooms::OnlineDoorCapacities dc;
-    dc.wall_tiles = budgets::active::doors::kWallTiles;
-    dc.window_side = budgets::active::doors::kWindowSide;
-    dc.places = budgets::active::doors::kPlaces;
-    dc.doors = budgets::active::doors::kDoors;
-    dc.candidates = budgets::active::doors::kCandidates;
-    if (!online_doors_.init(config_.doors, dc, budgets::active::doors::kArenaBytes, error)) return false;
+    if (!online_doors_.init(config_.doors, rooms::OnlineDoorCapacities::from_budget(),
+                            budgets::active::doors::kArenaBytes, error))
+      return false;
     painted_stamp_.assign(tsdf_.block_slots(), 0u);
     painted_block_.assign(tsdf_.block_slots(), memory::Index3{});
   }
@@ -629,22 +625,8 @@ void Pipeline::paint_walls() {
     ++counters_.wall_paint_deferred;
     return;
   }
-  rooms::WallMap& walls = online_doors_.wall_map();
-  const double side = tsdf_.block_size_m();
-  tsdf_.for_each_block([&](std::uint32_t h, const reconstruction::SemanticTsdf::BlockView& view) {
-    if (h >= painted_stamp_.size() || view.meshed_stamp == 0 ||
-        (painted_stamp_[h] == view.meshed_stamp && painted_block_[h] == view.index))
-      return;
-    painted_stamp_[h] = view.meshed_stamp;
-    painted_block_[h] = view.index;
-    const Eigen::Vector3d lo(view.index.x * side, view.index.y * side, view.index.z * side);
-    walls.clear_box(lo, lo + Eigen::Vector3d::Constant(side));
-    reconstruction::SemanticTsdf::VertexCursor cursor;
-    reconstruction::MeshVertex v;
-    std::uint64_t key = 0;
-    while (tsdf_.next_block_vertex(h, &cursor, &v, &key)) walls.add(v.x, v.y, v.z);
-    ++counters_.blocks_painted;
-  });
+  counters_.blocks_painted += online_doors_.wall_map().repaint(tsdf_, painted_stamp_.data(), painted_block_.data(),
+                                                                painted_stamp_.size());
 }
 
 void Pipeline::update_frontend(const runtime::TaskContext& c) {

@@ -76,15 +76,10 @@ void BM_online_door_pass(benchmark::State& state) {
   const rooms::testing::GridPlan plan = rooms::testing::corridor_plan(rooms_per_side, 0.25);
   rooms::testing::SyntheticPlaces places;
   plan.add_to(&places, 1.0);
-  rooms::OnlineDoorCapacities c;
-  c.wall_tiles = budgets::active::doors::kWallTiles;
-  c.window_side = budgets::active::doors::kWindowSide;
-  c.places = budgets::active::doors::kPlaces;
-  c.doors = budgets::active::doors::kDoors;
-  c.candidates = budgets::active::doors::kCandidates;
   auto online = std::make_unique<rooms::OnlineDoors>();
   std::string error;
-  if (!online->init(rooms::DoorConfig{}, c, budgets::active::doors::kArenaBytes, &error)) {
+  if (!online->init(rooms::DoorConfig{}, rooms::OnlineDoorCapacities::from_budget(),
+                    budgets::active::doors::kArenaBytes, &error)) {
     state.SkipWithError(error.c_str());
     return;
   }

@@ -546,33 +546,14 @@ bool run_pipeline(const Options& opt, const world::World& w, const std::string& 
   std::vector<memory::Index3> painted_block;
   if (opt.online_doors) {
     online = std::make_unique<rooms::OnlineDoors>();
-    rooms::OnlineDoorCapacities dc;
-    dc.wall_tiles = budgets::active::doors::kWallTiles;
-    dc.window_side = budgets::active::doors::kWindowSide;
-    dc.places = budgets::active::doors::kPlaces;
-    dc.doors = budgets::active::doors::kDoors;
-    dc.candidates = budgets::active::doors::kCandidates;
-    if (!online->init(opt.door, dc, budgets::active::doors::kArenaBytes, &error)) {
+    if (!online->init(opt.door, rooms::OnlineDoorCapacities::from_budget(), budgets::active::doors::kArenaBytes,
+                      &error)) {
       std::fprintf(stderr, "doors: %s\n", error.c_str());
       return false;
     }
     painted_stamp.assign(tsdf->block_slots(), 0u);
     painted_block.assign(tsdf->block_slots(), memory::Index3{});
   }
-  const auto paint = [&]() {
-    const double side = tsdf->block_size_m();
-    tsdf->for_each_block([&](std::uint32_t h, const reconstruction::SemanticTsdf::BlockView& view) {
-      if (view.meshed_stamp == 0 || (painted_stamp[h] == view.meshed_stamp && painted_block[h] == view.index)) return;
-      painted_stamp[h] = view.meshed_stamp;
-      painted_block[h] = view.index;
-      const Eigen::Vector3d lo(view.index.x * side, view.index.y * side, view.index.z * side);
-      online->wall_map().clear_box(lo, lo + Eigen::Vector3d::Constant(side));
-      reconstruction::SemanticTsdf::VertexCursor cursor;
-      reconstruction::MeshVertex v;
-      std::uint64_t edge_key = 0;
-      while (tsdf->next_block_vertex(h, &cursor, &v, &edge_key)) online->wall_map().add(v.x, v.y, v.z);
-    });
-  };
   const auto pass = [&](const Eigen::Vector3d& robot) {
     const auto t0 = std::chrono::steady_clock::now();
     online->begin_pass(robot);
@@ -592,7 +573,7 @@ bool run_pipeline(const Options& opt, const world::World& w, const std::string& 
   stats->keyframes = bench::for_each_posed_frame(
       camera, *frame, [&](const drivers::RgbdFrame& f, const Eigen::Isometry3d& T, std::int64_t t_ns) {
         tsdf->process(f, T);
-        if (online) paint();
+        if (online) online->wall_map().repaint(*tsdf, painted_stamp.data(), painted_block.data(), painted_stamp.size());
         fe->add_keyframe(graph, static_cast<std::uint64_t>(t_ns), T);
         fe->update(*tsdf, T.translation(), static_cast<std::uint64_t>(t_ns), graph, frontend::Deadline{});
         if (online && frontend_updates++ % static_cast<std::size_t>(opt.online_every) == 0) pass(T.translation());

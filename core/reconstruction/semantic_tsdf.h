@@ -149,6 +149,7 @@ class SemanticTsdf {
     const Voxel* voxels = nullptr;        // kBlockVoxels; voxel (x, y, z) at x + kBlockSide * (y + kBlockSide * z)
     std::uint32_t num_vertices = 0;
   };
+  using Vertex = MeshVertex;  // what next_block_vertex() yields (for generic readers: rooms::WallMap::repaint)
   struct VertexCursor {
     std::uint32_t chunk = memory::kInvalidHandle;
     std::uint32_t index = 0;

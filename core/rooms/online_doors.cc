@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include "budgets/budget_table.h"
+
 namespace qsg::rooms {
 
 std::string OnlineDoorCapacities::check() const {
@@ -9,6 +11,16 @@ std::string OnlineDoorCapacities::check() const {
   if (window_side < 16) return "doors.window_side: must be at least 16 cells, got " + std::to_string(window_side);
   if (places == 0 || doors == 0 || candidates == 0) return "doors: places, doors and candidates must be positive";
   return {};
+}
+
+OnlineDoorCapacities OnlineDoorCapacities::from_budget() {
+  OnlineDoorCapacities c;
+  c.wall_tiles = budgets::active::doors::kWallTiles;
+  c.window_side = budgets::active::doors::kWindowSide;
+  c.places = budgets::active::doors::kPlaces;
+  c.doors = budgets::active::doors::kDoors;
+  c.candidates = budgets::active::doors::kCandidates;
+  return c;
 }
 
 namespace {

@@ -32,6 +32,7 @@ struct OnlineDoorCapacities {
   std::size_t doors = 1024;       // doors kept (the DoorSet)
   std::size_t candidates = 4096;  // critical cells in one window
   std::string check() const;
+  static OnlineDoorCapacities from_budget();  // the active board's "doors" arena capacities
 };
 
 struct PassResult {

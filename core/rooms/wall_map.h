@@ -46,6 +46,13 @@ class WallMap {
              std::uint8_t* wall) const;
   void clear();
 
+  // Repaints every block of `tsdf` (core/reconstruction's SemanticTsdf, or anything with its block interface)
+  // whose marching cubes ran since it was last painted: its volume cleared, its vertices added. stamps and blocks
+  // (tsdf.block_slots() entries each, zeroed at start-up) remember what each block slot last painted. Returns the
+  // blocks painted. Allocation-free.
+  template <typename Tsdf>
+  std::size_t repaint(const Tsdf& tsdf, std::uint32_t* stamps, memory::Index3* blocks, std::size_t slots);
+
   double cell_m() const { return cell_m_; }
   memory::ResourceStats tile_stats() const { return counter_.stats(); }
   memory::ResourceStats index_stats() const { return index_.stats(); }
@@ -61,5 +68,24 @@ class WallMap {
   std::uint64_t dropped_ = 0;
   memory::UsageCounter counter_{"wall_tiles", "tiles", 0, memory::OverflowPolicy::kRefuse};
 };
+
+template <typename Tsdf>
+std::size_t WallMap::repaint(const Tsdf& tsdf, std::uint32_t* stamps, memory::Index3* blocks, std::size_t slots) {
+  const double side = tsdf.block_size_m();
+  std::size_t painted = 0;
+  tsdf.for_each_block([&](std::uint32_t h, const typename Tsdf::BlockView& view) {
+    if (h >= slots || view.meshed_stamp == 0 || (stamps[h] == view.meshed_stamp && blocks[h] == view.index)) return;
+    stamps[h] = view.meshed_stamp;
+    blocks[h] = view.index;
+    const Eigen::Vector3d lo(view.index.x * side, view.index.y * side, view.index.z * side);
+    clear_box(lo, lo + Eigen::Vector3d::Constant(side));
+    typename Tsdf::VertexCursor cursor;
+    typename Tsdf::Vertex v;
+    std::uint64_t key = 0;
+    while (tsdf.next_block_vertex(h, &cursor, &v, &key)) add(v.x, v.y, v.z);
+    ++painted;
+  });
+  return painted;
+}
 
 }  // namespace qsg::rooms

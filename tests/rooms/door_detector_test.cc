@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "drivers/world/floor_plan_rooms.h"
+#include "tests/rooms/door_scene.h"
 #include "tests/scene_graph/test_graph.h"
 #include "tests/support/test_data.h"
 
@@ -21,50 +22,9 @@ namespace {
 
 namespace sg = scene_graph;
 
-constexpr double kStoreyM = 2.5;
-
-struct Scene {
-  std::vector<Eigen::Vector3f> surface;
-  std::vector<Eigen::Vector3d> places;
-
-  // A wall from (x0, y0) to (x1, y1): vertices every 0.05 m along it and every 0.1 m from floor to ceiling.
-  void wall(double x0, double y0, double x1, double y1, double floor_z = 0.0) {
-    const double len = std::hypot(x1 - x0, y1 - y0);
-    const int n = std::max(1, static_cast<int>(std::ceil(len / 0.05)));
-    for (int i = 0; i <= n; ++i) {
-      const double t = static_cast<double>(i) / n;
-      for (double z = 0.0; z <= kStoreyM + 1e-9; z += 0.1)
-        surface.emplace_back(static_cast<float>(x0 + t * (x1 - x0)), static_cast<float>(y0 + t * (y1 - y0)),
-                             static_cast<float>(floor_z + z));
-    }
-  }
-  // Floor and ceiling over [x0, x1] x [y0, y1]: flat, they must not count as walls.
-  void slabs(double x0, double y0, double x1, double y1, double floor_z = 0.0) {
-    for (double x = x0; x <= x1 + 1e-9; x += 0.1)
-      for (double y = y0; y <= y1 + 1e-9; y += 0.1)
-        for (const double z : {floor_z, floor_z + kStoreyM})
-          surface.emplace_back(static_cast<float>(x), static_cast<float>(y), static_cast<float>(z));
-  }
-  // Places every 0.5 m over [x0, x1] x [y0, y1] at z, as the mapped space.
-  void place_grid(double x0, double y0, double x1, double y1, double z = 1.0) {
-    for (double x = x0; x <= x1 + 1e-9; x += 0.5)
-      for (double y = y0; y <= y1 + 1e-9; y += 0.5) places.emplace_back(x, y, z);
-  }
-};
-
-// Two 4 x 4 m rooms side by side; the wall between them at x = 4 has an opening over y in [y0, y1].
-Scene two_rooms(double y0, double y1) {
-  Scene s;
-  s.wall(0, 0, 8, 0);
-  s.wall(8, 0, 8, 4);
-  s.wall(8, 4, 0, 4);
-  s.wall(0, 4, 0, 0);
-  s.wall(4, 0, 4, y0);
-  s.wall(4, y1, 4, 4);
-  s.slabs(0, 0, 8, 4);
-  s.place_grid(0.25, 0.25, 7.75, 3.75);
-  return s;
-}
+using testing::kStoreyM;
+using testing::Scene;
+using testing::two_rooms;
 
 std::vector<Door> detect(const Scene& s, const DoorConfig& config = DoorConfig{}, double slice_z = 1.2) {
   std::vector<Door> doors;

@@ -11,52 +11,14 @@
 #include <vector>
 
 #include "core/rooms/room_finder.h"
+#include "tests/rooms/door_scene.h"
 #include "tests/support/allocation_counter.h"
 
 namespace qsg::rooms {
 namespace {
 
-constexpr double kStoreyM = 2.5;
-
-// Walls as columns of vertices every 0.05 m along them and 0.1 m up, floor and ceiling slabs, places on a grid.
-struct Scene {
-  std::vector<Eigen::Vector3f> surface;
-  std::vector<Eigen::Vector3d> places;
-  void wall(double x0, double y0, double x1, double y1) {
-    const double len = std::hypot(x1 - x0, y1 - y0);
-    const int n = std::max(1, static_cast<int>(std::ceil(len / 0.05)));
-    for (int i = 0; i <= n; ++i) {
-      const double t = static_cast<double>(i) / n;
-      for (double z = 0.0; z <= kStoreyM + 1e-9; z += 0.1)
-        surface.emplace_back(static_cast<float>(x0 + t * (x1 - x0)), static_cast<float>(y0 + t * (y1 - y0)),
-                             static_cast<float>(z));
-    }
-  }
-  void slabs(double x0, double y0, double x1, double y1) {
-    for (double x = x0; x <= x1 + 1e-9; x += 0.1)
-      for (double y = y0; y <= y1 + 1e-9; y += 0.1)
-        for (const double z : {0.0, kStoreyM})
-          surface.emplace_back(static_cast<float>(x), static_cast<float>(y), static_cast<float>(z));
-  }
-  void place_grid(double x0, double y0, double x1, double y1, double z = 1.0) {
-    for (double x = x0; x <= x1 + 1e-9; x += 0.5)
-      for (double y = y0; y <= y1 + 1e-9; y += 0.5) places.emplace_back(x, y, z);
-  }
-};
-
-// Two 4 x 4 m rooms; the wall between them at x = 4 has a door over y in [y0, y1].
-Scene two_rooms(double y0, double y1) {
-  Scene s;
-  s.wall(0, 0, 8, 0);
-  s.wall(8, 0, 8, 4);
-  s.wall(8, 4, 0, 4);
-  s.wall(0, 4, 0, 0);
-  s.wall(4, 0, 4, y0);
-  s.wall(4, y1, 4, 4);
-  s.slabs(0, 0, 8, 4);
-  s.place_grid(0.25, 0.25, 7.75, 3.75);
-  return s;
-}
+using testing::Scene;
+using testing::two_rooms;
 
 OnlineDoorCapacities small_capacities() {
   OnlineDoorCapacities c;
