@@ -160,18 +160,18 @@ int main(int argc, char** argv) {
   pipeline.reconstruction().counters().print(stdout);
   pipeline.frame_queue_stats().print(stdout);
   pipeline.graph().for_each_resource([](const memory::ResourceStats& s) { s.print(stdout); });
-  pipeline.online_doors().for_each_resource([](const memory::ResourceStats& s) { s.print(stdout); });
-  std::printf("online doors: %llu window passes (longest %.1f ms, %llu skipped on stairs), %llu doors, %llu blocks "
-              "painted, %llu paints deferred\n",
-              (unsigned long long)pipeline.counters().door_passes, 1e-3 * pipeline.counters().door_pass_max_us,
-              (unsigned long long)pipeline.counters().door_passes_climbing,
-              (unsigned long long)pipeline.counters().online_doors,
-              (unsigned long long)pipeline.counters().blocks_painted,
-              (unsigned long long)pipeline.counters().wall_paint_deferred);
+  // Online doors before the final stage replaces them (finish() has stopped the backend that owns the door set).
+  const app::PipelineCounters online = pipeline.counters();
   if (!pipeline.finish(&error)) {
     std::fprintf(stderr, "qsg_app: writing the outputs failed: %s\n", error.c_str());
     return 1;
   }
+  pipeline.online_doors().for_each_resource([](const memory::ResourceStats& s) { s.print(stdout); });
+  std::printf("online doors: %llu window passes (longest %.1f ms, %llu skipped on stairs), %llu doors, %llu blocks "
+              "painted, %llu paints deferred\n",
+              (unsigned long long)online.door_passes, 1e-3 * online.door_pass_max_us,
+              (unsigned long long)online.door_passes_climbing, (unsigned long long)online.online_doors,
+              (unsigned long long)online.blocks_painted, (unsigned long long)online.wall_paint_deferred);
   std::printf("final: %llu rooms (%llu labelled), %llu doors closing %llu place edges, %llu room updates\n",
               (unsigned long long)pipeline.counters().rooms, (unsigned long long)pipeline.counters().rooms_labelled,
               (unsigned long long)pipeline.counters().doors,

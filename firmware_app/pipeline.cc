@@ -679,7 +679,10 @@ void Pipeline::print_telemetry(std::FILE* out) {
     graph_.for_each_resource(watch);
   }
   frontend_.for_each_resource(watch);
-  if (online_doors_.initialized()) online_doors_.for_each_resource(watch);
+  if (online_doors_.initialized()) {  // the loop's own: the arena and the wall map (the door set is the backend's)
+    watch(online_doors_.arena().stats());
+    watch(online_doors_.wall_map().tile_stats());
+  }
   std::fprintf(out,
                "[t=%7.1fs] kf/s=%.1f keyframes=%llu | max_us recon=%lld frontend=%lld overruns=%zu | blocks=%zu/%zu "
                "archive=%zu tri | graph nodes=%zu rooms=%llu | frames queue hw=%u drops=%llu | driver drops=%llu stalls=%llu "
