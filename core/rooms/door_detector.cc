@@ -480,7 +480,7 @@ bool detect_doors(const std::vector<Eigen::Vector3f>& surface, const std::vector
     if (place_in_band(p) && raster.cell_of(p.x(), p.y(), &c, &r))
       ws.place_cells()[k++] = static_cast<std::uint32_t>(static_cast<std::size_t>(r) * raster.cols + c);
   }
-  std::vector<Door> found(4096);
+  std::vector<Door> found(cap.candidates);  // every kept candidate fits: no door is dropped here
   std::size_t num = 0;
   if (!detect_doors_in_raster(&ws, raster, k, slice_z_m, config, found.data(), found.size(), &num, &st)) {
     if (error != nullptr) *error = "doors: the slice's detection failed";

@@ -49,8 +49,8 @@ struct DoorConfig {
   double rise_reach_m = 1.0;          // ... within this distance of it
   double max_off_centre = 0.35;       // |d1 - d2| / (d1 + d2) of the jambs' distances from the axis cell
   double suppression_m = 0.4;         // of two critical cells closer than this, the narrower stays
-  // The raster's size limit, about 19 bytes a cell while a slice is worked on: 4 Mi cells (a 100 m x 100 m storey
-  // at 0.05 m) is about 80 MB. A surface beyond it (or a stray vertex far away) is an error, not an allocation.
+  // The final stage's raster size limit, about 23 bytes a cell while a slice is worked on (the workspace and the
+  // surface's height range per cell): 4 Mi cells (a 100 m x 100 m storey at 0.05 m) is about 96 MB. A surface beyond it (or a stray vertex far away) is an error, not an allocation.
   std::size_t max_cells = 4u << 20;
   // Storeys and slices.
   double slice_above_robot_m = 0.7;   // the slice's height above the robot's (camera's) height on a storey
