@@ -181,10 +181,12 @@ bool AppConfig::load(const std::string& path, std::string* error) {
        }},
       {"doors", [&](const Json& v, std::string* why) {
          double every_n = doors_online_every_n;
+         double misses = doors.online_misses_to_drop;
          if (!read_section(v, "doors",
                              {{"at_finish", boolean(&doors_at_finish)},
                               {"online", boolean(&doors_online)},
                               {"online_every_n_updates", number(&every_n)},
+                              {"online_misses_to_drop", number(&misses)},
                               {"slice_above_robot_m", number(&doors.slice_above_robot_m)},
                               {"min_width_m", number(&doors.min_width_m)},
                               {"max_width_m", number(&doors.max_width_m)},
@@ -195,6 +197,9 @@ bool AppConfig::load(const std::string& path, std::string* error) {
          if (!(every_n >= 1.0 && every_n <= 1e6 && every_n == std::floor(every_n)))
            return *why = "doors.online_every_n_updates: expected an integer 1 .. 1000000", false;
          doors_online_every_n = static_cast<std::uint32_t>(every_n);
+         if (!(misses >= 1.0 && misses <= 255.0 && misses == std::floor(misses)))
+           return *why = "doors.online_misses_to_drop: expected an integer 1 .. 255", false;
+         doors.online_misses_to_drop = static_cast<int>(misses);
          return true;
        }},
       {"frontend", [&](const Json& v, std::string* why) {
@@ -313,7 +318,10 @@ void AppConfig::print(std::FILE* out) const {
                "doors: %s%s%s, slice %.2f m above the robot on each storey, widths %.2f .. %.2f m, rise %.2f m "
                "within %.2f m\n",
                doors_online ? "online (every " : "",
-               doors_online ? (std::to_string(doors_online_every_n) + ". backend update), ").c_str() : "",
+               doors_online ? (std::to_string(doors_online_every_n) + ". backend update, dropped after " +
+                               std::to_string(doors.online_misses_to_drop) + " missed passes), ")
+                                  .c_str()
+                            : "",
                doors_at_finish ? "found when the run finishes" : "not at the finish", doors.slice_above_robot_m, doors.min_width_m,
                doors.max_width_m, doors.min_rise_m, doors.rise_reach_m);
   std::fprintf(out, "room_labels: weights_path=%s\n",

@@ -281,6 +281,8 @@ void Pipeline::run_door_pass(const Eigen::Vector3d& robot_m) {
   if (!r.ran) return;
   door_passes_.fetch_add(1);
   online_doors_count_.store(online_doors_.doors().size());
+  online_doors_kept_missed_.fetch_add(r.missed);
+  online_doors_dropped_.fetch_add(r.removed);
   if (us > door_pass_max_us_.load()) door_pass_max_us_.store(us);
 }
 
@@ -469,6 +471,8 @@ bool Pipeline::step() {
   counters_.door_passes = door_passes_.load();
   counters_.door_passes_climbing = door_passes_climbing_.load();
   counters_.online_doors = online_doors_count_.load();
+  counters_.online_doors_kept_missed = online_doors_kept_missed_.load();
+  counters_.online_doors_dropped = online_doors_dropped_.load();
   counters_.door_pass_max_us = door_pass_max_us_.load();
   if (tick_start >= next_snapshot_ns_) {
     std::string error;

@@ -63,6 +63,8 @@ struct PipelineCounters {
   std::uint64_t door_passes = 0;          // window passes run before a room update
   std::uint64_t door_passes_climbing = 0; // passes skipped: the robot's height was changing (stairs)
   std::uint64_t online_doors = 0;         // doors the room finder reads (latest pass)
+  std::uint64_t online_doors_kept_missed = 0;  // kept doors a pass over them missed, summed over passes (hysteresis)
+  std::uint64_t online_doors_dropped = 0; // doors dropped at DoorConfig::online_misses_to_drop missed passes
   std::uint64_t door_pass_max_us = 0;     // the longest pass (backend thread; wall time)
   std::uint64_t blocks_painted = 0;       // re-meshed blocks painted into the wall map
   std::uint64_t wall_paint_deferred = 0;  // keyframes whose painting waited for the next (a pass held the map)
@@ -199,6 +201,8 @@ class Pipeline {
   std::atomic<std::uint64_t> door_passes_{0};
   std::atomic<std::uint64_t> door_passes_climbing_{0};
   std::atomic<std::uint64_t> online_doors_count_{0};
+  std::atomic<std::uint64_t> online_doors_kept_missed_{0};
+  std::atomic<std::uint64_t> online_doors_dropped_{0};
   std::atomic<std::uint64_t> door_pass_max_us_{0};
   void paint_walls();
   void run_door_pass(const Eigen::Vector3d& robot_m);

@@ -136,6 +136,7 @@ bool parse(int argc, char** argv, Options* o) {
       o->online_doors = v == "online";
       o->doors = !o->online_doors && std::atoi(v.c_str()) != 0;
     } else if (a == "--online-every") o->online_every = std::max(1, std::atoi(v.c_str()));
+    else if (a == "--online-misses") o->door.online_misses_to_drop = std::atoi(v.c_str());
     else if (a == "--door-slice-above-robot-m") number = &o->door.slice_above_robot_m;
     else if (a == "--door-extension-m") number = &o->door.cut_extension_m;
     else if (a == "--door-min-width-m") number = &o->door.min_width_m;
@@ -990,7 +991,7 @@ int main(int argc, char** argv) {
                  "[--generated-rooms N] [--label-buildings N] [--size WxH] [--hfov-deg D] [--rate-hz R] [--max-reach-m M] [--robot-radius-m R] [--furniture-height-m H] [--alpha A] "
                  "[--min-dilation-m D] [--max-dilation-m D] [--min-component N] [--seeding plateau|persistence] "
                  "[--min-persistence-m P] [--max-door-clearance-m D] [--split-by-extent 0|1] [--extent-saturation-m S] "
-                 "[--split-min-extent-m E] [--split-max-extent-m E] [--split-min-persistence-m P] [--split-min-component N] [--cache-dir DIR] [--images DIR] [--dump-places DIR] [--door-oracle-m C] [--doors 0|1|online] [--online-every N] "
+                 "[--split-min-extent-m E] [--split-max-extent-m E] [--split-min-persistence-m P] [--split-min-component N] [--cache-dir DIR] [--images DIR] [--dump-places DIR] [--door-oracle-m C] [--doors 0|1|online] [--online-every N] [--online-misses N] "
                  "[--door-slice-above-robot-m H] [--door-min-width-m W] [--door-max-width-m W] [--door-min-rise-m R] "
                  "[--door-rise-reach-m R] [--door-max-off-centre F] [--door-min-wall-height-m H] "
                  "[--door-mapped-radius-m R] [--door-extension-m E] [--json FILE]\n",

@@ -32,6 +32,9 @@ bool DoorConfig::validate(std::string* error) const {
       !(storey_separation_m >= 0.0))
     return fail("storey_bin_m > 0, storey_min_share in [0, 1] and storey_separation_m >= 0");
   if (!(cut_extension_m >= 0.0) || !(cut_max_dz_m >= 0.0)) return fail("cut_extension_m and cut_max_dz_m >= 0");
+  if (!(online_misses_to_drop >= 1 && online_misses_to_drop <= 255))
+    return fail("online_misses_to_drop must lie in [1, 255]");
+  if (!(online_match_m >= 0.0 && std::isfinite(online_match_m))) return fail("online_match_m must be >= 0");
   return true;
 }
 
@@ -600,6 +603,8 @@ std::size_t DoorSet::buckets_for(std::size_t max_doors) {
 memory::ArenaPlan DoorSet::plan(std::size_t max_doors) {
   memory::ArenaPlan p;
   p.add_array<Door>(max_doors);
+  p.add_array<std::uint8_t>(max_doors);  // misses
+  p.add_array<std::uint8_t>(max_doors);  // flags
   p.add_array<std::uint32_t>(max_doors);
   p.add_array<std::uint32_t>(buckets_for(max_doors));
   return p;
@@ -610,10 +615,14 @@ bool DoorSet::carve(memory::Arena& arena, std::size_t max_doors, const DoorConfi
   // A door's line reaches at most half its width plus the extension from its midpoint; one grid cell of that.
   grid_m_ = std::max(0.5, 0.5 * (config.max_width_m + 2.0 * config.cell_m) + config.cut_extension_m);
   doors_ = arena.carve_array<Door>(max_doors);
+  misses_ = arena.carve_array<std::uint8_t>(max_doors);
+  flags_ = arena.carve_array<std::uint8_t>(max_doors);
   next_ = arena.carve_array<std::uint32_t>(max_doors);
   buckets_ = buckets_for(max_doors);
   head_ = arena.carve_array<std::uint32_t>(buckets_);
-  const bool ok = (max_doors == 0 || (doors_ != nullptr && next_ != nullptr)) && head_ != nullptr;
+  const bool ok = (max_doors == 0 || (doors_ != nullptr && misses_ != nullptr && flags_ != nullptr &&
+                                      next_ != nullptr)) &&
+                  head_ != nullptr;
   counter_.set_capacity(ok ? max_doors : 0);
   clear();
   return ok;
@@ -649,6 +658,7 @@ bool DoorSet::add(const Door& door) {
   if (!door.a.allFinite() || !door.b.allFinite() || !std::isfinite(door.z_m)) return false;
   if (size_ >= counter_.capacity()) return counter_.refuse(1);
   doors_[size_] = door;
+  misses_[size_] = 0;
   link(size_++);
   counter_.set_in_use(size_);
   return true;

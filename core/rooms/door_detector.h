@@ -25,6 +25,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <algorithm>
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -60,6 +61,12 @@ struct DoorConfig {
   // Closing edges.
   double cut_extension_m = 0.3;       // door lines lengthened by this at both ends (into the jambs)
   double cut_max_dz_m = 1.5;          // edges whose ends lie within this of the slice's height
+  // The online stage's memory (OnlineDoors, DoorSet::update_window): a kept door that a pass over its window does
+  // not find again is dropped after this many such passes in a row (1: each pass replaces its window's doors), and
+  // a found door whose midpoint lies within online_match_m of a kept door's on the same storey is that door, seen
+  // again (its line replaces the kept one).
+  int online_misses_to_drop = 2;
+  double online_match_m = 0.5;
   bool validate(std::string* error) const;
 };
 
@@ -168,12 +175,31 @@ class DoorSet {
   bool carve(memory::Arena& arena, std::size_t max_doors, const DoorConfig& config);
   bool add(const Door& door);
   void clear();
+  // One online pass over a window (OnlineDoors::detect). The kept doors in_scope(door) selects (the window's
+  // interior on the pass's storey) are matched to the pass's doors, nearest midpoints first within match_m; a match
+  // takes the found door's line and clears its misses. A found door without a match is added. A door in scope
+  // that no found door matches counts a miss and is removed at misses_to_drop misses in a row. Never allocates.
+  struct WindowUpdate {
+    std::size_t matched = 0;  // kept doors found again
+    std::size_t added = 0;    // found doors new to the set
+    std::size_t missed = 0;   // doors in scope not found, still kept
+    std::size_t removed = 0;  // doors in scope dropped at misses_to_drop misses
+    std::size_t refused = 0;  // found doors the full set could not take
+  };
+  template <typename InScope>
+  WindowUpdate update_window(const Door* found, std::size_t num_found, InScope&& in_scope, double match_m,
+                             int misses_to_drop);
+  // Passes in a row that missed door i (0 for a door just found or added).
+  int misses(std::size_t i) const { return misses_[i]; }
   // Removes every door pred(door) is true for; returns how many.
   template <typename Pred>
   std::size_t remove_if(Pred&& pred) {
     std::size_t kept = 0;
     for (std::size_t i = 0; i < size_; ++i)
-      if (!pred(doors_[i])) doors_[kept++] = doors_[i];
+      if (!pred(doors_[i])) {
+        misses_[kept] = misses_[i];
+        doors_[kept++] = doors_[i];
+      }
     const std::size_t removed = size_ - kept;
     size_ = kept;
     counter_.set_in_use(size_);
@@ -193,12 +219,65 @@ class DoorSet {
   DoorConfig config_;
   double grid_m_ = 2.0;
   Door* doors_ = nullptr;
+  std::uint8_t* misses_ = nullptr;   // per door: passes in a row that did not find it (update_window)
+  std::uint8_t* flags_ = nullptr;    // per door: update_window's scratch (in scope, matched)
   std::uint32_t* next_ = nullptr;    // per door: the next in its bucket
   std::uint32_t* head_ = nullptr;    // per bucket: the first door
   std::size_t buckets_ = 0;
   std::size_t size_ = 0;
   memory::UsageCounter counter_{"door_set", "doors", 0, memory::OverflowPolicy::kRefuse};
 };
+
+template <typename InScope>
+DoorSet::WindowUpdate DoorSet::update_window(const Door* found, std::size_t num_found, InScope&& in_scope,
+                                             double match_m, int misses_to_drop) {
+  constexpr std::uint8_t kInScope = 1, kMatched = 2;
+  WindowUpdate u;
+  const std::size_t kept_before = size_;
+  for (std::size_t i = 0; i < kept_before; ++i) flags_[i] = in_scope(doors_[i]) ? kInScope : 0;
+  const double match2 = match_m * match_m;
+  for (std::size_t k = 0; k < num_found; ++k) {
+    const Door& f = found[k];
+    if (!f.a.allFinite() || !f.b.allFinite() || !std::isfinite(f.z_m)) continue;
+    const Eigen::Vector2d mid = 0.5 * (f.a + f.b);
+    std::size_t best = kept_before;
+    double best2 = match2;
+    for (std::size_t i = 0; i < kept_before; ++i) {
+      if (flags_[i] != kInScope) continue;  // out of scope, or matched already
+      const double d2 = (0.5 * (doors_[i].a + doors_[i].b) - mid).squaredNorm();
+      if (d2 <= best2) best2 = d2, best = i;
+    }
+    if (best < kept_before) {
+      doors_[best] = f;
+      misses_[best] = 0;
+      flags_[best] |= kMatched;
+      ++u.matched;
+    } else if (add(f)) {
+      ++u.added;
+    } else {
+      ++u.refused;
+    }
+  }
+  const int drop_at = std::max(1, misses_to_drop);
+  for (std::size_t i = 0; i < kept_before; ++i) {
+    if (flags_[i] != kInScope) continue;
+    if (misses_[i] < 255) ++misses_[i];
+    if (misses_[i] >= drop_at) ++u.removed; else ++u.missed;
+  }
+  // Drops the doors at drop_at misses (only doors in scope can have reached it in this pass) and re-indexes the
+  // moved midpoints of the matched ones.
+  std::size_t kept = 0;
+  for (std::size_t i = 0; i < size_; ++i) {
+    const bool drop = i < kept_before && flags_[i] == kInScope && misses_[i] >= drop_at;
+    if (drop) continue;
+    misses_[kept] = misses_[i];
+    doors_[kept++] = doors_[i];
+  }
+  size_ = kept;
+  counter_.set_in_use(size_);
+  reindex();
+  return u;
+}
 
 // The slice heights for the robot's pose heights: one per storey (see DoorConfig), ascending.
 std::vector<double> door_slice_heights(const std::vector<double>& robot_z_m, const DoorConfig& config);

@@ -139,17 +139,23 @@ PassResult OnlineDoors::detect() {
                               capacities_.candidates, &num, &result.stats))
     return result;
   result.ran = true;
-  // The interior's doors on this storey are replaced; near the window's edge the free space is cut off by the
-  // window, so doors there wait for a window that holds them.
+  // The doors of the interior on this storey meet the pass's doors there (DoorSet::update_window): found again,
+  // new, or missed (dropped after online_misses_to_drop passes in a row). Near the window's edge the free space is
+  // cut off by the window, so doors there wait for a window that holds them.
   const double same_storey = 0.5 * config_.storey_separation_m;
-  result.removed = doors_.remove_if([&](const Door& d) {
-    return std::abs(d.z_m - slice_z_m_) < same_storey && inside_interior(0.5 * (d.a + d.b));
-  });
-  for (std::size_t k = 0; k < num; ++k) {
-    if (!inside_interior(0.5 * (found_[k].a + found_[k].b))) continue;
-    ++result.found;
-    if (!doors_.add(found_[k])) ++result.refused;
-  }
+  std::size_t kept = 0;
+  for (std::size_t k = 0; k < num; ++k)
+    if (inside_interior(0.5 * (found_[k].a + found_[k].b))) found_[kept++] = found_[k];
+  result.found = kept;
+  const DoorSet::WindowUpdate u = doors_.update_window(
+      found_, kept,
+      [&](const Door& d) { return std::abs(d.z_m - slice_z_m_) < same_storey && inside_interior(0.5 * (d.a + d.b)); },
+      config_.online_match_m, config_.online_misses_to_drop);
+  result.matched = u.matched;
+  result.added = u.added;
+  result.missed = u.missed;
+  result.removed = u.removed;
+  result.refused = u.refused;
   return result;
 }
 

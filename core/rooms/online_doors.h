@@ -1,8 +1,9 @@
 // The door stage during a run: the offline detector (detect_doors_in_raster) on a fixed square window around the
 // robot, sliced from the robot's surface as the loop paints it into a WallMap, in buffers carved at start-up. Each
-// pass replaces the doors of the window's interior (the window less the mapped radius, on the robot's storey) in a
-// DoorSet that the room finder reads (RoomFinder::update), so rooms found during a run are split at doors without
-// allocating. The final pass on the whole mesh (find_doors, when a run finishes) is unchanged.
+// pass updates the doors of the window's interior (the window less the mapped radius, on the robot's storey) in a
+// DoorSet that the room finder reads: found again, new, or missed, a door dropped only after
+// DoorConfig::online_misses_to_drop passes in a row missed it (DoorSet::update_window). The room finder reads it
+// (RoomFinder::update), so rooms found during a run are split at doors without allocating. The final pass on the whole mesh (find_doors, when a run finishes) is unchanged.
 //
 // A pass runs only while the robot's height holds still (not on stairs), in steps that let the caller keep its locks
 // short:
@@ -42,8 +43,11 @@ struct PassResult {
   std::size_t places = 0;      // places in the window and the slice's band
   std::size_t places_dropped = 0;  // beyond OnlineDoorCapacities::places
   std::size_t found = 0;       // doors in the window's interior
-  std::size_t removed = 0;     // doors of the interior the pass replaced
-  std::size_t refused = 0;     // the DoorSet was full
+  std::size_t matched = 0;     // ... that were kept doors, found again
+  std::size_t added = 0;       // ... new to the DoorSet
+  std::size_t refused = 0;     // ... that the full DoorSet could not take
+  std::size_t missed = 0;      // kept doors of the interior this pass did not find, still kept
+  std::size_t removed = 0;     // ... dropped at DoorConfig::online_misses_to_drop passes in a row
   DoorStats stats;
 };
 

@@ -318,11 +318,15 @@ TEST(AppConfigTest, LoadsKnownKeysAndNamesBadOnes) {
   EXPECT_FALSE(doors.load(write("door_widths.json", "{\"doors\": {\"min_width_m\": 3.0}}"), &error));
   EXPECT_NE(error.find("min_width_m"), std::string::npos) << error;
   AppConfig online;
-  ASSERT_TRUE(online.load(write("online.json", "{\"doors\": {\"online\": false, \"online_every_n_updates\": 7}}"),
+  ASSERT_TRUE(online.load(write("online.json", "{\"doors\": {\"online\": false, \"online_every_n_updates\": 7, "
+                                               "\"online_misses_to_drop\": 3}}"),
                           &error))
       << error;
   EXPECT_FALSE(online.doors_online);
   EXPECT_EQ(online.doors_online_every_n, 7u);
+  EXPECT_EQ(online.doors.online_misses_to_drop, 3);
+  EXPECT_FALSE(online.load(write("online_m.json", "{\"doors\": {\"online_misses_to_drop\": 0}}"), &error));
+  EXPECT_NE(error.find("online_misses_to_drop"), std::string::npos) << error;
   EXPECT_FALSE(online.load(write("online_n.json", "{\"doors\": {\"online_every_n_updates\": 0}}"), &error));
   EXPECT_NE(error.find("online_every_n_updates"), std::string::npos) << error;
   EXPECT_FALSE(online.load(write("online_frac.json", "{\"doors\": {\"online_every_n_updates\": 1.5}}"), &error));
@@ -344,6 +348,7 @@ TEST(AppConfigTest, LoadsKnownKeysAndNamesBadOnes) {
   EXPECT_EQ(shipped.doors_at_finish, AppConfig().doors_at_finish);
   EXPECT_EQ(shipped.doors_online, AppConfig().doors_online);
   EXPECT_EQ(shipped.doors_online_every_n, AppConfig().doors_online_every_n);
+  EXPECT_EQ(shipped.doors.online_misses_to_drop, AppConfig().doors.online_misses_to_drop);
   EXPECT_EQ(shipped.doors.slice_above_robot_m, AppConfig().doors.slice_above_robot_m);
   EXPECT_EQ(shipped.doors.min_width_m, AppConfig().doors.min_width_m);
   EXPECT_EQ(shipped.doors.max_width_m, AppConfig().doors.max_width_m);

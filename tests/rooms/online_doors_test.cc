@@ -173,13 +173,89 @@ TEST(OnlineDoors, AWindowPassFindsTheFinalStagesDoorWithoutAllocating) {
   const Eigen::Vector3d left(3.75, 2.25, 1.0), right(4.25, 2.25, 1.0), wall_side(4.25, 0.75, 1.0);
   EXPECT_TRUE(online.doors().closes(left, right));
   EXPECT_FALSE(online.doors().closes(Eigen::Vector3d(3.75, 0.75, 1.0), wall_side));
-  // The door walled up: the next pass over the same window drops it.
+  // The same window again: the door is found again, not added twice.
+  r = pass(&online, s, robot);
+  EXPECT_EQ(r.matched, 1u);
+  EXPECT_EQ(r.added, 0u);
+  ASSERT_EQ(online.doors().size(), 1u);
+  // The door walled up: one pass that misses it keeps it (DoorConfig::online_misses_to_drop, 2), the second drops it.
   Scene closed = two_rooms(1.6, 2.5);
   closed.wall(4, 1.6, 4, 2.5);
   paint(closed, &online.wall_map());
   r = pass(&online, closed, robot);
+  EXPECT_EQ(r.missed, 1u);
+  EXPECT_EQ(r.removed, 0u);
+  ASSERT_EQ(online.doors().size(), 1u);
+  EXPECT_EQ(online.doors().misses(0), 1);
+  EXPECT_TRUE(online.doors().closes(left, right)) << "kept through one missed pass";
+  r = pass(&online, closed, robot);
   EXPECT_EQ(r.removed, 1u);
   EXPECT_EQ(online.doors().size(), 0u);
+  // With online_misses_to_drop 1 each pass replaces its window's doors.
+  DoorConfig at_once;
+  at_once.online_misses_to_drop = 1;
+  OnlineDoors replace;
+  ASSERT_TRUE(replace.init(at_once, small_capacities(), 0, &error)) << error;
+  paint(s, &replace.wall_map());
+  ASSERT_TRUE(pass(&replace, s, robot).ran);
+  ASSERT_EQ(replace.doors().size(), 1u);
+  paint(closed, &replace.wall_map());
+  EXPECT_EQ(pass(&replace, closed, robot).removed, 1u);
+  EXPECT_EQ(replace.doors().size(), 0u);
+}
+
+TEST(DoorSet, AWindowUpdateMatchesNearestFirstCountsMissesAndLeavesDoorsOutOfScope) {
+  DoorConfig config;
+  config.cut_extension_m = 0.0;  // edges close exactly on the door lines
+  memory::Arena arena;
+  std::string error;
+  const memory::ArenaPlan plan = DoorSet::plan(4);
+  ASSERT_TRUE(arena.create("door_set_window", plan, plan.total_bytes(), &error)) << error;
+  DoorSet set;
+  ASSERT_TRUE(set.carve(arena, 4, config));
+  const auto door = [](double x, double y) {
+    Door d;
+    d.a = Eigen::Vector2d(x - 0.4, y);
+    d.b = Eigen::Vector2d(x + 0.4, y);
+    d.z_m = 1.2;
+    return d;
+  };
+  ASSERT_TRUE(set.add(door(0.0, 0.0)));
+  ASSERT_TRUE(set.add(door(1.0, 0.0)));
+  ASSERT_TRUE(set.add(door(20.0, 0.0)));  // out of scope
+  const auto in_scope = [](const Door& d) { return d.a.x() < 10.0; };
+  // Found: one 0.45 m from the second door and 1.45 m from the first, both within the match distance (it goes to
+  // the nearer), and one new.
+  const Door found[] = {door(1.45, 0.0), door(5.0, 5.0)};
+  DoorSet::WindowUpdate u;
+  EXPECT_NO_ALLOCATIONS(u = set.update_window(found, 2, in_scope, 2.0, 2));
+  EXPECT_EQ(u.matched, 1u);
+  EXPECT_EQ(u.added, 1u);
+  EXPECT_EQ(u.missed, 1u);  // the door at 0
+  EXPECT_EQ(u.removed, 0u);
+  ASSERT_EQ(set.size(), 4u);
+  EXPECT_EQ(set.misses(0), 1);
+  EXPECT_NEAR(set[1].a.x(), 1.05, 1e-12) << "the found line replaces the kept one";
+  EXPECT_EQ(set.misses(1), 0);
+  // The index follows the moved door: an edge through its new line is closed, one through its old line only is not.
+  EXPECT_TRUE(set.closes(Eigen::Vector3d(1.7, -0.3, 1.0), Eigen::Vector3d(1.7, 0.3, 1.0)));
+  EXPECT_FALSE(set.closes(Eigen::Vector3d(0.8, -0.3, 1.0), Eigen::Vector3d(0.8, 0.3, 1.0)));
+  // An empty pass: every door in scope misses; the one at 0 reaches 2 and goes, the door at 20 stays untouched.
+  u = set.update_window(found, 0, in_scope, 2.0, 2);
+  EXPECT_EQ(u.removed, 1u);
+  EXPECT_EQ(u.missed, 2u);
+  ASSERT_EQ(set.size(), 3u);
+  bool far_kept = false;
+  for (std::size_t i = 0; i < set.size(); ++i)
+    if (set[i].a.x() > 10.0) far_kept = set.misses(i) == 0;
+  EXPECT_TRUE(far_kept);
+  // Full: a new door is refused and counted, the doors already kept stay.
+  const Door more[] = {door(7.0, 7.0), door(8.0, 8.0)};
+  u = set.update_window(more, 2, in_scope, 0.5, 5);
+  EXPECT_EQ(u.added, 1u);
+  EXPECT_EQ(u.refused, 1u);
+  EXPECT_EQ(set.size(), 4u);
+  EXPECT_EQ(set.stats().failed, 1u);
 }
 
 TEST(OnlineDoors, APassReplacesOnlyItsInteriorsDoorsOnItsStorey) {
