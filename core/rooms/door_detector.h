@@ -194,9 +194,20 @@ class DoorSet {
   // Removes every door pred(door) is true for; returns how many.
   template <typename Pred>
   std::size_t remove_if(Pred&& pred) {
+    return compact([&](std::size_t i) { return pred(doors_[i]); });
+  }
+  bool closes(const Eigen::Vector3d& a, const Eigen::Vector3d& b) const;
+  std::size_t size() const { return size_; }
+  const Door& operator[](std::size_t i) const { return doors_[i]; }
+  memory::ResourceStats stats() const { return counter_.stats(); }
+
+ private:
+  // Removes every door drop(index) is true for, keeping the others' order and misses, and re-indexes.
+  template <typename DropIndex>
+  std::size_t compact(DropIndex&& drop) {
     std::size_t kept = 0;
     for (std::size_t i = 0; i < size_; ++i)
-      if (!pred(doors_[i])) {
+      if (!drop(i)) {
         misses_[kept] = misses_[i];
         doors_[kept++] = doors_[i];
       }
@@ -206,12 +217,6 @@ class DoorSet {
     reindex();
     return removed;
   }
-  bool closes(const Eigen::Vector3d& a, const Eigen::Vector3d& b) const;
-  std::size_t size() const { return size_; }
-  const Door& operator[](std::size_t i) const { return doors_[i]; }
-  memory::ResourceStats stats() const { return counter_.stats(); }
-
- private:
   static std::size_t buckets_for(std::size_t max_doors);
   std::size_t bucket_of(long gx, long gy) const;
   void link(std::size_t i);
@@ -264,18 +269,8 @@ DoorSet::WindowUpdate DoorSet::update_window(const Door* found, std::size_t num_
     if (misses_[i] < 255) ++misses_[i];
     if (misses_[i] >= drop_at) ++u.removed; else ++u.missed;
   }
-  // Drops the doors at drop_at misses (only doors in scope can have reached it in this pass) and re-indexes the
-  // moved midpoints of the matched ones.
-  std::size_t kept = 0;
-  for (std::size_t i = 0; i < size_; ++i) {
-    const bool drop = i < kept_before && flags_[i] == kInScope && misses_[i] >= drop_at;
-    if (drop) continue;
-    misses_[kept] = misses_[i];
-    doors_[kept++] = doors_[i];
-  }
-  size_ = kept;
-  counter_.set_in_use(size_);
-  reindex();
+  // Drops the doors in scope at drop_at misses and re-indexes (the matched doors' midpoints moved).
+  compact([&](std::size_t i) { return i < kept_before && flags_[i] == kInScope && misses_[i] >= drop_at; });
   return u;
 }
 
