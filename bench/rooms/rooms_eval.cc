@@ -137,6 +137,7 @@ bool parse(int argc, char** argv, Options* o) {
       o->doors = !o->online_doors && std::atoi(v.c_str()) != 0;
     } else if (a == "--online-every") o->online_every = std::max(1, std::atoi(v.c_str()));
     else if (a == "--online-misses") o->door.online_misses_to_drop = std::atoi(v.c_str());
+    else if (a == "--online-match-m") number = &o->door.online_match_m;
     else if (a == "--door-slice-above-robot-m") number = &o->door.slice_above_robot_m;
     else if (a == "--door-extension-m") number = &o->door.cut_extension_m;
     else if (a == "--door-min-width-m") number = &o->door.min_width_m;
@@ -405,6 +406,9 @@ struct RunStats {
   std::vector<double> pass_ms;                // ... each window pass's wall time
   std::size_t wall_tiles = 0;                 // ... the wall map's tiles in use
   std::size_t passes_climbing = 0;            // ... passes skipped on stairs
+  std::size_t doors_added = 0;                // ... doors new to the set, summed over passes
+  std::size_t doors_dropped = 0;              // ... doors dropped (online_misses_to_drop missed passes)
+  std::size_t doors_kept_missed = 0;          // ... kept doors a pass missed, still kept
 };
 
 // --doors online: a run's online doors, cached beside its graph as 5 doubles a door (a.x a.y b.x b.y z).
@@ -565,6 +569,9 @@ bool run_pipeline(const Options& opt, const world::World& w, const std::string& 
     const rooms::PassResult pr = online->detect();
     if (pr.climbing) ++stats->passes_climbing;
     if (!pr.ran) return;
+    stats->doors_added += pr.added;
+    stats->doors_dropped += pr.removed;
+    stats->doors_kept_missed += pr.missed;
     stats->pass_ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
   };
   auto frame = std::make_unique<drivers::RgbdFrame>();
@@ -589,10 +596,11 @@ bool run_pipeline(const Options& opt, const world::World& w, const std::string& 
     stats->wall_tiles = online->wall_map().tile_stats().in_use;
     std::sort(stats->pass_ms.begin(), stats->pass_ms.end());
     std::printf("  %s: online doors: %zu after %zu window passes (median %.1f ms, max %.1f ms; %zu skipped on stairs), "
-                "%zu wall tiles\n",
+                "%zu wall tiles; over the passes %zu doors added, %zu dropped, %zu kept through a miss\n",
                 w.name.c_str(), stats->online_doors.size(), stats->pass_ms.size(),
                 stats->pass_ms.empty() ? 0.0 : stats->pass_ms[stats->pass_ms.size() / 2],
-                stats->pass_ms.empty() ? 0.0 : stats->pass_ms.back(), stats->passes_climbing, stats->wall_tiles);
+                stats->pass_ms.empty() ? 0.0 : stats->pass_ms.back(), stats->passes_climbing, stats->wall_tiles,
+                stats->doors_added, stats->doors_dropped, stats->doors_kept_missed);
     if (!doors_path.empty() && !write_doors(stats->online_doors, doors_path))
       std::fprintf(stderr, "cache: cannot write %s\n", doors_path.c_str());
   }
@@ -991,7 +999,7 @@ int main(int argc, char** argv) {
                  "[--generated-rooms N] [--label-buildings N] [--size WxH] [--hfov-deg D] [--rate-hz R] [--max-reach-m M] [--robot-radius-m R] [--furniture-height-m H] [--alpha A] "
                  "[--min-dilation-m D] [--max-dilation-m D] [--min-component N] [--seeding plateau|persistence] "
                  "[--min-persistence-m P] [--max-door-clearance-m D] [--split-by-extent 0|1] [--extent-saturation-m S] "
-                 "[--split-min-extent-m E] [--split-max-extent-m E] [--split-min-persistence-m P] [--split-min-component N] [--cache-dir DIR] [--images DIR] [--dump-places DIR] [--door-oracle-m C] [--doors 0|1|online] [--online-every N] [--online-misses N] "
+                 "[--split-min-extent-m E] [--split-max-extent-m E] [--split-min-persistence-m P] [--split-min-component N] [--cache-dir DIR] [--images DIR] [--dump-places DIR] [--door-oracle-m C] [--doors 0|1|online] [--online-every N] [--online-misses N] [--online-match-m M] "
                  "[--door-slice-above-robot-m H] [--door-min-width-m W] [--door-max-width-m W] [--door-min-rise-m R] "
                  "[--door-rise-reach-m R] [--door-max-off-centre F] [--door-min-wall-height-m H] "
                  "[--door-mapped-radius-m R] [--door-extension-m E] [--json FILE]\n",
@@ -1067,12 +1075,14 @@ int main(int argc, char** argv) {
   std::vector<double> rooms_ms, door_ms;
   // Per run: the door stage's doors, closed edges and time (--doors).
   std::vector<double> pass_ms;
-  std::size_t wall_tiles_max = 0;
+  std::size_t wall_tiles_max = 0, doors_added = 0, doors_dropped = 0;
   const auto add_doors = [&](const std::string& prefix, const RunStats& st) {
     if (opt.online_doors) {
       figures.add(prefix + ".online_doors", static_cast<double>(st.online_doors.size()), "doors");
       pass_ms.insert(pass_ms.end(), st.pass_ms.begin(), st.pass_ms.end());
       wall_tiles_max = std::max(wall_tiles_max, st.wall_tiles);
+      doors_added += st.doors_added;
+      doors_dropped += st.doors_dropped;
     }
     if (!opt.doors) return;
     figures.add(prefix + ".doors", static_cast<double>(st.doors.size()), "doors");
@@ -1234,9 +1244,15 @@ int main(int argc, char** argv) {
     figures.add("rooms_eval.online_door_pass_ms_p99", pass_ms[pass_ms.size() * 99 / 100], "ms");
     figures.add("rooms_eval.online_door_pass_ms_max", pass_ms.back(), "ms");
     figures.add("rooms_eval.online_wall_tiles_max", static_cast<double>(wall_tiles_max), "tiles");
-    std::printf("online door passes: %zu, median %.1f ms, p99 %.1f ms, max %.1f ms; wall tiles at most %zu\n",
+    // Churn: doors that came and went during the runs (a door a pass adds and a later one drops made the rooms
+    // flicker in between).
+    figures.add("rooms_eval.online_doors_added_per_pass", static_cast<double>(doors_added) / pass_ms.size(), "doors");
+    figures.add("rooms_eval.online_doors_dropped_per_pass", static_cast<double>(doors_dropped) / pass_ms.size(),
+                "doors");
+    std::printf("online door passes: %zu, median %.1f ms, p99 %.1f ms, max %.1f ms; wall tiles at most %zu; doors "
+                "added %zu, dropped %zu over the passes\n",
                 pass_ms.size(), pass_ms[pass_ms.size() / 2], pass_ms[pass_ms.size() * 99 / 100], pass_ms.back(),
-                wall_tiles_max);
+                wall_tiles_max, doors_added, doors_dropped);
   }
   if (!opt.json_path.empty() && !figures.write(opt.json_path)) return 1;
   return failures == 0 ? 0 : 1;
