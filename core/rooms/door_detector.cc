@@ -43,6 +43,7 @@ memory::ArenaPlan DoorWorkspace::plan(const Capacities& c) {
   p.add_array<std::uint8_t>(c.cells);   // wall
   p.add_array<std::uint8_t>(c.cells);   // free
   p.add_array<std::uint8_t>(c.cells);   // axis
+  p.add_array<std::uint8_t>(c.cells);   // walls dilated (the jambs' test)
   p.add_array<float>(c.cells);          // clearance
   p.add_array<std::uint32_t>(c.cells);  // stack
   p.add_array<std::uint32_t>(c.cells);  // list
@@ -59,6 +60,7 @@ bool DoorWorkspace::carve(memory::Arena& arena, const Capacities& c) {
   wall_ = arena.carve_array<std::uint8_t>(c.cells);
   free_ = arena.carve_array<std::uint8_t>(c.cells);
   axis_ = arena.carve_array<std::uint8_t>(c.cells);
+  dilated_ = arena.carve_array<std::uint8_t>(c.cells);
   clearance_ = arena.carve_array<float>(c.cells);
   stack_ = arena.carve_array<std::uint32_t>(c.cells);
   list_ = arena.carve_array<std::uint32_t>(c.cells);
@@ -68,7 +70,8 @@ bool DoorWorkspace::carve(memory::Arena& arena, const Capacities& c) {
   line_v_ = arena.carve_array<std::int32_t>(c.max_side);
   line_z_ = arena.carve_array<double>(c.max_side + 1);
   candidates_ = arena.carve_array<Candidate>(c.candidates);
-  const bool ok = wall_ != nullptr && free_ != nullptr && axis_ != nullptr && clearance_ != nullptr &&
+  const bool ok = wall_ != nullptr && free_ != nullptr && axis_ != nullptr && dilated_ != nullptr &&
+                  clearance_ != nullptr &&
                   stack_ != nullptr && list_ != nullptr && (place_cells_ != nullptr || c.places == 0) && line_f_ != nullptr &&
                   line_d_ != nullptr && line_v_ != nullptr && line_z_ != nullptr &&
                   (candidates_ != nullptr || c.candidates == 0);
@@ -255,6 +258,7 @@ bool detect_doors_in_raster(DoorWorkspace* ws, const DoorRaster& raster, std::si
     wall_cells += axis[i];
     if (axis[i] != 0) free[i] = 0;
   }
+  std::copy(axis, axis + n, ws->dilated_);
   st.wall_cells = wall_cells;
   // Keep what the places reach (4-connected); `axis` marks the reached cells.
   std::fill(axis, axis + n, std::uint8_t{0});
@@ -304,14 +308,23 @@ bool detect_doors_in_raster(DoorWorkspace* ws, const DoorRaster& raster, std::si
   st.axis_cells = axis_cells;
 
   const auto at = [cols](int c, int r) { return static_cast<std::size_t>(r) * cols + c; };
-  // The first non-free cell from p along direction u (unit), within max_m; false when none.
-  const auto ray = [&](const Eigen::Vector2d& p, const Eigen::Vector2d& u, double max_m, Eigen::Vector2d* hit) {
+  // The first non-free cell from p along direction u (unit), within max_m; false when none. *on_wall: that cell is
+  // (dilated) wall, not the edge of the mapped space or of the raster.
+  const std::uint8_t* dilated = ws->dilated_;
+  const auto ray = [&](const Eigen::Vector2d& p, const Eigen::Vector2d& u, double max_m, Eigen::Vector2d* hit,
+                       bool* on_wall) {
     const double step = 0.5 * config.cell_m;
     for (double t = step; t <= max_m; t += step) {
       const Eigen::Vector2d q = p + t * u;
       int c, r;
-      if (!raster.cell_of(q.x(), q.y(), &c, &r) || free[at(c, r)] == 0) {
+      if (!raster.cell_of(q.x(), q.y(), &c, &r)) {
         *hit = q;
+        *on_wall = false;
+        return true;
+      }
+      if (free[at(c, r)] == 0) {
+        *hit = q;
+        *on_wall = dilated[at(c, r)] != 0;
         return true;
       }
     }
@@ -340,7 +353,9 @@ bool detect_doors_in_raster(DoorWorkspace* ws, const DoorRaster& raster, std::si
             break;
           }
       if (!minimum) continue;
-      // The shortest wall-to-wall line through the cell: its ends are the jambs.
+      // The shortest wall-to-wall line through the cell: its ends are the jambs. A line that ends at the edge of the
+      // mapped space (space the robot has not seen yet) is no door: a half-mapped room would show one at every
+      // frontier, and the next pass, with more mapped, would take it back.
       const Eigen::Vector2d p = raster.centre_of(c, r);
       double best = std::numeric_limits<double>::infinity();
       Eigen::Vector2d best_a = p, best_b = p;
@@ -348,10 +363,11 @@ bool detect_doors_in_raster(DoorWorkspace* ws, const DoorRaster& raster, std::si
         const double th = M_PI * k / kAngles;
         const Eigen::Vector2d u(std::cos(th), std::sin(th));
         Eigen::Vector2d a, b;
+        bool wall_a = false, wall_b = false;
         // A line no shorter than the best so far cannot win: each ray stops at what is left of it.
         const double reach = std::min(config.max_width_m, best);
-        if (!ray(p, u, reach, &a)) continue;
-        if (!ray(p, -u, std::min(config.max_width_m, best - (a - p).norm()), &b)) continue;
+        if (!ray(p, u, reach, &a, &wall_a) || !wall_a) continue;
+        if (!ray(p, -u, std::min(config.max_width_m, best - (a - p).norm()), &b, &wall_b) || !wall_b) continue;
         const double len = (a - b).norm();
         if (len < best) {
           best = len;

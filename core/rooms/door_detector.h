@@ -50,8 +50,8 @@ struct DoorConfig {
   double rise_reach_m = 1.0;          // ... within this distance of it
   double max_off_centre = 0.35;       // |d1 - d2| / (d1 + d2) of the jambs' distances from the axis cell
   double suppression_m = 0.4;         // of two critical cells closer than this, the narrower stays
-  // The final stage's raster size limit, about 23 bytes a cell while a slice is worked on (the workspace and the
-  // surface's height range per cell): 4 Mi cells (a 100 m x 100 m storey at 0.05 m) is about 96 MB. A surface beyond it (or a stray vertex far away) is an error, not an allocation.
+  // The final stage's raster size limit, about 24 bytes a cell while a slice is worked on (the workspace and the
+  // surface's height range per cell): 4 Mi cells (a 100 m x 100 m storey at 0.05 m) is about 100 MB. A surface beyond it (or a stray vertex far away) is an error, not an allocation.
   std::size_t max_cells = 4u << 20;
   // Storeys and slices.
   double slice_above_robot_m = 0.7;   // the slice's height above the robot's (camera's) height on a storey
@@ -103,7 +103,7 @@ struct DoorRaster {
   }
 };
 
-// The buffers one slice is worked on in, about 15 bytes a cell plus the candidates: carved from an arena (online)
+// The buffers one slice is worked on in, about 16 bytes a cell plus the candidates: carved from an arena (online)
 // or held on the heap (offline). The caller fills wall() (1: wall, before the one-cell dilation) for the raster
 // and place_cells() with the places' cells (index r x cols + c), then calls detect_doors_in_raster().
 class DoorWorkspace {
@@ -140,6 +140,7 @@ class DoorWorkspace {
   std::uint8_t* wall_ = nullptr;
   std::uint8_t* free_ = nullptr;
   std::uint8_t* axis_ = nullptr;
+  std::uint8_t* dilated_ = nullptr;  // the walls dilated by one cell: a jamb must be one
   float* clearance_ = nullptr;
   std::uint32_t* stack_ = nullptr;   // flood fill, then thinning's marks
   std::uint32_t* list_ = nullptr;    // thinning's border list

@@ -72,6 +72,30 @@ TEST(DoorDetector, ACorridorIsNotADoor) {
   EXPECT_TRUE(detect(closed).empty());
 }
 
+TEST(DoorDetector, TheEdgeOfTheMappedSpaceIsNoJamb) {
+  // A partition wall from the outer wall (y = 0) up to y = 2 between two mapped rooms. Near the partition the robot
+  // has mapped only up to about y = 3 (places near its foot), so the mapped space narrows over the partition's end
+  // and widens into both rooms: a clearance minimum with a rise on both sides, but the upper end of its line is
+  // space not seen yet, not a jamb.
+  Scene s;
+  s.wall(0, 0, 8, 0);
+  s.wall(4, 0, 4, 2);
+  s.slabs(0, 0, 8, 6);
+  s.place_grid(0.5, 0.5, 1.5, 4.5);
+  s.place_grid(6.5, 0.5, 7.5, 4.5);
+  s.place_grid(2.0, 0.5, 3.5, 1.0);
+  s.place_grid(4.5, 0.5, 6.0, 1.0);
+  const std::vector<Door> doors = detect(s);
+  EXPECT_TRUE(doors.empty()) << doors.size() << " door(s), the first from (" << doors[0].a.transpose() << ") to ("
+                             << doors[0].b.transpose() << ")";
+  // Walled up to the same height beside the partition's end, the same opening is a door.
+  s.wall(4, 3.0, 4, 6.0);
+  s.place_grid(2.0, 1.5, 6.0, 5.0);
+  const std::vector<Door> real = detect(s);
+  ASSERT_EQ(real.size(), 1u);
+  EXPECT_NEAR(0.5 * (real[0].a + real[0].b).y(), 2.5, 0.15);
+}
+
 TEST(DoorDetector, FloorsAndCeilingsAreNotWalls) {
   // The same door, with the slice's band reaching the floor and ceiling (a place-height slice at 0.3 m): flat
   // surfaces span no height inside a cell, so the free space is still open.
