@@ -177,8 +177,9 @@ class DoorSet {
   bool add(const Door& door);
   void clear();
   // One online pass over a window (OnlineDoors::detect). The kept doors in_scope(door) selects (the window's
-  // interior on the pass's storey) are matched to the pass's doors, nearest midpoints first within match_m; a match
-  // takes the found door's line and clears its misses. A found door without a match is added. A door in scope
+  // interior on the pass's storey) are matched to the pass's doors: each found door in turn takes the kept door in
+  // scope, not yet matched, whose midpoint is nearest its own within match_m; a match takes the found door's line
+  // and clears its misses. A found door without a match is added. A door in scope
   // that no found door matches counts a miss and is removed at misses_to_drop misses in a row. Never allocates.
   struct WindowUpdate {
     std::size_t matched = 0;  // kept doors found again
