@@ -500,7 +500,14 @@ bool run_pipeline(const Options& opt, const world::World& w, const std::string& 
   const auto start = std::chrono::steady_clock::now();
   const std::string cache_path = opt.cache_dir.empty() ? "" : opt.cache_dir + "/" + key + ".json";
   const std::string surface_path = opt.cache_dir.empty() ? "" : opt.cache_dir + "/" + key + ".surface.f32";
-  const std::string doors_path = opt.cache_dir.empty() ? "" : opt.cache_dir + "/" + key + ".online_doors.f64";
+  // The online doors depend on the pass settings, so those name the file: a cache explored with other settings is
+  // not read back as if it were this one (the --door-* detector flags are not in the name: change them in a new
+  // cache dir).
+  char online_settings[96];
+  std::snprintf(online_settings, sizeof online_settings, ".every%d.misses%d.match%.2f", opt.online_every,
+                opt.door.online_misses_to_drop, opt.door.online_match_m);
+  const std::string doors_path =
+      opt.cache_dir.empty() ? "" : opt.cache_dir + "/" + key + ".online_doors" + online_settings + ".f64";
   sim::ExplorationConfig ec;
   ec.robot_radius_m = opt.robot_radius_m;
   sim::SimCamera::Config cc;
@@ -525,7 +532,8 @@ bool run_pipeline(const Options& opt, const world::World& w, const std::string& 
     }
     if (!read_surface(surface_path, surface)) surface->clear();
     if (opt.online_doors && !read_doors(doors_path, &stats->online_doors)) {
-      std::fprintf(stderr, "%s: --doors online needs %s (a cache made without --doors online: explore again)\n",
+      std::fprintf(stderr, "%s: --doors online needs %s (a cache made without --doors online, or with other online settings: "
+                   "explore again in a new cache dir)\n",
                    w.name.c_str(), doors_path.c_str());
       return false;
     }
