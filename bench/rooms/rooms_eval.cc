@@ -310,20 +310,26 @@ void label_from_places(const sg::SceneGraph& g, double z_min_m, double z_max_m, 
   std::vector<int> dist(ras->free.size(), -1);
   std::deque<std::pair<int, int>> queue;
   std::map<sg::NodeId, std::int32_t> room_label;
+  // Seeds in the order of the places' ids (a cell two places share, and ties in the search, go to the lower id), so
+  // the score depends on the graph's content only, not on the order its storage visits nodes in.
+  std::vector<std::pair<sg::NodeId, sg::NodeId>> places;  // (place, room)
   g.for_each_node([&](const sg::NodeRecord& n) {
-    if (n.kind != sg::NodeKind::kPlace || (!oracle && n.parent == sg::kNoNode)) return;
-    const Eigen::Vector3d& p = g.place(n.id)->position_m;
-    if (p.z() < z_min_m || p.z() >= z_max_m) return;
+    if (n.kind == sg::NodeKind::kPlace && (oracle || n.parent != sg::kNoNode)) places.emplace_back(n.id, n.parent);
+  });
+  std::sort(places.begin(), places.end());
+  for (const auto& [id, parent] : places) {
+    const Eigen::Vector3d& p = g.place(id)->position_m;
+    if (p.z() < z_min_m || p.z() >= z_max_m) continue;
     int c, r;
-    if (!ras->cell_of(p, &c, &r)) return;
+    if (!ras->cell_of(p, &c, &r)) continue;
     std::int32_t label = 0;
     if (oracle) {
       label = truth_near(*ras, c, r);
-      if (label <= 0) return;
+      if (label <= 0) continue;
     } else {
-      auto it = room_label.find(n.parent);
+      auto it = room_label.find(parent);
       if (it == room_label.end())
-        it = room_label.emplace(n.parent, static_cast<std::int32_t>(room_label.size() + 1)).first;
+        it = room_label.emplace(parent, static_cast<std::int32_t>(room_label.size() + 1)).first;
       label = it->second;
     }
     // A place on a wall cell (rasterization): the nearest free cell within 2 cells.
@@ -337,11 +343,11 @@ void label_from_places(const sg::SceneGraph& g, double z_min_m, double z_max_m, 
             best_r = rr;
           }
         }
-    if (best_c < 0 || dist[ras->idx(best_c, best_r)] == 0) return;
+    if (best_c < 0 || dist[ras->idx(best_c, best_r)] == 0) continue;
     dist[ras->idx(best_c, best_r)] = 0;
     ras->estimate[ras->idx(best_c, best_r)] = label;
     queue.emplace_back(best_c, best_r);
-  });
+  }
   const int max_steps = static_cast<int>(std::lround(max_reach_m / ras->res_m));
   while (!queue.empty()) {
     const auto [c, r] = queue.front();

@@ -363,24 +363,31 @@ bool RoomFinder::read_places(const sg::SceneGraph& graph, const DoorSet* doors, 
   index_.clear();
   num_places_ = 0;
   num_edges_ = 0;
+  // The places in the order of their ids, and each place's edges in the order of the other end's id: the rooms are
+  // a function of the graph's content, not of the order its storage happens to visit nodes and edges in (ties
+  // among equal clearances are broken by index), so a graph saved and read back gives the same rooms as the one
+  // that was built live, with places added and removed over a run.
   graph.for_each_node([&](const sg::NodeRecord& n) {
     if (n.kind != sg::NodeKind::kPlace) return;
     if (num_places_ == capacities_.places) {
       ++r->truncated;
       return;
     }
-    const sg::PlaceAttributes* a = graph.place(n.id);
-    const std::uint32_t i = static_cast<std::uint32_t>(num_places_++);
-    place_ids_[i] = n.id;
+    place_ids_[num_places_++] = n.id;
+  });
+  std::sort(place_ids_, place_ids_ + num_places_);
+  for (std::uint32_t i = 0; i < num_places_; ++i) {
+    const sg::PlaceAttributes* a = graph.place(place_ids_[i]);
     // Non-finite or negative clearances count as 0 (negative edge clearances mark closed passages).
     clearance_[i] = std::isfinite(a->distance_m) ? std::max(0.0, a->distance_m) : 0.0;
     position_[3 * i + 0] = a->position_m.x();
     position_[3 * i + 1] = a->position_m.y();
     position_[3 * i + 2] = a->position_m.z();
     active_[i] = a->is_active ? 1 : 0;
-    index_.insert(n.id, i);
-  });
+    index_.insert(place_ids_[i], i);
+  }
   for (std::uint32_t i = 0; i < num_places_; ++i) {
+    const std::size_t first = num_edges_;
     graph.for_each_neighbor(place_ids_[i], [&](sg::NodeId other, const sg::EdgeRecord& e) {
       const std::uint32_t* j = index_.find(other);
       if (j == nullptr || *j <= i) return;  // not a (read) place, or counted from the other end
@@ -399,6 +406,9 @@ bool RoomFinder::read_places(const sg::SceneGraph& graph, const DoorSet* doors, 
       }
       edges_[num_edges_++] = Edge{i, *j, w};
     });
+    // A place has a handful of edges: insertion sort by the other end (edges are then ordered by (a, b)).
+    for (std::size_t k = first + 1; k < num_edges_; ++k)
+      for (std::size_t m = k; m > first && edges_[m - 1].b > edges_[m].b; --m) std::swap(edges_[m - 1], edges_[m]);
   }
   // Adjacency in CSR form; size_ is the fill cursor.
   std::fill(adjacency_offset_, adjacency_offset_ + num_places_ + 1, 0u);

@@ -6,8 +6,9 @@
 // Betti-0 curve of the clearance filtration over [d-, d+] in one union-find pass, picks the dilation by the paper's
 // alpha plateau rule, seeds rooms with the components at that dilation, assigns the other places by a flood fill
 // that expands the edge of largest clearance first, and replaces the rooms of the previous update (ids kept where a
-// new room overlaps an old one most). Works on the 3D graph: no floor slicing. Every store is carved once from one
-// arena at init(); update() never allocates.
+// new room overlaps an old one most). Works on the 3D graph: no floor slicing. Places and edges are read in the
+// order of their ids, so the rooms depend on the graph's content only (a graph saved and read back gives the same
+// rooms). Every store is carved once from one arena at init(); update() never allocates.
 #pragma once
 
 #include <cstddef>

@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 #include <memory>
@@ -736,6 +737,76 @@ TEST(RoomFinderTest, UpdatesReplaceRoomsAndKeepIds) {
   EXPECT_FALSE(g->has_node(first[4]));
   for (int tag : {0, 1, 2, 3}) EXPECT_TRUE(g->room(first[tag]) != nullptr) << "room " << tag;
   EXPECT_EQ(g->node(finder->building_id())->num_children, 4u);
+}
+
+// Each place's room, named by the smallest place id in it (room node ids depend on update history, the partition
+// must not).
+std::map<sg::NodeId, sg::NodeId> partition(const sg::SceneGraph& g, const SyntheticPlaces& s) {
+  std::map<sg::NodeId, sg::NodeId> first_place;
+  for (const auto& p : s.places) {
+    const sg::NodeId room = g.parent(p.id);
+    auto it = first_place.find(room);
+    if (it == first_place.end() || p.id < it->second) first_place[room] = p.id;
+  }
+  std::map<sg::NodeId, sg::NodeId> out;
+  for (const auto& p : s.places) out[p.id] = first_place[g.parent(p.id)];
+  return out;
+}
+
+// The rooms are a function of the graph's content. The same places and edges, inserted in another order into a
+// graph whose storage already saw other places come and go (as a live run's does, and unlike the same graph read
+// back from a file), give the same rooms. The grid plan's clearances are a few distinct values, so ties are many.
+TEST(RoomFinderTest, RoomsDoNotDependOnTheGraphsStorageOrder) {
+  SyntheticPlaces s;
+  testing::corridor_plan(3).add_to(&s, 0.5);
+  for (const Config& config : {Config{}, persistence_config()}) {
+    auto built = make_graph();
+    ASSERT_TRUE(s.write(built.get()));
+    ASSERT_EQ(make_finder(config)->update(built.get()).outcome, Outcome::kOk);
+    const auto expected = partition(*built, s);
+    std::set<sg::NodeId> rooms;
+    for (const auto& [place, room] : expected) rooms.insert(room);
+    ASSERT_GE(rooms.size(), 5u);
+
+    std::mt19937 rng(7);
+    for (int trial = 0; trial < 4; ++trial) {
+      auto live = make_graph();
+      // Earlier places that a run later removed, interleaved with this run's places in a shuffled order.
+      std::vector<std::size_t> order(s.places.size());
+      for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+      std::shuffle(order.begin(), order.end(), rng);
+      std::vector<sg::NodeId> gone;
+      for (std::size_t k = 0; k < order.size(); ++k) {
+        if (k % 3 == 0) {
+          const sg::NodeId ghost = sg::make_node_id(sg::kPlacePrefix, 100000 + k);
+          ASSERT_EQ(live->add_place(ghost, sg::PlaceAttributes{}), sg::Status::kOk);
+          gone.push_back(ghost);
+        }
+        const testing::SyntheticPlace& p = s.places[order[k]];
+        sg::PlaceAttributes a;
+        a.position_m = p.position_m;
+        a.distance_m = p.clearance_m;
+        a.is_active = true;
+        ASSERT_EQ(live->add_place(p.id, a), sg::Status::kOk);
+      }
+      for (const sg::NodeId ghost : gone) live->remove_node(ghost);
+      std::vector<testing::SyntheticEdge> edges = s.edges;
+      std::shuffle(edges.begin(), edges.end(), rng);
+      for (const testing::SyntheticEdge& e : edges) {
+        sg::EdgeAttributes info;
+        info.weight = e.weight_m;
+        info.weighted = true;
+        const bool flip = (rng() & 1u) != 0;  // either end first
+        ASSERT_EQ(live->add_edge(s.places[flip ? e.b : e.a].id, s.places[flip ? e.a : e.b].id, info),
+                  sg::Status::kOk);
+      }
+      ASSERT_EQ(make_finder(config)->update(live.get()).outcome, Outcome::kOk);
+      const auto got = partition(*live, s);
+      std::size_t differ = 0;
+      for (const auto& [place, room] : expected) differ += got.at(place) != room ? 1 : 0;
+      EXPECT_EQ(differ, 0u) << "trial " << trial << ": places in another room than in the graph built in order";
+    }
+  }
 }
 
 TEST(RoomFinderTest, BadInputGivesACountedOutcome) {
