@@ -145,6 +145,7 @@ bool parse(int argc, char** argv, Options* o) {
     else if (a == "--door-min-rise-m") number = &o->door.min_rise_m;
     else if (a == "--door-rise-reach-m") number = &o->door.rise_reach_m;
     else if (a == "--door-max-off-centre") number = &o->door.max_off_centre;
+    else if (a == "--door-slice-half-band-m") number = &o->door.slice_half_band_m;
     else if (a == "--door-min-wall-height-m") number = &o->door.min_wall_height_m;
     else if (a == "--door-mapped-radius-m") number = &o->door.mapped_radius_m;
     else if (a == "--generated") o->generated = std::atoi(v.c_str());
@@ -415,6 +416,10 @@ struct RunStats {
   std::size_t doors_added = 0;                // ... doors new to the set, summed over passes
   std::size_t doors_dropped = 0;              // ... doors dropped (online_misses_to_drop missed passes)
   std::size_t doors_kept_missed = 0;          // ... kept doors a pass missed, still kept
+  // The doors the room finder read (final stage, or online), against the ground truth (IPA plans): a door whose two
+  // sides lie in two ground-truth rooms separates rooms; one with both sides in the same room is a false door (it
+  // can only split that room); unknown: a side in no room (outside, or unlabelled free space).
+  std::size_t doors_between = 0, doors_inside = 0, doors_unknown = 0;
 };
 
 // --doors online: a run's online doors, cached beside its graph as 5 doubles a door (a.x a.y b.x b.y z).
@@ -705,6 +710,27 @@ void print_peer(const std::string& name, const Score& s, const char* level_name,
               s.rooms_truth, level_name, level_m);
 }
 
+// Each door against the ground truth (RunStats::doors_between / doors_inside / doors_unknown): the first free cell
+// with a ground-truth room on each side of the line's midpoint, along its normal from 0.15 m to 1 m out.
+void check_doors(const Raster& ras, const std::vector<rooms::Door>& doors, RunStats* st) {
+  for (const rooms::Door& d : doors) {
+    const Eigen::Vector2d mid = 0.5 * (d.a + d.b);
+    const Eigen::Vector2d u = (d.b - d.a).normalized();
+    const Eigen::Vector2d n(-u.y(), u.x());
+    std::int32_t side[2] = {0, 0};
+    for (int k = 0; k < 2; ++k)
+      for (double t = 0.15; t <= 1.0 + 1e-9 && side[k] == 0; t += ras.res_m) {
+        const Eigen::Vector2d p = mid + (k == 0 ? t : -t) * n;
+        int c, r;
+        if (!ras.cell_of(Eigen::Vector3d(p.x(), p.y(), 0.0), &c, &r)) break;
+        if (ras.free[ras.idx(c, r)] && ras.truth[ras.idx(c, r)] > 0) side[k] = ras.truth[ras.idx(c, r)];
+      }
+    if (side[0] == 0 || side[1] == 0) ++st->doors_unknown;
+    else if (side[0] == side[1]) ++st->doors_inside;
+    else ++st->doors_between;
+  }
+}
+
 bool eval_plan(const Options& opt, const std::string& map, bool furnished, Score* out, RunStats* st,
                Score* reachable, Score* oracle, Peers* peers) {
   const std::string occ_path = opt.plans_dir + "/" + map + (furnished ? "_furnitures" : "") + ".png";
@@ -778,6 +804,7 @@ bool eval_plan(const Options& opt, const std::string& map, bool furnished, Score
   }
   label_from_places(*graph, -1e9, 1e9, opt.max_reach_m, &ras);
   *out = score(ras);
+  check_doors(ras, opt.online_doors ? st->online_doors : st->doors, st);
   if (!opt.dump_dir.empty()) {
     const std::string stem = opt.dump_dir + "/" + map + (furnished ? "_furnished" : "_plain");
     dump_places(*graph, ras, stem + ".txt");
@@ -1015,7 +1042,7 @@ int main(int argc, char** argv) {
                  "[--min-persistence-m P] [--max-door-clearance-m D] [--split-by-extent 0|1] [--extent-saturation-m S] "
                  "[--split-min-extent-m E] [--split-max-extent-m E] [--split-min-persistence-m P] [--split-min-component N] [--cache-dir DIR] [--images DIR] [--dump-places DIR] [--door-oracle-m C] [--doors 0|1|online] [--online-every N] [--online-misses N] [--online-match-m M] "
                  "[--door-slice-above-robot-m H] [--door-min-width-m W] [--door-max-width-m W] [--door-min-rise-m R] "
-                 "[--door-rise-reach-m R] [--door-max-off-centre F] [--door-min-wall-height-m H] "
+                 "[--door-rise-reach-m R] [--door-max-off-centre F] [--door-slice-half-band-m B] [--door-min-wall-height-m H] "
                  "[--door-mapped-radius-m R] [--door-extension-m E] [--json FILE]\n",
                  argv[0]);
     return 2;
@@ -1112,6 +1139,7 @@ int main(int argc, char** argv) {
       std::printf("furnished_low: the furnished plans with their furniture extruded to %.2f m, not to the walls' "
                   "%.2f m\n", opt.furniture_height_m, world::FloorPlanConfig{}.wall_height_m);
     Score overall, overall_reachable, overall_oracle, overall_distance, overall_distance_plateau, overall_erosion;
+    std::size_t doors_between = 0, doors_inside = 0, doors_unknown = 0;
     for (const std::string& map : opt.maps) {
       Score s, reachable, oracle;
       Peers peers;
@@ -1121,6 +1149,13 @@ int main(int argc, char** argv) {
         continue;
       }
       print_line(map + " (" + variant + ")", s, st);
+      if (opt.doors || opt.online_doors) {
+        std::printf("  doors against the ground truth: %zu between two rooms, %zu inside one room, %zu unknown\n",
+                    st.doors_between, st.doors_inside, st.doors_unknown);
+        doors_between += st.doors_between;
+        doors_inside += st.doors_inside;
+        doors_unknown += st.doors_unknown;
+      }
       print_peer("  peer: distance transform", peers.distance, "threshold", peers.distance_level_m);
       print_peer("  peer: distance, PH plateau", peers.distance_plateau, "threshold", peers.distance_plateau_level_m);
       print_peer("  peer: morphological", peers.erosion, "deepest erosion", peers.erosion_level_m);
@@ -1140,6 +1175,18 @@ int main(int argc, char** argv) {
     std::printf("%-30s P %.3f R %.3f | area P %.3f R %.3f | rooms %zu / truth %zu (means pooled over all rooms)\n",
                 ("ALL (" + variant + ")").c_str(), overall.precision_mean, overall.recall_mean, overall.precision_area,
                 overall.recall_area, overall.rooms_found, overall.rooms_truth);
+    if (opt.doors || opt.online_doors) {
+      const std::size_t judged = doors_between + doors_inside;
+      const double inside_share = judged > 0 ? static_cast<double>(doors_inside) / static_cast<double>(judged) : 0.0;
+      std::printf("%-30s %zu between two ground-truth rooms, %zu inside one room (%.1f %% of those judged), %zu "
+                  "unknown\n",
+                  ("ALL doors (" + variant + ")").c_str(), doors_between, doors_inside, 100.0 * inside_share,
+                  doors_unknown);
+      const std::string prefix = "rooms_eval.ipa." + variant + (opt.online_doors ? ".online_doors" : ".doors");
+      figures.add(prefix + "_between_rooms", static_cast<double>(doors_between), "doors");
+      figures.add(prefix + "_inside_a_room", static_cast<double>(doors_inside), "doors");
+      figures.add(prefix + "_inside_a_room_share", inside_share, "ratio");
+    }
     std::printf("%-30s P %.3f R %.3f | area P %.3f R %.3f | rooms %zu / truth %zu (rooms the tour could reach)\n",
                 ("ALL reachable (" + variant + ")").c_str(), overall_reachable.precision_mean,
                 overall_reachable.recall_mean, overall_reachable.precision_area, overall_reachable.recall_area,
