@@ -344,6 +344,8 @@ bool detect_doors_in_raster(DoorWorkspace* ws, const DoorRaster& raster, std::si
   std::size_t num_candidates = 0;
   const double min_half = 0.5 * config.min_width_m, max_half = 0.5 * config.max_width_m;
   constexpr int kAngles = 36;
+  Eigen::Vector2d directions[kAngles];  // the line directions tried, over half a turn
+  for (int k = 0; k < kAngles; ++k) directions[k] = Eigen::Vector2d(std::cos(M_PI * k / kAngles), std::sin(M_PI * k / kAngles));
   for (int r = 1; r + 1 < rows; ++r)
     for (int c = 1; c + 1 < cols; ++c) {
       if (axis[at(c, r)] == 0) continue;
@@ -365,8 +367,7 @@ bool detect_doors_in_raster(DoorWorkspace* ws, const DoorRaster& raster, std::si
       double best = std::numeric_limits<double>::infinity();
       Eigen::Vector2d best_a = p, best_b = p;
       for (int k = 0; k < kAngles; ++k) {
-        const double th = M_PI * k / kAngles;
-        const Eigen::Vector2d u(std::cos(th), std::sin(th));
+        const Eigen::Vector2d& u = directions[k];
         Eigen::Vector2d a, b;
         bool wall_a = false, wall_b = false;
         // A line no shorter than the best so far cannot win: each ray stops at what is left of it.
