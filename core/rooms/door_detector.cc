@@ -345,7 +345,10 @@ bool detect_doors_in_raster(DoorWorkspace* ws, const DoorRaster& raster, std::si
   const double min_half = 0.5 * config.min_width_m, max_half = 0.5 * config.max_width_m;
   constexpr int kAngles = 36;
   Eigen::Vector2d directions[kAngles];  // the line directions tried, over half a turn
-  for (int k = 0; k < kAngles; ++k) directions[k] = Eigen::Vector2d(std::cos(M_PI * k / kAngles), std::sin(M_PI * k / kAngles));
+  for (int k = 0; k < kAngles; ++k) {
+    const double th = M_PI * k / kAngles;
+    directions[k] = Eigen::Vector2d(std::cos(th), std::sin(th));
+  }
   for (int r = 1; r + 1 < rows; ++r)
     for (int c = 1; c + 1 < cols; ++c) {
       if (axis[at(c, r)] == 0) continue;

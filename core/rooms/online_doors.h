@@ -1,9 +1,10 @@
 // The door stage during a run: the offline detector (detect_doors_in_raster) on a fixed square window around the
 // robot, sliced from the robot's surface as the loop paints it into a WallMap, in buffers carved at start-up. Each
 // pass updates the doors of the window's interior (the window less the mapped radius, on the robot's storey) in a
-// DoorSet that the room finder reads: found again, new, or missed, a door dropped only after
-// DoorConfig::online_misses_to_drop passes in a row missed it (DoorSet::update_window). The room finder reads it
-// (RoomFinder::update), so rooms found during a run are split at doors without allocating. The final pass on the whole mesh (find_doors, when a run finishes) is unchanged.
+// DoorSet: found again, new, or missed, a door dropped only after DoorConfig::online_misses_to_drop passes in a row
+// missed it (DoorSet::update_window). The room finder reads the set (RoomFinder::update), so rooms found during a
+// run are split at doors without allocating. The final pass on the whole mesh (find_doors, when a run finishes) is
+// unchanged.
 //
 // A pass runs only while the robot's height holds still (not on stairs), in steps that let the caller keep its locks
 // short:
