@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <utility>
 #include <vector>
@@ -42,16 +43,37 @@ std::string stem_of(const std::string& path) {
   return dot == std::string::npos ? name : name.substr(0, dot);
 }
 
+// Joins a hole (opposite orientation) into an outer polygon through a two-way slit between their nearest vertices:
+// outer[0..i], hole[j..], hole[..j], outer[i..]. The slit's two edges coincide, so a ray crosses both or neither.
+void cut_hole(Polygon2* outer, const Polygon2& hole) {
+  std::size_t bi = 0, bj = 0;
+  double best = std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0; i < outer->size(); ++i)
+    for (std::size_t j = 0; j < hole.size(); ++j) {
+      const double d = ((*outer)[i] - hole[j]).squaredNorm();
+      if (d < best) {
+        best = d;
+        bi = i;
+        bj = j;
+      }
+    }
+  Polygon2 out(outer->begin(), outer->begin() + static_cast<std::ptrdiff_t>(bi) + 1);
+  for (std::size_t k = 0; k <= hole.size(); ++k) out.push_back(hole[(bj + k) % hole.size()]);
+  out.insert(out.end(), outer->begin() + static_cast<std::ptrdiff_t>(bi), outer->end());
+  *outer = std::move(out);
+}
+
 }  // namespace
 
 void FloorPlanConfig::print(std::FILE* out) const {
   std::fprintf(out,
                "FloorPlanConfig: resolution_m_per_px=%.4f free_threshold=%d gt_room_threshold=%d min_room_area_px=%d "
                "wall_height_m=%.2f door_height_m=%.2f contour_epsilon_px=%.2f crop_margin_px=%d "
-               "add_floor_and_ceiling=%d min_door_width_m=%.2f separator_search_px=%d furniture_height_m=%.2f\n",
+               "add_floor_and_ceiling=%d min_door_width_m=%.2f separator_search_px=%d furniture_height_m=%.2f "
+               "min_hole_area_px=%.0f\n",
                resolution_m_per_px, free_threshold, gt_room_threshold, min_room_area_px, wall_height_m, door_height_m,
                contour_epsilon_px, crop_margin_px, add_floor_and_ceiling ? 1 : 0, min_door_width_m,
-               separator_search_px, furniture_height_m);
+               separator_search_px, furniture_height_m, min_hole_area_px);
 }
 
 std::string floor_plan_gt_path(const std::string& occupancy_path) {
@@ -192,10 +214,12 @@ WorldResult import_floor_plan(const cv::Mat& occupancy_in, const cv::Mat& gt_in,
       cv::Mat sub = mask(roi - padded.tl());
       sub.setTo(255, labels(roi) == i);
       std::vector<std::vector<cv::Point>> contours;
-      cv::findContours(mask, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
+      std::vector<cv::Vec4i> hierarchy;  // next, previous, first child, parent
+      cv::findContours(mask, contours, hierarchy, cv::RETR_CCOMP, cv::CHAIN_APPROX_NONE);
       std::size_t best = 0;
       double best_area = -1.0;
       for (std::size_t k = 0; k < contours.size(); ++k) {
+        if (hierarchy[k][3] >= 0) continue;  // a hole
         const double a = std::abs(cv::contourArea(contours[k])) + static_cast<double>(contours[k].size()) * 1e-6;
         if (a > best_area) {
           best_area = a;
@@ -221,6 +245,21 @@ WorldResult import_floor_plan(const cv::Mat& occupancy_in, const cv::Mat& gt_in,
         for (const cv::Point2f& p : corners) add_point(p.x, p.y);
       }
       if (polygon_signed_area(poly) < 0.0) std::reverse(poly.begin(), poly.end());
+      // Holes (a corridor around a block of rooms, a pillar) are cut out of the footprint through a slit from its
+      // nearest outer vertex, so it stays one polygon: the even-odd test and the shoelace area see outer minus
+      // holes, and a room inside a corridor's ring is no longer inside the corridor's footprint.
+      if (best_area >= 0.0 && hierarchy[best][2] >= 0 && poly.size() >= 3) {
+        for (int k = hierarchy[best][2]; k >= 0; k = hierarchy[static_cast<std::size_t>(k)][0]) {
+          std::vector<cv::Point> hole_px;
+          cv::approxPolyDP(contours[static_cast<std::size_t>(k)], hole_px, config.contour_epsilon_px, true);
+          if (hole_px.size() < 3 || std::abs(cv::contourArea(hole_px)) < config.min_hole_area_px) continue;
+          Polygon2 hole;
+          for (const cv::Point& p : hole_px) hole.emplace_back(px_x(p.x + padded.x + 0.5), px_y(p.y + padded.y + 0.5));
+          if (polygon_signed_area(hole) > 0.0) std::reverse(hole.begin(), hole.end());
+          cut_hole(&poly, hole);
+          ++stats.room_holes;
+        }
+      }
       Room room;
       room.id = static_cast<std::int32_t>(world.rooms.size());
       room.label = kRoomUnknown;

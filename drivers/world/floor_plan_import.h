@@ -20,6 +20,9 @@ struct FloorPlanConfig {
   double wall_height_m = 2.5;
   double door_height_m = 2.0;
   double contour_epsilon_px = 1.0;  // polygon simplification tolerance
+  // Holes in a ground-truth room (a block of rooms inside a ring corridor, a pillar) of at least this area are cut
+  // out of its footprint; smaller ones (specks of noise) are filled.
+  double min_hole_area_px = 20.0;
   int crop_margin_px = 10;          // occupied pixels farther than this outside the free area's bounds are dropped
   bool add_floor_and_ceiling = true;
   double min_door_width_m = 0.4;  // separator pieces shorter than this are not recorded as doors
@@ -40,6 +43,7 @@ struct FloorPlanStats {
   int gt_regions = 0;  // 8-connected white regions before the size filter
   int rooms = 0;
   int doors = 0;
+  int room_holes = 0;  // holes cut out of room footprints
 };
 
 // Image pixel (col, row) maps to world x = (col + 0.5) * res, y = (rows - row - 0.5) * res: the image's up is +y.

@@ -68,6 +68,45 @@ TEST(FloorPlanImport, SyntheticPlanGivesTwoRoomsOneDoorAndWalls) {
 
 // Furniture pixels (a furniture mask) stand at furniture_height_m, labelled furniture; the walls keep theirs.
 // Without the height (or without the mask) every occupied pixel is a wall, as the benchmark extrudes its plans.
+// A ground-truth room inside another one's ring (offices around a corridor loop, office_a and lab_intel): the
+// ring's outer contour encloses the inner room, so without its hole the corridor's footprint would claim the inner
+// room (and a tour would never enter it: its ground belongs to the corridor). 200x160 px (10 x 8 m): a ring
+// corridor around a walled 4 x 3 m block (cols 60-139, rows 50-109) whose room opens by a 1 m door in its bottom
+// wall; the ground truth closes the doorway.
+TEST(FloorPlanImport, ARoomInsideARingCorridorIsCutOutOfTheCorridorsFootprint) {
+  cv::Mat occupancy(160, 200, CV_8UC1, cv::Scalar(0));
+  occupancy(cv::Rect(4, 4, 192, 152)).setTo(255);
+  occupancy(cv::Rect(60, 50, 80, 60)).setTo(0);
+  occupancy(cv::Rect(64, 54, 72, 52)).setTo(255);
+  occupancy(cv::Rect(90, 106, 20, 4)).setTo(255);  // the door, x 4.5-5.5 m
+  cv::Mat ground_truth = occupancy.clone();
+  ground_truth(cv::Rect(86, 107, 28, 1)).setTo(0);
+  FloorPlanStats stats;
+  const WorldResult r = import_floor_plan(occupancy, ground_truth, FloorPlanConfig(), "ring", &stats);
+  ASSERT_TRUE(r.ok) << r.error;
+  const World& w = r.world;
+  ASSERT_EQ(w.rooms.size(), 2u);
+  EXPECT_EQ(stats.room_holes, 1);
+  const std::int32_t ring = room_at(w, 1.0, 1.0, 1.0), inner = room_at(w, 5.0, 4.0, 1.0);
+  ASSERT_GE(ring, 0);
+  ASSERT_GE(inner, 0);
+  EXPECT_NE(ring, inner);
+  EXPECT_EQ(room_at(w, 5.0, 7.0, 1.0), ring);   // the corridor above the block
+  EXPECT_EQ(room_at(w, 2.5, 4.0, 1.0), ring);   // and left of it
+  EXPECT_EQ(room_at(w, 3.1, 4.0, 1.0), -1);     // the block's wall
+  EXPECT_EQ(room_at(w, 6.5, 3.0, 1.0), inner);
+  for (const Room& room : w.rooms) {
+    ASSERT_EQ(room.footprint_m.size(), 1u);
+    const double area = polygon_signed_area(room.footprint_m[0]);
+    // Outer minus hole; contours run through boundary pixel centres, half a pixel inside the region.
+    if (room.id == ring) EXPECT_NEAR(area, 9.6 * 7.6 - 4.0 * 3.0, 1.2);
+    else EXPECT_NEAR(area, 3.6 * 2.6, 0.6);
+  }
+  const WorldResult back = parse_world_json(world_to_json(w), "ring.json");
+  ASSERT_TRUE(back.ok) << back.error;
+  EXPECT_EQ(room_at(back.world, 5.0, 4.0, 1.0), inner);
+}
+
 TEST(FloorPlanImport, FurnitureOfTheMaskStandsAtItsOwnHeight) {
   const SyntheticPlan plan;
   cv::Mat furnished = plan.occupancy.clone();
