@@ -76,6 +76,9 @@ struct Options {
   double rate_hz = 2.0;       // keyframes per second along the tour
   double max_reach_m = 3.0;   // free cells farther (geodesically) from every place stay unlabelled
   double robot_radius_m = sim::ExplorationConfig{}.robot_radius_m;  // doors narrower than twice this stay shut
+  // --look-into-unreachable 0|1: the tour looks into the rooms it cannot enter (sim::ExplorationConfig). Cached
+  // explorations made with it on are named "<plan>.peek", so one made without is never read back as if made with it.
+  bool look_into_unreachable = sim::ExplorationConfig{}.look_into_unreachable_rooms;
   // --furniture-height-m H: the furnished plans' furniture (occupied there, free in the plain plan) extruded to H
   // instead of the walls' 2.5 m (the benchmark's own use: furniture as floor-to-ceiling posts). 0: the benchmark's.
   double furniture_height_m = 0.0;
@@ -157,6 +160,7 @@ bool parse(int argc, char** argv, Options* o) {
     else if (a == "--rate-hz") number = &o->rate_hz;
     else if (a == "--max-reach-m") number = &o->max_reach_m;
     else if (a == "--robot-radius-m") number = &o->robot_radius_m;
+    else if (a == "--look-into-unreachable") o->look_into_unreachable = std::atoi(v.c_str()) != 0;
     else if (a == "--furniture-height-m") number = &o->furniture_height_m;
     else if (a == "--alpha") number = &o->rooms.plateau_alpha;
     else if (a == "--min-dilation-m") number = &o->rooms.min_dilation_m;
@@ -405,6 +409,7 @@ struct RunStats {
   std::size_t keyframes = 0, places = 0, rooms = 0;
   double tour_m = 0.0, rooms_ms = 0.0, dilation_m = 0.0, wall_s = 0.0;
   std::size_t unreachable = 0;
+  std::size_t peeked = 0;                     // unreachable rooms the tour looked into
   std::vector<std::int32_t> unreachable_ids;  // world rooms outside the start's free-space component
   std::vector<rooms::Door> doors;             // --doors: the doors found on the robot's surface
   std::size_t door_edges_closed = 0;
@@ -506,9 +511,10 @@ bool apply_doors(const Options& opt, const std::string& name, const std::vector<
 // Explores, reconstructs, runs the frontend every keyframe, the door stage (--doors) and the room finder at the end.
 // *surface: the robot's mesh vertices (from the cache when the graph comes from there; empty when the cache has
 // none).
-bool run_pipeline(const Options& opt, const world::World& w, const std::string& key, sg::SceneGraph* graph,
+bool run_pipeline(const Options& opt, const world::World& w, const std::string& plan_key, sg::SceneGraph* graph,
                   std::vector<Eigen::Vector3f>* surface, RunStats* stats) {
   const auto start = std::chrono::steady_clock::now();
+  const std::string key = plan_key + (opt.look_into_unreachable ? ".peek" : "");
   const std::string cache_path = opt.cache_dir.empty() ? "" : opt.cache_dir + "/" + key + ".json";
   const std::string surface_path = opt.cache_dir.empty() ? "" : opt.cache_dir + "/" + key + ".surface.f32";
   // The online doors depend on the pass settings, so those name the file: a cache explored with other settings is
@@ -521,6 +527,7 @@ bool run_pipeline(const Options& opt, const world::World& w, const std::string& 
       opt.cache_dir.empty() ? "" : opt.cache_dir + "/" + key + ".online_doors" + online_settings + ".f64";
   sim::ExplorationConfig ec;
   ec.robot_radius_m = opt.robot_radius_m;
+  ec.look_into_unreachable_rooms = opt.look_into_unreachable;
   sim::SimCamera::Config cc;
   cc.intrinsics = bench::camera_of_fov(opt.width, opt.height, opt.hfov_deg);
   cc.rate_hz = opt.rate_hz;
@@ -535,6 +542,7 @@ bool run_pipeline(const Options& opt, const world::World& w, const std::string& 
   stats->tour_m = tour.length_m;
   stats->unreachable = tour.unreachable_rooms.size();
   stats->unreachable_ids = tour.unreachable_rooms;
+  stats->peeked = tour.peeked_rooms.size();
   if (!cache_path.empty() && std::ifstream(cache_path).good()) {
     const sg::JsonImportResult in = sg::read_spark_dsg_json_file(cache_path, *graph);
     if (!in.ok) {
@@ -695,9 +703,10 @@ bool run_rooms(const Options& opt, const std::string& name, sg::SceneGraph* grap
 
 void print_line(const std::string& name, const Score& s, const RunStats& st) {
   std::printf("%-30s P %.3f R %.3f | area P %.3f R %.3f | rooms %zu / truth %zu | places %zu, delta* %.2f m, "
-              "rooms update %.2f ms, %zu keyframes, tour %.0f m, %zu unreachable, %.0f s\n",
+              "rooms update %.2f ms, %zu keyframes, tour %.0f m, %zu unreachable (%zu looked into), %.0f s\n",
               name.c_str(), s.precision_mean, s.recall_mean, s.precision_area, s.recall_area, s.rooms_found,
-              s.rooms_truth, st.places, st.dilation_m, st.rooms_ms, st.keyframes, st.tour_m, st.unreachable, st.wall_s);
+              s.rooms_truth, st.places, st.dilation_m, st.rooms_ms, st.keyframes, st.tour_m, st.unreachable,
+              st.peeked, st.wall_s);
   std::fflush(stdout);
 }
 
@@ -1037,7 +1046,7 @@ int main(int argc, char** argv) {
   if (!parse(argc, argv, &opt)) {
     std::fprintf(stderr,
                  "usage: %s [--plans-dir DIR] [--maps a,b|none] [--variants plain,furnished] [--generated N] "
-                 "[--generated-rooms N] [--label-buildings N] [--size WxH] [--hfov-deg D] [--rate-hz R] [--max-reach-m M] [--robot-radius-m R] [--furniture-height-m H] [--alpha A] "
+                 "[--generated-rooms N] [--label-buildings N] [--size WxH] [--hfov-deg D] [--rate-hz R] [--max-reach-m M] [--robot-radius-m R] [--look-into-unreachable 0|1] [--furniture-height-m H] [--alpha A] "
                  "[--min-dilation-m D] [--max-dilation-m D] [--min-component N] [--seeding plateau|persistence] "
                  "[--min-persistence-m P] [--max-door-clearance-m D] [--split-by-extent 0|1] [--extent-saturation-m S] "
                  "[--split-min-extent-m E] [--split-max-extent-m E] [--split-min-persistence-m P] [--split-min-component N] [--cache-dir DIR] [--images DIR] [--dump-places DIR] [--door-oracle-m C] [--doors 0|1|online] [--online-every N] [--online-misses N] [--online-match-m M] "

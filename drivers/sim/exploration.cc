@@ -325,6 +325,84 @@ class Sampler {
   double length_m_ = 0.0;
 };
 
+// A look into a room the tour cannot enter: from `node`, facing `yaw`, `seen` of the room's samples in sight.
+struct Peek {
+  int node = -1;
+  double yaw = 0.0;
+  int seen = 0;
+  std::size_t room = 0;  // index into World::rooms
+};
+
+// Points spread over a room's free floor at camera height, at most kPeekSamples of them: what a look into the room
+// should see.
+constexpr std::size_t kPeekSamples = 32;
+std::vector<Eigen::Vector3d> room_samples(const world::World& world, const world::Room& room,
+                                          const world::FreeSpaceIndex& free_space, double camera_height_m) {
+  Eigen::Vector2d lo = Eigen::Vector2d::Constant(std::numeric_limits<double>::infinity());
+  Eigen::Vector2d hi = -lo;
+  for (const world::Polygon2& polygon : room.footprint_m)
+    for (const Eigen::Vector2d& v : polygon) {
+      lo = lo.cwiseMin(v);
+      hi = hi.cwiseMax(v);
+    }
+  std::vector<Eigen::Vector3d> all;
+  if (!(lo.x() <= hi.x() && lo.y() <= hi.y())) return all;
+  constexpr double kStep_m = 0.25;
+  const double z = room.floor_z_m + camera_height_m;
+  for (double y = lo.y() + 0.5 * kStep_m; y < hi.y(); y += kStep_m)
+    for (double x = lo.x() + 0.5 * kStep_m; x < hi.x(); x += kStep_m)
+      if (world::room_at(world, x, y, z) == room.id && free_space.is_free({x, y, z}, 0.05)) all.emplace_back(x, y, z);
+  if (all.size() <= kPeekSamples) return all;
+  std::vector<Eigen::Vector3d> out;
+  for (std::size_t k = 0; k < kPeekSamples; ++k) out.push_back(all[k * all.size() / kPeekSamples]);
+  return out;
+}
+
+// The node of component `comp` (on a 3-cell lattice, enough to stand in front of a door) whose camera sees most of
+// the samples within config.peek_range_m, nearest to them on a tie; seen == 0 when none sees any.
+Peek best_peek(const Graph& graph, const std::vector<int>& component, int comp, const render::RayScene& scene,
+               const std::vector<Eigen::Vector3d>& samples, const ExplorationConfig& config) {
+  Peek best;
+  if (samples.empty()) return best;
+  Eigen::Vector2d lo = samples.front().head<2>(), hi = lo, centroid = Eigen::Vector2d::Zero();
+  for (const Eigen::Vector3d& s : samples) {
+    lo = lo.cwiseMin(s.head<2>());
+    hi = hi.cwiseMax(s.head<2>());
+    centroid += s.head<2>();
+  }
+  centroid /= static_cast<double>(samples.size());
+  lo.array() -= config.peek_range_m;
+  hi.array() += config.peek_range_m;
+  const double range2 = config.peek_range_m * config.peek_range_m;
+  double best_distance = std::numeric_limits<double>::infinity();
+  for (std::size_t n = 0; n < graph.size(); ++n) {
+    const Node& v = graph.node(static_cast<int>(n));
+    if (component[n] != comp || v.i % 3 != 0 || v.j % 3 != 0) continue;
+    const Eigen::Vector3d c = graph.position(static_cast<int>(n)) + Eigen::Vector3d(0, 0, config.camera_height_m);
+    if (c.x() < lo.x() || c.y() < lo.y() || c.x() > hi.x() || c.y() > hi.y()) continue;
+    int seen = 0;
+    Eigen::Vector2d heading = Eigen::Vector2d::Zero();
+    for (const Eigen::Vector3d& s : samples) {
+      const Eigen::Vector3d d = s - c;
+      const double length = d.norm();
+      if (d.head<2>().squaredNorm() > range2 || length < 0.2) continue;
+      render::RayHit hit;
+      if (scene.intersect(c, d / length, 0.0, length - 0.05, &hit)) continue;
+      ++seen;
+      heading += d.head<2>() / d.head<2>().norm();
+    }
+    if (seen == 0) continue;
+    const double distance = (c.head<2>() - centroid).norm();
+    if (seen > best.seen || (seen == best.seen && distance < best_distance)) {
+      best.node = static_cast<int>(n);
+      best.seen = seen;
+      best.yaw = std::atan2(heading.y(), heading.x());
+      best_distance = distance;
+    }
+  }
+  return best;
+}
+
 }  // namespace
 
 Eigen::Matrix3d body_R_optical() {
@@ -345,15 +423,19 @@ std::string ExplorationConfig::check() const {
   if (!(yaw_rate_rad_s > 0.0)) return "yaw_rate_rad_s must be positive";
   if (!(rate_hz > 0.0 && rate_hz <= 1000.0)) return "rate_hz must be in (0, 1000]";
   if (!(preferred_clearance_m > 0.0)) return "preferred_clearance_m must be positive";
+  if (!(peek_range_m > 0.0 && peek_range_m <= 20.0)) return "peek_range_m must be in (0, 20]";
+  if (!(peek_sweep_deg >= 0.0 && peek_sweep_deg <= 180.0)) return "peek_sweep_deg must be in [0, 180]";
   return {};
 }
 
 void ExplorationConfig::print(std::FILE* out) const {
   std::fprintf(out,
                "exploration: resolution %.3f m, robot radius %.2f m, max step %.2f m, camera height %.2f m, "
-               "speed %.2f m/s, yaw rate %.2f rad/s, %.1f Hz, spin in rooms %s, return to start %s, start room %d\n",
+               "speed %.2f m/s, yaw rate %.2f rad/s, %.1f Hz, spin in rooms %s, return to start %s, start room %d, "
+               "look into unreachable rooms %s (range %.1f m, sweep +-%.0f deg)\n",
                resolution_m, robot_radius_m, max_step_m, camera_height_m, speed_m_s, yaw_rate_rad_s, rate_hz,
-               spin_in_rooms ? "yes" : "no", return_to_start ? "yes" : "no", start_room);
+               spin_in_rooms ? "yes" : "no", return_to_start ? "yes" : "no", start_room,
+               look_into_unreachable_rooms ? "yes" : "no", peek_range_m, peek_sweep_deg);
 }
 
 ExplorationResult plan_exploration(const world::World& world, const render::RayScene& scene,
@@ -477,30 +559,78 @@ ExplorationResult plan_exploration(const world::World& world, const render::RayS
     dfs(best);
   }
 
+  // Looks into the rooms the tour cannot enter, each from the room its viewpoint lies in (or the visited room
+  // nearest to it), nearest first.
+  std::vector<Peek> peeks;
+  std::vector<std::vector<std::size_t>> peeks_at(order.size());
+  if (config.look_into_unreachable_rooms) {
+    for (std::size_t r = 0; r < world.rooms.size(); ++r) {
+      if (target[r] >= 0) continue;
+      Peek peek = best_peek(graph, component, start_component, scene,
+                            room_samples(world, world.rooms[r], free_space, config.camera_height_m), config);
+      if (peek.seen == 0) continue;
+      peek.room = r;
+      const Eigen::Vector3d at = graph.position(peek.node);
+      const std::int32_t host_id = world::room_at(world, at.x(), at.y(), at.z() + 0.3);
+      std::size_t host = order.size();
+      for (std::size_t k = 0; k < order.size(); ++k) {
+        if (world.rooms[order[k]].id == host_id) host = k;
+      }
+      if (host == order.size()) {
+        for (std::size_t k = 0; k < order.size(); ++k)
+          if (host == order.size() || (graph.position(target[order[k]]) - at).norm() <
+                                          (graph.position(target[order[host]]) - at).norm())
+            host = k;
+      }
+      peeks_at[host].push_back(peeks.size());
+      peeks.push_back(peek);
+      result.peeked_rooms.push_back(world.rooms[r].id);
+    }
+    for (std::size_t k = 0; k < order.size(); ++k) {
+      const Eigen::Vector3d here = graph.position(target[order[k]]);
+      std::sort(peeks_at[k].begin(), peeks_at[k].end(), [&](std::size_t a, std::size_t b) {
+        return (graph.position(peeks[a].node) - here).norm() < (graph.position(peeks[b].node) - here).norm();
+      });
+    }
+  }
+
   // Drive room to room.
   Sampler sampler(config, &result.trajectory);
   const auto camera = [&](int n) -> Eigen::Vector3d {
     return graph.position(n) + Eigen::Vector3d(0, 0, config.camera_height_m);
   };
+  int at = target[order.front()];
+  const auto drive = [&](int to) {
+    const std::vector<int> path = string_pull(graph, astar(graph, at, to, config));
+    if (path.empty()) return false;
+    for (std::size_t p = 1; p < path.size(); ++p) sampler.drive_to(camera(path[p]));
+    at = to;
+    return true;
+  };
+  const char* const kNoPath = "exploration: no path between two nodes of the same component (internal error)";
+  const auto look_in = [&](std::size_t k) {
+    const double sweep = config.peek_sweep_deg * kPi / 180.0;
+    for (std::size_t q : peeks_at[k]) {
+      if (!drive(peeks[q].node)) return false;
+      sampler.turn_to(peeks[q].yaw - sweep);
+      sampler.turn_by(2 * sweep);
+    }
+    return true;
+  };
   sampler.start(camera(target[order.front()]), 0.0);
   if (config.spin_in_rooms) sampler.turn_by(2 * kPi);
   result.room_order.push_back(world.rooms[order.front()].id);
+  if (!look_in(0)) return result.error = kNoPath, result;
   std::vector<int> stops;
   for (std::size_t k = 1; k < order.size(); ++k) stops.push_back(target[order[k]]);
   if (config.return_to_start) stops.push_back(target[order.front()]);
-  int at = target[order.front()];
   for (std::size_t k = 0; k < stops.size(); ++k) {
-    const std::vector<int> path = string_pull(graph, astar(graph, at, stops[k], config));
-    if (path.empty()) {
-      result.error = "exploration: no path between two rooms of the same component (internal error)";
-      return result;
-    }
-    for (std::size_t p = 1; p < path.size(); ++p) sampler.drive_to(camera(path[p]));
-    at = stops[k];
+    if (!drive(stops[k])) return result.error = kNoPath, result;
     const bool is_room = k + 1 < stops.size() || !config.return_to_start;
     if (is_room) {
       result.room_order.push_back(world.rooms[order[k + 1]].id);
       if (config.spin_in_rooms) sampler.turn_by(2 * kPi);
+      if (!look_in(k + 1)) return result.error = kNoPath, result;
     }
   }
   result.length_m = sampler.length_m();

@@ -30,6 +30,13 @@ struct ExplorationConfig {
   double rate_hz = 30.0;             // pose samples per second
   double preferred_clearance_m = 0.8;  // the planner pays to come closer to obstacles than this
   bool spin_in_rooms = true;         // turn once around at each room's centre, so the camera sees all of it
+  // A room the robot cannot enter (its doors narrower than the robot, or none in the scan) is looked into from the
+  // reachable spot that sees most of it within peek_range_m: the tour goes there from the room it lies in, faces
+  // the room and sweeps the camera +-peek_sweep_deg, as a frontier-driven exploration would look through a door it
+  // cannot pass. Off: such rooms are seen only in passing.
+  bool look_into_unreachable_rooms = true;
+  double peek_range_m = 4.0;         // within the TSDF's integration range (core/reconstruction: 4.5 m)
+  double peek_sweep_deg = 45.0;
   bool return_to_start = true;
   std::int32_t start_room = -1;      // -1: the room with the lowest id that has free space
   std::int64_t start_time_ns = 0;
@@ -44,6 +51,7 @@ struct ExplorationResult {
   replay::Trajectory trajectory;             // camera body poses at rate_hz
   std::vector<std::int32_t> room_order;      // rooms in the order they were visited (start first)
   std::vector<std::int32_t> unreachable_rooms;
+  std::vector<std::int32_t> peeked_rooms;    // unreachable rooms the tour looks into (look_into_unreachable_rooms)
   double length_m = 0.0;
   double duration_s = 0.0;
   std::size_t graph_nodes = 0;

@@ -13,6 +13,7 @@
 #include "drivers/sim/ground_truth.h"
 #include "drivers/sim/sim_camera.h"
 #include "drivers/world/building_generator.h"
+#include "drivers/world/floor_plan_import.h"
 #include "drivers/world/world_query.h"
 #include "tests/drivers/rgbd_source_contract.h"
 #include "tests/support/allocation_counter.h"
@@ -151,6 +152,69 @@ TEST(ExplorationTest, HandHeldHeightAndConfigErrors) {
   config = ExplorationConfig{};
   config.start_room = 42;
   EXPECT_NE(plan_exploration(p->world, p->scene, *p->free_space, config).error.find("start room 42"), std::string::npos);
+}
+
+// A 10 x 8 m floor plan: a ring corridor around a walled 4 x 3 m block (x 3-7 m, y 2.5-5.5 m) whose room opens by a
+// door door_px pixels (5 cm each) wide in its bottom wall, centred at x 5 m; the ground truth closes the doorway.
+world::World ring_plan(int door_px) {
+  cv::Mat occupancy(160, 200, CV_8UC1, cv::Scalar(0));
+  occupancy(cv::Rect(4, 4, 192, 152)).setTo(255);
+  occupancy(cv::Rect(60, 50, 80, 60)).setTo(0);
+  occupancy(cv::Rect(64, 54, 72, 52)).setTo(255);
+  occupancy(cv::Rect(100 - door_px / 2, 106, door_px, 4)).setTo(255);
+  cv::Mat ground_truth = occupancy.clone();
+  ground_truth(cv::Rect(86, 107, 28, 1)).setTo(0);
+  world::WorldResult r = world::import_floor_plan(occupancy, ground_truth, world::FloorPlanConfig(), "ring");
+  EXPECT_TRUE(r.ok) << r.error;
+  return r.world;
+}
+
+// The room inside the ring is entered and spun in: its ground is its own, not the corridor's (whose footprint has
+// the block cut out).
+TEST(ExplorationTest, EntersTheRoomInsideARingCorridor) {
+  auto p = prepare(ring_plan(20));
+  ASSERT_EQ(p->world.rooms.size(), 2u);
+  ExplorationConfig config;
+  const ExplorationResult r = plan_exploration(p->world, p->scene, *p->free_space, config);
+  expect_valid_tour(*p, config, r);
+  EXPECT_TRUE(r.unreachable_rooms.empty());
+  EXPECT_TRUE(r.peeked_rooms.empty());
+  EXPECT_EQ(std::set<std::int32_t>(r.room_order.begin(), r.room_order.end()).size(), 2u);
+  const std::int32_t inner = world::room_at(p->world, 5.0, 4.0, 1.0);
+  std::size_t inside = 0;
+  for (const auto& pose : r.trajectory) {
+    const Eigen::Vector3d t = pose.world_t_body_m;
+    inside += world::room_at(p->world, t.x(), t.y(), t.z()) == inner ? 1 : 0;
+  }
+  EXPECT_GT(inside, static_cast<std::size_t>(2 * kPi / config.yaw_rate_rad_s * config.rate_hz)) << "no spin inside";
+}
+
+// A door narrower than the robot: the room cannot be entered, so the tour looks into it from in front of its door
+// (facing it, sweeping), or, with look_into_unreachable_rooms off, only passes by.
+TEST(ExplorationTest, LooksIntoARoomItCannotEnter) {
+  auto p = prepare(ring_plan(8));  // 0.4 m: the robot needs 2 x 0.25 m
+  const std::int32_t inner = world::room_at(p->world, 5.0, 4.0, 1.0);
+  ExplorationConfig config;
+  const ExplorationResult r = plan_exploration(p->world, p->scene, *p->free_space, config);
+  expect_valid_tour(*p, config, r);
+  ASSERT_EQ(r.unreachable_rooms, std::vector<std::int32_t>{inner});
+  EXPECT_EQ(r.peeked_rooms, std::vector<std::int32_t>{inner});
+  // Some pose stands within 1.5 m of the door, below it, looking into the room (+y) within the sweep.
+  const Eigen::Vector2d door(5.0, 2.6);
+  std::size_t looking = 0;
+  for (const auto& pose : r.trajectory) {
+    const Eigen::Vector3d forward = pose.world_R_body * Eigen::Vector3d::UnitX();
+    const Eigen::Vector2d to_door = door - pose.world_t_body_m.head<2>();
+    if (to_door.norm() < 1.5 && to_door.y() > 0.0 && forward.y() > std::cos(0.25 * kPi) - 1e-6) ++looking;
+  }
+  EXPECT_GT(looking, 0u) << "no pose looks through the door";
+  config.look_into_unreachable_rooms = false;
+  const ExplorationResult passing = plan_exploration(p->world, p->scene, *p->free_space, config);
+  expect_valid_tour(*p, config, passing);
+  EXPECT_TRUE(passing.peeked_rooms.empty());
+  EXPECT_LT(passing.duration_s, r.duration_s);
+  config.peek_range_m = 0.0;
+  EXPECT_NE(plan_exploration(p->world, p->scene, *p->free_space, config).error.find("peek_range_m"), std::string::npos);
 }
 
 TEST(ScriptedTrajectoryTest, FollowsWaypointsAtTheConfiguredSpeed) {
