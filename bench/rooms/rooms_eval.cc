@@ -1046,7 +1046,8 @@ int main(int argc, char** argv) {
   if (!parse(argc, argv, &opt)) {
     std::fprintf(stderr,
                  "usage: %s [--plans-dir DIR] [--maps a,b|none] [--variants plain,furnished] [--generated N] "
-                 "[--generated-rooms N] [--label-buildings N] [--size WxH] [--hfov-deg D] [--rate-hz R] [--max-reach-m M] [--robot-radius-m R] [--look-into-unreachable 0|1] [--furniture-height-m H] [--alpha A] "
+                 "[--generated-rooms N] [--label-buildings N] [--size WxH] [--hfov-deg D] [--rate-hz R] [--max-reach-m M] "
+                 "[--robot-radius-m R] [--look-into-unreachable 0|1] [--furniture-height-m H] [--alpha A] "
                  "[--min-dilation-m D] [--max-dilation-m D] [--min-component N] [--seeding plateau|persistence] "
                  "[--min-persistence-m P] [--max-door-clearance-m D] [--split-by-extent 0|1] [--extent-saturation-m S] "
                  "[--split-min-extent-m E] [--split-max-extent-m E] [--split-min-persistence-m P] [--split-min-component N] [--cache-dir DIR] [--images DIR] [--dump-places DIR] [--door-oracle-m C] [--doors 0|1|online] [--online-every N] [--online-misses N] [--online-match-m M] "

@@ -161,9 +161,10 @@ int main(int argc, char** argv) {
   o.exploration.print(stdout);
   const sim::ExplorationResult tour = sim::plan_exploration(w, scene, free_space, o.exploration);
   if (!tour.ok) return fail(tour.error);
-  std::printf("tour: %zu rooms visited, %zu unreachable, %.1f m in %.1f s, %zu poses (%.2f s to plan)\n",
-              tour.room_order.size(), tour.unreachable_rooms.size(), tour.length_m, tour.duration_s,
-              tour.trajectory.size(), seconds_since(t0));
+  std::printf("tour: %zu rooms visited, %zu unreachable (%zu looked into), %.1f m in %.1f s, %zu poses "
+              "(%.2f s to plan)\n",
+              tour.room_order.size(), tour.unreachable_rooms.size(), tour.peeked_rooms.size(), tour.length_m,
+              tour.duration_s, tour.trajectory.size(), seconds_since(t0));
 
   // 3. Ground truth and the picture.
   if (o.ground_truth) {
