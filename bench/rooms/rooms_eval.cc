@@ -1084,13 +1084,16 @@ int main(int argc, char** argv) {
                 "the scores are the bound a perfect door and opening cue gives the room finder\n",
                 opt.door_oracle_m);
   std::printf("camera %dx%d, %.0f deg hfov, %.1f Hz keyframes, ground-truth poses, noise-free depth; labels reach "
-              "%.1f m from places\n",
-              opt.width, opt.height, opt.hfov_deg, opt.rate_hz, opt.max_reach_m);
-  char cond[512];
+              "%.1f m from places; robot radius %.2f m, %s\n",
+              opt.width, opt.height, opt.hfov_deg, opt.rate_hz, opt.max_reach_m, opt.robot_radius_m,
+              opt.look_into_unreachable ? "the tour looks into rooms it cannot enter" : "no looks into rooms");
+  char cond[640];
   std::snprintf(cond, sizeof(cond),
-                "sim camera %dx%d %.0f deg hfov %.1f Hz, ground-truth poses, noise-free depth, TSDF 0.1 m, frontend "
-                "every keyframe, rooms seeding %s alpha %.2f persistence %.2f m [%.2f, %.2f] m min %u",
-                opt.width, opt.height, opt.hfov_deg, opt.rate_hz, rooms::to_string(opt.rooms.seeding),
+                "sim camera %dx%d %.0f deg hfov %.1f Hz, ground-truth poses, noise-free depth, robot radius %.2f m%s, "
+                "TSDF 0.1 m, frontend every keyframe, rooms seeding %s alpha %.2f persistence %.2f m [%.2f, %.2f] m "
+                "min %u",
+                opt.width, opt.height, opt.hfov_deg, opt.rate_hz, opt.robot_radius_m,
+                opt.look_into_unreachable ? ", looks into unreachable rooms" : "", rooms::to_string(opt.rooms.seeding),
                 opt.rooms.plateau_alpha, opt.rooms.min_persistence_m, opt.rooms.min_dilation_m,
                 opt.rooms.max_dilation_m, opt.rooms.min_component_size);
   if (opt.rooms.split_by_extent)
