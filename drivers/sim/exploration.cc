@@ -330,7 +330,6 @@ struct Peek {
   int node = -1;
   double yaw = 0.0;
   int seen = 0;
-  std::size_t room = 0;  // index into World::rooms
 };
 
 // Points spread over a room's free floor at camera height, at most kPeekSamples of them: what a look into the room
@@ -566,21 +565,19 @@ ExplorationResult plan_exploration(const world::World& world, const render::RayS
   if (config.look_into_unreachable_rooms) {
     for (std::size_t r = 0; r < world.rooms.size(); ++r) {
       if (target[r] >= 0) continue;
-      Peek peek = best_peek(graph, component, start_component, scene,
-                            room_samples(world, world.rooms[r], free_space, config.camera_height_m), config);
+      const Peek peek = best_peek(graph, component, start_component, scene,
+                                  room_samples(world, world.rooms[r], free_space, config.camera_height_m), config);
       if (peek.seen == 0) continue;
-      peek.room = r;
       const Eigen::Vector3d at = graph.position(peek.node);
       const std::int32_t host_id = world::room_at(world, at.x(), at.y(), at.z() + 0.3);
       std::size_t host = order.size();
-      for (std::size_t k = 0; k < order.size(); ++k) {
+      for (std::size_t k = 0; k < order.size(); ++k)
         if (world.rooms[order[k]].id == host_id) host = k;
-      }
-      if (host == order.size()) {
-        for (std::size_t k = 0; k < order.size(); ++k)
-          if (host == order.size() || (graph.position(target[order[k]]) - at).norm() <
-                                          (graph.position(target[order[host]]) - at).norm())
-            host = k;
+      if (host == order.size()) {  // a spot in no visited room (between rooms' footprints): the nearest visited one
+        const auto distance = [&](std::size_t k) { return (graph.position(target[order[k]]) - at).norm(); };
+        host = 0;
+        for (std::size_t k = 1; k < order.size(); ++k)
+          if (distance(k) < distance(host)) host = k;
       }
       peeks_at[host].push_back(peeks.size());
       peeks.push_back(peek);
