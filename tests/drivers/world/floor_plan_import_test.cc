@@ -66,8 +66,6 @@ TEST(FloorPlanImport, SyntheticPlanGivesTwoRoomsOneDoorAndWalls) {
   EXPECT_TRUE(index.is_free(Eigen::Vector3d(2.0, 3.0, 1.25), 1.0));
 }
 
-// Furniture pixels (a furniture mask) stand at furniture_height_m, labelled furniture; the walls keep theirs.
-// Without the height (or without the mask) every occupied pixel is a wall, as the benchmark extrudes its plans.
 // A ground-truth room inside another one's ring (offices around a corridor loop, office_a and lab_intel): the
 // ring's outer contour encloses the inner room, so without its hole the corridor's footprint would claim the inner
 // room (and a tour would never enter it: its ground belongs to the corridor). 200x160 px (10 x 8 m): a ring
@@ -107,6 +105,8 @@ TEST(FloorPlanImport, ARoomInsideARingCorridorIsCutOutOfTheCorridorsFootprint) {
   EXPECT_EQ(room_at(back.world, 5.0, 4.0, 1.0), inner);
 }
 
+// Furniture pixels (a furniture mask) stand at furniture_height_m, labelled furniture; the walls keep theirs.
+// Without the height (or without the mask) every occupied pixel is a wall, as the benchmark extrudes its plans.
 TEST(FloorPlanImport, FurnitureOfTheMaskStandsAtItsOwnHeight) {
   const SyntheticPlan plan;
   cv::Mat furnished = plan.occupancy.clone();
