@@ -11,6 +11,11 @@
 // inside a ground-truth room: |r_e| counts r_e's cells there, |r_g| all of r_g's free cells (unlabelled included,
 // so unexplored space lowers recall).
 //
+// Peers, scored the same way: on the IPA plans, classical 2D segmentations of the complete plan (distance transform
+// at two thresholds, morphological); on every plan and generated building, Hydra's room clustering
+// (rooms::Config::paper(), the paper's plateau seeding, without our door stage) on the same explored places, the
+// peer that saw what our robot saw. Each total prints ours over the peer.
+//
 // Room parameters come from the command line (--seeding plateau|persistence, --min-component, --alpha,
 // --min-persistence-m, ...); --cache-dir saves each run's frontend graph and reuses it, so a parameter sweep
 // explores each plan once.
@@ -87,8 +92,9 @@ struct Options {
   // Tuning aid: the frontend's graph of each run is saved here (Spark-DSG JSON) and read back on the next run
   // instead of exploring again, so room parameters can be swept in seconds. Empty: always explore.
   std::string cache_dir;
-  std::string images_dir;  // --images DIR: per plan, a PNG of the estimated rooms beside the ground truth
-  // --dump-places DIR: per plan, a text file of its places and place-place edges with their estimated and
+  // --images DIR: per plan (per floor of a generated building), a PNG of the estimated rooms beside the ground truth
+  std::string images_dir;
+  // --dump-places DIR: per plan (per floor of a generated building), a text file of its places and place-place edges with their estimated and
   // ground-truth rooms, for offline study of the room finder (bench/rooms/finder_sandbox.py reads it).
   std::string dump_dir;
   // --door-oracle-m C (IPA plans): before the room finder's scored run, every place-place edge between two
@@ -244,7 +250,8 @@ std::int32_t truth_near(const Raster& ras, int c, int r) {
 // truth: the ground-truth room of its cell as the oracle takes it, 0: none; plan_clearance: the horizontal distance
 // from its cell to the plan's nearest occupied cell, the 2D clearance a map-based method sees), and per place-place
 // edge "E id id weight" (weight -1 when unweighted).
-bool dump_places(const sg::SceneGraph& g, const Raster& ras, const std::string& path) {
+bool dump_places(const sg::SceneGraph& g, const Raster& ras, const std::string& path, double z_min_m = -1e9,
+                 double z_max_m = 1e9) {
   std::FILE* f = std::fopen(path.c_str(), "w");
   if (f == nullptr) {
     std::fprintf(stderr, "--dump-places: cannot write %s\n", path.c_str());
@@ -258,6 +265,7 @@ bool dump_places(const sg::SceneGraph& g, const Raster& ras, const std::string& 
   g.for_each_node([&](const sg::NodeRecord& n) {
     if (n.kind != sg::NodeKind::kPlace) return;
     const sg::PlaceAttributes* a = g.place(n.id);
+    if (a->position_m.z() < z_min_m || a->position_m.z() >= z_max_m) return;
     int c, r;
     const bool inside = ras.cell_of(a->position_m, &c, &r);
     const std::int32_t truth = inside ? truth_near(ras, c, r) : 0;
@@ -266,7 +274,8 @@ bool dump_places(const sg::SceneGraph& g, const Raster& ras, const std::string& 
                  a->position_m.x(), a->position_m.y(), a->position_m.z(), a->distance_m,
                  static_cast<unsigned long long>(n.parent == sg::kNoNode ? 0 : n.parent), truth, plan_clearance);
     g.for_each_neighbor(n.id, [&](sg::NodeId other, const sg::EdgeRecord& e) {
-      if (other > n.id && g.place(other) != nullptr)
+      const sg::PlaceAttributes* b = g.place(other);
+      if (other > n.id && b != nullptr && b->position_m.z() >= z_min_m && b->position_m.z() < z_max_m)
         std::fprintf(f, "E %llu %llu %.6f\n", static_cast<unsigned long long>(n.id),
                      static_cast<unsigned long long>(other), e.info.weighted ? e.info.weight : -1.0);
     });
@@ -413,6 +422,8 @@ struct RunStats {
   std::vector<std::int32_t> unreachable_ids;  // world rooms outside the start's free-space component
   std::vector<rooms::Door> doors;             // --doors: the doors found on the robot's surface
   std::size_t door_edges_closed = 0;
+  // ... and those edges as they were before (the Hydra peer runs on the graph without the door stage).
+  std::vector<std::pair<std::pair<sg::NodeId, sg::NodeId>, sg::EdgeAttributes>> uncut_edges;
   double door_ms = 0.0;                       // the door stage's wall time (find_doors + cut_place_edges)
   std::vector<rooms::Door> online_doors;      // --doors online: the DoorSet when the exploration ended
   std::vector<double> pass_ms;                // ... each window pass's wall time
@@ -458,6 +469,12 @@ bool read_doors(const std::string& path, std::vector<rooms::Door>* doors) {
 struct Peers {
   Score distance, distance_plateau, erosion;
   double distance_level_m = 0.0, distance_plateau_level_m = 0.0, erosion_level_m = 0.0;
+  // Hydra's room clustering (rooms::Config::paper(): one plateau dilation for the graph, 15-place components, no
+  // extent split) on the same explored places, without the door stage (the paper has none): the peer that sees what
+  // our robot saw. Not run with --door-oracle-m.
+  Score hydra;
+  bool has_hydra = false;
+  double hydra_dilation_m = 0.0;
 };
 
 // The robot's surface: the vertices of its reconstructed mesh (archive and active window), as float x y z triples in
@@ -501,7 +518,18 @@ bool apply_doors(const Options& opt, const std::string& name, const std::vector<
     std::fprintf(stderr, "%s: %s\n", name.c_str(), error.c_str());
     return false;
   }
+  std::vector<std::pair<std::pair<sg::NodeId, sg::NodeId>, sg::EdgeAttributes>> before;
+  graph->for_each_edge([&](const sg::EdgeRecord& e) {
+    if (graph->place(e.source) != nullptr && graph->place(e.target) != nullptr)
+      before.push_back({{e.source, e.target}, e.info});
+  });
   stats->door_edges_closed = rooms::cut_place_edges(*found, opt.door, graph);
+  stats->uncut_edges.clear();
+  for (const auto& [ends, info] : before) {
+    const sg::EdgeAttributes* now = graph->edge_info(ends.first, ends.second);
+    if (now != nullptr && (now->weighted != info.weighted || now->weight != info.weight))
+      stats->uncut_edges.push_back({ends, info});
+  }
   stats->door_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   std::printf("  %s: doors: %zu (%zu candidates) in %zu storey slice(s), %zu place edges closed, %.0f ms\n",
               name.c_str(), found->size(), ds.candidates, ds.slices, stats->door_edges_closed, stats->door_ms);
@@ -701,6 +729,29 @@ bool run_rooms(const Options& opt, const std::string& name, sg::SceneGraph* grap
   return true;
 }
 
+// The Hydra peer (Peers::hydra): the door stage's cuts undone and our rooms removed, then the paper's room
+// clustering on the same graph. The graph is left with the peer's rooms, so call it after everything that reads ours.
+bool run_hydra_peer(const std::string& name, const RunStats& st, sg::SceneGraph* graph, double* dilation_m) {
+  for (const auto& [ends, info] : st.uncut_edges)
+    if (sg::EdgeAttributes* e = graph->edge_info(ends.first, ends.second)) *e = info;
+  std::vector<sg::NodeId> ours;
+  graph->for_each_node([&](const sg::NodeRecord& n) {
+    if (n.kind == sg::NodeKind::kRoom || n.kind == sg::NodeKind::kBuilding) ours.push_back(n.id);
+  });
+  for (const sg::NodeId id : ours) graph->remove_node(id);
+  auto finder = std::make_unique<rooms::RoomFinder>();
+  std::string error;
+  if (!finder->init(rooms::Config::paper(), rooms::Capacities::from_scene_graph(graph->capacities()), 0, &error)) {
+    std::fprintf(stderr, "%s: Hydra peer: %s\n", name.c_str(), error.c_str());
+    return false;
+  }
+  const rooms::UpdateResult r = finder->update(graph, 0, nullptr);
+  *dilation_m = r.dilation_m;
+  if (r.outcome != rooms::Outcome::kOk)
+    std::fprintf(stderr, "%s: Hydra peer: %s (%zu places)\n", name.c_str(), rooms::to_string(r.outcome), r.places);
+  return true;
+}
+
 void print_line(const std::string& name, const Score& s, const RunStats& st) {
   std::printf("%-30s P %.3f R %.3f | area P %.3f R %.3f | rooms %zu / truth %zu | places %zu, delta* %.2f m, "
               "rooms update %.2f ms, %zu keyframes, tour %.0f m, %zu unreachable (%zu looked into), %.0f s\n",
@@ -850,6 +901,12 @@ bool eval_plan(const Options& opt, const std::string& map, bool furnished, Score
       if (excluded.count(t) != 0) t = 0;
     *reachable = score(masked);
   }
+  if (peers != nullptr && opt.door_oracle_m < 0.0) {
+    if (!run_hydra_peer(map, *st, graph.get(), &peers->hydra_dilation_m)) return false;
+    label_from_places(*graph, -1e9, 1e9, opt.max_reach_m, &ras);
+    peers->hydra = score(ras);
+    peers->has_hydra = true;
+  }
   return true;
 }
 
@@ -988,7 +1045,7 @@ bool label_rooms(const world::World& w, const sg::SceneGraph& g, LabelScore* out
 }
 
 bool eval_generated(const Options& opt, std::uint64_t seed, Score* out, RunStats* st, LabelScore* labels,
-                    Score* oracle) {
+                    Score* oracle, Score* hydra) {
   world::BuildingConfig bc;
   bc.seed = seed;
   bc.num_rooms = opt.generated_rooms;
@@ -1007,6 +1064,7 @@ bool eval_generated(const Options& opt, std::uint64_t seed, Score* out, RunStats
   std::map<std::int32_t, double> floors;  // floor index -> floor z
   for (const world::Room& room : w.rooms) floors[room.floor_index] = room.floor_z_m;
   Score total, bound;
+  std::vector<std::pair<Raster, std::pair<double, double>>> floor_rasters;  // (raster, its places' z range)
   for (const auto& [floor, z] : floors) {
     Raster ras;
     ras.res_m = 0.05;
@@ -1033,9 +1091,23 @@ bool eval_generated(const Options& opt, std::uint64_t seed, Score* out, RunStats
     bound.add(score(ras));
     label_from_places(*graph, z_lo, z_hi, opt.max_reach_m, &ras);
     total.add(score(ras));
+    const std::string stem = w.name + "_floor" + std::to_string(floor);
+    if (!opt.dump_dir.empty()) dump_places(*graph, ras, opt.dump_dir + "/" + stem + ".txt", z_lo, z_hi);
+    if (!opt.images_dir.empty()) write_image(ras, opt.images_dir + "/" + stem + "_rooms.png", st->doors);
+    floor_rasters.push_back({std::move(ras), {z_lo, z_hi}});
   }
   *out = total;
   *oracle = bound;
+  if (hydra != nullptr) {
+    double dilation_m = 0.0;
+    if (!run_hydra_peer(w.name, *st, graph.get(), &dilation_m)) return false;
+    Score peer;
+    for (auto& [ras, z] : floor_rasters) {
+      label_from_places(*graph, z.first, z.second, opt.max_reach_m, &ras);
+      peer.add(score(ras));
+    }
+    *hydra = peer;
+  }
   return true;
 }
 
@@ -1125,6 +1197,26 @@ int main(int argc, char** argv) {
     figures.add(prefix + ".rooms_found", static_cast<double>(s.rooms_found), "rooms");
     figures.add(prefix + ".rooms_truth", static_cast<double>(s.rooms_truth), "rooms");
   };
+  // A peer's totals, printed and added with ours over it: "ALL peer <short> (<set>)", figures
+  // rooms_eval.<set>.peer_<name>[.ours_over_peer.*].
+  const auto add_peer_total = [&](const std::string& set, const char* name, const char* short_name, const char* what,
+                                  const Score& overall, const Score& peer) {
+    const std::size_t dot = set.find('.');
+    const std::string shown = dot == std::string::npos ? set : set.substr(dot + 1);
+    std::printf("%-30s P %.3f R %.3f | area P %.3f R %.3f | rooms %zu / truth %zu (%s; ours over it: P %.3f R %.3f "
+                "area P %.3f)\n",
+                ("ALL peer " + std::string(short_name) + " (" + shown + ")").c_str(), peer.precision_mean,
+                peer.recall_mean, peer.precision_area, peer.recall_area, peer.rooms_found, peer.rooms_truth, what,
+                ratio(overall.precision_mean, peer.precision_mean), ratio(overall.recall_mean, peer.recall_mean),
+                ratio(overall.precision_area, peer.precision_area));
+    const std::string prefix = "rooms_eval." + set + ".peer_" + name;
+    add(prefix, peer);
+    figures.add(prefix + ".ours_over_peer.precision_mean", ratio(overall.precision_mean, peer.precision_mean),
+                "ratio");
+    figures.add(prefix + ".ours_over_peer.recall_mean", ratio(overall.recall_mean, peer.recall_mean), "ratio");
+    figures.add(prefix + ".ours_over_peer.precision_area", ratio(overall.precision_area, peer.precision_area),
+                "ratio");
+  };
   int failures = 0;
   std::vector<double> rooms_ms, door_ms;
   // Per run: the door stage's doors, closed edges and time (--doors).
@@ -1152,6 +1244,8 @@ int main(int argc, char** argv) {
       std::printf("furnished_low: the furnished plans with their furniture extruded to %.2f m, not to the walls' "
                   "%.2f m\n", opt.furniture_height_m, world::FloorPlanConfig{}.wall_height_m);
     Score overall, overall_reachable, overall_oracle, overall_distance, overall_distance_plateau, overall_erosion;
+    Score overall_hydra;
+    std::size_t hydra_plans = 0;
     std::size_t doors_between = 0, doors_inside = 0, doors_unknown = 0;
     for (const std::string& map : opt.maps) {
       Score s, reachable, oracle;
@@ -1172,6 +1266,16 @@ int main(int argc, char** argv) {
       print_peer("  peer: distance transform", peers.distance, "threshold", peers.distance_level_m);
       print_peer("  peer: distance, PH plateau", peers.distance_plateau, "threshold", peers.distance_plateau_level_m);
       print_peer("  peer: morphological", peers.erosion, "deepest erosion", peers.erosion_level_m);
+      if (peers.has_hydra) {
+        std::printf("%-30s P %.3f R %.3f | area P %.3f R %.3f | rooms %zu / truth %zu | our graph, no doors, delta* "
+                    "%.2f m\n",
+                    "  peer: Hydra room clustering", peers.hydra.precision_mean, peers.hydra.recall_mean,
+                    peers.hydra.precision_area, peers.hydra.recall_area, peers.hydra.rooms_found,
+                    peers.hydra.rooms_truth, peers.hydra_dilation_m);
+        add("rooms_eval.ipa." + variant + "." + map + ".peer_hydra", peers.hydra);
+        overall_hydra.add(peers.hydra);
+        ++hydra_plans;
+      }
       add("rooms_eval.ipa." + variant + "." + map, s);
       add("rooms_eval.ipa." + variant + "." + map + ".peer_distance_transform", peers.distance);
       add("rooms_eval.ipa." + variant + "." + map + ".peer_distance_plateau", peers.distance_plateau);
@@ -1209,41 +1313,23 @@ int main(int argc, char** argv) {
                 ("ALL oracle (" + variant + ")").c_str(), overall_oracle.precision_mean, overall_oracle.recall_mean,
                 overall_oracle.precision_area, overall_oracle.recall_area, overall_oracle.rooms_found,
                 overall_oracle.rooms_truth);
-    struct PeerTotal {
-      const char* name;
-      const char* short_name;
-      const Score* score;
-    };
-    for (const PeerTotal& total : {PeerTotal{"distance_transform", "dist", &overall_distance},
-                                   PeerTotal{"distance_plateau", "dist PH", &overall_distance_plateau},
-                                   PeerTotal{"morphological", "morph", &overall_erosion}}) {
-      const char* name = total.name;
-      const char* short_name = total.short_name;
-      const Score* peer = total.score;
-      std::printf("%-30s P %.3f R %.3f | area P %.3f R %.3f | rooms %zu / truth %zu (the complete plan; ours over "
-                  "it: P %.3f R %.3f area P %.3f)\n",
-                  ("ALL peer " + std::string(short_name) + " (" + variant + ")").c_str(), peer->precision_mean,
-                  peer->recall_mean, peer->precision_area, peer->recall_area, peer->rooms_found, peer->rooms_truth,
-                  ratio(overall.precision_mean, peer->precision_mean), ratio(overall.recall_mean, peer->recall_mean),
-                  ratio(overall.precision_area, peer->precision_area));
-      const std::string prefix = "rooms_eval.ipa." + variant + ".peer_" + name;
-      add(prefix, *peer);
-      figures.add(prefix + ".ours_over_peer.precision_mean", ratio(overall.precision_mean, peer->precision_mean),
-                  "ratio");
-      figures.add(prefix + ".ours_over_peer.recall_mean", ratio(overall.recall_mean, peer->recall_mean), "ratio");
-      figures.add(prefix + ".ours_over_peer.precision_area", ratio(overall.precision_area, peer->precision_area),
-                  "ratio");
-    }
+    add_peer_total("ipa." + variant, "distance_transform", "dist", "the complete plan", overall, overall_distance);
+    add_peer_total("ipa." + variant, "distance_plateau", "dist PH", "the complete plan", overall,
+                   overall_distance_plateau);
+    add_peer_total("ipa." + variant, "morphological", "morph", "the complete plan", overall, overall_erosion);
+    if (hydra_plans > 0)
+      add_peer_total("ipa." + variant, "hydra", "Hydra", "the paper's room clustering on our graph, no doors",
+                     overall, overall_hydra);
     add("rooms_eval.ipa." + variant + ".all", overall);
     add("rooms_eval.ipa." + variant + ".oracle", overall_oracle);
     add("rooms_eval.ipa." + variant + ".reachable", overall_reachable);
   }
-  Score generated, generated_oracle;
+  Score generated, generated_oracle, generated_hydra;
   LabelScore labels;
   for (int seed = 1; seed <= opt.generated; ++seed) {
-    Score s, oracle;
+    Score s, oracle, hydra;
     RunStats st;
-    if (!eval_generated(opt, static_cast<std::uint64_t>(seed), &s, &st, &labels, &oracle)) {
+    if (!eval_generated(opt, static_cast<std::uint64_t>(seed), &s, &st, &labels, &oracle, &hydra)) {
       ++failures;
       continue;
     }
@@ -1251,8 +1337,13 @@ int main(int argc, char** argv) {
     add("rooms_eval.generated_two_floor.seed" + std::to_string(seed), s);
     rooms_ms.push_back(st.rooms_ms);
     add_doors("rooms_eval.generated_two_floor.seed" + std::to_string(seed), st);
+    std::printf("%-30s P %.3f R %.3f | area P %.3f R %.3f | rooms %zu / truth %zu | our graph, no doors\n",
+                "  peer: Hydra room clustering", hydra.precision_mean, hydra.recall_mean, hydra.precision_area,
+                hydra.recall_area, hydra.rooms_found, hydra.rooms_truth);
+    add("rooms_eval.generated_two_floor.seed" + std::to_string(seed) + ".peer_hydra", hydra);
     generated.add(s);
     generated_oracle.add(oracle);
+    generated_hydra.add(hydra);
   }
   if (opt.generated > 0) {
     std::printf("%-30s P %.3f R %.3f | area P %.3f R %.3f | rooms %zu / truth %zu\n", "ALL generated two-floor",
@@ -1263,6 +1354,8 @@ int main(int argc, char** argv) {
                 "ALL generated oracle", generated_oracle.precision_mean, generated_oracle.recall_mean,
                 generated_oracle.precision_area, generated_oracle.recall_area, generated_oracle.rooms_found,
                 generated_oracle.rooms_truth);
+    add_peer_total("generated_two_floor", "hydra", "Hydra", "the paper's room clustering on our graph, no doors",
+                   generated, generated_hydra);
     add("rooms_eval.generated_two_floor.all", generated);
     add("rooms_eval.generated_two_floor.oracle", generated_oracle);
     const double accuracy = labels.rooms > 0 ? static_cast<double>(labels.correct) / labels.rooms : 0.0;
