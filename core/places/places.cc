@@ -108,6 +108,7 @@ struct Places::Cluster {
   std::uint8_t num_edges = 0;
   std::uint8_t bridge_check = 0;  // its edges changed: is it (still) a small fragment to bridge?
   std::uint8_t held = 0;          // an enclosed pocket (see Config::enclosed_max_voxels): kept out of the graph
+  std::uint8_t revived = 0;       // its node is the cell's inactive node, brought back: checked at the next sync
   float clearance_m = 0.0f;
   Eigen::Vector3d position_m = Eigen::Vector3d::Zero();
   std::uint32_t cell_next = kNoCluster;  // next live cluster of the same hash cell
@@ -177,7 +178,7 @@ void Config::print(std::FILE* out) const {
                "bridge_max_fragment_places=%d bridge_max_length_m=%.2f bridge_min_clearance_m=%.2f "
                "enclosed_max_voxels=%d contract_removed=%d contract_search_places=%d unobserved_is_obstacle=%d "
                "unobserved_obstacle_above_m=%.2f rim_guard=%d signed_surface_seeds=%d correct_projective_distance=%d "
-               "hold_distant_fragments=%d bridge_path_search=%d keep_distances_at_rim=%d\n",
+               "hold_distant_fragments=%d bridge_path_search=%d keep_distances_at_rim=%d revive_in_same_free_space=%d\n",
                voxel_factor, max_distance_m, min_clearance_m, min_basis_angle_rad * 180.0 / 3.14159265358979,
                min_basis_points, place_resolution_m, window_radius_m, slab_below_m, slab_above_m, min_tsdf_weight,
                free_space_edges ? 1 : 0, relink_inactive ? 1 : 0, bridge_fragments ? 1 : 0,
@@ -186,7 +187,7 @@ void Config::print(std::FILE* out) const {
                contract_search_places, unobserved_is_obstacle ? 1 : 0,
                unobserved_obstacle_above_m, rim_guard ? 1 : 0, signed_surface_seeds ? 1 : 0,
                correct_projective_distance ? 1 : 0, hold_distant_fragments ? 1 : 0,
-               bridge_path_search ? 1 : 0, keep_distances_at_rim ? 1 : 0);
+               bridge_path_search ? 1 : 0, keep_distances_at_rim ? 1 : 0, revive_in_same_free_space ? 1 : 0);
 }
 
 void Capacities::print(std::FILE* out) const {
@@ -205,7 +206,7 @@ void Counters::print(std::FILE* out) const {
                "refused clusters=%llu edges=%llu graph=%llu free_space_edges=%llu relinked=%llu "
                "relinks_dropped=%llu relinks_refused=%llu views=%llu views_merged=%llu observed_refused=%llu "
                "rays=%llu bridges=%llu bridges_added=%llu bridge_paths=%llu bridge_searches_cut=%llu bridges_missing=%llu "
-               "contracted=%llu enclosed_held=%llu\n",
+               "contracted=%llu enclosed_held=%llu reactivated=%llu revivals_refused=%llu\n",
                (unsigned long long)updates, (unsigned long long)cycles, (unsigned long long)tsdf_blocks_read,
                (unsigned long long)voxels_updated, (unsigned long long)voxels_raised,
                (unsigned long long)voxels_orphaned, (unsigned long long)frontier_seeds, (unsigned long long)occupied_seeds,
@@ -219,7 +220,8 @@ void Counters::print(std::FILE* out) const {
                (unsigned long long)observed_refused, (unsigned long long)rays_carved, (unsigned long long)bridges,
                (unsigned long long)bridges_added, (unsigned long long)bridge_paths,
                (unsigned long long)bridge_searches_cut, (unsigned long long)bridges_missing,
-               (unsigned long long)contracted, (unsigned long long)enclosed_held);
+               (unsigned long long)contracted, (unsigned long long)enclosed_held, (unsigned long long)reactivated,
+               (unsigned long long)revivals_refused);
 }
 
 void MemoryUse::print(std::FILE* out) const {
@@ -1088,9 +1090,11 @@ std::uint32_t Places::new_cluster(const memory::Index3& cell) {
   Cluster& c = clusters_[h];
   c.cell = cell;
   // Back in a cell a place left when it went out of the window: the inactive node comes back to life.
+  c.revived = 0;
   if (const scene_graph::NodeId* old = inactive_.find(cell)) {
     c.node = *old;
     c.synced = 1;
+    c.revived = 1;
     inactive_.erase(cell);
     ++counters_.reactivated;
   } else {
@@ -1410,6 +1414,16 @@ void Places::compute_mesh_connections(const reconstruction::SemanticTsdf& tsdf, 
       connected = true;
     }
   }
+}
+
+// Config::revive_in_same_free_space: whether a place at `pb` with clearance `rb` lies in the same free space as the
+// inactive place at `pa` with clearance `ra`: their spheres of free space overlap (the union of two overlapping free
+// balls is connected free space, and no surface passes between them however thin), or the ESDF certifies the
+// segment between them (every voxel on it free).
+bool Places::same_free_space(const Eigen::Vector3d& pa, double ra, const Eigen::Vector3d& pb, double rb) const {
+  if ((pb - pa).norm() < ra + rb) return true;
+  float w = 0.0f;
+  return segment_clearance(pa, pb, &w) && w > 0.0f;
 }
 
 // The smallest ESDF distance along the segment between two points (sampled every half voxel, both ends
@@ -2015,6 +2029,19 @@ SyncResult Places::sync(scene_graph::SceneGraph* graph) {
     if (!clusters_.live(h)) continue;
     Cluster& c = clusters_[h];
     if (c.state != kLive || !c.sync_dirty || c.rep == kNoRef) continue;
+    if (c.revived) {
+      // Config::revive_in_same_free_space: the inactive node came back only if it left from the same free space.
+      c.revived = 0;
+      const scene_graph::PlaceAttributes* old = graph->place(c.node);
+      if (config_.revive_in_same_free_space && old != nullptr && !old->is_active &&
+          !same_free_space(old->position_m, old->distance_m, c.position_m, c.clearance_m)) {
+        inactive_.insert(c.cell, c.node);  // stays inactive where it was; a later place of the cell may revive it
+        c.node = scene_graph::make_node_id(scene_graph::kPlacePrefix, next_node_index_++);
+        c.synced = 0;
+        --counters_.reactivated;
+        ++counters_.revivals_refused;
+      }
+    }
     if (c.held) {
       // An enclosed pocket: not published; withdrawn if it was (unless inactive places hang on it).
       if (c.synced) {

@@ -93,6 +93,15 @@ struct Config {
   // A removed place's edges to inactive places (which cannot re-derive their edges: their voxels are gone) move
   // to the live place of the same or a neighbouring cell whose sphere overlaps the removed one's.
   bool relink_inactive = true;
+  // A place that left the window stays in the graph, inactive, and a new place in the same hash cell later brings
+  // that node back to life with its edges to other inactive places (a revisit). A 1 m cell can also hold free space
+  // on the other side of a wall or a floor slab (a two-floor building's cell from 2 to 3 m holds the top of the
+  // ground floor and the bottom of the upper one), where those edges would cross the wall or the slab. On, the node
+  // is brought back only if the new place is in the same free space as where the node left: their spheres of free
+  // space (position, clearance) overlap, or the ESDF certifies the segment between them; otherwise the new place
+  // gets a node of its own and the old one stays where it was. Off: any new place of the cell revives it (ten
+  // generated two-floor buildings: 4-6 % of their place edges then ran through the slab).
+  bool revive_in_same_free_space = true;
   // Bridges (as Hydra joins its disconnected components): a live place whose component of live places holds at
   // most bridge_max_fragment_places places (e.g. a 1-2 place GVD piece under a table or a bed, in the same free
   // space as the room around it) is joined to the nearest live place outside that component, at most
@@ -179,6 +188,7 @@ struct Counters {
   std::uint64_t edges_refused = 0;     // a place had kMaxClusterEdges neighbours already
   std::uint64_t graph_refused = 0;     // sync(): the scene graph's place or edge store was full
   std::uint64_t reactivated = 0;       // places re-created in a cell an inactive node had left: the node is reused
+  std::uint64_t revivals_refused = 0;  // ... not reused: not the same free space (Config::revive_in_same_free_space)
   std::uint64_t free_space_edges = 0;  // current free-space edges (sphere overlap, not GVD adjacency)
   std::uint64_t relinked = 0;          // edges of removed places moved from an inactive place to a live one
   std::uint64_t relinks_dropped = 0;   // no live place replaced the removed one before it left the window
@@ -382,6 +392,7 @@ class Places {
   void pick_representative(std::uint32_t cluster);
   void recompute_edges(std::uint32_t cluster);
   void compute_mesh_connections(const reconstruction::SemanticTsdf& tsdf, std::uint32_t cluster);
+  bool same_free_space(const Eigen::Vector3d& pa, double ra, const Eigen::Vector3d& pb, double rb) const;
   bool segment_clearance(Eigen::Vector3d a_m, Eigen::Vector3d b_m, float* min_distance_m) const;
   bool spheres_meet(std::uint32_t a, std::uint32_t b, float* weight_m) const;
   void link_cell(std::uint32_t cluster);
