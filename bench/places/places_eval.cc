@@ -1,8 +1,8 @@
 // Places evaluation: the simulated robot explores generated buildings or an extruded benchmark floor plan
 // (ground-truth poses, noise-free depth, 0.1 m voxels); the TSDF and the places layer run every keyframe; prints the
 // mean distance from the place nodes to the ground-truth GVD, places components against connected free-space
-// regions, nodes per 100 m^2, the per-update time of places (median, p99) and the memory of the ESDF and GVD in
-// the window, optionally as JSON.
+// regions, place edges through solid ground truth (walls, floors, slabs), nodes per 100 m^2, the per-update time of
+// places (median, p99) and the memory of the ESDF and GVD in the window, optionally as JSON.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -68,12 +68,14 @@ struct Options {
   int bridge_max_places = 0;     // --bridge-max-places: Config::bridge_max_fragment_places (0: the default)
   std::vector<Eigen::Vector3d> trace;  // --trace X,Y,Z (repeatable): the ESDF voxel there, whenever it changes
   double unobserved_above_m = -1.0;  // --unobserved-above-m: Config::unobserved_obstacle_above_m (< 0: the default)
+  bool two_floors = false;           // --two-floors: generated buildings with a second floor over a 0.2 m slab
+  bool revive_check = true;          // --no-revive-check: Config::revive_in_same_free_space off
 };
 
 void usage(const char* argv0) {
   std::fprintf(stderr,
                "usage: %s [--seeds 1,2,3] [--rooms N] [--size WxH] [--hfov-deg D] [--rate-hz R] [--every-n N] "
-               "[--no-observe] [--no-free-space-edges] [--no-relink] [--no-bridges] [--no-contract] [--no-unobserved-obstacle] [--no-rim-guard] [--no-keep-rim-distances] [--no-signed-seeds] [--no-projective-correction] [--no-hold-distant] [--no-bridge-paths] [--floorplan NAME [--furnished]] "
+               "[--no-observe] [--no-free-space-edges] [--no-relink] [--no-bridges] [--no-contract] [--no-unobserved-obstacle] [--no-rim-guard] [--no-keep-rim-distances] [--no-signed-seeds] [--no-projective-correction] [--no-hold-distant] [--no-bridge-paths] [--no-revive-check] [--two-floors] [--floorplan NAME [--furnished]] "
                "[--plans-dir DIR] [--window-radius-m R] [--slab-above-m H] [--bridge-max-places N] [--unobserved-above-m H] [--trace X,Y,Z] [--json FILE] [--verbose] [--diagnose]\n"
                "  NAME: a map of the plans dir (Freiburg52_scan, lab_c_scan, lab_intel, lab_ipa, office_a, office_e)\n",
                argv0);
@@ -133,6 +135,14 @@ bool parse(int argc, char** argv, Options* o) {
     }
     if (a == "--no-unobserved-obstacle") {
       o->unobserved_obstacle = false;
+      continue;
+    }
+    if (a == "--two-floors") {
+      o->two_floors = true;
+      continue;
+    }
+    if (a == "--no-revive-check") {
+      o->revive_check = false;
       continue;
     }
     if (a == "--no-contract") {
@@ -524,6 +534,9 @@ struct BuildingResult {
   // excess is by design (the ceiling above the camera is rarely seen, Config::unobserved_obstacle_above_m); a wall
   // missing from the ESDF (e.g. one that left the window) shows as more.
   std::size_t clearance_over_25cm = 0, clearance_over_50cm = 0;
+  // Place-place edges whose segment runs through solid ground truth (walls, floors, slabs) for at least 0.1 m: an
+  // edge a planner would follow through a wall.
+  std::size_t place_edges = 0, edges_through_solid = 0;
   std::size_t components = 0;
   std::size_t components_3 = 0;   // with at least 3 nodes
   double largest_share = 0.0;     // of the nodes in the largest component
@@ -556,6 +569,7 @@ bool run_world(const Options& opt, const world::World& w, bool floor_plan, Build
   reconstruction::Config tc;
   places::Config pc;
   pc.free_space_edges = opt.free_space_edges;
+  pc.revive_in_same_free_space = opt.revive_check;
   pc.relink_inactive = opt.relink;
   pc.bridge_fragments = opt.bridges;
   pc.enclosed_max_voxels = opt.bridges ? pc.enclosed_max_voxels : 0;
@@ -810,6 +824,22 @@ bool run_world(const Options& opt, const world::World& w, bool floor_plan, Build
   out->seed = seed;
   out->nodes = distances.size();
   out->edges = graph.num_edges();
+  graph.for_each_edge([&](const scene_graph::EdgeRecord& e) {
+    const scene_graph::PlaceAttributes* a = graph.place(e.source);
+    const scene_graph::PlaceAttributes* b = graph.place(e.target);
+    if (a == nullptr || b == nullptr) return;
+    ++out->place_edges;
+    constexpr double kStep = 0.02, kSolid = 0.1;
+    const int steps = std::max(1, static_cast<int>(std::ceil((b->position_m - a->position_m).norm() / kStep)));
+    int solid = 0;
+    for (int k = 0; k <= steps; ++k) {
+      const Eigen::Vector3d p = a->position_m + (b->position_m - a->position_m) * (static_cast<double>(k) / steps);
+      const Eigen::Vector3i q = ((p - truth.origin_m) / truth.config.voxel_size_m).array().floor().cast<int>();
+      if ((q.array() < 0).any() || (q.array() >= truth.dims.array()).any()) continue;
+      solid += truth.voxel_room[truth.index(q.x(), q.y(), q.z())] == sim::kVoxelOccupied ? 1 : 0;
+    }
+    if (solid * kStep >= kSolid) ++out->edges_through_solid;
+  });
   double sum = 0.0;
   for (double d : distances) sum += d;
   out->mean_gvd_distance_m = distances.empty() ? 0.0 : sum / static_cast<double>(distances.size());
@@ -841,6 +871,8 @@ bool run_world(const Options& opt, const world::World& w, bool floor_plan, Build
               out->components_3, 100.0 * out->largest_share, out->regions, 100.0 * static_cast<double>(out->nodes) / std::max(1.0, out->area_m2), out->area_m2,
               quantile(out->update_ms, 0.5), quantile(out->update_ms, 0.99),
               *std::max_element(out->update_ms.begin(), out->update_ms.end()));
+  std::printf("  place edges through solid (walls, floors, slabs) for >= 0.1 m: %zu of %zu\n", out->edges_through_solid,
+              out->place_edges);
   std::printf("  clearance above the true one by > 0.25 m: %.1f %% of the places, by > 0.5 m: %.1f %%\n",
               100.0 * static_cast<double>(out->clearance_over_25cm) / std::max<std::size_t>(1, out->nodes),
               100.0 * static_cast<double>(out->clearance_over_50cm) / std::max<std::size_t>(1, out->nodes));
@@ -863,7 +895,8 @@ bool run_building(const Options& opt, std::uint64_t seed, BuildingResult* out) {
   bc.num_rooms = opt.rooms;
   bc.seed = seed;
   out->seed = seed;
-  out->name = "building seed " + std::to_string(seed);
+  bc.two_floors = opt.two_floors;
+  out->name = (opt.two_floors ? "two-floor building seed " : "building seed ") + std::to_string(seed);
   return run_world(opt, world::generate_building(bc), false, out);
 }
 
@@ -916,7 +949,7 @@ int main(int argc, char** argv) {
   }
   std::vector<double> all_ms;
   double dist_sum = 0.0, area = 0.0;
-  std::size_t nodes = 0, matched = 0, matched_3 = 0, over_25 = 0, over_50 = 0;
+  std::size_t nodes = 0, matched = 0, matched_3 = 0, over_25 = 0, over_50 = 0, place_edges = 0, through_solid = 0;
   double largest_share_sum = 0.0;
   for (const BuildingResult& r : results) {
     all_ms.insert(all_ms.end(), r.update_ms.begin(), r.update_ms.end());
@@ -924,6 +957,8 @@ int main(int argc, char** argv) {
     nodes += r.nodes;
     over_25 += r.clearance_over_25cm;
     over_50 += r.clearance_over_50cm;
+    place_edges += r.place_edges;
+    through_solid += r.edges_through_solid;
     area += r.area_m2;
     matched += r.components == r.regions ? 1 : 0;
     matched_3 += r.components_3 == r.regions ? 1 : 0;
@@ -948,6 +983,9 @@ int main(int argc, char** argv) {
   std::printf("  buildings with one component per region: %zu of %zu (counting components of >= 3 nodes: %zu)\n",
               matched, results.size(), matched_3);
   std::printf("  place nodes per 100 m^2: %.1f\n", per_100);
+  const double solid_share = static_cast<double>(through_solid) / static_cast<double>(std::max<std::size_t>(1, place_edges));
+  std::printf("  place edges through solid for >= 0.1 m: %zu of %zu (%.2f %%)\n", through_solid, place_edges,
+              100.0 * solid_share);
   std::printf("  places update + sync per keyframe: median %.2f ms, p99 %.2f ms, max %.2f ms (target median <= 10)\n",
               median_ms, p99_ms, max_ms);
   // Memory: the largest run's high water (the window's data does not grow with the tour).
@@ -996,7 +1034,8 @@ int main(int argc, char** argv) {
     for (std::uint64_t s : opt.seeds) seeds += (seeds.empty() ? "" : ",") + std::to_string(s);
     char cond[384];
     const std::string world_desc =
-        opt.floorplan.empty() ? std::to_string(opt.rooms) + "-room generated buildings seeds " + seeds
+        opt.floorplan.empty() ? std::to_string(opt.rooms) + "-room generated " + (opt.two_floors ? "two-floor " : "") +
+                                    "buildings seeds " + seeds + (opt.revive_check ? "" : ", no revive check")
                               : "extruded floor plan " + opt.floorplan + (opt.furnished ? " furnished" : " plain");
     std::snprintf(cond, sizeof(cond),
                   "%s, %dx%d %.0f deg hfov, %.1f Hz keyframes, voxel 0.10 m, GVD voxel 0.20 m, places window "
@@ -1022,6 +1061,8 @@ int main(int argc, char** argv) {
     add("places_eval.places_components", static_cast<double>(components), "components");
     add("places_eval.free_space_regions", static_cast<double>(regions), "regions");
     add("places_eval.nodes_per_100m2", per_100, "nodes/100 m^2");
+    add("places_eval.edges_through_solid", static_cast<double>(through_solid), "edges");
+    add("places_eval.edges_through_solid_share", solid_share, "fraction");
     add("places_eval.update_ms_median", median_ms, "ms");
     add("places_eval.update_ms_p99", p99_ms, "ms");
     add("places_eval.update_ms_max", max_ms, "ms");
