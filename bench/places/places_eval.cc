@@ -537,6 +537,9 @@ struct BuildingResult {
   // Place-place edges whose segment runs through solid ground truth (walls, floors, slabs) for at least 0.1 m: an
   // edge a planner would follow through a wall.
   std::size_t place_edges = 0, edges_through_solid = 0;
+  // ... and those whose two ends the ground truth's free space does not join within a box 1 m around them: not a
+  // wall corner the straight segment clips, but two free spaces the edge claims are one (a wall or a slab between).
+  std::size_t edges_joining_apart = 0;
   std::size_t components = 0;
   std::size_t components_3 = 0;   // with at least 3 nodes
   double largest_share = 0.0;     // of the nodes in the largest component
@@ -838,7 +841,48 @@ bool run_world(const Options& opt, const world::World& w, bool floor_plan, Build
       if ((q.array() < 0).any() || (q.array() >= truth.dims.array()).any()) continue;
       solid += truth.voxel_room[truth.index(q.x(), q.y(), q.z())] == sim::kVoxelOccupied ? 1 : 0;
     }
-    if (solid * kStep >= kSolid) ++out->edges_through_solid;
+    if (solid * kStep < kSolid) return;
+    ++out->edges_through_solid;
+    // Breadth-first through free ground-truth voxels (26-connected) inside the ends' box grown by 1 m.
+    const double vs = truth.config.voxel_size_m;
+    const auto cell = [&](const Eigen::Vector3d& p) {
+      return ((p - truth.origin_m) / vs).array().floor().cast<int>().matrix().eval();
+    };
+    const Eigen::Vector3i from = cell(a->position_m), to = cell(b->position_m);
+    const Eigen::Vector3i lo = (from.cwiseMin(to).array() - static_cast<int>(std::ceil(1.0 / vs))).max(0).matrix();
+    const Eigen::Vector3i hi =
+        (from.cwiseMax(to).array() + static_cast<int>(std::ceil(1.0 / vs))).min(truth.dims.array() - 1).matrix();
+    const Eigen::Vector3i ext = hi - lo + Eigen::Vector3i::Ones();
+    if ((ext.array() <= 0).any()) return;
+    std::vector<std::uint8_t> seen(static_cast<std::size_t>(ext.x()) * ext.y() * ext.z(), 0);
+    const auto local = [&](const Eigen::Vector3i& q) {
+      const Eigen::Vector3i d = q - lo;
+      return (static_cast<std::size_t>(d.z()) * ext.y() + d.y()) * ext.x() + d.x();
+    };
+    const auto free_at = [&](const Eigen::Vector3i& q) {
+      return (q.array() >= lo.array()).all() && (q.array() <= hi.array()).all() &&
+             truth.voxel_room[truth.index(q.x(), q.y(), q.z())] != sim::kVoxelOccupied;
+    };
+    bool joined = false;
+    std::vector<Eigen::Vector3i> queue;
+    for (const Eigen::Vector3i& start : {from}) {
+      if (!free_at(start)) continue;
+      seen[local(start)] = 1;
+      queue.push_back(start);
+    }
+    for (std::size_t head = 0; head < queue.size() && !joined; ++head) {
+      const Eigen::Vector3i q = queue[head];
+      if ((q - to).cwiseAbs().maxCoeff() <= 1) joined = true;
+      for (int dz = -1; dz <= 1; ++dz)
+        for (int dy = -1; dy <= 1; ++dy)
+          for (int dx = -1; dx <= 1; ++dx) {
+            const Eigen::Vector3i n = q + Eigen::Vector3i(dx, dy, dz);
+            if (!free_at(n) || seen[local(n)] != 0) continue;
+            seen[local(n)] = 1;
+            queue.push_back(n);
+          }
+    }
+    if (!joined) ++out->edges_joining_apart;
   });
   double sum = 0.0;
   for (double d : distances) sum += d;
@@ -871,8 +915,9 @@ bool run_world(const Options& opt, const world::World& w, bool floor_plan, Build
               out->components_3, 100.0 * out->largest_share, out->regions, 100.0 * static_cast<double>(out->nodes) / std::max(1.0, out->area_m2), out->area_m2,
               quantile(out->update_ms, 0.5), quantile(out->update_ms, 0.99),
               *std::max_element(out->update_ms.begin(), out->update_ms.end()));
-  std::printf("  place edges through solid (walls, floors, slabs) for >= 0.1 m: %zu of %zu\n", out->edges_through_solid,
-              out->place_edges);
+  std::printf("  place edges through solid (walls, floors, slabs) for >= 0.1 m: %zu of %zu; of those, %zu join two "
+              "free spaces that are apart within 1 m of them\n",
+              out->edges_through_solid, out->place_edges, out->edges_joining_apart);
   std::printf("  clearance above the true one by > 0.25 m: %.1f %% of the places, by > 0.5 m: %.1f %%\n",
               100.0 * static_cast<double>(out->clearance_over_25cm) / std::max<std::size_t>(1, out->nodes),
               100.0 * static_cast<double>(out->clearance_over_50cm) / std::max<std::size_t>(1, out->nodes));
@@ -950,6 +995,7 @@ int main(int argc, char** argv) {
   std::vector<double> all_ms;
   double dist_sum = 0.0, area = 0.0;
   std::size_t nodes = 0, matched = 0, matched_3 = 0, over_25 = 0, over_50 = 0, place_edges = 0, through_solid = 0;
+  std::size_t joining_apart = 0;
   double largest_share_sum = 0.0;
   for (const BuildingResult& r : results) {
     all_ms.insert(all_ms.end(), r.update_ms.begin(), r.update_ms.end());
@@ -959,6 +1005,7 @@ int main(int argc, char** argv) {
     over_50 += r.clearance_over_50cm;
     place_edges += r.place_edges;
     through_solid += r.edges_through_solid;
+    joining_apart += r.edges_joining_apart;
     area += r.area_m2;
     matched += r.components == r.regions ? 1 : 0;
     matched_3 += r.components_3 == r.regions ? 1 : 0;
@@ -984,8 +1031,9 @@ int main(int argc, char** argv) {
               matched, results.size(), matched_3);
   std::printf("  place nodes per 100 m^2: %.1f\n", per_100);
   const double solid_share = static_cast<double>(through_solid) / static_cast<double>(std::max<std::size_t>(1, place_edges));
-  std::printf("  place edges through solid for >= 0.1 m: %zu of %zu (%.2f %%)\n", through_solid, place_edges,
-              100.0 * solid_share);
+  std::printf("  place edges through solid for >= 0.1 m: %zu of %zu (%.2f %%); joining two free spaces apart within 1 m "
+              "of them: %zu\n",
+              through_solid, place_edges, 100.0 * solid_share, joining_apart);
   std::printf("  places update + sync per keyframe: median %.2f ms, p99 %.2f ms, max %.2f ms (target median <= 10)\n",
               median_ms, p99_ms, max_ms);
   // Memory: the largest run's high water (the window's data does not grow with the tour).
@@ -1063,6 +1111,7 @@ int main(int argc, char** argv) {
     add("places_eval.nodes_per_100m2", per_100, "nodes/100 m^2");
     add("places_eval.edges_through_solid", static_cast<double>(through_solid), "edges");
     add("places_eval.edges_through_solid_share", solid_share, "fraction");
+    add("places_eval.edges_joining_apart", static_cast<double>(joining_apart), "edges");
     add("places_eval.update_ms_median", median_ms, "ms");
     add("places_eval.update_ms_p99", p99_ms, "ms");
     add("places_eval.update_ms_max", max_ms, "ms");
