@@ -1030,9 +1030,10 @@ int main(int argc, char** argv) {
   std::printf("  buildings with one component per region: %zu of %zu (counting components of >= 3 nodes: %zu)\n",
               matched, results.size(), matched_3);
   std::printf("  place nodes per 100 m^2: %.1f\n", per_100);
-  const double solid_share = static_cast<double>(through_solid) / static_cast<double>(std::max<std::size_t>(1, place_edges));
-  std::printf("  place edges through solid for >= 0.1 m: %zu of %zu (%.2f %%); joining two free spaces apart within 1 m "
-              "of them: %zu\n",
+  const double solid_share =
+      static_cast<double>(through_solid) / static_cast<double>(std::max<std::size_t>(1, place_edges));
+  std::printf("  place edges through solid for >= 0.1 m: %zu of %zu (%.2f %%); joining two free spaces apart "
+              "within 1 m of them: %zu\n",
               through_solid, place_edges, 100.0 * solid_share, joining_apart);
   std::printf("  places update + sync per keyframe: median %.2f ms, p99 %.2f ms, max %.2f ms (target median <= 10)\n",
               median_ms, p99_ms, max_ms);

@@ -94,8 +94,9 @@ struct Options {
   std::string cache_dir;
   // --images DIR: per plan (per floor of a generated building), a PNG of the estimated rooms beside the ground truth
   std::string images_dir;
-  // --dump-places DIR: per plan (per floor of a generated building), a text file of its places and place-place edges with their estimated and
-  // ground-truth rooms, for offline study of the room finder (bench/rooms/finder_sandbox.py reads it).
+  // --dump-places DIR: per plan (per floor of a generated building), a text file of its places and place-place
+  // edges with their estimated and ground-truth rooms, for offline study of the room finder
+  // (bench/rooms/finder_sandbox.py reads it).
   std::string dump_dir;
   // --door-oracle-m C (IPA plans): before the room finder's scored run, every place-place edge between two
   // ground-truth rooms gets clearance C, a perfect door and opening detector. The score is then the bound such a

@@ -178,7 +178,8 @@ void Config::print(std::FILE* out) const {
                "bridge_max_fragment_places=%d bridge_max_length_m=%.2f bridge_min_clearance_m=%.2f "
                "enclosed_max_voxels=%d contract_removed=%d contract_search_places=%d unobserved_is_obstacle=%d "
                "unobserved_obstacle_above_m=%.2f rim_guard=%d signed_surface_seeds=%d correct_projective_distance=%d "
-               "hold_distant_fragments=%d bridge_path_search=%d keep_distances_at_rim=%d revive_in_same_free_space=%d\n",
+               "hold_distant_fragments=%d bridge_path_search=%d keep_distances_at_rim=%d "
+               "revive_in_same_free_space=%d\n",
                voxel_factor, max_distance_m, min_clearance_m, min_basis_angle_rad * 180.0 / 3.14159265358979,
                min_basis_points, place_resolution_m, window_radius_m, slab_below_m, slab_above_m, min_tsdf_weight,
                free_space_edges ? 1 : 0, relink_inactive ? 1 : 0, bridge_fragments ? 1 : 0,
