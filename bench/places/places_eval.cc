@@ -534,6 +534,7 @@ struct BuildingResult {
   // excess is by design (the ceiling above the camera is rarely seen, Config::unobserved_obstacle_above_m); a wall
   // missing from the ESDF (e.g. one that left the window) shows as more.
   std::size_t clearance_over_25cm = 0, clearance_over_50cm = 0;
+  std::size_t places_in_solid = 0;  // place nodes inside solid ground truth (e.g. in a cavity of furniture)
   // Place-place edges whose segment runs through solid ground truth (walls, floors, slabs) for at least 0.1 m: an
   // edge a planner would follow through a wall.
   std::size_t place_edges = 0, edges_through_solid = 0;
@@ -693,7 +694,9 @@ bool run_world(const Options& opt, const world::World& w, bool floor_plan, Build
     distances.push_back(truth.distance_to_gvd(a->position_m));
     const Eigen::Vector3i q = ((a->position_m - truth.origin_m) / truth.config.voxel_size_m).array().floor().cast<int>();
     if ((q.array() < 0).any() || (q.array() >= truth.dims.array()).any()) return;
-    const double over = a->distance_m - truth.clearance_m[truth.index(q.x(), q.y(), q.z())];
+    const std::size_t at = truth.index(q.x(), q.y(), q.z());
+    out->places_in_solid += truth.voxel_room[at] == sim::kVoxelOccupied ? 1 : 0;
+    const double over = a->distance_m - truth.clearance_m[at];
     out->clearance_over_25cm += over > 0.25 ? 1 : 0;
     out->clearance_over_50cm += over > 0.5 ? 1 : 0;
   });
@@ -882,7 +885,14 @@ bool run_world(const Options& opt, const world::World& w, bool floor_plan, Build
             queue.push_back(n);
           }
     }
-    if (!joined) ++out->edges_joining_apart;
+    if (joined) return;
+    ++out->edges_joining_apart;
+    if (opt.verbose)
+      std::printf("  edge joining apart: %.2f %.2f %.2f (clearance %.2f, %s) - %.2f %.2f %.2f (clearance %.2f, %s), "
+                  "%.2f m through solid\n",
+                  a->position_m.x(), a->position_m.y(), a->position_m.z(), a->distance_m,
+                  a->is_active ? "active" : "inactive", b->position_m.x(), b->position_m.y(), b->position_m.z(),
+                  b->distance_m, b->is_active ? "active" : "inactive", solid * kStep);
   });
   double sum = 0.0;
   for (double d : distances) sum += d;
@@ -916,8 +926,8 @@ bool run_world(const Options& opt, const world::World& w, bool floor_plan, Build
               quantile(out->update_ms, 0.5), quantile(out->update_ms, 0.99),
               *std::max_element(out->update_ms.begin(), out->update_ms.end()));
   std::printf("  place edges through solid (walls, floors, slabs) for >= 0.1 m: %zu of %zu; of those, %zu join two "
-              "free spaces that are apart within 1 m of them\n",
-              out->edges_through_solid, out->place_edges, out->edges_joining_apart);
+              "free spaces that are apart within 1 m of them; places inside solid: %zu\n",
+              out->edges_through_solid, out->place_edges, out->edges_joining_apart, out->places_in_solid);
   std::printf("  clearance above the true one by > 0.25 m: %.1f %% of the places, by > 0.5 m: %.1f %%\n",
               100.0 * static_cast<double>(out->clearance_over_25cm) / std::max<std::size_t>(1, out->nodes),
               100.0 * static_cast<double>(out->clearance_over_50cm) / std::max<std::size_t>(1, out->nodes));
@@ -995,7 +1005,7 @@ int main(int argc, char** argv) {
   std::vector<double> all_ms;
   double dist_sum = 0.0, area = 0.0;
   std::size_t nodes = 0, matched = 0, matched_3 = 0, over_25 = 0, over_50 = 0, place_edges = 0, through_solid = 0;
-  std::size_t joining_apart = 0;
+  std::size_t joining_apart = 0, in_solid = 0;
   double largest_share_sum = 0.0;
   for (const BuildingResult& r : results) {
     all_ms.insert(all_ms.end(), r.update_ms.begin(), r.update_ms.end());
@@ -1006,6 +1016,7 @@ int main(int argc, char** argv) {
     place_edges += r.place_edges;
     through_solid += r.edges_through_solid;
     joining_apart += r.edges_joining_apart;
+    in_solid += r.places_in_solid;
     area += r.area_m2;
     matched += r.components == r.regions ? 1 : 0;
     matched_3 += r.components_3 == r.regions ? 1 : 0;
@@ -1033,8 +1044,8 @@ int main(int argc, char** argv) {
   const double solid_share =
       static_cast<double>(through_solid) / static_cast<double>(std::max<std::size_t>(1, place_edges));
   std::printf("  place edges through solid for >= 0.1 m: %zu of %zu (%.2f %%); joining two free spaces apart "
-              "within 1 m of them: %zu\n",
-              through_solid, place_edges, 100.0 * solid_share, joining_apart);
+              "within 1 m of them: %zu; places inside solid: %zu of %zu\n",
+              through_solid, place_edges, 100.0 * solid_share, joining_apart, in_solid, nodes);
   std::printf("  places update + sync per keyframe: median %.2f ms, p99 %.2f ms, max %.2f ms (target median <= 10)\n",
               median_ms, p99_ms, max_ms);
   // Memory: the largest run's high water (the window's data does not grow with the tour).
@@ -1113,6 +1124,7 @@ int main(int argc, char** argv) {
     add("places_eval.edges_through_solid", static_cast<double>(through_solid), "edges");
     add("places_eval.edges_through_solid_share", solid_share, "fraction");
     add("places_eval.edges_joining_apart", static_cast<double>(joining_apart), "edges");
+    add("places_eval.places_in_solid", static_cast<double>(in_solid), "places");
     add("places_eval.update_ms_median", median_ms, "ms");
     add("places_eval.update_ms_p99", p99_ms, "ms");
     add("places_eval.update_ms_max", max_ms, "ms");
