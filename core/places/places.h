@@ -100,7 +100,7 @@ struct Config {
   // is brought back only if the new place is in the same free space as where the node left: their spheres of free
   // space (position, clearance) overlap, or the ESDF certifies the segment between them; otherwise the new place
   // gets a node of its own and the old one stays where it was. Off: any new place of the cell revives it (ten
-  // generated two-floor buildings: 4-6 % of their place edges then ran through the slab). The cost: a revisit the
+  // generated two-floor buildings: 3.5-5.7 % of their place edges then ran through the slab). The cost: a revisit the
   // ESDF cannot certify (space near an unseen ceiling, not carved again) is refused too, and an inactive region
   // that hung on that node alone stays apart (places_eval, one of three one-floor buildings: 22 places). Refusing
   // only on known obstacles (occupied, surface, frontier seed) avoided that but let more through the slab.

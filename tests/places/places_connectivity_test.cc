@@ -359,7 +359,7 @@ StoreyWalk walk_two_storeys(bool revive_in_same_free_space) {
 
 // Without the check, upper-floor places take over the ground floor's inactive nodes in the shared cells, with
 // their edges to the ground floor's inactive places: edges through the slab (the generated two-floor buildings
-// had 4-6 % of their place edges so).
+// had 3.5-5.7 % of their place edges so).
 TEST(PlacesConnectivityTest, WithoutTheCheckRevivedNodesKeepEdgesThroughTheSlab) {
   const StoreyWalk off = walk_two_storeys(false);
   std::printf("two storeys, no check: %zu edges through the slab, %llu revived\n", off.edges_through_slab,
