@@ -265,6 +265,17 @@ std::size_t free_space_regions(const world::World& w, const std::set<std::int32_
 // Connected free-space regions from the ground-truth grid (for floor plans, whose doors the import records only
 // where a separator line marks them): 6-connected components of voxels with at least min_clearance_m (the
 // clearance a place needs), counted when the tour passed through them.
+// The ground-truth voxel holding p (may lie outside the grid), and its index when it lies inside.
+Eigen::Vector3i gt_cell(const sim::GroundTruth& truth, const Eigen::Vector3d& p) {
+  return ((p - truth.origin_m) / truth.config.voxel_size_m).array().floor().cast<int>();
+}
+bool gt_index(const sim::GroundTruth& truth, const Eigen::Vector3d& p, std::size_t* out) {
+  const Eigen::Vector3i q = gt_cell(truth, p);
+  if ((q.array() < 0).any() || (q.array() >= truth.dims.array()).any()) return false;
+  *out = truth.index(q.x(), q.y(), q.z());
+  return true;
+}
+
 std::size_t free_space_regions_gt(const sim::GroundTruth& truth, const std::vector<Eigen::Vector3d>& path_m,
                                   double min_clearance_m) {
   const std::size_t n = truth.clearance_m.size();
@@ -272,12 +283,7 @@ std::size_t free_space_regions_gt(const sim::GroundTruth& truth, const std::vect
   const auto free = [&](std::size_t i) {
     return truth.voxel_room[i] != sim::kVoxelOccupied && truth.clearance_m[i] >= min_clearance_m;
   };
-  const auto voxel_of = [&](const Eigen::Vector3d& p, std::size_t* out) {
-    const Eigen::Vector3i q = ((p - truth.origin_m) / truth.config.voxel_size_m).array().floor().cast<int>();
-    if ((q.array() < 0).any() || (q.array() >= truth.dims.array()).any()) return false;
-    *out = truth.index(q.x(), q.y(), q.z());
-    return true;
-  };
+  const auto voxel_of = [&](const Eigen::Vector3d& p, std::size_t* out) { return gt_index(truth, p, out); };
   std::set<std::int32_t> visited;
   std::int32_t next = 0;
   std::vector<std::size_t> stack;
@@ -692,9 +698,8 @@ bool run_world(const Options& opt, const world::World& w, bool floor_plan, Build
     if (n.kind != scene_graph::NodeKind::kPlace) return;
     const scene_graph::PlaceAttributes* a = graph.place(n.id);
     distances.push_back(truth.distance_to_gvd(a->position_m));
-    const Eigen::Vector3i q = ((a->position_m - truth.origin_m) / truth.config.voxel_size_m).array().floor().cast<int>();
-    if ((q.array() < 0).any() || (q.array() >= truth.dims.array()).any()) return;
-    const std::size_t at = truth.index(q.x(), q.y(), q.z());
+    std::size_t at = 0;
+    if (!gt_index(truth, a->position_m, &at)) return;
     out->places_in_solid += truth.voxel_room[at] == sim::kVoxelOccupied ? 1 : 0;
     const double over = a->distance_m - truth.clearance_m[at];
     out->clearance_over_25cm += over > 0.25 ? 1 : 0;
@@ -840,18 +845,14 @@ bool run_world(const Options& opt, const world::World& w, bool floor_plan, Build
     int solid = 0;
     for (int k = 0; k <= steps; ++k) {
       const Eigen::Vector3d p = a->position_m + (b->position_m - a->position_m) * (static_cast<double>(k) / steps);
-      const Eigen::Vector3i q = ((p - truth.origin_m) / truth.config.voxel_size_m).array().floor().cast<int>();
-      if ((q.array() < 0).any() || (q.array() >= truth.dims.array()).any()) continue;
-      solid += truth.voxel_room[truth.index(q.x(), q.y(), q.z())] == sim::kVoxelOccupied ? 1 : 0;
+      std::size_t at = 0;
+      if (gt_index(truth, p, &at)) solid += truth.voxel_room[at] == sim::kVoxelOccupied ? 1 : 0;
     }
     if (solid * kStep < kSolid) return;
     ++out->edges_through_solid;
     // Breadth-first through free ground-truth voxels (26-connected) inside the ends' box grown by 1 m.
     const double vs = truth.config.voxel_size_m;
-    const auto cell = [&](const Eigen::Vector3d& p) {
-      return ((p - truth.origin_m) / vs).array().floor().cast<int>().matrix().eval();
-    };
-    const Eigen::Vector3i from = cell(a->position_m), to = cell(b->position_m);
+    const Eigen::Vector3i from = gt_cell(truth, a->position_m), to = gt_cell(truth, b->position_m);
     const Eigen::Vector3i lo = (from.cwiseMin(to).array() - static_cast<int>(std::ceil(1.0 / vs))).max(0).matrix();
     const Eigen::Vector3i hi =
         (from.cwiseMax(to).array() + static_cast<int>(std::ceil(1.0 / vs))).min(truth.dims.array() - 1).matrix();
@@ -868,10 +869,9 @@ bool run_world(const Options& opt, const world::World& w, bool floor_plan, Build
     };
     bool joined = false;
     std::vector<Eigen::Vector3i> queue;
-    for (const Eigen::Vector3i& start : {from}) {
-      if (!free_at(start)) continue;
-      seen[local(start)] = 1;
-      queue.push_back(start);
+    if (free_at(from)) {
+      seen[local(from)] = 1;
+      queue.push_back(from);
     }
     for (std::size_t head = 0; head < queue.size() && !joined; ++head) {
       const Eigen::Vector3i q = queue[head];
