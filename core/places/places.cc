@@ -1174,6 +1174,18 @@ void Places::drop_edge(std::uint32_t cluster, std::uint32_t other) {
 // sync(); the slot waits for that sync unless the node never reached the graph.
 void Places::retire_cluster(std::uint32_t cluster, std::uint8_t state) {
   Cluster& c = clusters_[cluster];
+  if (c.revived) {
+    // It brought its cell's inactive node back but goes before the sync that would check and publish it: the node
+    // was never touched, so it returns to its cell as it was. (Removing it would delete a place that another
+    // free space, e.g. the floor below, still holds.) A place that leaves the window re-parks it below.
+    c.revived = 0;
+    if (counters_.reactivated > 0) --counters_.reactivated;
+    if (state == kRemoved) {
+      inactive_.insert(c.cell, c.node);
+      c.node = scene_graph::kNoNode;
+      c.synced = 0;
+    }
+  }
   for (int k = 0; k < c.num_edges; ++k) drop_edge(c.edge_to[k], cluster);
   c.num_edges = 0;
   unlink_cell(cluster);
@@ -1211,6 +1223,16 @@ void Places::merge_clusters(std::uint32_t into, std::uint32_t from) {
   }
   b.head = kNoRef;
   b.count = 0;
+  if (b.revived && !a.synced) {
+    // The merged place takes over the revival (both lie in one hash cell): the next sync checks it from the
+    // merged place's position, instead of a fresh node beside the inactive one.
+    a.node = b.node;
+    a.synced = 1;
+    a.revived = 1;
+    b.node = scene_graph::kNoNode;
+    b.synced = 0;
+    b.revived = 0;
+  }
   retire_cluster(from, kRemoved);
   a.dirty = 1;
   ++counters_.clusters_merged;
