@@ -64,6 +64,7 @@ struct Options {
   bool furnished = false;
   std::string plans_dir = std::string(QSG_SHARED_DATA_DIR) + "/floorplans/ipa";
   double window_radius_m = 0.0;  // --window-radius-m: places window (0: the Config default)
+  double keep_edges_at_rim_m = -1.0;  // --keep-edges-at-rim-m: Config::keep_edges_at_rim_m (< 0: the default)
   double slab_above_m = 0.0;     // --slab-above-m: ESDF slab above the robot (0: the Config default)
   int bridge_max_places = 0;     // --bridge-max-places: Config::bridge_max_fragment_places (0: the default)
   std::vector<Eigen::Vector3d> trace;  // --trace X,Y,Z (repeatable): the ESDF voxel there, whenever it changes
@@ -76,7 +77,7 @@ void usage(const char* argv0) {
   std::fprintf(stderr,
                "usage: %s [--seeds 1,2,3] [--rooms N] [--size WxH] [--hfov-deg D] [--rate-hz R] [--every-n N] "
                "[--no-observe] [--no-free-space-edges] [--no-relink] [--no-bridges] [--no-contract] [--no-unobserved-obstacle] [--no-rim-guard] [--no-keep-rim-distances] [--no-signed-seeds] [--no-projective-correction] [--no-hold-distant] [--no-bridge-paths] [--no-revive-check] [--two-floors] [--floorplan NAME [--furnished]] "
-               "[--plans-dir DIR] [--window-radius-m R] [--slab-above-m H] [--bridge-max-places N] [--unobserved-above-m H] [--trace X,Y,Z] [--json FILE] [--verbose] [--diagnose]\n"
+               "[--plans-dir DIR] [--window-radius-m R] [--keep-edges-at-rim-m M] [--slab-above-m H] [--bridge-max-places N] [--unobserved-above-m H] [--trace X,Y,Z] [--json FILE] [--verbose] [--diagnose]\n"
                "  NAME: a map of the plans dir (Freiburg52_scan, lab_c_scan, lab_intel, lab_ipa, office_a, office_e)\n",
                argv0);
 }
@@ -210,6 +211,12 @@ bool parse(int argc, char** argv, Options* o) {
       o->window_radius_m = std::strtod(v.c_str(), &end);
       if (end != v.c_str() && *end == '\0' && !(o->window_radius_m > 0.0 && o->window_radius_m <= 50.0)) {
         std::fprintf(stderr, "--window-radius-m: must be in (0, 50] m\n");
+        return false;
+      }
+    } else if (a == "--keep-edges-at-rim-m") {
+      o->keep_edges_at_rim_m = std::strtod(v.c_str(), &end);
+      if (end != v.c_str() && *end == '\0' && !(o->keep_edges_at_rim_m >= 0.0 && o->keep_edges_at_rim_m <= 10.0)) {
+        std::fprintf(stderr, "--keep-edges-at-rim-m: must be in [0, 10] m\n");
         return false;
       }
     } else if (a == "--size") {
@@ -580,6 +587,7 @@ bool run_world(const Options& opt, const world::World& w, bool floor_plan, Build
   places::Config pc;
   pc.free_space_edges = opt.free_space_edges;
   pc.revive_in_same_free_space = opt.revive_check;
+  if (opt.keep_edges_at_rim_m >= 0.0) pc.keep_edges_at_rim_m = opt.keep_edges_at_rim_m;
   pc.relink_inactive = opt.relink;
   pc.bridge_fragments = opt.bridges;
   pc.enclosed_max_voxels = opt.bridges ? pc.enclosed_max_voxels : 0;
@@ -1095,7 +1103,11 @@ int main(int argc, char** argv) {
     char cond[384];
     const std::string world_desc =
         opt.floorplan.empty() ? std::to_string(opt.rooms) + "-room generated " + (opt.two_floors ? "two-floor " : "") +
-                                    "buildings seeds " + seeds + (opt.revive_check ? "" : ", no revive check")
+                                    "buildings seeds " + seeds + (opt.revive_check ? "" : ", no revive check") +
+                                    (opt.keep_edges_at_rim_m < 0.0
+                                         ? std::string()
+                                         : ", edges kept " + std::to_string(opt.keep_edges_at_rim_m).substr(0, 4) +
+                                               " m from the rim")
                               : "extruded floor plan " + opt.floorplan + (opt.furnished ? " furnished" : " plain");
     std::snprintf(cond, sizeof(cond),
                   "%s, %dx%d %.0f deg hfov, %.1f Hz keyframes, voxel 0.10 m, GVD voxel 0.20 m, places window "

@@ -167,6 +167,7 @@ std::string Config::check() const {
   if (enclosed_max_voxels < 0) return "enclosed_max_voxels must be >= 0";
   if (contract_search_places < 1 || contract_search_places > kMaxContractSearch)
     return "contract_search_places must be in [1, " + std::to_string(kMaxContractSearch) + "]";
+  if (!(keep_edges_at_rim_m >= 0.0)) return "keep_edges_at_rim_m must be >= 0";
   return {};
 }
 
@@ -179,7 +180,7 @@ void Config::print(std::FILE* out) const {
                "enclosed_max_voxels=%d contract_removed=%d contract_search_places=%d unobserved_is_obstacle=%d "
                "unobserved_obstacle_above_m=%.2f rim_guard=%d signed_surface_seeds=%d correct_projective_distance=%d "
                "hold_distant_fragments=%d bridge_path_search=%d keep_distances_at_rim=%d "
-               "revive_in_same_free_space=%d\n",
+               "revive_in_same_free_space=%d keep_edges_at_rim_m=%.2f\n",
                voxel_factor, max_distance_m, min_clearance_m, min_basis_angle_rad * 180.0 / 3.14159265358979,
                min_basis_points, place_resolution_m, window_radius_m, slab_below_m, slab_above_m, min_tsdf_weight,
                free_space_edges ? 1 : 0, relink_inactive ? 1 : 0, bridge_fragments ? 1 : 0,
@@ -188,7 +189,8 @@ void Config::print(std::FILE* out) const {
                contract_search_places, unobserved_is_obstacle ? 1 : 0,
                unobserved_obstacle_above_m, rim_guard ? 1 : 0, signed_surface_seeds ? 1 : 0,
                correct_projective_distance ? 1 : 0, hold_distant_fragments ? 1 : 0,
-               bridge_path_search ? 1 : 0, keep_distances_at_rim ? 1 : 0, revive_in_same_free_space ? 1 : 0);
+               bridge_path_search ? 1 : 0, keep_distances_at_rim ? 1 : 0, revive_in_same_free_space ? 1 : 0,
+               keep_edges_at_rim_m);
 }
 
 void Capacities::print(std::FILE* out) const {
@@ -207,7 +209,7 @@ void Counters::print(std::FILE* out) const {
                "refused clusters=%llu edges=%llu graph=%llu free_space_edges=%llu relinked=%llu "
                "relinks_dropped=%llu relinks_refused=%llu views=%llu views_merged=%llu observed_refused=%llu "
                "rays=%llu bridges=%llu bridges_added=%llu bridge_paths=%llu bridge_searches_cut=%llu bridges_missing=%llu "
-               "contracted=%llu enclosed_held=%llu reactivated=%llu revivals_refused=%llu\n",
+               "contracted=%llu enclosed_held=%llu reactivated=%llu revivals_refused=%llu edges_kept_at_rim=%llu\n",
                (unsigned long long)updates, (unsigned long long)cycles, (unsigned long long)tsdf_blocks_read,
                (unsigned long long)voxels_updated, (unsigned long long)voxels_raised,
                (unsigned long long)voxels_orphaned, (unsigned long long)frontier_seeds, (unsigned long long)occupied_seeds,
@@ -222,7 +224,7 @@ void Counters::print(std::FILE* out) const {
                (unsigned long long)bridges_added, (unsigned long long)bridge_paths,
                (unsigned long long)bridge_searches_cut, (unsigned long long)bridges_missing,
                (unsigned long long)contracted, (unsigned long long)enclosed_held, (unsigned long long)reactivated,
-               (unsigned long long)revivals_refused);
+               (unsigned long long)revivals_refused, (unsigned long long)edges_kept_at_rim);
 }
 
 void MemoryUse::print(std::FILE* out) const {
@@ -419,6 +421,14 @@ bool Places::block_in_window(const memory::Index3& b) const {
   if ((c - cycle_robot_m_).squaredNorm() > config_.window_radius_m * config_.window_radius_m) return false;
   const double z0 = b.z * side, z1 = z0 + side;
   return z1 > cycle_robot_m_.z() - config_.slab_below_m && z0 < cycle_robot_m_.z() + config_.slab_above_m;
+}
+
+// Config::keep_edges_at_rim_m: whether a point lies within that distance of the window's sphere around the
+// cycle's robot position.
+bool Places::at_window_rim(const Eigen::Vector3d& p) const {
+  const double margin = config_.keep_edges_at_rim_m;
+  if (!(margin > 0.0)) return false;
+  return config_.window_radius_m - (p - cycle_robot_m_).norm() < margin;
 }
 
 memory::Index3 Places::cell_of(std::uint32_t ref) const {
@@ -2115,7 +2125,9 @@ SyncResult Places::sync(scene_graph::SceneGraph* graph) {
     Cluster& c = clusters_[h];
     if (c.state != kLive || !c.sync_dirty || !c.synced) continue;
     bool complete = true;
-    // Remove graph edges to active places that are no longer neighbours (edges to inactive places stay).
+    // Remove graph edges to active places that are no longer neighbours (edges to inactive places stay, and so do
+    // edges with an end at the window's rim: Config::keep_edges_at_rim_m).
+    const bool c_at_rim = at_window_rim(c.position_m);
     for (;;) {
       scene_graph::NodeId stale[32];
       int num_stale = 0;
@@ -2125,6 +2137,10 @@ SyncResult Places::sync(scene_graph::SceneGraph* graph) {
         if (pm == nullptr || !pm->is_active) return;
         for (int k = 0; k < c.num_edges; ++k)
           if (clusters_[c.edge_to[k]].node == m) return;
+        if (c_at_rim || at_window_rim(pm->position_m)) {
+          ++counters_.edges_kept_at_rim;
+          return;
+        }
         stale[num_stale++] = m;
       });
       for (int k = 0; k < num_stale; ++k)

@@ -102,9 +102,18 @@ struct Config {
   // gets a node of its own and the old one stays where it was. Off: any new place of the cell revives it (ten
   // generated two-floor buildings: 3.5-5.7 % of their place edges then ran through the slab). The cost: a revisit the
   // ESDF cannot certify (space near an unseen ceiling, not carved again) is refused too, and an inactive region
-  // that hung on that node alone stays apart (places_eval, one of three one-floor buildings: 22 places). Refusing
-  // only on known obstacles (occupied, surface, frontier seed) avoided that but let more through the slab.
+  // that hung on that node alone stays apart (places_eval, one of three one-floor buildings: 22 places, until
+  // keep_edges_at_rim_m kept the edges it had lost at the rim). Refusing only on known obstacles (occupied, surface,
+  // frontier seed) avoided that but let more through the slab.
   bool revive_in_same_free_space = true;
+  // Within this distance of the window's sphere (window_radius_m around the robot), a place's GVD piece is cut
+  // short as the ESDF blocks beyond the rim leave, so two places there stop touching although the free space
+  // between them is as it was: the edge between them, certified while both were inside, is kept until both are
+  // farther in again (or for good once one leaves). Without it, a region whose last edges to the rest went this
+  // way left the window as a component of its own (places_eval, one of three one-floor buildings: 22 places).
+  // The slab's top and bottom are not counted: there a kept edge often ran from one floor to the next (two-floor
+  // buildings: 10 more edges joining free spaces apart at 0.5 m). 0: edges follow the GVD up to the rim.
+  double keep_edges_at_rim_m = 0.5;
   // Bridges (as Hydra joins its disconnected components): a live place whose component of live places holds at
   // most bridge_max_fragment_places places (e.g. a 1-2 place GVD piece under a table or a bed, in the same free
   // space as the room around it) is joined to the nearest live place outside that component, at most
@@ -192,6 +201,7 @@ struct Counters {
   std::uint64_t graph_refused = 0;     // sync(): the scene graph's place or edge store was full
   std::uint64_t reactivated = 0;       // places re-created in a cell an inactive node had left: the node is reused
   std::uint64_t revivals_refused = 0;  // ... not reused: not the same free space (Config::revive_in_same_free_space)
+  std::uint64_t edges_kept_at_rim = 0;  // syncs that kept an edge the GVD no longer gives (Config::keep_edges_at_rim_m)
   std::uint64_t free_space_edges = 0;  // current free-space edges (sphere overlap, not GVD adjacency)
   std::uint64_t relinked = 0;          // edges of removed places moved from an inactive place to a live one
   std::uint64_t relinks_dropped = 0;   // no live place replaced the removed one before it left the window
@@ -353,6 +363,7 @@ class Places {
   std::uint32_t find_voxel(const memory::Index3& g) const;
   Eigen::Vector3d center_m(const memory::Index3& g) const;
   bool block_in_window(const memory::Index3& block) const;
+  bool at_window_rim(const Eigen::Vector3d& p) const;
   memory::Index3 cell_of(std::uint32_t ref) const;
 
   // ESDF.

@@ -442,5 +442,88 @@ TEST(PlacesConnectivityTest, MemoryUseReportsTheWindowAndTheBookkeepingSeparatel
   EXPECT_EQ(m.window_used_bytes(), m.esdf_used_bytes + m.work_lists_used_bytes);
 }
 
+// Five 3 m rooms in a row (doors 0.9 m wide, 2 m high, in walls at x = 3.0, 6.1, 9.2, 12.3), mapped from a spin
+// every 1.55 m with a 4 m places window, then left behind: the robot walks on to x = 40 in 0.5 m steps, so the
+// window's rim sweeps over every place. Edges are watched from sync to sync: an edge between two places that both
+// stay active and that disappears with an end within 0.5 m of the rim is a rim drop (the GVD piece between them cut
+// short by the blocks that left, not a change of the free space).
+struct RimWalk {
+  std::size_t components = 0;
+  std::size_t rim_drops = 0;
+  std::size_t edges_through_walls = 0;  // edges that cross a wall outside its door
+  Counters counters;
+};
+
+RimWalk walk_away_from_rooms_in_a_row(double keep_edges_at_rim_m) {
+  constexpr double kWindow = 4.0;
+  RimWalk out;
+  Config config;
+  config.window_radius_m = kWindow;
+  config.keep_edges_at_rim_m = keep_edges_at_rim_m;
+  Scanner scanner;
+  std::string error;
+  EXPECT_TRUE(scanner.init(testing::rooms_world({3.0, 3.0, 3.0, 3.0, 3.0}, 3.0, true), 100.0, &error)) << error;
+  auto places = make_places(config);
+  auto graph = make_graph();
+  const auto hook = [&](const Eigen::Vector3d& camera) {
+    run_to_completion(places.get(), scanner.tsdf(), camera);
+    places->sync(graph.get());
+  };
+  for (double x = 1.5; x < 15.0; x += 1.55) EXPECT_TRUE(scanner.spin({x, 1.5, 1.2}, 6, hook));
+  using Edge = std::pair<scene_graph::NodeId, scene_graph::NodeId>;
+  const auto place_edges = [&]() {
+    std::set<Edge> edges;
+    graph->for_each_edge([&](const scene_graph::EdgeRecord& e) {
+      if (graph->place(e.source) != nullptr && graph->place(e.target) != nullptr) edges.insert({e.source, e.target});
+    });
+    return edges;
+  };
+  for (double x = 15.0; x < 40.0; x += 0.5) {
+    const std::set<Edge> before = place_edges();
+    const Eigen::Vector3d robot(x, 1.5, 1.2);
+    run_to_completion(places.get(), scanner.tsdf(), robot);
+    places->sync(graph.get());
+    const std::set<Edge> after = place_edges();
+    for (const Edge& e : before) {
+      const scene_graph::PlaceAttributes* a = graph->place(e.first);
+      const scene_graph::PlaceAttributes* b = graph->place(e.second);
+      if (after.count(e) != 0 || a == nullptr || b == nullptr || !a->is_active || !b->is_active) continue;
+      const double farther = std::max((a->position_m - robot).norm(), (b->position_m - robot).norm());
+      out.rim_drops += farther > kWindow - 0.5 ? 1 : 0;
+    }
+  }
+  graph->for_each_edge([&](const scene_graph::EdgeRecord& e) {
+    const scene_graph::PlaceAttributes* a = graph->place(e.source);
+    const scene_graph::PlaceAttributes* b = graph->place(e.target);
+    if (a == nullptr || b == nullptr) return;
+    for (const double wall : {3.05, 6.15, 9.25, 12.35}) {
+      const double xa = a->position_m.x() - wall, xb = b->position_m.x() - wall;
+      if (xa * xb >= 0.0) continue;
+      const Eigen::Vector3d p = a->position_m + (b->position_m - a->position_m) * (xa / (xa - xb));
+      out.edges_through_walls += (p.y() < 1.05 || p.y() > 1.95 || p.z() > 2.0) ? 1 : 0;
+    }
+  });
+  out.components = place_components(*graph);
+  out.counters = places->counters();
+  return out;
+}
+
+TEST(PlacesConnectivityTest, WithoutTheRimRuleEdgesVanishAtTheWindowRim) {
+  const RimWalk off = walk_away_from_rooms_in_a_row(0.0);
+  std::printf("walking away, edges follow the GVD to the rim: %zu rim drops\n", off.rim_drops);
+  EXPECT_GT(off.rim_drops, 0u) << "the walk must cut edges at the rim (else the next test tests nothing)";
+  EXPECT_EQ(off.counters.edges_kept_at_rim, 0u);
+}
+
+TEST(PlacesConnectivityTest, EdgesAtTheWindowRimStayWhileTheRobotWalksAway) {
+  const RimWalk on = walk_away_from_rooms_in_a_row(0.5);
+  std::printf("walking away, edges kept at the rim: %zu rim drops, %llu keeps, %zu components\n", on.rim_drops,
+              (unsigned long long)on.counters.edges_kept_at_rim, on.components);
+  EXPECT_EQ(on.rim_drops, 0u);
+  EXPECT_GT(on.counters.edges_kept_at_rim, 0u);
+  EXPECT_EQ(on.components, 1u);
+  EXPECT_EQ(on.edges_through_walls, 0u) << "a kept edge must still be one the free space gave";
+}
+
 }  // namespace
 }  // namespace qsg::places
