@@ -28,6 +28,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <deque>
+#include <filesystem>
 #include <fstream>
 #include <map>
 #include <set>
@@ -1129,6 +1130,17 @@ int main(int argc, char** argv) {
                  "[--door-mapped-radius-m R] [--door-extension-m E] [--json FILE]\n",
                  argv[0]);
     return 2;
+  }
+  // The output directories are made here, so a typo is one clear error at start-up rather than a missed cache.
+  for (const std::string* dir : {&opt.cache_dir, &opt.images_dir, &opt.dump_dir}) {
+    if (dir->empty()) continue;
+    std::error_code ec;
+    std::filesystem::create_directories(*dir, ec);
+    if (ec || !std::filesystem::is_directory(*dir)) {
+      std::fprintf(stderr, "cannot make directory '%s': %s\n", dir->c_str(),
+                   ec ? ec.message().c_str() : "a file is in the way");
+      return 2;
+    }
   }
   opt.rooms.print(stdout);
   if (opt.doors) {
