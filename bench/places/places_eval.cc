@@ -71,12 +71,13 @@ struct Options {
   double unobserved_above_m = -1.0;  // --unobserved-above-m: Config::unobserved_obstacle_above_m (< 0: the default)
   bool two_floors = false;           // --two-floors: generated buildings with a second floor over a 0.2 m slab
   bool revive_check = true;          // --no-revive-check: Config::revive_in_same_free_space off
+  bool relink_check = true;          // --no-relink-check: Config::relink_in_same_free_space off
 };
 
 void usage(const char* argv0) {
   std::fprintf(stderr,
                "usage: %s [--seeds 1,2,3] [--rooms N] [--size WxH] [--hfov-deg D] [--rate-hz R] [--every-n N] "
-               "[--no-observe] [--no-free-space-edges] [--no-relink] [--no-bridges] [--no-contract] [--no-unobserved-obstacle] [--no-rim-guard] [--no-keep-rim-distances] [--no-signed-seeds] [--no-projective-correction] [--no-hold-distant] [--no-bridge-paths] [--no-revive-check] [--two-floors] [--floorplan NAME [--furnished]] "
+               "[--no-observe] [--no-free-space-edges] [--no-relink] [--no-bridges] [--no-contract] [--no-unobserved-obstacle] [--no-rim-guard] [--no-keep-rim-distances] [--no-signed-seeds] [--no-projective-correction] [--no-hold-distant] [--no-bridge-paths] [--no-revive-check] [--no-relink-check] [--two-floors] [--floorplan NAME [--furnished]] "
                "[--plans-dir DIR] [--window-radius-m R] [--keep-edges-at-rim-m M] [--slab-above-m H] [--bridge-max-places N] [--unobserved-above-m H] [--trace X,Y,Z] [--json FILE] [--verbose] [--diagnose]\n"
                "  NAME: a map of the plans dir (Freiburg52_scan, lab_c_scan, lab_intel, lab_ipa, office_a, office_e)\n",
                argv0);
@@ -140,6 +141,10 @@ bool parse(int argc, char** argv, Options* o) {
     }
     if (a == "--two-floors") {
       o->two_floors = true;
+      continue;
+    }
+    if (a == "--no-relink-check") {
+      o->relink_check = false;
       continue;
     }
     if (a == "--no-revive-check") {
@@ -587,6 +592,7 @@ bool run_world(const Options& opt, const world::World& w, bool floor_plan, Build
   places::Config pc;
   pc.free_space_edges = opt.free_space_edges;
   pc.revive_in_same_free_space = opt.revive_check;
+  pc.relink_in_same_free_space = opt.relink_check;
   if (opt.keep_edges_at_rim_m >= 0.0) pc.keep_edges_at_rim_m = opt.keep_edges_at_rim_m;
   pc.relink_inactive = opt.relink;
   pc.bridge_fragments = opt.bridges;
@@ -1104,6 +1110,7 @@ int main(int argc, char** argv) {
     const std::string world_desc =
         opt.floorplan.empty() ? std::to_string(opt.rooms) + "-room generated " + (opt.two_floors ? "two-floor " : "") +
                                     "buildings seeds " + seeds + (opt.revive_check ? "" : ", no revive check") +
+                                    (opt.relink_check ? "" : ", no relink check") +
                                     (opt.keep_edges_at_rim_m < 0.0
                                          ? std::string()
                                          : ", edges kept " + std::to_string(opt.keep_edges_at_rim_m).substr(0, 4) +

@@ -180,7 +180,7 @@ void Config::print(std::FILE* out) const {
                "enclosed_max_voxels=%d contract_removed=%d contract_search_places=%d unobserved_is_obstacle=%d "
                "unobserved_obstacle_above_m=%.2f rim_guard=%d signed_surface_seeds=%d correct_projective_distance=%d "
                "hold_distant_fragments=%d bridge_path_search=%d keep_distances_at_rim=%d "
-               "revive_in_same_free_space=%d keep_edges_at_rim_m=%.2f\n",
+               "revive_in_same_free_space=%d keep_edges_at_rim_m=%.2f relink_in_same_free_space=%d\n",
                voxel_factor, max_distance_m, min_clearance_m, min_basis_angle_rad * 180.0 / 3.14159265358979,
                min_basis_points, place_resolution_m, window_radius_m, slab_below_m, slab_above_m, min_tsdf_weight,
                free_space_edges ? 1 : 0, relink_inactive ? 1 : 0, bridge_fragments ? 1 : 0,
@@ -190,7 +190,7 @@ void Config::print(std::FILE* out) const {
                unobserved_obstacle_above_m, rim_guard ? 1 : 0, signed_surface_seeds ? 1 : 0,
                correct_projective_distance ? 1 : 0, hold_distant_fragments ? 1 : 0,
                bridge_path_search ? 1 : 0, keep_distances_at_rim ? 1 : 0, revive_in_same_free_space ? 1 : 0,
-               keep_edges_at_rim_m);
+               keep_edges_at_rim_m, relink_in_same_free_space ? 1 : 0);
 }
 
 void Capacities::print(std::FILE* out) const {
@@ -209,7 +209,7 @@ void Counters::print(std::FILE* out) const {
                "refused clusters=%llu edges=%llu graph=%llu free_space_edges=%llu relinked=%llu "
                "relinks_dropped=%llu relinks_refused=%llu views=%llu views_merged=%llu observed_refused=%llu "
                "rays=%llu bridges=%llu bridges_added=%llu bridge_paths=%llu bridge_searches_cut=%llu bridges_missing=%llu "
-               "contracted=%llu enclosed_held=%llu reactivated=%llu revivals_refused=%llu edges_kept_at_rim=%llu\n",
+               "contracted=%llu enclosed_held=%llu reactivated=%llu revivals_refused=%llu edges_kept_at_rim=%llu relinks_apart=%llu\n",
                (unsigned long long)updates, (unsigned long long)cycles, (unsigned long long)tsdf_blocks_read,
                (unsigned long long)voxels_updated, (unsigned long long)voxels_raised,
                (unsigned long long)voxels_orphaned, (unsigned long long)frontier_seeds, (unsigned long long)occupied_seeds,
@@ -224,7 +224,8 @@ void Counters::print(std::FILE* out) const {
                (unsigned long long)bridges_added, (unsigned long long)bridge_paths,
                (unsigned long long)bridge_searches_cut, (unsigned long long)bridges_missing,
                (unsigned long long)contracted, (unsigned long long)enclosed_held, (unsigned long long)reactivated,
-               (unsigned long long)revivals_refused, (unsigned long long)edges_kept_at_rim);
+               (unsigned long long)revivals_refused, (unsigned long long)edges_kept_at_rim,
+               (unsigned long long)relinks_apart);
 }
 
 void MemoryUse::print(std::FILE* out) const {
@@ -2213,7 +2214,12 @@ void Places::resolve_relinks(scene_graph::SceneGraph* graph, SyncResult* r) {
     const Relink l = relinks_[i];
     const scene_graph::PlaceAttributes* pi = graph->place(l.inactive);
     if (pi == nullptr || pi->is_active) continue;  // gone, or back in the window with edges of its own
-    const std::uint32_t x = replacement_for(l.position_m, l.clearance_m, l.cell);
+    std::uint32_t x = replacement_for(l.position_m, l.clearance_m, l.cell);
+    if (x != kNoCluster && config_.relink_in_same_free_space &&
+        !same_free_space(pi->position_m, pi->distance_m, clusters_[x].position_m, clusters_[x].clearance_m)) {
+      ++counters_.relinks_apart;  // waits for another replacement, or is dropped as below
+      x = kNoCluster;
+    }
     if (x != kNoCluster) {
       const Cluster& xc = clusters_[x];
       if (graph->edge_info(l.inactive, xc.node) == nullptr) {

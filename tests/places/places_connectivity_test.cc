@@ -314,11 +314,12 @@ struct StoreyWalk {
 
 // The ground floor mapped, the robot far away (every place inactive), then the upper floor mapped: its places in
 // the cells that the ground floor's places left may bring those inactive nodes back.
-StoreyWalk walk_two_storeys(bool revive_in_same_free_space) {
+StoreyWalk walk_two_storeys(bool revive_in_same_free_space, bool relink_in_same_free_space = true) {
   StoreyWalk out;
   Config config;
   config.place_resolution_m = 1.5;
   config.revive_in_same_free_space = revive_in_same_free_space;
+  config.relink_in_same_free_space = relink_in_same_free_space;
   Scanner scanner;
   std::string error;
   EXPECT_TRUE(scanner.init(two_storeys(), 100.0, &error)) << error;
@@ -384,6 +385,24 @@ TEST(PlacesConnectivityTest, AnInactiveNodeIsRevivedOnlyFromItsOwnSideOfTheSlab)
   // that checks the revival hand it to the merged place or give it back to its cell, untouched.
   EXPECT_GT(on.ground_floor_places, 0u);
   EXPECT_EQ(on.places_below, on.ground_floor_places);
+}
+
+// With the revive check off, upstairs places take over the ground floor's inactive nodes; when such a place is then
+// removed, its edges to the ground floor's inactive places are parked for the live place that replaces it, which is
+// upstairs too: every relink in this walk would cross the slab.
+TEST(PlacesConnectivityTest, ARelinkJoinsOnlyPlacesInTheSameFreeSpace) {
+  const StoreyWalk off = walk_two_storeys(false, false);
+  const StoreyWalk on = walk_two_storeys(false, true);
+  std::printf("two storeys, no revive check: relinks unchecked %llu relinked, %zu edges through the slab; checked "
+              "%llu relinked, %llu attempts apart, %zu edges through the slab\n",
+              (unsigned long long)off.counters.relinked, off.edges_through_slab,
+              (unsigned long long)on.counters.relinked, (unsigned long long)on.counters.relinks_apart,
+              on.edges_through_slab);
+  EXPECT_GT(off.counters.relinked, 0u) << "the walk must relink (else this tests nothing)";
+  EXPECT_EQ(off.counters.relinks_apart, 0u);
+  EXPECT_EQ(on.counters.relinked, 0u);
+  EXPECT_GT(on.counters.relinks_apart, 0u);
+  EXPECT_LT(on.edges_through_slab, off.edges_through_slab);
 }
 
 TEST(PlacesConnectivityTest, BadBridgeAndContractionSettingsAreRejected) {
