@@ -209,7 +209,8 @@ void Counters::print(std::FILE* out) const {
                "refused clusters=%llu edges=%llu graph=%llu free_space_edges=%llu relinked=%llu "
                "relinks_dropped=%llu relinks_refused=%llu views=%llu views_merged=%llu observed_refused=%llu "
                "rays=%llu bridges=%llu bridges_added=%llu bridge_paths=%llu bridge_searches_cut=%llu bridges_missing=%llu "
-               "contracted=%llu enclosed_held=%llu reactivated=%llu revivals_refused=%llu edges_kept_at_rim=%llu relinks_apart=%llu\n",
+               "contracted=%llu enclosed_held=%llu reactivated=%llu revivals_refused=%llu edges_kept_at_rim=%llu "
+               "relinks_apart=%llu\n",
                (unsigned long long)updates, (unsigned long long)cycles, (unsigned long long)tsdf_blocks_read,
                (unsigned long long)voxels_updated, (unsigned long long)voxels_raised,
                (unsigned long long)voxels_orphaned, (unsigned long long)frontier_seeds, (unsigned long long)occupied_seeds,

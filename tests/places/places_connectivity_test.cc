@@ -1,6 +1,7 @@
 // Places connectivity: small GVD fragments bridged to the rest through certified free space (never through a
-// wall), inactive places kept connected when the place they hung on is removed, inactive nodes revived only from
-// their own side of a floor slab, the new config checks, the memory figures, and no allocation on the update path.
+// wall), inactive places kept connected when the place they hung on is removed, inactive nodes revived (and edges
+// relinked) only from their own side of a floor slab and never lost to a revival that did not last, edges kept at
+// the window's rim, the new config checks, the memory figures, and no allocation on the update path.
 #include <gtest/gtest.h>
 
 #include <algorithm>
