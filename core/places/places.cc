@@ -167,7 +167,8 @@ std::string Config::check() const {
   if (enclosed_max_voxels < 0) return "enclosed_max_voxels must be >= 0";
   if (contract_search_places < 1 || contract_search_places > kMaxContractSearch)
     return "contract_search_places must be in [1, " + std::to_string(kMaxContractSearch) + "]";
-  if (!(keep_edges_at_rim_m >= 0.0)) return "keep_edges_at_rim_m must be >= 0";
+  if (!(keep_edges_at_rim_m >= 0.0 && keep_edges_at_rim_m < window_radius_m))
+    return "keep_edges_at_rim_m must be in [0, window_radius_m) (at or beyond the radius, no edge would ever go)";
   return {};
 }
 

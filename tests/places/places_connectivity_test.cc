@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <limits>
 #include <map>
 
 #include <memory>
@@ -406,7 +407,7 @@ TEST(PlacesConnectivityTest, ARelinkJoinsOnlyPlacesInTheSameFreeSpace) {
   EXPECT_LT(on.edges_through_slab, off.edges_through_slab);
 }
 
-TEST(PlacesConnectivityTest, BadBridgeAndContractionSettingsAreRejected) {
+TEST(PlacesConnectivityTest, BadBridgeContractionAndRimSettingsAreRejected) {
   Config c;
   EXPECT_TRUE(c.check().empty());
   c.bridge_max_fragment_places = 0;
@@ -423,6 +424,14 @@ TEST(PlacesConnectivityTest, BadBridgeAndContractionSettingsAreRejected) {
   c = Config{};
   c.enclosed_max_voxels = -1;
   EXPECT_NE(c.check().find("enclosed_max_voxels"), std::string::npos);
+  c = Config{};
+  c.keep_edges_at_rim_m = -0.1;
+  EXPECT_NE(c.check().find("keep_edges_at_rim_m"), std::string::npos);
+  c = Config{};
+  c.keep_edges_at_rim_m = c.window_radius_m;  // every place at the rim: no stale edge would ever be removed
+  EXPECT_NE(c.check().find("keep_edges_at_rim_m"), std::string::npos);
+  c.keep_edges_at_rim_m = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_NE(c.check().find("keep_edges_at_rim_m"), std::string::npos);
   c = Config{};
   c.contract_search_places = kMaxContractSearch + 1;
   EXPECT_NE(c.check().find("contract_search_places"), std::string::npos);
