@@ -119,7 +119,8 @@ struct Config {
   // farther in again (or for good once one leaves). Without it, a region whose last edges to the rest went this
   // way left the window as a component of its own (places_eval, one of three one-floor buildings: 22 places).
   // The slab's top and bottom are not counted: there a kept edge often ran from one floor to the next (two-floor
-  // buildings: 10 more edges joining free spaces apart at 0.5 m). 0: edges follow the GVD up to the rim.
+  // buildings: 10 more edges joining free spaces apart at 0.5 m). 0: edges follow the GVD up to the rim; must be
+  // below window_radius_m.
   double keep_edges_at_rim_m = 0.5;
   // Bridges (as Hydra joins its disconnected components): a live place whose component of live places holds at
   // most bridge_max_fragment_places places (e.g. a 1-2 place GVD piece under a table or a bed, in the same free
