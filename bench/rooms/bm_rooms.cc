@@ -1,6 +1,7 @@
 // BM_rooms_update: one room update (Betti curve, plateau or merge-tree seeds, flood fill, room and building nodes
 // rewritten; the second argument picks the seeding: 0 the paper's plateau, 1 persistence, the default; the third
-// turns the extent split off or on, the default, so its cost shows beside the same update without it)
+// turns the extent split off or on, the default, so its cost shows beside the same update without it; the fourth
+// likewise the corridor merge)
 // over a frozen synthetic places graph: a corridor with 4 m rooms on both sides at 0.5 m place spacing, in a scene
 // graph and a finder sized by the board's budget table. Reports the median and max per update as well as the mean.
 //
@@ -30,6 +31,7 @@ void BM_rooms_update(benchmark::State& state) {
   const int rooms_per_side = static_cast<int>(state.range(0));
   rooms::Config config = state.range(1) == 0 ? rooms::Config::paper() : rooms::Config{};
   config.split_by_extent = state.range(2) != 0;
+  config.merge_corridors = state.range(3) != 0;
   rooms::testing::SyntheticPlaces places;
   rooms::testing::corridor_plan(rooms_per_side, 0.5).add_to(&places, 0.5);
   auto graph = std::make_unique<scene_graph::SceneGraph>();
@@ -67,8 +69,8 @@ void BM_rooms_update(benchmark::State& state) {
 
 // 6 rooms per side: ~1,000 places (the target size); 24: ~4,000.
 BENCHMARK(BM_rooms_update)
-    ->ArgsProduct({{6, 24}, {0, 1}, {0, 1}})
-    ->ArgNames({"rooms_per_side", "persistence", "extent_split"})
+    ->ArgsProduct({{6, 24}, {0, 1}, {0, 1}, {0, 1}})
+    ->ArgNames({"rooms_per_side", "persistence", "extent_split", "corridor_merge"})
     ->Unit(benchmark::kMillisecond);
 
 void BM_online_door_pass(benchmark::State& state) {

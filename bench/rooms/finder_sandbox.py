@@ -1,13 +1,17 @@
 #!/usr/bin/python3
-"""Sandbox for room-finder ideas: a Python mirror of core/rooms' persistence seeding, flood fill and extent split,
-run on the places that `rooms_eval --dump-places DIR` wrote, scored per place against the ground-truth rooms.
+"""Sandbox for room-finder ideas: a Python mirror of core/rooms' persistence seeding, flood fill, extent split and
+corridor merge, run on the places that `rooms_eval --dump-places DIR` wrote, scored per place against the
+ground-truth rooms.
 
     build/release/bench/rooms/rooms_eval --cache-dir C --generated 0 --dump-places D   # once (cached: seconds)
     /usr/bin/python3 bench/rooms/finder_sandbox.py D [--min-persistence-m P] [--min-component N] [--no-extent-split]
+        [--no-corridor-merge] [--corridor-min-neighbours N] [--corridor-min-open-edges N]
 
 It prints, per variant (plain, furnished), the same place-level score for the C++ rooms of the dump and for this
-mirror; with the dump's own parameters the two agree (the check that the mirror is faithful), so a change tried here
-first can be judged in well under a second before it is written in C++. The score is a proxy of rooms_eval's: it
+mirror, so a change tried here first can be judged in well under a second before it is written in C++. The mirror
+does not seed rooms from regions the closed (door) edges cut off (Config::seed_closed_regions), so it finds fewer
+rooms than the C++ (plain: 140 against 150 on session 16's graphs, with the corridor merge off); compare a change
+against the mirror's own baseline, not against the C++ line. The score is a proxy of rooms_eval's: it
 counts places, not free cells (max-overlap precision per estimated room and recall per ground-truth room, means over
 rooms, and the precision weighted by places); places outside every ground-truth room are left out, and a place
 without a room counts as a room of its own. The real figures stay rooms_eval's.
@@ -177,6 +181,33 @@ def split_by_extent(places, edges, room_of, saturation_m=1.0, min_extent_m=1.0, 
     return out
 
 
+def merge_corridors(places, edges, room_of, min_neighbours=3, min_open_edges=20):
+    """RoomFinder's corridor merge: while two adjacent rooms both touch at least min_neighbours rooms (through any
+    place edge; a closed one has weight <= 0) and meet through at least min_open_edges open edges, the pair with
+    the most open edges (ties: the lower pair of rooms) becomes one room (the lower keeps its number)."""
+    room = dict(room_of)
+    while True:
+        neighbours, opened = collections.defaultdict(set), collections.Counter()
+        for a, b, w in edges:
+            ra, rb = room[a], room[b]
+            if ra is None or rb is None or ra < 0 or rb < 0 or ra == rb:
+                continue
+            neighbours[ra].add(rb)
+            neighbours[rb].add(ra)
+            opened[(min(ra, rb), max(ra, rb))] += 1 if w > 0 else 0
+        best = None
+        for pair in sorted(opened):
+            n = opened[pair]
+            if (n >= min_open_edges and (best is None or n > opened[best]) and
+                    min(len(neighbours[pair[0]]), len(neighbours[pair[1]])) >= min_neighbours):
+                best = pair
+        if best is None:
+            return room
+        for p, r in room.items():
+            if r == best[1]:
+                room[p] = best[0]
+
+
 def score(places, room_of):
     """(sum of precisions, estimated rooms, sum of recalls, ground-truth rooms, overlapping places, places)."""
     estimated = collections.defaultdict(collections.Counter)
@@ -209,6 +240,9 @@ def main():
     ap.add_argument("--split-max-extent-m", type=float, default=2.5)
     ap.add_argument("--split-min-persistence-m", type=float, default=0.5)
     ap.add_argument("--split-min-component", type=int, default=6)
+    ap.add_argument("--no-corridor-merge", action="store_true", help="the room finder without its corridor merge")
+    ap.add_argument("--corridor-min-neighbours", type=int, default=3)
+    ap.add_argument("--corridor-min-open-edges", type=int, default=20)
     ap.add_argument("--door-oracle-m", type=float, default=None, metavar="C",
                     help="a perfect door detector: every place edge between two ground-truth rooms gets clearance C "
                          "(0: cut), what any door or opening cue could give the persistence seeding at best")
@@ -229,6 +263,9 @@ def main():
                 rooms = split_by_extent(places, edges, rooms, args.extent_saturation_m, args.split_min_extent_m,
                                         args.split_max_extent_m, args.split_min_persistence_m,
                                         args.split_min_component)
+            if not args.no_corridor_merge:
+                rooms = merge_corridors(places, edges, rooms, args.corridor_min_neighbours,
+                                        args.corridor_min_open_edges)
             mirror.append(score(places, rooms))
         for name, s in (("C++ (dump)", cpp), ("mirror", mirror)):
             print("%-10s %-10s places: P %.3f R %.3f | P weighted %.3f | rooms %d" % ((variant, name) + pooled(s)))

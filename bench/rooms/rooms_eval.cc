@@ -182,6 +182,11 @@ bool parse(int argc, char** argv, Options* o) {
     else if (a == "--split-min-persistence-m") number = &o->rooms.split_min_persistence_m;
     else if (a == "--split-min-component")
       o->rooms.split_min_component_size = static_cast<std::uint32_t>(std::atoi(v.c_str()));
+    else if (a == "--merge-corridors") o->rooms.merge_corridors = std::atoi(v.c_str()) != 0;
+    else if (a == "--corridor-min-neighbours")
+      o->rooms.corridor_min_neighbours = static_cast<std::uint32_t>(std::atoi(v.c_str()));
+    else if (a == "--corridor-min-open-edges")
+      o->rooms.corridor_min_open_edges = static_cast<std::uint32_t>(std::atoi(v.c_str()));
     else if (a == "--seeding") {
       if (v == "plateau") o->rooms.seeding = rooms::Seeding::kPlateau;
       else if (v == "persistence") o->rooms.seeding = rooms::Seeding::kPersistence;
@@ -1124,7 +1129,7 @@ int main(int argc, char** argv) {
                  "[--robot-radius-m R] [--look-into-unreachable 0|1] [--furniture-height-m H] [--alpha A] "
                  "[--min-dilation-m D] [--max-dilation-m D] [--min-component N] [--seeding plateau|persistence] "
                  "[--min-persistence-m P] [--max-door-clearance-m D] [--split-by-extent 0|1] [--extent-saturation-m S] "
-                 "[--split-min-extent-m E] [--split-max-extent-m E] [--split-min-persistence-m P] [--split-min-component N] [--cache-dir DIR] [--images DIR] [--dump-places DIR] [--door-oracle-m C] [--doors 0|1|online] [--online-every N] [--online-misses N] [--online-match-m M] "
+                 "[--split-min-extent-m E] [--split-max-extent-m E] [--split-min-persistence-m P] [--split-min-component N] [--merge-corridors 0|1] [--corridor-min-neighbours N] [--corridor-min-open-edges N] [--cache-dir DIR] [--images DIR] [--dump-places DIR] [--door-oracle-m C] [--doors 0|1|online] [--online-every N] [--online-misses N] [--online-match-m M] "
                  "[--door-slice-above-robot-m H] [--door-min-width-m W] [--door-max-width-m W] [--door-min-rise-m R] "
                  "[--door-rise-reach-m R] [--door-max-off-centre F] [--door-slice-half-band-m B] [--door-min-wall-height-m H] "
                  "[--door-mapped-radius-m R] [--door-extension-m E] [--json FILE]\n",
@@ -1172,7 +1177,7 @@ int main(int argc, char** argv) {
               "%.1f m from places; robot radius %.2f m, %s\n",
               opt.width, opt.height, opt.hfov_deg, opt.rate_hz, opt.max_reach_m, opt.robot_radius_m,
               opt.look_into_unreachable ? "the tour looks into rooms it cannot enter" : "no looks into rooms");
-  char cond[640];
+  char cond[768];
   std::snprintf(cond, sizeof(cond),
                 "sim camera %dx%d %.0f deg hfov %.1f Hz, ground-truth poses, noise-free depth, robot radius %.2f m%s, "
                 "TSDF 0.1 m, frontend every keyframe, rooms seeding %s alpha %.2f persistence %.2f m [%.2f, %.2f] m "
@@ -1188,6 +1193,12 @@ int main(int argc, char** argv) {
                   opt.rooms.split_min_persistence_m, opt.rooms.split_min_component_size);
   else
     std::snprintf(cond + std::strlen(cond), sizeof(cond) - std::strlen(cond), ", no extent split");
+  if (opt.rooms.merge_corridors)
+    std::snprintf(cond + std::strlen(cond), sizeof(cond) - std::strlen(cond),
+                  ", corridor merge >= %u rooms >= %u open edges", opt.rooms.corridor_min_neighbours,
+                  opt.rooms.corridor_min_open_edges);
+  else
+    std::snprintf(cond + std::strlen(cond), sizeof(cond) - std::strlen(cond), ", no corridor merge");
   if (opt.door_oracle_m >= 0.0)
     std::snprintf(cond + std::strlen(cond), sizeof(cond) - std::strlen(cond), ", door oracle %.2f m", opt.door_oracle_m);
   if (opt.doors)

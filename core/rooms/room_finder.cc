@@ -66,6 +66,7 @@ Config Config::paper() {
   c.plateau_alpha = 0.5;
   c.split_by_extent = false;
   c.seed_closed_regions = false;
+  c.merge_corridors = false;
   return c;
 }
 
@@ -105,6 +106,10 @@ std::string Config::check() const {
   if (!std::isfinite(split_min_persistence_m) || split_min_persistence_m < 0.0)
     return "rooms.split_min_persistence_m: must be finite and >= 0, got " + std::to_string(split_min_persistence_m);
   if (split_min_component_size < 1) return "rooms.split_min_component_size: must be >= 1";
+  if (merge_corridors && corridor_min_neighbours < 2)
+    return "rooms.corridor_min_neighbours: must be >= 2 (1 would merge every room with its corridor)";
+  if (merge_corridors && corridor_min_open_edges < 1)
+    return "rooms.corridor_min_open_edges: must be >= 1 (0 would merge through doors)";
   if (building_index > sg::kIndexMask) return "rooms.building_index: larger than a node index";
   return "";
 }
@@ -126,6 +131,11 @@ void Config::print(std::FILE* out) const {
   else
     std::fprintf(out, "rooms: split by extent off\n");
   std::fprintf(out, "rooms: closed-off regions seed rooms: %s\n", seed_closed_regions ? "on" : "off");
+  if (merge_corridors)
+    std::fprintf(out, "rooms: corridor merge: rooms touching >= %u rooms, through >= %u open place edges\n",
+                 corridor_min_neighbours, corridor_min_open_edges);
+  else
+    std::fprintf(out, "rooms: corridor merge off\n");
 }
 
 Capacities Capacities::from_scene_graph(const sg::Capacities& graph) {
@@ -243,6 +253,8 @@ memory::ArenaPlan RoomFinder::plan(const Config& config, const Capacities& c) {
   p.add_array<double>(c.places);
   p.add_array<std::uint32_t>(c.places);
   p.add_array<std::uint32_t>(c.rooms);
+  p.add_array<std::uint32_t>(c.rooms);
+  p.add_array<std::uint32_t>(c.rooms);
   return p;
 }
 
@@ -292,12 +304,14 @@ bool RoomFinder::init(const Config& config, const Capacities& c, std::size_t bud
   extent_ = arena_.carve_array<double>(c.places);
   sub_seeds_ = arena_.carve_array<std::uint32_t>(c.places);
   room_seeds_ = arena_.carve_array<std::uint32_t>(c.rooms);
+  room_parent_ = arena_.carve_array<std::uint32_t>(c.rooms);
+  room_neighbours_ = arena_.carve_array<std::uint32_t>(c.rooms);
   // A heap, matches or curve of zero size would be a null carve; the plan never asks for those.
   ok = ok && place_ids_ && clearance_ && position_ && active_ && (edges_ || c.place_edges == 0) && adjacency_offset_ &&
        (adjacency_ || c.place_edges == 0) && order_ && parent_ && size_ && room_of_ && (heap_ || c.place_edges == 0) &&
        pairs_ && matches_ && curve_ && room_ids_ && room_acc_ && root_room_ && previous_ids_ &&
        previous_taken_ && saved_ && saved_valid_ && birth_ && member_next_ && member_tail_ && split_ && extent_ &&
-       sub_seeds_ && room_seeds_;
+       sub_seeds_ && room_seeds_ && room_parent_ && room_neighbours_;
   arena_.align_to_plan_boundary();
   if (!ok || !arena_.seal()) {
     if (error != nullptr) *error = "rooms: arena carve did not match its plan";
@@ -352,6 +366,7 @@ UpdateResult RoomFinder::update(sg::SceneGraph* graph, std::uint64_t time_ns, co
   }
   flood_fill();
   if (config_.split_by_extent) rooms = split_by_extent(rooms, &r);
+  if (config_.merge_corridors) rooms = merge_corridors(rooms, &r);
   assign_ids(*graph, rooms, &r);
   write_rooms(graph, rooms, time_ns, &r);
   counters_.graph_refused += r.refused;
@@ -853,6 +868,77 @@ std::size_t RoomFinder::split_by_extent(std::size_t num_rooms, UpdateResult* r) 
   // its room.
   for (std::uint32_t i = 0; i < num_places_; ++i)
     if (parent_[i] != kNone && room_of_[i] < 0) room_of_[i] = static_cast<std::int32_t>(parent_[i]);
+  return rooms;
+}
+
+std::uint32_t RoomFinder::find_room(std::uint32_t slot) {
+  while (room_parent_[slot] != slot) {
+    room_parent_[slot] = room_parent_[room_parent_[slot]];
+    slot = room_parent_[slot];
+  }
+  return slot;
+}
+
+// Each round maps the rooms' boundary edges (pairs_: lower slot << 33 | higher slot << 1 | open) to the current
+// merged rooms, sorts them, counts per pair of rooms the open edges and per room its distinct neighbours, and merges
+// the qualifying pair with the most open edges (ties: the lower pair). Slots are then renumbered densely.
+std::size_t RoomFinder::merge_corridors(std::size_t num_rooms, UpdateResult* r) {
+  std::size_t n = 0;
+  for (std::size_t e = 0; e < num_edges_; ++e) {
+    const std::int32_t a = room_of_[edges_[e].a], b = room_of_[edges_[e].b];
+    if (a < 0 || b < 0 || a == b) continue;
+    const std::uint64_t lo = static_cast<std::uint64_t>(std::min(a, b)), hi = static_cast<std::uint64_t>(std::max(a, b));
+    pairs_[n++] = (lo << 33) | (hi << 1) | (edges_[e].closed() ? 0u : 1u);
+  }
+  for (std::size_t k = 0; k < num_rooms; ++k) room_parent_[k] = static_cast<std::uint32_t>(k);
+  std::size_t merges = 0;
+  for (;;) {
+    std::size_t m = 0;
+    for (std::size_t k = 0; k < n; ++k) {
+      const std::uint32_t a = find_room(static_cast<std::uint32_t>(pairs_[k] >> 33));
+      const std::uint32_t b = find_room(static_cast<std::uint32_t>((pairs_[k] >> 1) & 0xffffffffu));
+      if (a == b) continue;  // inside one merged room now
+      pairs_[m++] = (static_cast<std::uint64_t>(std::min(a, b)) << 33) |
+                    (static_cast<std::uint64_t>(std::max(a, b)) << 1) | (pairs_[k] & 1u);
+    }
+    n = m;
+    std::sort(pairs_, pairs_ + n);
+    std::fill(room_neighbours_, room_neighbours_ + num_rooms, 0u);
+    for (std::size_t k = 0; k < n;) {
+      std::size_t j = k;
+      while (j < n && (pairs_[j] >> 1) == (pairs_[k] >> 1)) ++j;
+      ++room_neighbours_[pairs_[k] >> 33];
+      ++room_neighbours_[(pairs_[k] >> 1) & 0xffffffffu];
+      k = j;
+    }
+    std::size_t best_open = 0;
+    std::uint64_t best = 0;
+    for (std::size_t k = 0; k < n;) {
+      std::size_t j = k, open = 0;
+      for (; j < n && (pairs_[j] >> 1) == (pairs_[k] >> 1); ++j) open += pairs_[j] & 1u;
+      const std::uint32_t a = static_cast<std::uint32_t>(pairs_[k] >> 33);
+      const std::uint32_t b = static_cast<std::uint32_t>((pairs_[k] >> 1) & 0xffffffffu);
+      if (open >= config_.corridor_min_open_edges && open > best_open &&
+          room_neighbours_[a] >= config_.corridor_min_neighbours &&
+          room_neighbours_[b] >= config_.corridor_min_neighbours) {
+        best_open = open;
+        best = pairs_[k];
+      }
+      k = j;
+    }
+    if (best_open == 0) break;
+    room_parent_[(best >> 1) & 0xffffffffu] = static_cast<std::uint32_t>(best >> 33);  // the lower slot stays
+    ++merges;
+  }
+  if (merges == 0) return num_rooms;
+  // Dense slots in the order of the surviving rooms' old slots; room_neighbours_ becomes old root -> new slot.
+  std::size_t rooms = 0;
+  for (std::size_t k = 0; k < num_rooms; ++k)
+    if (find_room(static_cast<std::uint32_t>(k)) == k) room_neighbours_[k] = static_cast<std::uint32_t>(rooms++);
+  for (std::uint32_t i = 0; i < num_places_; ++i)
+    if (room_of_[i] >= 0)
+      room_of_[i] = static_cast<std::int32_t>(room_neighbours_[find_room(static_cast<std::uint32_t>(room_of_[i]))]);
+  r->corridor_merges += merges;
   return rooms;
 }
 

@@ -1,6 +1,7 @@
 // RoomFinder on synthetic places graphs with known rooms: doors, a corridor, two floors, small components, the
-// Betti curve against a brute-force reference, the plateau rule, the flood fill's order, the building node,
-// stable ids across updates, bad input and full stores, and no heap allocation per update.
+// extent split and the corridor merge, the Betti curve against a brute-force reference, the plateau rule, the flood
+// fill's order, the building node, stable ids across updates, bad input and full stores, and no heap allocation per
+// update.
 #include "core/rooms/room_finder.h"
 
 #include <gtest/gtest.h>
@@ -435,6 +436,92 @@ TEST(RoomFinderTest, ExtentSplitSettingsAreChecked) {
   c = Config{};
   c.split_min_component_size = 0;
   refused(c, "split_min_component_size");
+}
+
+// A corridor 3 m wide with a pinch 1.5 m wide and 1 m long halfway, eight 4 m x 4 m rooms off it through 0.75 m
+// doors (tags: corridor 0, rooms 1..8). The pinch makes the persistence seeding cut the corridor in two (clearance
+// 1.25 m on both sides against 0.75 m at the pinch); no door is there.
+GridPlan pinched_corridor_plan() {
+  const int room = 16, corridor = 12, door = 3, rooms_per_side = 4;
+  const int width = rooms_per_side * (room + 1) + 1, height = 2 * room + corridor + 4;
+  GridPlan plan(width, height, testing::kCellM);
+  const int cy0 = room + 2, cy1 = cy0 + corridor;
+  plan.carve(1, cy0, 33, cy1, 0);
+  plan.carve(33, cy0 + 3, 37, cy1 - 3, 0);  // the pinch
+  plan.carve(37, cy0, width - 1, cy1, 0);
+  int tag = 1;
+  for (int i = 0; i < rooms_per_side; ++i) {
+    const int x0 = 1 + i * (room + 1), dx0 = x0 + room / 2 - door / 2;
+    plan.carve(x0, 1, x0 + room, 1 + room, tag++);
+    plan.carve(dx0, 1 + room, dx0 + door, cy0, -1);
+    plan.carve(x0, cy1 + 1, x0 + room, cy1 + 1 + room, tag++);
+    plan.carve(dx0, cy1, dx0 + door, cy1 + 1, -1);
+  }
+  return plan;
+}
+
+TEST(RoomFinderTest, CorridorPiecesJoinButTheRoomsOffThemStay) {
+  SyntheticPlaces s;
+  pinched_corridor_plan().add_to(&s, 1.0, Eigen::Vector2d::Zero(), kStoreyCapM);
+  Config off;
+  off.merge_corridors = false;
+  auto g = make_graph();
+  ASSERT_TRUE(s.write(g.get()));
+  const UpdateResult cut = make_finder(off)->update(g.get());
+  ASSERT_EQ(cut.outcome, Outcome::kOk);
+  EXPECT_EQ(cut.corridor_merges, 0u);
+  EXPECT_EQ(cut.rooms, 10u);
+  const std::set<sg::NodeId> pieces = rooms_by_tag(*g, s)[0];
+  ASSERT_EQ(pieces.size(), 2u) << "the scene must cut the corridor at its pinch";
+  // The open place edges between the two pieces (a one-layer grid has fewer than a real graph's up to three layers
+  // of places, so the default of 20 is not what this scene is about).
+  std::uint32_t crossing = 0;
+  for (const auto& e : s.edges) {
+    const sg::NodeId a = g->parent(s.places[e.a].id), b = g->parent(s.places[e.b].id);
+    crossing += a != b && pieces.count(a) != 0 && pieces.count(b) != 0 ? 1 : 0;
+  }
+  ASSERT_GE(crossing, 6u) << "at least the pinch's width in edges";
+
+  Config on;
+  on.corridor_min_open_edges = crossing;
+  auto g2 = make_graph();
+  ASSERT_TRUE(s.write(g2.get()));
+  const UpdateResult joined = make_finder(on)->update(g2.get());
+  ASSERT_EQ(joined.outcome, Outcome::kOk);
+  EXPECT_EQ(joined.corridor_merges, 1u);
+  EXPECT_EQ(joined.rooms, 9u) << "the corridor and its eight rooms";
+  expect_one_room_per_tag(*g2, s);
+  EXPECT_EQ(joined.room_edges, 8u) << "each room touches the corridor only";
+
+  // Each piece touches four rooms and the other piece: asking for six neighbours leaves the cut as it was, and so
+  // does asking for one open edge more than cross between the pieces.
+  Config picky = on;
+  picky.corridor_min_neighbours = 6;
+  Config narrow = on;
+  narrow.corridor_min_open_edges = crossing + 1;
+  for (const Config& c : {picky, narrow}) {
+    SCOPED_TRACE(c.corridor_min_neighbours);
+    auto g3 = make_graph();
+    ASSERT_TRUE(s.write(g3.get()));
+    const UpdateResult r = make_finder(c)->update(g3.get());
+    EXPECT_EQ(r.corridor_merges, 0u);
+    EXPECT_EQ(r.rooms, 10u);
+  }
+}
+
+TEST(RoomFinderTest, CorridorMergeSettingsAreChecked) {
+  Config c;
+  c.corridor_min_neighbours = 1;
+  std::string error;
+  EXPECT_FALSE(RoomFinder().init(c, Capacities::from_scene_graph(small_graph_capacities()), 0, &error));
+  EXPECT_NE(error.find("corridor_min_neighbours"), std::string::npos) << error;
+  c = Config{};
+  c.corridor_min_open_edges = 0;
+  EXPECT_FALSE(RoomFinder().init(c, Capacities::from_scene_graph(small_graph_capacities()), 0, &error));
+  EXPECT_NE(error.find("corridor_min_open_edges"), std::string::npos) << error;
+  // Off, the two are not used and not checked.
+  c.merge_corridors = false;
+  EXPECT_TRUE(RoomFinder().init(c, Capacities::from_scene_graph(small_graph_capacities()), 0, &error)) << error;
 }
 
 // Brute force: for every sampled dilation, the components (BFS) of the places and edges that survive it.
@@ -914,6 +1001,16 @@ TEST(RoomFinderTest, UpdatesDoNotAllocate) {
   EXPECT_NO_ALLOCATIONS(second = splitting->update(g2.get()));
   EXPECT_EQ(first.rooms_split, 1u);
   EXPECT_EQ(second.rooms_kept, 2u);
+  // Corridor pieces merged: the boundary pairs, their sort and the renumbering use the arena only.
+  SyntheticPlaces pinched;
+  pinched_corridor_plan().add_to(&pinched, 1.0, Eigen::Vector2d::Zero(), kStoreyCapM);
+  auto g3 = make_graph();
+  ASSERT_TRUE(pinched.write(g3.get()));
+  Config merging;
+  merging.corridor_min_open_edges = 6;
+  auto merger = make_finder(merging);
+  EXPECT_NO_ALLOCATIONS(first = merger->update(g3.get()));
+  EXPECT_EQ(first.corridor_merges, 1u);
 }
 
 }  // namespace
