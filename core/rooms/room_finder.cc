@@ -887,7 +887,8 @@ std::size_t RoomFinder::merge_corridors(std::size_t num_rooms, UpdateResult* r) 
   for (std::size_t e = 0; e < num_edges_; ++e) {
     const std::int32_t a = room_of_[edges_[e].a], b = room_of_[edges_[e].b];
     if (a < 0 || b < 0 || a == b) continue;
-    const std::uint64_t lo = static_cast<std::uint64_t>(std::min(a, b)), hi = static_cast<std::uint64_t>(std::max(a, b));
+    const std::uint64_t lo = static_cast<std::uint64_t>(std::min(a, b));
+    const std::uint64_t hi = static_cast<std::uint64_t>(std::max(a, b));
     pairs_[n++] = (lo << 33) | (hi << 1) | (edges_[e].closed() ? 0u : 1u);
   }
   for (std::size_t k = 0; k < num_rooms; ++k) room_parent_[k] = static_cast<std::uint32_t>(k);
