@@ -86,9 +86,10 @@ struct Config {
   // opening, not a door) are one room; pairs are merged most open edges first, the neighbour counts taken again
   // after each merge. A room off a corridor touches one or two rooms, so it is left alone.
   // rooms_eval on the IPA plans (mean P / mean R / area P), off -> on: plain 0.962 / 0.938 / 0.961 -> 0.961 /
-  // 0.955 / 0.947 (area R 0.839 -> 0.927), furnished 0.952 / 0.771 / 0.912 -> 0.953 / 0.789 / 0.892; ten generated
-  // two-floor buildings unchanged (no piece of theirs qualifies). Chosen on those plans from 3-5 neighbours and
-  // 5-20 edges: 4 neighbours give plain R 0.949-0.950, 3 with 5-10 edges plain P 0.941-0.951.
+  // 0.955 / 0.947 (area R 0.839 -> 0.927; a second exploration of the same plans: 0.961 / 0.938 / 0.960 -> 0.960 /
+  // 0.951 / 0.947), furnished 0.952 / 0.771 / 0.912 -> 0.953 / 0.789 / 0.892; ten generated two-floor buildings
+  // unchanged (no piece of theirs qualifies). Chosen on those plans from 3-5 neighbours and 5-20 edges: 4
+  // neighbours give plain R 0.949-0.950, 3 with 5-10 edges plain P 0.941-0.951.
   bool merge_corridors = true;
   std::uint32_t corridor_min_neighbours = 3;
   std::uint32_t corridor_min_open_edges = 20;
