@@ -73,6 +73,50 @@ BENCHMARK(BM_rooms_update)
     ->ArgNames({"rooms_per_side", "persistence", "extent_split", "corridor_merge"})
     ->Unit(benchmark::kMillisecond);
 
+// BM_rooms_corridor_merge: the same update over a corridor the seeding cuts into pieces at its pinches
+// (rooms::testing::pinched_corridor_plan at 0.5 m, one pinch every second room: 12 rooms a side give 6 pieces), so
+// the merge has pieces to join; the second argument turns it off or on. The synthetic graph has one layer of places,
+// so the open edges through a 1 m pinch are few: the merge asks for one (the neighbour rule still keeps the rooms).
+void BM_rooms_corridor_merge(benchmark::State& state) {
+  const int rooms_per_side = static_cast<int>(state.range(0));
+  rooms::Config config;
+  config.merge_corridors = state.range(1) != 0;
+  config.corridor_min_open_edges = 1;
+  rooms::testing::SyntheticPlaces places;
+  rooms::testing::pinched_corridor_plan(rooms_per_side, 0.5).add_to(&places, 1.0, Eigen::Vector2d::Zero(), 1.25);
+  auto graph = std::make_unique<scene_graph::SceneGraph>();
+  auto finder = std::make_unique<rooms::RoomFinder>();
+  std::string error;
+  const scene_graph::Capacities caps = scene_graph::capacities_from_budget();
+  if (!graph->init(caps, scene_graph::arena_bytes_from_budget(), &error) || !places.write(graph.get()) ||
+      !finder->init(config, rooms::Capacities::from_scene_graph(caps), 0, &error)) {
+    state.SkipWithError(error.empty() ? "setup failed" : error.c_str());
+    return;
+  }
+  std::vector<double> ms;
+  ms.reserve(1 << 16);
+  rooms::UpdateResult r;
+  for (auto _ : state) {
+    const auto t0 = std::chrono::steady_clock::now();
+    r = finder->update(graph.get());
+    const auto t1 = std::chrono::steady_clock::now();
+    if (ms.size() < ms.capacity()) ms.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
+    benchmark::DoNotOptimize(r);
+  }
+  std::sort(ms.begin(), ms.end());
+  state.counters["places"] = static_cast<double>(r.places);
+  state.counters["rooms"] = static_cast<double>(r.rooms);
+  state.counters["expected_rooms"] = 2.0 * rooms_per_side + 1.0;
+  state.counters["corridor_merges"] = static_cast<double>(r.corridor_merges);
+  state.counters["median_ms"] = ms.empty() ? 0.0 : ms[ms.size() / 2];
+  state.counters["max_ms"] = ms.empty() ? 0.0 : ms.back();
+}
+
+BENCHMARK(BM_rooms_corridor_merge)
+    ->ArgsProduct({{12, 48}, {0, 1}})
+    ->ArgNames({"rooms_per_side", "corridor_merge"})
+    ->Unit(benchmark::kMillisecond);
+
 void BM_online_door_pass(benchmark::State& state) {
   const int rooms_per_side = static_cast<int>(state.range(0));
   const rooms::testing::GridPlan plan = rooms::testing::corridor_plan(rooms_per_side, 0.25);

@@ -108,8 +108,9 @@ std::string Config::check() const {
   if (split_min_component_size < 1) return "rooms.split_min_component_size: must be >= 1";
   if (merge_corridors && corridor_min_neighbours < 2)
     return "rooms.corridor_min_neighbours: must be >= 2 (1 would merge every room with its corridor)";
-  if (merge_corridors && corridor_min_open_edges < 1)
-    return "rooms.corridor_min_open_edges: must be >= 1 (0 would merge through doors)";
+  if (merge_corridors && (corridor_min_open_edges < 1 || corridor_min_open_edges > 65535))
+    return "rooms.corridor_min_open_edges: must be in [1, 65535] (0 would merge through doors; counts saturate at "
+           "65535)";
   if (building_index > sg::kIndexMask) return "rooms.building_index: larger than a node index";
   return "";
 }
@@ -151,7 +152,7 @@ std::string Capacities::check() const {
   if (places >= kNone / 2) return "rooms capacities.places: too large";
   if (place_edges >= kNone / 2) return "rooms capacities.place_edges: too large";
   if (rooms == 0) return "rooms capacities.rooms: must be > 0";
-  if (rooms >= kNone / 2) return "rooms capacities.rooms: too large";
+  if (rooms >= (1u << 24)) return "rooms capacities.rooms: at most 2^24 - 1 (the corridor merge packs two slots)";
   return "";
 }
 
@@ -879,56 +880,60 @@ std::uint32_t RoomFinder::find_room(std::uint32_t slot) {
   return slot;
 }
 
-// Each round maps the rooms' boundary edges (pairs_: lower slot << 33 | higher slot << 1 | open) to the current
-// merged rooms, sorts them, counts per pair of rooms the open edges and per room its distinct neighbours, and merges
-// the qualifying pair with the most open edges (ties: the lower pair). Slots are then renumbered densely.
+// pairs_ holds one record per boundary edge at first: lower room slot << 40 | higher slot << 16 | open (0 or 1).
+// Each round maps the records to the current merged rooms, sorts them and folds each pair's records into one (its
+// open edges summed, saturating at 0xffff), so after the first round a round costs the number of room pairs, not
+// of edges; it counts per room its distinct neighbours and merges the qualifying pair with the most open edges
+// (ties: the lower pair). Slots are then renumbered densely.
 std::size_t RoomFinder::merge_corridors(std::size_t num_rooms, UpdateResult* r) {
+  constexpr std::uint64_t kCountMask = 0xffffu;
+  const auto lo_of = [](std::uint64_t x) { return static_cast<std::uint32_t>(x >> 40); };
+  const auto hi_of = [](std::uint64_t x) { return static_cast<std::uint32_t>((x >> 16) & 0xffffffu); };
+  const auto record = [](std::uint32_t a, std::uint32_t b, std::uint64_t count) {
+    return (static_cast<std::uint64_t>(std::min(a, b)) << 40) | (static_cast<std::uint64_t>(std::max(a, b)) << 16) |
+           count;
+  };
   std::size_t n = 0;
   for (std::size_t e = 0; e < num_edges_; ++e) {
     const std::int32_t a = room_of_[edges_[e].a], b = room_of_[edges_[e].b];
     if (a < 0 || b < 0 || a == b) continue;
-    const std::uint64_t lo = static_cast<std::uint64_t>(std::min(a, b));
-    const std::uint64_t hi = static_cast<std::uint64_t>(std::max(a, b));
-    pairs_[n++] = (lo << 33) | (hi << 1) | (edges_[e].closed() ? 0u : 1u);
+    pairs_[n++] = record(static_cast<std::uint32_t>(a), static_cast<std::uint32_t>(b), edges_[e].closed() ? 0u : 1u);
   }
   for (std::size_t k = 0; k < num_rooms; ++k) room_parent_[k] = static_cast<std::uint32_t>(k);
   std::size_t merges = 0;
   for (;;) {
     std::size_t m = 0;
     for (std::size_t k = 0; k < n; ++k) {
-      const std::uint32_t a = find_room(static_cast<std::uint32_t>(pairs_[k] >> 33));
-      const std::uint32_t b = find_room(static_cast<std::uint32_t>((pairs_[k] >> 1) & 0xffffffffu));
-      if (a == b) continue;  // inside one merged room now
-      pairs_[m++] = (static_cast<std::uint64_t>(std::min(a, b)) << 33) |
-                    (static_cast<std::uint64_t>(std::max(a, b)) << 1) | (pairs_[k] & 1u);
+      const std::uint32_t a = find_room(lo_of(pairs_[k])), b = find_room(hi_of(pairs_[k]));
+      if (a != b) pairs_[m++] = record(a, b, pairs_[k] & kCountMask);  // else inside one merged room now
     }
-    n = m;
-    std::sort(pairs_, pairs_ + n);
-    std::fill(room_neighbours_, room_neighbours_ + num_rooms, 0u);
-    for (std::size_t k = 0; k < n;) {
+    std::sort(pairs_, pairs_ + m);
+    n = 0;
+    for (std::size_t k = 0; k < m;) {
+      std::uint64_t open = 0;
       std::size_t j = k;
-      while (j < n && (pairs_[j] >> 1) == (pairs_[k] >> 1)) ++j;
-      ++room_neighbours_[pairs_[k] >> 33];
-      ++room_neighbours_[(pairs_[k] >> 1) & 0xffffffffu];
+      for (; j < m && (pairs_[j] >> 16) == (pairs_[k] >> 16); ++j) open += pairs_[j] & kCountMask;
+      pairs_[n++] = (pairs_[k] & ~kCountMask) | std::min(open, kCountMask);
       k = j;
     }
-    std::size_t best_open = 0;
-    std::uint64_t best = 0;
-    for (std::size_t k = 0; k < n;) {
-      std::size_t j = k, open = 0;
-      for (; j < n && (pairs_[j] >> 1) == (pairs_[k] >> 1); ++j) open += pairs_[j] & 1u;
-      const std::uint32_t a = static_cast<std::uint32_t>(pairs_[k] >> 33);
-      const std::uint32_t b = static_cast<std::uint32_t>((pairs_[k] >> 1) & 0xffffffffu);
+    std::fill(room_neighbours_, room_neighbours_ + num_rooms, 0u);
+    for (std::size_t k = 0; k < n; ++k) {
+      ++room_neighbours_[lo_of(pairs_[k])];
+      ++room_neighbours_[hi_of(pairs_[k])];
+    }
+    std::uint64_t best_open = 0;
+    std::size_t best = 0;
+    for (std::size_t k = 0; k < n; ++k) {
+      const std::uint64_t open = pairs_[k] & kCountMask;
       if (open >= config_.corridor_min_open_edges && open > best_open &&
-          room_neighbours_[a] >= config_.corridor_min_neighbours &&
-          room_neighbours_[b] >= config_.corridor_min_neighbours) {
+          room_neighbours_[lo_of(pairs_[k])] >= config_.corridor_min_neighbours &&
+          room_neighbours_[hi_of(pairs_[k])] >= config_.corridor_min_neighbours) {
         best_open = open;
-        best = pairs_[k];
+        best = k;
       }
-      k = j;
     }
     if (best_open == 0) break;
-    room_parent_[(best >> 1) & 0xffffffffu] = static_cast<std::uint32_t>(best >> 33);  // the lower slot stays
+    room_parent_[hi_of(pairs_[best])] = lo_of(pairs_[best]);  // the lower slot stays
     ++merges;
   }
   if (merges == 0) return num_rooms;

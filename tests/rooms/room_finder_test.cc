@@ -438,31 +438,9 @@ TEST(RoomFinderTest, ExtentSplitSettingsAreChecked) {
   refused(c, "split_min_component_size");
 }
 
-// A corridor 3 m wide with a pinch 1.5 m wide and 1 m long halfway, eight 4 m x 4 m rooms off it through 0.75 m
-// doors (tags: corridor 0, rooms 1..8). The pinch makes the persistence seeding cut the corridor in two (clearance
-// 1.25 m on both sides against 0.75 m at the pinch); no door is there.
-GridPlan pinched_corridor_plan() {
-  const int room = 16, corridor = 12, door = 3, rooms_per_side = 4;
-  const int width = rooms_per_side * (room + 1) + 1, height = 2 * room + corridor + 4;
-  GridPlan plan(width, height, testing::kCellM);
-  const int cy0 = room + 2, cy1 = cy0 + corridor;
-  plan.carve(1, cy0, 33, cy1, 0);
-  plan.carve(33, cy0 + 3, 37, cy1 - 3, 0);  // the pinch
-  plan.carve(37, cy0, width - 1, cy1, 0);
-  int tag = 1;
-  for (int i = 0; i < rooms_per_side; ++i) {
-    const int x0 = 1 + i * (room + 1), dx0 = x0 + room / 2 - door / 2;
-    plan.carve(x0, 1, x0 + room, 1 + room, tag++);
-    plan.carve(dx0, 1 + room, dx0 + door, cy0, -1);
-    plan.carve(x0, cy1 + 1, x0 + room, cy1 + 1 + room, tag++);
-    plan.carve(dx0, cy1, dx0 + door, cy1 + 1, -1);
-  }
-  return plan;
-}
-
 TEST(RoomFinderTest, CorridorPiecesJoinButTheRoomsOffThemStay) {
   SyntheticPlaces s;
-  pinched_corridor_plan().add_to(&s, 1.0, Eigen::Vector2d::Zero(), kStoreyCapM);
+  testing::pinched_corridor_plan(4).add_to(&s, 1.0, Eigen::Vector2d::Zero(), kStoreyCapM);
   Config off;
   off.merge_corridors = false;
   auto g = make_graph();
@@ -515,10 +493,12 @@ TEST(RoomFinderTest, CorridorMergeSettingsAreChecked) {
   std::string error;
   EXPECT_FALSE(RoomFinder().init(c, Capacities::from_scene_graph(small_graph_capacities()), 0, &error));
   EXPECT_NE(error.find("corridor_min_neighbours"), std::string::npos) << error;
-  c = Config{};
-  c.corridor_min_open_edges = 0;
-  EXPECT_FALSE(RoomFinder().init(c, Capacities::from_scene_graph(small_graph_capacities()), 0, &error));
-  EXPECT_NE(error.find("corridor_min_open_edges"), std::string::npos) << error;
+  for (const std::uint32_t edges : {0u, 65536u}) {  // open-edge counts saturate at 65535
+    c = Config{};
+    c.corridor_min_open_edges = edges;
+    EXPECT_FALSE(RoomFinder().init(c, Capacities::from_scene_graph(small_graph_capacities()), 0, &error)) << edges;
+    EXPECT_NE(error.find("corridor_min_open_edges"), std::string::npos) << error;
+  }
   // Off, the two are not used and not checked.
   c.merge_corridors = false;
   EXPECT_TRUE(RoomFinder().init(c, Capacities::from_scene_graph(small_graph_capacities()), 0, &error)) << error;
@@ -943,6 +923,9 @@ TEST(RoomFinderTest, BadInputGivesACountedOutcome) {
   caps.rooms = 0;
   EXPECT_FALSE(RoomFinder().init(Config{}, caps, 0, &error));
   EXPECT_NE(error.find("rooms"), std::string::npos) << error;
+  caps.rooms = std::size_t{1} << 24;  // the corridor merge packs two room slots of 24 bits into one key
+  EXPECT_FALSE(RoomFinder().init(Config{}, caps, 0, &error));
+  EXPECT_NE(error.find("capacities.rooms"), std::string::npos) << error;
   EXPECT_FALSE(RoomFinder().init(Config{}, Capacities{}, 1024, &error)) << "a budget below the plan";
 }
 
@@ -1003,7 +986,7 @@ TEST(RoomFinderTest, UpdatesDoNotAllocate) {
   EXPECT_EQ(second.rooms_kept, 2u);
   // Corridor pieces merged: the boundary pairs, their sort and the renumbering use the arena only.
   SyntheticPlaces pinched;
-  pinched_corridor_plan().add_to(&pinched, 1.0, Eigen::Vector2d::Zero(), kStoreyCapM);
+  testing::pinched_corridor_plan(4).add_to(&pinched, 1.0, Eigen::Vector2d::Zero(), kStoreyCapM);
   auto g3 = make_graph();
   ASSERT_TRUE(pinched.write(g3.get()));
   Config merging;

@@ -64,15 +64,16 @@ struct SyntheticPlaces {
 // its tag (the ground truth), door cells carry -1.
 class GridPlan {
  public:
+  static constexpr int kWall = -1000;  // carve(..., kWall) fills cells back in
   GridPlan(int width, int height, double cell_m) : width_(width), height_(height), cell_m_(cell_m),
-                                                    tag_(static_cast<std::size_t>(width * height), kOccupied) {}
+                                                    tag_(static_cast<std::size_t>(width * height), kWall) {}
 
   // Cells [x0, x1) x [y0, y1) become free with tag `room` (-1 for a doorway).
   void carve(int x0, int y0, int x1, int y1, int room) {
     for (int y = std::max(0, y0); y < std::min(height_, y1); ++y)
       for (int x = std::max(0, x0); x < std::min(width_, x1); ++x) tag_[index(x, y)] = room;
   }
-  bool free(int x, int y) const { return x >= 0 && y >= 0 && x < width_ && y < height_ && tag_[index(x, y)] != kOccupied; }
+  bool free(int x, int y) const { return x >= 0 && y >= 0 && x < width_ && y < height_ && tag_[index(x, y)] != kWall; }
 
   // Places at the free cells' centres (z = z_m), clearance to the nearest occupied cell (or the plan's border),
   // edges between free 8-neighbours weighted with the smaller clearance. Returns the index of the first place.
@@ -105,7 +106,7 @@ class GridPlan {
   double cell_m() const { return cell_m_; }
 
  private:
-  static constexpr int kOccupied = -1000;
+
   std::size_t index(int x, int y) const { return static_cast<std::size_t>(y * width_ + x); }
   double clearance(int x, int y) const {
     // Distance from the cell centre to the nearest occupied cell (a square), or to the plan's border.
@@ -154,6 +155,38 @@ inline GridPlan corridor_plan(int rooms_per_side, double cell_m = kCellM) {
     plan.carve(dx0, 1 + room, dx0 + door, cy0, -1);  // its door
     plan.carve(x0, cy1 + 1, x1, cy1 + 1 + room, tag++);  // north room
     plan.carve(dx0, cy1, dx0 + door, cy1 + 1, -1);
+  }
+  return plan;
+}
+
+// corridor_plan's layout with a corridor 3 m wide that narrows to 1.5 m for 1 m at every second wall between
+// rooms: (rooms_per_side - 1) / 2 pinches (rooms_per_side >= 3 for one), no door at any of them. The persistence seeding cuts the
+// corridor at each (clearance 1.25 m, the storey's cap, on both sides against 0.75 m at the pinch), the corridor
+// merge joins the pieces again. Tags: corridor 0, then the rooms 1, 2, ... (south and north in turn).
+inline GridPlan pinched_corridor_plan(int rooms_per_side, double cell_m = kCellM) {
+  const int room = static_cast<int>(std::lround(4.0 / cell_m));
+  const int corridor = static_cast<int>(std::lround(3.0 / cell_m));
+  const int door = std::max(1, static_cast<int>(std::lround(0.75 / cell_m)));
+  const int inset = std::max(1, static_cast<int>(std::lround(0.75 / cell_m)));
+  const int pinch = std::max(1, static_cast<int>(std::lround(1.0 / cell_m)));
+  const int width = rooms_per_side * (room + 1) + 1, height = 2 * room + corridor + 4;
+  GridPlan plan(width, height, cell_m);
+  const int cy0 = room + 2, cy1 = cy0 + corridor;
+  plan.carve(1, cy0, width - 1, cy1, 0);
+  int tag = 1;
+  for (int i = 0; i < rooms_per_side; ++i) {
+    const int x0 = 1 + i * (room + 1), dx0 = x0 + room / 2 - door / 2;
+    plan.carve(x0, 1, x0 + room, 1 + room, tag++);          // south room
+    plan.carve(dx0, 1 + room, dx0 + door, cy0, -1);  // its door
+    plan.carve(x0, cy1 + 1, x0 + room, cy1 + 1 + room, tag++);  // north room
+    plan.carve(dx0, cy1, dx0 + door, cy1 + 1, -1);
+  }
+  // The pinches: the corridor's sides filled back in (walls) around the walls between rooms 2k and 2k + 1.
+  const auto fill = [&](int x0, int y0, int x1, int y1) { plan.carve(x0, y0, x1, y1, GridPlan::kWall); };
+  for (int i = 2; i < rooms_per_side; i += 2) {
+    const int wall_x = i * (room + 1), x0 = wall_x - pinch / 2, x1 = x0 + pinch;
+    fill(x0, cy0, x1, cy0 + inset);
+    fill(x0, cy1 - inset, x1, cy1);
   }
   return plan;
 }
