@@ -153,6 +153,8 @@ bool AppConfig::load(const std::string& path, std::string* error) {
          std::string seeding = rooms::to_string(rooms.seeding);
          double min_component = rooms.min_component_size;
          double split_min_component = rooms.split_min_component_size;
+         double corridor_neighbours = rooms.corridor_min_neighbours;
+         double corridor_edges = rooms.corridor_min_open_edges;
          const bool ok = read_section(v, "rooms",
                                       {{"seeding", text(&seeding)},
                                        {"min_persistence_m", number(&rooms.min_persistence_m)},
@@ -165,7 +167,10 @@ bool AppConfig::load(const std::string& path, std::string* error) {
                                        {"split_min_extent_m", number(&rooms.split_min_extent_m)},
                                        {"split_max_extent_m", number(&rooms.split_max_extent_m)},
                                        {"split_min_persistence_m", number(&rooms.split_min_persistence_m)},
-                                       {"split_min_component_size", number(&split_min_component)}},
+                                       {"split_min_component_size", number(&split_min_component)},
+                                       {"merge_corridors", boolean(&rooms.merge_corridors)},
+                                       {"corridor_min_neighbours", number(&corridor_neighbours)},
+                                       {"corridor_min_open_edges", number(&corridor_edges)}},
                                       why);
          if (!ok) return false;
          if (seeding == "plateau") rooms.seeding = rooms::Seeding::kPlateau;
@@ -177,6 +182,14 @@ bool AppConfig::load(const std::string& path, std::string* error) {
          if (!(split_min_component >= 1.0 && split_min_component <= 1e6))
            return *why = "rooms.split_min_component_size: expected 1 .. 1000000", false;
          rooms.split_min_component_size = static_cast<std::uint32_t>(split_min_component);
+         // Whole numbers only; the range itself is rooms::Config::check's (with the rest of the rooms section).
+         if (!(corridor_neighbours >= 0.0 && corridor_neighbours <= 1e6 &&
+               corridor_neighbours == std::floor(corridor_neighbours)))
+           return *why = "rooms.corridor_min_neighbours: expected a whole number 0 .. 1000000", false;
+         if (!(corridor_edges >= 0.0 && corridor_edges <= 1e6 && corridor_edges == std::floor(corridor_edges)))
+           return *why = "rooms.corridor_min_open_edges: expected a whole number 0 .. 1000000", false;
+         rooms.corridor_min_neighbours = static_cast<std::uint32_t>(corridor_neighbours);
+         rooms.corridor_min_open_edges = static_cast<std::uint32_t>(corridor_edges);
          return true;
        }},
       {"doors", [&](const Json& v, std::string* why) {

@@ -310,6 +310,19 @@ TEST(AppConfigTest, LoadsKnownKeysAndNamesBadOnes) {
   EXPECT_EQ(split.rooms.split_min_component_size, 4u);
   EXPECT_FALSE(split.load(write("extent.json", "{\"rooms\": {\"split_max_extent_m\": 0.5}}"), &error));
   EXPECT_NE(error.find("rooms.split_max_extent_m"), std::string::npos) << error;
+  AppConfig corridor;
+  ASSERT_TRUE(corridor.load(write("corridor.json", "{\"rooms\": {\"merge_corridors\": false, "
+                                                   "\"corridor_min_neighbours\": 4, \"corridor_min_open_edges\": 12}}"),
+                            &error))
+      << error;
+  EXPECT_FALSE(corridor.rooms.merge_corridors);
+  EXPECT_EQ(corridor.rooms.corridor_min_neighbours, 4u);
+  EXPECT_EQ(corridor.rooms.corridor_min_open_edges, 12u);
+  EXPECT_FALSE(corridor.load(write("corridor_frac.json", "{\"rooms\": {\"corridor_min_open_edges\": 2.5}}"), &error));
+  EXPECT_NE(error.find("rooms.corridor_min_open_edges"), std::string::npos) << error;
+  AppConfig one_neighbour;  // with the merge on, as by default
+  EXPECT_FALSE(one_neighbour.load(write("corridor_one.json", "{\"rooms\": {\"corridor_min_neighbours\": 1}}"), &error));
+  EXPECT_NE(error.find("rooms.corridor_min_neighbours"), std::string::npos) << error;
   AppConfig doors;
   ASSERT_TRUE(doors.load(write("doors.json", "{\"doors\": {\"at_finish\": false, \"max_width_m\": 2.0}}"), &error))
       << error;
@@ -345,6 +358,9 @@ TEST(AppConfigTest, LoadsKnownKeysAndNamesBadOnes) {
   EXPECT_EQ(sr.split_max_extent_m, dr.split_max_extent_m);
   EXPECT_EQ(sr.split_min_persistence_m, dr.split_min_persistence_m);
   EXPECT_EQ(sr.split_min_component_size, dr.split_min_component_size);
+  EXPECT_EQ(sr.merge_corridors, dr.merge_corridors);
+  EXPECT_EQ(sr.corridor_min_neighbours, dr.corridor_min_neighbours);
+  EXPECT_EQ(sr.corridor_min_open_edges, dr.corridor_min_open_edges);
   EXPECT_EQ(shipped.doors_at_finish, AppConfig().doors_at_finish);
   EXPECT_EQ(shipped.doors_online, AppConfig().doors_online);
   EXPECT_EQ(shipped.doors_online_every_n, AppConfig().doors_online_every_n);
