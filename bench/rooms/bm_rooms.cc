@@ -27,25 +27,22 @@ namespace {
 
 using namespace qsg;
 
-void BM_rooms_update(benchmark::State& state) {
-  const int rooms_per_side = static_cast<int>(state.range(0));
-  rooms::Config config = state.range(1) == 0 ? rooms::Config::paper() : rooms::Config{};
-  config.split_by_extent = state.range(2) != 0;
-  config.merge_corridors = state.range(3) != 0;
-  rooms::testing::SyntheticPlaces places;
-  rooms::testing::corridor_plan(rooms_per_side, 0.5).add_to(&places, 0.5);
+// Times finder->update over the places in a scene graph and a finder sized by the board's budget table; writes the
+// counters both update benchmarks share. Returns the last update (outcome kNotInitialized when setup failed).
+rooms::UpdateResult time_updates(benchmark::State& state, const rooms::Config& config,
+                                 const rooms::testing::SyntheticPlaces& places, int rooms_per_side) {
   auto graph = std::make_unique<scene_graph::SceneGraph>();
   auto finder = std::make_unique<rooms::RoomFinder>();
   std::string error;
   const scene_graph::Capacities caps = scene_graph::capacities_from_budget();
+  rooms::UpdateResult r;
   if (!graph->init(caps, scene_graph::arena_bytes_from_budget(), &error) || !places.write(graph.get()) ||
       !finder->init(config, rooms::Capacities::from_scene_graph(caps), 0, &error)) {
     state.SkipWithError(error.empty() ? "setup failed" : error.c_str());
-    return;
+    return r;
   }
   std::vector<double> ms;
   ms.reserve(1 << 16);
-  rooms::UpdateResult r;
   for (auto _ : state) {
     const auto t0 = std::chrono::steady_clock::now();
     r = finder->update(graph.get());
@@ -61,10 +58,21 @@ void BM_rooms_update(benchmark::State& state) {
   state.counters["median_ms"] = ms.empty() ? 0.0 : ms[ms.size() / 2];
   state.counters["max_ms"] = ms.empty() ? 0.0 : ms.back();
   std::size_t arena = 0;
-  finder->for_each_resource([&](const memory::ResourceStats& s) {
-    if (arena == 0) arena = s.capacity;  // the first resource is the arena
+  finder->for_each_resource([&](const memory::ResourceStats& st) {
+    if (arena == 0) arena = st.capacity;  // the first resource is the arena
   });
   state.counters["arena_MB"] = static_cast<double>(arena) / (1 << 20);
+  return r;
+}
+
+void BM_rooms_update(benchmark::State& state) {
+  const int rooms_per_side = static_cast<int>(state.range(0));
+  rooms::Config config = state.range(1) == 0 ? rooms::Config::paper() : rooms::Config{};
+  config.split_by_extent = state.range(2) != 0;
+  config.merge_corridors = state.range(3) != 0;
+  rooms::testing::SyntheticPlaces places;
+  rooms::testing::corridor_plan(rooms_per_side, 0.5).add_to(&places, 0.5);
+  time_updates(state, config, places, rooms_per_side);
 }
 
 // 6 rooms per side: ~1,000 places (the target size); 24: ~4,000.
@@ -84,32 +92,8 @@ void BM_rooms_corridor_merge(benchmark::State& state) {
   config.corridor_min_open_edges = 1;
   rooms::testing::SyntheticPlaces places;
   rooms::testing::pinched_corridor_plan(rooms_per_side, 0.5).add_to(&places, 1.0, Eigen::Vector2d::Zero(), 1.25);
-  auto graph = std::make_unique<scene_graph::SceneGraph>();
-  auto finder = std::make_unique<rooms::RoomFinder>();
-  std::string error;
-  const scene_graph::Capacities caps = scene_graph::capacities_from_budget();
-  if (!graph->init(caps, scene_graph::arena_bytes_from_budget(), &error) || !places.write(graph.get()) ||
-      !finder->init(config, rooms::Capacities::from_scene_graph(caps), 0, &error)) {
-    state.SkipWithError(error.empty() ? "setup failed" : error.c_str());
-    return;
-  }
-  std::vector<double> ms;
-  ms.reserve(1 << 16);
-  rooms::UpdateResult r;
-  for (auto _ : state) {
-    const auto t0 = std::chrono::steady_clock::now();
-    r = finder->update(graph.get());
-    const auto t1 = std::chrono::steady_clock::now();
-    if (ms.size() < ms.capacity()) ms.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
-    benchmark::DoNotOptimize(r);
-  }
-  std::sort(ms.begin(), ms.end());
-  state.counters["places"] = static_cast<double>(r.places);
-  state.counters["rooms"] = static_cast<double>(r.rooms);
-  state.counters["expected_rooms"] = 2.0 * rooms_per_side + 1.0;
+  const rooms::UpdateResult r = time_updates(state, config, places, rooms_per_side);
   state.counters["corridor_merges"] = static_cast<double>(r.corridor_merges);
-  state.counters["median_ms"] = ms.empty() ? 0.0 : ms[ms.size() / 2];
-  state.counters["max_ms"] = ms.empty() ? 0.0 : ms.back();
 }
 
 BENCHMARK(BM_rooms_corridor_merge)

@@ -441,12 +441,18 @@ TEST(RoomFinderTest, ExtentSplitSettingsAreChecked) {
 TEST(RoomFinderTest, CorridorPiecesJoinButTheRoomsOffThemStay) {
   SyntheticPlaces s;
   testing::pinched_corridor_plan(4).add_to(&s, 1.0, Eigen::Vector2d::Zero(), kStoreyCapM);
+  // One update of a fresh finder with `config` over the scene in a fresh graph.
+  const auto run = [&s](const Config& config, std::unique_ptr<sg::SceneGraph>* graph) {
+    *graph = make_graph();
+    EXPECT_TRUE(s.write(graph->get()));
+    const UpdateResult r = make_finder(config)->update(graph->get());
+    EXPECT_EQ(r.outcome, Outcome::kOk);
+    return r;
+  };
   Config off;
   off.merge_corridors = false;
-  auto g = make_graph();
-  ASSERT_TRUE(s.write(g.get()));
-  const UpdateResult cut = make_finder(off)->update(g.get());
-  ASSERT_EQ(cut.outcome, Outcome::kOk);
+  std::unique_ptr<sg::SceneGraph> g;
+  const UpdateResult cut = run(off, &g);
   EXPECT_EQ(cut.corridor_merges, 0u);
   EXPECT_EQ(cut.rooms, 10u);
   const std::set<sg::NodeId> pieces = rooms_by_tag(*g, s)[0];
@@ -462,10 +468,8 @@ TEST(RoomFinderTest, CorridorPiecesJoinButTheRoomsOffThemStay) {
 
   Config on;
   on.corridor_min_open_edges = crossing;
-  auto g2 = make_graph();
-  ASSERT_TRUE(s.write(g2.get()));
-  const UpdateResult joined = make_finder(on)->update(g2.get());
-  ASSERT_EQ(joined.outcome, Outcome::kOk);
+  std::unique_ptr<sg::SceneGraph> g2;
+  const UpdateResult joined = run(on, &g2);
   EXPECT_EQ(joined.corridor_merges, 1u);
   EXPECT_EQ(joined.rooms, 9u) << "the corridor and its eight rooms";
   expect_one_room_per_tag(*g2, s);
@@ -479,9 +483,8 @@ TEST(RoomFinderTest, CorridorPiecesJoinButTheRoomsOffThemStay) {
   narrow.corridor_min_open_edges = crossing + 1;
   for (const Config& c : {picky, narrow}) {
     SCOPED_TRACE(c.corridor_min_neighbours);
-    auto g3 = make_graph();
-    ASSERT_TRUE(s.write(g3.get()));
-    const UpdateResult r = make_finder(c)->update(g3.get());
+    std::unique_ptr<sg::SceneGraph> g3;
+    const UpdateResult r = run(c, &g3);
     EXPECT_EQ(r.corridor_merges, 0u);
     EXPECT_EQ(r.rooms, 10u);
   }
