@@ -106,7 +106,6 @@ class GridPlan {
   double cell_m() const { return cell_m_; }
 
  private:
-
   std::size_t index(int x, int y) const { return static_cast<std::size_t>(y * width_ + x); }
   double clearance(int x, int y) const {
     // Distance from the cell centre to the nearest occupied cell (a square), or to the plan's border.
@@ -160,9 +159,10 @@ inline GridPlan corridor_plan(int rooms_per_side, double cell_m = kCellM) {
 }
 
 // corridor_plan's layout with a corridor 3 m wide that narrows to 1.5 m for 1 m at every second wall between
-// rooms: (rooms_per_side - 1) / 2 pinches (rooms_per_side >= 3 for one), no door at any of them. The persistence seeding cuts the
-// corridor at each (clearance 1.25 m, the storey's cap, on both sides against 0.75 m at the pinch), the corridor
-// merge joins the pieces again. Tags: corridor 0, then the rooms 1, 2, ... (south and north in turn).
+// rooms: (rooms_per_side - 1) / 2 pinches (rooms_per_side >= 3 for one), no door at any of them. The persistence
+// seeding cuts the corridor at each (clearance 1.25 m, the storey's cap, on both sides against 0.75 m at the
+// pinch), the corridor merge joins the pieces again. Tags: corridor 0, then the rooms 1, 2, ... (south and north
+// in turn).
 inline GridPlan pinched_corridor_plan(int rooms_per_side, double cell_m = kCellM) {
   const int room = static_cast<int>(std::lround(4.0 / cell_m));
   const int corridor = static_cast<int>(std::lround(3.0 / cell_m));
