@@ -55,6 +55,9 @@ Reader text(std::string* out) {
   };
 }
 
+// A count read as a JSON number: a whole number in [lo, hi] (false for NaN and fractions).
+bool whole_number_in(double v, double lo, double hi) { return v >= lo && v <= hi && v == std::floor(v); }
+
 bool read_section(const Json& section, const std::string& prefix, const std::map<std::string, Reader>& keys,
                   std::string* error) {
   if (!section.is_object()) return *error = prefix + ": expected an object", false;
@@ -183,10 +186,9 @@ bool AppConfig::load(const std::string& path, std::string* error) {
            return *why = "rooms.split_min_component_size: expected 1 .. 1000000", false;
          rooms.split_min_component_size = static_cast<std::uint32_t>(split_min_component);
          // Whole numbers only; the range itself is rooms::Config::check's (with the rest of the rooms section).
-         if (!(corridor_neighbours >= 0.0 && corridor_neighbours <= 1e6 &&
-               corridor_neighbours == std::floor(corridor_neighbours)))
+         if (!whole_number_in(corridor_neighbours, 0.0, 1e6))
            return *why = "rooms.corridor_min_neighbours: expected a whole number 0 .. 1000000", false;
-         if (!(corridor_edges >= 0.0 && corridor_edges <= 1e6 && corridor_edges == std::floor(corridor_edges)))
+         if (!whole_number_in(corridor_edges, 0.0, 1e6))
            return *why = "rooms.corridor_min_open_edges: expected a whole number 0 .. 1000000", false;
          rooms.corridor_min_neighbours = static_cast<std::uint32_t>(corridor_neighbours);
          rooms.corridor_min_open_edges = static_cast<std::uint32_t>(corridor_edges);
@@ -207,10 +209,10 @@ bool AppConfig::load(const std::string& path, std::string* error) {
                               {"rise_reach_m", number(&doors.rise_reach_m)}},
                              why))
            return false;
-         if (!(every_n >= 1.0 && every_n <= 1e6 && every_n == std::floor(every_n)))
+         if (!whole_number_in(every_n, 1.0, 1e6))
            return *why = "doors.online_every_n_updates: expected an integer 1 .. 1000000", false;
          doors_online_every_n = static_cast<std::uint32_t>(every_n);
-         if (!(misses >= 1.0 && misses <= 255.0 && misses == std::floor(misses)))
+         if (!whole_number_in(misses, 1.0, 255.0))
            return *why = "doors.online_misses_to_drop: expected an integer 1 .. 255", false;
          doors.online_misses_to_drop = static_cast<int>(misses);
          return true;
