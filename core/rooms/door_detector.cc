@@ -35,6 +35,12 @@ bool DoorConfig::validate(std::string* error) const {
   if (!(online_misses_to_drop >= 1 && online_misses_to_drop <= 255))
     return fail("online_misses_to_drop must lie in [1, 255]");
   if (!(online_match_m >= 0.0 && std::isfinite(online_match_m))) return fail("online_match_m must be >= 0");
+  if (!(bypass_max_m >= 0.0 && std::isfinite(bypass_max_m))) return fail("bypass_max_m must be finite and >= 0");
+  if (!(bypass_extension_m >= 0.0 && std::isfinite(bypass_extension_m)))
+    return fail("bypass_extension_m must be finite and >= 0");
+  if (!(bypass_max_edge_m > 0.0 && std::isfinite(bypass_max_edge_m)))
+    return fail("bypass_max_edge_m must be finite and positive");
+  if (bypass_max_m > 0.0 && bypass_max_places == 0) return fail("bypass_max_places must be positive");
   return true;
 }
 
@@ -586,6 +592,7 @@ bool find_doors(const std::vector<Eigen::Vector3f>& surface, const sg::SceneGrap
     total.axis_cells += st.axis_cells;
     total.candidates += st.candidates;
   }
+  drop_bypassed_doors(doors, config, graph, &total);
   if (stats != nullptr) *stats = total;
   return true;
 }
@@ -595,6 +602,225 @@ bool door_closes_edge(const Door& d, const DoorConfig& config, const Eigen::Vect
   if (std::abs(a.z() - d.z_m) > config.cut_max_dz_m || std::abs(b.z() - d.z_m) > config.cut_max_dz_m) return false;
   const Eigen::Vector2d u = (d.b - d.a).normalized() * config.cut_extension_m;
   return segments_cross(a.head<2>(), b.head<2>(), d.a - u, d.b + u);
+}
+
+memory::ArenaPlan BypassGraph::plan(const Capacities& c) {
+  memory::ArenaPlan p;
+  p.add_array<sg::NodeId>(c.places);
+  p.add_array<Eigen::Vector3d>(c.places);
+  p.add_array<std::uint32_t>(c.places);
+  p.add_array<Eigen::Vector3d>(c.places);
+  p.add_array<sg::NodeId>(2 * c.edges);
+  p.add_array<Edge>(c.edges);
+  p.add_array<std::uint32_t>(c.places + 1);
+  p.add_array<std::uint32_t>(2 * c.edges);
+  p.add_array<float>(c.places);
+  p.add_array<std::uint32_t>(c.places);
+  p.add_array<HeapItem>(c.edges);
+  return p;
+}
+
+bool BypassGraph::carve(memory::Arena& arena, const Capacities& c) {
+  capacities_ = c;
+  ids_ = arena.carve_array<sg::NodeId>(c.places);
+  position_ = arena.carve_array<Eigen::Vector3d>(c.places);
+  order_ = arena.carve_array<std::uint32_t>(c.places);
+  scratch_ = arena.carve_array<Eigen::Vector3d>(c.places);
+  edge_ids_ = arena.carve_array<sg::NodeId>(2 * c.edges);
+  edges_ = arena.carve_array<Edge>(c.edges);
+  offset_ = arena.carve_array<std::uint32_t>(c.places + 1);
+  adjacency_ = arena.carve_array<std::uint32_t>(2 * c.edges);
+  dist_ = arena.carve_array<float>(c.places);
+  touched_ = arena.carve_array<std::uint32_t>(c.places);
+  heap_ = arena.carve_array<HeapItem>(c.edges);
+  const bool ok = offset_ != nullptr &&
+                  (c.places == 0 || (ids_ && position_ && order_ && scratch_ && dist_ && touched_)) &&
+                  (c.edges == 0 || (edge_ids_ && edges_ && adjacency_ && heap_));
+  if (ok) std::fill(dist_, dist_ + c.places, std::numeric_limits<float>::infinity());
+  clear();
+  return ok;
+}
+
+bool BypassGraph::allocate(const Capacities& c, std::string* error) {
+  const memory::ArenaPlan p = plan(c);
+  if (!own_.create("door_bypass", p, p.total_bytes(), error)) return false;
+  if (!carve(own_, c) || (own_.align_to_plan_boundary(), !own_.seal())) {
+    if (error != nullptr) *error = "doors: the bypass graph's carve does not match its plan";
+    return false;
+  }
+  return true;
+}
+
+void BypassGraph::clear() {
+  num_places_ = num_edges_ = num_edge_ids_ = refused_ = 0;
+  finished_ = false;
+}
+
+bool BypassGraph::add_place(sg::NodeId id, const Eigen::Vector3d& p) {
+  if (finished_ || num_places_ == capacities_.places || !p.allFinite()) {
+    ++refused_;
+    return false;
+  }
+  ids_[num_places_] = id;
+  position_[num_places_++] = p;
+  return true;
+}
+
+bool BypassGraph::add_edge(sg::NodeId a, sg::NodeId b) {
+  if (finished_ || num_edge_ids_ / 2 == capacities_.edges || a == b) {
+    ++refused_;
+    return false;
+  }
+  edge_ids_[num_edge_ids_++] = a;
+  edge_ids_[num_edge_ids_++] = b;
+  return true;
+}
+
+std::uint32_t BypassGraph::index_of(sg::NodeId id) const {
+  const sg::NodeId* it = std::lower_bound(ids_, ids_ + num_places_, id);
+  return it != ids_ + num_places_ && *it == id ? static_cast<std::uint32_t>(it - ids_) : kNoPlace;
+}
+
+void BypassGraph::finish() {
+  if (finished_) return;
+  finished_ = true;
+  // Places in the order of their ids (a duplicate id keeps its first position).
+  for (std::uint32_t i = 0; i < num_places_; ++i) order_[i] = i;
+  // std::sort with the index as tie-break (std::stable_sort may allocate a buffer).
+  std::sort(order_, order_ + num_places_,
+            [&](std::uint32_t x, std::uint32_t y) { return ids_[x] != ids_[y] ? ids_[x] < ids_[y] : x < y; });
+  for (std::size_t i = 0; i < num_places_; ++i) scratch_[i] = position_[order_[i]];
+  std::copy(scratch_, scratch_ + num_places_, position_);
+  std::sort(ids_, ids_ + num_places_);
+  std::size_t unique = 0;
+  for (std::size_t i = 0; i < num_places_; ++i)
+    if (unique == 0 || ids_[i] != ids_[unique - 1]) {
+      ids_[unique] = ids_[i];
+      position_[unique++] = position_[i];
+    }
+  num_places_ = unique;
+  num_edges_ = 0;
+  for (std::size_t k = 0; k + 1 < num_edge_ids_; k += 2) {
+    const std::uint32_t a = index_of(edge_ids_[k]), b = index_of(edge_ids_[k + 1]);
+    if (a != kNoPlace && b != kNoPlace && a != b) edges_[num_edges_++] = Edge{a, b};
+  }
+  std::fill(offset_, offset_ + num_places_ + 1, 0u);
+  for (std::size_t e = 0; e < num_edges_; ++e) {
+    ++offset_[edges_[e].a + 1];
+    ++offset_[edges_[e].b + 1];
+  }
+  for (std::size_t i = 0; i < num_places_; ++i) offset_[i + 1] += offset_[i];
+  std::copy(offset_, offset_ + num_places_, touched_);  // fill cursors
+  for (std::size_t e = 0; e < num_edges_; ++e) {
+    adjacency_[touched_[edges_[e].a]++] = static_cast<std::uint32_t>(e);
+    adjacency_[touched_[edges_[e].b]++] = static_cast<std::uint32_t>(e);
+  }
+}
+
+bool BypassGraph::search(const Door& door, const DoorConfig& config, std::uint32_t from, std::uint32_t to,
+                         bool* cut) {
+  const auto less = [](const HeapItem& x, const HeapItem& y) { return x.d > y.d; };  // a min-heap
+  const std::size_t heap_capacity = capacities_.edges;
+  if (heap_capacity == 0) return false;
+  std::size_t heap_size = 0, touched = 0, settled = 0;
+  bool joined = false;
+  dist_[from] = 0.0f;
+  touched_[touched++] = from;
+  heap_[heap_size++] = HeapItem{0.0f, from};
+  while (heap_size > 0) {
+    std::pop_heap(heap_, heap_ + heap_size, less);
+    const HeapItem top = heap_[--heap_size];
+    if (top.node == to) {
+      joined = true;
+      break;
+    }
+    if (top.d > dist_[top.node]) continue;
+    if (++settled > config.bypass_max_places) {
+      *cut = true;
+      break;
+    }
+    const Eigen::Vector3d& pu = position_[top.node];
+    const double du = dist_[top.node];
+    for (std::uint32_t k = offset_[top.node]; k < offset_[top.node + 1]; ++k) {
+      const Edge& e = edges_[adjacency_[k]];
+      const std::uint32_t v = e.a == top.node ? e.b : e.a;
+      const double step = (position_[v] - pu).norm();
+      if (!(step <= config.bypass_max_edge_m)) continue;
+      const float nd = static_cast<float>(du + step);
+      if (!(nd <= config.bypass_max_m) || nd >= dist_[v]) continue;
+      if (door_closes_edge(door, config, pu, position_[v])) continue;
+      if (heap_size == heap_capacity) {
+        *cut = true;
+        continue;
+      }
+      if (dist_[v] == std::numeric_limits<float>::infinity()) touched_[touched++] = v;
+      dist_[v] = nd;
+      heap_[heap_size++] = HeapItem{nd, v};
+      std::push_heap(heap_, heap_ + heap_size, less);
+    }
+  }
+  for (std::size_t i = 0; i < touched; ++i) dist_[touched_[i]] = std::numeric_limits<float>::infinity();
+  return joined;
+}
+
+BypassGraph::Bypass BypassGraph::goes_round(const Door& door, const DoorConfig& config) {
+  if (!finished_ || !(config.bypass_max_m > 0.0) || !door.a.allFinite() || !door.b.allFinite() ||
+      !std::isfinite(door.z_m))
+    return Bypass::kNone;
+  // The search's line: the door's, lengthened by bypass_extension_m (door_closes_edge reads cut_extension_m).
+  DoorConfig round = config;
+  round.cut_extension_m = config.bypass_extension_m;
+  const Eigen::Vector2d lo = door.a.cwiseMin(door.b), hi = door.a.cwiseMax(door.b);
+  const double pad = config.cut_extension_m;
+  bool any_cut = false;
+  for (std::size_t k = 0; k < num_edges_; ++k) {
+    const Eigen::Vector3d& pa = position_[edges_[k].a];
+    const Eigen::Vector3d& pb = position_[edges_[k].b];
+    // Cheap reject: the edge's plan box misses the (lengthened) door line's box.
+    if (std::max(pa.x(), pb.x()) < lo.x() - pad || std::min(pa.x(), pb.x()) > hi.x() + pad ||
+        std::max(pa.y(), pb.y()) < lo.y() - pad || std::min(pa.y(), pb.y()) > hi.y() + pad)
+      continue;
+    if (!door_closes_edge(door, config, pa, pb)) continue;
+    bool cut = false;
+    if (search(door, round, edges_[k].a, edges_[k].b, &cut)) return Bypass::kFound;
+    any_cut = any_cut || cut;
+  }
+  return any_cut ? Bypass::kCut : Bypass::kNone;
+}
+
+std::size_t drop_bypassed_doors(std::vector<Door>* doors, const DoorConfig& config, const sg::SceneGraph& graph,
+                                DoorStats* stats) {
+  if (doors == nullptr || doors->empty() || !(config.bypass_max_m > 0.0)) return 0;
+  BypassGraph::Capacities c;
+  graph.for_each_node([&](const sg::NodeRecord& n) { c.places += n.kind == sg::NodeKind::kPlace ? 1 : 0; });
+  graph.for_each_edge([&](const sg::EdgeRecord& e) {
+    c.edges += graph.place(e.source) != nullptr && graph.place(e.target) != nullptr ? 1 : 0;
+  });
+  BypassGraph g;
+  std::string error;
+  if (!g.allocate(c, &error)) return 0;
+  graph.for_each_node([&](const sg::NodeRecord& n) {
+    if (n.kind == sg::NodeKind::kPlace) g.add_place(n.id, graph.place(n.id)->position_m);
+  });
+  graph.for_each_edge([&](const sg::EdgeRecord& e) {
+    if (graph.place(e.source) != nullptr && graph.place(e.target) != nullptr) g.add_edge(e.source, e.target);
+  });
+  g.finish();
+  std::size_t dropped = 0, cut = 0, kept = 0;
+  for (std::size_t i = 0; i < doors->size(); ++i) {
+    const BypassGraph::Bypass b = g.goes_round((*doors)[i], config);
+    cut += b == BypassGraph::Bypass::kCut ? 1 : 0;
+    if (b == BypassGraph::Bypass::kFound)
+      ++dropped;
+    else
+      (*doors)[kept++] = (*doors)[i];
+  }
+  doors->resize(kept);
+  if (stats != nullptr) {
+    stats->bypassed += dropped;
+    stats->bypass_searches_cut += cut;
+  }
+  return dropped;
 }
 
 std::size_t cut_place_edges(const std::vector<Door>& doors, const DoorConfig& config, sg::SceneGraph* graph) {

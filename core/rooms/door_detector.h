@@ -67,6 +67,16 @@ struct DoorConfig {
   // again (its line replaces the kept one).
   int online_misses_to_drop = 2;
   double online_match_m = 0.5;
+  // Bypassed doors (drop_bypassed_doors, run by find_doors): a door whose two sides the places graph joins by a
+  // path of at most bypass_max_m, none of whose edges crosses the door's line lengthened by bypass_extension_m at
+  // both ends, is a gap the robot can walk round inside one space (between a chair and a table, a post and a wall),
+  // not a door. A real door's other side is reached only through another door. 0 turns the check off. The path
+  // takes place edges no longer than bypass_max_edge_m: a walk round an obstacle in short steps, not a long edge
+  // that the places layer left through a wall beside the door.
+  double bypass_max_m = 3.0;
+  double bypass_extension_m = 0.6;
+  double bypass_max_edge_m = 1.2;
+  std::size_t bypass_max_places = 4096;  // places one search may settle; beyond it the door is kept (counted)
   bool validate(std::string* error) const;
 };
 
@@ -82,6 +92,8 @@ struct DoorStats {
   std::size_t cols = 0, rows = 0, wall_cells = 0, free_cells = 0, axis_cells = 0, candidates = 0;  // summed
   std::size_t candidates_dropped = 0;  // beyond the workspace's candidate capacity (counted, not an error)
   std::size_t doors_dropped = 0;       // beyond the output capacity
+  std::size_t bypassed = 0;            // find_doors: doors dropped because the places graph goes round them
+  std::size_t bypass_searches_cut = 0; // ... searches stopped at bypass_max_places (their doors kept)
 };
 
 // A slice raster: cell (c, r) covers [lo + (c, r) x cell_m, lo + (c + 1, r + 1) x cell_m); row-major, cols wide.
@@ -286,9 +298,82 @@ bool detect_doors(const std::vector<Eigen::Vector3f>& surface, const std::vector
                   double slice_z_m, const DoorConfig& config, std::vector<Door>* doors, DoorStats* stats,
                   std::string* error);
 
-// Every slice of the robot's storeys (agent nodes' heights), with the graph's places as the mapped space.
+// Every slice of the robot's storeys (agent nodes' heights), with the graph's places as the mapped space; then the
+// doors the places graph goes round are dropped (drop_bypassed_doors, counted in stats->bypassed).
 bool find_doors(const std::vector<Eigen::Vector3f>& surface, const scene_graph::SceneGraph& graph,
                 const DoorConfig& config, std::vector<Door>* doors, DoorStats* stats, std::string* error);
+
+// The places graph a door's bypass is searched on (DoorConfig::bypass_max_m): place ids and positions and the
+// edges between them, in fixed arrays carved from an arena (the online stage) or allocated (offline), with the
+// buffers of a bounded Dijkstra search. Fill with add_place and add_edge (by id; an edge whose ends were not both
+// added is ignored), then finish(); clear() starts over. Never allocates after carve/allocate.
+class BypassGraph {
+ public:
+  struct Capacities {
+    std::size_t places = 0;
+    std::size_t edges = 0;
+  };
+  BypassGraph() = default;
+  BypassGraph(const BypassGraph&) = delete;
+  BypassGraph& operator=(const BypassGraph&) = delete;
+  static memory::ArenaPlan plan(const Capacities& capacities);
+  bool carve(memory::Arena& arena, const Capacities& capacities);
+  bool allocate(const Capacities& capacities, std::string* error);  // its own arena (offline use)
+  void clear();
+  // False (and counted in refused()) when full or the position is not finite.
+  bool add_place(scene_graph::NodeId id, const Eigen::Vector3d& position_m);
+  bool add_edge(scene_graph::NodeId a, scene_graph::NodeId b);
+  // Resolves the edges' ids (edges to places not added are dropped) and builds the adjacency.
+  void finish();
+  std::size_t places() const { return num_places_; }
+  std::size_t edges() const { return num_edges_; }
+  std::size_t refused() const { return refused_; }
+
+  enum class Bypass : std::uint8_t {
+    kNone,   // no edge of the graph crosses the door, or none of its edges' ends are joined round it
+    kFound,  // a path round the door joins the two ends of an edge it closes
+    kCut,    // no path found, but a search stopped at bypass_max_places or at the search buffers' size
+  };
+  // For each edge the door closes (door_closes_edge), the shortest path between its ends over edges that do not
+  // cross the door's line lengthened by bypass_extension_m and are no longer than bypass_max_edge_m, searched up to
+  // bypass_max_m. After finish().
+  Bypass goes_round(const Door& door, const DoorConfig& config);
+
+ private:
+  struct Edge {
+    std::uint32_t a, b;
+  };
+  struct HeapItem {
+    float d;  // metres along the path (a search reaches bypass_max_m, a few metres)
+    std::uint32_t node;
+  };
+  // config: the door's line lengthened by its cut_extension_m (goes_round sets it to bypass_extension_m).
+  bool search(const Door& door, const DoorConfig& config, std::uint32_t from, std::uint32_t to, bool* cut);
+  static constexpr std::uint32_t kNoPlace = 0xffffffffu;
+  std::uint32_t index_of(scene_graph::NodeId id) const;  // kNoPlace when not a place of the graph
+  Capacities capacities_;
+  memory::Arena own_;
+  scene_graph::NodeId* ids_ = nullptr;       // by index, sorted at finish()
+  Eigen::Vector3d* position_ = nullptr;
+  std::uint32_t* order_ = nullptr;           // finish(): the sort's permutation
+  Eigen::Vector3d* scratch_ = nullptr;       // finish(): positions while permuted
+  scene_graph::NodeId* edge_ids_ = nullptr;  // 2 per edge, until finish()
+  Edge* edges_ = nullptr;
+  std::uint32_t* offset_ = nullptr;          // CSR: places + 1
+  std::uint32_t* adjacency_ = nullptr;       // CSR: 2 per edge (edge indices)
+  float* dist_ = nullptr;                    // per place, metres; +inf between searches
+  std::uint32_t* touched_ = nullptr;         // places whose dist_ a search set
+  HeapItem* heap_ = nullptr;                 // 1 per edge (a push beyond it is skipped: Bypass::kCut)
+  std::size_t num_places_ = 0, num_edges_ = 0, num_edge_ids_ = 0, refused_ = 0;
+  bool finished_ = false;
+};
+
+// Drops every door the places graph goes round (DoorConfig::bypass_max_m; BypassGraph::goes_round): a path found
+// for any place edge the door closes drops it. Each door is judged on the graph as it is, the other doors' edges
+// open, so the result does not depend on the doors' order. Returns the number dropped; stats (optional) counts them
+// and the searches stopped short. Allocates (offline use, as find_doors).
+std::size_t drop_bypassed_doors(std::vector<Door>* doors, const DoorConfig& config,
+                                const scene_graph::SceneGraph& graph, DoorStats* stats = nullptr);
 
 // Every place-place edge a door closes (door_closes_edge) gets weight 0: a closed passage for the room finder (Config::seed_closed_regions). Returns the number of
 // edges closed.
