@@ -168,10 +168,12 @@ int main(int argc, char** argv) {
   }
   pipeline.online_doors().for_each_resource([](const memory::ResourceStats& s) { s.print(stdout); });
   std::printf("online doors: %llu window passes (longest %.1f ms, %llu skipped on stairs), %llu doors (%llu kept "
-              "through a missed pass, %llu dropped), %llu blocks painted, %llu paints deferred\n",
+              "through a missed pass, %llu dropped, %llu found but gone round by the places, %llu window places or "
+              "edges refused), %llu blocks painted, %llu paints deferred\n",
               (unsigned long long)online.door_passes, 1e-3 * online.door_pass_max_us,
               (unsigned long long)online.door_passes_climbing, (unsigned long long)online.online_doors,
               (unsigned long long)online.online_doors_kept_missed, (unsigned long long)online.online_doors_dropped,
+              (unsigned long long)online.online_doors_bypassed, (unsigned long long)online.online_bypass_refused,
               (unsigned long long)online.blocks_painted, (unsigned long long)online.wall_paint_deferred);
   std::printf("final: %llu rooms (%llu labelled), %llu doors closing %llu place edges, %llu room updates\n",
               (unsigned long long)pipeline.counters().rooms, (unsigned long long)pipeline.counters().rooms_labelled,

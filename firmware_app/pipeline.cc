@@ -266,9 +266,7 @@ void Pipeline::run_door_pass(const Eigen::Vector3d& robot_m) {
   online_doors_.begin_pass(robot_m);
   {
     std::lock_guard<std::mutex> lock(graph_mutex_);
-    graph_.for_each_node([&](const scene_graph::NodeRecord& n) {
-      if (n.kind == scene_graph::NodeKind::kPlace) online_doors_.add_place(graph_.place(n.id)->position_m);
-    });
+    online_doors_.add_places(graph_);
   }
   {
     std::lock_guard<std::mutex> lock(wall_mutex_);
@@ -283,6 +281,8 @@ void Pipeline::run_door_pass(const Eigen::Vector3d& robot_m) {
   online_doors_count_.store(online_doors_.doors().size());
   online_doors_kept_missed_.fetch_add(r.missed);
   online_doors_dropped_.fetch_add(r.removed);
+  online_doors_bypassed_.fetch_add(r.bypassed);
+  online_bypass_refused_.fetch_add(r.bypass_refused);
   if (us > door_pass_max_us_.load()) door_pass_max_us_.store(us);
 }
 
@@ -473,6 +473,8 @@ bool Pipeline::step() {
   counters_.online_doors = online_doors_count_.load();
   counters_.online_doors_kept_missed = online_doors_kept_missed_.load();
   counters_.online_doors_dropped = online_doors_dropped_.load();
+  counters_.online_doors_bypassed = online_doors_bypassed_.load();
+  counters_.online_bypass_refused = online_bypass_refused_.load();
   counters_.door_pass_max_us = door_pass_max_us_.load();
   if (tick_start >= next_snapshot_ns_) {
     std::string error;
@@ -727,10 +729,12 @@ void Pipeline::close_doors(const reconstruction::Mesh& mesh) {
     return;
   }
   counters_.doors = doors.size();
+  counters_.doors_bypassed = stats.bypassed;
   counters_.door_edges_closed = rooms::cut_place_edges(doors, config_.doors, &graph_);
   online_doors_.clear_doors();  // the final doors, every storey on the whole mesh, replace the online ones
-  std::printf("doors: %zu in %zu storey slice(s) of the final surface, %llu place edges closed\n", doors.size(),
-              stats.slices, static_cast<unsigned long long>(counters_.door_edges_closed));
+  std::printf("doors: %zu in %zu storey slice(s) of the final surface (%zu more dropped: the places go round them), "
+              "%llu place edges closed\n",
+              doors.size(), stats.slices, stats.bypassed, static_cast<unsigned long long>(counters_.door_edges_closed));
 }
 
 bool Pipeline::finish(std::string* error) {

@@ -58,6 +58,7 @@ struct PipelineCounters {
   std::uint64_t rooms_labelled = 0;       // rooms the neural tree gave a label (latest update)
   std::uint64_t doors = 0;                // doors found when the run finished (AppConfig::doors_at_finish)
   std::uint64_t door_edges_closed = 0;    // place edges they closed
+  std::uint64_t doors_bypassed = 0;       // found then, but dropped: the places graph goes round them
   std::uint64_t door_failures = 0;        // the door stage failed (logged; the rooms stay as the run left them)
   // Online doors (AppConfig::doors_online).
   std::uint64_t door_passes = 0;          // window passes run before a room update
@@ -65,6 +66,8 @@ struct PipelineCounters {
   std::uint64_t online_doors = 0;         // doors the room finder reads (latest pass)
   std::uint64_t online_doors_kept_missed = 0;  // kept doors a pass over them missed, summed over passes (hysteresis)
   std::uint64_t online_doors_dropped = 0; // doors dropped at DoorConfig::online_misses_to_drop missed passes
+  std::uint64_t online_doors_bypassed = 0;  // found doors the window's places go round, not kept (summed)
+  std::uint64_t online_bypass_refused = 0;  // window places or place edges beyond the doors arena's capacity (summed)
   std::uint64_t door_pass_max_us = 0;     // the longest pass (backend thread; wall time)
   std::uint64_t blocks_painted = 0;       // re-meshed blocks painted into the wall map
   std::uint64_t wall_paint_deferred = 0;  // keyframes whose painting waited for the next (a pass held the map)
@@ -203,6 +206,8 @@ class Pipeline {
   std::atomic<std::uint64_t> online_doors_count_{0};
   std::atomic<std::uint64_t> online_doors_kept_missed_{0};
   std::atomic<std::uint64_t> online_doors_dropped_{0};
+  std::atomic<std::uint64_t> online_doors_bypassed_{0};
+  std::atomic<std::uint64_t> online_bypass_refused_{0};
   std::atomic<std::uint64_t> door_pass_max_us_{0};
   void paint_walls();
   void run_door_pass(const Eigen::Vector3d& robot_m);

@@ -159,6 +159,9 @@ bool parse(int argc, char** argv, Options* o) {
     else if (a == "--door-slice-half-band-m") number = &o->door.slice_half_band_m;
     else if (a == "--door-min-wall-height-m") number = &o->door.min_wall_height_m;
     else if (a == "--door-mapped-radius-m") number = &o->door.mapped_radius_m;
+    else if (a == "--door-bypass-max-m") number = &o->door.bypass_max_m;
+    else if (a == "--door-bypass-extension-m") number = &o->door.bypass_extension_m;
+    else if (a == "--door-bypass-max-edge-m") number = &o->door.bypass_max_edge_m;
     else if (a == "--generated") o->generated = std::atoi(v.c_str());
     else if (a == "--generated-rooms") o->generated_rooms = std::atoi(v.c_str());
     else if (a == "--label-buildings") o->label_buildings = std::atoi(v.c_str());
@@ -256,9 +259,10 @@ std::int32_t truth_near(const Raster& ras, int c, int r) {
 // One line per place, "P id x y z clearance room truth plan_clearance" (room: the parent's node id, 0 without one;
 // truth: the ground-truth room of its cell as the oracle takes it, 0: none; plan_clearance: the horizontal distance
 // from its cell to the plan's nearest occupied cell, the 2D clearance a map-based method sees), and per place-place
-// edge "E id id weight" (weight -1 when unweighted).
-bool dump_places(const sg::SceneGraph& g, const Raster& ras, const std::string& path, double z_min_m = -1e9,
-                 double z_max_m = 1e9) {
+// edge "E id id weight" (weight -1 when unweighted), and per door the room finder read "D ax ay bx by z" (jamb to
+// jamb in plan, the slice's height).
+bool dump_places(const sg::SceneGraph& g, const Raster& ras, const std::string& path,
+                 const std::vector<rooms::Door>& doors, double z_min_m = -1e9, double z_max_m = 1e9) {
   std::FILE* f = std::fopen(path.c_str(), "w");
   if (f == nullptr) {
     std::fprintf(stderr, "--dump-places: cannot write %s\n", path.c_str());
@@ -287,6 +291,9 @@ bool dump_places(const sg::SceneGraph& g, const Raster& ras, const std::string& 
                      static_cast<unsigned long long>(other), e.info.weighted ? e.info.weight : -1.0);
     });
   });
+  for (const rooms::Door& d : doors)
+    if (d.z_m >= z_min_m && d.z_m < z_max_m)
+      std::fprintf(f, "D %.6f %.6f %.6f %.6f %.6f\n", d.a.x(), d.a.y(), d.b.x(), d.b.y(), d.z_m);
   return std::fclose(f) == 0;
 }
 
@@ -439,6 +446,7 @@ struct RunStats {
   std::size_t doors_added = 0;                // ... doors new to the set, summed over passes
   std::size_t doors_dropped = 0;              // ... doors dropped (online_misses_to_drop missed passes)
   std::size_t doors_kept_missed = 0;          // ... kept doors a pass missed, still kept
+  std::size_t doors_bypassed = 0;             // ... found doors the window's places went round (not kept)
   // The doors the room finder read (final stage, or online), against the ground truth (IPA plans): a door whose two
   // sides lie in two ground-truth rooms separates rooms; one with both sides in the same room is a false door (it
   // can only split that room); unknown: a side in no room (outside, or unlabelled free space).
@@ -538,8 +546,10 @@ bool apply_doors(const Options& opt, const std::string& name, const std::vector<
       stats->uncut_edges.push_back({ends, info});
   }
   stats->door_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-  std::printf("  %s: doors: %zu (%zu candidates) in %zu storey slice(s), %zu place edges closed, %.0f ms\n",
-              name.c_str(), found->size(), ds.candidates, ds.slices, stats->door_edges_closed, stats->door_ms);
+  std::printf("  %s: doors: %zu (%zu candidates, %zu gone round by the places) in %zu storey slice(s), %zu place "
+              "edges closed, %.0f ms\n",
+              name.c_str(), found->size(), ds.candidates, ds.bypassed, ds.slices, stats->door_edges_closed,
+              stats->door_ms);
   return true;
 }
 
@@ -624,9 +634,7 @@ bool run_pipeline(const Options& opt, const world::World& w, const std::string& 
   const auto pass = [&](const Eigen::Vector3d& robot) {
     const auto t0 = std::chrono::steady_clock::now();
     online->begin_pass(robot);
-    graph->for_each_node([&](const sg::NodeRecord& n) {
-      if (n.kind == sg::NodeKind::kPlace) online->add_place(graph->place(n.id)->position_m);
-    });
+    online->add_places(*graph);
     online->rasterize();
     const rooms::PassResult pr = online->detect();
     if (pr.climbing) ++stats->passes_climbing;
@@ -634,6 +642,7 @@ bool run_pipeline(const Options& opt, const world::World& w, const std::string& 
     stats->doors_added += pr.added;
     stats->doors_dropped += pr.removed;
     stats->doors_kept_missed += pr.missed;
+    stats->doors_bypassed += pr.bypassed;
     stats->pass_ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
   };
   auto frame = std::make_unique<drivers::RgbdFrame>();
@@ -658,11 +667,12 @@ bool run_pipeline(const Options& opt, const world::World& w, const std::string& 
     stats->wall_tiles = online->wall_map().tile_stats().in_use;
     std::sort(stats->pass_ms.begin(), stats->pass_ms.end());
     std::printf("  %s: online doors: %zu after %zu window passes (median %.1f ms, max %.1f ms; %zu skipped on stairs), "
-                "%zu wall tiles; over the passes %zu doors added, %zu dropped, %zu kept through a miss\n",
+                "%zu wall tiles; over the passes %zu doors added, %zu dropped, %zu kept through a miss, %zu found doors "
+                "gone round by the places\n",
                 w.name.c_str(), stats->online_doors.size(), stats->pass_ms.size(),
                 stats->pass_ms.empty() ? 0.0 : stats->pass_ms[stats->pass_ms.size() / 2],
                 stats->pass_ms.empty() ? 0.0 : stats->pass_ms.back(), stats->passes_climbing, stats->wall_tiles,
-                stats->doors_added, stats->doors_dropped, stats->doors_kept_missed);
+                stats->doors_added, stats->doors_dropped, stats->doors_kept_missed, stats->doors_bypassed);
     if (!doors_path.empty() && !write_doors(stats->online_doors, doors_path))
       std::fprintf(stderr, "cache: cannot write %s\n", doors_path.c_str());
   }
@@ -874,7 +884,7 @@ bool eval_plan(const Options& opt, const std::string& map, bool furnished, Score
   check_doors(ras, opt.online_doors ? st->online_doors : st->doors, st);
   if (!opt.dump_dir.empty()) {
     const std::string stem = opt.dump_dir + "/" + map + (furnished ? "_furnished" : "_plain");
-    dump_places(*graph, ras, stem + ".txt");
+    dump_places(*graph, ras, stem + ".txt", opt.online_doors ? st->online_doors : st->doors);
     if (!surface.empty() && !write_surface(surface, stem + ".surface.f32"))
       std::fprintf(stderr, "--dump-places: cannot write %s.surface.f32\n", stem.c_str());
   }
@@ -1099,7 +1109,9 @@ bool eval_generated(const Options& opt, std::uint64_t seed, Score* out, RunStats
     label_from_places(*graph, z_lo, z_hi, opt.max_reach_m, &ras);
     total.add(score(ras));
     const std::string stem = w.name + "_floor" + std::to_string(floor);
-    if (!opt.dump_dir.empty()) dump_places(*graph, ras, opt.dump_dir + "/" + stem + ".txt", z_lo, z_hi);
+    if (!opt.dump_dir.empty())
+      dump_places(*graph, ras, opt.dump_dir + "/" + stem + ".txt", opt.online_doors ? st->online_doors : st->doors,
+                  z_lo, z_hi);
     if (!opt.images_dir.empty()) write_image(ras, opt.images_dir + "/" + stem + "_rooms.png", st->doors);
     floor_rasters.push_back({std::move(ras), {z_lo, z_hi}});
   }
@@ -1132,7 +1144,9 @@ int main(int argc, char** argv) {
                  "[--split-min-extent-m E] [--split-max-extent-m E] [--split-min-persistence-m P] [--split-min-component N] [--merge-corridors 0|1] [--corridor-min-neighbours N] [--corridor-min-open-edges N] [--cache-dir DIR] [--images DIR] [--dump-places DIR] [--door-oracle-m C] [--doors 0|1|online] [--online-every N] [--online-misses N] [--online-match-m M] "
                  "[--door-slice-above-robot-m H] [--door-min-width-m W] [--door-max-width-m W] [--door-min-rise-m R] "
                  "[--door-rise-reach-m R] [--door-max-off-centre F] [--door-slice-half-band-m B] [--door-min-wall-height-m H] "
-                 "[--door-mapped-radius-m R] [--door-extension-m E] [--json FILE]\n",
+                 "[--door-mapped-radius-m R] [--door-extension-m E] [--door-bypass-max-m D] [--door-bypass-extension-m E] "
+                 "[--door-bypass-max-edge-m L] "
+                 "[--json FILE]\n",
                  argv[0]);
     return 2;
   }
@@ -1155,9 +1169,10 @@ int main(int argc, char** argv) {
       return 2;
     }
     std::printf("doors: found on the robot's surface, %.2f m above its height on each storey, widths %.2f .. %.2f m, "
-                "clearance rise %.2f m within %.2f m; crossing place edges closed (--doors 0: off)\n",
+                "clearance rise %.2f m within %.2f m, dropped where the places go round within %.2f m "
+                "(--door-bypass-max-m 0: off); crossing place edges closed (--doors 0: off)\n",
                 opt.door.slice_above_robot_m, opt.door.min_width_m, opt.door.max_width_m, opt.door.min_rise_m,
-                opt.door.rise_reach_m);
+                opt.door.rise_reach_m, opt.door.bypass_max_m);
   } else if (opt.online_doors) {
     std::string door_error;
     if (!opt.door.validate(&door_error)) {

@@ -6,10 +6,13 @@
 
 namespace qsg::rooms {
 
+namespace sg = scene_graph;
+
 std::string OnlineDoorCapacities::check() const {
   if (wall_tiles == 0) return "doors.wall_tiles: must be positive";
   if (window_side < 16) return "doors.window_side: must be at least 16 cells, got " + std::to_string(window_side);
-  if (places == 0 || doors == 0 || candidates == 0) return "doors: places, doors and candidates must be positive";
+  if (places == 0 || doors == 0 || candidates == 0 || place_edges == 0)
+    return "doors: places, doors, candidates and place_edges must be positive";
   return {};
 }
 
@@ -20,6 +23,7 @@ OnlineDoorCapacities OnlineDoorCapacities::from_budget() {
   c.places = budgets::active::doors::kPlaces;
   c.doors = budgets::active::doors::kDoors;
   c.candidates = budgets::active::doors::kCandidates;
+  c.place_edges = budgets::active::doors::kPlaceEdges;
   return c;
 }
 
@@ -34,6 +38,13 @@ DoorWorkspace::Capacities workspace_capacities(const OnlineDoorCapacities& c) {
   return w;
 }
 
+BypassGraph::Capacities bypass_capacities(const OnlineDoorCapacities& c) {
+  BypassGraph::Capacities b;
+  b.places = c.places;
+  b.edges = c.place_edges;
+  return b;
+}
+
 }  // namespace
 
 memory::ArenaPlan OnlineDoors::plan(const OnlineDoorCapacities& c) {
@@ -41,6 +52,7 @@ memory::ArenaPlan OnlineDoors::plan(const OnlineDoorCapacities& c) {
   p.add_plan(WallMap::plan(c.wall_tiles));
   p.add_plan(DoorSet::plan(c.doors));
   p.add_plan(DoorWorkspace::plan(workspace_capacities(c)));
+  p.add_plan(BypassGraph::plan(bypass_capacities(c)));
   p.add_array<Door>(c.candidates);
   return p;
 }
@@ -68,6 +80,8 @@ bool OnlineDoors::init(const DoorConfig& config, const OnlineDoorCapacities& cap
   arena_.align_to_plan_boundary();
   ok = ok && workspace_.carve(arena_, workspace_capacities(capacities));
   arena_.align_to_plan_boundary();
+  ok = ok && bypass_.carve(arena_, bypass_capacities(capacities));
+  arena_.align_to_plan_boundary();
   found_ = arena_.carve_array<Door>(capacities.candidates);
   arena_.align_to_plan_boundary();
   ok = ok && found_ != nullptr && arena_.seal();
@@ -84,6 +98,7 @@ void OnlineDoors::begin_pass(const Eigen::Vector3d& robot_m) {
   climbing_ = false;
   num_places_ = 0;
   places_dropped_ = 0;
+  if (ready_) bypass_.clear();
   if (!ready_ || !robot_m.allFinite()) return;
   const double previous = last_robot_z_m_;
   last_robot_z_m_ = robot_m.z();
@@ -112,6 +127,22 @@ void OnlineDoors::add_place(const Eigen::Vector3d& p) {
     return;
   }
   workspace_.place_cells()[num_places_++] = static_cast<std::uint32_t>(static_cast<std::size_t>(r) * raster_.cols + c);
+}
+
+void OnlineDoors::add_places(const sg::SceneGraph& graph) {
+  if (!begun_) return;
+  graph.for_each_node([&](const sg::NodeRecord& n) {
+    if (n.kind != sg::NodeKind::kPlace) return;
+    const Eigen::Vector3d& p = graph.place(n.id)->position_m;
+    const std::size_t before = num_places_;
+    add_place(p);
+    if (num_places_ == before) return;  // outside the window's band (or beyond its capacity)
+    bypass_.add_place(n.id, p);
+    // Each edge once, from its lower id's end; an end outside the band is dropped by BypassGraph::finish.
+    graph.for_each_neighbor(n.id, [&](sg::NodeId other, const sg::EdgeRecord&) {
+      if (other > n.id && graph.place(other) != nullptr) bypass_.add_edge(n.id, other);
+    });
+  });
 }
 
 void OnlineDoors::rasterize() {
@@ -146,6 +177,21 @@ PassResult OnlineDoors::detect() {
   std::size_t kept = 0;
   for (std::size_t k = 0; k < num; ++k)
     if (inside_interior(0.5 * (found_[k].a + found_[k].b))) found_[kept++] = found_[k];
+  // A found door the window's places go round is a gap inside one space, not a door (as find_doors drops it).
+  if (bypass_.places() > 0 && config_.bypass_max_m > 0.0) {
+    bypass_.finish();
+    std::size_t real = 0;
+    for (std::size_t k = 0; k < kept; ++k) {
+      const BypassGraph::Bypass b = bypass_.goes_round(found_[k], config_);
+      result.bypass_searches_cut += b == BypassGraph::Bypass::kCut ? 1 : 0;
+      if (b == BypassGraph::Bypass::kFound)
+        ++result.bypassed;
+      else
+        found_[real++] = found_[k];
+    }
+    kept = real;
+  }
+  result.bypass_refused = bypass_.refused();
   result.found = kept;
   const DoorSet::WindowUpdate u = doors_.update_window(
       found_, kept,

@@ -9,7 +9,10 @@
 // A pass runs only while the robot's height holds still (not on stairs), in steps that let the caller keep its locks
 // short:
 //   begin_pass(robot)   the window and the slice height (robot height + slice_above_robot_m);
-//   add_place(p)        for every place (the caller holds whatever guards the graph);
+//   add_places(graph)   every place, and the place edges between those in the window's band (the caller holds
+//                       whatever guards the graph): the window's places graph, on which a found door that the
+//                       places go round is dropped (DoorConfig::bypass_max_m, as find_doors does); add_place(p)
+//                       takes one position only, and without a places graph no door is dropped;
 //   rasterize()         the wall raster from the WallMap (the caller holds whatever guards the painting);
 //   detect()            the detection and the DoorSet's update (no shared state but the DoorSet).
 #pragma once
@@ -23,6 +26,7 @@
 #include "core/memory/arena.h"
 #include "core/rooms/door_detector.h"
 #include "core/rooms/wall_map.h"
+#include "core/scene_graph/scene_graph.h"
 
 namespace qsg::rooms {
 
@@ -33,6 +37,7 @@ struct OnlineDoorCapacities {
   std::size_t places = 8192;      // places in one window
   std::size_t doors = 1024;       // doors kept (the DoorSet)
   std::size_t candidates = 4096;  // critical cells in one window
+  std::size_t place_edges = 32768;  // place edges in one window (the bypass search's graph)
   std::string check() const;
   static OnlineDoorCapacities from_budget();  // the active board's "doors" arena capacities
 };
@@ -49,6 +54,9 @@ struct PassResult {
   std::size_t refused = 0;     // ... that the full DoorSet could not take
   std::size_t missed = 0;      // kept doors of the interior this pass did not find, still kept
   std::size_t removed = 0;     // ... dropped at DoorConfig::online_misses_to_drop passes in a row
+  std::size_t bypassed = 0;    // found doors the window's places go round, dropped before the DoorSet's update
+  std::size_t bypass_searches_cut = 0;  // ... searches stopped short (their doors kept)
+  std::size_t bypass_refused = 0;       // places and place edges beyond the window's graph capacities
   DoorStats stats;
 };
 
@@ -73,6 +81,9 @@ class OnlineDoors {
   // slice would cut the storey at the wrong height (and replace the doors there), so that pass does not run.
   void begin_pass(const Eigen::Vector3d& robot_m);
   void add_place(const Eigen::Vector3d& position_m);
+  // Every place of the graph (add_place), and the window's places graph: the places in the window's band and the
+  // place edges between them.
+  void add_places(const scene_graph::SceneGraph& graph);
   void rasterize();
   PassResult detect();
 
@@ -98,6 +109,7 @@ class OnlineDoors {
   WallMap wall_map_;
   DoorSet doors_;
   DoorWorkspace workspace_;
+  BypassGraph bypass_;
   Door* found_ = nullptr;  // one pass's doors (capacities_.candidates)
   DoorRaster raster_;
   double slice_z_m_ = 0.0;

@@ -98,7 +98,7 @@ TEST(BudgetTableTest, RoomsArenaHoldsTheRoomFinder) {
   expect_rooms_fit<XavierNxSceneGraph>("xavier_nx", budgets::xavier_nx::rooms::kArenaBytes);
 }
 
-// The online door stage's arena holds its wall map, door set and window workspace.
+// The online door stage's arena holds its wall map, door set, window workspace and window places graph.
 #define QSG_DOORS_FIT(board)                                                                                  \
   do {                                                                                                        \
     rooms::OnlineDoorCapacities c;                                                                            \
@@ -107,6 +107,7 @@ TEST(BudgetTableTest, RoomsArenaHoldsTheRoomFinder) {
     c.places = budgets::board::doors::kPlaces;                                                                \
     c.doors = budgets::board::doors::kDoors;                                                                  \
     c.candidates = budgets::board::doors::kCandidates;                                                        \
+    c.place_edges = budgets::board::doors::kPlaceEdges;                                                       \
     EXPECT_EQ(c.check(), "") << #board;                                                                       \
     const std::size_t planned = rooms::OnlineDoors::plan(c).total_bytes();                                    \
     EXPECT_LE(planned, budgets::board::doors::kArenaBytes) << #board ": door capacities need " << planned;    \

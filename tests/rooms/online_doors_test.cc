@@ -1,17 +1,20 @@
 // The online door stage: the wall map (painting, repainting a block, slicing, a full tile pool), the DoorSet (the
 // room finder's test agrees with cut_place_edges' on random edges), and a window pass that finds the door the final
-// stage finds, without allocating, and replaces only the doors of its window's interior.
+// stage finds, without allocating, and replaces only the doors of its window's interior; a found door that the
+// window's places graph goes round is not kept.
 #include "core/rooms/online_doors.h"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <memory>
 #include <random>
 #include <string>
 #include <vector>
 
 #include "core/rooms/room_finder.h"
 #include "tests/rooms/door_scene.h"
+#include "tests/scene_graph/test_graph.h"
 #include "tests/support/allocation_counter.h"
 
 namespace qsg::rooms {
@@ -27,6 +30,7 @@ OnlineDoorCapacities small_capacities() {
   c.places = 512;
   c.doors = 16;
   c.candidates = 256;
+  c.place_edges = 2048;
   return c;
 }
 
@@ -202,6 +206,95 @@ TEST(OnlineDoors, AWindowPassFindsTheFinalStagesDoorWithoutAllocating) {
   paint(closed, &replace.wall_map());
   EXPECT_EQ(pass(&replace, closed, robot).removed, 1u);
   EXPECT_EQ(replace.doors().size(), 0u);
+}
+
+// The scene's places in a scene graph with 4-neighbour edges; an edge across the wall at x = 4 only through the
+// opening [1.6, 2.5] in y, or (through_wall) everywhere, as a places layer that links through the wall would.
+std::unique_ptr<scene_graph::SceneGraph> places_graph(const Scene& s, bool through_wall) {
+  namespace sg = scene_graph;
+  auto graph = sg::testing::make_graph();
+  std::vector<sg::NodeId> ids;
+  for (std::size_t i = 0; i < s.places.size(); ++i) {
+    sg::PlaceAttributes a;
+    a.position_m = s.places[i];
+    a.distance_m = 0.25;
+    ids.push_back(sg::make_node_id(sg::kPlacePrefix, i));
+    EXPECT_EQ(graph->add_place(ids.back(), a), sg::Status::kOk);
+  }
+  for (std::size_t i = 0; i < s.places.size(); ++i)
+    for (std::size_t j = i + 1; j < s.places.size(); ++j) {
+      if (std::abs((s.places[j] - s.places[i]).norm() - 0.5) > 1e-6) continue;
+      const bool crosses = (s.places[i].x() < 4.0) != (s.places[j].x() < 4.0);
+      const double y = s.places[i].y();
+      if (crosses && !through_wall && !(y > 1.6 && y < 2.5)) continue;
+      EXPECT_EQ(graph->add_edge(ids[i], ids[j]), sg::Status::kOk);
+    }
+  return graph;
+}
+
+PassResult pass_with_graph(OnlineDoors* online, const scene_graph::SceneGraph& graph, const Eigen::Vector3d& robot) {
+  online->begin_pass(robot);
+  online->add_places(graph);
+  online->rasterize();
+  return online->detect();
+}
+
+TEST(OnlineDoors, AFoundDoorThePlacesGoRoundIsNotKept) {
+  const Scene s = two_rooms(1.6, 2.5);
+  const Eigen::Vector3d robot(2.0, 2.0, 0.5);
+  std::string error;
+  // The places cross the wall only through the door: the door is kept, and the pass does not allocate.
+  {
+    OnlineDoors online;
+    ASSERT_TRUE(online.init(DoorConfig{}, small_capacities(), 0, &error)) << error;
+    paint(s, &online.wall_map());
+    const auto graph = places_graph(s, false);
+    PassResult r;
+    EXPECT_NO_ALLOCATIONS(r = pass_with_graph(&online, *graph, robot));
+    ASSERT_TRUE(r.ran);
+    EXPECT_EQ(r.bypassed, 0u);
+    EXPECT_EQ(r.bypass_refused, 0u);
+    EXPECT_EQ(online.doors().size(), 1u);
+  }
+  // Places that link through the wall beside the door go round it (2.5 m from y = 1.75 by y = 0.75): the found door
+  // is not kept (the final stage's drop_bypassed_doors drops it too).
+  {
+    OnlineDoors online;
+    ASSERT_TRUE(online.init(DoorConfig{}, small_capacities(), 0, &error)) << error;
+    paint(s, &online.wall_map());
+    const auto graph = places_graph(s, true);
+    const PassResult r = pass_with_graph(&online, *graph, robot);
+    ASSERT_TRUE(r.ran);
+    EXPECT_EQ(r.bypassed, 1u);
+    EXPECT_EQ(r.found, 0u);
+    EXPECT_EQ(online.doors().size(), 0u);
+    std::vector<Door> final_doors;
+    ASSERT_TRUE(detect_doors(s.surface, s.places, 1.2, DoorConfig{}, &final_doors, nullptr, &error)) << error;
+    ASSERT_EQ(final_doors.size(), 1u);
+    EXPECT_EQ(drop_bypassed_doors(&final_doors, DoorConfig{}, *graph), 1u);
+    // The check off: kept.
+    DoorConfig off;
+    off.bypass_max_m = 0.0;
+    OnlineDoors keep;
+    ASSERT_TRUE(keep.init(off, small_capacities(), 0, &error)) << error;
+    paint(s, &keep.wall_map());
+    EXPECT_EQ(pass_with_graph(&keep, *graph, robot).bypassed, 0u);
+    EXPECT_EQ(keep.doors().size(), 1u);
+  }
+  // A window graph too small for the place edges: the edges beyond it are refused and counted, and without them no
+  // path goes round, so the door is kept (never dropped on a partial graph's say-so alone).
+  {
+    OnlineDoorCapacities tiny = small_capacities();
+    tiny.place_edges = 8;
+    OnlineDoors online;
+    ASSERT_TRUE(online.init(DoorConfig{}, tiny, 0, &error)) << error;
+    paint(s, &online.wall_map());
+    const auto graph = places_graph(s, true);
+    const PassResult r = pass_with_graph(&online, *graph, robot);
+    ASSERT_TRUE(r.ran);
+    EXPECT_GT(r.bypass_refused, 0u);
+    EXPECT_EQ(online.doors().size(), 1u);
+  }
 }
 
 TEST(DoorSet, AWindowUpdateMatchesNearestFirstCountsMissesAndLeavesDoorsOutOfScope) {
