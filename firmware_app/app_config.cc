@@ -206,7 +206,10 @@ bool AppConfig::load(const std::string& path, std::string* error) {
                               {"min_width_m", number(&doors.min_width_m)},
                               {"max_width_m", number(&doors.max_width_m)},
                               {"min_rise_m", number(&doors.min_rise_m)},
-                              {"rise_reach_m", number(&doors.rise_reach_m)}},
+                              {"rise_reach_m", number(&doors.rise_reach_m)},
+                              {"bypass_max_m", number(&doors.bypass_max_m)},
+                              {"bypass_extension_m", number(&doors.bypass_extension_m)},
+                              {"bypass_max_edge_m", number(&doors.bypass_max_edge_m)}},
                              why))
            return false;
          if (!whole_number_in(every_n, 1.0, 1e6))
@@ -331,14 +334,15 @@ void AppConfig::print(std::FILE* out) const {
                segmentation.min_confidence);
   std::fprintf(out,
                "doors: %s%s%s, slice %.2f m above the robot on each storey, widths %.2f .. %.2f m, rise %.2f m "
-               "within %.2f m\n",
+               "within %.2f m, dropped where the places go round within %.2f m (steps <= %.2f m, line + %.2f m)\n",
                doors_online ? "online (every " : "",
                doors_online ? (std::to_string(doors_online_every_n) + ". backend update, dropped after " +
                                std::to_string(doors.online_misses_to_drop) + " missed passes), ")
                                   .c_str()
                             : "",
                doors_at_finish ? "found when the run finishes" : "not at the finish", doors.slice_above_robot_m, doors.min_width_m,
-               doors.max_width_m, doors.min_rise_m, doors.rise_reach_m);
+               doors.max_width_m, doors.min_rise_m, doors.rise_reach_m, doors.bypass_max_m, doors.bypass_max_edge_m,
+               doors.bypass_extension_m);
   std::fprintf(out, "room_labels: weights_path=%s\n",
                room_weights_path.empty() ? "(built-in: core/neural_tree/weights/room_classifier_v2.json)"
                                          : room_weights_path.c_str());

@@ -328,6 +328,16 @@ TEST(AppConfigTest, LoadsKnownKeysAndNamesBadOnes) {
       << error;
   EXPECT_FALSE(doors.doors_at_finish);
   EXPECT_EQ(doors.doors.max_width_m, 2.0);
+  AppConfig bypass;
+  ASSERT_TRUE(bypass.load(write("bypass.json", "{\"doors\": {\"bypass_max_m\": 0, \"bypass_extension_m\": 0.4, "
+                                               "\"bypass_max_edge_m\": 2.0}}"),
+                          &error))
+      << error;
+  EXPECT_EQ(bypass.doors.bypass_max_m, 0.0);
+  EXPECT_EQ(bypass.doors.bypass_extension_m, 0.4);
+  EXPECT_EQ(bypass.doors.bypass_max_edge_m, 2.0);
+  EXPECT_FALSE(bypass.load(write("bypass_bad.json", "{\"doors\": {\"bypass_max_edge_m\": -1}}"), &error));
+  EXPECT_NE(error.find("bypass_max_edge_m"), std::string::npos) << error;
   EXPECT_FALSE(doors.load(write("door_widths.json", "{\"doors\": {\"min_width_m\": 3.0}}"), &error));
   EXPECT_NE(error.find("min_width_m"), std::string::npos) << error;
   AppConfig online;
@@ -370,6 +380,9 @@ TEST(AppConfigTest, LoadsKnownKeysAndNamesBadOnes) {
   EXPECT_EQ(shipped.doors.max_width_m, AppConfig().doors.max_width_m);
   EXPECT_EQ(shipped.doors.min_rise_m, AppConfig().doors.min_rise_m);
   EXPECT_EQ(shipped.doors.rise_reach_m, AppConfig().doors.rise_reach_m);
+  EXPECT_EQ(shipped.doors.bypass_max_m, AppConfig().doors.bypass_max_m);
+  EXPECT_EQ(shipped.doors.bypass_extension_m, AppConfig().doors.bypass_extension_m);
+  EXPECT_EQ(shipped.doors.bypass_max_edge_m, AppConfig().doors.bypass_max_edge_m);
   const places::Config& sp = shipped.frontend.places;
   const places::Config dp = AppConfig().frontend.places;
   EXPECT_EQ(sp.signed_surface_seeds, dp.signed_surface_seeds);
