@@ -9,7 +9,8 @@
 // around the robot, its places and place edges from a scene graph, the wall raster from the painted wall map, the
 // detection, the bypass check of every found door and the door set's update) over the same corridor plan extruded
 // into a surface (its walls as columns of vertices 0.05 m apart, 2.5 m tall) with the robot in the middle of the
-// corridor. Reports the doors found against the plan's doors in the window, the median and max per pass.
+// corridor; the second argument turns the bypass check off or on, the default. Reports the doors found against the
+// plan's doors in the window, the median and max per pass.
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
@@ -103,13 +104,15 @@ BENCHMARK(BM_rooms_corridor_merge)
 
 void BM_online_door_pass(benchmark::State& state) {
   const int rooms_per_side = static_cast<int>(state.range(0));
+  rooms::DoorConfig config;
+  if (state.range(1) == 0) config.bypass_max_m = 0.0;  // the bypass check off: the same pass without it
   const rooms::testing::GridPlan plan = rooms::testing::corridor_plan(rooms_per_side, 0.25);
   rooms::testing::SyntheticPlaces places;
   plan.add_to(&places, 1.0);
   auto online = std::make_unique<rooms::OnlineDoors>();
   auto graph = std::make_unique<scene_graph::SceneGraph>();
   std::string error;
-  if (!online->init(rooms::DoorConfig{}, rooms::OnlineDoorCapacities::from_budget(),
+  if (!online->init(config, rooms::OnlineDoorCapacities::from_budget(),
                     budgets::active::doors::kArenaBytes, &error) ||
       !graph->init(scene_graph::capacities_from_budget(), scene_graph::arena_bytes_from_budget(), &error) ||
       !places.write(graph.get())) {
@@ -177,6 +180,9 @@ void BM_online_door_pass(benchmark::State& state) {
 }
 
 // 6 rooms per side: a 24 m corridor, wider than the window; 3: all of it inside.
-BENCHMARK(BM_online_door_pass)->Arg(3)->Arg(6)->ArgName("rooms_per_side")->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_online_door_pass)
+    ->ArgsProduct({{3, 6}, {0, 1}})
+    ->ArgNames({"rooms_per_side", "bypass_check"})
+    ->Unit(benchmark::kMillisecond);
 
 }  // namespace

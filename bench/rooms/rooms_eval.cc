@@ -1192,7 +1192,7 @@ int main(int argc, char** argv) {
               "%.1f m from places; robot radius %.2f m, %s\n",
               opt.width, opt.height, opt.hfov_deg, opt.rate_hz, opt.max_reach_m, opt.robot_radius_m,
               opt.look_into_unreachable ? "the tour looks into rooms it cannot enter" : "no looks into rooms");
-  char cond[768];
+  char cond[1024];
   std::snprintf(cond, sizeof(cond),
                 "sim camera %dx%d %.0f deg hfov %.1f Hz, ground-truth poses, noise-free depth, robot radius %.2f m%s, "
                 "TSDF 0.1 m, frontend every keyframe, rooms seeding %s alpha %.2f persistence %.2f m [%.2f, %.2f] m "
@@ -1218,13 +1218,16 @@ int main(int argc, char** argv) {
     std::snprintf(cond + std::strlen(cond), sizeof(cond) - std::strlen(cond), ", door oracle %.2f m", opt.door_oracle_m);
   if (opt.doors)
     std::snprintf(cond + std::strlen(cond), sizeof(cond) - std::strlen(cond),
-                  ", doors on the robot's surface (slice +%.2f m, widths %.2f-%.2f m, rise %.2f m in %.2f m)",
+                  ", doors on the robot's surface (slice +%.2f m, widths %.2f-%.2f m, rise %.2f m in %.2f m, "
+                  "dropped where the places go round within %.2f m in steps <= %.2f m, line +%.2f m)",
                   opt.door.slice_above_robot_m, opt.door.min_width_m, opt.door.max_width_m, opt.door.min_rise_m,
-                  opt.door.rise_reach_m);
+                  opt.door.rise_reach_m, opt.door.bypass_max_m, opt.door.bypass_max_edge_m,
+                  opt.door.bypass_extension_m);
   else if (opt.online_doors)
     std::snprintf(cond + std::strlen(cond), sizeof(cond) - std::strlen(cond),
-                  ", online doors every %d. frontend update (window passes, slice +%.2f m)", opt.online_every,
-                  opt.door.slice_above_robot_m);
+                  ", online doors every %d. frontend update (window passes, slice +%.2f m, dropped where the "
+                  "window's places go round within %.2f m)",
+                  opt.online_every, opt.door.slice_above_robot_m, opt.door.bypass_max_m);
   else
     std::snprintf(cond + std::strlen(cond), sizeof(cond) - std::strlen(cond), ", no doors");
   bench::Figures figures(cond);
