@@ -127,32 +127,14 @@ TEST(DoorDetector, StoreysComeFromTheRobotsHeights) {
 
 TEST(DoorDetector, ClosesThePlaceEdgesThroughTheDoorOnly) {
   Scene s = two_rooms(1.6, 2.5);
-  auto owned = sg::testing::make_graph();
+  // Places on the 0.5 m grid; 4-neighbour edges that do not pass through the wall at x = 4 (except the door).
+  auto owned = testing::places_graph(s, 4.0, 1.6, 2.5);
   sg::SceneGraph& graph = *owned;
   std::string error;
-  // Places on the 0.5 m grid; 4-neighbour edges that do not pass through the wall at x = 4 (except the door).
-  std::vector<sg::NodeId> ids;
-  for (std::size_t i = 0; i < s.places.size(); ++i) {
-    sg::PlaceAttributes a;
-    a.position_m = s.places[i];
-    a.distance_m = 0.25;
-    ids.push_back(sg::make_node_id(sg::kPlacePrefix, i));
-    ASSERT_EQ(graph.add_place(ids.back(), a), sg::Status::kOk);
-  }
   std::size_t through_door = 0;
-  for (std::size_t i = 0; i < s.places.size(); ++i)
-    for (std::size_t j = i + 1; j < s.places.size(); ++j) {
-      const Eigen::Vector3d d = s.places[j] - s.places[i];
-      if (std::abs(d.norm() - 0.5) > 1e-6) continue;
-      const bool crosses_wall = (s.places[i].x() < 4.0) != (s.places[j].x() < 4.0);
-      const double y = s.places[i].y();
-      if (crosses_wall && !(y > 1.6 && y < 2.5)) continue;
-      through_door += crosses_wall ? 1 : 0;
-      sg::EdgeAttributes info;
-      info.weighted = true;
-      info.weight = 0.25;
-      ASSERT_EQ(graph.add_edge(ids[i], ids[j], info), sg::Status::kOk);
-    }
+  graph.for_each_edge([&](const sg::EdgeRecord& e) {
+    through_door += (graph.place(e.source)->position_m.x() < 4.0) != (graph.place(e.target)->position_m.x() < 4.0);
+  });
   ASSERT_EQ(through_door, 2u);  // y = 1.75 and 2.25
   // A robot pose on the storey: the slice is 0.7 m above it.
   sg::AgentAttributes robot;

@@ -2,10 +2,16 @@
 // tall), flat floor and ceiling slabs that must not count as walls, and places on a grid as the mapped space.
 #pragma once
 
+#include <gtest/gtest.h>
+
 #include <Eigen/Core>
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <vector>
+
+#include "core/scene_graph/scene_graph.h"
+#include "tests/scene_graph/test_graph.h"
 
 namespace qsg::rooms::testing {
 
@@ -52,6 +58,35 @@ inline Scene two_rooms(double y0, double y1) {
   s.slabs(0, 0, 8, 4);
   s.place_grid(0.25, 0.25, 7.75, 3.75);
   return s;
+}
+
+// The scene's places in a scene graph (clearance 0.25 m) with 4-neighbour edges of weight 0.25; an edge across the
+// wall at x = wall_x only where its y lies in (y0, y1), the opening, or everywhere (through_wall: a places layer
+// that links through the wall).
+inline std::unique_ptr<scene_graph::SceneGraph> places_graph(const Scene& s, double wall_x, double y0, double y1,
+                                                             bool through_wall = false) {
+  namespace sg = scene_graph;
+  auto graph = sg::testing::make_graph();
+  std::vector<sg::NodeId> ids;
+  for (std::size_t i = 0; i < s.places.size(); ++i) {
+    sg::PlaceAttributes a;
+    a.position_m = s.places[i];
+    a.distance_m = 0.25;
+    ids.push_back(sg::make_node_id(sg::kPlacePrefix, i));
+    EXPECT_EQ(graph->add_place(ids.back(), a), sg::Status::kOk);
+  }
+  for (std::size_t i = 0; i < s.places.size(); ++i)
+    for (std::size_t j = i + 1; j < s.places.size(); ++j) {
+      if (std::abs((s.places[j] - s.places[i]).norm() - 0.5) > 1e-6) continue;
+      const bool crosses = (s.places[i].x() < wall_x) != (s.places[j].x() < wall_x);
+      const double y = s.places[i].y();
+      if (crosses && !through_wall && !(y > y0 && y < y1)) continue;
+      sg::EdgeAttributes info;
+      info.weighted = true;
+      info.weight = 0.25;
+      EXPECT_EQ(graph->add_edge(ids[i], ids[j], info), sg::Status::kOk);
+    }
+  return graph;
 }
 
 }  // namespace qsg::rooms::testing

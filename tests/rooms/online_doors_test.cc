@@ -14,12 +14,12 @@
 
 #include "core/rooms/room_finder.h"
 #include "tests/rooms/door_scene.h"
-#include "tests/scene_graph/test_graph.h"
 #include "tests/support/allocation_counter.h"
 
 namespace qsg::rooms {
 namespace {
 
+using testing::places_graph;
 using testing::Scene;
 using testing::two_rooms;
 
@@ -208,30 +208,6 @@ TEST(OnlineDoors, AWindowPassFindsTheFinalStagesDoorWithoutAllocating) {
   EXPECT_EQ(replace.doors().size(), 0u);
 }
 
-// The scene's places in a scene graph with 4-neighbour edges; an edge across the wall at x = 4 only through the
-// opening [1.6, 2.5] in y, or (through_wall) everywhere, as a places layer that links through the wall would.
-std::unique_ptr<scene_graph::SceneGraph> places_graph(const Scene& s, bool through_wall) {
-  namespace sg = scene_graph;
-  auto graph = sg::testing::make_graph();
-  std::vector<sg::NodeId> ids;
-  for (std::size_t i = 0; i < s.places.size(); ++i) {
-    sg::PlaceAttributes a;
-    a.position_m = s.places[i];
-    a.distance_m = 0.25;
-    ids.push_back(sg::make_node_id(sg::kPlacePrefix, i));
-    EXPECT_EQ(graph->add_place(ids.back(), a), sg::Status::kOk);
-  }
-  for (std::size_t i = 0; i < s.places.size(); ++i)
-    for (std::size_t j = i + 1; j < s.places.size(); ++j) {
-      if (std::abs((s.places[j] - s.places[i]).norm() - 0.5) > 1e-6) continue;
-      const bool crosses = (s.places[i].x() < 4.0) != (s.places[j].x() < 4.0);
-      const double y = s.places[i].y();
-      if (crosses && !through_wall && !(y > 1.6 && y < 2.5)) continue;
-      EXPECT_EQ(graph->add_edge(ids[i], ids[j]), sg::Status::kOk);
-    }
-  return graph;
-}
-
 PassResult pass_with_graph(OnlineDoors* online, const scene_graph::SceneGraph& graph, const Eigen::Vector3d& robot) {
   online->begin_pass(robot);
   online->add_places(graph);
@@ -248,7 +224,7 @@ TEST(OnlineDoors, AFoundDoorThePlacesGoRoundIsNotKept) {
     OnlineDoors online;
     ASSERT_TRUE(online.init(DoorConfig{}, small_capacities(), 0, &error)) << error;
     paint(s, &online.wall_map());
-    const auto graph = places_graph(s, false);
+    const auto graph = places_graph(s, 4.0, 1.6, 2.5);
     PassResult r;
     EXPECT_NO_ALLOCATIONS(r = pass_with_graph(&online, *graph, robot));
     ASSERT_TRUE(r.ran);
@@ -262,7 +238,7 @@ TEST(OnlineDoors, AFoundDoorThePlacesGoRoundIsNotKept) {
     OnlineDoors online;
     ASSERT_TRUE(online.init(DoorConfig{}, small_capacities(), 0, &error)) << error;
     paint(s, &online.wall_map());
-    const auto graph = places_graph(s, true);
+    const auto graph = places_graph(s, 4.0, 1.6, 2.5, true);
     const PassResult r = pass_with_graph(&online, *graph, robot);
     ASSERT_TRUE(r.ran);
     EXPECT_EQ(r.bypassed, 1u);
@@ -289,7 +265,7 @@ TEST(OnlineDoors, AFoundDoorThePlacesGoRoundIsNotKept) {
     OnlineDoors online;
     ASSERT_TRUE(online.init(DoorConfig{}, tiny, 0, &error)) << error;
     paint(s, &online.wall_map());
-    const auto graph = places_graph(s, true);
+    const auto graph = places_graph(s, 4.0, 1.6, 2.5, true);
     const PassResult r = pass_with_graph(&online, *graph, robot);
     ASSERT_TRUE(r.ran);
     EXPECT_GT(r.bypass_refused, 0u);
