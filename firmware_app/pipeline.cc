@@ -732,9 +732,10 @@ void Pipeline::close_doors(const reconstruction::Mesh& mesh) {
   counters_.doors_bypassed = stats.bypassed;
   counters_.door_edges_closed = rooms::cut_place_edges(doors, config_.doors, &graph_);
   online_doors_.clear_doors();  // the final doors, every storey on the whole mesh, replace the online ones
-  std::printf("doors: %zu in %zu storey slice(s) of the final surface (%zu more dropped: the places go round them), "
-              "%llu place edges closed\n",
-              doors.size(), stats.slices, stats.bypassed, static_cast<unsigned long long>(counters_.door_edges_closed));
+  std::printf("doors: %zu in %zu storey slice(s) of the final surface (%zu more dropped: the places go round them; "
+              "%zu kept unchecked), %llu place edges closed\n",
+              doors.size(), stats.slices, stats.bypassed, stats.bypass_unchecked,
+              static_cast<unsigned long long>(counters_.door_edges_closed));
 }
 
 bool Pipeline::finish(std::string* error) {

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <limits>
 #include <utility>
 
@@ -798,7 +799,11 @@ std::size_t drop_bypassed_doors(std::vector<Door>* doors, const DoorConfig& conf
   });
   BypassGraph g;
   std::string error;
-  if (!g.allocate(c, &error)) return 0;
+  if (!g.allocate(c, &error)) {  // counted and logged; the doors stay as found
+    if (stats != nullptr) stats->bypass_unchecked += doors->size();
+    std::fprintf(stderr, "doors: bypass check skipped, %s\n", error.c_str());
+    return 0;
+  }
   graph.for_each_node([&](const sg::NodeRecord& n) {
     if (n.kind == sg::NodeKind::kPlace) g.add_place(n.id, graph.place(n.id)->position_m);
   });

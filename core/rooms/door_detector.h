@@ -93,7 +93,9 @@ struct DoorStats {
   std::size_t candidates_dropped = 0;  // beyond the workspace's candidate capacity (counted, not an error)
   std::size_t doors_dropped = 0;       // beyond the output capacity
   std::size_t bypassed = 0;            // find_doors: doors dropped because the places graph goes round them
-  std::size_t bypass_searches_cut = 0; // ... searches stopped at bypass_max_places (their doors kept)
+  std::size_t bypass_searches_cut = 0; // ... doors whose searches stopped short (bypass_max_places or the search
+                                       // buffers) without a path: kept
+  std::size_t bypass_unchecked = 0;    // ... doors kept unchecked: the bypass graph could not be allocated
 };
 
 // A slice raster: cell (c, r) covers [lo + (c, r) x cell_m, lo + (c + 1, r + 1) x cell_m); row-major, cols wide.
@@ -370,8 +372,9 @@ class BypassGraph {
 
 // Drops every door the places graph goes round (DoorConfig::bypass_max_m; BypassGraph::goes_round): a path found
 // for any place edge the door closes drops it. Each door is judged on the graph as it is, the other doors' edges
-// open, so the result does not depend on the doors' order. Returns the number dropped; stats (optional) counts them
-// and the searches stopped short. Allocates (offline use, as find_doors).
+// open, so the result does not depend on the doors' order. Returns the number dropped; stats (optional) counts them,
+// the searches stopped short, and the doors left unchecked when the graph cannot be allocated (all kept). Allocates
+// (offline use, as find_doors).
 std::size_t drop_bypassed_doors(std::vector<Door>* doors, const DoorConfig& config,
                                 const scene_graph::SceneGraph& graph, DoorStats* stats = nullptr);
 
