@@ -158,6 +158,8 @@ bool AppConfig::load(const std::string& path, std::string* error) {
          double split_min_component = rooms.split_min_component_size;
          double corridor_neighbours = rooms.corridor_min_neighbours;
          double corridor_edges = rooms.corridor_min_open_edges;
+         double visible_samples = rooms.visible_samples;
+         double visible_rounds = rooms.visible_max_rounds;
          const bool ok = read_section(v, "rooms",
                                       {{"seeding", text(&seeding)},
                                        {"min_persistence_m", number(&rooms.min_persistence_m)},
@@ -173,7 +175,11 @@ bool AppConfig::load(const std::string& path, std::string* error) {
                                        {"split_min_component_size", number(&split_min_component)},
                                        {"merge_corridors", boolean(&rooms.merge_corridors)},
                                        {"corridor_min_neighbours", number(&corridor_neighbours)},
-                                       {"corridor_min_open_edges", number(&corridor_edges)}},
+                                       {"corridor_min_open_edges", number(&corridor_edges)},
+                                       {"merge_visible", boolean(&rooms.merge_visible)},
+                                       {"visible_min_share", number(&rooms.visible_min_share)},
+                                       {"visible_samples", number(&visible_samples)},
+                                       {"visible_max_rounds", number(&visible_rounds)}},
                                       why);
          if (!ok) return false;
          if (seeding == "plateau") rooms.seeding = rooms::Seeding::kPlateau;
@@ -192,6 +198,12 @@ bool AppConfig::load(const std::string& path, std::string* error) {
            return *why = "rooms.corridor_min_open_edges: expected a whole number 0 .. 1000000", false;
          rooms.corridor_min_neighbours = static_cast<std::uint32_t>(corridor_neighbours);
          rooms.corridor_min_open_edges = static_cast<std::uint32_t>(corridor_edges);
+         if (!whole_number_in(visible_samples, 0.0, 1e6))
+           return *why = "rooms.visible_samples: expected a whole number 0 .. 1000000", false;
+         if (!whole_number_in(visible_rounds, 0.0, 1e6))
+           return *why = "rooms.visible_max_rounds: expected a whole number 0 .. 1000000", false;
+         rooms.visible_samples = static_cast<std::uint32_t>(visible_samples);
+         rooms.visible_max_rounds = static_cast<std::uint32_t>(visible_rounds);
          return true;
        }},
       {"doors", [&](const Json& v, std::string* why) {
@@ -209,7 +221,10 @@ bool AppConfig::load(const std::string& path, std::string* error) {
                               {"rise_reach_m", number(&doors.rise_reach_m)},
                               {"bypass_max_m", number(&doors.bypass_max_m)},
                               {"bypass_extension_m", number(&doors.bypass_extension_m)},
-                              {"bypass_max_edge_m", number(&doors.bypass_max_edge_m)}},
+                              {"bypass_max_edge_m", number(&doors.bypass_max_edge_m)},
+                              {"sight_min_wall_m", number(&doors.sight_min_wall_m)},
+                              {"sight_wall_dilation_m", number(&doors.sight_wall_dilation_m)},
+                              {"sight_cut_edges", boolean(&doors.sight_cut_edges)}},
                              why))
            return false;
          if (!whole_number_in(every_n, 1.0, 1e6))
@@ -334,7 +349,8 @@ void AppConfig::print(std::FILE* out) const {
                segmentation.min_confidence);
   std::fprintf(out,
                "doors: %s%s%s, slice %.2f m above the robot on each storey, widths %.2f .. %.2f m, rise %.2f m "
-               "within %.2f m, dropped where the places go round within %.2f m (steps <= %.2f m, line + %.2f m)\n",
+               "within %.2f m, dropped where the places go round within %.2f m (steps <= %.2f m, line + %.2f m); "
+               "sight lines past walls >= %.1f m (thickened %.2f m)%s\n",
                doors_online ? "online (every " : "",
                doors_online ? (std::to_string(doors_online_every_n) + ". backend update, dropped after " +
                                std::to_string(doors.online_misses_to_drop) + " missed passes), ")
@@ -342,7 +358,8 @@ void AppConfig::print(std::FILE* out) const {
                             : "",
                doors_at_finish ? "found when the run finishes" : "not at the finish", doors.slice_above_robot_m, doors.min_width_m,
                doors.max_width_m, doors.min_rise_m, doors.rise_reach_m, doors.bypass_max_m, doors.bypass_max_edge_m,
-               doors.bypass_extension_m);
+               doors.bypass_extension_m, doors.sight_min_wall_m, doors.sight_wall_dilation_m,
+               doors.sight_cut_edges ? ", place edges through them closed" : "");
   std::fprintf(out, "room_labels: weights_path=%s\n",
                room_weights_path.empty() ? "(built-in: core/neural_tree/weights/room_classifier_v2.json)"
                                          : room_weights_path.c_str());

@@ -175,8 +175,10 @@ int main(int argc, char** argv) {
               (unsigned long long)online.online_doors_kept_missed, (unsigned long long)online.online_doors_dropped,
               (unsigned long long)online.online_doors_bypassed, (unsigned long long)online.online_bypass_refused,
               (unsigned long long)online.blocks_painted, (unsigned long long)online.wall_paint_deferred);
-  std::printf("final: %llu rooms (%llu labelled), %llu doors closing %llu place edges, %llu room updates\n",
+  std::printf("final: %llu rooms (%llu labelled, %llu merged into a room they see), %llu doors closing %llu place "
+              "edges, %llu room updates\n",
               (unsigned long long)pipeline.counters().rooms, (unsigned long long)pipeline.counters().rooms_labelled,
+              (unsigned long long)pipeline.counters().rooms_merged_visible,
               (unsigned long long)pipeline.counters().doors,
               (unsigned long long)pipeline.counters().door_edges_closed,
               (unsigned long long)pipeline.counters().backend_updates);

@@ -291,7 +291,11 @@ void Pipeline::run_backend_update(const BackendUpdate& u, bool door_pass) {
   if (online && door_pass && backend_passes_due_++ % config_.doors_online_every_n == 0) run_door_pass(u.robot_m);
   const std::uint64_t time_ns = u.time_ns;
   std::lock_guard<std::mutex> lock(graph_mutex_);
-  const rooms::UpdateResult r = rooms_.update(&graph_, time_ns, online ? &online_doors_.doors() : nullptr);
+  // The final door stage's sight lines (close_doors, at the finish) let the last update merge rooms that see each
+  // other; during the run there are none.
+  const rooms::UpdateResult r = rooms_.update(&graph_, time_ns, online ? &online_doors_.doors() : nullptr,
+                                              final_sight_.slices() > 0 ? &final_sight_ : nullptr);
+  if (r.visible_merges > 0) rooms_merged_visible_.store(r.visible_merges);
   backend_updates_.fetch_add(1);
   rooms_count_.store(r.rooms);
   if (r.rooms > 0 && classifier_ != nullptr && classifier_->ready()) label_rooms();
@@ -468,6 +472,7 @@ bool Pipeline::step() {
   counters_.backend_updates = backend_updates_.load();
   counters_.rooms = rooms_count_.load();
   counters_.rooms_labelled = rooms_labelled_.load();
+  counters_.rooms_merged_visible = rooms_merged_visible_.load();
   counters_.door_passes = door_passes_.load();
   counters_.door_passes_climbing = door_passes_climbing_.load();
   counters_.online_doors = online_doors_count_.load();
@@ -723,7 +728,8 @@ void Pipeline::close_doors(const reconstruction::Mesh& mesh) {
   std::vector<rooms::Door> doors;
   rooms::DoorStats stats;
   std::string why;
-  if (!rooms::find_doors(surface, graph_, config_.doors, &doors, &stats, &why)) {
+  if (!rooms::find_doors(surface, graph_, config_.doors, &doors, &stats, &why, &final_sight_)) {
+    final_sight_.clear();
     ++counters_.door_failures;
     std::fprintf(stderr, "doors: %s; the rooms stay as the run found them\n", why.c_str());
     return;
@@ -731,11 +737,14 @@ void Pipeline::close_doors(const reconstruction::Mesh& mesh) {
   counters_.doors = doors.size();
   counters_.doors_bypassed = stats.bypassed;
   counters_.door_edges_closed = rooms::cut_place_edges(doors, config_.doors, &graph_);
+  if (config_.doors.sight_cut_edges)
+    counters_.edges_through_walls = rooms::cut_edges_through_walls(final_sight_, &graph_);
   online_doors_.clear_doors();  // the final doors, every storey on the whole mesh, replace the online ones
   std::printf("doors: %zu in %zu storey slice(s) of the final surface (%zu more dropped: the places go round them; "
-              "%zu kept unchecked), %llu place edges closed\n",
+              "%zu kept unchecked), %llu place edges closed, %llu more through walls\n",
               doors.size(), stats.slices, stats.bypassed, stats.bypass_unchecked,
-              static_cast<unsigned long long>(counters_.door_edges_closed));
+              static_cast<unsigned long long>(counters_.door_edges_closed),
+              static_cast<unsigned long long>(counters_.edges_through_walls));
 }
 
 bool Pipeline::finish(std::string* error) {
@@ -750,6 +759,7 @@ bool Pipeline::finish(std::string* error) {
   counters_.backend_updates = backend_updates_.load();
   counters_.rooms = rooms_count_.load();
   counters_.rooms_labelled = rooms_labelled_.load();
+  counters_.rooms_merged_visible = rooms_merged_visible_.load();
   std::lock_guard<std::mutex> lock(graph_mutex_);
   const std::string dir = config_.output_dir;
   if (!write_file_atomically(dir + "/scene_graph.json", scene_graph::write_spark_dsg_json(graph_), error)) return false;

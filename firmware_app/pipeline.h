@@ -56,8 +56,10 @@ struct PipelineCounters {
   std::uint64_t backend_updates = 0;      // room updates run by the backend
   std::uint64_t rooms = 0;                // rooms after the latest backend update
   std::uint64_t rooms_labelled = 0;       // rooms the neural tree gave a label (latest update)
+  std::uint64_t rooms_merged_visible = 0; // rooms the last update merged into a room they see (final sight lines)
   std::uint64_t doors = 0;                // doors found when the run finished (AppConfig::doors_at_finish)
   std::uint64_t door_edges_closed = 0;    // place edges they closed
+  std::uint64_t edges_through_walls = 0;  // place edges closed because they cross a structural wall (final stage)
   std::uint64_t doors_bypassed = 0;       // found then, but dropped: the places graph goes round them
   std::uint64_t door_failures = 0;        // the door stage failed (logged; the rooms stay as the run left them)
   // Online doors (AppConfig::doors_online).
@@ -197,6 +199,7 @@ class Pipeline {
   // Online doors: the loop paints re-meshed blocks into the wall map under wall_mutex_ (try-lock: a keyframe never
   // waits; what it skips is painted with the next one), the backend slices it around the robot.
   rooms::OnlineDoors online_doors_;
+  rooms::WallSight final_sight_;  // the final door stage's sight lines (close_doors), for the last room update
   std::mutex wall_mutex_;
   std::vector<std::uint32_t> painted_stamp_;    // per TSDF block slot: the meshed_stamp last painted
   std::vector<memory::Index3> painted_block_;   // ... and the block it was
@@ -215,6 +218,7 @@ class Pipeline {
   std::unique_ptr<neural_tree::RoomClassifier> classifier_;
   neural_tree::ObjectRoomGraph room_graph_;
   std::atomic<std::uint64_t> rooms_labelled_{0};
+  std::atomic<std::uint64_t> rooms_merged_visible_{0};
   std::string classifier_error_;  // the latest failure (backend thread only)
   void label_rooms();
   runtime::BoundedQueue<BackendUpdate> backend_queue_{"frontend_to_backend"};

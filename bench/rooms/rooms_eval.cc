@@ -162,6 +162,12 @@ bool parse(int argc, char** argv, Options* o) {
     else if (a == "--door-bypass-max-m") number = &o->door.bypass_max_m;
     else if (a == "--door-bypass-extension-m") number = &o->door.bypass_extension_m;
     else if (a == "--door-bypass-max-edge-m") number = &o->door.bypass_max_edge_m;
+    else if (a == "--sight-min-wall-m") number = &o->door.sight_min_wall_m;
+    else if (a == "--sight-wall-dilation-m") number = &o->door.sight_wall_dilation_m;
+    else if (a == "--merge-visible") o->rooms.merge_visible = std::atoi(v.c_str()) != 0;
+    else if (a == "--sight-cut-edges") o->door.sight_cut_edges = std::atoi(v.c_str()) != 0;
+    else if (a == "--visible-min-share") number = &o->rooms.visible_min_share;
+    else if (a == "--visible-samples") o->rooms.visible_samples = static_cast<std::uint32_t>(std::atoi(v.c_str()));
     else if (a == "--generated") o->generated = std::atoi(v.c_str());
     else if (a == "--generated-rooms") o->generated_rooms = std::atoi(v.c_str());
     else if (a == "--label-buildings") o->label_buildings = std::atoi(v.c_str());
@@ -451,6 +457,9 @@ struct RunStats {
   // sides lie in two ground-truth rooms separates rooms; one with both sides in the same room is a false door (it
   // can only split that room); unknown: a side in no room (outside, or unlabelled free space).
   std::size_t doors_between = 0, doors_inside = 0, doors_unknown = 0;
+  // --doors: the final door stage's sight lines, for the room finder's visibility merge, and the rooms it merged.
+  std::shared_ptr<rooms::WallSight> sight;
+  std::size_t visible_merges = 0;
 };
 
 // --doors online: a run's online doors, cached beside its graph as 5 doubles a door (a.x a.y b.x b.y z).
@@ -529,7 +538,8 @@ bool apply_doors(const Options& opt, const std::string& name, const std::vector<
   rooms::DoorStats ds;
   std::string error;
   const auto t0 = std::chrono::steady_clock::now();
-  if (!rooms::find_doors(surface, *graph, opt.door, found, &ds, &error)) {
+  stats->sight = std::make_shared<rooms::WallSight>();
+  if (!rooms::find_doors(surface, *graph, opt.door, found, &ds, &error, stats->sight.get())) {
     std::fprintf(stderr, "%s: %s\n", name.c_str(), error.c_str());
     return false;
   }
@@ -539,6 +549,8 @@ bool apply_doors(const Options& opt, const std::string& name, const std::vector<
       before.push_back({{e.source, e.target}, e.info});
   });
   stats->door_edges_closed = rooms::cut_place_edges(*found, opt.door, graph);
+  const std::size_t through_walls =
+      opt.door.sight_cut_edges ? rooms::cut_edges_through_walls(*stats->sight, graph) : 0;
   stats->uncut_edges.clear();
   for (const auto& [ends, info] : before) {
     const sg::EdgeAttributes* now = graph->edge_info(ends.first, ends.second);
@@ -547,9 +559,9 @@ bool apply_doors(const Options& opt, const std::string& name, const std::vector<
   }
   stats->door_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   std::printf("  %s: doors: %zu (%zu candidates, %zu gone round by the places) in %zu storey slice(s), %zu place "
-              "edges closed, %.0f ms\n",
+              "edges closed, %zu more through walls, %.0f ms\n",
               name.c_str(), found->size(), ds.candidates, ds.bypassed, ds.slices, stats->door_edges_closed,
-              stats->door_ms);
+              through_walls, stats->door_ms);
   return true;
 }
 
@@ -729,14 +741,20 @@ bool run_rooms(const Options& opt, const std::string& name, sg::SceneGraph* grap
   }
   std::vector<double> ms;
   rooms::UpdateResult r;
+  // The final door stage's sight lines (not with the online doors: the app's rooms during a run have none).
+  const rooms::WallSight* sight = doors == nullptr && stats->sight ? stats->sight.get() : nullptr;
   for (int i = 0; i < 5; ++i) {
     const auto t0 = std::chrono::steady_clock::now();
-    r = finder->update(graph, time_ns, doors);
+    r = finder->update(graph, time_ns, doors, sight);
     ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
   }
   std::printf("  %s: Betti curve (delta m: components):", name.c_str());
   for (std::size_t i = 0; i < finder->curve_size(); i += 5) std::printf(" %.2f:%u", finder->dilation_at(i), finder->betti_at(i));
   std::printf("\n");
+  if (sight != nullptr && opt.rooms.merge_visible)
+    std::printf("  %s: visibility merge: %zu rooms merged into a room they see (%zu room pairs tested)\n",
+                name.c_str(), r.visible_merges, r.visible_pairs);
+  stats->visible_merges = r.visible_merges;
   stats->places = r.places;
   stats->rooms = r.rooms;
   stats->rooms_ms = median(ms);
@@ -1145,7 +1163,8 @@ int main(int argc, char** argv) {
                  "[--door-slice-above-robot-m H] [--door-min-width-m W] [--door-max-width-m W] [--door-min-rise-m R] "
                  "[--door-rise-reach-m R] [--door-max-off-centre F] [--door-slice-half-band-m B] [--door-min-wall-height-m H] "
                  "[--door-mapped-radius-m R] [--door-extension-m E] [--door-bypass-max-m D] [--door-bypass-extension-m E] "
-                 "[--door-bypass-max-edge-m L] "
+                 "[--door-bypass-max-edge-m L] [--merge-visible 0|1] [--visible-min-share S] [--visible-samples N] "
+                 "[--sight-min-wall-m W] [--sight-wall-dilation-m D] [--sight-cut-edges 0|1] "
                  "[--json FILE]\n",
                  argv[0]);
     return 2;
@@ -1192,7 +1211,7 @@ int main(int argc, char** argv) {
               "%.1f m from places; robot radius %.2f m, %s\n",
               opt.width, opt.height, opt.hfov_deg, opt.rate_hz, opt.max_reach_m, opt.robot_radius_m,
               opt.look_into_unreachable ? "the tour looks into rooms it cannot enter" : "no looks into rooms");
-  char cond[1024];
+  char cond[1536];
   std::snprintf(cond, sizeof(cond),
                 "sim camera %dx%d %.0f deg hfov %.1f Hz, ground-truth poses, noise-free depth, robot radius %.2f m%s, "
                 "TSDF 0.1 m, frontend every keyframe, rooms seeding %s alpha %.2f persistence %.2f m [%.2f, %.2f] m "
@@ -1214,6 +1233,15 @@ int main(int argc, char** argv) {
                   opt.rooms.corridor_min_open_edges);
   else
     std::snprintf(cond + std::strlen(cond), sizeof(cond) - std::strlen(cond), ", no corridor merge");
+  if (opt.rooms.merge_visible && opt.doors)
+    std::snprintf(cond + std::strlen(cond), sizeof(cond) - std::strlen(cond),
+                  ", visibility merge >= %.2f of %u x %u sight lines past walls >= %.1f m (dilated %.2f m)",
+                  opt.rooms.visible_min_share, opt.rooms.visible_samples, opt.rooms.visible_samples,
+                  opt.door.sight_min_wall_m, opt.door.sight_wall_dilation_m);
+  if (opt.door.sight_cut_edges && opt.doors)
+    std::snprintf(cond + std::strlen(cond), sizeof(cond) - std::strlen(cond), ", place edges through walls closed");
+  else
+    std::snprintf(cond + std::strlen(cond), sizeof(cond) - std::strlen(cond), ", no visibility merge");
   if (opt.door_oracle_m >= 0.0)
     std::snprintf(cond + std::strlen(cond), sizeof(cond) - std::strlen(cond), ", door oracle %.2f m", opt.door_oracle_m);
   if (opt.doors)

@@ -1,4 +1,5 @@
 #include "core/rooms/door_detector.h"
+#include "core/rooms/wall_sight.h"
 
 #include "core/memory/fixed_hash_map.h"
 
@@ -42,6 +43,10 @@ bool DoorConfig::validate(std::string* error) const {
   if (!(bypass_max_edge_m > 0.0 && std::isfinite(bypass_max_edge_m)))
     return fail("bypass_max_edge_m must be finite and positive");
   if (bypass_max_m > 0.0 && bypass_max_places == 0) return fail("bypass_max_places must be positive");
+  if (!(sight_wall_dilation_m >= 0.0 && sight_wall_dilation_m <= 1.0))
+    return fail("sight_wall_dilation_m must be in [0, 1]");
+  if (!(sight_min_wall_m >= 0.0 && std::isfinite(sight_min_wall_m)))
+    return fail("sight_min_wall_m must be finite and >= 0");
   return true;
 }
 
@@ -441,7 +446,7 @@ bool detect_doors_in_raster(DoorWorkspace* ws, const DoorRaster& raster, std::si
 
 bool detect_doors(const std::vector<Eigen::Vector3f>& surface, const std::vector<Eigen::Vector3d>& places,
                   double slice_z_m, const DoorConfig& config, std::vector<Door>* doors, DoorStats* stats,
-                  std::string* error) {
+                  std::string* error, WallSight* sight) {
   if (!config.validate(error)) return false;
   if (doors == nullptr) {
     if (error != nullptr) *error = "doors: no output";
@@ -509,6 +514,7 @@ bool detect_doors(const std::vector<Eigen::Vector3f>& surface, const std::vector
   }
   std::uint8_t* wall = ws.wall();
   for (std::size_t i = 0; i < raster.cells(); ++i) wall[i] = zmax[i] - zmin[i] >= config.min_wall_height_m ? 1 : 0;
+  if (sight != nullptr && !sight->add_slice(raster, wall, slice_z_m, config, error)) return false;
   std::size_t k = 0;
   for (const Eigen::Vector3d& p : places) {
     int c, r;
@@ -566,13 +572,14 @@ std::vector<double> door_slice_heights(const std::vector<double>& robot_z_m, con
 }
 
 bool find_doors(const std::vector<Eigen::Vector3f>& surface, const sg::SceneGraph& graph, const DoorConfig& config,
-                std::vector<Door>* doors, DoorStats* stats, std::string* error) {
+                std::vector<Door>* doors, DoorStats* stats, std::string* error, WallSight* sight) {
   if (!config.validate(error)) return false;
   if (doors == nullptr) {
     if (error != nullptr) *error = "doors: no output";
     return false;
   }
   doors->clear();
+  if (sight != nullptr) sight->clear();
   std::vector<Eigen::Vector3d> places;
   std::vector<double> robot_z;
   graph.for_each_node([&](const sg::NodeRecord& n) {
@@ -583,7 +590,7 @@ bool find_doors(const std::vector<Eigen::Vector3f>& surface, const sg::SceneGrap
   for (const double z : door_slice_heights(robot_z, config)) {
     std::vector<Door> found;
     DoorStats st;
-    if (!detect_doors(surface, places, z, config, &found, &st, error)) return false;
+    if (!detect_doors(surface, places, z, config, &found, &st, error, sight)) return false;
     doors->insert(doors->end(), found.begin(), found.end());
     ++total.slices;
     total.cols += st.cols;

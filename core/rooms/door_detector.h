@@ -38,6 +38,8 @@
 
 namespace qsg::rooms {
 
+class WallSight;  // core/rooms/wall_sight.h
+
 struct DoorConfig {
   double cell_m = 0.05;               // raster resolution
   double slice_half_band_m = 0.4;     // surface within +-this of the slice height is read
@@ -77,6 +79,15 @@ struct DoorConfig {
   double bypass_extension_m = 0.6;
   double bypass_max_edge_m = 1.2;
   std::size_t bypass_max_places = 4096;  // places one search may settle; beyond it the door is kept (counted)
+  // Sight lines for the room finder's visibility merge (WallSight, built by find_doors from the same slices): the
+  // slice's walls are thickened by sight_wall_dilation_m (bridging gaps up to twice it in a wall seen in pieces),
+  // and a connected piece whose bounding box spans at least sight_min_wall_m (diagonal) is structure, which blocks
+  // a sight line; shorter pieces are furniture, which does not.
+  double sight_wall_dilation_m = 0.15;
+  double sight_min_wall_m = 3.0;
+  // ... and the place edges that cross such structure are closed too (cut_edges_through_walls), by the callers of
+  // find_doors that build the sight lines (the app's final stage, rooms_eval).
+  bool sight_cut_edges = true;
   bool validate(std::string* error) const;
 };
 
@@ -298,12 +309,15 @@ std::vector<double> door_slice_heights(const std::vector<double>& robot_z_m, con
 // the slice gives no doors.
 bool detect_doors(const std::vector<Eigen::Vector3f>& surface, const std::vector<Eigen::Vector3d>& places,
                   double slice_z_m, const DoorConfig& config, std::vector<Door>* doors, DoorStats* stats,
-                  std::string* error);
+                  std::string* error, WallSight* sight = nullptr);
 
 // Every slice of the robot's storeys (agent nodes' heights), with the graph's places as the mapped space; then the
 // doors the places graph goes round are dropped (drop_bypassed_doors, counted in stats->bypassed).
+// With sight not null, each slice's walls are also added to it (WallSight::add_slice) for the room finder's
+// visibility merge; it is cleared first.
 bool find_doors(const std::vector<Eigen::Vector3f>& surface, const scene_graph::SceneGraph& graph,
-                const DoorConfig& config, std::vector<Door>* doors, DoorStats* stats, std::string* error);
+                const DoorConfig& config, std::vector<Door>* doors, DoorStats* stats, std::string* error,
+                WallSight* sight = nullptr);
 
 // The places graph a door's bypass is searched on (DoorConfig::bypass_max_m): place ids and positions and the
 // edges between them, in fixed arrays carved from an arena (the online stage) or allocated (offline), with the

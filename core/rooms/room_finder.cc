@@ -111,6 +111,12 @@ std::string Config::check() const {
   if (merge_corridors && (corridor_min_open_edges < 1 || corridor_min_open_edges > 65535))
     return "rooms.corridor_min_open_edges: must be in [1, 65535] (0 would merge through doors; counts saturate at "
            "65535)";
+  if (merge_visible && !(visible_min_share > 0.0 && visible_min_share <= 1.0))
+    return "rooms.visible_min_share: must be in (0, 1], got " + std::to_string(visible_min_share);
+  if (merge_visible && (visible_samples < 1 || visible_samples > kMaxVisibleSamples))
+    return "rooms.visible_samples: must be in [1, " + std::to_string(kMaxVisibleSamples) + "], got " +
+           std::to_string(visible_samples);
+  if (merge_visible && visible_max_rounds < 1) return "rooms.visible_max_rounds: must be >= 1";
   if (building_index > sg::kIndexMask) return "rooms.building_index: larger than a node index";
   return "";
 }
@@ -137,6 +143,12 @@ void Config::print(std::FILE* out) const {
                  corridor_min_neighbours, corridor_min_open_edges);
   else
     std::fprintf(out, "rooms: corridor merge off\n");
+  if (merge_visible)
+    std::fprintf(out,
+                 "rooms: visibility merge (with sight lines): >= %.2f of %u x %u sight lines clear, <= %u rounds\n",
+                 visible_min_share, visible_samples, visible_samples, visible_max_rounds);
+  else
+    std::fprintf(out, "rooms: visibility merge off\n");
 }
 
 Capacities Capacities::from_scene_graph(const sg::Capacities& graph) {
@@ -256,6 +268,8 @@ memory::ArenaPlan RoomFinder::plan(const Config& config, const Capacities& c) {
   p.add_array<std::uint32_t>(c.rooms);
   p.add_array<std::uint32_t>(c.rooms);
   p.add_array<std::uint32_t>(c.rooms);
+  p.add_array<std::uint32_t>(c.rooms * Config::kMaxVisibleSamples);
+  p.add_array<std::uint32_t>(c.rooms);
   return p;
 }
 
@@ -307,12 +321,14 @@ bool RoomFinder::init(const Config& config, const Capacities& c, std::size_t bud
   room_seeds_ = arena_.carve_array<std::uint32_t>(c.rooms);
   room_parent_ = arena_.carve_array<std::uint32_t>(c.rooms);
   room_neighbours_ = arena_.carve_array<std::uint32_t>(c.rooms);
+  sight_samples_ = arena_.carve_array<std::uint32_t>(c.rooms * Config::kMaxVisibleSamples);
+  room_count_ = arena_.carve_array<std::uint32_t>(c.rooms);
   // A heap, matches or curve of zero size would be a null carve; the plan never asks for those.
   ok = ok && place_ids_ && clearance_ && position_ && active_ && (edges_ || c.place_edges == 0) && adjacency_offset_ &&
        (adjacency_ || c.place_edges == 0) && order_ && parent_ && size_ && room_of_ && (heap_ || c.place_edges == 0) &&
        pairs_ && matches_ && curve_ && room_ids_ && room_acc_ && root_room_ && previous_ids_ &&
        previous_taken_ && saved_ && saved_valid_ && birth_ && member_next_ && member_tail_ && split_ && extent_ &&
-       sub_seeds_ && room_seeds_ && room_parent_ && room_neighbours_;
+       sub_seeds_ && room_seeds_ && room_parent_ && room_neighbours_ && sight_samples_ && room_count_;
   arena_.align_to_plan_boundary();
   if (!ok || !arena_.seal()) {
     if (error != nullptr) *error = "rooms: arena carve did not match its plan";
@@ -334,7 +350,8 @@ bool RoomFinder::init(const Config& config, const Capacities& c, std::size_t bud
 // ---------------------------------------------------------------------------------------------------------------
 // Update.
 
-UpdateResult RoomFinder::update(sg::SceneGraph* graph, std::uint64_t time_ns, const DoorSet* doors) {
+UpdateResult RoomFinder::update(sg::SceneGraph* graph, std::uint64_t time_ns, const DoorSet* doors,
+                                const WallSight* sight) {
   UpdateResult r;
   if (!ready_) return r;
   if (graph == nullptr || !graph->initialized()) {
@@ -368,6 +385,7 @@ UpdateResult RoomFinder::update(sg::SceneGraph* graph, std::uint64_t time_ns, co
   flood_fill();
   if (config_.split_by_extent) rooms = split_by_extent(rooms, &r);
   if (config_.merge_corridors) rooms = merge_corridors(rooms, &r);
+  if (config_.merge_visible && sight != nullptr && sight->slices() > 0) rooms = merge_visible(rooms, *sight, &r);
   assign_ids(*graph, rooms, &r);
   write_rooms(graph, rooms, time_ns, &r);
   counters_.graph_refused += r.refused;
@@ -937,14 +955,99 @@ std::size_t RoomFinder::merge_corridors(std::size_t num_rooms, UpdateResult* r) 
     ++merges;
   }
   if (merges == 0) return num_rooms;
-  // Dense slots in the order of the surviving rooms' old slots; room_neighbours_ becomes old root -> new slot.
+  r->corridor_merges += merges;
+  return renumber_merged_rooms(num_rooms);
+}
+
+// Dense slots in the order of the surviving rooms' old slots (room_parent_ says who merged into whom);
+// room_neighbours_ becomes old root -> new slot.
+std::size_t RoomFinder::renumber_merged_rooms(std::size_t num_rooms) {
   std::size_t rooms = 0;
   for (std::size_t k = 0; k < num_rooms; ++k)
     if (find_room(static_cast<std::uint32_t>(k)) == k) room_neighbours_[k] = static_cast<std::uint32_t>(rooms++);
   for (std::uint32_t i = 0; i < num_places_; ++i)
     if (room_of_[i] >= 0)
       room_of_[i] = static_cast<std::int32_t>(room_neighbours_[find_room(static_cast<std::uint32_t>(room_of_[i]))]);
-  r->corridor_merges += merges;
+  return rooms;
+}
+
+// Each round: every room's samples (its places at ranks floor(j (n - 1) / (m - 1)), j < m, in index order: all of
+// them when it has m or fewer), the adjacent pairs from the boundary edges (pairs_, sorted and folded), each pair's
+// share of clear sight lines (kept in the record's low 16 bits, 0..65535), then the qualifying pairs clearest first
+// (ties: the lower pair), each room merged once.
+std::size_t RoomFinder::merge_visible(std::size_t num_rooms, const WallSight& sight, UpdateResult* r) {
+  constexpr std::uint64_t kShareMask = 0xffffu;
+  const auto lo_of = [](std::uint64_t x) { return static_cast<std::uint32_t>(x >> 40); };
+  const auto hi_of = [](std::uint64_t x) { return static_cast<std::uint32_t>((x >> 16) & 0xffffffu); };
+  const auto key = [](std::uint32_t a, std::uint32_t b) {
+    return (static_cast<std::uint64_t>(std::min(a, b)) << 40) | (static_cast<std::uint64_t>(std::max(a, b)) << 16);
+  };
+  const std::uint32_t m = config_.visible_samples;
+  const auto position = [&](std::uint32_t i) {
+    return Eigen::Vector3d(position_[3 * i], position_[3 * i + 1], position_[3 * i + 2]);
+  };
+  const std::uint64_t min_share =
+      static_cast<std::uint64_t>(std::ceil(config_.visible_min_share * static_cast<double>(kShareMask)));
+  std::size_t rooms = num_rooms;
+  std::size_t merged_total = 0;
+  for (std::uint32_t round = 0; round < config_.visible_max_rounds; ++round) {
+    // Samples.
+    std::fill(room_count_, room_count_ + rooms, 0u);
+    for (std::uint32_t i = 0; i < num_places_; ++i)
+      if (room_of_[i] >= 0) ++room_count_[room_of_[i]];
+    std::fill(room_neighbours_, room_neighbours_ + rooms, 0u);  // per room: places seen so far (its rank)
+    std::fill(room_parent_, room_parent_ + rooms, 0u);          // per room: samples taken
+    for (std::uint32_t i = 0; i < num_places_; ++i) {
+      if (room_of_[i] < 0) continue;
+      const std::uint32_t k = static_cast<std::uint32_t>(room_of_[i]);
+      const std::uint64_t n = room_count_[k], rank = room_neighbours_[k]++;
+      std::uint32_t& taken = room_parent_[k];
+      // Sample j sits at rank floor(j (n - 1) / (m - 1)); several j can share a rank only when n < m (all taken).
+      while (taken < m && (n <= m ? rank == taken : (m == 1 ? 0 : taken * (n - 1) / (m - 1)) == rank))
+        sight_samples_[static_cast<std::size_t>(k) * Config::kMaxVisibleSamples + taken++] = i;
+    }
+    for (std::size_t k = 0; k < rooms; ++k) room_count_[k] = room_parent_[k];  // samples per room
+    // Adjacent pairs.
+    std::size_t n = 0;
+    for (std::size_t e = 0; e < num_edges_; ++e) {
+      const std::int32_t a = room_of_[edges_[e].a], b = room_of_[edges_[e].b];
+      if (a >= 0 && b >= 0 && a != b) pairs_[n++] = key(static_cast<std::uint32_t>(a), static_cast<std::uint32_t>(b));
+    }
+    std::sort(pairs_, pairs_ + n);
+    n = static_cast<std::size_t>(std::unique(pairs_, pairs_ + n) - pairs_);
+    // Shares.
+    std::size_t candidates = 0;
+    for (std::size_t k = 0; k < n; ++k) {
+      const std::uint32_t a = lo_of(pairs_[k]), b = hi_of(pairs_[k]);
+      const std::uint32_t* sa = sight_samples_ + static_cast<std::size_t>(a) * Config::kMaxVisibleSamples;
+      const std::uint32_t* sb = sight_samples_ + static_cast<std::size_t>(b) * Config::kMaxVisibleSamples;
+      std::uint64_t clear = 0;
+      for (std::uint32_t x = 0; x < room_count_[a]; ++x)
+        for (std::uint32_t y = 0; y < room_count_[b]; ++y)
+          clear += sight.sees(position(sa[x]), position(sb[y])) ? 1 : 0;
+      const std::uint64_t lines = static_cast<std::uint64_t>(room_count_[a]) * room_count_[b];
+      const std::uint64_t share = lines == 0 ? 0 : clear * kShareMask / lines;
+      ++r->visible_pairs;
+      if (share >= min_share) pairs_[candidates++] = pairs_[k] | share;
+    }
+    if (candidates == 0) break;
+    std::sort(pairs_, pairs_ + candidates, [&](std::uint64_t x, std::uint64_t y) {
+      return (x & kShareMask) != (y & kShareMask) ? (x & kShareMask) > (y & kShareMask) : x < y;
+    });
+    for (std::size_t k = 0; k < rooms; ++k) room_parent_[k] = static_cast<std::uint32_t>(k);
+    std::fill(room_count_, room_count_ + rooms, 0u);  // per room: merged this round
+    std::size_t merged = 0;
+    for (std::size_t k = 0; k < candidates; ++k) {
+      const std::uint32_t a = lo_of(pairs_[k]), b = hi_of(pairs_[k]);
+      if (room_count_[a] != 0 || room_count_[b] != 0) continue;
+      room_count_[a] = room_count_[b] = 1;
+      room_parent_[b] = a;  // the lower slot stays
+      ++merged;
+    }
+    merged_total += merged;
+    rooms = renumber_merged_rooms(rooms);
+  }
+  r->visible_merges += merged_total;
   return rooms;
 }
 

@@ -21,6 +21,7 @@
 #include "core/memory/fixed_hash_map.h"
 #include "core/memory/resource_stats.h"
 #include "core/rooms/door_detector.h"
+#include "core/rooms/wall_sight.h"
 #include "core/scene_graph/node_id.h"
 #include "core/scene_graph/scene_graph.h"
 
@@ -93,6 +94,20 @@ struct Config {
   bool merge_corridors = true;
   std::uint32_t corridor_min_neighbours = 3;
   std::uint32_t corridor_min_open_edges = 20;
+  // Visibility merge, last, when the update is given sight lines (a WallSight: the final door stage's slices,
+  // furniture left out): two adjacent rooms (any place edge between them, open or closed) whose places see each
+  // other past every structural wall are one room that furniture or a false door cut in two. Up to
+  // visible_samples places of each room (spread evenly over its places in id order) are paired with as many of
+  // the other's; the pair is merged when at least visible_min_share of those sight lines are clear. Pairs merge
+  // clearest first, each room once a round, for at most visible_max_rounds rounds (rooms and their samples taken
+  // again each round). A door between two rooms is in a wall, so few of their sight lines are clear.
+  // rooms_eval, final stage: see bench/README.md; chosen on the IPA plans and ten generated buildings from shares
+  // 0.5-1.0 and walls of 2-5 m (DoorConfig::sight_min_wall_m).
+  bool merge_visible = true;
+  double visible_min_share = 0.8;
+  std::uint32_t visible_samples = 12;  // at most kMaxVisibleSamples
+  std::uint32_t visible_max_rounds = 32;
+  static constexpr std::uint32_t kMaxVisibleSamples = 32;
   double extent_saturation_m = 1.0;
   double split_min_extent_m = 1.0;
   double split_max_extent_m = 2.5;
@@ -152,6 +167,8 @@ struct UpdateResult {
   std::size_t closed_edges = 0;      // place edges read as closed (weight <= 0, or a DoorSet door)
   std::size_t closed_region_rooms = 0;  // seed_closed_regions: rooms seeded by a closed-off region
   std::size_t corridor_merges = 0;   // merge_corridors: rooms merged into an adjacent corridor piece
+  std::size_t visible_merges = 0;    // merge_visible: rooms merged into an adjacent room they see
+  std::size_t visible_pairs = 0;     // merge_visible: adjacent room pairs whose sight lines were tested (all rounds)
 };
 
 struct Counters {
@@ -187,8 +204,10 @@ class RoomFinder {
 
   // Recomputes the rooms and the building from the graph's places. A place edge that one of `doors` closes
   // (door_closes_edge) is read as closed, as an edge of weight <= 0 is (the online door stage's doors; the final
-  // stage writes weights instead). Never allocates.
-  UpdateResult update(scene_graph::SceneGraph* graph, std::uint64_t time_ns = 0, const DoorSet* doors = nullptr);
+  // stage writes weights instead). With `sight` (the final door stage's WallSight) and Config::merge_visible, rooms
+  // that see each other are merged last. Never allocates.
+  UpdateResult update(scene_graph::SceneGraph* graph, std::uint64_t time_ns = 0, const DoorSet* doors = nullptr,
+                      const WallSight* sight = nullptr);
 
   // The Betti curve of the last update: value i at dilation_at(i) (ascending), curve_size() samples.
   std::size_t curve_size() const { return curve_size_; }
@@ -232,6 +251,8 @@ class RoomFinder {
   void compute_extent();
   std::size_t split_by_extent(std::size_t num_rooms, UpdateResult* r);
   std::size_t merge_corridors(std::size_t num_rooms, UpdateResult* r);
+  std::size_t merge_visible(std::size_t num_rooms, const WallSight& sight, UpdateResult* r);
+  std::size_t renumber_merged_rooms(std::size_t num_rooms);
   std::uint32_t find_room(std::uint32_t slot);
   void assign_ids(const scene_graph::SceneGraph& graph, std::size_t num_rooms, UpdateResult* r);
   void write_rooms(scene_graph::SceneGraph* graph, std::size_t num_rooms, std::uint64_t time_ns, UpdateResult* r);
@@ -281,6 +302,8 @@ class RoomFinder {
   std::uint32_t* room_seeds_ = nullptr;        // split_by_extent: per room slot, its seeds and flags
   std::uint32_t* room_parent_ = nullptr;       // merge_corridors: union-find over room slots
   std::uint32_t* room_neighbours_ = nullptr;   // merge_corridors: rooms each room touches; then the new slots
+  std::uint32_t* sight_samples_ = nullptr;     // merge_visible: per room slot, kMaxVisibleSamples place indices
+  std::uint32_t* room_count_ = nullptr;        // merge_visible: per room slot, its places; then sampled so far
 
   // Rooms: this update's (slot -> id, accumulated places) and the previous update's ids.
   scene_graph::NodeId* room_ids_ = nullptr;

@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <tuple>
 
 #include "core/reconstruction/ply_writer.h"
 #include "core/scene_graph/spark_dsg_json.h"
@@ -132,7 +133,8 @@ TEST(PipelineTest, DoorsFoundWhenTheRunFinishesCloseEdgesAndRoomsFollow) {
     p.graph().for_each_edge([&](const scene_graph::EdgeRecord& e) {
       closed += e.info.weighted && e.info.weight <= 0.0 ? 1 : 0;
     });
-    EXPECT_EQ(closed, p.counters().door_edges_closed);
+    // Closed: the edges through the doors and those through walls (the final stage's sight lines).
+    EXPECT_EQ(closed, p.counters().door_edges_closed + p.counters().edges_through_walls);
     EXPECT_GT(p.counters().rooms, 0u);
     EXPECT_GT(p.counters().backend_updates, updates) << "the final room update ran";
     if (doors) {
@@ -142,6 +144,8 @@ TEST(PipelineTest, DoorsFoundWhenTheRunFinishesCloseEdgesAndRoomsFollow) {
       EXPECT_GE(p.counters().door_edges_closed, 2u);
     } else {
       EXPECT_EQ(p.counters().doors, 0u);
+      EXPECT_EQ(p.counters().edges_through_walls, 0u);
+      EXPECT_EQ(p.counters().rooms_merged_visible, 0u);
       EXPECT_EQ(closed, 0u);
     }
   }
@@ -338,6 +342,29 @@ TEST(AppConfigTest, LoadsKnownKeysAndNamesBadOnes) {
   EXPECT_EQ(bypass.doors.bypass_max_edge_m, 2.0);
   EXPECT_FALSE(bypass.load(write("bypass_bad.json", "{\"doors\": {\"bypass_max_edge_m\": -1}}"), &error));
   EXPECT_NE(error.find("bypass_max_edge_m"), std::string::npos) << error;
+  AppConfig sight;
+  ASSERT_TRUE(sight.load(write("sight.json", "{\"doors\": {\"sight_min_wall_m\": 2.5, \"sight_wall_dilation_m\": 0.1, "
+                                             "\"sight_cut_edges\": false}, \"rooms\": {\"merge_visible\": false, "
+                                             "\"visible_min_share\": 0.7, \"visible_samples\": 16, "
+                                             "\"visible_max_rounds\": 4}}"),
+                         &error))
+      << error;
+  EXPECT_EQ(sight.doors.sight_min_wall_m, 2.5);
+  EXPECT_EQ(sight.doors.sight_wall_dilation_m, 0.1);
+  EXPECT_FALSE(sight.doors.sight_cut_edges);
+  EXPECT_FALSE(sight.rooms.merge_visible);
+  EXPECT_EQ(sight.rooms.visible_min_share, 0.7);
+  EXPECT_EQ(sight.rooms.visible_samples, 16u);
+  EXPECT_EQ(sight.rooms.visible_max_rounds, 4u);
+  for (const auto& [file, text, field] :
+       {std::tuple{"sight_bad.json", "{\"doors\": {\"sight_min_wall_m\": -1}}", "sight_min_wall_m"},
+        std::tuple{"visible_frac.json", "{\"rooms\": {\"visible_samples\": 2.5}}", "rooms.visible_samples"},
+        std::tuple{"visible_many.json", "{\"rooms\": {\"visible_samples\": 64}}", "visible_samples"},
+        std::tuple{"visible_share.json", "{\"rooms\": {\"visible_min_share\": 0}}", "visible_min_share"}}) {
+    AppConfig bad;
+    EXPECT_FALSE(bad.load(write(file, text), &error)) << file;
+    EXPECT_NE(error.find(field), std::string::npos) << error;
+  }
   EXPECT_FALSE(doors.load(write("door_widths.json", "{\"doors\": {\"min_width_m\": 3.0}}"), &error));
   EXPECT_NE(error.find("min_width_m"), std::string::npos) << error;
   AppConfig online;
@@ -371,6 +398,10 @@ TEST(AppConfigTest, LoadsKnownKeysAndNamesBadOnes) {
   EXPECT_EQ(sr.merge_corridors, dr.merge_corridors);
   EXPECT_EQ(sr.corridor_min_neighbours, dr.corridor_min_neighbours);
   EXPECT_EQ(sr.corridor_min_open_edges, dr.corridor_min_open_edges);
+  EXPECT_EQ(sr.merge_visible, dr.merge_visible);
+  EXPECT_EQ(sr.visible_min_share, dr.visible_min_share);
+  EXPECT_EQ(sr.visible_samples, dr.visible_samples);
+  EXPECT_EQ(sr.visible_max_rounds, dr.visible_max_rounds);
   EXPECT_EQ(shipped.doors_at_finish, AppConfig().doors_at_finish);
   EXPECT_EQ(shipped.doors_online, AppConfig().doors_online);
   EXPECT_EQ(shipped.doors_online_every_n, AppConfig().doors_online_every_n);
@@ -383,6 +414,9 @@ TEST(AppConfigTest, LoadsKnownKeysAndNamesBadOnes) {
   EXPECT_EQ(shipped.doors.bypass_max_m, AppConfig().doors.bypass_max_m);
   EXPECT_EQ(shipped.doors.bypass_extension_m, AppConfig().doors.bypass_extension_m);
   EXPECT_EQ(shipped.doors.bypass_max_edge_m, AppConfig().doors.bypass_max_edge_m);
+  EXPECT_EQ(shipped.doors.sight_min_wall_m, AppConfig().doors.sight_min_wall_m);
+  EXPECT_EQ(shipped.doors.sight_wall_dilation_m, AppConfig().doors.sight_wall_dilation_m);
+  EXPECT_EQ(shipped.doors.sight_cut_edges, AppConfig().doors.sight_cut_edges);
   const places::Config& sp = shipped.frontend.places;
   const places::Config dp = AppConfig().frontend.places;
   EXPECT_EQ(sp.signed_surface_seeds, dp.signed_surface_seeds);

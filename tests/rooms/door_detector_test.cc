@@ -3,6 +3,7 @@
 // heights, closing the place edges through a door, dropping the doors the places go round, bad input; and on a real benchmark plan extruded into a surface,
 // where the doors found must lie on the ground truth's room boundaries.
 #include "core/rooms/door_detector.h"
+#include "core/rooms/wall_sight.h"
 
 #include <gtest/gtest.h>
 
@@ -144,9 +145,23 @@ TEST(DoorDetector, ClosesThePlaceEdgesThroughTheDoorOnly) {
 
   std::vector<Door> doors;
   DoorStats st;
-  ASSERT_TRUE(find_doors(s.surface, graph, DoorConfig{}, &doors, &st, &error)) << error;
+  WallSight sight;
+  ASSERT_TRUE(find_doors(s.surface, graph, DoorConfig{}, &doors, &st, &error, &sight)) << error;
   EXPECT_EQ(st.slices, 1u);
   ASSERT_EQ(doors.size(), 1u);
+  // The same slice gives the sight lines: the walls are one long piece, the wall at x = 4 blocks except at the
+  // door; the mesh-less floor and ceiling do not count.
+  ASSERT_EQ(sight.slices(), 1u);
+  EXPECT_DOUBLE_EQ(sight.slice_z(0), 1.2);
+  EXPECT_EQ(sight.structure_components(0), 1u);
+  EXPECT_FALSE(sight.sees(Eigen::Vector3d(2, 0.75, 1), Eigen::Vector3d(6, 0.75, 1)));
+  EXPECT_FALSE(sight.sees(Eigen::Vector3d(2, 3.25, 1), Eigen::Vector3d(6, 3.25, 1)));
+  EXPECT_TRUE(sight.sees(Eigen::Vector3d(2, 2.05, 1), Eigen::Vector3d(6, 2.05, 1)));
+  EXPECT_TRUE(sight.sees(Eigen::Vector3d(1, 1, 1), Eigen::Vector3d(3, 3, 1)));
+  // A second call starts the sight lines over.
+  std::vector<Door> again;
+  ASSERT_TRUE(find_doors(s.surface, graph, DoorConfig{}, &again, nullptr, &error, &sight)) << error;
+  EXPECT_EQ(sight.slices(), 1u);
   EXPECT_DOUBLE_EQ(doors[0].z_m, 1.2);
   EXPECT_EQ(cut_place_edges(doors, DoorConfig{}, &graph), 2u);
   std::size_t closed = 0;

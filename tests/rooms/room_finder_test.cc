@@ -676,6 +676,125 @@ TEST(RoomFinderTest, ClosedPassagesMakeARegionWithoutSeedARoom) {
   EXPECT_EQ(again.closed_region_rooms, 1u);
 }
 
+// Sight lines over a grid plan's occupied cells (one slice at 1.2 m; the places sit at 1.0 m). The walls are
+// thickened by one 0.05 m cell only: the plan's places sit 0.125 m from its walls, closer than any real place.
+WallSight sight_of(const GridPlan& plan, int width, int height) {
+  DoorConfig config;
+  config.sight_wall_dilation_m = 0.05;
+  DoorRaster raster;
+  raster.cell_m = 0.05;
+  const int per_cell = static_cast<int>(std::lround(plan.cell_m() / raster.cell_m));
+  raster.cols = width * per_cell;
+  raster.rows = height * per_cell;
+  std::vector<std::uint8_t> wall(raster.cells(), 0);
+  for (int r = 0; r < raster.rows; ++r)
+    for (int c = 0; c < raster.cols; ++c)
+      wall[static_cast<std::size_t>(r) * raster.cols + c] = plan.free(c / per_cell, r / per_cell) ? 0 : 1;
+  WallSight sight;
+  std::string error;
+  EXPECT_TRUE(sight.add_slice(raster, wall.data(), 1.2, config, &error)) << error;
+  return sight;
+}
+
+// Closes (weight 0) every edge that crosses x = x_m. Returns the number closed.
+std::size_t close_line(SyntheticPlaces* s, double x_m) {
+  std::size_t closed = 0;
+  for (testing::SyntheticEdge& e : s->edges)
+    if ((s->places[e.a].position_m.x() < x_m) != (s->places[e.b].position_m.x() < x_m)) {
+      e.weight_m = 0.0;
+      ++closed;
+    }
+  return closed;
+}
+
+// A hall that a false door line cuts in two is one room again when its halves see each other; two rooms with a
+// wall between them stay two, though their door is closed too.
+TEST(RoomFinderTest, RoomsThatSeeEachOtherAreMerged) {
+  GridPlan hall(35, 18, testing::kCellM);
+  hall.carve(1, 1, 34, 17, 0);
+  SyntheticPlaces s;
+  hall.add_to(&s, 1.0);
+  ASSERT_GT(close_line(&s, 17 * testing::kCellM), 0u);
+  const WallSight hall_sight = sight_of(hall, 35, 18);
+  ASSERT_EQ(hall_sight.structure_components(0), 1u);  // the outer walls, one ring
+  {
+    auto g = make_graph();
+    ASSERT_TRUE(s.write(g.get()));
+    EXPECT_EQ(make_finder()->update(g.get()).rooms, 2u);  // no sight lines: the false door splits the hall
+  }
+  auto g = make_graph();
+  ASSERT_TRUE(s.write(g.get()));
+  auto finder = make_finder();
+  UpdateResult r;
+  EXPECT_NO_ALLOCATIONS(r = finder->update(g.get(), 0, nullptr, &hall_sight));
+  ASSERT_EQ(r.outcome, Outcome::kOk);
+  EXPECT_EQ(r.rooms, 1u);
+  EXPECT_EQ(r.visible_merges, 1u);
+  EXPECT_GE(r.visible_pairs, 1u);
+  EXPECT_EQ(r.places_assigned, s.places.size());
+  EXPECT_EQ(rooms_by_tag(*g, s)[0].size(), 1u);
+  // Again (ids kept), and with every sight line required or a single sample: the same.
+  EXPECT_NO_ALLOCATIONS(r = finder->update(g.get(), 0, nullptr, &hall_sight));
+  EXPECT_EQ(r.rooms, 1u);
+  EXPECT_EQ(r.rooms_kept, 1u);
+  for (const auto& [share, samples] : {std::pair{1.0, 12u}, std::pair{0.8, 1u}, std::pair{0.8, 32u}}) {
+    Config c;
+    c.visible_min_share = share;
+    c.visible_samples = samples;
+    auto g2 = make_graph();
+    ASSERT_TRUE(s.write(g2.get()));
+    EXPECT_EQ(make_finder(c)->update(g2.get(), 0, nullptr, &hall_sight).rooms, 1u) << share << " " << samples;
+  }
+  // Off: two rooms.
+  Config off;
+  off.merge_visible = false;
+  auto g3 = make_graph();
+  ASSERT_TRUE(s.write(g3.get()));
+  r = make_finder(off)->update(g3.get(), 0, nullptr, &hall_sight);
+  EXPECT_EQ(r.rooms, 2u);
+  EXPECT_EQ(r.visible_merges, 0u);
+
+  // Two rooms, a wall between them and their door closed: they see each other only through the door.
+  SyntheticPlaces two;
+  testing::two_rooms_plan().add_to(&two, 1.0);
+  ASSERT_GT(close_line(&two, 17 * testing::kCellM), 0u);
+  const WallSight two_sight = sight_of(testing::two_rooms_plan(), 35, 18);
+  auto g4 = make_graph();
+  ASSERT_TRUE(two.write(g4.get()));
+  auto two_finder = make_finder();
+  EXPECT_NO_ALLOCATIONS(r = two_finder->update(g4.get(), 0, nullptr, &two_sight));
+  EXPECT_EQ(r.rooms, 2u);
+  EXPECT_EQ(r.visible_merges, 0u);
+  EXPECT_EQ(r.visible_pairs, 1u);
+  expect_one_room_per_tag(*g4, two);
+  // Sight lines of another storey (beyond cut_max_dz_m of the places) see nothing: no merge.
+  SyntheticPlaces upstairs;
+  hall.add_to(&upstairs, 1.0 + 3.0);
+  close_line(&upstairs, 17 * testing::kCellM);
+  auto g5 = make_graph();
+  ASSERT_TRUE(upstairs.write(g5.get()));
+  EXPECT_EQ(make_finder()->update(g5.get(), 0, nullptr, &hall_sight).rooms, 2u);
+}
+
+TEST(RoomFinderTest, VisibilityMergeSettingsAreChecked) {
+  const auto bad = [](auto set, const char* field) {
+    Config c;
+    set(&c);
+    const std::string why = c.check();
+    EXPECT_NE(why.find(field), std::string::npos) << why;
+  };
+  bad([](Config* c) { c->visible_min_share = 0.0; }, "visible_min_share");
+  bad([](Config* c) { c->visible_min_share = 1.5; }, "visible_min_share");
+  bad([](Config* c) { c->visible_min_share = std::nan(""); }, "visible_min_share");
+  bad([](Config* c) { c->visible_samples = 0; }, "visible_samples");
+  bad([](Config* c) { c->visible_samples = Config::kMaxVisibleSamples + 1; }, "visible_samples");
+  bad([](Config* c) { c->visible_max_rounds = 0; }, "visible_max_rounds");
+  Config off;
+  off.merge_visible = false;
+  off.visible_samples = 0;  // not read when off
+  EXPECT_EQ(off.check(), "");
+}
+
 TEST(RoomFinderTest, BettiCurveMatchesBruteForce) {
   std::mt19937 rng(7);
   for (int trial = 0; trial < 20; ++trial) {
