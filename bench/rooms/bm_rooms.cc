@@ -5,6 +5,10 @@
 // over a frozen synthetic places graph: a corridor with 4 m rooms on both sides at 0.5 m place spacing, in a scene
 // graph and a finder sized by the board's budget table. Reports the median and max per update as well as the mean.
 //
+// BM_rooms_visible_merge: the same update over the corridor plan with every room cut in two by a false door (its
+// place edges across the room's middle closed) and the plan's walls as sight lines (rooms::WallSight); the second
+// argument turns the visibility merge off or on, so the merge's cost shows beside the same update without it.
+//
 // BM_online_door_pass: one online door pass (rooms::OnlineDoors, the budget table's "doors" capacities: the window
 // around the robot, its places and place edges from a scene graph, the wall raster from the painted wall map, the
 // detection, the bypass check of every found door and the door set's update) over the same corridor plan extruded
@@ -15,12 +19,14 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <memory>
 #include <vector>
 
 #include "budgets/budget_table.h"
 #include "core/rooms/online_doors.h"
 #include "core/rooms/room_finder.h"
+#include "core/rooms/wall_sight.h"
 #include "core/scene_graph/scene_graph.h"
 #include "tests/rooms/synthetic_places.h"
 
@@ -31,7 +37,8 @@ using namespace qsg;
 // Times finder->update over the places in a scene graph and a finder sized by the board's budget table; writes the
 // counters both update benchmarks share. Returns the last update (outcome kNotInitialized when setup failed).
 rooms::UpdateResult time_updates(benchmark::State& state, const rooms::Config& config,
-                                 const rooms::testing::SyntheticPlaces& places, int rooms_per_side) {
+                                 const rooms::testing::SyntheticPlaces& places, int rooms_per_side,
+                                 const rooms::WallSight* sight = nullptr) {
   auto graph = std::make_unique<scene_graph::SceneGraph>();
   auto finder = std::make_unique<rooms::RoomFinder>();
   std::string error;
@@ -46,7 +53,7 @@ rooms::UpdateResult time_updates(benchmark::State& state, const rooms::Config& c
   ms.reserve(1 << 16);
   for (auto _ : state) {
     const auto t0 = std::chrono::steady_clock::now();
-    r = finder->update(graph.get());
+    r = finder->update(graph.get(), 0, nullptr, sight);
     const auto t1 = std::chrono::steady_clock::now();
     if (ms.size() < ms.capacity()) ms.push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
     benchmark::DoNotOptimize(r);
@@ -100,6 +107,51 @@ void BM_rooms_corridor_merge(benchmark::State& state) {
 BENCHMARK(BM_rooms_corridor_merge)
     ->ArgsProduct({{12, 48}, {0, 1}})
     ->ArgNames({"rooms_per_side", "corridor_merge"})
+    ->Unit(benchmark::kMillisecond);
+
+void BM_rooms_visible_merge(benchmark::State& state) {
+  const int rooms_per_side = static_cast<int>(state.range(0));
+  rooms::Config config;
+  config.merge_visible = state.range(1) != 0;
+  const rooms::testing::GridPlan plan = rooms::testing::corridor_plan(rooms_per_side, 0.5);
+  rooms::testing::SyntheticPlaces places;
+  plan.add_to(&places, 1.0, Eigen::Vector2d::Zero(), 1.25);
+  // The false doors: edges between two places of one room whose ends lie on both sides of its middle.
+  const double cell = plan.cell_m(), room_m = 4.0 + cell;  // a room and its wall
+  for (rooms::testing::SyntheticEdge& e : places.edges) {
+    const rooms::testing::SyntheticPlace &a = places.places[e.a], &b = places.places[e.b];
+    if (a.room < 1 || a.room != b.room) continue;
+    const double middle = cell + room_m * std::floor((a.position_m.x() - cell) / room_m) + 2.0;
+    if ((a.position_m.x() < middle) != (b.position_m.x() < middle)) e.weight_m = 0.0;
+  }
+  // The sight lines: the plan's occupied cells at 0.05 m, one slice at 1.2 m.
+  Eigen::Vector2d hi = Eigen::Vector2d::Zero();
+  for (const rooms::testing::SyntheticPlace& p : places.places) hi = hi.cwiseMax(p.position_m.head<2>());
+  rooms::DoorRaster raster;
+  raster.cell_m = 0.05;
+  raster.cols = static_cast<int>(std::ceil((hi.x() + cell) / raster.cell_m));
+  raster.rows = static_cast<int>(std::ceil((hi.y() + cell) / raster.cell_m));
+  std::vector<std::uint8_t> wall(raster.cells(), 0);
+  for (int r = 0; r < raster.rows; ++r)
+    for (int c = 0; c < raster.cols; ++c) {
+      const Eigen::Vector2d p = raster.centre_of(c, r);
+      wall[static_cast<std::size_t>(r) * raster.cols + c] =
+          plan.free(static_cast<int>(p.x() / cell), static_cast<int>(p.y() / cell)) ? 0 : 1;
+    }
+  rooms::WallSight sight;
+  std::string error;
+  if (!sight.add_slice(raster, wall.data(), 1.2, rooms::DoorConfig{}, &error)) {
+    state.SkipWithError(error.c_str());
+    return;
+  }
+  const rooms::UpdateResult r = time_updates(state, config, places, rooms_per_side, &sight);
+  state.counters["visible_merges"] = static_cast<double>(r.visible_merges);
+  state.counters["room_pairs_tested"] = static_cast<double>(r.visible_pairs);
+}
+
+BENCHMARK(BM_rooms_visible_merge)
+    ->ArgsProduct({{6, 24}, {0, 1}})
+    ->ArgNames({"rooms_per_side", "visible_merge"})
     ->Unit(benchmark::kMillisecond);
 
 void BM_online_door_pass(benchmark::State& state) {

@@ -1,17 +1,21 @@
 #!/usr/bin/python3
 """Sandbox for room-finder ideas: a Python mirror of core/rooms' persistence seeding, closed-off regions, flood fill,
-extent split and corridor merge, run on the places that `rooms_eval --dump-places DIR` wrote, scored per place
+extent split, corridor merge and visibility merge (its sight lines from the dump's surface, one slice at the doors'
+height; numpy), run on the places that `rooms_eval --dump-places DIR` wrote, scored per place
 against the ground-truth rooms.
 
     build/release/bench/rooms/rooms_eval --cache-dir C --generated 0 --dump-places D   # once (cached: seconds)
     /usr/bin/python3 bench/rooms/finder_sandbox.py D [--min-persistence-m P] [--min-component N] [--no-extent-split]
-        [--no-corridor-merge] [--corridor-min-neighbours N] [--corridor-min-open-edges N]
+        [--no-corridor-merge] [--corridor-min-neighbours N] [--corridor-min-open-edges N] [--no-visible-merge]
+        [--visible-min-share S] [--visible-samples N] [--sight-min-wall-m W] [--sight-wall-dilation-m D]
 
 It prints, per variant (plain, furnished), the same place-level score for the C++ rooms of the dump and for this
 mirror, so a change tried here first can be judged in well under a second before it is written in C++. The mirror
 follows the C++ closely, not exactly (ties among equal clearances fall in the dump's order, not the ids'): on
 session 16's graphs, plain, 149 rooms against the C++ 150 with the corridor merge off, the same 136 with it on on
-session 17's. Compare a change against the mirror's own baseline. The score is a proxy of rooms_eval's: it
+session 17's; with the visibility merge (session 19's graphs), plain 130 against 128 and furnished the same 178 with
+the same score. The dump's place edges already carry the final stage's closures (doors and edges through walls).
+Compare a change against the mirror's own baseline. The score is a proxy of rooms_eval's: it
 counts places, not free cells (max-overlap precision per estimated room and recall per ground-truth room, means over
 rooms, and the precision weighted by places); places outside every ground-truth room are left out, and a place
 without a room counts as a room of its own. The real figures stay rooms_eval's.
@@ -233,6 +237,121 @@ def merge_corridors(places, edges, room_of, min_neighbours=3, min_open_edges=20)
                 room[p] = best[0]
 
 
+def wall_sight(stem, places, z, dilation_m=0.15, min_wall_m=3.0, cell_m=0.05, half_band_m=0.4,
+               min_wall_height_m=0.3, mapped_radius_m=2.0, place_band_m=1.5):
+    """rooms::WallSight's slice at z from the dump's surface (stem + ".surface.f32"): (structure mask [row, col],
+    raster origin), or None without the surface. Needs numpy (python3-numpy)."""
+    import numpy as np
+    path = stem + ".surface.f32"
+    if not os.path.exists(path):
+        return None
+    v = np.fromfile(path, dtype=np.float32).reshape(-1, 3).astype(np.float64)
+    v = v[np.abs(v[:, 2] - z) <= half_band_m]
+    xy = np.array([(a["x"], a["y"]) for a in places.values() if abs(a["z"] - z) <= place_band_m])
+    if len(v) == 0 or len(xy) == 0:
+        return None
+    margin = mapped_radius_m + 2 * cell_m
+    lo = xy.min(0) - margin
+    cols, rows = (np.ceil((xy.max(0) + margin - lo) / cell_m)).astype(int)
+    c = np.floor((v[:, :2] - lo) / cell_m).astype(np.int64)
+    inside = (c[:, 0] >= 0) & (c[:, 1] >= 0) & (c[:, 0] < cols) & (c[:, 1] < rows)
+    c, vz = c[inside], v[inside, 2]
+    idx = c[:, 1] * cols + c[:, 0]
+    zmin, zmax = np.full(rows * cols, np.inf), np.full(rows * cols, -np.inf)
+    np.minimum.at(zmin, idx, vz)
+    np.maximum.at(zmax, idx, vz)
+    grown = ((zmax - zmin) >= min_wall_height_m).reshape(rows, cols)
+    for _ in range(int(round(dilation_m / cell_m))):
+        g = grown.copy()
+        g[1:, :] |= grown[:-1, :]
+        g[:-1, :] |= grown[1:, :]
+        g[:, 1:] |= grown[:, :-1]
+        g[:, :-1] |= grown[:, 1:]
+        grown = g
+    mask = np.zeros_like(grown)
+    seen = np.zeros_like(grown)
+    for r0, c0 in zip(*np.nonzero(grown)):
+        if seen[r0, c0]:
+            continue
+        seen[r0, c0] = True
+        stack, cells = [(r0, c0)], []
+        while stack:
+            r, q = stack.pop()
+            cells.append((r, q))
+            for dr in (-1, 0, 1):
+                for dq in (-1, 0, 1):
+                    rr, qq = r + dr, q + dq
+                    if 0 <= rr < rows and 0 <= qq < cols and grown[rr, qq] and not seen[rr, qq]:
+                        seen[rr, qq] = True
+                        stack.append((rr, qq))
+        a = np.array(cells)
+        if math.hypot(a[:, 0].max() - a[:, 0].min() + 1, a[:, 1].max() - a[:, 1].min() + 1) >= min_wall_m / cell_m:
+            mask[a[:, 0], a[:, 1]] = True
+    return mask, lo
+
+
+def sees(sight, a, b, cell_m=0.05):
+    """WallSight::sees on one slice: the plan segment a-b crosses no structure cell (cells in order, as the C++)."""
+    mask, lo = sight
+    rows, cols = mask.shape
+    x0, y0 = (a[0] - lo[0]) / cell_m, (a[1] - lo[1]) / cell_m
+    x1, y1 = (b[0] - lo[0]) / cell_m, (b[1] - lo[1]) / cell_m
+    c, r, ce, re = math.floor(x0), math.floor(y0), math.floor(x1), math.floor(y1)
+    dx, dy = x1 - x0, y1 - y0
+    sc, sr = (1 if dx > 0 else -1), (1 if dy > 0 else -1)
+    tdc = abs(1 / dx) if dx else math.inf
+    tdr = abs(1 / dy) if dy else math.inf
+    tc = (math.floor(x0) + 1 - x0) * tdc if dx > 0 else ((x0 - math.floor(x0)) * tdc if dx < 0 else math.inf)
+    tr = (math.floor(y0) + 1 - y0) * tdr if dy > 0 else ((y0 - math.floor(y0)) * tdr if dy < 0 else math.inf)
+    for _ in range(abs(ce - c) + abs(re - r) + 1):
+        if 0 <= c < cols and 0 <= r < rows and mask[r, c]:
+            return False
+        if tc < tr:
+            c, tc = c + sc, tc + tdc
+        else:
+            r, tr = r + sr, tr + tdr
+    return True
+
+
+def merge_visible(places, edges, room_of, sight, min_share=0.8, samples=12, max_rounds=32):
+    """RoomFinder's visibility merge on one slice: each round, up to `samples` places per room (ranks
+    floor(j (n - 1) / (samples - 1)) in id order), each adjacent pair's share of clear sight lines, then the pairs at
+    or above min_share clearest first (ties: the lower pair), each room once a round (the lower keeps its number)."""
+    room = dict(room_of)
+    ids = sorted(places)
+    for _ in range(max_rounds):
+        members = collections.defaultdict(list)
+        for p in ids:
+            if room[p] is not None and room[p] >= 0:
+                members[room[p]].append(p)
+        picked = {}
+        for r, ps in members.items():
+            n = len(ps)
+            picked[r] = ps if n <= samples else [ps[j * (n - 1) // (samples - 1)] for j in range(samples)]
+        pairs = set()
+        for a, b, _ in edges:
+            ra, rb = room[a], room[b]
+            if ra is not None and rb is not None and ra >= 0 and rb >= 0 and ra != rb:
+                pairs.add((min(ra, rb), max(ra, rb)))
+        cands = []
+        for ra, rb in sorted(pairs):
+            clear = sum(sees(sight, (places[p]["x"], places[p]["y"]), (places[q]["x"], places[q]["y"]))
+                        for p in picked[ra] for q in picked[rb])
+            share = clear * 65535 // (len(picked[ra]) * len(picked[rb]))
+            if share >= math.ceil(min_share * 65535):
+                cands.append((-share, ra, rb))
+        if not cands:
+            break
+        done = set()
+        for _, ra, rb in sorted(cands):
+            if ra in done or rb in done:
+                continue
+            done.update((ra, rb))
+            for p in members[rb]:
+                room[p] = ra
+    return room
+
+
 def score(places, room_of):
     """(sum of precisions, estimated rooms, sum of recalls, ground-truth rooms, overlapping places, places)."""
     estimated = collections.defaultdict(collections.Counter)
@@ -268,6 +387,12 @@ def main():
     ap.add_argument("--no-corridor-merge", action="store_true", help="the room finder without its corridor merge")
     ap.add_argument("--corridor-min-neighbours", type=int, default=3)
     ap.add_argument("--corridor-min-open-edges", type=int, default=20)
+    ap.add_argument("--no-visible-merge", action="store_true",
+                    help="the room finder without its visibility merge (which needs numpy and the dump's surface)")
+    ap.add_argument("--visible-min-share", type=float, default=0.8)
+    ap.add_argument("--visible-samples", type=int, default=12)
+    ap.add_argument("--sight-min-wall-m", type=float, default=3.0)
+    ap.add_argument("--sight-wall-dilation-m", type=float, default=0.15)
     ap.add_argument("--door-oracle-m", type=float, default=None, metavar="C",
                     help="a perfect door detector: every place edge between two ground-truth rooms gets clearance C "
                          "(0: cut), what any door or opening cue could give the persistence seeding at best")
@@ -291,6 +416,13 @@ def main():
             if not args.no_corridor_merge:
                 rooms = merge_corridors(places, edges, rooms, args.corridor_min_neighbours,
                                         args.corridor_min_open_edges)
+            if not args.no_visible_merge:
+                with open(path) as f:
+                    door_z = [float(line.split()[5]) for line in f if line.startswith("D ")]
+                sight = wall_sight(path[:-4], places, door_z[0] if door_z else 1.2, args.sight_wall_dilation_m,
+                                   args.sight_min_wall_m)
+                if sight is not None:
+                    rooms = merge_visible(places, edges, rooms, sight, args.visible_min_share, args.visible_samples)
             mirror.append(score(places, rooms))
         for name, s in (("C++ (dump)", cpp), ("mirror", mirror)):
             print("%-10s %-10s places: P %.3f R %.3f | P weighted %.3f | rooms %d" % ((variant, name) + pooled(s)))
