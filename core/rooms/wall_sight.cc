@@ -109,23 +109,33 @@ bool WallSight::structure_at(std::size_t i, int c, int r) const {
   return s.structure[static_cast<std::size_t>(r) * s.raster.cols + c] != 0;
 }
 
+namespace {
+bool in_raster(const DoorRaster& r, const Eigen::Vector3d& p) {
+  int c, row;
+  return r.cell_of(p.x(), p.y(), &c, &row);
+}
+}  // namespace
+
 bool WallSight::sees(const Eigen::Vector3d& a, const Eigen::Vector3d& b) const {
   const int slice = slice_of(a);
   if (slice < 0 || slice_of(b) != slice) return false;
-  return !line_hits(slices_[static_cast<std::size_t>(slice)], a, b);
+  const Slice& s = slices_[static_cast<std::size_t>(slice)];
+  return in_raster(s.raster, a) && in_raster(s.raster, b) && !line_hits(s, a, b);
 }
 
 bool WallSight::crosses_structure(const Eigen::Vector3d& a, const Eigen::Vector3d& b) const {
   const int slice = slice_of(a);
   if (slice < 0 || slice_of(b) != slice) return false;
-  return line_hits(slices_[static_cast<std::size_t>(slice)], a, b);
+  const Slice& s = slices_[static_cast<std::size_t>(slice)];
+  return in_raster(s.raster, a) && in_raster(s.raster, b) && line_hits(s, a, b);
 }
 
 // Every cell the segment passes through, in order (Amanatides and Woo's traversal); true at the first structure
-// cell. Cells outside the raster do not count.
+// cell.
 bool WallSight::line_hits(const Slice& s, const Eigen::Vector3d& a, const Eigen::Vector3d& b) const {
   const double x0 = (a.x() - s.raster.lo.x()) / s.raster.cell_m, y0 = (a.y() - s.raster.lo.y()) / s.raster.cell_m;
   const double x1 = (b.x() - s.raster.lo.x()) / s.raster.cell_m, y1 = (b.y() - s.raster.lo.y()) / s.raster.cell_m;
+  // Callers check that both ends lie in the raster, so the walk takes at most cols + rows steps.
   long c = static_cast<long>(std::floor(x0)), r = static_cast<long>(std::floor(y0));
   const long c_end = static_cast<long>(std::floor(x1)), r_end = static_cast<long>(std::floor(y1));
   const double dx = x1 - x0, dy = y1 - y0;
@@ -136,7 +146,7 @@ bool WallSight::line_hits(const Slice& s, const Eigen::Vector3d& a, const Eigen:
   double next_r = dy > 0.0 ? (std::floor(y0) + 1.0 - y0) * delta_r : dy < 0.0 ? (y0 - std::floor(y0)) * delta_r : kInf;
   const long steps = std::labs(c_end - c) + std::labs(r_end - r);
   for (long k = 0; k <= steps; ++k) {
-    if (c >= 0 && r >= 0 && c < s.raster.cols && r < s.raster.rows &&
+    if (c >= 0 && r >= 0 && c < s.raster.cols && r < s.raster.rows &&  // rounding at the raster's rim
         s.structure[static_cast<std::size_t>(r) * s.raster.cols + static_cast<std::size_t>(c)] != 0)
       return true;
     if (next_c < next_r) {

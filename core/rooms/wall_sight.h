@@ -44,10 +44,11 @@ class WallSight {
   // The slice a point belongs to: the nearest one within max_dz_m of its height, or -1.
   int slice_of(const Eigen::Vector3d& p) const;
   // Whether the segment a-b, in plan, crosses no structure cell of the slice both ends belong to. False when the
-  // ends belong to different slices or to none, or are not finite. Cells outside the slice's raster do not block.
+  // ends belong to different slices or to none, lie outside the slice's raster (not mapped: unknown), or are not
+  // finite.
   bool sees(const Eigen::Vector3d& a, const Eigen::Vector3d& b) const;
   // Whether the segment a-b, in plan, crosses a structure cell of the slice both ends belong to. False when they do
-  // not belong to one slice (an edge between storeys is not judged).
+  // not belong to one slice (an edge between storeys is not judged) or an end lies outside its raster.
   bool crosses_structure(const Eigen::Vector3d& a, const Eigen::Vector3d& b) const;
   // Whether cell (c, r) of slice i is structure (tests and pictures).
   bool structure_at(std::size_t i, int c, int r) const;

@@ -121,9 +121,11 @@ TEST(WallSightTest, EachStoreyHasItsSlice) {
   EXPECT_FALSE(sight.sees(at(1, 1, 1.0), at(1, 2, 4.0)));
   EXPECT_FALSE(sight.crosses_structure(at(1, 1, 1.0), at(5, 1, 4.0)));
   EXPECT_FALSE(sight.sees(at(1, 1, 9.0), at(1, 2, 9.0)));
-  // Ends outside the raster: only the cells inside count.
-  EXPECT_FALSE(sight.sees(at(-5, 1, 1.0), at(50, 1, 1.0)));
-  EXPECT_TRUE(sight.sees(at(-5, 1, 4.0), at(50, 1, 4.0)));
+  // An end outside the raster (not mapped) is not judged: not seen, not crossing; far away, no long walk either.
+  EXPECT_FALSE(sight.sees(at(-5, 1, 4.0), at(5, 1, 4.0)));
+  EXPECT_FALSE(sight.crosses_structure(at(-5, 1, 1.0), at(5, 1, 1.0)));
+  EXPECT_FALSE(sight.sees(at(1, 1, 4.0), at(1e12, -1e12, 4.0)));
+  EXPECT_FALSE(sight.crosses_structure(at(1, 1, 1.0), at(1e12, 1, 1.0)));
   sight.clear();
   EXPECT_EQ(sight.slices(), 0u);
   EXPECT_FALSE(sight.sees(at(1, 1), at(1, 2)));
