@@ -5,6 +5,7 @@
 #include <fstream>
 #include <functional>
 #include <map>
+#include <tuple>
 #include <nlohmann/json.hpp>
 
 namespace qsg::app {
@@ -192,18 +193,15 @@ bool AppConfig::load(const std::string& path, std::string* error) {
            return *why = "rooms.split_min_component_size: expected 1 .. 1000000", false;
          rooms.split_min_component_size = static_cast<std::uint32_t>(split_min_component);
          // Whole numbers only; the range itself is rooms::Config::check's (with the rest of the rooms section).
-         if (!whole_number_in(corridor_neighbours, 0.0, 1e6))
-           return *why = "rooms.corridor_min_neighbours: expected a whole number 0 .. 1000000", false;
-         if (!whole_number_in(corridor_edges, 0.0, 1e6))
-           return *why = "rooms.corridor_min_open_edges: expected a whole number 0 .. 1000000", false;
-         rooms.corridor_min_neighbours = static_cast<std::uint32_t>(corridor_neighbours);
-         rooms.corridor_min_open_edges = static_cast<std::uint32_t>(corridor_edges);
-         if (!whole_number_in(visible_samples, 0.0, 1e6))
-           return *why = "rooms.visible_samples: expected a whole number 0 .. 1000000", false;
-         if (!whole_number_in(visible_rounds, 0.0, 1e6))
-           return *why = "rooms.visible_max_rounds: expected a whole number 0 .. 1000000", false;
-         rooms.visible_samples = static_cast<std::uint32_t>(visible_samples);
-         rooms.visible_max_rounds = static_cast<std::uint32_t>(visible_rounds);
+         for (const auto& [value, field, out] :
+              {std::tuple{corridor_neighbours, "corridor_min_neighbours", &rooms.corridor_min_neighbours},
+               std::tuple{corridor_edges, "corridor_min_open_edges", &rooms.corridor_min_open_edges},
+               std::tuple{visible_samples, "visible_samples", &rooms.visible_samples},
+               std::tuple{visible_rounds, "visible_max_rounds", &rooms.visible_max_rounds}}) {
+           if (!whole_number_in(value, 0.0, 1e6))
+             return *why = std::string("rooms.") + field + ": expected a whole number 0 .. 1000000", false;
+           *out = static_cast<std::uint32_t>(value);
+         }
          return true;
        }},
       {"doors", [&](const Json& v, std::string* why) {

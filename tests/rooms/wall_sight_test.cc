@@ -39,6 +39,15 @@ struct Walls {
 
 Eigen::Vector3d at(double x, double y, double z = 1.0) { return Eigen::Vector3d(x, y, z); }
 
+// The walls' sight lines as one slice at 1.2 m.
+WallSight sight_of(const Walls& w, const DoorConfig& config = DoorConfig{}) {
+  WallSight sight;
+  std::string error;
+  EXPECT_TRUE(sight.add_slice(w.raster, w.wall.data(), 1.2, config, &error)) << error;
+  EXPECT_EQ(sight.slices(), 1u);
+  return sight;
+}
+
 TEST(WallSightTest, LongWallsBlockAndFurnitureDoesNot) {
   // A 6 m x 4 m hall: a wall along x = 3 from y = 0 to 3 (3 m, structure), a 0.5 m post at (1.5, 2), a chair-sized
   // 0.4 m block at (4.5, 1). Nothing else.
@@ -46,10 +55,7 @@ TEST(WallSightTest, LongWallsBlockAndFurnitureDoesNot) {
   w.box(2.95, 0.0, 3.05, 3.0);
   w.box(1.25, 1.75, 1.75, 2.25);
   w.box(4.3, 0.8, 4.7, 1.2);
-  WallSight sight;
-  std::string error;
-  ASSERT_TRUE(sight.add_slice(w.raster, w.wall.data(), 1.2, DoorConfig{}, &error)) << error;
-  ASSERT_EQ(sight.slices(), 1u);
+  const WallSight sight = sight_of(w);
   EXPECT_EQ(sight.components(0), 3u);
   EXPECT_EQ(sight.structure_components(0), 1u);
   EXPECT_GT(sight.structure_cells(0), 0u);
@@ -67,14 +73,12 @@ TEST(WallSightTest, LongWallsBlockAndFurnitureDoesNot) {
   // A shorter wall limit makes the post structure; a longer one makes the 3 m wall furniture.
   DoorConfig strict;
   strict.sight_min_wall_m = 0.5;
-  WallSight posts;
-  ASSERT_TRUE(posts.add_slice(w.raster, w.wall.data(), 1.2, strict, &error)) << error;
+  const WallSight posts = sight_of(w, strict);
   EXPECT_EQ(posts.structure_components(0), 3u);
   EXPECT_FALSE(posts.sees(at(0.5, 2.0), at(2.5, 2.0)));
   DoorConfig loose;
   loose.sight_min_wall_m = 5.0;
-  WallSight none;
-  ASSERT_TRUE(none.add_slice(w.raster, w.wall.data(), 1.2, loose, &error)) << error;
+  const WallSight none = sight_of(w, loose);
   EXPECT_EQ(none.structure_components(0), 0u);
   EXPECT_TRUE(none.sees(at(1.0, 1.0), at(5.0, 1.5)));
 }
@@ -85,9 +89,7 @@ TEST(WallSightTest, TheThickeningBridgesSmallGapsNotDoors) {
   w.box(2.95, 0.0, 3.05, 0.9);
   w.box(2.95, 1.1, 3.05, 3.95);
   w.box(2.95, 4.95, 3.05, 6.5);
-  WallSight sight;
-  std::string error;
-  ASSERT_TRUE(sight.add_slice(w.raster, w.wall.data(), 1.2, DoorConfig{}, &error)) << error;
+  const WallSight sight = sight_of(w);
   EXPECT_EQ(sight.components(0), 2u);  // the gap is bridged, the door is not
   EXPECT_EQ(sight.structure_components(0), 1u);
   EXPECT_FALSE(sight.sees(at(1.0, 1.0), at(5.0, 1.0)));   // through the small gap: bridged
@@ -96,8 +98,7 @@ TEST(WallSightTest, TheThickeningBridgesSmallGapsNotDoors) {
   // Without the thickening the pieces stay apart, each shorter than 3 m: furniture, nothing blocks.
   DoorConfig thin;
   thin.sight_wall_dilation_m = 0.0;
-  WallSight raw;
-  ASSERT_TRUE(raw.add_slice(w.raster, w.wall.data(), 1.2, thin, &error)) << error;
+  const WallSight raw = sight_of(w, thin);
   EXPECT_EQ(raw.components(0), 3u);
   EXPECT_EQ(raw.structure_components(0), 0u);
   EXPECT_TRUE(raw.sees(at(1.0, 2.5), at(5.0, 2.5)));
@@ -106,9 +107,8 @@ TEST(WallSightTest, TheThickeningBridgesSmallGapsNotDoors) {
 TEST(WallSightTest, EachStoreyHasItsSlice) {
   Walls w(120, 80);
   w.box(2.95, 0.0, 3.05, 4.0);
-  WallSight sight;
+  WallSight sight = sight_of(w);
   std::string error;
-  ASSERT_TRUE(sight.add_slice(w.raster, w.wall.data(), 1.2, DoorConfig{}, &error)) << error;
   Walls open(120, 80);  // upstairs: no wall
   ASSERT_TRUE(sight.add_slice(open.raster, open.wall.data(), 4.2, DoorConfig{}, &error)) << error;
   EXPECT_EQ(sight.slice_of(at(1, 1, 1.0)), 0);
@@ -159,9 +159,7 @@ TEST(WallSightTest, PlaceEdgesThroughAWallAreClosed) {
   Walls w(120, 140);
   w.box(2.95, 0.0, 3.05, 2.45);
   w.box(2.95, 3.45, 3.05, 7.0);
-  WallSight sight;
-  std::string error;
-  ASSERT_TRUE(sight.add_slice(w.raster, w.wall.data(), 1.2, DoorConfig{}, &error)) << error;
+  const WallSight sight = sight_of(w);
   auto graph = sg::testing::make_graph();
   const auto place = [&](std::uint64_t i, double x, double y, double z) {
     sg::PlaceAttributes a;
