@@ -291,11 +291,14 @@ void Pipeline::run_backend_update(const BackendUpdate& u, bool door_pass) {
   if (online && door_pass && backend_passes_due_++ % config_.doors_online_every_n == 0) run_door_pass(u.robot_m);
   const std::uint64_t time_ns = u.time_ns;
   std::lock_guard<std::mutex> lock(graph_mutex_);
-  // The final door stage's sight lines (close_doors, at the finish) let the last update merge rooms that see each
-  // other; during the run there are none.
-  const rooms::UpdateResult r = rooms_.update(&graph_, time_ns, online ? &online_doors_.doors() : nullptr,
-                                              final_sight_.slices() > 0 ? &final_sight_ : nullptr);
-  if (r.visible_merges > 0) rooms_merged_visible_.store(r.visible_merges);
+  // Sight lines: the final door stage's (close_doors, at the finish) for the last update; during the run, the last
+  // online door pass's window. The online stage's buffers are only written by a pass, on this thread.
+  const rooms::WallSight* sight = final_sight_.slices() > 0 ? &final_sight_
+                                  : online                   ? &online_doors_.sight()
+                                                             : nullptr;
+  const rooms::UpdateResult r =
+      rooms_.update(&graph_, time_ns, online ? &online_doors_.doors() : nullptr, sight);
+  rooms_merged_visible_.store(r.visible_merges);
   backend_updates_.fetch_add(1);
   rooms_count_.store(r.rooms);
   if (r.rooms > 0 && classifier_ != nullptr && classifier_->ready()) label_rooms();

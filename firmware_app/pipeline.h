@@ -56,7 +56,7 @@ struct PipelineCounters {
   std::uint64_t backend_updates = 0;      // room updates run by the backend
   std::uint64_t rooms = 0;                // rooms after the latest backend update
   std::uint64_t rooms_labelled = 0;       // rooms the neural tree gave a label (latest update)
-  std::uint64_t rooms_merged_visible = 0; // rooms the last update merged into a room they see (final sight lines)
+  std::uint64_t rooms_merged_visible = 0; // rooms merged into a room they see (latest update, its sight lines)
   std::uint64_t doors = 0;                // doors found when the run finished (AppConfig::doors_at_finish)
   std::uint64_t door_edges_closed = 0;    // place edges they closed
   std::uint64_t edges_through_walls = 0;  // place edges closed because they cross a structural wall (final stage)
@@ -199,7 +199,7 @@ class Pipeline {
   // Online doors: the loop paints re-meshed blocks into the wall map under wall_mutex_ (try-lock: a keyframe never
   // waits; what it skips is painted with the next one), the backend slices it around the robot.
   rooms::OnlineDoors online_doors_;
-  rooms::WallSight final_sight_;  // the final door stage's sight lines (close_doors), for the last room update
+  rooms::WallSight final_sight_;  // the final door stage's sight lines (close_doors); before it, the online window's
   std::mutex wall_mutex_;
   std::vector<std::uint32_t> painted_stamp_;    // per TSDF block slot: the meshed_stamp last painted
   std::vector<memory::Index3> painted_block_;   // ... and the block it was

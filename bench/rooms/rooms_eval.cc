@@ -165,7 +165,11 @@ bool parse(int argc, char** argv, Options* o) {
     else if (a == "--sight-min-wall-m") number = &o->door.sight_min_wall_m;
     else if (a == "--sight-wall-dilation-m") number = &o->door.sight_wall_dilation_m;
     else if (a == "--merge-visible") o->rooms.merge_visible = std::atoi(v.c_str()) != 0;
-    else if (a == "--sight-cut-edges") o->door.sight_cut_edges = std::atoi(v.c_str()) != 0;
+    else if (a == "--merge-visible-in-window") o->rooms.merge_visible_in_window = std::atoi(v.c_str()) != 0;
+    else if (a == "--sight-cut-edges") {  // the final stage's written closures and the room finder's read ones
+      o->door.sight_cut_edges = std::atoi(v.c_str()) != 0;
+      o->rooms.close_edges_through_walls = o->door.sight_cut_edges;
+    }
     else if (a == "--visible-min-share") number = &o->rooms.visible_min_share;
     else if (a == "--visible-samples") o->rooms.visible_samples = static_cast<std::uint32_t>(std::atoi(v.c_str()));
     else if (a == "--generated") o->generated = std::atoi(v.c_str());
@@ -462,6 +466,34 @@ struct RunStats {
   std::size_t visible_merges = 0;
 };
 
+// --doors online: the last window pass's sight lines (raster and structure mask), cached beside the doors as lo.x
+// lo.y cell_m z (doubles), cols rows (int32), then cols x rows bytes.
+bool write_window(const rooms::DoorRaster& r, const std::uint8_t* walls, double z, const std::string& path) {
+  std::FILE* f = std::fopen(path.c_str(), "wb");
+  if (f == nullptr) return false;
+  const double head[4] = {r.lo.x(), r.lo.y(), r.cell_m, z};
+  const std::int32_t size[2] = {r.cols, r.rows};
+  const bool ok = std::fwrite(head, sizeof(head), 1, f) == 1 && std::fwrite(size, sizeof(size), 1, f) == 1 &&
+                  std::fwrite(walls, 1, r.cells(), f) == r.cells();
+  return std::fclose(f) == 0 && ok;
+}
+
+bool read_window(const std::string& path, rooms::DoorRaster* r, std::vector<std::uint8_t>* walls, double* z) {
+  std::ifstream in(path, std::ios::binary);
+  double head[4];
+  std::int32_t size[2];
+  if (!in.read(reinterpret_cast<char*>(head), sizeof(head)) || !in.read(reinterpret_cast<char*>(size), sizeof(size)))
+    return false;
+  if (size[0] <= 0 || size[1] <= 0 || size[0] > 100000 || size[1] > 100000 || !(head[2] > 0.0)) return false;
+  r->lo = Eigen::Vector2d(head[0], head[1]);
+  r->cell_m = head[2];
+  r->cols = size[0];
+  r->rows = size[1];
+  *z = head[3];
+  walls->resize(r->cells());
+  return static_cast<bool>(in.read(reinterpret_cast<char*>(walls->data()), static_cast<std::streamsize>(r->cells())));
+}
+
 // --doors online: a run's online doors, cached beside its graph as 5 doubles a door (a.x a.y b.x b.y z).
 bool write_doors(const std::vector<rooms::Door>& doors, const std::string& path) {
   std::FILE* f = std::fopen(path.c_str(), "wb");
@@ -613,6 +645,20 @@ bool run_pipeline(const Options& opt, const world::World& w, const std::string& 
                    w.name.c_str(), doors_path.c_str());
       return false;
     }
+    if (opt.online_doors) {
+      // The last window's sight lines (caches from before they existed have none: no sight lines).
+      rooms::DoorRaster window;
+      std::vector<std::uint8_t> structure;
+      double slice_z = 0.0;
+      if (read_window(doors_path + ".sight", &window, &structure, &slice_z)) {
+        stats->sight = std::make_shared<rooms::WallSight>();
+        if (!stats->sight->add_structure(window, structure.data(), slice_z, opt.door, &error, /*window=*/true))
+          std::fprintf(stderr, "%s: online sight lines: %s\n", w.name.c_str(), error.c_str());
+      } else {
+        std::printf("  %s: no %s.sight in the cache: the online rooms without sight lines\n", w.name.c_str(),
+                    doors_path.c_str());
+      }
+    }
     if (!apply_doors(opt, w.name, *surface, graph, stats)) return false;
     const bool ok = run_rooms_with_doors(opt, w.name, graph, stats);
     stats->wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -676,6 +722,17 @@ bool run_pipeline(const Options& opt, const world::World& w, const std::string& 
   if (online) {
     pass(last);  // the latest places, as the app's last backend update sees them
     for (std::size_t i = 0; i < online->doors().size(); ++i) stats->online_doors.push_back(online->doors()[i]);
+    // The last pass's window sight lines, as the app's room finder reads them (OnlineDoors::sight).
+    const rooms::WallSight& window = online->sight();
+    if (window.slices() > 0) {
+      stats->sight = std::make_shared<rooms::WallSight>();
+      if (!stats->sight->add_structure(window.raster(0), window.structure(0), window.slice_z(0), opt.door, &error,
+                                       /*window=*/true))
+        std::fprintf(stderr, "%s: online sight lines: %s\n", w.name.c_str(), error.c_str());
+      if (!doors_path.empty() &&
+          !write_window(window.raster(0), window.structure(0), window.slice_z(0), doors_path + ".sight"))
+        std::fprintf(stderr, "cache: cannot write %s.sight\n", doors_path.c_str());
+    }
     stats->wall_tiles = online->wall_map().tile_stats().in_use;
     std::sort(stats->pass_ms.begin(), stats->pass_ms.end());
     std::printf("  %s: online doors: %zu after %zu window passes (median %.1f ms, max %.1f ms; %zu skipped on stairs), "
@@ -741,8 +798,8 @@ bool run_rooms(const Options& opt, const std::string& name, sg::SceneGraph* grap
   }
   std::vector<double> ms;
   rooms::UpdateResult r;
-  // The final door stage's sight lines (not with the online doors: the app's rooms during a run have none).
-  const rooms::WallSight* sight = doors == nullptr && stats->sight ? stats->sight.get() : nullptr;
+  // Sight lines: the final door stage's, or with the online doors the last window pass's (as the app reads them).
+  const rooms::WallSight* sight = stats->sight ? stats->sight.get() : nullptr;
   for (int i = 0; i < 5; ++i) {
     const auto t0 = std::chrono::steady_clock::now();
     r = finder->update(graph, time_ns, doors, sight);
@@ -751,9 +808,10 @@ bool run_rooms(const Options& opt, const std::string& name, sg::SceneGraph* grap
   std::printf("  %s: Betti curve (delta m: components):", name.c_str());
   for (std::size_t i = 0; i < finder->curve_size(); i += 5) std::printf(" %.2f:%u", finder->dilation_at(i), finder->betti_at(i));
   std::printf("\n");
-  if (sight != nullptr && opt.rooms.merge_visible)
-    std::printf("  %s: visibility merge: %zu rooms merged into a room they see (%zu room pairs tested)\n",
-                name.c_str(), r.visible_merges, r.visible_pairs);
+  if (sight != nullptr)
+    std::printf("  %s: sight lines: %zu rooms merged into a room they see (%zu room pairs tested), %zu open place "
+                "edges read as closed through walls\n",
+                name.c_str(), r.visible_merges, r.visible_pairs, r.edges_through_walls);
   stats->visible_merges = r.visible_merges;
   stats->places = r.places;
   stats->rooms = r.rooms;
@@ -1163,7 +1221,7 @@ int main(int argc, char** argv) {
                  "[--door-slice-above-robot-m H] [--door-min-width-m W] [--door-max-width-m W] [--door-min-rise-m R] "
                  "[--door-rise-reach-m R] [--door-max-off-centre F] [--door-slice-half-band-m B] [--door-min-wall-height-m H] "
                  "[--door-mapped-radius-m R] [--door-extension-m E] [--door-bypass-max-m D] [--door-bypass-extension-m E] "
-                 "[--door-bypass-max-edge-m L] [--merge-visible 0|1] [--visible-min-share S] [--visible-samples N] "
+                 "[--door-bypass-max-edge-m L] [--merge-visible 0|1] [--merge-visible-in-window 0|1] [--visible-min-share S] [--visible-samples N] "
                  "[--sight-min-wall-m W] [--sight-wall-dilation-m D] [--sight-cut-edges 0|1] "
                  "[--json FILE]\n",
                  argv[0]);
@@ -1233,11 +1291,15 @@ int main(int argc, char** argv) {
                   opt.rooms.corridor_min_open_edges);
   else
     std::snprintf(cond + std::strlen(cond), sizeof(cond) - std::strlen(cond), ", no corridor merge");
-  if (opt.rooms.merge_visible && opt.doors)
+  if (opt.rooms.merge_visible && (opt.doors || (opt.online_doors && opt.rooms.merge_visible_in_window)))
     std::snprintf(cond + std::strlen(cond), sizeof(cond) - std::strlen(cond),
-                  ", visibility merge >= %.2f of %u x %u sight lines past walls >= %.1f m (dilated %.2f m)",
+                  ", visibility merge >= %.2f of %u x %u sight lines past walls >= %.1f m (dilated %.2f m)%s",
                   opt.rooms.visible_min_share, opt.rooms.visible_samples, opt.rooms.visible_samples,
-                  opt.door.sight_min_wall_m, opt.door.sight_wall_dilation_m);
+                  opt.door.sight_min_wall_m, opt.door.sight_wall_dilation_m,
+                  opt.online_doors ? " in the last online window" : "");
+  if (opt.rooms.close_edges_through_walls && opt.online_doors)
+    std::snprintf(cond + std::strlen(cond), sizeof(cond) - std::strlen(cond),
+                  ", place edges through walls read as closed in the last online window");
   if (opt.door.sight_cut_edges && opt.doors)
     std::snprintf(cond + std::strlen(cond), sizeof(cond) - std::strlen(cond), ", place edges through walls closed");
   else

@@ -53,6 +53,7 @@ memory::ArenaPlan OnlineDoors::plan(const OnlineDoorCapacities& c) {
   p.add_plan(DoorSet::plan(c.doors));
   p.add_plan(DoorWorkspace::plan(workspace_capacities(c)));
   p.add_plan(BypassGraph::plan(bypass_capacities(c)));
+  p.add_plan(WallSight::plan(c.window_side * c.window_side));
   p.add_array<Door>(c.candidates);
   return p;
 }
@@ -81,6 +82,8 @@ bool OnlineDoors::init(const DoorConfig& config, const OnlineDoorCapacities& cap
   ok = ok && workspace_.carve(arena_, workspace_capacities(capacities));
   arena_.align_to_plan_boundary();
   ok = ok && bypass_.carve(arena_, bypass_capacities(capacities));
+  arena_.align_to_plan_boundary();
+  ok = ok && sight_.carve(arena_, capacities.window_side * capacities.window_side);
   arena_.align_to_plan_boundary();
   found_ = arena_.carve_array<Door>(capacities.candidates);
   arena_.align_to_plan_boundary();
@@ -165,6 +168,9 @@ PassResult OnlineDoors::detect() {
   result.climbing = climbing_;
   if (!begun_) return result;
   begun_ = false;
+  // The window's sight lines first: the detection works in the wall raster's buffer.
+  if (sight_.set_window_slice(raster_, workspace_.wall(), slice_z_m_, config_))
+    result.sight_structure_cells = sight_.structure_cells(0);
   std::size_t num = 0;
   if (!detect_doors_in_raster(&workspace_, raster_, num_places_, slice_z_m_, config_, found_,
                               capacities_.candidates, &num, &result.stats))

@@ -14,7 +14,9 @@
 //                       places go round is dropped (DoorConfig::bypass_max_m, as find_doors does); add_place(p)
 //                       takes one position only, and without a places graph no door is dropped;
 //   rasterize()         the wall raster from the WallMap (the caller holds whatever guards the painting);
-//   detect()            the detection and the DoorSet's update (no shared state but the DoorSet).
+//   detect()            the detection and the DoorSet's update (no shared state but the DoorSet), and the window's
+//                       sight lines (sight(): its slice's long walls, WallSight::set_window_slice), which the room
+//                       finder reads until the next pass.
 #pragma once
 
 #include <Eigen/Core>
@@ -26,6 +28,7 @@
 #include "core/memory/arena.h"
 #include "core/rooms/door_detector.h"
 #include "core/rooms/wall_map.h"
+#include "core/rooms/wall_sight.h"
 #include "core/scene_graph/scene_graph.h"
 
 namespace qsg::rooms {
@@ -57,6 +60,7 @@ struct PassResult {
   std::size_t bypassed = 0;    // found doors the window's places go round, dropped before the DoorSet's update
   std::size_t bypass_searches_cut = 0;  // ... searches stopped short (their doors kept)
   std::size_t bypass_refused = 0;       // places and place edges beyond the window's graph capacities
+  std::size_t sight_structure_cells = 0;  // the window's sight lines: cells of long walls (0: no sight this pass)
   DoorStats stats;
 };
 
@@ -76,6 +80,8 @@ class OnlineDoors {
   WallMap& wall_map() { return wall_map_; }
   const WallMap& wall_map() const { return wall_map_; }
   const DoorSet& doors() const { return doors_; }
+  // The last pass's sight lines (empty before the first pass, and after a pass that did not run).
+  const WallSight& sight() const { return sight_; }
 
   // A robot whose height moved more than storey_bin_m since the previous begin_pass is on stairs or a ramp: its
   // slice would cut the storey at the wrong height (and replace the doors there), so that pass does not run.
@@ -110,6 +116,7 @@ class OnlineDoors {
   DoorSet doors_;
   DoorWorkspace workspace_;
   BypassGraph bypass_;
+  WallSight sight_;
   Door* found_ = nullptr;  // one pass's doors (capacities_.candidates)
   DoorRaster raster_;
   double slice_z_m_ = 0.0;

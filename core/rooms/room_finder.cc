@@ -359,7 +359,11 @@ UpdateResult RoomFinder::update(sg::SceneGraph* graph, std::uint64_t time_ns, co
     return r;
   }
   ++counters_.updates;
-  read_places(*graph, doors, &r);
+  // Edges through long walls read as closed (Config::close_edges_through_walls); with no structure there is
+  // nothing to close.
+  const WallSight* walls =
+      config_.close_edges_through_walls && sight != nullptr && sight->slices() > 0 ? sight : nullptr;
+  read_places(*graph, doors, walls, &r);
   counters_.truncated += r.truncated;
   compute_curve();
   const int chosen = num_places_ == 0 ? -1 : choose_plateau(curve_, curve_size_, config_.plateau_alpha);
@@ -385,7 +389,9 @@ UpdateResult RoomFinder::update(sg::SceneGraph* graph, std::uint64_t time_ns, co
   flood_fill();
   if (config_.split_by_extent) rooms = split_by_extent(rooms, &r);
   if (config_.merge_corridors) rooms = merge_corridors(rooms, &r);
-  if (config_.merge_visible && sight != nullptr && sight->slices() > 0) rooms = merge_visible(rooms, *sight, &r);
+  if (config_.merge_visible && sight != nullptr && sight->slices() > 0 &&
+      (!sight->window() || config_.merge_visible_in_window))
+    rooms = merge_visible(rooms, *sight, &r);
   assign_ids(*graph, rooms, &r);
   write_rooms(graph, rooms, time_ns, &r);
   counters_.graph_refused += r.refused;
@@ -393,7 +399,8 @@ UpdateResult RoomFinder::update(sg::SceneGraph* graph, std::uint64_t time_ns, co
   return r;
 }
 
-bool RoomFinder::read_places(const sg::SceneGraph& graph, const DoorSet* doors, UpdateResult* r) {
+bool RoomFinder::read_places(const sg::SceneGraph& graph, const DoorSet* doors, const WallSight* sight,
+                             UpdateResult* r) {
   index_.clear();
   num_places_ = 0;
   num_edges_ = 0;
@@ -437,6 +444,10 @@ bool RoomFinder::read_places(const sg::SceneGraph& graph, const DoorSet* doors, 
       if ((e.info.weighted && e.info.weight <= 0.0) || (doors != nullptr && doors->closes(at(i), at(*j)))) {
         w = kClosed;
         ++r->closed_edges;
+      } else if (sight != nullptr && sight->crosses_structure(at(i), at(*j))) {
+        w = kClosed;
+        ++r->closed_edges;
+        ++r->edges_through_walls;
       }
       edges_[num_edges_++] = Edge{i, *j, w};
     });

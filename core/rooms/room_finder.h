@@ -94,8 +94,13 @@ struct Config {
   bool merge_corridors = true;
   std::uint32_t corridor_min_neighbours = 3;
   std::uint32_t corridor_min_open_edges = 20;
-  // Visibility merge, last, when the update is given sight lines (a WallSight: the final door stage's slices,
-  // furniture left out): two adjacent rooms (any place edge between them, open or closed) whose places see each
+  // With sight lines, a place edge that crosses a long wall (WallSight::crosses_structure) is read as closed, as a
+  // door's is: an edge the places layer left through a wall is no passage. The final door stage also writes weight
+  // 0 on such edges (DoorConfig::sight_cut_edges, for the saved graph); during a run the room finder reads them
+  // through the online door window's sight lines (OnlineDoors::sight), as it reads the online doors.
+  bool close_edges_through_walls = true;
+  // Visibility merge, last, when the update is given sight lines (a WallSight: the final door stage's slices, or
+  // during a run the online door window's; furniture left out): two adjacent rooms (any place edge between them, open or closed) whose places see each
   // other past every structural wall are one room that furniture or a false door cut in two. Up to
   // visible_samples places of each room (spread evenly over its places in id order) are paired with as many of
   // the other's; the pair is merged when at least visible_min_share of those sight lines are clear. Pairs merge
@@ -106,8 +111,13 @@ struct Config {
   // 0.883 -> 0.956 / 0.860 / 0.892, ten generated buildings 0.956 / 0.938 / 0.949 -> 0.960 / 0.948 / 0.957 (the
   // merge alone: furnished 0.946 / 0.871 / 0.882, its P below 0.95; the cut alone: 0.966 / 0.804 / 0.896). Chosen
   // there from shares 0.7-0.9, 12 or 16 samples and walls of 2.5-4 m: 4 m walls or a 0.1 m thickening merge more
-  // (furnished R up to 0.884) at furnished P 0.936-0.941.
+  // (furnished R 0.874-0.879) at furnished P 0.949-0.950 and plain area P 0.930-0.934.
   bool merge_visible = true;
+  // ... also with a window's sight lines (the online door window's, during a run). Off: during a run the merge
+  // lowered precision (rooms_eval --doors online, the closing of edges through walls on, merge off -> on: plain
+  // 0.963 / 0.947 / 0.937 -> 0.950 / 0.947 / 0.917, furnished 0.960 / 0.802 / 0.900 -> 0.957 / 0.814 / 0.897, two
+  // generated buildings 0.950 / 0.907 / 0.933 -> 0.937 / 0.926 / 0.912); edges through walls are still closed there.
+  bool merge_visible_in_window = false;
   double visible_min_share = 0.8;
   std::uint32_t visible_samples = 12;  // at most kMaxVisibleSamples
   std::uint32_t visible_max_rounds = 32;
@@ -173,6 +183,7 @@ struct UpdateResult {
   std::size_t corridor_merges = 0;   // merge_corridors: rooms merged into an adjacent corridor piece
   std::size_t visible_merges = 0;    // merge_visible: rooms merged into an adjacent room they see
   std::size_t visible_pairs = 0;     // merge_visible: adjacent room pairs whose sight lines were tested (all rounds)
+  std::size_t edges_through_walls = 0;  // close_edges_through_walls: open edges read as closed (in closed_edges too)
 };
 
 struct Counters {
@@ -208,8 +219,9 @@ class RoomFinder {
 
   // Recomputes the rooms and the building from the graph's places. A place edge that one of `doors` closes
   // (door_closes_edge) is read as closed, as an edge of weight <= 0 is (the online door stage's doors; the final
-  // stage writes weights instead). With `sight` (the final door stage's WallSight) and Config::merge_visible, rooms
-  // that see each other are merged last. Never allocates.
+  // stage writes weights instead). With `sight` (the final door stage's WallSight, or the online door window's), a
+  // place edge through a long wall is read as closed too (Config::close_edges_through_walls) and rooms that see each
+  // other are merged last (Config::merge_visible). Never allocates.
   UpdateResult update(scene_graph::SceneGraph* graph, std::uint64_t time_ns = 0, const DoorSet* doors = nullptr,
                       const WallSight* sight = nullptr);
 
@@ -240,7 +252,8 @@ class RoomFinder {
   struct RoomAccumulator;
 
  private:
-  bool read_places(const scene_graph::SceneGraph& graph, const DoorSet* doors, UpdateResult* r);
+  bool read_places(const scene_graph::SceneGraph& graph, const DoorSet* doors, const WallSight* sight,
+                   UpdateResult* r);
   void compute_curve();
   std::size_t seed_rooms(double dilation_m, UpdateResult* r);
   std::size_t seed_by_persistence(UpdateResult* r);

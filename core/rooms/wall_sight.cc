@@ -8,57 +8,43 @@
 
 namespace qsg::rooms {
 
-void WallSight::clear() { slices_.clear(); }
+namespace {
 
-bool WallSight::add_slice(const DoorRaster& raster, const std::uint8_t* wall, double slice_z_m,
-                          const DoorConfig& config, std::string* error) {
-  const auto fail = [&](const char* why) {
-    if (error != nullptr) *error = std::string("wall sight: ") + why;
-    return false;
-  };
-  if (wall == nullptr) return fail("no wall raster");
-  if (raster.cols <= 0 || raster.rows <= 0 || !(raster.cell_m > 0.0)) return fail("empty raster");
-  if (raster.cells() > config.max_cells) return fail("the raster exceeds max_cells");
-  if (!std::isfinite(slice_z_m)) return fail("the slice height is not finite");
-  std::string bad;
-  if (!config.validate(&bad)) return fail(bad.c_str());
+// The structure mask of one raster, in the caller's buffers (cells each; list holds cells indices): the walls
+// thickened by repeated 4-neighbour dilation (a diamond of `steps` cells), then each 8-connected piece flooded
+// through `list` (its cells stay there) and, when its bounding box's diagonal reaches min_diagonal_cells (or it
+// touches the raster's edge and border_is_structure), written into `structure`. Never allocates.
+void build_structure(const DoorRaster& raster, const std::uint8_t* wall, int steps, double min_diagonal_cells,
+                     bool border_is_structure, std::uint8_t* grown, std::uint8_t* scratch, std::uint32_t* list,
+                     std::uint8_t* structure, WallSight::Slice* out) {
   const int cols = raster.cols, rows = raster.rows;
   const std::size_t cells = raster.cells();
-  Slice s;
-  s.raster = raster;
-  s.z_m = slice_z_m;
-  // Thickened walls: repeated 4-neighbour dilation, a diamond of radius `steps` cells.
-  std::vector<std::uint8_t> grown(wall, wall + cells), next(cells);
-  const int steps = static_cast<int>(std::lround(config.sight_wall_dilation_m / raster.cell_m));
+  std::copy(wall, wall + cells, grown);
   for (int k = 0; k < steps; ++k) {
-    next = grown;
+    std::copy(grown, grown + cells, scratch);
     for (int r = 0; r < rows; ++r)
       for (int c = 0; c < cols; ++c) {
         const std::size_t i = static_cast<std::size_t>(r) * cols + c;
-        if (grown[i] == 0) continue;
-        if (c > 0) next[i - 1] = 1;
-        if (c + 1 < cols) next[i + 1] = 1;
-        if (r > 0) next[i - cols] = 1;
-        if (r + 1 < rows) next[i + cols] = 1;
+        if (scratch[i] == 0) continue;
+        if (c > 0) grown[i - 1] = 1;
+        if (c + 1 < cols) grown[i + 1] = 1;
+        if (r > 0) grown[i - cols] = 1;
+        if (r + 1 < rows) grown[i + cols] = 1;
       }
-    grown.swap(next);
   }
-  // 8-connected components with their bounding boxes; the long ones are structure.
-  constexpr std::uint32_t kUnlabelled = std::numeric_limits<std::uint32_t>::max();
-  std::vector<std::uint32_t> label(cells, kUnlabelled);
-  std::vector<std::uint8_t> is_structure;
-  std::vector<std::uint32_t> stack;
-  const double min_diagonal_cells = config.sight_min_wall_m / raster.cell_m;
+  std::fill(scratch, scratch + cells, std::uint8_t{0});  // now: visited
+  std::fill(structure, structure + cells, std::uint8_t{0});
+  out->components = out->structure_components = out->structure_cells = 0;
   for (std::size_t start = 0; start < cells; ++start) {
-    if (grown[start] == 0 || label[start] != kUnlabelled) continue;
-    const std::uint32_t id = static_cast<std::uint32_t>(is_structure.size());
+    if (grown[start] == 0 || scratch[start] != 0) continue;
     int c0 = cols, c1 = -1, r0 = rows, r1 = -1;
-    label[start] = id;
-    stack.assign(1, static_cast<std::uint32_t>(start));
-    while (!stack.empty()) {
-      const std::uint32_t i = stack.back();
-      stack.pop_back();
-      const int c = static_cast<int>(i % cols), r = static_cast<int>(i / cols);
+    std::size_t size = 0;
+    scratch[start] = 1;
+    list[size++] = static_cast<std::uint32_t>(start);
+    for (std::size_t head = 0; head < size; ++head) {
+      const std::uint32_t i = list[head];
+      const int c = static_cast<int>(i % static_cast<std::uint32_t>(cols));
+      const int r = static_cast<int>(i / static_cast<std::uint32_t>(cols));
       c0 = std::min(c0, c);
       c1 = std::max(c1, c);
       r0 = std::min(r0, r);
@@ -68,24 +54,121 @@ bool WallSight::add_slice(const DoorRaster& raster, const std::uint8_t* wall, do
           const int cc = c + dc, rr = r + dr;
           if (cc < 0 || rr < 0 || cc >= cols || rr >= rows) continue;
           const std::size_t j = static_cast<std::size_t>(rr) * cols + cc;
-          if (grown[j] == 0 || label[j] != kUnlabelled) continue;
-          label[j] = id;
-          stack.push_back(static_cast<std::uint32_t>(j));
+          if (grown[j] == 0 || scratch[j] != 0) continue;
+          scratch[j] = 1;
+          list[size++] = static_cast<std::uint32_t>(j);
         }
     }
-    const bool structure = std::hypot(c1 - c0 + 1.0, r1 - r0 + 1.0) >= min_diagonal_cells;
-    is_structure.push_back(structure ? 1 : 0);
-    if (structure) ++s.structure_components;
+    ++out->components;
+    const bool at_edge = c0 == 0 || r0 == 0 || c1 == cols - 1 || r1 == rows - 1;
+    if (std::hypot(c1 - c0 + 1.0, r1 - r0 + 1.0) < min_diagonal_cells && !(border_is_structure && at_edge)) continue;
+    ++out->structure_components;
+    out->structure_cells += size;
+    for (std::size_t k = 0; k < size; ++k) structure[list[k]] = 1;
   }
-  s.components = is_structure.size();
-  s.structure.assign(cells, 0);
-  for (std::size_t i = 0; i < cells; ++i)
-    if (label[i] != kUnlabelled && is_structure[label[i]] != 0) {
-      s.structure[i] = 1;
-      ++s.structure_cells;
-    }
+}
+
+const char* check_slice(const DoorRaster& raster, const std::uint8_t* wall, double slice_z_m,
+                        const DoorConfig& config, std::string* bad) {
+  if (wall == nullptr) return "no wall raster";
+  if (raster.cols <= 0 || raster.rows <= 0 || !(raster.cell_m > 0.0)) return "empty raster";
+  if (raster.cells() > config.max_cells) return "the raster exceeds max_cells";
+  if (!std::isfinite(slice_z_m)) return "the slice height is not finite";
+  if (!config.validate(bad)) return bad->c_str();
+  return nullptr;
+}
+
+}  // namespace
+
+void WallSight::clear() {
+  slices_.clear();
+  window_set_ = false;
+  copied_window_ = false;
+}
+
+bool WallSight::add_slice(const DoorRaster& raster, const std::uint8_t* wall, double slice_z_m,
+                          const DoorConfig& config, std::string* error, bool border_is_structure) {
+  std::string bad;
+  if (const char* why = check_slice(raster, wall, slice_z_m, config, &bad)) {
+    if (error != nullptr) *error = std::string("wall sight: ") + why;
+    return false;
+  }
+  if (carved_) {
+    if (error != nullptr) *error = "wall sight: carved for one window slice (set_window_slice)";
+    return false;
+  }
+  const std::size_t cells = raster.cells();
+  Slice s;
+  s.raster = raster;
+  s.z_m = slice_z_m;
+  s.owned.assign(cells, 0);
+  std::vector<std::uint8_t> grown(cells), scratch(cells);
+  std::vector<std::uint32_t> list(cells);
+  build_structure(raster, wall, static_cast<int>(std::lround(config.sight_wall_dilation_m / raster.cell_m)),
+                  config.sight_min_wall_m / raster.cell_m, border_is_structure, grown.data(), scratch.data(),
+                  list.data(), s.owned.data(), &s);
   max_dz_m_ = config.cut_max_dz_m;
   slices_.push_back(std::move(s));
+  return true;
+}
+
+bool WallSight::add_structure(const DoorRaster& raster, const std::uint8_t* structure, double slice_z_m,
+                              const DoorConfig& config, std::string* error, bool window) {
+  std::string bad;
+  if (const char* why = check_slice(raster, structure, slice_z_m, config, &bad)) {
+    if (error != nullptr) *error = std::string("wall sight: ") + why;
+    return false;
+  }
+  if (carved_) {
+    if (error != nullptr) *error = "wall sight: carved for one window slice (set_window_slice)";
+    return false;
+  }
+  Slice s;
+  s.raster = raster;
+  s.z_m = slice_z_m;
+  s.owned.assign(structure, structure + raster.cells());
+  for (const std::uint8_t v : s.owned) s.structure_cells += v != 0 ? 1 : 0;
+  max_dz_m_ = config.cut_max_dz_m;
+  copied_window_ = copied_window_ || window;
+  slices_.push_back(std::move(s));
+  return true;
+}
+
+memory::ArenaPlan WallSight::plan(std::size_t cells) {
+  memory::ArenaPlan p;
+  p.add_array<std::uint8_t>(cells);
+  p.add_array<std::uint8_t>(cells);
+  p.add_array<std::uint32_t>(cells);
+  p.add_array<std::uint8_t>(cells);
+  return p;
+}
+
+bool WallSight::carve(memory::Arena& arena, std::size_t cells) {
+  grown_ = arena.carve_array<std::uint8_t>(cells);
+  scratch_ = arena.carve_array<std::uint8_t>(cells);
+  list_ = arena.carve_array<std::uint32_t>(cells);
+  structure_ = arena.carve_array<std::uint8_t>(cells);
+  slices_.clear();
+  carved_ = grown_ != nullptr && scratch_ != nullptr && list_ != nullptr && structure_ != nullptr;
+  capacity_cells_ = carved_ ? cells : 0;
+  window_set_ = false;
+  return carved_;
+}
+
+bool WallSight::set_window_slice(const DoorRaster& raster, const std::uint8_t* wall, double slice_z_m,
+                                 const DoorConfig& config) {
+  window_set_ = false;
+  std::string bad;  // empty unless the config is bad: no allocation on the good path
+  if (!carved_ || check_slice(raster, wall, slice_z_m, config, &bad) != nullptr || raster.cells() > capacity_cells_)
+    return false;
+  window_.raster = raster;
+  window_.z_m = slice_z_m;
+  window_.window = structure_;
+  build_structure(raster, wall, static_cast<int>(std::lround(config.sight_wall_dilation_m / raster.cell_m)),
+                  config.sight_min_wall_m / raster.cell_m, /*border_is_structure=*/true, grown_, scratch_, list_,
+                  structure_, &window_);
+  max_dz_m_ = config.cut_max_dz_m;
+  window_set_ = true;
   return true;
 }
 
@@ -93,8 +176,8 @@ int WallSight::slice_of(const Eigen::Vector3d& p) const {
   if (!p.allFinite()) return -1;
   int best = -1;
   double best_dz = std::numeric_limits<double>::infinity();
-  for (std::size_t i = 0; i < slices_.size(); ++i) {
-    const double dz = std::abs(p.z() - slices_[i].z_m);
+  for (std::size_t i = 0; i < slices(); ++i) {
+    const double dz = std::abs(p.z() - slice(i).z_m);
     if (dz <= max_dz_m_ && dz < best_dz) {
       best = static_cast<int>(i);
       best_dz = dz;
@@ -104,9 +187,9 @@ int WallSight::slice_of(const Eigen::Vector3d& p) const {
 }
 
 bool WallSight::structure_at(std::size_t i, int c, int r) const {
-  const Slice& s = slices_[i];
+  const Slice& s = slice(i);
   if (c < 0 || r < 0 || c >= s.raster.cols || r >= s.raster.rows) return false;
-  return s.structure[static_cast<std::size_t>(r) * s.raster.cols + c] != 0;
+  return s.structure()[static_cast<std::size_t>(r) * s.raster.cols + c] != 0;
 }
 
 namespace {
@@ -119,14 +202,14 @@ bool in_raster(const DoorRaster& r, const Eigen::Vector3d& p) {
 bool WallSight::sees(const Eigen::Vector3d& a, const Eigen::Vector3d& b) const {
   const int slice = slice_of(a);
   if (slice < 0 || slice_of(b) != slice) return false;
-  const Slice& s = slices_[static_cast<std::size_t>(slice)];
+  const Slice& s = this->slice(static_cast<std::size_t>(slice));
   return in_raster(s.raster, a) && in_raster(s.raster, b) && !line_hits(s, a, b);
 }
 
 bool WallSight::crosses_structure(const Eigen::Vector3d& a, const Eigen::Vector3d& b) const {
   const int slice = slice_of(a);
   if (slice < 0 || slice_of(b) != slice) return false;
-  const Slice& s = slices_[static_cast<std::size_t>(slice)];
+  const Slice& s = this->slice(static_cast<std::size_t>(slice));
   return in_raster(s.raster, a) && in_raster(s.raster, b) && line_hits(s, a, b);
 }
 
@@ -147,7 +230,7 @@ bool WallSight::line_hits(const Slice& s, const Eigen::Vector3d& a, const Eigen:
   const long steps = std::labs(c_end - c) + std::labs(r_end - r);
   for (long k = 0; k <= steps; ++k) {
     if (c >= 0 && r >= 0 && c < s.raster.cols && r < s.raster.rows &&  // rounding at the raster's rim
-        s.structure[static_cast<std::size_t>(r) * s.raster.cols + static_cast<std::size_t>(c)] != 0)
+        s.structure()[static_cast<std::size_t>(r) * s.raster.cols + static_cast<std::size_t>(c)] != 0)
       return true;
     if (next_c < next_r) {
       c += step_c;

@@ -20,6 +20,7 @@
 #include <string>
 #include <vector>
 
+#include "core/memory/arena.h"
 #include "core/rooms/door_detector.h"
 #include "core/scene_graph/scene_graph.h"
 
@@ -29,17 +30,37 @@ class WallSight {
  public:
   WallSight() = default;
 
+  // Offline (find_doors): one slice per storey, on the heap.
   void clear();
   // Adds a slice at slice_z_m: wall[r x cols + c] is 1 for a wall cell of `raster` (before any dilation). False
-  // (error set) when wall is null or the raster is empty or over config.max_cells.
+  // (error set) when wall is null or the raster is empty or over config.max_cells. border_is_structure: a piece
+  // that reaches the raster's edge is structure whatever its size inside (a window's raster, as set_window_slice).
   bool add_slice(const DoorRaster& raster, const std::uint8_t* wall, double slice_z_m, const DoorConfig& config,
-                 std::string* error);
+                 std::string* error, bool border_is_structure = false);
 
-  std::size_t slices() const { return slices_.size(); }
-  double slice_z(std::size_t i) const { return slices_[i].z_m; }
-  std::size_t structure_cells(std::size_t i) const { return slices_[i].structure_cells; }
-  std::size_t components(std::size_t i) const { return slices_[i].components; }
-  std::size_t structure_components(std::size_t i) const { return slices_[i].structure_components; }
+  // Adds a slice whose structure mask (1: structure, raster.cells() of them) was built elsewhere: a copy of another
+  // WallSight's slice (structure(i)), the online window's kept for later, say. Same errors as add_slice.
+  // window: the slice is an online window's (window() says so, as for set_window_slice).
+  bool add_structure(const DoorRaster& raster, const std::uint8_t* structure, double slice_z_m,
+                     const DoorConfig& config, std::string* error, bool window = false);
+
+  // Online (OnlineDoors): one slice, the door window's, in buffers carved at start-up for rasters of at most
+  // `cells` cells. set_window_slice replaces it without allocating; there a piece that reaches the raster's edge
+  // counts as structure, whatever its size inside (it may go on beyond the window). False when not carved, on a
+  // raster beyond the buffers or a bad config; the slice is then empty.
+  static memory::ArenaPlan plan(std::size_t cells);
+  bool carve(memory::Arena& arena, std::size_t cells);
+  bool set_window_slice(const DoorRaster& raster, const std::uint8_t* wall, double slice_z_m,
+                        const DoorConfig& config);
+
+  std::size_t slices() const { return carved_ ? (window_set_ ? 1u : 0u) : slices_.size(); }
+  // Whether the sight lines cover a window around the robot only (set_window_slice, or a copy of such a slice),
+  // not the whole map of every storey.
+  bool window() const { return carved_ || copied_window_; }
+  double slice_z(std::size_t i) const { return slice(i).z_m; }
+  std::size_t structure_cells(std::size_t i) const { return slice(i).structure_cells; }
+  std::size_t components(std::size_t i) const { return slice(i).components; }
+  std::size_t structure_components(std::size_t i) const { return slice(i).structure_components; }
 
   // The slice a point belongs to: the nearest one within max_dz_m of its height, or -1.
   int slice_of(const Eigen::Vector3d& p) const;
@@ -52,20 +73,35 @@ class WallSight {
   bool crosses_structure(const Eigen::Vector3d& a, const Eigen::Vector3d& b) const;
   // Whether cell (c, r) of slice i is structure (tests and pictures).
   bool structure_at(std::size_t i, int c, int r) const;
-  const DoorRaster& raster(std::size_t i) const { return slices_[i].raster; }
+  const DoorRaster& raster(std::size_t i) const { return slice(i).raster; }
+  const std::uint8_t* structure(std::size_t i) const { return slice(i).structure(); }
 
- private:
   struct Slice {
     DoorRaster raster;
     double z_m = 0.0;
-    std::vector<std::uint8_t> structure;  // 1: a cell of a long (structural) component, dilated
+    std::vector<std::uint8_t> owned;        // offline: the structure mask (1: a cell of a long piece, dilated)
+    const std::uint8_t* window = nullptr;   // online: the same, in the carved buffer
     std::size_t structure_cells = 0;
     std::size_t components = 0;
     std::size_t structure_components = 0;
+    const std::uint8_t* structure() const { return owned.empty() ? window : owned.data(); }
   };
+
+ private:
+  const Slice& slice(std::size_t i) const { return carved_ ? window_ : slices_[i]; }
   bool line_hits(const Slice& s, const Eigen::Vector3d& a, const Eigen::Vector3d& b) const;
   std::vector<Slice> slices_;
   double max_dz_m_ = 1.5;
+  bool copied_window_ = false;
+  // Online.
+  bool carved_ = false;
+  bool window_set_ = false;
+  std::size_t capacity_cells_ = 0;
+  Slice window_;
+  std::uint8_t* grown_ = nullptr;
+  std::uint8_t* scratch_ = nullptr;
+  std::uint32_t* list_ = nullptr;
+  std::uint8_t* structure_ = nullptr;
 };
 
 // Place-place edges that cross structure (WallSight::crosses_structure) get weight 0, closed as cut_place_edges

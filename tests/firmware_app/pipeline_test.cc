@@ -345,6 +345,8 @@ TEST(AppConfigTest, LoadsKnownKeysAndNamesBadOnes) {
   AppConfig sight;
   ASSERT_TRUE(sight.load(write("sight.json", "{\"doors\": {\"sight_min_wall_m\": 2.5, \"sight_wall_dilation_m\": 0.1, "
                                              "\"sight_cut_edges\": false}, \"rooms\": {\"merge_visible\": false, "
+                                             "\"close_edges_through_walls\": false, "
+                                             "\"merge_visible_in_window\": true, "
                                              "\"visible_min_share\": 0.7, \"visible_samples\": 16, "
                                              "\"visible_max_rounds\": 4}}"),
                          &error))
@@ -353,6 +355,8 @@ TEST(AppConfigTest, LoadsKnownKeysAndNamesBadOnes) {
   EXPECT_EQ(sight.doors.sight_wall_dilation_m, 0.1);
   EXPECT_FALSE(sight.doors.sight_cut_edges);
   EXPECT_FALSE(sight.rooms.merge_visible);
+  EXPECT_FALSE(sight.rooms.close_edges_through_walls);
+  EXPECT_TRUE(sight.rooms.merge_visible_in_window);
   EXPECT_EQ(sight.rooms.visible_min_share, 0.7);
   EXPECT_EQ(sight.rooms.visible_samples, 16u);
   EXPECT_EQ(sight.rooms.visible_max_rounds, 4u);
@@ -399,6 +403,8 @@ TEST(AppConfigTest, LoadsKnownKeysAndNamesBadOnes) {
   EXPECT_EQ(sr.corridor_min_neighbours, dr.corridor_min_neighbours);
   EXPECT_EQ(sr.corridor_min_open_edges, dr.corridor_min_open_edges);
   EXPECT_EQ(sr.merge_visible, dr.merge_visible);
+  EXPECT_EQ(sr.close_edges_through_walls, dr.close_edges_through_walls);
+  EXPECT_EQ(sr.merge_visible_in_window, dr.merge_visible_in_window);
   EXPECT_EQ(sr.visible_min_share, dr.visible_min_share);
   EXPECT_EQ(sr.visible_samples, dr.visible_samples);
   EXPECT_EQ(sr.visible_max_rounds, dr.visible_max_rounds);

@@ -162,9 +162,20 @@ TEST(OnlineDoors, AWindowPassFindsTheFinalStagesDoorWithoutAllocating) {
   paint(s, &online.wall_map());
   const Eigen::Vector3d robot(2.0, 2.0, 0.5);  // the slice: 1.2 m
   PassResult r;
+  EXPECT_EQ(online.sight().slices(), 0u);
   EXPECT_NO_ALLOCATIONS(r = pass(&online, s, robot));
   ASSERT_TRUE(r.ran);
   EXPECT_DOUBLE_EQ(r.slice_z_m, 1.2);
+  // The same pass built the window's sight lines: the wall at x = 4 blocks them, its door does not, and a place
+  // edge through it near the ceiling crosses it.
+  ASSERT_EQ(online.sight().slices(), 1u);
+  EXPECT_GT(r.sight_structure_cells, 0u);
+  EXPECT_EQ(r.sight_structure_cells, online.sight().structure_cells(0));
+  EXPECT_FALSE(online.sight().sees(Eigen::Vector3d(2, 0.75, 1), Eigen::Vector3d(6, 0.75, 1)));
+  EXPECT_TRUE(online.sight().sees(Eigen::Vector3d(2, 2.05, 1), Eigen::Vector3d(6, 2.05, 1)));
+  EXPECT_TRUE(online.sight().crosses_structure(Eigen::Vector3d(3.75, 0.75, 2.3), Eigen::Vector3d(4.25, 0.75, 2.3)));
+  // Outside the window: not judged.
+  EXPECT_FALSE(online.sight().sees(Eigen::Vector3d(2, 2, 1), Eigen::Vector3d(60, 2, 1)));
   EXPECT_EQ(r.places, s.places.size());
   ASSERT_EQ(online.doors().size(), 1u);
   std::vector<Door> final_doors;

@@ -745,6 +745,23 @@ TEST(RoomFinderTest, RoomsThatSeeEachOtherAreMerged) {
     ASSERT_TRUE(s.write(g2.get()));
     EXPECT_EQ(make_finder(c)->update(g2.get(), 0, nullptr, &hall_sight).rooms, 1u) << share << " " << samples;
   }
+  // A window's sight lines (an online door pass's) close edges through walls but do not merge, unless asked to.
+  WallSight window;
+  std::string error;
+  ASSERT_TRUE(window.add_structure(hall_sight.raster(0), hall_sight.structure(0), hall_sight.slice_z(0), DoorConfig{},
+                                   &error, /*window=*/true))
+      << error;
+  ASSERT_TRUE(window.window());
+  {
+    auto gw = make_graph();
+    ASSERT_TRUE(s.write(gw.get()));
+    EXPECT_EQ(make_finder()->update(gw.get(), 0, nullptr, &window).rooms, 2u);
+    Config in_window;
+    in_window.merge_visible_in_window = true;
+    auto gw2 = make_graph();
+    ASSERT_TRUE(s.write(gw2.get()));
+    EXPECT_EQ(make_finder(in_window)->update(gw2.get(), 0, nullptr, &window).rooms, 1u);
+  }
   // Off: two rooms.
   Config off;
   off.merge_visible = false;
@@ -767,6 +784,29 @@ TEST(RoomFinderTest, RoomsThatSeeEachOtherAreMerged) {
   EXPECT_EQ(r.visible_merges, 0u);
   EXPECT_EQ(r.visible_pairs, 1u);
   expect_one_room_per_tag(*g4, two);
+  // A hall's graph under the two rooms' walls: with sight lines its edges through the wall are read as closed (not
+  // written: the graph's weights stay), except through the door; with close_edges_through_walls off, none.
+  {
+    SyntheticPlaces open_hall;
+    hall.add_to(&open_hall, 1.0);
+    auto g6 = make_graph();
+    ASSERT_TRUE(open_hall.write(g6.get()));
+    auto reader = make_finder();
+    EXPECT_NO_ALLOCATIONS(r = reader->update(g6.get(), 0, nullptr, &two_sight));
+    EXPECT_GT(r.edges_through_walls, 0u);
+    EXPECT_EQ(r.closed_edges, r.edges_through_walls);
+    // The hall's edges with an end in the wall's column (x in [4.25, 4.5) m): those in the door's rows stay open.
+    std::size_t at_wall = 0;
+    for (const testing::SyntheticEdge& e : open_hall.edges) {
+      const auto in_column = [](const Eigen::Vector3d& p) { return p.x() > 4.25 && p.x() < 4.5; };
+      at_wall += in_column(open_hall.places[e.a].position_m) || in_column(open_hall.places[e.b].position_m) ? 1 : 0;
+    }
+    EXPECT_LT(r.edges_through_walls, at_wall) << "the door's edges stay open";
+    g6->for_each_edge([](const sg::EdgeRecord& e) { EXPECT_GT(e.info.weight, 0.0); });
+    Config keep;
+    keep.close_edges_through_walls = false;
+    EXPECT_EQ(make_finder(keep)->update(g6.get(), 0, nullptr, &two_sight).edges_through_walls, 0u);
+  }
   // Sight lines of another storey (beyond cut_max_dz_m of the places) see nothing: no merge.
   SyntheticPlaces upstairs;
   hall.add_to(&upstairs, 1.0 + 3.0);

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "tests/scene_graph/test_graph.h"
+#include "tests/support/allocation_counter.h"
 
 namespace qsg::rooms {
 namespace {
@@ -129,6 +130,46 @@ TEST(WallSightTest, EachStoreyHasItsSlice) {
   sight.clear();
   EXPECT_EQ(sight.slices(), 0u);
   EXPECT_FALSE(sight.sees(at(1, 1), at(1, 2)));
+}
+
+TEST(WallSightTest, AWindowSliceIsBuiltInFixedBuffersAndCopiedOut) {
+  // The online form: one slice in carved buffers, replaced without allocating; a piece that reaches the window's
+  // edge is structure whatever its length inside.
+  Walls w(120, 80);
+  w.box(2.95, 0.0, 3.05, 1.0);   // a 1 m stub from the window's edge
+  w.box(1.25, 1.75, 1.75, 2.25);  // a post
+  memory::Arena arena;
+  std::string error;
+  const memory::ArenaPlan plan = WallSight::plan(120 * 80);
+  ASSERT_TRUE(arena.create("sight", plan, plan.total_bytes(), &error)) << error;
+  WallSight window;
+  ASSERT_TRUE(window.carve(arena, 120 * 80));
+  EXPECT_EQ(window.slices(), 0u);
+  bool ok = false;
+  EXPECT_NO_ALLOCATIONS(ok = window.set_window_slice(w.raster, w.wall.data(), 1.2, DoorConfig{}));
+  ASSERT_TRUE(ok);
+  ASSERT_EQ(window.slices(), 1u);
+  EXPECT_TRUE(window.window());
+  EXPECT_EQ(window.structure_components(0), 1u);  // the stub, not the post
+  EXPECT_FALSE(window.sees(at(2.0, 0.5), at(4.0, 0.5)));
+  EXPECT_TRUE(window.sees(at(0.5, 2.0), at(2.5, 2.0)));
+  // The same walls offline, without the edge rule: the stub is furniture.
+  EXPECT_EQ(sight_of(w).structure_components(0), 0u);
+  // A copy of the window's slice (as rooms_eval keeps the last pass's) sees the same.
+  WallSight copy;
+  ASSERT_TRUE(copy.add_structure(window.raster(0), window.structure(0), window.slice_z(0), DoorConfig{}, &error))
+      << error;
+  EXPECT_EQ(copy.structure_cells(0), window.structure_cells(0));
+  EXPECT_FALSE(copy.window()) << "a whole-map slice unless said otherwise";
+  EXPECT_FALSE(copy.sees(at(2.0, 0.5), at(4.0, 0.5)));
+  EXPECT_TRUE(copy.sees(at(0.5, 2.0), at(2.5, 2.0)));
+  // Too large a raster for the buffers, or offline calls on a carved sight: refused, and the slice is empty.
+  Walls big(200, 80);
+  EXPECT_FALSE(window.set_window_slice(big.raster, big.wall.data(), 1.2, DoorConfig{}));
+  EXPECT_EQ(window.slices(), 0u);
+  EXPECT_FALSE(window.add_slice(w.raster, w.wall.data(), 1.2, DoorConfig{}, &error));
+  WallSight uncarved;
+  EXPECT_FALSE(uncarved.set_window_slice(w.raster, w.wall.data(), 1.2, DoorConfig{}));
 }
 
 TEST(WallSightTest, BadInputIsAnError) {
