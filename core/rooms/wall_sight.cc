@@ -86,17 +86,18 @@ void WallSight::clear() {
   copied_window_ = false;
 }
 
+bool WallSight::can_add(const DoorRaster& raster, const std::uint8_t* cells, double slice_z_m,
+                        const DoorConfig& config, std::string* error) const {
+  std::string bad;
+  const char* why = check_slice(raster, cells, slice_z_m, config, &bad);
+  if (why == nullptr && carved_) why = "carved for one window slice (set_window_slice)";
+  if (why != nullptr && error != nullptr) *error = std::string("wall sight: ") + why;
+  return why == nullptr;
+}
+
 bool WallSight::add_slice(const DoorRaster& raster, const std::uint8_t* wall, double slice_z_m,
                           const DoorConfig& config, std::string* error, bool border_is_structure) {
-  std::string bad;
-  if (const char* why = check_slice(raster, wall, slice_z_m, config, &bad)) {
-    if (error != nullptr) *error = std::string("wall sight: ") + why;
-    return false;
-  }
-  if (carved_) {
-    if (error != nullptr) *error = "wall sight: carved for one window slice (set_window_slice)";
-    return false;
-  }
+  if (!can_add(raster, wall, slice_z_m, config, error)) return false;
   const std::size_t cells = raster.cells();
   Slice s;
   s.raster = raster;
@@ -114,15 +115,7 @@ bool WallSight::add_slice(const DoorRaster& raster, const std::uint8_t* wall, do
 
 bool WallSight::add_structure(const DoorRaster& raster, const std::uint8_t* structure, double slice_z_m,
                               const DoorConfig& config, std::string* error, bool window) {
-  std::string bad;
-  if (const char* why = check_slice(raster, structure, slice_z_m, config, &bad)) {
-    if (error != nullptr) *error = std::string("wall sight: ") + why;
-    return false;
-  }
-  if (carved_) {
-    if (error != nullptr) *error = "wall sight: carved for one window slice (set_window_slice)";
-    return false;
-  }
+  if (!can_add(raster, structure, slice_z_m, config, error)) return false;
   Slice s;
   s.raster = raster;
   s.z_m = slice_z_m;

@@ -89,6 +89,8 @@ class WallSight {
 
  private:
   const Slice& slice(std::size_t i) const { return carved_ ? window_ : slices_[i]; }
+  bool can_add(const DoorRaster& raster, const std::uint8_t* cells, double slice_z_m, const DoorConfig& config,
+               std::string* error) const;
   bool line_hits(const Slice& s, const Eigen::Vector3d& a, const Eigen::Vector3d& b) const;
   std::vector<Slice> slices_;
   double max_dz_m_ = 1.5;
