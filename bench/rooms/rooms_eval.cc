@@ -461,24 +461,25 @@ struct RunStats {
   // sides lie in two ground-truth rooms separates rooms; one with both sides in the same room is a false door (it
   // can only split that room); unknown: a side in no room (outside, or unlabelled free space).
   std::size_t doors_between = 0, doors_inside = 0, doors_unknown = 0;
-  // --doors: the final door stage's sight lines, for the room finder's visibility merge, and the rooms it merged.
+  // The room finder's sight lines (the final door stage's; with --doors online the last window pass's), and the
+  // rooms it merged.
   std::shared_ptr<rooms::WallSight> sight;
   std::size_t visible_merges = 0;
 };
 
 // --doors online: the last window pass's sight lines (raster and structure mask), cached beside the doors as lo.x
 // lo.y cell_m z (doubles), cols rows (int32), then cols x rows bytes.
-bool write_window(const rooms::DoorRaster& r, const std::uint8_t* walls, double z, const std::string& path) {
+bool write_window(const rooms::DoorRaster& r, const std::uint8_t* structure, double z, const std::string& path) {
   std::FILE* f = std::fopen(path.c_str(), "wb");
   if (f == nullptr) return false;
   const double head[4] = {r.lo.x(), r.lo.y(), r.cell_m, z};
   const std::int32_t size[2] = {r.cols, r.rows};
   const bool ok = std::fwrite(head, sizeof(head), 1, f) == 1 && std::fwrite(size, sizeof(size), 1, f) == 1 &&
-                  std::fwrite(walls, 1, r.cells(), f) == r.cells();
+                  std::fwrite(structure, 1, r.cells(), f) == r.cells();
   return std::fclose(f) == 0 && ok;
 }
 
-bool read_window(const std::string& path, rooms::DoorRaster* r, std::vector<std::uint8_t>* walls, double* z) {
+bool read_window(const std::string& path, rooms::DoorRaster* r, std::vector<std::uint8_t>* structure, double* z) {
   std::ifstream in(path, std::ios::binary);
   double head[4];
   std::int32_t size[2];
@@ -490,8 +491,9 @@ bool read_window(const std::string& path, rooms::DoorRaster* r, std::vector<std:
   r->cols = size[0];
   r->rows = size[1];
   *z = head[3];
-  walls->resize(r->cells());
-  return static_cast<bool>(in.read(reinterpret_cast<char*>(walls->data()), static_cast<std::streamsize>(r->cells())));
+  structure->resize(r->cells());
+  return static_cast<bool>(
+      in.read(reinterpret_cast<char*>(structure->data()), static_cast<std::streamsize>(r->cells())));
 }
 
 // --doors online: a run's online doors, cached beside its graph as 5 doubles a door (a.x a.y b.x b.y z).
@@ -1297,13 +1299,13 @@ int main(int argc, char** argv) {
                   opt.rooms.visible_min_share, opt.rooms.visible_samples, opt.rooms.visible_samples,
                   opt.door.sight_min_wall_m, opt.door.sight_wall_dilation_m,
                   opt.online_doors ? " in the last online window" : "");
+  else
+    std::snprintf(cond + std::strlen(cond), sizeof(cond) - std::strlen(cond), ", no visibility merge");
   if (opt.rooms.close_edges_through_walls && opt.online_doors)
     std::snprintf(cond + std::strlen(cond), sizeof(cond) - std::strlen(cond),
                   ", place edges through walls read as closed in the last online window");
-  if (opt.door.sight_cut_edges && opt.doors)
+  else if (opt.door.sight_cut_edges && opt.doors)
     std::snprintf(cond + std::strlen(cond), sizeof(cond) - std::strlen(cond), ", place edges through walls closed");
-  else
-    std::snprintf(cond + std::strlen(cond), sizeof(cond) - std::strlen(cond), ", no visibility merge");
   if (opt.door_oracle_m >= 0.0)
     std::snprintf(cond + std::strlen(cond), sizeof(cond) - std::strlen(cond), ", door oracle %.2f m", opt.door_oracle_m);
   if (opt.doors)

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <functional>
 #include <limits>
 #include <utility>
 
@@ -835,18 +836,15 @@ std::size_t drop_bypassed_doors(std::vector<Door>* doors, const DoorConfig& conf
   return dropped;
 }
 
-std::size_t cut_place_edges(const std::vector<Door>& doors, const DoorConfig& config, sg::SceneGraph* graph) {
-  if (graph == nullptr || doors.empty()) return 0;
+std::size_t close_place_edges(sg::SceneGraph* graph,
+                              const std::function<bool(const Eigen::Vector3d&, const Eigen::Vector3d&)>& closes) {
+  if (graph == nullptr) return 0;
   std::vector<std::pair<sg::NodeId, sg::NodeId>> cut;
   graph->for_each_edge([&](const sg::EdgeRecord& e) {
     const sg::PlaceAttributes* a = graph->place(e.source);
     const sg::PlaceAttributes* b = graph->place(e.target);
-    if (a == nullptr || b == nullptr) return;
-    for (const Door& d : doors)
-      if (door_closes_edge(d, config, a->position_m, b->position_m)) {
-        cut.emplace_back(e.source, e.target);
-        break;
-      }
+    if (a == nullptr || b == nullptr || (e.info.weighted && e.info.weight <= 0.0)) return;
+    if (closes(a->position_m, b->position_m)) cut.emplace_back(e.source, e.target);
   });
   for (const auto& [s, t] : cut) {
     sg::EdgeAttributes* info = graph->edge_info(s, t);
@@ -854,6 +852,13 @@ std::size_t cut_place_edges(const std::vector<Door>& doors, const DoorConfig& co
     info->weight = 0.0;
   }
   return cut.size();
+}
+
+std::size_t cut_place_edges(const std::vector<Door>& doors, const DoorConfig& config, sg::SceneGraph* graph) {
+  if (doors.empty()) return 0;
+  return close_place_edges(graph, [&](const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+    return std::any_of(doors.begin(), doors.end(), [&](const Door& d) { return door_closes_edge(d, config, a, b); });
+  });
 }
 
 // DoorSet: doors bucketed by the grid cell of their midpoint (a hash of the cell into a power-of-two table).

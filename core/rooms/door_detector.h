@@ -29,6 +29,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -392,7 +393,13 @@ class BypassGraph {
 std::size_t drop_bypassed_doors(std::vector<Door>* doors, const DoorConfig& config,
                                 const scene_graph::SceneGraph& graph, DoorStats* stats = nullptr);
 
-// Every place-place edge a door closes (door_closes_edge) gets weight 0: a closed passage for the room finder (Config::seed_closed_regions). Returns the number of
+// Every place-place edge not closed yet (weight <= 0) for which closes(a, b) holds, a and b its ends' positions,
+// gets weight 0: a closed passage for the room finder (Config::seed_closed_regions). Returns the number closed.
+// The final stage's closures: cut_place_edges (doors), cut_edges_through_walls (wall_sight.h).
+std::size_t close_place_edges(scene_graph::SceneGraph* graph,
+                              const std::function<bool(const Eigen::Vector3d&, const Eigen::Vector3d&)>& closes);
+
+// Every place-place edge a door closes (door_closes_edge) gets weight 0 (close_place_edges). Returns the number of
 // edges closed.
 std::size_t cut_place_edges(const std::vector<Door>& doors, const DoorConfig& config,
                             scene_graph::SceneGraph* graph);

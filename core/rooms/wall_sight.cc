@@ -179,12 +179,6 @@ int WallSight::slice_of(const Eigen::Vector3d& p) const {
   return best;
 }
 
-bool WallSight::structure_at(std::size_t i, int c, int r) const {
-  const Slice& s = slice(i);
-  if (c < 0 || r < 0 || c >= s.raster.cols || r >= s.raster.rows) return false;
-  return s.structure()[static_cast<std::size_t>(r) * s.raster.cols + c] != 0;
-}
-
 namespace {
 bool in_raster(const DoorRaster& r, const Eigen::Vector3d& p) {
   int c, row;
@@ -218,8 +212,11 @@ bool WallSight::line_hits(const Slice& s, const Eigen::Vector3d& a, const Eigen:
   const long step_c = dx > 0.0 ? 1 : -1, step_r = dy > 0.0 ? 1 : -1;
   constexpr double kInf = std::numeric_limits<double>::infinity();
   const double delta_c = dx != 0.0 ? std::abs(1.0 / dx) : kInf, delta_r = dy != 0.0 ? std::abs(1.0 / dy) : kInf;
-  double next_c = dx > 0.0 ? (std::floor(x0) + 1.0 - x0) * delta_c : dx < 0.0 ? (x0 - std::floor(x0)) * delta_c : kInf;
-  double next_r = dy > 0.0 ? (std::floor(y0) + 1.0 - y0) * delta_r : dy < 0.0 ? (y0 - std::floor(y0)) * delta_r : kInf;
+  // Distance (in units of the segment) to the first column and row boundary.
+  const auto first = [&](double from, double d, double delta) {
+    return d > 0.0 ? (std::floor(from) + 1.0 - from) * delta : d < 0.0 ? (from - std::floor(from)) * delta : kInf;
+  };
+  double next_c = first(x0, dx, delta_c), next_r = first(y0, dy, delta_r);
   const long steps = std::labs(c_end - c) + std::labs(r_end - r);
   for (long k = 0; k <= steps; ++k) {
     if (c >= 0 && r >= 0 && c < s.raster.cols && r < s.raster.rows &&  // rounding at the raster's rim
@@ -237,20 +234,10 @@ bool WallSight::line_hits(const Slice& s, const Eigen::Vector3d& a, const Eigen:
 }
 
 std::size_t cut_edges_through_walls(const WallSight& sight, scene_graph::SceneGraph* graph) {
-  if (graph == nullptr || sight.slices() == 0) return 0;
-  std::vector<std::pair<scene_graph::NodeId, scene_graph::NodeId>> cut;
-  graph->for_each_edge([&](const scene_graph::EdgeRecord& e) {
-    const scene_graph::PlaceAttributes* a = graph->place(e.source);
-    const scene_graph::PlaceAttributes* b = graph->place(e.target);
-    if (a == nullptr || b == nullptr || (e.info.weighted && e.info.weight <= 0.0)) return;
-    if (sight.crosses_structure(a->position_m, b->position_m)) cut.emplace_back(e.source, e.target);
+  if (sight.slices() == 0) return 0;
+  return close_place_edges(graph, [&](const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+    return sight.crosses_structure(a, b);
   });
-  for (const auto& [s, t] : cut) {
-    scene_graph::EdgeAttributes* info = graph->edge_info(s, t);
-    info->weighted = true;
-    info->weight = 0.0;
-  }
-  return cut.size();
 }
 
 }  // namespace qsg::rooms

@@ -10,8 +10,9 @@
 // structure blocks a sight line. Furniture pushed against a wall joins the wall and blocks too, which can only keep
 // rooms apart, never merge them.
 //
-// Offline (heap, at the end of a run); the queries are const and never allocate, so the room finder's update stays
-// allocation-free with it.
+// Two forms: offline, one slice per storey on the heap (the final stage, at the end of a run); online, the door
+// window's one slice in buffers carved at start-up (OnlineDoors, each pass). The queries are const and never
+// allocate, so the room finder's update stays allocation-free with either.
 #pragma once
 
 #include <Eigen/Core>
@@ -71,8 +72,6 @@ class WallSight {
   // Whether the segment a-b, in plan, crosses a structure cell of the slice both ends belong to. False when they do
   // not belong to one slice (an edge between storeys is not judged) or an end lies outside its raster.
   bool crosses_structure(const Eigen::Vector3d& a, const Eigen::Vector3d& b) const;
-  // Whether cell (c, r) of slice i is structure (tests and pictures).
-  bool structure_at(std::size_t i, int c, int r) const;
   const DoorRaster& raster(std::size_t i) const { return slice(i).raster; }
   const std::uint8_t* structure(std::size_t i) const { return slice(i).structure(); }
 
