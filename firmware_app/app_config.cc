@@ -161,6 +161,7 @@ bool AppConfig::load(const std::string& path, std::string* error) {
          double corridor_edges = rooms.corridor_min_open_edges;
          double visible_samples = rooms.visible_samples;
          double visible_rounds = rooms.visible_max_rounds;
+         double visible_local_places = rooms.visible_local_min_places;
          const bool ok = read_section(v, "rooms",
                                       {{"seeding", text(&seeding)},
                                        {"min_persistence_m", number(&rooms.min_persistence_m)},
@@ -182,6 +183,9 @@ bool AppConfig::load(const std::string& path, std::string* error) {
                                        {"merge_visible_in_window", boolean(&rooms.merge_visible_in_window)},
                                        {"visible_min_share", number(&rooms.visible_min_share)},
                                        {"visible_samples", number(&visible_samples)},
+                                       {"visible_local_radius_m", number(&rooms.visible_local_radius_m)},
+                                       {"visible_local_min_share", number(&rooms.visible_local_min_share)},
+                                       {"visible_local_min_places", number(&visible_local_places)},
                                        {"visible_max_rounds", number(&visible_rounds)}},
                                       why);
          if (!ok) return false;
@@ -199,7 +203,8 @@ bool AppConfig::load(const std::string& path, std::string* error) {
               {std::tuple{corridor_neighbours, "corridor_min_neighbours", &rooms.corridor_min_neighbours},
                std::tuple{corridor_edges, "corridor_min_open_edges", &rooms.corridor_min_open_edges},
                std::tuple{visible_samples, "visible_samples", &rooms.visible_samples},
-               std::tuple{visible_rounds, "visible_max_rounds", &rooms.visible_max_rounds}}) {
+               std::tuple{visible_rounds, "visible_max_rounds", &rooms.visible_max_rounds},
+               std::tuple{visible_local_places, "visible_local_min_places", &rooms.visible_local_min_places}}) {
            if (!whole_number_in(value, 0.0, 1e6))
              return *why = std::string("rooms.") + field + ": expected a whole number 0 .. 1000000", false;
            *out = static_cast<std::uint32_t>(value);
@@ -224,6 +229,8 @@ bool AppConfig::load(const std::string& path, std::string* error) {
                               {"bypass_max_edge_m", number(&doors.bypass_max_edge_m)},
                               {"sight_min_wall_m", number(&doors.sight_min_wall_m)},
                               {"sight_wall_dilation_m", number(&doors.sight_wall_dilation_m)},
+                              {"sight_furniture_max_m", number(&doors.sight_furniture_max_m)},
+                              {"sight_furniture_min_width_m", number(&doors.sight_furniture_min_width_m)},
                               {"sight_cut_edges", boolean(&doors.sight_cut_edges)}},
                              why))
            return false;
@@ -350,7 +357,7 @@ void AppConfig::print(std::FILE* out) const {
   std::fprintf(out,
                "doors: %s%s%s, slice %.2f m above the robot on each storey, widths %.2f .. %.2f m, rise %.2f m "
                "within %.2f m, dropped where the places go round within %.2f m (steps <= %.2f m, line + %.2f m); "
-               "sight lines past walls >= %.1f m (thickened %.2f m)%s\n",
+               "sight lines past walls >= %.1f m (thickened %.2f m; islands < %.1f m wider than %.2f m are furniture)%s\n",
                doors_online ? "online (every " : "",
                doors_online ? (std::to_string(doors_online_every_n) + ". backend update, dropped after " +
                                std::to_string(doors.online_misses_to_drop) + " missed passes), ")
@@ -358,7 +365,8 @@ void AppConfig::print(std::FILE* out) const {
                             : "",
                doors_at_finish ? "found when the run finishes" : "not at the finish", doors.slice_above_robot_m, doors.min_width_m,
                doors.max_width_m, doors.min_rise_m, doors.rise_reach_m, doors.bypass_max_m, doors.bypass_max_edge_m,
-               doors.bypass_extension_m, doors.sight_min_wall_m, doors.sight_wall_dilation_m,
+               doors.bypass_extension_m, doors.sight_min_wall_m, doors.sight_wall_dilation_m, doors.sight_furniture_max_m,
+               doors.sight_furniture_min_width_m,
                doors.sight_cut_edges ? ", place edges through them closed" : "");
   std::fprintf(out, "room_labels: weights_path=%s\n",
                room_weights_path.empty() ? "(built-in: core/neural_tree/weights/room_classifier_v2.json)"

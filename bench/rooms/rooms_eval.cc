@@ -172,6 +172,10 @@ bool parse(int argc, char** argv, Options* o) {
     }
     else if (a == "--visible-min-share") number = &o->rooms.visible_min_share;
     else if (a == "--visible-samples") o->rooms.visible_samples = static_cast<std::uint32_t>(std::atoi(v.c_str()));
+    else if (a == "--visible-local-radius-m") number = &o->rooms.visible_local_radius_m;
+    else if (a == "--visible-local-min-share") number = &o->rooms.visible_local_min_share;
+    else if (a == "--sight-furniture-max-m") number = &o->door.sight_furniture_max_m;
+    else if (a == "--sight-furniture-min-width-m") number = &o->door.sight_furniture_min_width_m;
     else if (a == "--generated") o->generated = std::atoi(v.c_str());
     else if (a == "--generated-rooms") o->generated_rooms = std::atoi(v.c_str());
     else if (a == "--label-buildings") o->label_buildings = std::atoi(v.c_str());
@@ -811,9 +815,9 @@ bool run_rooms(const Options& opt, const std::string& name, sg::SceneGraph* grap
   for (std::size_t i = 0; i < finder->curve_size(); i += 5) std::printf(" %.2f:%u", finder->dilation_at(i), finder->betti_at(i));
   std::printf("\n");
   if (sight != nullptr)
-    std::printf("  %s: sight lines: %zu rooms merged into a room they see (%zu room pairs tested), %zu open place "
-                "edges read as closed through walls\n",
-                name.c_str(), r.visible_merges, r.visible_pairs, r.edges_through_walls);
+    std::printf("  %s: sight lines: %zu rooms merged into a room they see (%zu of them near the boundary only; %zu "
+                "room pairs tested), %zu open place edges read as closed through walls\n",
+                name.c_str(), r.visible_merges, r.visible_near_merges, r.visible_pairs, r.edges_through_walls);
   stats->visible_merges = r.visible_merges;
   stats->places = r.places;
   stats->rooms = r.rooms;
@@ -1224,7 +1228,9 @@ int main(int argc, char** argv) {
                  "[--door-rise-reach-m R] [--door-max-off-centre F] [--door-slice-half-band-m B] [--door-min-wall-height-m H] "
                  "[--door-mapped-radius-m R] [--door-extension-m E] [--door-bypass-max-m D] [--door-bypass-extension-m E] "
                  "[--door-bypass-max-edge-m L] [--merge-visible 0|1] [--merge-visible-in-window 0|1] [--visible-min-share S] [--visible-samples N] "
-                 "[--sight-min-wall-m W] [--sight-wall-dilation-m D] [--sight-cut-edges 0|1] "
+                 "[--visible-local-radius-m R] [--visible-local-min-share S] [--sight-min-wall-m W] "
+                 "[--sight-wall-dilation-m D] [--sight-furniture-max-m L] [--sight-furniture-min-width-m W] "
+                 "[--sight-cut-edges 0|1] "
                  "[--json FILE]\n",
                  argv[0]);
     return 2;
@@ -1295,9 +1301,12 @@ int main(int argc, char** argv) {
     std::snprintf(cond + std::strlen(cond), sizeof(cond) - std::strlen(cond), ", no corridor merge");
   if (opt.rooms.merge_visible && (opt.doors || (opt.online_doors && opt.rooms.merge_visible_in_window)))
     std::snprintf(cond + std::strlen(cond), sizeof(cond) - std::strlen(cond),
-                  ", visibility merge >= %.2f of %u x %u sight lines past walls >= %.1f m (dilated %.2f m)%s",
+                  ", visibility merge >= %.2f of %u x %u sight lines (near the boundary: %.2f m, >= %.2f) past walls "
+                  ">= %.1f m (dilated %.2f m; islands < %.1f m wider than %.2f m are furniture)%s",
                   opt.rooms.visible_min_share, opt.rooms.visible_samples, opt.rooms.visible_samples,
-                  opt.door.sight_min_wall_m, opt.door.sight_wall_dilation_m,
+                  opt.rooms.visible_local_radius_m, opt.rooms.visible_local_min_share, opt.door.sight_min_wall_m,
+                  opt.door.sight_wall_dilation_m, opt.door.sight_furniture_max_m,
+                  opt.door.sight_furniture_min_width_m,
                   opt.online_doors ? " in the last online window" : "");
   else
     std::snprintf(cond + std::strlen(cond), sizeof(cond) - std::strlen(cond), ", no visibility merge");

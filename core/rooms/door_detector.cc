@@ -48,6 +48,10 @@ bool DoorConfig::validate(std::string* error) const {
     return fail("sight_wall_dilation_m must be in [0, 1]");
   if (!(sight_min_wall_m >= 0.0 && std::isfinite(sight_min_wall_m)))
     return fail("sight_min_wall_m must be finite and >= 0");
+  if (!(sight_furniture_max_m >= 0.0 && std::isfinite(sight_furniture_max_m)))
+    return fail("sight_furniture_max_m must be finite and >= 0");
+  if (!(sight_furniture_min_width_m > 0.0 && std::isfinite(sight_furniture_min_width_m)))
+    return fail("sight_furniture_min_width_m must be finite and > 0");
   return true;
 }
 

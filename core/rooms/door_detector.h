@@ -86,6 +86,13 @@ struct DoorConfig {
   // a sight line; shorter pieces are furniture, which does not.
   double sight_wall_dilation_m = 0.15;
   double sight_min_wall_m = 3.0;
+  // ... unless it is a thick island: a piece spanning less than sight_furniture_max_m whose mean width (its
+  // thickened area over its diagonal) exceeds sight_furniture_min_width_m is furniture too (a ring of tables, a row
+  // of desks standing free in a hall; a wall, even thickened, is about 0.4-0.6 m wide, and a building's connected
+  // walls span far more). 0 for sight_furniture_max_m: off. Measured on the IPA furnished plans with the local
+  // sight test below (RoomFinder::Config::visible_local_radius_m); see room_finder.h.
+  double sight_furniture_max_m = 8.0;
+  double sight_furniture_min_width_m = 1.0;
   // ... and the place edges that cross such structure are closed too (cut_edges_through_walls), by the callers of
   // find_doors that build the sight lines (the app's final stage, rooms_eval).
   bool sight_cut_edges = true;

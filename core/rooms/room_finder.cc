@@ -117,6 +117,13 @@ std::string Config::check() const {
     return "rooms.visible_samples: must be in [1, " + std::to_string(kMaxVisibleSamples) + "], got " +
            std::to_string(visible_samples);
   if (merge_visible && visible_max_rounds < 1) return "rooms.visible_max_rounds: must be >= 1";
+  if (merge_visible && !(std::isfinite(visible_local_radius_m) && visible_local_radius_m >= 0.0))
+    return "rooms.visible_local_radius_m: must be finite and >= 0, got " + std::to_string(visible_local_radius_m);
+  if (merge_visible && visible_local_radius_m > 0.0 &&
+      !(visible_local_min_share > 0.0 && visible_local_min_share <= 1.0))
+    return "rooms.visible_local_min_share: must be in (0, 1], got " + std::to_string(visible_local_min_share);
+  if (merge_visible && visible_local_radius_m > 0.0 && visible_local_min_places < 1)
+    return "rooms.visible_local_min_places: must be >= 1";
   if (building_index > sg::kIndexMask) return "rooms.building_index: larger than a node index";
   return "";
 }
@@ -145,8 +152,10 @@ void Config::print(std::FILE* out) const {
     std::fprintf(out, "rooms: corridor merge off\n");
   if (merge_visible)
     std::fprintf(out,
-                 "rooms: visibility merge (with sight lines): >= %.2f of %u x %u sight lines clear, <= %u rounds\n",
-                 visible_min_share, visible_samples, visible_samples, visible_max_rounds);
+                 "rooms: visibility merge (with sight lines): >= %.2f of %u x %u sight lines clear, <= %u rounds; "
+                 "near the boundary (%.2f m, >= %u places a side): >= %.2f\n",
+                 visible_min_share, visible_samples, visible_samples, visible_max_rounds, visible_local_radius_m,
+                 visible_local_min_places, visible_local_min_share);
   else
     std::fprintf(out, "rooms: visibility merge off\n");
 }
@@ -270,6 +279,8 @@ memory::ArenaPlan RoomFinder::plan(const Config& config, const Capacities& c) {
   p.add_array<std::uint32_t>(c.rooms);
   p.add_array<std::uint32_t>(c.rooms * Config::kMaxVisibleSamples);
   p.add_array<std::uint32_t>(c.rooms);
+  p.add_array<std::uint32_t>(2 * c.places);
+  p.add_array<std::uint8_t>(c.places);
   return p;
 }
 
@@ -323,12 +334,15 @@ bool RoomFinder::init(const Config& config, const Capacities& c, std::size_t bud
   room_neighbours_ = arena_.carve_array<std::uint32_t>(c.rooms);
   sight_samples_ = arena_.carve_array<std::uint32_t>(c.rooms * Config::kMaxVisibleSamples);
   room_count_ = arena_.carve_array<std::uint32_t>(c.rooms);
+  near_list_ = arena_.carve_array<std::uint32_t>(2 * c.places);
+  near_mark_ = arena_.carve_array<std::uint8_t>(c.places);
   // A heap, matches or curve of zero size would be a null carve; the plan never asks for those.
   ok = ok && place_ids_ && clearance_ && position_ && active_ && (edges_ || c.place_edges == 0) && adjacency_offset_ &&
        (adjacency_ || c.place_edges == 0) && order_ && parent_ && size_ && room_of_ && (heap_ || c.place_edges == 0) &&
        pairs_ && matches_ && curve_ && room_ids_ && room_acc_ && root_room_ && previous_ids_ &&
        previous_taken_ && saved_ && saved_valid_ && birth_ && member_next_ && member_tail_ && split_ && extent_ &&
-       sub_seeds_ && room_seeds_ && room_parent_ && room_neighbours_ && sight_samples_ && room_count_;
+       sub_seeds_ && room_seeds_ && room_parent_ && room_neighbours_ && sight_samples_ && room_count_ && near_list_ &&
+       near_mark_;
   arena_.align_to_plan_boundary();
   if (!ok || !arena_.seal()) {
     if (error != nullptr) *error = "rooms: arena carve did not match its plan";
@@ -999,6 +1013,11 @@ std::size_t RoomFinder::merge_visible(std::size_t num_rooms, const WallSight& si
   };
   const std::uint64_t min_share =
       static_cast<std::uint64_t>(std::ceil(config_.visible_min_share * static_cast<double>(kShareMask)));
+  constexpr std::uint64_t kNearBit = 0x8000u;
+  const bool near_on = config_.visible_local_radius_m > 0.0;
+  const std::uint64_t near_min_share =
+      static_cast<std::uint64_t>(std::ceil(config_.visible_local_min_share * static_cast<double>(kShareMask)));
+  std::size_t near_merged = 0;
   std::size_t rooms = num_rooms;
   std::size_t merged_total = 0;
   for (std::uint32_t round = 0; round < config_.visible_max_rounds; ++round) {
@@ -1039,7 +1058,16 @@ std::size_t RoomFinder::merge_visible(std::size_t num_rooms, const WallSight& si
       const std::uint64_t lines = static_cast<std::uint64_t>(room_count_[a]) * room_count_[b];
       const std::uint64_t share = lines == 0 ? 0 : clear * kShareMask / lines;
       ++r->visible_pairs;
-      if (share >= min_share) pairs_[candidates++] = pairs_[k] | share;
+      // The record's priority: pairs that qualify as whole rooms (kNearBit set, then by share) before pairs that
+      // qualify near their boundary only (by that share).
+      std::uint64_t priority = 0;
+      if (share >= min_share) {
+        priority = kNearBit | (share >> 1);
+      } else if (near_on) {
+        const std::uint64_t near = near_boundary_share(a, b, sight, kShareMask);
+        if (near > 0 && near >= near_min_share) priority = std::max<std::uint64_t>(1, near >> 1);
+      }
+      if (priority != 0) pairs_[candidates++] = pairs_[k] | priority;
     }
     if (candidates == 0) break;
     std::sort(pairs_, pairs_ + candidates, [&](std::uint64_t x, std::uint64_t y) {
@@ -1054,12 +1082,71 @@ std::size_t RoomFinder::merge_visible(std::size_t num_rooms, const WallSight& si
       room_count_[a] = room_count_[b] = 1;
       room_parent_[b] = a;  // the lower slot stays
       ++merged;
+      if ((pairs_[k] & kNearBit) == 0) ++near_merged;
     }
     merged_total += merged;
     rooms = renumber_merged_rooms(rooms);
   }
   r->visible_merges += merged_total;
+  r->visible_near_merges += near_merged;
   return rooms;
+}
+
+// Layout of near_list_ (2 x places): [0, places) holds the boundary ends, b's from the front and a's from the back;
+// [places, 2 places) the places near them, a's from the front and b's from the back. Marks are cleared on the way
+// out, so the cost is the edges once plus each room's places times the other's ends.
+std::uint64_t RoomFinder::near_boundary_share(std::uint32_t a, std::uint32_t b, const WallSight& sight,
+                                              std::uint64_t share_scale) {
+  const std::size_t cap = capacities_.places;
+  std::uint32_t* ends = near_list_;
+  std::uint32_t* near = near_list_ + cap;
+  std::size_t ends_b = 0, ends_a = 0;
+  for (std::size_t e = 0; e < num_edges_; ++e) {
+    std::uint32_t u = edges_[e].a, v = edges_[e].b;
+    const std::int32_t ru = room_of_[u], rv = room_of_[v];
+    if (!((ru == static_cast<std::int32_t>(a) && rv == static_cast<std::int32_t>(b)) ||
+          (ru == static_cast<std::int32_t>(b) && rv == static_cast<std::int32_t>(a))))
+      continue;
+    if (ru == static_cast<std::int32_t>(b)) std::swap(u, v);  // u in a, v in b
+    if ((near_mark_[v] & 1u) == 0) {
+      near_mark_[v] |= 1u;
+      ends[ends_b++] = v;
+    }
+    if ((near_mark_[u] & 2u) == 0) {
+      near_mark_[u] |= 2u;
+      ends[cap - 1 - ends_a++] = u;
+    }
+  }
+  for (std::size_t k = 0; k < ends_b; ++k) near_mark_[ends[k]] = 0;
+  for (std::size_t k = 0; k < ends_a; ++k) near_mark_[ends[cap - 1 - k]] = 0;
+  const double r2 = config_.visible_local_radius_m * config_.visible_local_radius_m;
+  const auto close_to = [&](std::uint32_t i, const std::uint32_t* list, std::size_t n, bool backwards) {
+    for (std::size_t k = 0; k < n; ++k) {
+      const std::uint32_t j = backwards ? list[cap - 1 - k] : list[k];
+      const double dx = position_[3 * i] - position_[3 * j], dy = position_[3 * i + 1] - position_[3 * j + 1];
+      if (dx * dx + dy * dy <= r2) return true;
+    }
+    return false;
+  };
+  std::size_t near_a = 0, near_b = 0;
+  for (std::uint32_t i = 0; i < num_places_; ++i) {
+    if (room_of_[i] == static_cast<std::int32_t>(a) && close_to(i, ends, ends_b, false)) near[near_a++] = i;
+    if (room_of_[i] == static_cast<std::int32_t>(b) && close_to(i, ends, ends_a, true)) near[cap - 1 - near_b++] = i;
+  }
+  const std::size_t min_places = config_.visible_local_min_places;
+  if (near_a < min_places || near_b < min_places) return 0;
+  // The same even spread as the whole rooms' samples: ranks floor(j (n - 1) / (m - 1)), all of them when n <= m.
+  const std::size_t m = config_.visible_samples;
+  const auto pick = [m](std::size_t n, std::size_t j) { return n <= m ? j : (m == 1 ? 0 : j * (n - 1) / (m - 1)); };
+  const std::size_t ma = std::min(near_a, m), mb = std::min(near_b, m);
+  const auto position = [&](std::uint32_t i) {
+    return Eigen::Vector3d(position_[3 * i], position_[3 * i + 1], position_[3 * i + 2]);
+  };
+  std::uint64_t clear = 0;
+  for (std::size_t x = 0; x < ma; ++x)
+    for (std::size_t y = 0; y < mb; ++y)
+      clear += sight.sees(position(near[pick(near_a, x)]), position(near[cap - 1 - pick(near_b, y)])) ? 1 : 0;
+  return clear * share_scale / (static_cast<std::uint64_t>(ma) * mb);
 }
 
 // A new room takes the id of the previous room it shares most places with (each id once, largest overlaps

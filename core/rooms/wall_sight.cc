@@ -13,10 +13,27 @@ namespace {
 // The structure mask of one raster, in the caller's buffers (cells each; list holds cells indices): the walls
 // thickened by repeated 4-neighbour dilation (a diamond of `steps` cells), then each 8-connected piece flooded
 // through `list` (its cells stay there) and, when its bounding box's diagonal reaches min_diagonal_cells (or it
-// touches the raster's edge and border_is_structure), written into `structure`. Never allocates.
-void build_structure(const DoorRaster& raster, const std::uint8_t* wall, int steps, double min_diagonal_cells,
-                     bool border_is_structure, std::uint8_t* grown, std::uint8_t* scratch, std::uint32_t* list,
-                     std::uint8_t* structure, WallSight::Slice* out) {
+// touches the raster's edge and border_is_structure), written into `structure`, unless it is a thick island
+// (diagonal below furniture_max_cells, cells over diagonal above furniture_min_width_cells). Never allocates.
+struct PieceRule {
+  double min_diagonal_cells = 0.0;
+  double furniture_max_cells = 0.0;  // 0: no thick-island rule
+  double furniture_min_width_cells = 0.0;
+  bool border_is_structure = false;
+};
+
+PieceRule piece_rule(const DoorConfig& config, double cell_m, bool border_is_structure) {
+  PieceRule rule;
+  rule.min_diagonal_cells = config.sight_min_wall_m / cell_m;
+  rule.furniture_max_cells = config.sight_furniture_max_m / cell_m;
+  rule.furniture_min_width_cells = config.sight_furniture_min_width_m / cell_m;
+  rule.border_is_structure = border_is_structure;
+  return rule;
+}
+
+void build_structure(const DoorRaster& raster, const std::uint8_t* wall, int steps, const PieceRule& rule,
+                     std::uint8_t* grown, std::uint8_t* scratch, std::uint32_t* list, std::uint8_t* structure,
+                     WallSight::Slice* out) {
   const int cols = raster.cols, rows = raster.rows;
   const std::size_t cells = raster.cells();
   std::copy(wall, wall + cells, grown);
@@ -34,7 +51,7 @@ void build_structure(const DoorRaster& raster, const std::uint8_t* wall, int ste
   }
   std::fill(scratch, scratch + cells, std::uint8_t{0});  // now: visited
   std::fill(structure, structure + cells, std::uint8_t{0});
-  out->components = out->structure_components = out->structure_cells = 0;
+  out->components = out->structure_components = out->structure_cells = out->furniture_islands = 0;
   for (std::size_t start = 0; start < cells; ++start) {
     if (grown[start] == 0 || scratch[start] != 0) continue;
     int c0 = cols, c1 = -1, r0 = rows, r1 = -1;
@@ -61,7 +78,14 @@ void build_structure(const DoorRaster& raster, const std::uint8_t* wall, int ste
     }
     ++out->components;
     const bool at_edge = c0 == 0 || r0 == 0 || c1 == cols - 1 || r1 == rows - 1;
-    if (std::hypot(c1 - c0 + 1.0, r1 - r0 + 1.0) < min_diagonal_cells && !(border_is_structure && at_edge)) continue;
+    const double diagonal = std::hypot(c1 - c0 + 1.0, r1 - r0 + 1.0);
+    if (!(rule.border_is_structure && at_edge)) {
+      if (diagonal < rule.min_diagonal_cells) continue;
+      if (diagonal < rule.furniture_max_cells && static_cast<double>(size) / diagonal > rule.furniture_min_width_cells) {
+        ++out->furniture_islands;
+        continue;
+      }
+    }
     ++out->structure_components;
     out->structure_cells += size;
     for (std::size_t k = 0; k < size; ++k) structure[list[k]] = 1;
@@ -106,8 +130,8 @@ bool WallSight::add_slice(const DoorRaster& raster, const std::uint8_t* wall, do
   std::vector<std::uint8_t> grown(cells), scratch(cells);
   std::vector<std::uint32_t> list(cells);
   build_structure(raster, wall, static_cast<int>(std::lround(config.sight_wall_dilation_m / raster.cell_m)),
-                  config.sight_min_wall_m / raster.cell_m, border_is_structure, grown.data(), scratch.data(),
-                  list.data(), s.owned.data(), &s);
+                  piece_rule(config, raster.cell_m, border_is_structure), grown.data(), scratch.data(), list.data(),
+                  s.owned.data(), &s);
   max_dz_m_ = config.cut_max_dz_m;
   slices_.push_back(std::move(s));
   return true;
@@ -158,7 +182,7 @@ bool WallSight::set_window_slice(const DoorRaster& raster, const std::uint8_t* w
   window_.z_m = slice_z_m;
   window_.window = structure_;
   build_structure(raster, wall, static_cast<int>(std::lround(config.sight_wall_dilation_m / raster.cell_m)),
-                  config.sight_min_wall_m / raster.cell_m, /*border_is_structure=*/true, grown_, scratch_, list_,
+                  piece_rule(config, raster.cell_m, /*border_is_structure=*/true), grown_, scratch_, list_,
                   structure_, &window_);
   max_dz_m_ = config.cut_max_dz_m;
   window_set_ = true;

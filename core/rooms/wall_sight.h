@@ -6,8 +6,10 @@
 // spans DoorConfig::min_wall_height_m in the band) is thickened by DoorConfig::sight_wall_dilation_m, which bridges
 // the small gaps of a wall the camera saw in pieces, and split into 8-connected components. A component whose
 // bounding box spans at least DoorConfig::sight_min_wall_m (diagonal) is structure: the walls of a building are
-// joined into long pieces, while furniture (chairs, a table with its chairs, a post) stands in short ones. Only
-// structure blocks a sight line. Furniture pushed against a wall joins the wall and blocks too, which can only keep
+// joined into long pieces, while furniture (chairs, a table with its chairs, a post) stands in short ones. A thick
+// island (a ring of tables, a row of desks standing free: shorter than DoorConfig::sight_furniture_max_m and wider,
+// on average, than sight_furniture_min_width_m) is furniture too, however long. Only structure blocks a sight
+// line. Furniture pushed against a wall joins the wall and blocks too, which can only keep
 // rooms apart, never merge them.
 //
 // Two forms: offline, one slice per storey on the heap (the final stage, at the end of a run); online, the door
@@ -62,6 +64,8 @@ class WallSight {
   std::size_t structure_cells(std::size_t i) const { return slice(i).structure_cells; }
   std::size_t components(std::size_t i) const { return slice(i).components; }
   std::size_t structure_components(std::size_t i) const { return slice(i).structure_components; }
+  // Pieces long enough to be walls that the thick-island rule left as furniture (DoorConfig::sight_furniture_*).
+  std::size_t furniture_islands(std::size_t i) const { return slice(i).furniture_islands; }
 
   // The slice a point belongs to: the nearest one within max_dz_m of its height, or -1.
   int slice_of(const Eigen::Vector3d& p) const;
@@ -83,6 +87,7 @@ class WallSight {
     std::size_t structure_cells = 0;
     std::size_t components = 0;
     std::size_t structure_components = 0;
+    std::size_t furniture_islands = 0;
     const std::uint8_t* structure() const { return owned.empty() ? window : owned.data(); }
   };
 

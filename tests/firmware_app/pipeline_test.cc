@@ -344,11 +344,13 @@ TEST(AppConfigTest, LoadsKnownKeysAndNamesBadOnes) {
   EXPECT_NE(error.find("bypass_max_edge_m"), std::string::npos) << error;
   AppConfig sight;
   ASSERT_TRUE(sight.load(write("sight.json", "{\"doors\": {\"sight_min_wall_m\": 2.5, \"sight_wall_dilation_m\": 0.1, "
+                                             "\"sight_furniture_max_m\": 6.0, \"sight_furniture_min_width_m\": 1.2, "
                                              "\"sight_cut_edges\": false}, \"rooms\": {\"merge_visible\": false, "
                                              "\"close_edges_through_walls\": false, "
                                              "\"merge_visible_in_window\": true, "
                                              "\"visible_min_share\": 0.7, \"visible_samples\": 16, "
-                                             "\"visible_max_rounds\": 4}}"),
+                                             "\"visible_local_radius_m\": 3.0, \"visible_local_min_share\": 0.9, "
+                                             "\"visible_local_min_places\": 5, \"visible_max_rounds\": 4}}"),
                          &error))
       << error;
   EXPECT_EQ(sight.doors.sight_min_wall_m, 2.5);
@@ -360,11 +362,21 @@ TEST(AppConfigTest, LoadsKnownKeysAndNamesBadOnes) {
   EXPECT_EQ(sight.rooms.visible_min_share, 0.7);
   EXPECT_EQ(sight.rooms.visible_samples, 16u);
   EXPECT_EQ(sight.rooms.visible_max_rounds, 4u);
+  EXPECT_EQ(sight.doors.sight_furniture_max_m, 6.0);
+  EXPECT_EQ(sight.doors.sight_furniture_min_width_m, 1.2);
+  EXPECT_EQ(sight.rooms.visible_local_radius_m, 3.0);
+  EXPECT_EQ(sight.rooms.visible_local_min_share, 0.9);
+  EXPECT_EQ(sight.rooms.visible_local_min_places, 5u);
   for (const auto& [file, text, field] :
        {std::tuple{"sight_bad.json", "{\"doors\": {\"sight_min_wall_m\": -1}}", "sight_min_wall_m"},
         std::tuple{"visible_frac.json", "{\"rooms\": {\"visible_samples\": 2.5}}", "rooms.visible_samples"},
         std::tuple{"visible_many.json", "{\"rooms\": {\"visible_samples\": 64}}", "visible_samples"},
-        std::tuple{"visible_share.json", "{\"rooms\": {\"visible_min_share\": 0}}", "visible_min_share"}}) {
+        std::tuple{"visible_share.json", "{\"rooms\": {\"visible_min_share\": 0}}", "visible_min_share"},
+        std::tuple{"furniture_width.json", "{\"doors\": {\"sight_furniture_min_width_m\": 0}}",
+                   "sight_furniture_min_width_m"},
+        std::tuple{"local_radius.json", "{\"rooms\": {\"visible_local_radius_m\": -1}}", "visible_local_radius_m"},
+        std::tuple{"local_places.json", "{\"rooms\": {\"visible_local_min_places\": 1.5}}",
+                   "rooms.visible_local_min_places"}}) {
     AppConfig bad;
     EXPECT_FALSE(bad.load(write(file, text), &error)) << file;
     EXPECT_NE(error.find(field), std::string::npos) << error;
@@ -408,6 +420,9 @@ TEST(AppConfigTest, LoadsKnownKeysAndNamesBadOnes) {
   EXPECT_EQ(sr.visible_min_share, dr.visible_min_share);
   EXPECT_EQ(sr.visible_samples, dr.visible_samples);
   EXPECT_EQ(sr.visible_max_rounds, dr.visible_max_rounds);
+  EXPECT_EQ(sr.visible_local_radius_m, dr.visible_local_radius_m);
+  EXPECT_EQ(sr.visible_local_min_share, dr.visible_local_min_share);
+  EXPECT_EQ(sr.visible_local_min_places, dr.visible_local_min_places);
   EXPECT_EQ(shipped.doors_at_finish, AppConfig().doors_at_finish);
   EXPECT_EQ(shipped.doors_online, AppConfig().doors_online);
   EXPECT_EQ(shipped.doors_online_every_n, AppConfig().doors_online_every_n);
@@ -423,6 +438,8 @@ TEST(AppConfigTest, LoadsKnownKeysAndNamesBadOnes) {
   EXPECT_EQ(shipped.doors.sight_min_wall_m, AppConfig().doors.sight_min_wall_m);
   EXPECT_EQ(shipped.doors.sight_wall_dilation_m, AppConfig().doors.sight_wall_dilation_m);
   EXPECT_EQ(shipped.doors.sight_cut_edges, AppConfig().doors.sight_cut_edges);
+  EXPECT_EQ(shipped.doors.sight_furniture_max_m, AppConfig().doors.sight_furniture_max_m);
+  EXPECT_EQ(shipped.doors.sight_furniture_min_width_m, AppConfig().doors.sight_furniture_min_width_m);
   const places::Config& sp = shipped.frontend.places;
   const places::Config dp = AppConfig().frontend.places;
   EXPECT_EQ(sp.signed_surface_seeds, dp.signed_surface_seeds);

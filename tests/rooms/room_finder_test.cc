@@ -816,6 +816,59 @@ TEST(RoomFinderTest, RoomsThatSeeEachOtherAreMerged) {
   EXPECT_EQ(make_finder()->update(g5.get(), 0, nullptr, &hall_sight).rooms, 2u);
 }
 
+// A hall that a false door line cuts in two, with a partition wall along the hall from each end wall (joined to
+// the outer walls, so structure; two bays at each end, no constriction) that hides part of one half from the
+// other: the whole halves' sight lines fall short of a strict share; near the line nothing stands between them.
+TEST(RoomFinderTest, RoomsThatSeeEachOtherNearTheirBoundaryAreMerged) {
+  // 16 m x 4 m (x in [0.25, 16.25)); partitions 5 m long along y = 2.25 from the west and the east end walls; the
+  // false door at x = 8.25. Tags: 1 for the places within 2 m west of the line, 2 within 2 m east of it.
+  GridPlan hall(66, 18, testing::kCellM);
+  hall.carve(1, 1, 65, 17, 0);
+  hall.carve(25, 1, 33, 17, 1);
+  hall.carve(33, 1, 41, 17, 2);
+  hall.carve(1, 9, 21, 10, GridPlan::kWall);
+  hall.carve(45, 9, 65, 10, GridPlan::kWall);
+  SyntheticPlaces s;
+  hall.add_to(&s, 1.0);
+  ASSERT_GT(close_line(&s, 33 * testing::kCellM), 0u);
+  const WallSight sight = sight_of(hall, 66, 18);
+  ASSERT_EQ(sight.structure_components(0), 1u);  // the outer walls with their partitions
+  // Whether the places on both sides of the line share one room.
+  const auto joined = [&](const Config& c, UpdateResult* out) {
+    auto g = make_graph();
+    EXPECT_TRUE(s.write(g.get()));
+    auto finder = make_finder(c);
+    UpdateResult r;
+    EXPECT_NO_ALLOCATIONS(r = finder->update(g.get(), 0, nullptr, &sight));
+    if (out != nullptr) *out = r;
+    const auto by_tag = rooms_by_tag(*g, s);
+    return by_tag.at(1).size() == 1 && by_tag.at(2).size() == 1 && *by_tag.at(1).begin() == *by_tag.at(2).begin();
+  };
+  Config strict;
+  strict.visible_min_share = 0.95;
+  Config whole_only = strict;
+  whole_only.visible_local_radius_m = 0.0;
+  UpdateResult r;
+  EXPECT_FALSE(joined(whole_only, &r)) << "the whole halves' sight lines fall short";
+  EXPECT_EQ(r.visible_near_merges, 0u);
+  EXPECT_TRUE(joined(strict, &r));
+  EXPECT_EQ(r.visible_merges, 1u);
+  EXPECT_EQ(r.visible_near_merges, 1u);
+  EXPECT_EQ(r.places_assigned, s.places.size());
+  // Too few places near the line (more than either half has), or near lines from as far as the partitions (some
+  // cross them) held to the strict share too: not joined.
+  Config few = strict;
+  few.visible_local_min_places = 10000;
+  EXPECT_FALSE(joined(few, nullptr));
+  Config far = strict;
+  far.visible_local_radius_m = 8.0;
+  far.visible_local_min_share = 0.95;
+  EXPECT_FALSE(joined(far, nullptr));
+  // The default share takes the whole halves (87 % clear) without the test near the line.
+  EXPECT_TRUE(joined(Config{}, &r));
+  EXPECT_EQ(r.visible_near_merges, 0u);
+}
+
 TEST(RoomFinderTest, VisibilityMergeSettingsAreChecked) {
   const auto bad = [](auto set, const char* field) {
     Config c;
@@ -829,6 +882,10 @@ TEST(RoomFinderTest, VisibilityMergeSettingsAreChecked) {
   bad([](Config* c) { c->visible_samples = 0; }, "visible_samples");
   bad([](Config* c) { c->visible_samples = Config::kMaxVisibleSamples + 1; }, "visible_samples");
   bad([](Config* c) { c->visible_max_rounds = 0; }, "visible_max_rounds");
+  bad([](Config* c) { c->visible_local_radius_m = -1.0; }, "visible_local_radius_m");
+  bad([](Config* c) { c->visible_local_radius_m = std::nan(""); }, "visible_local_radius_m");
+  bad([](Config* c) { c->visible_local_min_share = 0.0; }, "visible_local_min_share");
+  bad([](Config* c) { c->visible_local_min_places = 0; }, "visible_local_min_places");
   Config off;
   off.merge_visible = false;
   off.visible_samples = 0;  // not read when off

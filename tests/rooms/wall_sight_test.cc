@@ -1,5 +1,5 @@
-// WallSight: which slice walls are structure (long pieces) and which are furniture (short ones), sight lines past
-// them, slices per storey, bad input, and the place edges through walls that cut_edges_through_walls closes.
+// WallSight: which slice walls are structure (long pieces) and which are furniture (short ones, thick islands),
+// sight lines past them, slices per storey, bad input, and the place edges through walls that cut_edges_through_walls closes.
 #include "core/rooms/wall_sight.h"
 
 #include <gtest/gtest.h>
@@ -103,6 +103,48 @@ TEST(WallSightTest, TheThickeningBridgesSmallGapsNotDoors) {
   EXPECT_EQ(raw.components(0), 3u);
   EXPECT_EQ(raw.structure_components(0), 0u);
   EXPECT_TRUE(raw.sees(at(1.0, 2.5), at(5.0, 2.5)));
+}
+
+TEST(WallSightTest, ThickIslandsAreFurnitureThinOnesAndLongOnesAreWalls) {
+  // A 12 m x 10 m hall: a row of desks standing free (4 m x 1 m, x in [1, 5] at y = 2: a thickened mean width of
+  // about 1.3 m), a wall piece between two doors (4 m x 0.1 m at y = 6: about 0.4 m wide) and a long thick block
+  // (9 m x 1 m at y = 8.5: beyond sight_furniture_max_m, a building's mass).
+  Walls w(240, 200);
+  w.box(1.0, 1.5, 5.0, 2.5);
+  w.box(1.0, 5.95, 5.0, 6.05);
+  w.box(1.0, 8.0, 10.0, 9.0);
+  const WallSight sight = sight_of(w);
+  EXPECT_EQ(sight.components(0), 3u);
+  EXPECT_EQ(sight.structure_components(0), 2u);
+  EXPECT_EQ(sight.furniture_islands(0), 1u);
+  EXPECT_TRUE(sight.sees(at(3.0, 0.5), at(3.0, 4.0)));    // across the desks: clear
+  EXPECT_FALSE(sight.sees(at(3.0, 4.0), at(3.0, 7.0)));   // across the thin wall piece: blocked
+  EXPECT_FALSE(sight.sees(at(3.0, 7.0), at(3.0, 9.8)));   // across the long block: blocked
+  // The rule off (sight_furniture_max_m 0), or a wider width limit: the desks block.
+  DoorConfig off;
+  off.sight_furniture_max_m = 0.0;
+  const WallSight all = sight_of(w, off);
+  EXPECT_EQ(all.structure_components(0), 3u);
+  EXPECT_EQ(all.furniture_islands(0), 0u);
+  EXPECT_FALSE(all.sees(at(3.0, 0.5), at(3.0, 4.0)));
+  DoorConfig wide;
+  wide.sight_furniture_min_width_m = 1.5;
+  EXPECT_FALSE(sight_of(w, wide).sees(at(3.0, 0.5), at(3.0, 4.0)));
+  // A shorter island limit than the block's length leaves the block as a wall; one beyond it makes it furniture.
+  DoorConfig longer;
+  longer.sight_furniture_max_m = 12.0;
+  EXPECT_TRUE(sight_of(w, longer).sees(at(3.0, 7.0), at(3.0, 9.8)));
+  // Bad values are refused.
+  DoorConfig bad;
+  bad.sight_furniture_min_width_m = 0.0;
+  std::string error;
+  WallSight refused;
+  EXPECT_FALSE(refused.add_slice(w.raster, w.wall.data(), 1.2, bad, &error));
+  EXPECT_NE(error.find("sight_furniture_min_width_m"), std::string::npos) << error;
+  bad = DoorConfig{};
+  bad.sight_furniture_max_m = std::nan("");
+  EXPECT_FALSE(refused.add_slice(w.raster, w.wall.data(), 1.2, bad, &error));
+  EXPECT_NE(error.find("sight_furniture_max_m"), std::string::npos) << error;
 }
 
 TEST(WallSightTest, EachStoreyHasItsSlice) {
