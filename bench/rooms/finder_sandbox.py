@@ -1,21 +1,23 @@
 #!/usr/bin/python3
 """Sandbox for room-finder ideas: a Python mirror of core/rooms' persistence seeding, closed-off regions, flood fill,
-extent split, corridor merge and visibility merge (its sight lines from the dump's surface, one slice at the doors'
-height; numpy), run on the places that `rooms_eval --dump-places DIR` wrote, scored per place
-against the ground-truth rooms.
+extent split, corridor merge and visibility merge with its test near the boundary (its sight lines from the dump's
+surface, one slice at the doors' height, thick islands as furniture; numpy), run on the places that
+`rooms_eval --dump-places DIR` wrote, scored per place against the ground-truth rooms.
 
     build/release/bench/rooms/rooms_eval --cache-dir C --generated 0 --dump-places D   # once (cached: seconds)
     /usr/bin/python3 bench/rooms/finder_sandbox.py D [--min-persistence-m P] [--min-component N] [--no-extent-split]
         [--no-corridor-merge] [--corridor-min-neighbours N] [--corridor-min-open-edges N] [--no-visible-merge]
-        [--visible-min-share S] [--visible-samples N] [--sight-min-wall-m W] [--sight-wall-dilation-m D]
+        [--visible-min-share S] [--visible-samples N] [--visible-local-radius-m R] [--visible-local-min-share S]
+        [--sight-min-wall-m W] [--sight-wall-dilation-m D] [--sight-furniture-max-m L] [--sight-furniture-min-width-m W]
 
 It prints, per variant (plain, furnished), the same place-level score for the C++ rooms of the dump and for this
 mirror, so a change tried here first can be judged in well under a second before it is written in C++. The mirror
 follows the C++ closely, not exactly (ties among equal clearances fall in the dump's order, not the ids'): on
 session 16's graphs, plain, 149 rooms against the C++ 150 with the corridor merge off, the same 136 with it on on
 session 17's; with the visibility merge (session 19's graphs), plain 130 against 128 and furnished the same 178 with
-the same score. The dump's place edges already carry the final stage's closures (doors and edges through walls).
-Compare a change against the mirror's own baseline. The score is a proxy of rooms_eval's: it
+the same score; with the thick islands as furniture and the test near the boundary, on the same graphs, plain 120
+against 118 and furnished 150 against 149 (proxy furnished R 0.909 against 0.911). The dump's place edges already
+carry the final stage's closures (doors and edges through walls). Compare a change against the mirror's own baseline. The score is a proxy of rooms_eval's: it
 counts places, not free cells (max-overlap precision per estimated room and recall per ground-truth room, means over
 rooms, and the precision weighted by places); places outside every ground-truth room are left out, and a place
 without a room counts as a room of its own. The real figures stay rooms_eval's.
@@ -238,7 +240,8 @@ def merge_corridors(places, edges, room_of, min_neighbours=3, min_open_edges=20)
 
 
 def wall_sight(stem, places, z, dilation_m=0.15, min_wall_m=3.0, cell_m=0.05, half_band_m=0.4,
-               min_wall_height_m=0.3, mapped_radius_m=2.0, place_band_m=1.5):
+               min_wall_height_m=0.3, mapped_radius_m=2.0, place_band_m=1.5, furniture_max_m=8.0,
+               furniture_min_width_m=1.0):
     """rooms::WallSight's slice at z from the dump's surface (stem + ".surface.f32"): (structure mask [row, col],
     raster origin), or None without the surface. Needs numpy (python3-numpy)."""
     import numpy as np
@@ -285,7 +288,9 @@ def wall_sight(stem, places, z, dilation_m=0.15, min_wall_m=3.0, cell_m=0.05, ha
                         seen[rr, qq] = True
                         stack.append((rr, qq))
         a = np.array(cells)
-        if math.hypot(a[:, 0].max() - a[:, 0].min() + 1, a[:, 1].max() - a[:, 1].min() + 1) >= min_wall_m / cell_m:
+        diagonal = math.hypot(a[:, 0].max() - a[:, 0].min() + 1, a[:, 1].max() - a[:, 1].min() + 1)
+        island = diagonal < furniture_max_m / cell_m and len(cells) / diagonal > furniture_min_width_m / cell_m
+        if diagonal >= min_wall_m / cell_m and not island:
             mask[a[:, 0], a[:, 1]] = True
     return mask, lo
 
@@ -313,33 +318,55 @@ def sees(sight, a, b, cell_m=0.05):
     return True
 
 
-def merge_visible(places, edges, room_of, sight, min_share=0.8, samples=12, max_rounds=32):
+def merge_visible(places, edges, room_of, sight, min_share=0.8, samples=12, max_rounds=32, local_radius_m=2.25,
+                  local_min_share=0.8, local_min_places=3):
     """RoomFinder's visibility merge on one slice: each round, up to `samples` places per room (ranks
     floor(j (n - 1) / (samples - 1)) in id order), each adjacent pair's share of clear sight lines, then the pairs at
-    or above min_share clearest first (ties: the lower pair), each room once a round (the lower keeps its number)."""
+    or above min_share clearest first (ties: the lower pair), each room once a round (the lower keeps its number).
+    A pair short of it is tested again on its places within local_radius_m of the other room's ends of the edges
+    between them (at least local_min_places a side, local_min_share), and merges after the whole-room pairs."""
     room = dict(room_of)
     ids = sorted(places)
+
+    def pick(ps):
+        n = len(ps)
+        return ps if n <= samples else [ps[j * (n - 1) // (samples - 1)] for j in range(samples)]
+
+    def share_of(pa, pb):
+        clear = sum(sees(sight, (places[p]["x"], places[p]["y"]), (places[q]["x"], places[q]["y"]))
+                    for p in pa for q in pb)
+        return clear * 65535 // (len(pa) * len(pb))
+
+    def near(ps, ends):
+        r2 = local_radius_m * local_radius_m
+        return [p for p in ps if any((places[p]["x"] - places[q]["x"]) ** 2 + (places[p]["y"] - places[q]["y"]) ** 2
+                                     <= r2 for q in ends)]
+
     for _ in range(max_rounds):
         members = collections.defaultdict(list)
         for p in ids:
             if room[p] is not None and room[p] >= 0:
                 members[room[p]].append(p)
-        picked = {}
-        for r, ps in members.items():
-            n = len(ps)
-            picked[r] = ps if n <= samples else [ps[j * (n - 1) // (samples - 1)] for j in range(samples)]
-        pairs = set()
+        picked = {r: pick(ps) for r, ps in members.items()}
+        pairs = collections.defaultdict(lambda: (set(), set()))  # (lower, higher) -> (lower's ends, higher's ends)
         for a, b, _ in edges:
             ra, rb = room[a], room[b]
             if ra is not None and rb is not None and ra >= 0 and rb >= 0 and ra != rb:
-                pairs.add((min(ra, rb), max(ra, rb)))
+                if ra > rb:
+                    a, b, ra, rb = b, a, rb, ra
+                pairs[(ra, rb)][0].add(a)
+                pairs[(ra, rb)][1].add(b)
         cands = []
-        for ra, rb in sorted(pairs):
-            clear = sum(sees(sight, (places[p]["x"], places[p]["y"]), (places[q]["x"], places[q]["y"]))
-                        for p in picked[ra] for q in picked[rb])
-            share = clear * 65535 // (len(picked[ra]) * len(picked[rb]))
+        for (ra, rb), (ends_a, ends_b) in sorted(pairs.items()):
+            share = share_of(picked[ra], picked[rb])
             if share >= math.ceil(min_share * 65535):
-                cands.append((-share, ra, rb))
+                cands.append((-(0x8000 | share >> 1), ra, rb))
+            elif local_radius_m > 0:
+                na, nb = near(members[ra], ends_b), near(members[rb], ends_a)
+                if len(na) >= local_min_places and len(nb) >= local_min_places:
+                    share = share_of(pick(na), pick(nb))
+                    if share > 0 and share >= math.ceil(local_min_share * 65535):
+                        cands.append((-max(1, share >> 1), ra, rb))
         if not cands:
             break
         done = set()
@@ -391,6 +418,10 @@ def main():
                     help="the room finder without its visibility merge (which needs numpy and the dump's surface)")
     ap.add_argument("--visible-min-share", type=float, default=0.8)
     ap.add_argument("--visible-samples", type=int, default=12)
+    ap.add_argument("--visible-local-radius-m", type=float, default=2.25)
+    ap.add_argument("--visible-local-min-share", type=float, default=0.8)
+    ap.add_argument("--sight-furniture-max-m", type=float, default=8.0)
+    ap.add_argument("--sight-furniture-min-width-m", type=float, default=1.0)
     ap.add_argument("--sight-min-wall-m", type=float, default=3.0)
     ap.add_argument("--sight-wall-dilation-m", type=float, default=0.15)
     ap.add_argument("--door-oracle-m", type=float, default=None, metavar="C",
@@ -420,9 +451,12 @@ def main():
                 with open(path) as f:
                     door_z = [float(line.split()[5]) for line in f if line.startswith("D ")]
                 sight = wall_sight(path[:-4], places, door_z[0] if door_z else 1.2, args.sight_wall_dilation_m,
-                                   args.sight_min_wall_m)
+                                   args.sight_min_wall_m, furniture_max_m=args.sight_furniture_max_m,
+                                   furniture_min_width_m=args.sight_furniture_min_width_m)
                 if sight is not None:
-                    rooms = merge_visible(places, edges, rooms, sight, args.visible_min_share, args.visible_samples)
+                    rooms = merge_visible(places, edges, rooms, sight, args.visible_min_share, args.visible_samples,
+                                          local_radius_m=args.visible_local_radius_m,
+                                          local_min_share=args.visible_local_min_share)
             mirror.append(score(places, rooms))
         for name, s in (("C++ (dump)", cpp), ("mirror", mirror)):
             print("%-10s %-10s places: P %.3f R %.3f | P weighted %.3f | rooms %d" % ((variant, name) + pooled(s)))
