@@ -357,7 +357,8 @@ void AppConfig::print(std::FILE* out) const {
   std::fprintf(out,
                "doors: %s%s%s, slice %.2f m above the robot on each storey, widths %.2f .. %.2f m, rise %.2f m "
                "within %.2f m, dropped where the places go round within %.2f m (steps <= %.2f m, line + %.2f m); "
-               "sight lines past walls >= %.1f m (thickened %.2f m; islands < %.1f m wider than %.2f m are furniture)%s\n",
+               "sight lines past walls >= %.1f m (thickened %.2f m; islands < %.1f m wider than %.2f m are "
+               "furniture)%s\n",
                doors_online ? "online (every " : "",
                doors_online ? (std::to_string(doors_online_every_n) + ". backend update, dropped after " +
                                std::to_string(doors.online_misses_to_drop) + " missed passes), ")
@@ -365,8 +366,8 @@ void AppConfig::print(std::FILE* out) const {
                             : "",
                doors_at_finish ? "found when the run finishes" : "not at the finish", doors.slice_above_robot_m, doors.min_width_m,
                doors.max_width_m, doors.min_rise_m, doors.rise_reach_m, doors.bypass_max_m, doors.bypass_max_edge_m,
-               doors.bypass_extension_m, doors.sight_min_wall_m, doors.sight_wall_dilation_m, doors.sight_furniture_max_m,
-               doors.sight_furniture_min_width_m,
+               doors.bypass_extension_m, doors.sight_min_wall_m, doors.sight_wall_dilation_m,
+               doors.sight_furniture_max_m, doors.sight_furniture_min_width_m,
                doors.sight_cut_edges ? ", place edges through them closed" : "");
   std::fprintf(out, "room_labels: weights_path=%s\n",
                room_weights_path.empty() ? "(built-in: core/neural_tree/weights/room_classifier_v2.json)"

@@ -81,7 +81,8 @@ void build_structure(const DoorRaster& raster, const std::uint8_t* wall, int ste
     const double diagonal = std::hypot(c1 - c0 + 1.0, r1 - r0 + 1.0);
     if (!(rule.border_is_structure && at_edge)) {
       if (diagonal < rule.min_diagonal_cells) continue;
-      if (diagonal < rule.furniture_max_cells && static_cast<double>(size) / diagonal > rule.furniture_min_width_cells) {
+      const double mean_width = static_cast<double>(size) / diagonal;
+      if (diagonal < rule.furniture_max_cells && mean_width > rule.furniture_min_width_cells) {
         ++out->furniture_islands;
         continue;
       }
