@@ -105,7 +105,8 @@ struct Config {
   // door cut in two. Up to visible_samples places of each room (spread evenly over its places in id order) are
   // paired with as many of the other's; the pair is merged when at least visible_min_share of those sight lines are
   // clear. Pairs merge clearest first, each room once a round, for at most visible_max_rounds rounds (rooms and
-  // their samples taken again each round). A door between two rooms is in a wall, so few of their sight lines are clear.
+  // their samples taken again each round). A door between two rooms is in a wall, so few of their sight lines are
+  // clear.
   // rooms_eval, final stage, with the edges through walls closed (DoorConfig::sight_cut_edges), mean P / mean R /
   // area P, both off -> both on: IPA plain 0.961 / 0.953 / 0.943 -> 0.967 / 0.954 / 0.942, furnished 0.953 / 0.822 /
   // 0.883 -> 0.956 / 0.860 / 0.892, ten generated buildings 0.956 / 0.938 / 0.949 -> 0.960 / 0.948 / 0.957 (the
