@@ -36,6 +36,12 @@ struct RoomFinder::HeapEntry {
 };
 
 namespace {
+// The rank (in index order) of the j-th of m samples spread evenly over n places: floor(j (n - 1) / (m - 1)), or j
+// itself when n <= m (every place taken).
+std::uint64_t sample_rank(std::uint64_t n, std::uint64_t m, std::uint64_t j) {
+  return n <= m ? j : (m == 1 ? 0 : j * (n - 1) / (m - 1));
+}
+
 bool expands_before(const RoomFinder::HeapEntry& x, const RoomFinder::HeapEntry& y) {
   if (x.clearance_m != y.clearance_m) return x.clearance_m > y.clearance_m;
   return x.sequence < y.sequence;
@@ -452,13 +458,11 @@ bool RoomFinder::read_places(const sg::SceneGraph& graph, const DoorSet* doors, 
       }
       double w = std::min(clearance_[i], clearance_[*j]);
       if (e.info.weighted && std::isfinite(e.info.weight)) w = std::min(w, e.info.weight);
-      const auto at = [this](std::uint32_t k) {
-        return Eigen::Vector3d(position_[3 * k], position_[3 * k + 1], position_[3 * k + 2]);
-      };
-      if ((e.info.weighted && e.info.weight <= 0.0) || (doors != nullptr && doors->closes(at(i), at(*j)))) {
+      if ((e.info.weighted && e.info.weight <= 0.0) ||
+          (doors != nullptr && doors->closes(place_position(i), place_position(*j)))) {
         w = kClosed;
         ++r->closed_edges;
-      } else if (sight != nullptr && sight->crosses_structure(at(i), at(*j))) {
+      } else if (sight != nullptr && sight->crosses_structure(place_position(i), place_position(*j))) {
         w = kClosed;
         ++r->closed_edges;
         ++r->edges_through_walls;
@@ -1008,9 +1012,6 @@ std::size_t RoomFinder::merge_visible(std::size_t num_rooms, const WallSight& si
     return (static_cast<std::uint64_t>(std::min(a, b)) << 40) | (static_cast<std::uint64_t>(std::max(a, b)) << 16);
   };
   const std::uint32_t m = config_.visible_samples;
-  const auto position = [&](std::uint32_t i) {
-    return Eigen::Vector3d(position_[3 * i], position_[3 * i + 1], position_[3 * i + 2]);
-  };
   const std::uint64_t min_share =
       static_cast<std::uint64_t>(std::ceil(config_.visible_min_share * static_cast<double>(kShareMask)));
   constexpr std::uint64_t kNearBit = 0x8000u;
@@ -1033,7 +1034,7 @@ std::size_t RoomFinder::merge_visible(std::size_t num_rooms, const WallSight& si
       const std::uint64_t n = room_count_[k], rank = room_neighbours_[k]++;
       std::uint32_t& taken = room_parent_[k];
       // Sample j sits at rank floor(j (n - 1) / (m - 1)); several j can share a rank only when n < m (all taken).
-      while (taken < m && (n <= m ? rank == taken : (m == 1 ? 0 : taken * (n - 1) / (m - 1)) == rank))
+      while (taken < m && sample_rank(n, m, taken) == rank)
         sight_samples_[static_cast<std::size_t>(k) * Config::kMaxVisibleSamples + taken++] = i;
     }
     for (std::size_t k = 0; k < rooms; ++k) room_count_[k] = room_parent_[k];  // samples per room
@@ -1054,7 +1055,7 @@ std::size_t RoomFinder::merge_visible(std::size_t num_rooms, const WallSight& si
       std::uint64_t clear = 0;
       for (std::uint32_t x = 0; x < room_count_[a]; ++x)
         for (std::uint32_t y = 0; y < room_count_[b]; ++y)
-          clear += sight.sees(position(sa[x]), position(sb[y])) ? 1 : 0;
+          clear += sight.sees(place_position(sa[x]), place_position(sb[y])) ? 1 : 0;
       const std::uint64_t lines = static_cast<std::uint64_t>(room_count_[a]) * room_count_[b];
       const std::uint64_t share = lines == 0 ? 0 : clear * kShareMask / lines;
       ++r->visible_pairs;
@@ -1135,17 +1136,16 @@ std::uint64_t RoomFinder::near_boundary_share(std::uint32_t a, std::uint32_t b, 
   }
   const std::size_t min_places = config_.visible_local_min_places;
   if (near_a < min_places || near_b < min_places) return 0;
-  // The same even spread as the whole rooms' samples: ranks floor(j (n - 1) / (m - 1)), all of them when n <= m.
-  const std::size_t m = config_.visible_samples;
-  const auto pick = [m](std::size_t n, std::size_t j) { return n <= m ? j : (m == 1 ? 0 : j * (n - 1) / (m - 1)); };
-  const std::size_t ma = std::min(near_a, m), mb = std::min(near_b, m);
-  const auto position = [&](std::uint32_t i) {
-    return Eigen::Vector3d(position_[3 * i], position_[3 * i + 1], position_[3 * i + 2]);
-  };
+  // The same even spread as the whole rooms' samples.
+  const std::uint64_t m = config_.visible_samples;
+  const std::size_t ma = std::min<std::size_t>(near_a, m), mb = std::min<std::size_t>(near_b, m);
   std::uint64_t clear = 0;
   for (std::size_t x = 0; x < ma; ++x)
     for (std::size_t y = 0; y < mb; ++y)
-      clear += sight.sees(position(near[pick(near_a, x)]), position(near[cap - 1 - pick(near_b, y)])) ? 1 : 0;
+      clear += sight.sees(place_position(near[sample_rank(near_a, m, x)]),
+                          place_position(near[cap - 1 - sample_rank(near_b, m, y)]))
+                   ? 1
+                   : 0;
   return clear * share_scale / (static_cast<std::uint64_t>(ma) * mb);
 }
 

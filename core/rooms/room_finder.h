@@ -289,6 +289,9 @@ class RoomFinder {
   std::uint64_t near_boundary_share(std::uint32_t a, std::uint32_t b, const WallSight& sight,
                                     std::uint64_t share_scale);
   std::size_t renumber_merged_rooms(std::size_t num_rooms);
+  Eigen::Vector3d place_position(std::uint32_t i) const {
+    return Eigen::Vector3d(position_[3 * i], position_[3 * i + 1], position_[3 * i + 2]);
+  }
   std::uint32_t find_room(std::uint32_t slot);
   void assign_ids(const scene_graph::SceneGraph& graph, std::size_t num_rooms, UpdateResult* r);
   void write_rooms(scene_graph::SceneGraph* graph, std::size_t num_rooms, std::uint64_t time_ns, UpdateResult* r);
