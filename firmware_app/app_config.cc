@@ -186,6 +186,9 @@ bool AppConfig::load(const std::string& path, std::string* error) {
                                        {"visible_local_radius_m", number(&rooms.visible_local_radius_m)},
                                        {"visible_local_min_share", number(&rooms.visible_local_min_share)},
                                        {"visible_local_min_places", number(&visible_local_places)},
+                                       {"visible_touching", boolean(&rooms.visible_touching)},
+                                       {"visible_touch_max_clearance_m",
+                                        number(&rooms.visible_touch_max_clearance_m)},
                                        {"visible_max_rounds", number(&visible_rounds)}},
                                       why);
          if (!ok) return false;

@@ -8,6 +8,7 @@ surface, one slice at the doors' height, thick islands as furniture; numpy), run
     /usr/bin/python3 bench/rooms/finder_sandbox.py D [--min-persistence-m P] [--min-component N] [--no-extent-split]
         [--no-corridor-merge] [--corridor-min-neighbours N] [--corridor-min-open-edges N] [--no-visible-merge]
         [--visible-min-share S] [--visible-samples N] [--visible-local-radius-m R] [--visible-local-min-share S]
+        [--no-visible-touching]
         [--sight-min-wall-m W] [--sight-wall-dilation-m D] [--sight-furniture-max-m L] [--sight-furniture-min-width-m W]
 
 It prints, per variant (plain, furnished), the same place-level score for the C++ rooms of the dump and for this
@@ -16,8 +17,10 @@ follows the C++ closely, not exactly (ties among equal clearances fall in the du
 session 16's graphs, plain, 149 rooms against the C++ 150 with the corridor merge off, the same 136 with it on on
 session 17's; with the visibility merge (session 19's graphs), plain 130 against 128 and furnished the same 178 with
 the same score; with the thick islands as furniture and the test near the boundary, on the same graphs, plain 120
-against 118 and furnished 150 against 149 (proxy furnished R 0.909 against 0.911). The dump's place edges already
-carry the final stage's closures (doors and edges through walls). Compare a change against the mirror's own baseline. The score is a proxy of rooms_eval's: it
+against 118 and furnished 150 against 149 (proxy furnished R 0.909 against 0.911); with rooms adjacent also by
+places whose spheres touch in sight (session 21, the same graphs), plain 120 against 119 and furnished 145 against
+143. The dump's place edges already carry the final stage's closures (doors and edges through walls). Compare a
+change against the mirror's own baseline. The score is a proxy of rooms_eval's: it
 counts places, not free cells (max-overlap precision per estimated room and recall per ground-truth room, means over
 rooms, and the precision weighted by places); places outside every ground-truth room are left out, and a place
 without a room counts as a room of its own. The real figures stay rooms_eval's.
@@ -318,15 +321,45 @@ def sees(sight, a, b, cell_m=0.05):
     return True
 
 
+def touching_pairs(places, room_of, sight, max_clearance_m=4.0):
+    """RoomFinder::find_proximity_pairs: pairs of places in different rooms whose free-space spheres touch (distance
+    below the sum of their clearances, each at most max_clearance_m) and that see each other."""
+    radius = {p: min(a["d"], max_clearance_m) for p, a in places.items()}
+    usable = [p for p in sorted(places) if room_of[p] is not None and room_of[p] >= 0 and radius[p] > 0]
+    if not usable:
+        return []
+    cell = 2 * max(radius[p] for p in usable)
+    grid = collections.defaultdict(list)
+    for p in usable:
+        grid[(math.floor(places[p]["x"] / cell), math.floor(places[p]["y"] / cell))].append(p)
+    pairs = []
+    for p in usable:
+        a = places[p]
+        gx, gy = math.floor(a["x"] / cell), math.floor(a["y"] / cell)
+        for dx in (-1, 0, 1):
+            for dy in (-1, 0, 1):
+                for q in grid.get((gx + dx, gy + dy), ()):
+                    if q <= p or room_of[q] == room_of[p]:
+                        continue
+                    b = places[q]
+                    d2 = (a["x"] - b["x"]) ** 2 + (a["y"] - b["y"]) ** 2 + (a["z"] - b["z"]) ** 2
+                    if d2 < (radius[p] + radius[q]) ** 2 and sees(sight, (a["x"], a["y"]), (b["x"], b["y"])):
+                        pairs.append((p, q, -2.0))
+    return pairs
+
+
 def merge_visible(places, edges, room_of, sight, min_share=0.8, samples=12, max_rounds=32, local_radius_m=2.25,
-                  local_min_share=0.8, local_min_places=3):
+                  local_min_share=0.8, local_min_places=3, touching=True):
     """RoomFinder's visibility merge on one slice: each round, up to `samples` places per room (ranks
     floor(j (n - 1) / (samples - 1)) in id order), each adjacent pair's share of clear sight lines, then the pairs at
     or above min_share clearest first (ties: the lower pair), each room once a round (the lower keeps its number).
     A pair short of it is tested again on its places within local_radius_m of the other room's ends of the edges
-    between them (at least local_min_places a side, local_min_share), and merges after the whole-room pairs."""
+    between them (at least local_min_places a side, local_min_share), and merges after the whole-room pairs.
+    With touching, the touching_pairs found before the rounds count as edges between rooms too."""
     room = dict(room_of)
     ids = sorted(places)
+    if touching:
+        edges = list(edges) + touching_pairs(places, room, sight)
 
     def pick(ps):
         n = len(ps)
@@ -420,6 +453,8 @@ def main():
     ap.add_argument("--visible-samples", type=int, default=12)
     ap.add_argument("--visible-local-radius-m", type=float, default=2.25)
     ap.add_argument("--visible-local-min-share", type=float, default=0.8)
+    ap.add_argument("--no-visible-touching", action="store_true",
+                    help="rooms adjacent by their place edges only (rooms::Config::visible_touching off)")
     ap.add_argument("--sight-furniture-max-m", type=float, default=8.0)
     ap.add_argument("--sight-furniture-min-width-m", type=float, default=1.0)
     ap.add_argument("--sight-min-wall-m", type=float, default=3.0)
@@ -456,7 +491,8 @@ def main():
                 if sight is not None:
                     rooms = merge_visible(places, edges, rooms, sight, args.visible_min_share, args.visible_samples,
                                           local_radius_m=args.visible_local_radius_m,
-                                          local_min_share=args.visible_local_min_share)
+                                          local_min_share=args.visible_local_min_share,
+                                          touching=not args.no_visible_touching)
             mirror.append(score(places, rooms))
         for name, s in (("C++ (dump)", cpp), ("mirror", mirror)):
             print("%-10s %-10s places: P %.3f R %.3f | P weighted %.3f | rooms %d" % ((variant, name) + pooled(s)))

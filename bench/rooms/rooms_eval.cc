@@ -174,6 +174,8 @@ bool parse(int argc, char** argv, Options* o) {
     else if (a == "--visible-samples") o->rooms.visible_samples = static_cast<std::uint32_t>(std::atoi(v.c_str()));
     else if (a == "--visible-local-radius-m") number = &o->rooms.visible_local_radius_m;
     else if (a == "--visible-local-min-share") number = &o->rooms.visible_local_min_share;
+    else if (a == "--visible-touching") o->rooms.visible_touching = std::atoi(v.c_str()) != 0;
+    else if (a == "--visible-touch-max-clearance-m") number = &o->rooms.visible_touch_max_clearance_m;
     else if (a == "--sight-furniture-max-m") number = &o->door.sight_furniture_max_m;
     else if (a == "--sight-furniture-min-width-m") number = &o->door.sight_furniture_min_width_m;
     else if (a == "--generated") o->generated = std::atoi(v.c_str());
@@ -816,8 +818,10 @@ bool run_rooms(const Options& opt, const std::string& name, sg::SceneGraph* grap
   std::printf("\n");
   if (sight != nullptr)
     std::printf("  %s: sight lines: %zu rooms merged into a room they see (%zu of them near the boundary only; %zu "
-                "room pairs tested), %zu open place edges read as closed through walls\n",
-                name.c_str(), r.visible_merges, r.visible_near_merges, r.visible_pairs, r.edges_through_walls);
+                "room pairs tested; %zu place pairs in two rooms touching in sight, %zu dropped), %zu open place "
+                "edges read as closed through walls\n",
+                name.c_str(), r.visible_merges, r.visible_near_merges, r.visible_pairs, r.visible_proximity_pairs,
+                r.visible_proximity_dropped, r.edges_through_walls);
   stats->visible_merges = r.visible_merges;
   stats->places = r.places;
   stats->rooms = r.rooms;
@@ -1228,7 +1232,9 @@ int main(int argc, char** argv) {
                  "[--door-rise-reach-m R] [--door-max-off-centre F] [--door-slice-half-band-m B] [--door-min-wall-height-m H] "
                  "[--door-mapped-radius-m R] [--door-extension-m E] [--door-bypass-max-m D] [--door-bypass-extension-m E] "
                  "[--door-bypass-max-edge-m L] [--merge-visible 0|1] [--merge-visible-in-window 0|1] [--visible-min-share S] [--visible-samples N] "
-                 "[--visible-local-radius-m R] [--visible-local-min-share S] [--sight-min-wall-m W] "
+                 "[--visible-local-radius-m R] [--visible-local-min-share S] [--visible-touching 0|1] "
+                 "[--visible-touch-max-clearance-m C] "
+                 "[--sight-min-wall-m W] "
                  "[--sight-wall-dilation-m D] [--sight-furniture-max-m L] [--sight-furniture-min-width-m W] "
                  "[--sight-cut-edges 0|1] "
                  "[--json FILE]\n",
@@ -1301,12 +1307,13 @@ int main(int argc, char** argv) {
     std::snprintf(cond + std::strlen(cond), sizeof(cond) - std::strlen(cond), ", no corridor merge");
   if (opt.rooms.merge_visible && (opt.doors || (opt.online_doors && opt.rooms.merge_visible_in_window)))
     std::snprintf(cond + std::strlen(cond), sizeof(cond) - std::strlen(cond),
-                  ", visibility merge >= %.2f of %u x %u sight lines (near the boundary: %.2f m, >= %.2f) past walls "
-                  ">= %.1f m (dilated %.2f m; islands < %.1f m wider than %.2f m are furniture)%s",
+                  ", visibility merge >= %.2f of %u x %u sight lines (near the boundary: %.2f m, >= %.2f; rooms "
+                  "whose places' spheres touch in sight adjacent: %s) past walls >= %.1f m (dilated %.2f m; islands "
+                  "< %.1f m wider than %.2f m are furniture)%s",
                   opt.rooms.visible_min_share, opt.rooms.visible_samples, opt.rooms.visible_samples,
-                  opt.rooms.visible_local_radius_m, opt.rooms.visible_local_min_share, opt.door.sight_min_wall_m,
-                  opt.door.sight_wall_dilation_m, opt.door.sight_furniture_max_m,
-                  opt.door.sight_furniture_min_width_m,
+                  opt.rooms.visible_local_radius_m, opt.rooms.visible_local_min_share,
+                  opt.rooms.visible_touching ? "yes" : "no", opt.door.sight_min_wall_m, opt.door.sight_wall_dilation_m,
+                  opt.door.sight_furniture_max_m, opt.door.sight_furniture_min_width_m,
                   opt.online_doors ? " in the last online window" : "");
   else
     std::snprintf(cond + std::strlen(cond), sizeof(cond) - std::strlen(cond), ", no visibility merge");

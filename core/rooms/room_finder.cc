@@ -130,6 +130,10 @@ std::string Config::check() const {
     return "rooms.visible_local_min_share: must be in (0, 1], got " + std::to_string(visible_local_min_share);
   if (merge_visible && visible_local_radius_m > 0.0 && visible_local_min_places < 1)
     return "rooms.visible_local_min_places: must be >= 1";
+  if (merge_visible && visible_touching &&
+      !(std::isfinite(visible_touch_max_clearance_m) && visible_touch_max_clearance_m > 0.0))
+    return "rooms.visible_touch_max_clearance_m: must be finite and > 0, got " +
+           std::to_string(visible_touch_max_clearance_m);
   if (building_index > sg::kIndexMask) return "rooms.building_index: larger than a node index";
   return "";
 }
@@ -159,9 +163,10 @@ void Config::print(std::FILE* out) const {
   if (merge_visible)
     std::fprintf(out,
                  "rooms: visibility merge (with sight lines): >= %.2f of %u x %u sight lines clear, <= %u rounds; "
-                 "near the boundary (%.2f m, >= %u places a side): >= %.2f\n",
+                 "near the boundary (%.2f m, >= %u places a side): >= %.2f; rooms whose places' spheres touch in "
+                 "sight adjacent: %s\n",
                  visible_min_share, visible_samples, visible_samples, visible_max_rounds, visible_local_radius_m,
-                 visible_local_min_places, visible_local_min_share);
+                 visible_local_min_places, visible_local_min_share, visible_touching ? "yes" : "no");
   else
     std::fprintf(out, "rooms: visibility merge off\n");
 }
@@ -264,7 +269,7 @@ memory::ArenaPlan RoomFinder::plan(const Config& config, const Capacities& c) {
   p.add_array<std::uint32_t>(c.places);
   p.add_array<std::int32_t>(c.places);
   p.add_array<HeapEntry>(2 * c.place_edges);
-  p.add_array<std::uint64_t>(std::max(c.places, c.place_edges));
+  p.add_array<std::uint64_t>(std::max(c.places, c.place_edges) + c.places);
   p.add_array<Match>(c.places);
   p.add_array<std::uint32_t>(std::max<std::size_t>(1, config.curve_samples()));
   p.add_array<sg::NodeId>(c.rooms);
@@ -287,6 +292,8 @@ memory::ArenaPlan RoomFinder::plan(const Config& config, const Capacities& c) {
   p.add_array<std::uint32_t>(c.rooms);
   p.add_array<std::uint32_t>(2 * c.places);
   p.add_array<std::uint8_t>(c.places);
+  p.add_array<std::uint64_t>(c.places);
+  p.add_array<std::uint64_t>(c.places);
   return p;
 }
 
@@ -319,7 +326,8 @@ bool RoomFinder::init(const Config& config, const Capacities& c, std::size_t bud
   size_ = arena_.carve_array<std::uint32_t>(c.places);
   room_of_ = arena_.carve_array<std::int32_t>(c.places);
   heap_ = arena_.carve_array<HeapEntry>(2 * c.place_edges);
-  pairs_ = arena_.carve_array<std::uint64_t>(std::max(c.places, c.place_edges));
+  // The room pairs of the place edges and, in merge_visible, of its proximity pairs too.
+  pairs_ = arena_.carve_array<std::uint64_t>(std::max(c.places, c.place_edges) + c.places);
   matches_ = arena_.carve_array<Match>(c.places);
   curve_ = arena_.carve_array<std::uint32_t>(std::max<std::size_t>(1, config.curve_samples()));
   room_ids_ = arena_.carve_array<sg::NodeId>(c.rooms);
@@ -342,13 +350,15 @@ bool RoomFinder::init(const Config& config, const Capacities& c, std::size_t bud
   room_count_ = arena_.carve_array<std::uint32_t>(c.rooms);
   near_list_ = arena_.carve_array<std::uint32_t>(2 * c.places);
   near_mark_ = arena_.carve_array<std::uint8_t>(c.places);
+  cell_keys_ = arena_.carve_array<std::uint64_t>(c.places);
+  proximity_pairs_ = arena_.carve_array<std::uint64_t>(c.places);
   // A heap, matches or curve of zero size would be a null carve; the plan never asks for those.
   ok = ok && place_ids_ && clearance_ && position_ && active_ && (edges_ || c.place_edges == 0) && adjacency_offset_ &&
        (adjacency_ || c.place_edges == 0) && order_ && parent_ && size_ && room_of_ && (heap_ || c.place_edges == 0) &&
        pairs_ && matches_ && curve_ && room_ids_ && room_acc_ && root_room_ && previous_ids_ &&
        previous_taken_ && saved_ && saved_valid_ && birth_ && member_next_ && member_tail_ && split_ && extent_ &&
        sub_seeds_ && room_seeds_ && room_parent_ && room_neighbours_ && sight_samples_ && room_count_ && near_list_ &&
-       near_mark_;
+       near_mark_ && cell_keys_ && proximity_pairs_;
   arena_.align_to_plan_boundary();
   if (!ok || !arena_.seal()) {
     if (error != nullptr) *error = "rooms: arena carve did not match its plan";
@@ -1001,7 +1011,8 @@ std::size_t RoomFinder::renumber_merged_rooms(std::size_t num_rooms) {
 }
 
 // Each round: every room's samples (its places at ranks floor(j (n - 1) / (m - 1)), j < m, in index order: all of
-// them when it has m or fewer), the adjacent pairs from the boundary edges (pairs_, sorted and folded), each pair's
+// them when it has m or fewer), the adjacent pairs from the boundary edges and the proximity pairs (pairs_, sorted
+// and folded), each pair's
 // share of clear sight lines (kept in the record's low 16 bits, 0..65535), then the qualifying pairs clearest first
 // (ties: the lower pair), each room merged once.
 std::size_t RoomFinder::merge_visible(std::size_t num_rooms, const WallSight& sight, UpdateResult* r) {
@@ -1021,6 +1032,7 @@ std::size_t RoomFinder::merge_visible(std::size_t num_rooms, const WallSight& si
   std::size_t near_merged = 0;
   std::size_t rooms = num_rooms;
   std::size_t merged_total = 0;
+  find_proximity_pairs(sight, r);
   for (std::uint32_t round = 0; round < config_.visible_max_rounds; ++round) {
     // Samples.
     std::fill(room_count_, room_count_ + rooms, 0u);
@@ -1043,6 +1055,10 @@ std::size_t RoomFinder::merge_visible(std::size_t num_rooms, const WallSight& si
     for (std::size_t e = 0; e < num_edges_; ++e) {
       const std::int32_t a = room_of_[edges_[e].a], b = room_of_[edges_[e].b];
       if (a >= 0 && b >= 0 && a != b) pairs_[n++] = key(static_cast<std::uint32_t>(a), static_cast<std::uint32_t>(b));
+    }
+    for (std::size_t k = 0; k < num_proximity_pairs_; ++k) {
+      const std::int32_t a = room_of_[proximity_pairs_[k] >> 32], b = room_of_[proximity_pairs_[k] & 0xffffffffu];
+      if (a != b) pairs_[n++] = key(static_cast<std::uint32_t>(a), static_cast<std::uint32_t>(b));
     }
     std::sort(pairs_, pairs_ + n);
     n = static_cast<std::size_t>(std::unique(pairs_, pairs_ + n) - pairs_);
@@ -1102,12 +1118,11 @@ std::uint64_t RoomFinder::near_boundary_share(std::uint32_t a, std::uint32_t b, 
   std::uint32_t* ends = near_list_;
   std::uint32_t* near = near_list_ + cap;
   std::size_t ends_b = 0, ends_a = 0;
-  for (std::size_t e = 0; e < num_edges_; ++e) {
-    std::uint32_t u = edges_[e].a, v = edges_[e].b;
+  const auto add_ends = [&](std::uint32_t u, std::uint32_t v) {
     const std::int32_t ru = room_of_[u], rv = room_of_[v];
     if (!((ru == static_cast<std::int32_t>(a) && rv == static_cast<std::int32_t>(b)) ||
           (ru == static_cast<std::int32_t>(b) && rv == static_cast<std::int32_t>(a))))
-      continue;
+      return;
     if (ru == static_cast<std::int32_t>(b)) std::swap(u, v);  // u in a, v in b
     if ((near_mark_[v] & 1u) == 0) {
       near_mark_[v] |= 1u;
@@ -1117,7 +1132,11 @@ std::uint64_t RoomFinder::near_boundary_share(std::uint32_t a, std::uint32_t b, 
       near_mark_[u] |= 2u;
       ends[cap - 1 - ends_a++] = u;
     }
-  }
+  };
+  for (std::size_t e = 0; e < num_edges_; ++e) add_ends(edges_[e].a, edges_[e].b);
+  for (std::size_t k = 0; k < num_proximity_pairs_; ++k)
+    add_ends(static_cast<std::uint32_t>(proximity_pairs_[k] >> 32),
+             static_cast<std::uint32_t>(proximity_pairs_[k] & 0xffffffffu));
   for (std::size_t k = 0; k < ends_b; ++k) near_mark_[ends[k]] = 0;
   for (std::size_t k = 0; k < ends_a; ++k) near_mark_[ends[cap - 1 - k]] = 0;
   const double r2 = config_.visible_local_radius_m * config_.visible_local_radius_m;
@@ -1147,6 +1166,66 @@ std::uint64_t RoomFinder::near_boundary_share(std::uint32_t a, std::uint32_t b, 
                    ? 1
                    : 0;
   return clear * share_scale / (static_cast<std::uint64_t>(ma) * mb);
+}
+
+// Places are keyed by their plan cell (twice the largest clearance a side, so touching spheres lie in neighbouring
+// cells) and sorted; each place then looks through the 3 x 3 cells round its own for places of other rooms (a
+// higher index: each pair once) whose sphere touches its own and that it sees. The cost is the places' sort, the
+// distances to the places in those cells, and a sight line per touching pair of different rooms.
+void RoomFinder::find_proximity_pairs(const WallSight& sight, UpdateResult* r) {
+  num_proximity_pairs_ = 0;
+  if (!config_.visible_touching || num_places_ == 0) return;
+  const auto usable = [&](std::uint32_t i) {
+    return room_of_[i] >= 0 && clearance_[i] > 0.0 && std::isfinite(position_[3 * i]) &&
+           std::isfinite(position_[3 * i + 1]) && std::isfinite(position_[3 * i + 2]);
+  };
+  const auto radius = [&](std::uint32_t i) { return std::min(clearance_[i], config_.visible_touch_max_clearance_m); };
+  double x0 = std::numeric_limits<double>::infinity(), y0 = x0, x1 = -x0, y1 = -x0, cell = 0.0;
+  for (std::uint32_t i = 0; i < num_places_; ++i) {
+    if (!usable(i)) continue;
+    cell = std::max(cell, 2.0 * radius(i));
+    x0 = std::min(x0, position_[3 * i]);
+    x1 = std::max(x1, position_[3 * i]);
+    y0 = std::min(y0, position_[3 * i + 1]);
+    y1 = std::max(y1, position_[3 * i + 1]);
+  }
+  if (!(x1 >= x0)) return;  // no usable place
+  const double cols_d = std::floor((x1 - x0) / cell) + 1.0, rows_d = std::floor((y1 - y0) / cell) + 1.0;
+  if (!(cols_d * rows_d < 4.0e9)) {  // the cell key is 32 bits: a map this large in cells is not looked through
+    ++r->visible_proximity_dropped;
+    return;
+  }
+  const std::uint64_t cols = static_cast<std::uint64_t>(cols_d), rows = static_cast<std::uint64_t>(rows_d);
+  std::size_t n = 0;
+  for (std::uint32_t i = 0; i < num_places_; ++i) {
+    if (!usable(i)) continue;
+    const std::uint64_t c = std::min(cols - 1, static_cast<std::uint64_t>((position_[3 * i] - x0) / cell));
+    const std::uint64_t w = std::min(rows - 1, static_cast<std::uint64_t>((position_[3 * i + 1] - y0) / cell));
+    cell_keys_[n++] = ((w * cols + c) << 32) | i;
+  }
+  std::sort(cell_keys_, cell_keys_ + n);
+  for (std::size_t k = 0; k < n; ++k) {
+    const std::uint32_t i = static_cast<std::uint32_t>(cell_keys_[k] & 0xffffffffu);
+    const std::uint64_t at = cell_keys_[k] >> 32, row = at / cols, col = at % cols;
+    for (std::uint64_t w = row == 0 ? 0 : row - 1; w <= std::min(rows - 1, row + 1); ++w) {
+      const std::uint64_t first = w * cols + (col == 0 ? 0 : col - 1), last = w * cols + std::min(cols - 1, col + 1);
+      for (const std::uint64_t* it = std::lower_bound(cell_keys_, cell_keys_ + n, first << 32);
+           it != cell_keys_ + n && (*it >> 32) <= last; ++it) {
+        const std::uint32_t j = static_cast<std::uint32_t>(*it & 0xffffffffu);
+        if (j <= i || room_of_[j] == room_of_[i]) continue;
+        const double touch = radius(i) + radius(j);
+        if ((place_position(i) - place_position(j)).squaredNorm() >= touch * touch ||
+            !sight.sees(place_position(i), place_position(j)))
+          continue;
+        if (num_proximity_pairs_ == capacities_.places) {
+          ++r->visible_proximity_dropped;
+          continue;
+        }
+        proximity_pairs_[num_proximity_pairs_++] = (static_cast<std::uint64_t>(i) << 32) | j;
+      }
+    }
+  }
+  r->visible_proximity_pairs += num_proximity_pairs_;
 }
 
 // A new room takes the id of the previous room it shares most places with (each id once, largest overlaps

@@ -350,7 +350,9 @@ TEST(AppConfigTest, LoadsKnownKeysAndNamesBadOnes) {
                                              "\"merge_visible_in_window\": true, "
                                              "\"visible_min_share\": 0.7, \"visible_samples\": 16, "
                                              "\"visible_local_radius_m\": 3.0, \"visible_local_min_share\": 0.9, "
-                                             "\"visible_local_min_places\": 5, \"visible_max_rounds\": 4}}"),
+                                             "\"visible_local_min_places\": 5, \"visible_max_rounds\": 4, "
+                                             "\"visible_touching\": false, "
+                                             "\"visible_touch_max_clearance_m\": 2.5}}"),
                          &error))
       << error;
   EXPECT_EQ(sight.doors.sight_min_wall_m, 2.5);
@@ -367,6 +369,8 @@ TEST(AppConfigTest, LoadsKnownKeysAndNamesBadOnes) {
   EXPECT_EQ(sight.rooms.visible_local_radius_m, 3.0);
   EXPECT_EQ(sight.rooms.visible_local_min_share, 0.9);
   EXPECT_EQ(sight.rooms.visible_local_min_places, 5u);
+  EXPECT_FALSE(sight.rooms.visible_touching);
+  EXPECT_EQ(sight.rooms.visible_touch_max_clearance_m, 2.5);
   for (const auto& [file, text, field] :
        {std::tuple{"sight_bad.json", "{\"doors\": {\"sight_min_wall_m\": -1}}", "sight_min_wall_m"},
         std::tuple{"visible_frac.json", "{\"rooms\": {\"visible_samples\": 2.5}}", "rooms.visible_samples"},
@@ -375,6 +379,8 @@ TEST(AppConfigTest, LoadsKnownKeysAndNamesBadOnes) {
         std::tuple{"furniture_width.json", "{\"doors\": {\"sight_furniture_min_width_m\": 0}}",
                    "sight_furniture_min_width_m"},
         std::tuple{"local_radius.json", "{\"rooms\": {\"visible_local_radius_m\": -1}}", "visible_local_radius_m"},
+        std::tuple{"touch_clearance.json", "{\"rooms\": {\"visible_touch_max_clearance_m\": 0}}",
+                   "visible_touch_max_clearance_m"},
         std::tuple{"local_places.json", "{\"rooms\": {\"visible_local_min_places\": 1.5}}",
                    "rooms.visible_local_min_places"}}) {
     AppConfig bad;
@@ -423,6 +429,8 @@ TEST(AppConfigTest, LoadsKnownKeysAndNamesBadOnes) {
   EXPECT_EQ(sr.visible_local_radius_m, dr.visible_local_radius_m);
   EXPECT_EQ(sr.visible_local_min_share, dr.visible_local_min_share);
   EXPECT_EQ(sr.visible_local_min_places, dr.visible_local_min_places);
+  EXPECT_EQ(sr.visible_touching, dr.visible_touching);
+  EXPECT_EQ(sr.visible_touch_max_clearance_m, dr.visible_touch_max_clearance_m);
   EXPECT_EQ(shipped.doors_at_finish, AppConfig().doors_at_finish);
   EXPECT_EQ(shipped.doors_online, AppConfig().doors_online);
   EXPECT_EQ(shipped.doors_online_every_n, AppConfig().doors_online_every_n);

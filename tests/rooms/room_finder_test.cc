@@ -869,6 +869,68 @@ TEST(RoomFinderTest, RoomsThatSeeEachOtherNearTheirBoundaryAreMerged) {
   EXPECT_EQ(r.visible_near_merges, 0u);
 }
 
+// Two halves of a hall with no place edge between them (the places graph left none) are not adjacent by their
+// edges; their places' free-space spheres touch across the line in sight, so the merge pairs them all the same.
+// With a wall on the line (in the sight lines only) they stay apart. The search finds exactly the touching pairs a
+// brute force does, up to its capacity (the rest counted).
+TEST(RoomFinderTest, RoomsWhosePlacesTouchInSightAreAdjacentWithoutAnEdge) {
+  GridPlan hall(35, 18, testing::kCellM);
+  hall.carve(1, 1, 17, 17, 1);
+  hall.carve(17, 1, 34, 17, 2);
+  SyntheticPlaces s;
+  hall.add_to(&s, 1.0, Eigen::Vector2d::Zero(), 0.6);  // clearances capped as a 1.2 m storey would
+  const double line_m = 17 * testing::kCellM;
+  const auto across = [&](const testing::SyntheticEdge& e) {
+    return (s.places[e.a].position_m.x() < line_m) != (s.places[e.b].position_m.x() < line_m);
+  };
+  s.edges.erase(std::remove_if(s.edges.begin(), s.edges.end(), across), s.edges.end());
+  std::size_t touching = 0;
+  for (const auto& a : s.places)
+    for (const auto& b : s.places)
+      if (a.room == 1 && b.room == 2 &&
+          (a.position_m - b.position_m).norm() < std::min(a.clearance_m, 4.0) + std::min(b.clearance_m, 4.0))
+        ++touching;
+  ASSERT_GT(touching, 0u);
+  const WallSight open_sight = sight_of(hall, 35, 18);
+  GridPlan walled = hall;
+  walled.carve(17, 1, 18, 17, GridPlan::kWall);
+  const WallSight walled_sight = sight_of(walled, 35, 18);
+  const auto joined = [&](const Config& c, const Capacities& caps, const WallSight& sight, UpdateResult* out) {
+    auto g = make_graph();
+    EXPECT_TRUE(s.write(g.get()));
+    auto finder = make_finder(c, caps);
+    UpdateResult r;
+    EXPECT_NO_ALLOCATIONS(r = finder->update(g.get(), 0, nullptr, &sight));
+    *out = r;
+    const auto by_tag = rooms_by_tag(*g, s);
+    EXPECT_EQ(by_tag.at(1).size(), 1u);
+    EXPECT_EQ(by_tag.at(2).size(), 1u);
+    return *by_tag.at(1).begin() == *by_tag.at(2).begin();
+  };
+  const Capacities caps = Capacities::from_scene_graph(small_graph_capacities());
+  ASSERT_GE(caps.places, touching);
+  UpdateResult r;
+  Config off;
+  off.visible_touching = false;
+  EXPECT_FALSE(joined(off, caps, open_sight, &r)) << "no edge, no adjacency";
+  EXPECT_EQ(r.visible_pairs, 0u);
+  EXPECT_EQ(r.visible_proximity_pairs, 0u);
+  EXPECT_TRUE(joined(Config{}, caps, open_sight, &r));
+  EXPECT_EQ(r.visible_merges, 1u);
+  EXPECT_EQ(r.visible_proximity_pairs, touching);
+  EXPECT_EQ(r.visible_proximity_dropped, 0u);
+  EXPECT_EQ(r.places_assigned, s.places.size());
+  EXPECT_FALSE(joined(Config{}, caps, walled_sight, &r)) << "touching, but not in sight";
+  EXPECT_EQ(r.visible_proximity_pairs, 0u);
+  // Room for fewer pairs than touch: the first ones are kept (enough to pair the halves), the rest counted.
+  Capacities tight = caps;
+  tight.places = s.places.size();
+  ASSERT_LT(tight.places, touching);
+  EXPECT_TRUE(joined(Config{}, tight, open_sight, &r));
+  EXPECT_EQ(r.visible_proximity_pairs, tight.places);
+  EXPECT_EQ(r.visible_proximity_dropped, touching - tight.places);
+}
+
 TEST(RoomFinderTest, VisibilityMergeSettingsAreChecked) {
   const auto bad = [](auto set, const char* field) {
     Config c;
@@ -886,6 +948,8 @@ TEST(RoomFinderTest, VisibilityMergeSettingsAreChecked) {
   bad([](Config* c) { c->visible_local_radius_m = std::nan(""); }, "visible_local_radius_m");
   bad([](Config* c) { c->visible_local_min_share = 0.0; }, "visible_local_min_share");
   bad([](Config* c) { c->visible_local_min_places = 0; }, "visible_local_min_places");
+  bad([](Config* c) { c->visible_touch_max_clearance_m = 0.0; }, "visible_touch_max_clearance_m");
+  bad([](Config* c) { c->visible_touch_max_clearance_m = std::nan(""); }, "visible_touch_max_clearance_m");
   Config off;
   off.merge_visible = false;
   off.visible_samples = 0;  // not read when off
