@@ -322,7 +322,7 @@ def sees(sight, a, b, cell_m=0.05):
 
 
 def touching_pairs(places, room_of, sight, max_clearance_m=4.0):
-    """RoomFinder::find_proximity_pairs: pairs of places in different rooms whose free-space spheres touch (distance
+    """RoomFinder::find_touching_pairs: pairs of places in different rooms whose free-space spheres touch (distance
     below the sum of their clearances, each at most max_clearance_m) and that see each other."""
     radius = {p: min(a["d"], max_clearance_m) for p, a in places.items()}
     usable = [p for p in sorted(places) if room_of[p] is not None and room_of[p] >= 0 and radius[p] > 0]

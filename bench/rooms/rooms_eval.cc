@@ -820,8 +820,8 @@ bool run_rooms(const Options& opt, const std::string& name, sg::SceneGraph* grap
     std::printf("  %s: sight lines: %zu rooms merged into a room they see (%zu of them near the boundary only; %zu "
                 "room pairs tested; %zu place pairs in two rooms touching in sight, %zu dropped), %zu open place "
                 "edges read as closed through walls\n",
-                name.c_str(), r.visible_merges, r.visible_near_merges, r.visible_pairs, r.visible_proximity_pairs,
-                r.visible_proximity_dropped, r.edges_through_walls);
+                name.c_str(), r.visible_merges, r.visible_near_merges, r.visible_pairs, r.visible_touching_pairs,
+                r.visible_touching_dropped, r.edges_through_walls);
   stats->visible_merges = r.visible_merges;
   stats->places = r.places;
   stats->rooms = r.rooms;

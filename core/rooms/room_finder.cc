@@ -326,7 +326,7 @@ bool RoomFinder::init(const Config& config, const Capacities& c, std::size_t bud
   size_ = arena_.carve_array<std::uint32_t>(c.places);
   room_of_ = arena_.carve_array<std::int32_t>(c.places);
   heap_ = arena_.carve_array<HeapEntry>(2 * c.place_edges);
-  // The room pairs of the place edges and, in merge_visible, of its proximity pairs too.
+  // The room pairs of the place edges and, in merge_visible, of its touching place pairs too.
   pairs_ = arena_.carve_array<std::uint64_t>(std::max(c.places, c.place_edges) + c.places);
   matches_ = arena_.carve_array<Match>(c.places);
   curve_ = arena_.carve_array<std::uint32_t>(std::max<std::size_t>(1, config.curve_samples()));
@@ -351,14 +351,14 @@ bool RoomFinder::init(const Config& config, const Capacities& c, std::size_t bud
   near_list_ = arena_.carve_array<std::uint32_t>(2 * c.places);
   near_mark_ = arena_.carve_array<std::uint8_t>(c.places);
   cell_keys_ = arena_.carve_array<std::uint64_t>(c.places);
-  proximity_pairs_ = arena_.carve_array<std::uint64_t>(c.places);
+  touching_pairs_ = arena_.carve_array<std::uint64_t>(c.places);
   // A heap, matches or curve of zero size would be a null carve; the plan never asks for those.
   ok = ok && place_ids_ && clearance_ && position_ && active_ && (edges_ || c.place_edges == 0) && adjacency_offset_ &&
        (adjacency_ || c.place_edges == 0) && order_ && parent_ && size_ && room_of_ && (heap_ || c.place_edges == 0) &&
        pairs_ && matches_ && curve_ && room_ids_ && room_acc_ && root_room_ && previous_ids_ &&
        previous_taken_ && saved_ && saved_valid_ && birth_ && member_next_ && member_tail_ && split_ && extent_ &&
        sub_seeds_ && room_seeds_ && room_parent_ && room_neighbours_ && sight_samples_ && room_count_ && near_list_ &&
-       near_mark_ && cell_keys_ && proximity_pairs_;
+       near_mark_ && cell_keys_ && touching_pairs_;
   arena_.align_to_plan_boundary();
   if (!ok || !arena_.seal()) {
     if (error != nullptr) *error = "rooms: arena carve did not match its plan";
@@ -1011,10 +1011,9 @@ std::size_t RoomFinder::renumber_merged_rooms(std::size_t num_rooms) {
 }
 
 // Each round: every room's samples (its places at ranks floor(j (n - 1) / (m - 1)), j < m, in index order: all of
-// them when it has m or fewer), the adjacent pairs from the boundary edges and the proximity pairs (pairs_, sorted
-// and folded), each pair's
-// share of clear sight lines (kept in the record's low 16 bits, 0..65535), then the qualifying pairs clearest first
-// (ties: the lower pair), each room merged once.
+// them when it has m or fewer), the adjacent pairs from the boundary edges and the touching place pairs (pairs_,
+// sorted and folded), each pair's share of clear sight lines (kept in the record's low 16 bits, 0..65535), then the
+// qualifying pairs clearest first (ties: the lower pair), each room merged once.
 std::size_t RoomFinder::merge_visible(std::size_t num_rooms, const WallSight& sight, UpdateResult* r) {
   constexpr std::uint64_t kShareMask = 0xffffu;
   const auto lo_of = [](std::uint64_t x) { return static_cast<std::uint32_t>(x >> 40); };
@@ -1032,7 +1031,7 @@ std::size_t RoomFinder::merge_visible(std::size_t num_rooms, const WallSight& si
   std::size_t near_merged = 0;
   std::size_t rooms = num_rooms;
   std::size_t merged_total = 0;
-  find_proximity_pairs(sight, r);
+  find_touching_pairs(sight, r);
   for (std::uint32_t round = 0; round < config_.visible_max_rounds; ++round) {
     // Samples.
     std::fill(room_count_, room_count_ + rooms, 0u);
@@ -1056,8 +1055,8 @@ std::size_t RoomFinder::merge_visible(std::size_t num_rooms, const WallSight& si
       const std::int32_t a = room_of_[edges_[e].a], b = room_of_[edges_[e].b];
       if (a >= 0 && b >= 0 && a != b) pairs_[n++] = key(static_cast<std::uint32_t>(a), static_cast<std::uint32_t>(b));
     }
-    for (std::size_t k = 0; k < num_proximity_pairs_; ++k) {
-      const std::int32_t a = room_of_[proximity_pairs_[k] >> 32], b = room_of_[proximity_pairs_[k] & 0xffffffffu];
+    for (std::size_t k = 0; k < num_touching_pairs_; ++k) {
+      const std::int32_t a = room_of_[touching_pairs_[k] >> 32], b = room_of_[touching_pairs_[k] & 0xffffffffu];
       if (a != b) pairs_[n++] = key(static_cast<std::uint32_t>(a), static_cast<std::uint32_t>(b));
     }
     std::sort(pairs_, pairs_ + n);
@@ -1134,9 +1133,9 @@ std::uint64_t RoomFinder::near_boundary_share(std::uint32_t a, std::uint32_t b, 
     }
   };
   for (std::size_t e = 0; e < num_edges_; ++e) add_ends(edges_[e].a, edges_[e].b);
-  for (std::size_t k = 0; k < num_proximity_pairs_; ++k)
-    add_ends(static_cast<std::uint32_t>(proximity_pairs_[k] >> 32),
-             static_cast<std::uint32_t>(proximity_pairs_[k] & 0xffffffffu));
+  for (std::size_t k = 0; k < num_touching_pairs_; ++k)
+    add_ends(static_cast<std::uint32_t>(touching_pairs_[k] >> 32),
+             static_cast<std::uint32_t>(touching_pairs_[k] & 0xffffffffu));
   for (std::size_t k = 0; k < ends_b; ++k) near_mark_[ends[k]] = 0;
   for (std::size_t k = 0; k < ends_a; ++k) near_mark_[ends[cap - 1 - k]] = 0;
   const double r2 = config_.visible_local_radius_m * config_.visible_local_radius_m;
@@ -1172,8 +1171,8 @@ std::uint64_t RoomFinder::near_boundary_share(std::uint32_t a, std::uint32_t b, 
 // cells) and sorted; each place then looks through the 3 x 3 cells round its own for places of other rooms (a
 // higher index: each pair once) whose sphere touches its own and that it sees. The cost is the places' sort, the
 // distances to the places in those cells, and a sight line per touching pair of different rooms.
-void RoomFinder::find_proximity_pairs(const WallSight& sight, UpdateResult* r) {
-  num_proximity_pairs_ = 0;
+void RoomFinder::find_touching_pairs(const WallSight& sight, UpdateResult* r) {
+  num_touching_pairs_ = 0;
   if (!config_.visible_touching || num_places_ == 0) return;
   const auto usable = [&](std::uint32_t i) {
     return room_of_[i] >= 0 && clearance_[i] > 0.0 && std::isfinite(position_[3 * i]) &&
@@ -1192,7 +1191,7 @@ void RoomFinder::find_proximity_pairs(const WallSight& sight, UpdateResult* r) {
   if (!(x1 >= x0)) return;  // no usable place
   const double cols_d = std::floor((x1 - x0) / cell) + 1.0, rows_d = std::floor((y1 - y0) / cell) + 1.0;
   if (!(cols_d * rows_d < 4.0e9)) {  // the cell key is 32 bits: a map this large in cells is not looked through
-    ++r->visible_proximity_dropped;
+    ++r->visible_touching_dropped;
     return;
   }
   const std::uint64_t cols = static_cast<std::uint64_t>(cols_d), rows = static_cast<std::uint64_t>(rows_d);
@@ -1217,15 +1216,15 @@ void RoomFinder::find_proximity_pairs(const WallSight& sight, UpdateResult* r) {
         if ((place_position(i) - place_position(j)).squaredNorm() >= touch * touch ||
             !sight.sees(place_position(i), place_position(j)))
           continue;
-        if (num_proximity_pairs_ == capacities_.places) {
-          ++r->visible_proximity_dropped;
+        if (num_touching_pairs_ == capacities_.places) {
+          ++r->visible_touching_dropped;
           continue;
         }
-        proximity_pairs_[num_proximity_pairs_++] = (static_cast<std::uint64_t>(i) << 32) | j;
+        touching_pairs_[num_touching_pairs_++] = (static_cast<std::uint64_t>(i) << 32) | j;
       }
     }
   }
-  r->visible_proximity_pairs += num_proximity_pairs_;
+  r->visible_touching_pairs += num_touching_pairs_;
 }
 
 // A new room takes the id of the previous room it shares most places with (each id once, largest overlaps

@@ -140,7 +140,7 @@ struct Config {
   // between them below the sum of their clearances) and the two see each other (one slice, no structure between),
   // with no place edge between them: the places graph follows the free space's skeleton, so two pieces of one room
   // on either side of a desk, or round a cabinet, can share open floor with no edge. Such pairs are found once per
-  // update (at most Capacities::places of them; more are counted in UpdateResult::visible_proximity_dropped) and
+  // update (at most Capacities::places of them; more are counted in UpdateResult::visible_touching_dropped) and
   // count as the boundary's ends for the test near it too. rooms_eval, final stage, the same graphs as above, mean
   // P / mean R / area P, off -> on: IPA plain 0.958 / 0.956 / 0.934 -> 0.961 / 0.956 / 0.938 (118 -> 119 rooms of
   // 122), furnished 0.958 / 0.896 / 0.867 -> 0.959 / 0.901 / 0.866 (142 -> 136), ten generated buildings unchanged
@@ -212,8 +212,9 @@ struct UpdateResult {
   std::size_t visible_merges = 0;    // merge_visible: rooms merged into an adjacent room they see
   std::size_t visible_pairs = 0;     // merge_visible: adjacent room pairs whose sight lines were tested (all rounds)
   std::size_t visible_near_merges = 0;  // merge_visible: of visible_merges, those by the lines near the boundary
-  std::size_t visible_proximity_pairs = 0;    // merge_visible: place pairs in two rooms, touching and in sight
-  std::size_t visible_proximity_dropped = 0;  // ... beyond the finder's room for them (Capacities::places)
+  std::size_t visible_touching_pairs = 0;    // merge_visible: place pairs in two rooms, touching and in sight
+  std::size_t visible_touching_dropped = 0;  // ... beyond the finder's room for them (Capacities::places); 1 when
+                                             // the map was too large in cells to look through (none found)
   std::size_t edges_through_walls = 0;  // close_edges_through_walls: open edges read as closed (in closed_edges too)
 };
 
@@ -305,8 +306,8 @@ class RoomFinder {
   std::uint64_t near_boundary_share(std::uint32_t a, std::uint32_t b, const WallSight& sight,
                                     std::uint64_t share_scale);
   // merge_visible's pairs of places in different rooms whose spheres touch and that see each other
-  // (proximity_pairs_), found once before its rounds (Config::visible_touching).
-  void find_proximity_pairs(const WallSight& sight, UpdateResult* r);
+  // (touching_pairs_), found once before its rounds (Config::visible_touching).
+  void find_touching_pairs(const WallSight& sight, UpdateResult* r);
   std::size_t renumber_merged_rooms(std::size_t num_rooms);
   Eigen::Vector3d place_position(std::uint32_t i) const {
     return Eigen::Vector3d(position_[3 * i], position_[3 * i + 1], position_[3 * i + 2]);
@@ -364,9 +365,9 @@ class RoomFinder {
   std::uint32_t* room_count_ = nullptr;        // merge_visible: per room slot, its places; then sampled so far
   std::uint32_t* near_list_ = nullptr;         // merge_visible: 2 x places: a pair's boundary ends, then near places
   std::uint8_t* near_mark_ = nullptr;          // merge_visible: per place, a boundary end already listed
-  std::uint64_t* cell_keys_ = nullptr;         // find_proximity_pairs: per place, (plan cell << 32) | index, sorted
-  std::uint64_t* proximity_pairs_ = nullptr;   // find_proximity_pairs: (a << 32) | b place indices, a < b
-  std::size_t num_proximity_pairs_ = 0;
+  std::uint64_t* cell_keys_ = nullptr;         // find_touching_pairs: per place, (plan cell << 32) | index, sorted
+  std::uint64_t* touching_pairs_ = nullptr;    // find_touching_pairs: (a << 32) | b place indices, a < b
+  std::size_t num_touching_pairs_ = 0;
 
   // Rooms: this update's (slot -> id, accumulated places) and the previous update's ids.
   scene_graph::NodeId* room_ids_ = nullptr;

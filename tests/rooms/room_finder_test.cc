@@ -914,21 +914,21 @@ TEST(RoomFinderTest, RoomsWhosePlacesTouchInSightAreAdjacentWithoutAnEdge) {
   off.visible_touching = false;
   EXPECT_FALSE(joined(off, caps, open_sight, &r)) << "no edge, no adjacency";
   EXPECT_EQ(r.visible_pairs, 0u);
-  EXPECT_EQ(r.visible_proximity_pairs, 0u);
+  EXPECT_EQ(r.visible_touching_pairs, 0u);
   EXPECT_TRUE(joined(Config{}, caps, open_sight, &r));
   EXPECT_EQ(r.visible_merges, 1u);
-  EXPECT_EQ(r.visible_proximity_pairs, touching);
-  EXPECT_EQ(r.visible_proximity_dropped, 0u);
+  EXPECT_EQ(r.visible_touching_pairs, touching);
+  EXPECT_EQ(r.visible_touching_dropped, 0u);
   EXPECT_EQ(r.places_assigned, s.places.size());
   EXPECT_FALSE(joined(Config{}, caps, walled_sight, &r)) << "touching, but not in sight";
-  EXPECT_EQ(r.visible_proximity_pairs, 0u);
+  EXPECT_EQ(r.visible_touching_pairs, 0u);
   // Room for fewer pairs than touch: the first ones are kept (enough to pair the halves), the rest counted.
   Capacities tight = caps;
   tight.places = s.places.size();
   ASSERT_LT(tight.places, touching);
   EXPECT_TRUE(joined(Config{}, tight, open_sight, &r));
-  EXPECT_EQ(r.visible_proximity_pairs, tight.places);
-  EXPECT_EQ(r.visible_proximity_dropped, touching - tight.places);
+  EXPECT_EQ(r.visible_touching_pairs, tight.places);
+  EXPECT_EQ(r.visible_touching_dropped, touching - tight.places);
 }
 
 TEST(RoomFinderTest, VisibilityMergeSettingsAreChecked) {
