@@ -293,7 +293,6 @@ memory::ArenaPlan RoomFinder::plan(const Config& config, const Capacities& c) {
   p.add_array<std::uint32_t>(2 * c.places);
   p.add_array<std::uint8_t>(c.places);
   p.add_array<std::uint64_t>(c.places);
-  p.add_array<std::uint64_t>(c.places);
   return p;
 }
 
@@ -326,7 +325,8 @@ bool RoomFinder::init(const Config& config, const Capacities& c, std::size_t bud
   size_ = arena_.carve_array<std::uint32_t>(c.places);
   room_of_ = arena_.carve_array<std::int32_t>(c.places);
   heap_ = arena_.carve_array<HeapEntry>(2 * c.place_edges);
-  // The room pairs of the place edges and, in merge_visible, of its touching place pairs too.
+  // The room pairs of the place edges and, in merge_visible, of its touching place pairs too; before its rounds,
+  // find_touching_pairs' sorted plan-cell keys (one per place).
   pairs_ = arena_.carve_array<std::uint64_t>(std::max(c.places, c.place_edges) + c.places);
   matches_ = arena_.carve_array<Match>(c.places);
   curve_ = arena_.carve_array<std::uint32_t>(std::max<std::size_t>(1, config.curve_samples()));
@@ -350,7 +350,6 @@ bool RoomFinder::init(const Config& config, const Capacities& c, std::size_t bud
   room_count_ = arena_.carve_array<std::uint32_t>(c.rooms);
   near_list_ = arena_.carve_array<std::uint32_t>(2 * c.places);
   near_mark_ = arena_.carve_array<std::uint8_t>(c.places);
-  cell_keys_ = arena_.carve_array<std::uint64_t>(c.places);
   touching_pairs_ = arena_.carve_array<std::uint64_t>(c.places);
   // A heap, matches or curve of zero size would be a null carve; the plan never asks for those.
   ok = ok && place_ids_ && clearance_ && position_ && active_ && (edges_ || c.place_edges == 0) && adjacency_offset_ &&
@@ -358,7 +357,7 @@ bool RoomFinder::init(const Config& config, const Capacities& c, std::size_t bud
        pairs_ && matches_ && curve_ && room_ids_ && room_acc_ && root_room_ && previous_ids_ &&
        previous_taken_ && saved_ && saved_valid_ && birth_ && member_next_ && member_tail_ && split_ && extent_ &&
        sub_seeds_ && room_seeds_ && room_parent_ && room_neighbours_ && sight_samples_ && room_count_ && near_list_ &&
-       near_mark_ && cell_keys_ && touching_pairs_;
+       near_mark_ && touching_pairs_;
   arena_.align_to_plan_boundary();
   if (!ok || !arena_.seal()) {
     if (error != nullptr) *error = "rooms: arena carve did not match its plan";
@@ -1168,7 +1167,7 @@ std::uint64_t RoomFinder::near_boundary_share(std::uint32_t a, std::uint32_t b, 
 }
 
 // Places are keyed by their plan cell (twice the largest clearance a side, so touching spheres lie in neighbouring
-// cells) and sorted; each place then looks through the 3 x 3 cells round its own for places of other rooms (a
+// cells) and sorted (in pairs_, free until merge_visible's rounds); each place then looks through the 3 x 3 cells round its own for places of other rooms (a
 // higher index: each pair once) whose sphere touches its own and that it sees. The cost is the places' sort, the
 // distances to the places in those cells, and a sight line per touching pair of different rooms.
 void RoomFinder::find_touching_pairs(const WallSight& sight, UpdateResult* r) {
@@ -1195,21 +1194,22 @@ void RoomFinder::find_touching_pairs(const WallSight& sight, UpdateResult* r) {
     return;
   }
   const std::uint64_t cols = static_cast<std::uint64_t>(cols_d), rows = static_cast<std::uint64_t>(rows_d);
+  std::uint64_t* const cell_keys = pairs_;
   std::size_t n = 0;
   for (std::uint32_t i = 0; i < num_places_; ++i) {
     if (!usable(i)) continue;
     const std::uint64_t c = std::min(cols - 1, static_cast<std::uint64_t>((position_[3 * i] - x0) / cell));
     const std::uint64_t w = std::min(rows - 1, static_cast<std::uint64_t>((position_[3 * i + 1] - y0) / cell));
-    cell_keys_[n++] = ((w * cols + c) << 32) | i;
+    cell_keys[n++] = ((w * cols + c) << 32) | i;
   }
-  std::sort(cell_keys_, cell_keys_ + n);
+  std::sort(cell_keys, cell_keys + n);
   for (std::size_t k = 0; k < n; ++k) {
-    const std::uint32_t i = static_cast<std::uint32_t>(cell_keys_[k] & 0xffffffffu);
-    const std::uint64_t at = cell_keys_[k] >> 32, row = at / cols, col = at % cols;
+    const std::uint32_t i = static_cast<std::uint32_t>(cell_keys[k] & 0xffffffffu);
+    const std::uint64_t at = cell_keys[k] >> 32, row = at / cols, col = at % cols;
     for (std::uint64_t w = row == 0 ? 0 : row - 1; w <= std::min(rows - 1, row + 1); ++w) {
       const std::uint64_t first = w * cols + (col == 0 ? 0 : col - 1), last = w * cols + std::min(cols - 1, col + 1);
-      for (const std::uint64_t* it = std::lower_bound(cell_keys_, cell_keys_ + n, first << 32);
-           it != cell_keys_ + n && (*it >> 32) <= last; ++it) {
+      for (const std::uint64_t* it = std::lower_bound(cell_keys, cell_keys + n, first << 32);
+           it != cell_keys + n && (*it >> 32) <= last; ++it) {
         const std::uint32_t j = static_cast<std::uint32_t>(*it & 0xffffffffu);
         if (j <= i || room_of_[j] == room_of_[i]) continue;
         const double touch = radius(i) + radius(j);

@@ -365,7 +365,6 @@ class RoomFinder {
   std::uint32_t* room_count_ = nullptr;        // merge_visible: per room slot, its places; then sampled so far
   std::uint32_t* near_list_ = nullptr;         // merge_visible: 2 x places: a pair's boundary ends, then near places
   std::uint8_t* near_mark_ = nullptr;          // merge_visible: per place, a boundary end already listed
-  std::uint64_t* cell_keys_ = nullptr;         // find_touching_pairs: per place, (plan cell << 32) | index, sorted
   std::uint64_t* touching_pairs_ = nullptr;    // find_touching_pairs: (a << 32) | b place indices, a < b
   std::size_t num_touching_pairs_ = 0;
 
