@@ -144,8 +144,8 @@ struct Config {
   // count as the boundary's ends for the test near it too. rooms_eval, final stage, the same graphs as above, mean
   // P / mean R / area P, off -> on: IPA plain 0.958 / 0.956 / 0.934 -> 0.961 / 0.956 / 0.938 (118 -> 119 rooms of
   // 122), furnished 0.958 / 0.896 / 0.867 -> 0.959 / 0.901 / 0.866 (142 -> 136), ten generated buildings unchanged
-  // (0.953 / 0.949 / 0.944). A fixed plan radius instead of touching spheres, 0.5 to 1.5 m: furnished 0.953-0.958 /
-  // 0.898-0.901, not monotonic in the radius; the sphere test has no such parameter.
+  // (0.953 / 0.949 / 0.944). A fixed plan radius instead of touching spheres (a trial flag, since removed), 0.5 to
+  // 1.5 m: furnished 0.953-0.958 / 0.898-0.901, not monotonic in the radius; the sphere test has no such parameter.
   bool visible_touching = true;
   // ... a sphere counting at most this radius there (it sizes the search's cells: one huge clearance must not make
   // the search quadratic in the places). 1.5, 2, 4 and 8 m give the same rooms on the graphs above.

@@ -884,11 +884,12 @@ TEST(RoomFinderTest, RoomsWhosePlacesTouchInSightAreAdjacentWithoutAnEdge) {
     return (s.places[e.a].position_m.x() < line_m) != (s.places[e.b].position_m.x() < line_m);
   };
   s.edges.erase(std::remove_if(s.edges.begin(), s.edges.end(), across), s.edges.end());
+  const double cap_m = Config{}.visible_touch_max_clearance_m;
   std::size_t touching = 0;
   for (const auto& a : s.places)
     for (const auto& b : s.places)
       if (a.room == 1 && b.room == 2 &&
-          (a.position_m - b.position_m).norm() < std::min(a.clearance_m, 4.0) + std::min(b.clearance_m, 4.0))
+          (a.position_m - b.position_m).norm() < std::min(a.clearance_m, cap_m) + std::min(b.clearance_m, cap_m))
         ++touching;
   ASSERT_GT(touching, 0u);
   const WallSight open_sight = sight_of(hall, 35, 18);
