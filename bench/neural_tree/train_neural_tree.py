@@ -3,25 +3,28 @@
 
 The classifier is a neural tree (GraphSAGE-style message passing on the H-tree of the object-room graph, an ensemble
 of CONFIG['ensemble'] networks) whose class probabilities are averaged with those of a logistic-regression head on
-the room's log object counts and box (lr_features): p = (1 - a) p_tree + a p_lr with a = lr_blend x the share of
+the room's log object counts, box and furniture footprints (lr_features; the footprint of its largest bed, table,
+sofa, ... by name, LR_FOOTPRINT_CLASSES): p = (1 - a) p_tree + a p_lr with a = lr_blend x the share of
 the room's objects the LR can count (blend_log: a weighted geometric mean instead). The two are complementary: the
-blend beats either alone under the same CV. Every Stanford object is in the LR's vocabulary (share 1); the share
+blend beats either alone under the same CV. cv also runs the issue's baseline, the LR on counts and box alone. Every Stanford object is in the LR's vocabulary (share 1); the share
 matters for the pipeline's mpcat40 objects (appliances, cabinet, shelving, ...), which the LR cannot see but the
 neural tree reads through their word vectors.
 
 Commands (from the repository root, Debian's python3-torch; fixed seeds, one thread):
   /usr/bin/python3 bench/neural_tree/train_neural_tree.py cv        # 5x repeated stratified 5-fold CV: the neural
-      tree alone, the LR alone and their blend, mean +- std over repeats (about 11 min on one core)
+      tree alone, the LR baseline (counts and box), the LR head and the blend, mean +- std over repeats (about 11
+      min on one core)
       (--jobs 2: folds in two processes, same figures; --seed-base: other fold splits, for tuning, e.g. 2001;
       --sweep: accuracy over LR l2, blend weight and mode and ensemble size; --oof FILE: the out-of-fold
       probabilities. Tune on a tuning split, never on the reported default one.)
   /usr/bin/python3 bench/neural_tree/train_neural_tree.py ssl       # the paper's 70/10/20 node-classification protocol
-  /usr/bin/python3 bench/neural_tree/train_neural_tree.py train     # all rooms -> weights file (version 2: neural tree
-      + LR head + blend weight) + parity fixture (neural tree, LR and blended probabilities)
+  /usr/bin/python3 bench/neural_tree/train_neural_tree.py train     # all rooms -> weights file (version 3: neural tree
+      + LR head with its footprint classes + blend weight) + parity fixture (neural tree, LR and blended probabilities)
 Any CONFIG entry can be overridden with --set key=value. Switches that need no C++ change: class_weight (loss
 weights count^-x), val_folds (training length from an inner split of the training rooms), word_onehot and
 word_scale (what the word table holds), swa (weights averaged over that last fraction of the epochs), lr_l2 (the LR
-head's L2), lr_blend and blend_log (the blend; both travel in the weights file). cv-only ablations: box_relative,
+head's L2), lr_blend and blend_log (the blend; both travel in the weights file), lr_footprints (0: the LR head without
+the footprints; the file then lists no footprint class). cv-only ablations: box_relative,
 plain_graph, room_word_counts.
 """
 import argparse
@@ -45,7 +48,8 @@ REPO = os.path.abspath(os.path.join(os.path.dirname(os.path.abspath(__file__)), 
 DATA = os.environ.get("QSG_SHARED_DATA", os.path.join(REPO, "..", "shared", "data"))
 ROOMS_JSON = os.path.join(DATA, "scene_graphs", "Stanford3DSG_rooms.json")
 WORDS_JSON = os.path.join(DATA, "words", "glove100_scene_label_subset.json")
-WEIGHTS_VERSION = 2  # 2: the neural tree plus the LR head it is blended with (1: the neural tree alone)
+WEIGHTS_VERSION = 3  # 3: the LR head also reads furniture footprints; 2: the neural tree plus the LR head it is
+# blended with (counts and box); 1: the neural tree alone
 WEIGHTS_OUT = os.path.join(REPO, "core", "neural_tree", "weights", "room_classifier_v%d.json" % WEIGHTS_VERSION)
 FIXTURE_OUT = os.path.join(REPO, "tests", "neural_tree", "parity_fixture.json")
 
@@ -88,7 +92,8 @@ MPCAT40 = ["void", "wall", "floor", "chair", "door", "table", "picture", "cabine
 
 CONFIG = dict(label_count=1, box_relative=0, plain_graph=0, agg_sum=0, ensemble=3, pos_scale=1.0, hidden=32, layers=3,
               lr=0.005, weight_decay=5e-4, dropout=0.25, epochs=250, lr_l2=1e-2, word_onehot=1, class_weight=0.0,
-              val_folds=0, max_epochs=400, room_word_counts=0, word_scale=1.0, swa=0.0, lr_blend=0.6, blend_log=0)
+              val_folds=0, max_epochs=400, room_word_counts=0, word_scale=1.0, swa=0.0, lr_blend=0.6, blend_log=0,
+              lr_footprints=1)
 SWEEP_LR_L2 = [1e-3, 3e-3, 1e-2, 3e-2, 1e-1, 3e-1]  # cv --sweep
 
 
@@ -387,30 +392,55 @@ def predict_proba(models, batch):
 # Logistic-regression head: log object counts + room box geometry, standardised, L2-regularised. On its own the
 # baseline the neural tree is measured against; averaged with the neural tree (lr_blend) the shipped classifier.
 LR_BOX_FEATURES = ["log_size_x", "log_size_y", "log_size_z", "log_size_max_xy", "log_size_min_xy", "log_area_xy"]
+# Then, per name here, log(1 + the footprint of the room's largest object of that name) (0 without one): how big its
+# bed, table or sofa is tells a child's room from a bedroom or a dining room from a kitchen, which counts cannot.
+# The names are COCO's "furniture" and "appliance" supercategories as the Stanford file spells them; small
+# portable things (cups, books, bottles) are left out, their boxes say little. Footprint: max(size_x, MIN_SIZE_M)
+# x max(size_y, MIN_SIZE_M), in m^2. The baseline LR the issue compares against has neither (lr_footprints=0).
+LR_FOOTPRINT_CLASSES = ["chair", "couch", "plant", "bed", "dining_table", "toilet",
+                        "microwave", "oven", "toaster", "sink", "refrigerator"]
 
 
-def lr_room_features(counts, size, vocab_size):
+def lr_room_features(counts, size, vocab_size, footprints=None):
     """One room's LR features: log(1 + objects per vocabulary name), then the box (LR_BOX_FEATURES, sizes floored at
-    MIN_SIZE_M; x and y as stored, not sorted). counts: {vocabulary index: count}."""
-    f = np.zeros(vocab_size + len(LR_BOX_FEATURES))
+    MIN_SIZE_M; x and y as stored, not sorted), then (footprints given) log(1 + largest footprint) per
+    LR_FOOTPRINT_CLASSES name. counts: {vocabulary index: count}; footprints: {footprint class index: m^2}."""
+    nb = vocab_size + len(LR_BOX_FEATURES)
+    f = np.zeros(nb + (len(LR_FOOTPRINT_CLASSES) if footprints is not None else 0))
     for i, c in counts.items():
         f[i] = math.log1p(c)
     s = np.log(np.maximum(np.asarray(size, dtype=np.float64)[:3], MIN_SIZE_M))
-    f[vocab_size:] = [s[0], s[1], s[2], max(s[0], s[1]), min(s[0], s[1]), s[0] + s[1]]
+    f[vocab_size:nb] = [s[0], s[1], s[2], max(s[0], s[1]), min(s[0], s[1]), s[0] + s[1]]
+    for i, a in (footprints or {}).items():
+        f[nb + i] = math.log1p(a)
     return f
 
 
-def lr_features(graphs, object_names):
+def footprint(size):
+    return max(float(size[0]), MIN_SIZE_M) * max(float(size[1]), MIN_SIZE_M)
+
+
+def add_footprint(footprints, name, size):
+    """Keeps the largest footprint per LR_FOOTPRINT_CLASSES name."""
+    if name in LR_FOOTPRINT_CLASSES:
+        i = LR_FOOTPRINT_CLASSES.index(name)
+        footprints[i] = max(footprints.get(i, 0.0), footprint(size))
+
+
+def lr_features(graphs, object_names, footprints=True):
+    """LR feature rows of the Stanford rooms: the shipped head's (footprints) or the issue's baseline's (counts and
+    box only)."""
     idx = {n: i for i, n in enumerate(object_names)}
-    f = np.zeros((len(graphs), len(object_names) + len(LR_BOX_FEATURES)))
-    for k, g in enumerate(graphs):
-        counts = {}
+    rows = []
+    for g in graphs:
+        counts, fp = {}, {}
         for n in g["nodes"]:
             if n["type"] != "room":
                 counts[idx[n["label"]]] = counts.get(idx[n["label"]], 0) + 1
+                add_footprint(fp, n["label"], n["x"][3:6])
         room = next(n for n in g["nodes"] if n["type"] == "room")
-        f[k] = lr_room_features(counts, room["x"][3:6], len(object_names))
-    return f
+        rows.append(lr_room_features(counts, room["x"][3:6], len(object_names), fp if footprints else None))
+    return np.array(rows)
 
 
 def lr_scene_features(scene, word_names, vocab):
@@ -421,7 +451,7 @@ def lr_scene_features(scene, word_names, vocab):
     rooms = [v for v, l in enumerate(scene.layers) if l == ht.LAYER_ROOM]
     rows, coverage = [], []
     for r in rooms:
-        counts, objects, counted = {}, 0, 0
+        counts, fp, objects, counted = {}, {}, 0, 0
         for v, l in enumerate(scene.layers):
             if l == ht.LAYER_OBJECT and scene.parent_room[v] == r:
                 objects += 1
@@ -429,9 +459,11 @@ def lr_scene_features(scene, word_names, vocab):
                 if i is not None:
                     counts[i] = counts.get(i, 0) + 1
                     counted += 1
-        rows.append(lr_room_features(counts, scene.size[r], len(vocab)))
+                    add_footprint(fp, word_names[scene.word[v]], scene.size[v])
+        rows.append(lr_room_features(counts, scene.size[r], len(vocab), fp if CONFIG["lr_footprints"] else None))
         coverage.append(counted / objects if objects > 0 else 1.0)
-    return np.array(rows).reshape(len(rooms), len(vocab) + len(LR_BOX_FEATURES)), np.array(coverage)
+    width = len(vocab) + len(LR_BOX_FEATURES) + (len(LR_FOOTPRINT_CLASSES) if CONFIG["lr_footprints"] else 0)
+    return np.array(rows).reshape(len(rooms), width), np.array(coverage)
 
 
 def train_lr(f, y, num_classes, l2=1e-2):
@@ -520,7 +552,9 @@ def cv_fold(task):
         with torch.no_grad():
             p_members = np.stack([torch.softmax(m(test), 1).double().numpy() for m in models])
     p_lr = [lr_proba(train_lr(d["f"][tr], y[tr], d["classes"], l2), d["f"][te]) for l2 in d["lr_l2s"]]
-    return rep, k, te, p_members, p_lr, ep
+    # The issue's baseline: LR on log object counts and the room box (no footprints), L2 CONFIG["lr_l2"].
+    p_base = lr_proba(train_lr(d["f_base"][tr], y[tr], d["classes"], d["lr_l2s"][0]), d["f_base"][te])
+    return rep, k, te, p_members, p_lr, ep, p_base
 
 
 def write_figures(path, figures, conditions):
@@ -548,7 +582,8 @@ def cmd_cv(args):
     print("rooms %d, H-tree nodes %d, width max %d mean %.2f" %
           (len(items), sum(len(it[0].members) for it in items), max(widths), np.mean(widths)))
     l2s = [CONFIG["lr_l2"]] + ([v for v in SWEEP_LR_L2 if v != CONFIG["lr_l2"]] if args.sweep else [])
-    _CV.update(y=y, items=items, f=lr_features(graphs, object_names), classes=len(classes), folds=args.folds,
+    _CV.update(y=y, items=items, f=lr_features(graphs, object_names, bool(CONFIG["lr_footprints"])),
+               f_base=lr_features(graphs, object_names, False), classes=len(classes), folds=args.folds,
                seed_base=args.seed_base, lr_only=args.lr_only, lr_l2s=l2s)
     tasks = [(rep, k) for rep in range(args.repeats) for k in range(args.folds)]
     t0 = time.time()
@@ -566,14 +601,16 @@ def cmd_cv(args):
     members = 0 if args.lr_only else results[0][3].shape[0]
     oof_members = np.zeros((args.repeats, members, n, c))
     oof_lr = np.zeros((args.repeats, len(l2s), n, c))
-    for rep, k, te, p_members, p_lr, _ in results:
+    oof_base = np.zeros((args.repeats, n, c))
+    for rep, k, te, p_members, p_lr, _, p_base in results:
         if members:
             oof_members[rep][:, te] = p_members
         for j in range(len(l2s)):
             oof_lr[rep, j, te] = p_lr[j]
+        oof_base[rep, te] = p_base
     epochs_used = [r[5] for r in results if r[5]]
     if args.oof:  # out-of-fold probabilities, for trying other blends offline (tuning splits only)
-        np.savez_compressed(args.oof, y=y, members=oof_members, lr=oof_lr, lr_l2=np.array(l2s))
+        np.savez_compressed(args.oof, y=y, members=oof_members, lr=oof_lr, lr_l2=np.array(l2s), lr_base=oof_base)
         print("wrote %s" % args.oof)
 
     def accuracy(p):  # per repeat
@@ -587,19 +624,21 @@ def cmd_cv(args):
     a_blend, log_pool = float(CONFIG["lr_blend"]), bool(CONFIG["blend_log"])
     p_blend = np.stack([blend_proba(p_nt[rep], p_lr[rep], a_blend, log_pool) for rep in range(args.repeats)])
     acc_lr = accuracy(p_lr)
+    acc_base = accuracy(oof_base)
     acc_nt = accuracy(p_nt) if members else np.zeros(args.repeats)
     acc_blend = accuracy(p_blend) if members else np.zeros(args.repeats)
     for rep in range(args.repeats):
         if members:
-            print("repeat %d: neural tree %.2f %%, logistic regression %.2f %%, blend %.2f %%" %
-                  (rep, 100 * acc_nt[rep], 100 * acc_lr[rep], 100 * acc_blend[rep]))
+            print("repeat %d: neural tree %.2f %%, LR baseline %.2f %%, LR head %.2f %%, blend %.2f %%" %
+                  (rep, 100 * acc_nt[rep], 100 * acc_base[rep], 100 * acc_lr[rep], 100 * acc_blend[rep]))
         else:
-            print("repeat %d: logistic regression %.2f %%" % (rep, 100 * acc_lr[rep]))
+            print("repeat %d: LR baseline %.2f %%, LR head %.2f %%" % (rep, 100 * acc_base[rep], 100 * acc_lr[rep]))
     print("cv time %.0f s (%d jobs)" % (wall_s, args.jobs))
     blend_name = "blend (LR weight %.2f, %s)" % (a_blend, "log-linear pool" if log_pool else "linear average")
-    for name, acc, p in (("neural tree", acc_nt, p_nt), ("logistic regression", acc_lr, p_lr),
-                         (blend_name, acc_blend, p_blend)):
-        if members or name == "logistic regression":
+    lr_name = "LR head (counts, box%s)" % (", footprints" if CONFIG["lr_footprints"] else "")
+    for name, acc, p in (("neural tree", acc_nt, p_nt), ("LR baseline (counts, box)", acc_base, oof_base),
+                         (lr_name, acc_lr, p_lr), (blend_name, acc_blend, p_blend)):
+        if members or name.startswith("LR"):
             print("%-40s %.2f +- %.2f %% (std over repeats; over the %d folds +- %.2f)" %
                   (name + ":", 100 * np.mean(acc), 100 * np.std(acc), len(results), 100 * np.std(fold_accuracy(p))))
     if epochs_used:
@@ -623,8 +662,11 @@ def cmd_cv(args):
                    100 * np.mean(accuracy(np.stack([blend_proba(oof_members[r, :j].mean(0), p_lr[r], a_blend, 0)
                                                       for r in range(args.repeats)])))))
     print("config", json.dumps(CONFIG))
-    figures = [("logistic_regression_cv_accuracy", 100 * np.mean(acc_lr), "%"),
-               ("logistic_regression_cv_accuracy_std_repeats", 100 * np.std(acc_lr), "%")]
+    # logistic_regression_*: the issue's baseline (counts and box); lr_head_*: the LR the blend uses.
+    figures = [("logistic_regression_cv_accuracy", 100 * np.mean(acc_base), "%"),
+               ("logistic_regression_cv_accuracy_std_repeats", 100 * np.std(acc_base), "%"),
+               ("lr_head_cv_accuracy", 100 * np.mean(acc_lr), "%"),
+               ("lr_head_cv_accuracy_std_repeats", 100 * np.std(acc_lr), "%")]
     if members:
         figures = [("neural_tree_cv_accuracy", 100 * np.mean(acc_nt), "%"),
                    ("neural_tree_cv_accuracy_std_repeats", 100 * np.std(acc_nt), "%")] + figures + [
@@ -758,14 +800,18 @@ def member_json(model):
 
 
 def lr_head_json(head, vocab):
+    footprints = LR_FOOTPRINT_CLASSES if CONFIG["lr_footprints"] else []
     return {
         "features": {"object_counts": {"transform": "log1p", "vocabulary": list(vocab)},
                      "room_box": LR_BOX_FEATURES, "min_size_m": MIN_SIZE_M,
+                     "largest_footprint": {"transform": "log1p", "classes": list(footprints)},
                      "definition": "x = [log(1 + objects per vocabulary name in the room, by the object's word-table "
                                    "row name), log(max(size_x, min_size_m)), log(max(size_y, ..)), log(max(size_z, "
-                                   "..)), max and min of the two horizontal logs, their sum]; p = softmax(((x - mean) "
-                                   "/ std) w^T + b)"},
-        "num_features": len(vocab) + len(LR_BOX_FEATURES), "num_classes": head["w"].shape[1],
+                                   "..)), max and min of the two horizontal logs, their sum, then per "
+                                   "largest_footprint class log(1 + max over the room's objects of that name of "
+                                   "max(size_x, min_size_m) max(size_y, min_size_m)), 0 without one]; p = "
+                                   "softmax(((x - mean) / std) w^T + b)"},
+        "num_features": len(vocab) + len(LR_BOX_FEATURES) + len(footprints), "num_classes": head["w"].shape[1],
         "mean": f32b64(head["mean"]), "std": f32b64(head["std"]),
         "w": f32b64(head["w"].T), "b": f32b64(head["b"]),  # w stored classes x features (out x in, as the layers)
         "blend": {"lr_weight": float(CONFIG["lr_blend"]), "pool": "log" if CONFIG["blend_log"] else "linear",
@@ -854,14 +900,15 @@ def cmd_train(args):
     _, items, word_table = prepare(graphs, object_names, words)
     models, epochs = train_ensemble(items, y, len(classes), seed=7)
     print("epochs %d" % epochs)
-    lr_head = train_lr(lr_features(graphs, object_names), y, len(classes), CONFIG["lr_l2"])
+    f_lr = lr_features(graphs, object_names, bool(CONFIG["lr_footprints"]))
+    lr_head = train_lr(f_lr, y, len(classes), CONFIG["lr_l2"])
     word_names = list(object_names) + [m for m in MPCAT40 if m not in object_names]
     table = word_table_for(words, word_names, object_names)
     write_weights(models, classes, word_names, table, args.weights, lr_head, object_names)
     stored, stored_lr = round_trip_models(models, args.weights)
     a_blend, log_pool = float(CONFIG["lr_blend"]), bool(CONFIG["blend_log"])
     p_nt = predict_proba(models, Batch(items)).double().numpy()
-    p_lr = lr_proba(stored_lr, lr_features(graphs, object_names))
+    p_lr = lr_proba(stored_lr, f_lr)
     for name, p in (("neural tree", p_nt), ("LR head", p_lr), ("blend", blend_proba(p_nt, p_lr, a_blend, log_pool))):
         print("training accuracy, %s: %.2f %%" % (name, 100 * float((p.argmax(1) == y).mean())))
     # Parity fixture: inputs exactly as the C++ API takes them, and the PyTorch room probabilities.

@@ -109,13 +109,13 @@ bool read_matrix(const json& doc, const char* key, const std::string& field, int
                      static_cast<std::size_t>(rows) * cols, out->data(), error);
 }
 
-// The LR head (version 2): its feature definition must be exactly the one this build computes.
+// The LR head (version 3): its feature definition must be exactly the one this build computes.
 bool parse_lr_head(const json& doc, NeuralTreeWeights* w, std::string* error) {
   static constexpr const char* kBoxFeatures[NeuralTreeWeights::kNumLrBoxFeatures] = {
       "log_size_x", "log_size_y", "log_size_z", "log_size_max_xy", "log_size_min_xy", "log_area_xy"};
   const auto head = doc.find("lr_head");
   if (head == doc.end() || !head->is_object()) {
-    *error = "lr_head: missing or not an object (a version 2 file carries the logistic-regression head)";
+    *error = "lr_head: missing or not an object (a version 3 file carries the logistic-regression head)";
     return false;
   }
   NeuralTreeWeights::LrHead& lr = w->lr;
@@ -166,6 +166,35 @@ bool parse_lr_head(const json& doc, NeuralTreeWeights* w, std::string* error) {
     return false;
   }
   lr.min_size_m = ms->get<float>();
+  // Version 3: per class, log(1 + the footprint of the room's largest object of that name); may list none.
+  const auto footprint = features->find("largest_footprint");
+  if (footprint == features->end() || !footprint->is_object() ||
+      footprint->value("transform", std::string()) != "log1p") {
+    *error = "lr_head.features.largest_footprint: missing, or its transform is not \"log1p\"";
+    return false;
+  }
+  const auto footprint_classes = footprint->find("classes");
+  if (footprint_classes == footprint->end() || !footprint_classes->is_array() || footprint_classes->size() > 256) {
+    *error = "lr_head.features.largest_footprint.classes: expected an array of at most 256 object names";
+    return false;
+  }
+  for (std::size_t i = 0; i < footprint_classes->size(); ++i) {
+    const std::string field = "lr_head.features.largest_footprint.classes[" + std::to_string(i) + "]";
+    if (!(*footprint_classes)[i].is_string()) {
+      *error = field + ": not a string";
+      return false;
+    }
+    const std::string name = (*footprint_classes)[i].get<std::string>();
+    if (std::find(lr.vocabulary.begin(), lr.vocabulary.end(), name) == lr.vocabulary.end()) {
+      *error = field + ": \"" + name + "\" is not in object_counts.vocabulary";
+      return false;
+    }
+    if (std::find(lr.footprint_classes.begin(), lr.footprint_classes.end(), name) != lr.footprint_classes.end()) {
+      *error = field + ": \"" + name + "\" listed twice";
+      return false;
+    }
+    lr.footprint_classes.push_back(name);
+  }
   const int f = lr.num_features();
   int num_features = 0, num_classes = 0;
   if (!read_int(*head, "num_features", "lr_head.num_features", f, f, &num_features, error) ||
@@ -225,11 +254,12 @@ bool parse_weights(const json& doc, NeuralTreeWeights* w, std::string* error) {
   int version = 0;
   if (!read_int(*header, "version", "header.version", 0, 1 << 30, &version, error)) return false;
   if (version != NeuralTreeWeights::kFormatVersion) {
-    // Version 1 held the neural tree alone; the classifier is now its blend with the LR head, so a v1 file would
-    // silently give other labels than the ones the CV measured.
+    // Version 1 held the neural tree alone, version 2 an LR head without furniture footprints: either would give
+    // other labels than the ones the CV measured.
     *error = "header.version: " + std::to_string(version) + " unsupported (this build reads version " +
              std::to_string(NeuralTreeWeights::kFormatVersion) +
-             ", the neural tree with its logistic-regression head; write it with bench/neural_tree/"
+             ", the neural tree with its logistic-regression head on counts, box and footprints; write it with "
+             "bench/neural_tree/"
              "train_neural_tree.py train)";
     return false;
   }
@@ -526,6 +556,9 @@ bool RoomClassifier::init(std::string* error) {
   lr_column_of_word_.assign(w.word_names.size(), -1);
   for (std::size_t v = 0; v < w.lr.vocabulary.size(); ++v)
     lr_column_of_word_[static_cast<std::size_t>(word_index(w.lr.vocabulary[v]))] = static_cast<int>(v);
+  lr_footprint_of_word_.assign(w.word_names.size(), -1);
+  for (std::size_t v = 0; v < w.lr.footprint_classes.size(); ++v)
+    lr_footprint_of_word_[static_cast<std::size_t>(word_index(w.lr.footprint_classes[v]))] = static_cast<int>(v);
   lr_w_ = w.lr.w.transpose().cast<double>();
   lr_b_ = w.lr.b.transpose().cast<double>();
   lr_features_.resize(config_.max_rooms, w.lr.num_features());
@@ -774,20 +807,28 @@ void RoomClassifier::run_lr(const ObjectRoomGraph& graph) {
   x.setZero();
   auto counted = lr_coverage_.head(num_rooms_);
   counted.setZero();
+  const int footprints = vocabulary + NeuralTreeWeights::kNumLrBoxFeatures;  // first footprint column
+  const double min_size = lr.min_size_m;
   for (std::size_t v = 0; v < graph.nodes.size(); ++v) {
     const auto& node = graph.nodes[v];
     if (node.layer != NodeLayer::kObject || node.room < 0 || graph_word_[v] < 0) continue;
     const int column = lr_column_of_word_[static_cast<std::size_t>(graph_word_[v])];
     if (column < 0) continue;
-    x(room_slot_[node.room], column) += 1.0;
-    counted[room_slot_[node.room]] += 1.0;
+    const int r = room_slot_[node.room];
+    x(r, column) += 1.0;
+    counted[r] += 1.0;
+    const int fp = lr_footprint_of_word_[static_cast<std::size_t>(graph_word_[v])];
+    if (fp >= 0) {
+      // The largest footprint of the class so far, kept as its log1p (monotonic, so the max carries over).
+      const double area = std::max(node.size_m.x(), min_size) * std::max(node.size_m.y(), min_size);
+      x(r, footprints + fp) = std::max(x(r, footprints + fp), std::log1p(area));
+    }
   }
   // Coverage: the counted share of the room's objects (object_count_, from compute_features); 1 without objects.
   for (int r = 0; r < num_rooms_; ++r) {
     const int objects = object_count_[predictions_[r].node];
     counted[r] = objects > 0 ? counted[r] / objects : 1.0;
   }
-  const double min_size = lr.min_size_m;
   for (int r = 0; r < num_rooms_; ++r) {
     for (int c = 0; c < vocabulary; ++c) x(r, c) = std::log1p(x(r, c));
     // The box as the trainer's lr_room_features: x and y as stored (not sorted), then max, min and sum.

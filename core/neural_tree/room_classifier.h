@@ -19,9 +19,10 @@ using RowMatrixXf = Eigen::Matrix<float, Eigen::Dynamic, Eigen::Dynamic, Eigen::
 using RowMatrixXd = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
 
 // A trained classifier as stored in core/neural_tree/weights/room_classifier_v<version>.json: the neural tree and
-// (from version 2) the logistic-regression head whose class probabilities are blended with it.
+// (from version 2) the logistic-regression head whose class probabilities are blended with it (version 3: the head
+// also reads furniture footprints).
 struct NeuralTreeWeights {
-  static constexpr int kFormatVersion = 2;
+  static constexpr int kFormatVersion = 3;
   // The LR head's box features after the count features, in this order (the trainer's LR_BOX_FEATURES): log of
   // each box side (x, y as the room stores them, z), max and min of the two horizontal ones, their sum.
   static constexpr int kNumLrBoxFeatures = 6;
@@ -51,10 +52,13 @@ struct NeuralTreeWeights {
     Eigen::VectorXf head_b;
   };
   std::vector<Member> members;
-  // Multinomial logistic regression on one room: log(1 + objects per vocabulary name), then the box features;
-  // standardised by mean and std. Objects count under their word-table row's name (mpcat40 aliases included).
+  // Multinomial logistic regression on one room: log(1 + objects per vocabulary name), then the box features, then
+  // per footprint class log(1 + the footprint max(sx, min) x max(sy, min) of the room's largest object of that
+  // name), 0 without one; standardised by mean and std. Objects count under their word-table row's name (mpcat40
+  // aliases included), for the footprints too.
   struct LrHead {
     std::vector<std::string> vocabulary;  // count features, in feature order
+    std::vector<std::string> footprint_classes;  // footprint features, in feature order; each in the vocabulary
     float min_size_m = 0.01f;             // floor under the box sides before the log
     Eigen::VectorXd mean, std;            // num_features
     RowMatrixXf w;                        // num_classes x num_features
@@ -65,7 +69,9 @@ struct NeuralTreeWeights {
     // blind to labels outside its vocabulary (mpcat40 appliances, cabinet, shelving, ...), which the neural tree
     // reads through their word vectors. Every training room has share 1.
     bool weight_by_coverage = false;
-    int num_features() const { return static_cast<int>(vocabulary.size()) + kNumLrBoxFeatures; }
+    int num_features() const {
+      return static_cast<int>(vocabulary.size()) + kNumLrBoxFeatures + static_cast<int>(footprint_classes.size());
+    }
   };
   LrHead lr;
 };
@@ -191,6 +197,7 @@ class RoomClassifier {
   RowMatrixXf relative_, log_size_, offset_, h_, h_next_, aggregate_, self_, neigh_, pooled_, logits_;
   RowMatrixXf probabilities_, log_probabilities_, nt_probabilities_;
   std::vector<int> lr_column_of_word_;  // per word-table row: its LR count feature, -1 = not counted
+  std::vector<int> lr_footprint_of_word_;  // per word-table row: its footprint class, -1 = none
   RowMatrixXd lr_w_;                    // num_features x num_classes (the head's w, transposed, in double)
   Eigen::RowVectorXd lr_b_;
   RowMatrixXd lr_features_, lr_probabilities_;  // per room, sized at init for Config::max_rooms rows

@@ -175,8 +175,9 @@ TEST(RoomClassifier, ParityWithPyTorch) {
 }
 
 // The LR head counts an object under its word-table row's name: an mpcat40 sofa (aliased to COCO's couch) counts as
-// a couch; a label outside the LR vocabulary, or no word, is not counted. The box features follow lr_features.
-TEST(RoomClassifier, LrFeaturesCountAliasedLabelsAndTheBox) {
+// a couch; a label outside the LR vocabulary, or no word, is not counted. The box features follow lr_features,
+// then the footprint of the room's largest object of each footprint class (aliases included), 0 without one.
+TEST(RoomClassifier, LrFeaturesCountAliasedLabelsTheBoxAndFootprints) {
   RoomClassifier classifier;
   std::string error;
   ASSERT_TRUE(classifier.init(&error)) << error;
@@ -192,7 +193,7 @@ TEST(RoomClassifier, LrFeaturesCountAliasedLabelsAndTheBox) {
   ObjectRoomGraph g;
   const int other = g.add_room({9, 0, 1.2}, {2.0, 5.0, 2.4});
   const int room = g.add_room({0, 0, 1.2}, {6.0, 0.005, 2.4});  // y below min_size_m
-  g.add_object(room, classifier.word_index(semantics::kSofa), {0, 0, 0.4}, {2, 1, 0.8});
+  g.add_object(room, classifier.word_index(semantics::kSofa), {0, 0, 0.4}, {2, 1.5, 0.8});
   g.add_object(room, classifier.word_index("couch"), {1, 0, 0.4}, {2, 1, 0.8});
   g.add_object(room, classifier.word_index(semantics::kChair), {1, 1, 0.4}, {0.5, 0.5, 0.9});
   g.add_object(room, classifier.word_index(semantics::kCushion), {1, 1, 0.6}, {0.3, 0.3, 0.1});
@@ -204,7 +205,8 @@ TEST(RoomClassifier, LrFeaturesCountAliasedLabelsAndTheBox) {
   const auto x = classifier.room_lr_features();
   ASSERT_EQ(x.rows(), 2);
   const Eigen::Index v = static_cast<Eigen::Index>(lr.vocabulary.size());
-  ASSERT_EQ(x.cols(), v + NeuralTreeWeights::kNumLrBoxFeatures);
+  const Eigen::Index footprints = static_cast<Eigen::Index>(lr.footprint_classes.size());
+  ASSERT_EQ(x.cols(), v + NeuralTreeWeights::kNumLrBoxFeatures + footprints);
   EXPECT_DOUBLE_EQ(x(1, couch), std::log1p(2.0));
   EXPECT_DOUBLE_EQ(x(1, chair), std::log1p(1.0));
   EXPECT_DOUBLE_EQ(x.row(1).head(v).sum(), std::log1p(2.0) + std::log1p(1.0));
@@ -220,6 +222,19 @@ TEST(RoomClassifier, LrFeaturesCountAliasedLabelsAndTheBox) {
   EXPECT_DOUBLE_EQ(x(1, v + 5), lx + ly);
   EXPECT_DOUBLE_EQ(x(0, v + 3), std::log(5.0));  // x and y as stored; max and min sort them
   EXPECT_DOUBLE_EQ(x(0, v + 4), std::log(2.0));
+  const auto footprint = [&](const std::string& name) {
+    const auto it = std::find(lr.footprint_classes.begin(), lr.footprint_classes.end(), name);
+    return v + NeuralTreeWeights::kNumLrBoxFeatures + static_cast<Eigen::Index>(it - lr.footprint_classes.begin());
+  };
+  const Eigen::Index couch_area = footprint("couch"), chair_area = footprint("chair");
+  ASSERT_LT(couch_area, x.cols());
+  ASSERT_LT(chair_area, x.cols());
+  EXPECT_EQ(footprint("cup"), x.cols()) << "small portable things have no footprint feature";
+  EXPECT_DOUBLE_EQ(x(1, couch_area), std::log1p(2.0 * 1.5));  // the larger of the sofa and the couch
+  EXPECT_DOUBLE_EQ(x(1, chair_area), std::log1p(0.25));
+  EXPECT_DOUBLE_EQ(x.row(1).tail(footprints).sum(), std::log1p(3.0) + std::log1p(0.25));
+  EXPECT_DOUBLE_EQ(x(0, chair_area), std::log1p(0.25));
+  EXPECT_DOUBLE_EQ(x.row(0).tail(footprints).sum(), std::log1p(0.25));
   // Coverage: room 1 holds 5 objects, 3 of them counted (two couches and the chair; not the cushion, nor the
   // object without a word); room 0 one counted chair.
   ASSERT_TRUE(lr.weight_by_coverage);
@@ -243,11 +258,11 @@ TEST(RoomClassifier, LrFeaturesCountAliasedLabelsAndTheBox) {
 
 TEST(RoomClassifier, MissingWeightsLeaveRoomsUnknown) {
   RoomClassifier::Config config;
-  config.weights_path = "/nonexistent/room_classifier_v2.json";
+  config.weights_path = "/nonexistent/room_classifier_v3.json";
   RoomClassifier classifier(config);
   std::string error;
   EXPECT_FALSE(classifier.init(&error));
-  EXPECT_NE(error.find("/nonexistent/room_classifier_v2.json"), std::string::npos) << error;
+  EXPECT_NE(error.find("/nonexistent/room_classifier_v3.json"), std::string::npos) << error;
   ObjectRoomGraph g;
   make_synthetic_building(3, 4, 1, classifier, &g);
   EXPECT_FALSE(classifier.classify(g, &error));
@@ -287,6 +302,9 @@ TEST(RoomClassifier, CorruptWeightsNameFileAndField) {
   nlohmann::json v1 = doc;  // the neural tree alone (before the LR head): refused, naming the version
   v1["header"]["version"] = 1;
   v1.erase("lr_head");
+  nlohmann::json v2 = doc;  // an LR head without furniture footprints: refused, naming the version
+  v2["header"]["version"] = 2;
+  v2["lr_head"]["features"].erase("largest_footprint");
   nlohmann::json bad_label = doc;
   bad_label["class_room_labels"][3] = "dungeon";
   nlohmann::json nan_head = doc;
@@ -297,7 +315,8 @@ TEST(RoomClassifier, CorruptWeightsNameFileAndField) {
       {"truncated.json", good.substr(0, good.size() / 2), "not valid JSON"},
       {"short_layer.json", short_layer.dump(), short_message.c_str()},
       {"new_version.json", new_version.dump(), new_version_message.c_str()},
-      {"v1.json", v1.dump(), "header.version: 1 unsupported (this build reads version 2"},
+      {"v1.json", v1.dump(), "header.version: 1 unsupported (this build reads version 3"},
+      {"v2.json", v2.dump(), "header.version: 2 unsupported (this build reads version 3"},
       {"bad_label.json", bad_label.dump(), "class_room_labels[3]: \"dungeon\" is not a room label"},
       {"nan_head.json", nan_head.dump(), "members[0].head.b (1 x 15)[0]: not a finite number"},
       {"short_b64.json", short_b64.dump(), short_b64_message.c_str()},
@@ -308,7 +327,7 @@ TEST(RoomClassifier, CorruptWeightsNameFileAndField) {
   for (const Case& c : cases) expect_weights_refused(c.name, c.text, c.expect);
 }
 
-// A version 2 file whose LR head is missing, corrupt or of the wrong shape is refused (the field named), and the
+// A version 3 file whose LR head is missing, corrupt or of the wrong shape is refused (the field named), and the
 // classifier then leaves every room "unknown", as for any bad file.
 TEST(RoomClassifier, CorruptLrHeadIsAnError) {
   const nlohmann::json doc = nlohmann::json::parse(read_text(RoomClassifier::Config().weights_path));
@@ -316,7 +335,9 @@ TEST(RoomClassifier, CorruptLrHeadIsAnError) {
   const int classes = doc["num_classes"].get<int>();
   const int features = doc["lr_head"]["num_features"].get<int>();
   const int vocabulary = static_cast<int>(doc["lr_head"]["features"]["object_counts"]["vocabulary"].size());
-  ASSERT_EQ(features, vocabulary + NeuralTreeWeights::kNumLrBoxFeatures);
+  const int footprints = static_cast<int>(doc["lr_head"]["features"]["largest_footprint"]["classes"].size());
+  ASSERT_GT(footprints, 1);
+  ASSERT_EQ(features, vocabulary + NeuralTreeWeights::kNumLrBoxFeatures + footprints);
   struct Case {
     std::string name;
     nlohmann::json doc;
@@ -370,6 +391,24 @@ TEST(RoomClassifier, CorruptLrHeadIsAnError) {
   edit("lr_box.json", "lr_head.features.room_box: expected [log_size_x", [](nlohmann::json& h, nlohmann::json&) {
     std::swap(h["features"]["room_box"][0], h["features"]["room_box"][3]);
   });
+  edit("lr_footprint_missing.json", "lr_head.features.largest_footprint: missing",
+       [](nlohmann::json& h, nlohmann::json&) { h["features"].erase("largest_footprint"); });
+  edit("lr_footprint_transform.json", "lr_head.features.largest_footprint: missing, or its transform",
+       [](nlohmann::json& h, nlohmann::json&) { h["features"]["largest_footprint"]["transform"] = "log"; });
+  edit("lr_footprint_classes.json", "lr_head.features.largest_footprint.classes: expected an array",
+       [](nlohmann::json& h, nlohmann::json&) { h["features"]["largest_footprint"]["classes"] = "bed"; });
+  edit("lr_footprint_unknown.json", "classes[1]: \"spaceship\" is not in object_counts.vocabulary",
+       [](nlohmann::json& h, nlohmann::json&) { h["features"]["largest_footprint"]["classes"][1] = "spaceship"; });
+  const std::string first_footprint =
+      doc["lr_head"]["features"]["largest_footprint"]["classes"][0].get<std::string>();
+  edit("lr_footprint_twice.json", "classes[1]: \"" + first_footprint + "\" listed twice",
+       [](nlohmann::json& h, nlohmann::json&) {
+         h["features"]["largest_footprint"]["classes"][1] = h["features"]["largest_footprint"]["classes"][0];
+       });
+  edit("lr_footprint_shorter.json", "lr_head.num_features: " + fc + " outside",
+       [](nlohmann::json& h, nlohmann::json&) {
+         h["features"]["largest_footprint"]["classes"].erase(h["features"]["largest_footprint"]["classes"].size() - 1);
+       });
   edit("lr_blend_weight.json", "lr_head.blend.lr_weight: missing or not a number in [0, 1]",
        [](nlohmann::json& h, nlohmann::json&) { h["blend"]["lr_weight"] = 1.5; });
   edit("lr_blend_pool.json", "lr_head.blend.pool: expected", [](nlohmann::json& h, nlohmann::json&) {
