@@ -109,6 +109,29 @@ bool read_matrix(const json& doc, const char* key, const std::string& field, int
                      static_cast<std::size_t>(rows) * cols, out->data(), error);
 }
 
+// A list of distinct names, each one of `allowed` (else "<field>[i]: \"name\" <not_allowed>"), appended to `out`.
+bool read_names(const json& list, const std::string& field, const std::vector<std::string>& allowed,
+                const char* not_allowed, std::vector<std::string>* out, std::string* error) {
+  for (std::size_t i = 0; i < list.size(); ++i) {
+    const std::string item = field + "[" + std::to_string(i) + "]";
+    if (!list[i].is_string()) {
+      *error = item + ": not a string";
+      return false;
+    }
+    const std::string name = list[i].get<std::string>();
+    if (std::find(allowed.begin(), allowed.end(), name) == allowed.end()) {
+      *error = item + ": \"" + name + "\" " + not_allowed;
+      return false;
+    }
+    if (std::find(out->begin(), out->end(), name) != out->end()) {
+      *error = item + ": \"" + name + "\" listed twice";
+      return false;
+    }
+    out->push_back(name);
+  }
+  return true;
+}
+
 // The LR head (version 3): its feature definition must be exactly the one this build computes.
 bool parse_lr_head(const json& doc, NeuralTreeWeights* w, std::string* error) {
   static constexpr const char* kBoxFeatures[NeuralTreeWeights::kNumLrBoxFeatures] = {
@@ -134,23 +157,9 @@ bool parse_lr_head(const json& doc, NeuralTreeWeights* w, std::string* error) {
     *error = "lr_head.features.object_counts.vocabulary: expected an array of 1 to 4096 object names";
     return false;
   }
-  for (std::size_t i = 0; i < vocabulary->size(); ++i) {
-    const std::string field = "lr_head.features.object_counts.vocabulary[" + std::to_string(i) + "]";
-    if (!(*vocabulary)[i].is_string()) {
-      *error = field + ": not a string";
-      return false;
-    }
-    const std::string name = (*vocabulary)[i].get<std::string>();
-    if (std::find(w->word_names.begin(), w->word_names.end(), name) == w->word_names.end()) {
-      *error = field + ": \"" + name + "\" has no row in words";
-      return false;
-    }
-    if (std::find(lr.vocabulary.begin(), lr.vocabulary.end(), name) != lr.vocabulary.end()) {
-      *error = field + ": \"" + name + "\" listed twice";
-      return false;
-    }
-    lr.vocabulary.push_back(name);
-  }
+  if (!read_names(*vocabulary, "lr_head.features.object_counts.vocabulary", w->word_names, "has no row in words",
+                  &lr.vocabulary, error))
+    return false;
   const auto box = features->find("room_box");
   bool box_ok = box != features->end() && box->is_array() && box->size() == NeuralTreeWeights::kNumLrBoxFeatures;
   for (int i = 0; box_ok && i < NeuralTreeWeights::kNumLrBoxFeatures; ++i)
@@ -178,23 +187,9 @@ bool parse_lr_head(const json& doc, NeuralTreeWeights* w, std::string* error) {
     *error = "lr_head.features.largest_footprint.classes: expected an array of at most 256 object names";
     return false;
   }
-  for (std::size_t i = 0; i < footprint_classes->size(); ++i) {
-    const std::string field = "lr_head.features.largest_footprint.classes[" + std::to_string(i) + "]";
-    if (!(*footprint_classes)[i].is_string()) {
-      *error = field + ": not a string";
-      return false;
-    }
-    const std::string name = (*footprint_classes)[i].get<std::string>();
-    if (std::find(lr.vocabulary.begin(), lr.vocabulary.end(), name) == lr.vocabulary.end()) {
-      *error = field + ": \"" + name + "\" is not in object_counts.vocabulary";
-      return false;
-    }
-    if (std::find(lr.footprint_classes.begin(), lr.footprint_classes.end(), name) != lr.footprint_classes.end()) {
-      *error = field + ": \"" + name + "\" listed twice";
-      return false;
-    }
-    lr.footprint_classes.push_back(name);
-  }
+  if (!read_names(*footprint_classes, "lr_head.features.largest_footprint.classes", lr.vocabulary,
+                  "is not in object_counts.vocabulary", &lr.footprint_classes, error))
+    return false;
   const int f = lr.num_features();
   int num_features = 0, num_classes = 0;
   if (!read_int(*head, "num_features", "lr_head.num_features", f, f, &num_features, error) ||
