@@ -6,9 +6,9 @@ of CONFIG['ensemble'] networks) whose class probabilities are averaged with thos
 the room's log object counts, box and furniture footprints (lr_features; the footprint of its largest bed, table,
 sofa, ... by name, LR_FOOTPRINT_CLASSES): p = (1 - a) p_tree + a p_lr with a = lr_blend x the share of
 the room's objects the LR can count (blend_log: a weighted geometric mean instead). The two are complementary: the
-blend beats either alone under the same CV. cv also runs the issue's baseline, the LR on counts and box alone. Every Stanford object is in the LR's vocabulary (share 1); the share
-matters for the pipeline's mpcat40 objects (appliances, cabinet, shelving, ...), which the LR cannot see but the
-neural tree reads through their word vectors.
+blend beats either alone under the same CV. cv also runs the issue's baseline, the LR on counts and box alone.
+Every Stanford object is in the LR's vocabulary (share 1); the share matters for the pipeline's mpcat40 objects
+(appliances, cabinet, shelving, ...), which the LR cannot see but the neural tree reads through their word vectors.
 
 Commands (from the repository root, Debian's python3-torch; fixed seeds, one thread):
   /usr/bin/python3 bench/neural_tree/train_neural_tree.py cv        # 5x repeated stratified 5-fold CV: the neural
