@@ -254,8 +254,7 @@ bool parse_weights(const json& doc, NeuralTreeWeights* w, std::string* error) {
     *error = "header.version: " + std::to_string(version) + " unsupported (this build reads version " +
              std::to_string(NeuralTreeWeights::kFormatVersion) +
              ", the neural tree with its logistic-regression head on counts, box and footprints; write it with "
-             "bench/neural_tree/"
-             "train_neural_tree.py train)";
+             "bench/neural_tree/train_neural_tree.py train)";
     return false;
   }
   int num_layers = 0, num_types = 0;
