@@ -49,6 +49,7 @@ struct QueueBudget {
   const char* name;
   std::uint32_t depth;
   DropPolicy policy;
+  std::uint32_t max_wait_us;  // how long a consumer may wait for an element (0: it does not wait)
 };
 
 struct BoardTable {
