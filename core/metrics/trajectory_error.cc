@@ -197,7 +197,9 @@ void TrajectoryError::print(std::FILE* out) const {
                reference_poses, estimate_poses, reference_dropped, estimate_dropped, associated, path_length_m);
   std::fprintf(out, "  ATE m: rmse=%.6f mean=%.6f median=%.6f max=%.6f\n", ate_rmse_m, ate_mean_m, ate_median_m,
                ate_max_m);
-  std::fprintf(out, "  alignment: scale=%.6f%s t_m=(%.6f %.6f %.6f) R=[%.6f %.6f %.6f; %.6f %.6f %.6f; %.6f %.6f %.6f]\n",
+  std::fprintf(out,
+               "  alignment: scale=%.6f%s t_m=(%.6f %.6f %.6f) "
+               "R=[%.6f %.6f %.6f; %.6f %.6f %.6f; %.6f %.6f %.6f]\n",
                scale, alignment_degenerate ? " (degenerate: translation only)" : "", t_m.x(), t_m.y(), t_m.z(),
                R(0, 0), R(0, 1), R(0, 2), R(1, 0), R(1, 1), R(1, 2), R(2, 0), R(2, 1), R(2, 2));
   std::fprintf(out, "  RPE: pairs=%zu translation_rmse=%.6f m/m rotation_rmse=%.6f deg/m\n", rpe_pairs,

@@ -26,7 +26,8 @@ std::vector<TimedPose> make_reference(std::size_t count) {
     const double s = 0.05 * static_cast<double>(i);
     out[i].time_ns = 1'000'000'000 + static_cast<std::int64_t>(i) * kPeriod_ns;
     out[i].t_m = Eigen::Vector3d(3.0 * std::cos(s), 2.0 * std::sin(1.3 * s), 0.5 * std::sin(0.7 * s) + 0.1 * s);
-    out[i].q = Eigen::AngleAxisd(s, Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(0.2 * std::sin(s), Eigen::Vector3d::UnitX());
+    out[i].q = Eigen::AngleAxisd(s, Eigen::Vector3d::UnitZ()) *
+               Eigen::AngleAxisd(0.2 * std::sin(s), Eigen::Vector3d::UnitX());
   }
   return out;
 }
@@ -376,7 +377,9 @@ TEST(TrajectoryError, NonUnitQuaternionsAreNormalised) {
 TEST(TrajectoryError, UnsortedAndDuplicateStampsGiveTheSortedResult) {
   const std::vector<TimedPose> reference = make_reference(150);
   std::vector<TimedPose> estimate = transform_inverse(reference, 1.0, test_rotation(), Eigen::Vector3d(1, 2, 3));
-  for (std::size_t i = 0; i < estimate.size(); ++i) estimate[i].t_m.z() += 0.02 * std::sin(0.9 * static_cast<double>(i));
+  for (std::size_t i = 0; i < estimate.size(); ++i) {
+    estimate[i].t_m.z() += 0.02 * std::sin(0.9 * static_cast<double>(i));
+  }
   const TrajectoryError sorted = evaluate_trajectory(reference, estimate, config_with(Alignment::kSE3));
   ASSERT_TRUE(sorted.ok) << sorted.error;
 
@@ -457,7 +460,9 @@ std::vector<TimedPose> read_tum(const std::string& path) {
   std::string error;
   EXPECT_TRUE(replay::read_tum_trajectory(path, &trajectory, &error)) << error;
   std::vector<TimedPose> out;
-  for (const replay::StampedPose& pose : trajectory) out.push_back({pose.time_ns, pose.world_t_body_m, pose.world_R_body});
+  for (const replay::StampedPose& pose : trajectory) {
+    out.push_back({pose.time_ns, pose.world_t_body_m, pose.world_R_body});
+  }
   return out;
 }
 
