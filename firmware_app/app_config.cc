@@ -4,8 +4,10 @@
 #include <cmath>
 #include <fstream>
 #include <functional>
+#include <algorithm>
 #include <map>
 #include <tuple>
+#include <vector>
 #include <nlohmann/json.hpp>
 
 namespace qsg::app {
@@ -266,9 +268,56 @@ bool AppConfig::load(const std::string& path, std::string* error) {
                               {"fy", number(&v4l2.fy)},
                               {"cx", number(&v4l2.cx)},
                               {"cy", number(&v4l2.cy)},
-                              {"depth_scale_m", number(&v4l2.depth_scale_m)},
-                              {"poses", text(&v4l2.poses)}},
+                              {"depth_scale_m", number(&v4l2.depth_scale_m)}},
                              why);
+       }},
+      {"odometry", [&](const Json& v, std::string* why) {
+         std::string source = to_string(odometry.source);
+         double seed = static_cast<double>(odometry.seed), port = odometry.stream_port;
+         std::vector<double> t(odometry.body_t_camera_m, odometry.body_t_camera_m + 3);
+         std::vector<double> q(odometry.body_q_camera_xyzw, odometry.body_q_camera_xyzw + 4);
+         const auto vector_of = [](std::vector<double>* out, std::size_t n) -> Reader {
+           return [out, n](const Json& j, std::string* w) {
+             if (!j.is_array() || j.size() != n) return *w = "expected an array of " + std::to_string(n) + " numbers", false;
+             for (std::size_t i = 0; i < n; ++i) {
+               if (!j[i].is_number()) return *w = "expected an array of " + std::to_string(n) + " numbers", false;
+               (*out)[i] = j[i].get<double>();
+             }
+             return true;
+           };
+         };
+         runtime::PoseBufferConfig& b = odometry.buffer;
+         if (!read_section(v, "odometry",
+                           {{"source", text(&source)},
+                            {"translation_sigma_m_per_sqrt_m", number(&odometry.translation_sigma_m_per_sqrt_m)},
+                            {"yaw_sigma_rad_per_sqrt_m", number(&odometry.yaw_sigma_rad_per_sqrt_m)},
+                            {"scale_bias", number(&odometry.scale_bias)},
+                            {"yaw_bias_rad_per_m", number(&odometry.yaw_bias_rad_per_m)},
+                            {"seed", number(&seed)},
+                            {"tum_path", text(&odometry.tum_path)},
+                            {"stream_transport", text(&odometry.stream_transport)},
+                            {"stream_bind_address", text(&odometry.stream_bind_address)},
+                            {"stream_port", number(&port)},
+                            {"stream_unix_path", text(&odometry.stream_unix_path)},
+                            {"silence_fault_s", number(&odometry.silence_fault_s)},
+                            {"body_t_camera_m", vector_of(&t, 3)},
+                            {"body_q_camera_xyzw", vector_of(&q, 4)},
+                            {"max_gap_s", number(&b.max_gap_s)},
+                            {"max_time_jump_s", number(&b.max_time_jump_s)},
+                            {"max_speed_m_per_s", number(&b.max_speed_m_per_s)}},
+                           why))
+           return false;
+         if (!odometry_source_from_string(source, &odometry.source))
+           return *why = "odometry.source: expected auto, sim_drift, ground_truth, tum, stream or static, got '" +
+                         source + "'", false;
+         if (!whole_number_in(seed, 0.0, 9007199254740992.0))
+           return *why = "odometry.seed: expected a non-negative integer", false;
+         if (!whole_number_in(port, 0.0, 65535.0)) return *why = "odometry.stream_port: expected an integer 0 .. 65535", false;
+         odometry.seed = static_cast<std::uint64_t>(seed);
+         odometry.stream_port = static_cast<int>(port);
+         std::copy(t.begin(), t.end(), odometry.body_t_camera_m);
+         std::copy(q.begin(), q.end(), odometry.body_q_camera_xyzw);
+         return true;
        }},
       {"segmentation", [&](const Json& v, std::string* why) {
          return read_section(v, "segmentation",
@@ -306,6 +355,25 @@ bool AppConfig::load(const std::string& path, std::string* error) {
   return true;
 }
 
+const char* to_string(OdometrySourceKind k) {
+  switch (k) {
+    case OdometrySourceKind::kAuto: return "auto";
+    case OdometrySourceKind::kSimDrift: return "sim_drift";
+    case OdometrySourceKind::kGroundTruth: return "ground_truth";
+    case OdometrySourceKind::kTum: return "tum";
+    case OdometrySourceKind::kStream: return "stream";
+    case OdometrySourceKind::kStatic: return "static";
+  }
+  return "?";
+}
+
+bool odometry_source_from_string(const std::string& name, OdometrySourceKind* out) {
+  for (OdometrySourceKind k : {OdometrySourceKind::kAuto, OdometrySourceKind::kSimDrift, OdometrySourceKind::kGroundTruth,
+                               OdometrySourceKind::kTum, OdometrySourceKind::kStream, OdometrySourceKind::kStatic})
+    if (name == to_string(k)) return *out = k, true;
+  return false;
+}
+
 std::string AppConfig::check() const {
   if (driver == Driver::kReplay && replay_path.empty()) return "driver replay needs replay_path";
   if (driver == Driver::kV4l2 && (v4l2.width < 16 || v4l2.height < 16 || v4l2.width > 640 || v4l2.height > 480))
@@ -333,7 +401,31 @@ std::string AppConfig::check() const {
   if (const std::string r = rooms.check(); !r.empty()) return r;
   if (std::string d; !doors.validate(&d)) return d;
   if (const std::string k = keyframes.check(); !k.empty()) return "keyframes: " + k;
+  if (const std::string o = check_odometry(); !o.empty()) return "odometry: " + o;
   if (const std::string s = scheduler.check(); !s.empty()) return "scheduler: " + s;
+  return {};
+}
+
+std::string AppConfig::check_odometry() const {
+  const Odometry& o = odometry;
+  if (o.source == OdometrySourceKind::kSimDrift && driver != Driver::kSim) return "source sim_drift needs driver sim";
+  if (o.source == OdometrySourceKind::kGroundTruth && driver == Driver::kV4l2)
+    return "source ground_truth needs driver sim or replay (a live camera has no ground truth)";
+  if (o.source == OdometrySourceKind::kTum && o.tum_path.empty()) return "source tum needs tum_path";
+  for (double v : {o.translation_sigma_m_per_sqrt_m, o.yaw_sigma_rad_per_sqrt_m})
+    if (!(v >= 0.0 && v <= 1.0)) return "drift sigmas must be in [0, 1] per sqrt(metre)";
+  if (!(std::abs(o.scale_bias) <= 0.5)) return "scale_bias must be in [-0.5, 0.5]";
+  if (!(std::abs(o.yaw_bias_rad_per_m) <= 0.5)) return "yaw_bias_rad_per_m must be in [-0.5, 0.5]";
+  if (o.stream_transport != "udp" && o.stream_transport != "unix")
+    return "stream_transport must be udp or unix, got '" + o.stream_transport + "'";
+  if (o.stream_transport == "unix" && o.stream_unix_path.empty()) return "stream_unix_path must not be empty";
+  if (!(o.silence_fault_s > 0.0 && o.silence_fault_s <= 3600.0)) return "silence_fault_s must be in (0, 3600]";
+  for (double v : o.body_t_camera_m)
+    if (!(std::abs(v) <= 10.0)) return "body_t_camera_m: each coordinate must be within 10 m";
+  const double qn = std::sqrt(o.body_q_camera_xyzw[0] * o.body_q_camera_xyzw[0] + o.body_q_camera_xyzw[1] * o.body_q_camera_xyzw[1] +
+                              o.body_q_camera_xyzw[2] * o.body_q_camera_xyzw[2] + o.body_q_camera_xyzw[3] * o.body_q_camera_xyzw[3]);
+  if (!(std::abs(qn - 1.0) <= 1e-3)) return "body_q_camera_xyzw must be a unit quaternion";
+  if (const std::string b = o.buffer.check(); !b.empty()) return b;
   return {};
 }
 
@@ -345,8 +437,23 @@ void AppConfig::print(std::FILE* out) const {
                driver == Driver::kReplay ? replay_path.c_str() : "", output_dir.c_str(), duration_s, lockstep ? 1 : 0,
                snapshot_interval_s, telemetry_interval_s, ground_truth_labels ? 1 : 0);
   if (driver == Driver::kV4l2)
-    std::fprintf(out, "v4l2: depth=%s colour=%s %dx%d depth_scale_m=%.5f poses=%s\n", v4l2.depth_device.c_str(),
-                 v4l2.colour_device.c_str(), v4l2.width, v4l2.height, v4l2.depth_scale_m, v4l2.poses.c_str());
+    std::fprintf(out, "v4l2: depth=%s colour=%s %dx%d depth_scale_m=%.5f\n", v4l2.depth_device.c_str(),
+                 v4l2.colour_device.c_str(), v4l2.width, v4l2.height, v4l2.depth_scale_m);
+  const Odometry& o = odometry;
+  std::fprintf(out, "odometry: source=%s", to_string(o.source));
+  if (o.source == OdometrySourceKind::kSimDrift || (o.source == OdometrySourceKind::kAuto && driver == Driver::kSim))
+    std::fprintf(out, " drift %.4f m and %.4f rad per sqrt(m), scale_bias=%.4f yaw_bias_rad_per_m=%.5f seed=%llu",
+                 o.translation_sigma_m_per_sqrt_m, o.yaw_sigma_rad_per_sqrt_m, o.scale_bias, o.yaw_bias_rad_per_m,
+                 (unsigned long long)o.seed);
+  if (o.source == OdometrySourceKind::kTum) std::fprintf(out, " tum_path=%s", o.tum_path.c_str());
+  if (o.source == OdometrySourceKind::kStream) {
+    if (o.stream_transport == "udp") std::fprintf(out, " udp %s:%d", o.stream_bind_address.c_str(), o.stream_port);
+    else std::fprintf(out, " unix %s", o.stream_unix_path.c_str());
+  }
+  std::fprintf(out, " silence_fault_s=%.2f body_t_camera_m=[%g %g %g] body_q_camera_xyzw=[%g %g %g %g]\n",
+               o.silence_fault_s, o.body_t_camera_m[0], o.body_t_camera_m[1], o.body_t_camera_m[2],
+               o.body_q_camera_xyzw[0], o.body_q_camera_xyzw[1], o.body_q_camera_xyzw[2], o.body_q_camera_xyzw[3]);
+  o.buffer.print(out);
   if (driver == Driver::kSim) {
     building.print(out);
     exploration.print(out);

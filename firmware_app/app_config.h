@@ -14,12 +14,26 @@
 #include "drivers/sim/sim_camera.h"
 #include "drivers/world/building_generator.h"
 #include "firmware_app/runtime/keyframe_selector.h"
+#include "firmware_app/runtime/pose_buffer.h"
 #include "firmware_app/runtime/scheduler.h"
 
 namespace qsg::app {
 
 enum class Driver { kSim, kReplay, kV4l2 };
 const char* to_string(Driver d);
+
+// Where the keyframes' poses come from. Every source is an odometry stream (world_T_body samples at their own
+// rate); each frame takes the pose interpolated at its sample time from the pose buffer.
+enum class OdometrySourceKind {
+  kAuto,         // sim: kSimDrift; replay: kGroundTruth; v4l2: kStatic
+  kSimDrift,     // sim only: the simulator's drifting odometry over the true path (the truth is kept for scoring)
+  kGroundTruth,  // sim: the true camera path; replay: the dataset's poses (groundtruth.txt, trajectory.log, pose.txt)
+  kTum,          // a TUM trajectory file (`t tx ty tz qx qy qz qw`): the robot's own estimate, replayed
+  kStream,       // live pose messages on a UDP or Unix datagram socket (drivers/pose_stream)
+  kStatic,       // the robot stands still at the origin
+};
+const char* to_string(OdometrySourceKind k);
+bool odometry_source_from_string(const std::string& name, OdometrySourceKind* out);
 
 struct AppConfig {
   Driver driver = Driver::kSim;
@@ -31,9 +45,8 @@ struct AppConfig {
   double telemetry_interval_s = 1.0;
   bool ground_truth_labels = true;      // sim: the renderer's labels bypass segmentation
 
-  // The V4L2 RGB-D pair (a RealSense-style camera: aligned Z16 depth and colour nodes) and where its frames'
-  // poses come from: "static" (the robot stands still: identity) or a TUM trajectory file (world_T_camera,
-  // interpolated at each frame's sample time) until the odometry driver lands.
+  // The V4L2 RGB-D pair (a RealSense-style camera: aligned Z16 depth and colour nodes); its frames' poses come
+  // from `odometry` (static by default; a pose stream on a robot).
   struct V4l2 {
     std::string depth_device = "/dev/video0";
     std::string colour_device = "/dev/video1";
@@ -41,7 +54,6 @@ struct AppConfig {
     int height = 480;
     double fx = 0.0, fy = 0.0, cx = 0.0, cy = 0.0;  // 0: 58 degree field of view, centred
     double depth_scale_m = 0.001;
-    std::string poses = "static";
   } v4l2;
 
   // Semantic segmentation (OpenCV DNN) of keyframes without ground-truth labels. Off when model_path is empty.
@@ -67,6 +79,28 @@ struct AppConfig {
     double pause_debounce_s = 0.02;
   } gpio;
 
+  struct Odometry {
+    OdometrySourceKind source = OdometrySourceKind::kAuto;
+    // sim_drift: random walk per sqrt(metre) travelled, as qsg_simulate's default, plus optional biases.
+    double translation_sigma_m_per_sqrt_m = 0.02;
+    double yaw_sigma_rad_per_sqrt_m = 0.003;
+    double scale_bias = 0.0;
+    double yaw_bias_rad_per_m = 0.0;
+    std::uint64_t seed = 1;
+    std::string tum_path;  // tum: the estimate's file
+    // stream: "udp" (bind_address:port; loopback unless configured otherwise) or "unix" (a datagram socket path).
+    std::string stream_transport = "udp";
+    std::string stream_bind_address = "127.0.0.1";
+    int stream_port = 47800;
+    std::string stream_unix_path = "/tmp/qsg_pose.sock";
+    // A source silent this long (loop time) is a logged fault; the pipeline keeps its last state meanwhile.
+    double silence_fault_s = 1.0;
+    // The camera in the body frame the odometry reports: world_T_camera = world_T_body * body_T_camera.
+    double body_t_camera_m[3] = {0.0, 0.0, 0.0};
+    double body_q_camera_xyzw[4] = {0.0, 0.0, 0.0, 1.0};
+    runtime::PoseBufferConfig buffer;
+  } odometry;
+
   world::BuildingConfig building;
   sim::ExplorationConfig exploration;
   sim::SimCamera::Config camera;
@@ -91,6 +125,9 @@ struct AppConfig {
   bool load(const std::string& path, std::string* error);
   std::string check() const;
   void print(std::FILE* out) const;
+
+ private:
+  std::string check_odometry() const;
 };
 
 }  // namespace qsg::app

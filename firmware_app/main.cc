@@ -23,6 +23,8 @@ void usage() {
   std::printf(
       "usage: qsg_app [--config FILE] [--driver sim|replay|v4l2] [--replay TUM_FOLDER] [--output DIR] [--duration S]\n"
       "               [--realtime | --lockstep] [--seed N] [--rooms N] [--quiet]\n"
+      "               [--odometry auto|sim_drift|ground_truth|tum|stream|static] [--odometry-tum FILE]\n"
+      "               [--pose-stream udp:ADDRESS:PORT | unix:PATH]\n"
       "       qsg_app --convert SPARK_DSG_JSON OUT_JSON   (validate a scene graph and write it canonically)\n"
       "  Defaults: the simulated quadruped explores a generated 12-room building in lockstep on the board's\n"
       "  task table (%s); outputs go to qsg_output/. Every key of firmware_app/config/default.json can be set\n"
@@ -92,6 +94,36 @@ int main(int argc, char** argv) {
       config.building.seed = std::strtoull(argv[++i], nullptr, 10);
     } else if (a == "--rooms" && has_value) {
       config.building.num_rooms = std::atoi(argv[++i]);
+    } else if (a == "--odometry" && has_value) {
+      if (!app::odometry_source_from_string(argv[++i], &config.odometry.source)) {
+        std::fprintf(stderr, "qsg_app: --odometry: expected auto, sim_drift, ground_truth, tum, stream or static, got '%s'\n",
+                     argv[i]);
+        return 2;
+      }
+    } else if (a == "--odometry-tum" && has_value) {
+      config.odometry.source = app::OdometrySourceKind::kTum;
+      config.odometry.tum_path = argv[++i];
+    } else if (a == "--pose-stream" && has_value) {
+      const std::string v = argv[++i];
+      config.odometry.source = app::OdometrySourceKind::kStream;
+      const std::size_t colon = v.rfind(':');
+      if (v.rfind("unix:", 0) == 0 && v.size() > 5) {
+        config.odometry.stream_transport = "unix";
+        config.odometry.stream_unix_path = v.substr(5);
+      } else if (v.rfind("udp:", 0) == 0 && colon > 4 && colon + 1 < v.size()) {
+        config.odometry.stream_transport = "udp";
+        config.odometry.stream_bind_address = v.substr(4, colon - 4);
+        char* end = nullptr;
+        const long port = std::strtol(v.c_str() + colon + 1, &end, 10);
+        if (*end != '\0' || port < 0 || port > 65535) {
+          std::fprintf(stderr, "qsg_app: --pose-stream: bad port in '%s'\n", v.c_str());
+          return 2;
+        }
+        config.odometry.stream_port = static_cast<int>(port);
+      } else {
+        std::fprintf(stderr, "qsg_app: --pose-stream: expected udp:ADDRESS:PORT or unix:PATH, got '%s'\n", v.c_str());
+        return 2;
+      }
     } else if (a == "--quiet") {
       quiet = true;
     } else if (a == "--help" || a == "-h") {
@@ -159,6 +191,9 @@ int main(int argc, char** argv) {
   pipeline.scheduler().print_stats(stdout);
   pipeline.reconstruction().counters().print(stdout);
   pipeline.frame_queue_stats().print(stdout);
+  pipeline.odometry().print_report(stdout);
+  pipeline.frontend().agents().counters().print(stdout);
+  pipeline.frontend().agents().chain_stats().print(stdout);
   pipeline.graph().for_each_resource([](const memory::ResourceStats& s) { s.print(stdout); });
   // Online doors before the final stage replaces them (finish() has stopped the backend that owns the door set).
   const app::PipelineCounters online = pipeline.counters();

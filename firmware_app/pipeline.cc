@@ -13,6 +13,8 @@
 #include <filesystem>
 
 #include "budgets/budget_table.h"
+#include "core/backend/agent_pose_graph.h"
+#include "core/metrics/trajectory_error.h"
 #include "core/reconstruction/ply_writer.h"
 #include "core/scene_graph/spark_dsg_json.h"
 #include "drivers/gpio/gpiod_chip.h"
@@ -128,6 +130,7 @@ bool Pipeline::init(const AppConfig& config, runtime::Clock* clock, std::string*
       rc.seed = config.building.seed;
       sim_camera_ = std::make_unique<sim::SimCamera>();
       if (!sim_camera_->init(config.camera, rc, world_, tour.trajectory, error)) return false;
+      ground_truth_ = tour.trajectory;
       camera_ = sim_camera_.get();
       prefetch_outside_tasks_ = true;
       break;
@@ -153,7 +156,6 @@ bool Pipeline::init(const AppConfig& config, runtime::Clock* clock, std::string*
       sc.intrinsics = {vc.width, vc.height, vc.fx > 0 ? vc.fx : f, vc.fy > 0 ? vc.fy : f,
                        vc.cx > 0 ? vc.cx : 0.5 * vc.width - 0.5, vc.cy > 0 ? vc.cy : 0.5 * vc.height - 0.5};
       sc.depth_scale_m = static_cast<float>(vc.depth_scale_m);
-      if (vc.poses != "static" && !replay::read_tum_trajectory(vc.poses, &camera_trajectory_, error)) return false;
       v4l2_ = std::make_unique<v4l2::V4l2RgbdSource>(
           v4l2_depth_sys_ != nullptr ? *v4l2_depth_sys_ : v4l2::linux_v4l2_syscalls(),
           v4l2_colour_sys_ != nullptr ? *v4l2_colour_sys_ : v4l2::linux_v4l2_syscalls());
@@ -173,6 +175,7 @@ bool Pipeline::init(const AppConfig& config, runtime::Clock* clock, std::string*
                    (segmentation_budget != nullptr ? static_cast<int>(segmentation_budget->depth) + 2 : 0);
   frames_ = std::make_unique<drivers::RgbdFrame[]>(static_cast<std::size_t>(pool));
   frame_poses_ = std::make_unique<Eigen::Isometry3d[]>(static_cast<std::size_t>(pool));
+  frame_variances_ = std::make_unique<Eigen::Matrix<double, 6, 1>[]>(static_cast<std::size_t>(pool));
   if (!free_frames_.init(static_cast<std::uint32_t>(pool), budgets::DropPolicy::kDropNewest, nullptr, error) ||
       !keyframe_queue_.init(frames_budget->depth, frames_budget->policy, nullptr, error))
     return false;
@@ -180,7 +183,7 @@ bool Pipeline::init(const AppConfig& config, runtime::Clock* clock, std::string*
   keyframe_queue_.set_on_drop([](void* self, int&& index) { static_cast<Pipeline*>(self)->free_frames_.push(int{index}); },
                               this);
 
-  if (!init_gpio(error) || !init_segmentation(error) || !init_backend(error)) return false;
+  if (!init_odometry(error) || !init_gpio(error) || !init_segmentation(error) || !init_backend(error)) return false;
 
   // The task table.
   if (!scheduler_.init(config.scheduler, table, clock_, error)) return false;
@@ -196,6 +199,30 @@ bool Pipeline::init(const AppConfig& config, runtime::Clock* clock, std::string*
   start_ns_ = clock_->now_ns();
   next_snapshot_ns_ = start_ns_ + static_cast<std::int64_t>(config.snapshot_interval_s * 1e9);
   last_telemetry_ns_ = start_ns_;
+  return true;
+}
+
+bool Pipeline::init_odometry(std::string* error) {
+  const budgets::QueueBudget* q = find_queue(budgets::active::kTable, "odometry");
+  if (q == nullptr)
+    return *error = std::string("budget table ") + budgets::active::kTable.board + ": no 'odometry' queue", false;
+  // The camera's mount: the simulator's; a dataset's poses are the camera's own; otherwise the config's extrinsics.
+  Eigen::Isometry3d body_T_camera = Eigen::Isometry3d::Identity();
+  const AppConfig::Odometry& o = config_.odometry;
+  const bool replay_truth = config_.driver == Driver::kReplay && (o.source == OdometrySourceKind::kAuto ||
+                                                                   o.source == OdometrySourceKind::kGroundTruth);
+  if (sim_camera_ != nullptr) {
+    body_T_camera = sim_camera_->body_T_camera();
+  } else if (!replay_truth) {
+    body_T_camera.linear() = Eigen::Quaterniond(o.body_q_camera_xyzw[3], o.body_q_camera_xyzw[0], o.body_q_camera_xyzw[1],
+                                                o.body_q_camera_xyzw[2]).normalized().toRotationMatrix();
+    body_T_camera.translation() = Eigen::Vector3d(o.body_t_camera_m[0], o.body_t_camera_m[1], o.body_t_camera_m[2]);
+  }
+  if (!odometry_.init(config_, ground_truth_, body_T_camera, q->depth, static_cast<std::int64_t>(q->max_wait_us) * 1000,
+                      error))
+    return false;
+  std::printf("odometry: %s (%s), pose buffer %u samples, a frame waits up to %.0f ms for its pose\n",
+              to_string(odometry_.kind()), odometry_.source_name(), q->depth, 1e-3 * q->max_wait_us);
   return true;
 }
 
@@ -459,8 +486,12 @@ bool Pipeline::step() {
   if (sim_gpio_ != nullptr) sim_gpio_->set_time_ns(tick_start);
   if (trigger_ && !trigger_->update(tick_start)) ++counters_.gpio_failures;
   if (pause_ && !pause_->update(tick_start)) ++counters_.gpio_failures;
-  // The simulator renders outside the measured tasks: its cost is the simulation's, not the robot's.
-  if (prefetch_outside_tasks_) poll_camera();
+  // The simulator renders outside the measured tasks: its cost is the simulation's, not the robot's. Its
+  // odometry is read first, so a frame finds the pose published at its own time.
+  if (prefetch_outside_tasks_) {
+    odometry_.poll(tick_start, have_offset_, data_offset_ns_);
+    poll_camera();
+  }
   scheduler_.tick();
   if (segmenter_ != nullptr && !config_.lockstep) collect_segmented();
   if (keyframe_queue_.try_pop(&current_keyframe_)) {
@@ -502,7 +533,7 @@ void Pipeline::poll_camera() {
     if (!free_frames_.try_pop(&index)) return;  // every buffer is queued: the queue's drop policy decides
     drivers::RgbdFrame& frame = frames_[static_cast<std::size_t>(index)];
     const drivers::ReadStatus status = camera_->read(frame, 0);
-    if (status == drivers::ReadStatus::kOk && frame_pose(frame, &frame_poses_[static_cast<std::size_t>(index)])) {
+    if (status == drivers::ReadStatus::kOk) {
       ++counters_.frames_read;
       if (!config_.ground_truth_labels) frame.has_labels = false;
       if (!have_offset_) {
@@ -512,13 +543,25 @@ void Pipeline::poll_camera() {
       pending_frame_ = index;
     } else {
       if (status == drivers::ReadStatus::kEndOfStream) source_ended_ = true;
-      else if (status == drivers::ReadStatus::kOk || status == drivers::ReadStatus::kBadFrame) ++counters_.frames_bad;
+      else if (status == drivers::ReadStatus::kBadFrame) ++counters_.frames_bad;
       free_frames_.push(int{index});
     }
   }
   if (pending_frame_ < 0) return;
   const drivers::RgbdFrame& frame = frames_[static_cast<std::size_t>(pending_frame_)];
-  if (data_to_loop_ns(frame.sample_time_ns) > clock_->now_ns()) return;  // not its time yet
+  const std::int64_t due_ns = data_to_loop_ns(frame.sample_time_ns);
+  if (due_ns > clock_->now_ns()) return;  // not its time yet
+  // Its pose from the odometry at its sample time; it may wait for the odometry, up to the budget's bound.
+  const auto slot = static_cast<std::size_t>(pending_frame_);
+  const FramePose pose =
+      odometry_.frame_pose(frame.sample_time_ns, clock_->now_ns() - due_ns, &frame_poses_[slot], &frame_variances_[slot]);
+  if (pose == FramePose::kWait) return;
+  if (pose == FramePose::kDrop) {
+    ++counters_.frames_without_pose;
+    free_frames_.push(int{pending_frame_});
+    pending_frame_ = -1;
+    return;
+  }
   const int index = pending_frame_;
   pending_frame_ = -1;
   if (trigger_ && !trigger_->active() && !trigger_->fire(clock_->now_ns())) ++counters_.gpio_failures;
@@ -541,27 +584,6 @@ void Pipeline::poll_camera() {
   }
 }
 
-bool Pipeline::frame_pose(const drivers::RgbdFrame& frame, Eigen::Isometry3d* world_T_camera) const {
-  if (sim_camera_ != nullptr) return sim_camera_->camera_pose(frame.sequence, world_T_camera, nullptr);
-  if (replay_ != nullptr) {
-    replay::StampedPose pose;
-    if (!replay_->ground_truth_at(frame.sample_time_ns, &pose)) return false;
-    *world_T_camera = pose.world_T_body();
-    return true;
-  }
-  if (v4l2_ != nullptr) {
-    if (camera_trajectory_.empty()) {
-      *world_T_camera = Eigen::Isometry3d::Identity();  // "static": the robot stands still
-      return true;
-    }
-    replay::StampedPose pose;
-    if (!replay::interpolate_pose(camera_trajectory_, frame.sample_time_ns, 200000000, &pose)) return false;
-    *world_T_camera = pose.world_T_body();
-    return true;
-  }
-  return false;
-}
-
 double Pipeline::progress() const {
   if (replay_ != nullptr && replay_->size() > 0)
     return static_cast<double>(replay_->position()) / static_cast<double>(replay_->size());
@@ -577,9 +599,9 @@ void Pipeline::camera_poll_task(void* self, const runtime::TaskContext&) {
   if (!p.prefetch_outside_tasks_) p.poll_camera();
 }
 
-void Pipeline::odometry_poll_task(void*, const runtime::TaskContext&) {
-  // Simulated and replayed runs take the camera's pose with each frame; the odometry driver lands with the
-  // backend's pose graph.
+void Pipeline::odometry_poll_task(void* self, const runtime::TaskContext&) {
+  Pipeline& p = *static_cast<Pipeline*>(self);
+  p.odometry_.poll(p.clock_->now_ns(), p.have_offset_, p.data_offset_ns_);  // the loop clock, not the cost clock
 }
 
 void Pipeline::reconstruction_task(void* self, const runtime::TaskContext& c) {
@@ -620,9 +642,13 @@ void Pipeline::integrate_keyframe(const runtime::TaskContext& c) {
   latest_keyframe_ns_ = static_cast<std::uint64_t>(frame.sample_time_ns);
   // The agent layer: one node per keyframe, joined to the previous one by an odometry edge.
   std::lock_guard<std::mutex> lock(graph_mutex_);
-  if (frontend_.add_keyframe(&graph_, latest_keyframe_ns_, world_T_camera) == agents::AddResult::kAdded) {
+  const agents::AddResult added = frontend_.add_keyframe(&graph_, latest_keyframe_ns_, world_T_camera,
+                                                         frame_variances_[static_cast<std::size_t>(current_keyframe_)]);
+  if (added == agents::AddResult::kAdded) {
     ++counters_.agent_nodes;
     if (trajectory_m_.size() < trajectory_m_.capacity()) trajectory_m_.push_back(robot_m_);
+  } else if (added == agents::AddResult::kSparsified) {
+    ++counters_.agent_sparsified;
   } else {
     ++counters_.agent_refused;
   }
@@ -768,8 +794,57 @@ bool Pipeline::finish(std::string* error) {
   if (!write_file_atomically(dir + "/scene_graph.json", scene_graph::write_spark_dsg_json(graph_), error)) return false;
   if (!reconstruction::write_ply(dir + "/mesh.ply", mesh, error)) return false;
   if (!write_graph_picture(graph_, world_, trajectory_m_, dir + "/top_down.png", error)) return false;
-  std::printf("outputs: %s/scene_graph.json (%zu nodes), %s/mesh.ply (%zu vertices, %zu triangles), %s/top_down.png\n",
-              dir.c_str(), graph_.num_nodes(), dir.c_str(), mesh.vertices.size(), mesh.triangles.size(), dir.c_str());
+  if (!finish_trajectory(error)) return false;
+  std::printf("outputs: %s/scene_graph.json (%zu nodes), %s/mesh.ply (%zu vertices, %zu triangles), %s/top_down.png, "
+              "%s/trajectory_estimate.txt%s\n",
+              dir.c_str(), graph_.num_nodes(), dir.c_str(), mesh.vertices.size(), mesh.triangles.size(), dir.c_str(),
+              dir.c_str(), ground_truth_.empty() ? "" : " and trajectory_ground_truth.txt");
+  return true;
+}
+
+// The agents' pose chain: its pose graph solved (no loop closures yet: a consistency check of the odometry edges),
+// written as a TUM trajectory, and, where the truth is known (sim, replay with poses), scored against it.
+bool Pipeline::finish_trajectory(std::string* error) {
+  const agents::AgentLayer& agents = frontend_.agents();
+  std::vector<backend::Pose3> optimized;
+  pose_graph_ = backend::optimize_agent_chain(agents, {}, backend::AgentGraphConfig{}, &optimized);
+  pose_graph_.print(stdout);
+  replay::Trajectory estimate, truth;
+  std::vector<metrics::TimedPose> est, ref;
+  const Eigen::Isometry3d mount = sim_camera_ != nullptr ? sim_camera_->body_T_camera() : Eigen::Isometry3d::Identity();
+  for (std::size_t k = 0; k < agents.chain_size(); ++k) {
+    const agents::ChainNode& n = agents.chain(k);
+    const auto t_ns = static_cast<std::int64_t>(n.time_ns);
+    replay::StampedPose p;
+    p.time_ns = t_ns;
+    p.world_t_body_m = n.t_m;
+    p.world_R_body = n.q;
+    estimate.push_back(p);
+    replay::StampedPose g;
+    if (ground_truth_.empty() || !replay::interpolate_pose(ground_truth_, t_ns, INT64_MAX, &g)) continue;
+    const Eigen::Isometry3d world_T_camera = g.world_T_body() * mount;
+    truth.push_back(replay::StampedPose::from_isometry(t_ns, world_T_camera));
+    est.push_back({t_ns, n.t_m, n.q});
+    ref.push_back({t_ns, world_T_camera.translation(), Eigen::Quaterniond(world_T_camera.linear())});
+  }
+  const std::string dir = config_.output_dir;
+  if (!replay::write_tum_trajectory(dir + "/trajectory_estimate.txt", estimate, error)) return false;
+  if (truth.empty()) return true;
+  if (!replay::write_tum_trajectory(dir + "/trajectory_ground_truth.txt", truth, error)) return false;
+  // The map is built in the odometry frame from the true start: the error without alignment is what the map shows.
+  metrics::TrajectoryErrorConfig tc;
+  tc.max_time_difference_ns = 0;
+  tc.alignment = metrics::Alignment::kNone;
+  ate_unaligned_ = metrics::evaluate_trajectory(ref, est, tc);
+  tc.alignment = metrics::Alignment::kSE3;
+  const metrics::TrajectoryError aligned = metrics::evaluate_trajectory(ref, est, tc);
+  if (ate_unaligned_.ok && aligned.ok)
+    std::printf("trajectory: %zu agent poses against the truth over %.1f m: ATE RMSE %.3f m as mapped (max %.3f m), "
+                "%.3f m after SE(3) alignment; drift %.2f %% of distance (RPE over 1 m)\n",
+                ate_unaligned_.associated, ate_unaligned_.path_length_m, ate_unaligned_.ate_rmse_m,
+                ate_unaligned_.ate_max_m, aligned.ate_rmse_m, 100.0 * ate_unaligned_.rpe_translation_rmse_m_per_m);
+  else
+    std::printf("trajectory: not scored (%s)\n", ate_unaligned_.error.c_str());
   return true;
 }
 

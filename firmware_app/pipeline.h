@@ -14,7 +14,9 @@
 #include <string>
 #include <vector>
 
+#include "core/backend/agent_pose_graph.h"
 #include "core/frontend/frontend.h"
+#include "core/metrics/trajectory_error.h"
 #include "core/reconstruction/semantic_tsdf.h"
 #include "core/neural_tree/room_classifier.h"
 #include "core/rooms/online_doors.h"
@@ -29,6 +31,7 @@
 #include "drivers/sim/sim_camera.h"
 #include "drivers/world/world.h"
 #include "firmware_app/app_config.h"
+#include "firmware_app/odometry_input.h"
 #include "firmware_app/runtime/bounded_queue.h"
 #include "firmware_app/runtime/clock.h"
 #include "firmware_app/runtime/keyframe_selector.h"
@@ -39,7 +42,8 @@ namespace qsg::app {
 // Per-run totals the app prints, tests assert on, and the budget benchmark reports.
 struct PipelineCounters {
   std::uint64_t frames_read = 0;
-  std::uint64_t frames_bad = 0;           // kBadFrame from the source, or a frame without a usable pose
+  std::uint64_t frames_bad = 0;           // kBadFrame from the source
+  std::uint64_t frames_without_pose = 0;  // dropped: no odometry pose at their sample time (see OdometryCounters)
   std::uint64_t keyframes = 0;
   std::uint64_t keyframes_integrated = 0;
   std::uint64_t keyframes_refused = 0;    // reconstruction rejected the frame (counted, the run goes on)
@@ -47,6 +51,7 @@ struct PipelineCounters {
   std::uint64_t frontend_deadline_stops = 0;  // the frontend stopped at its deadline (work carried to its next run)
   std::uint64_t agent_nodes = 0;
   std::uint64_t agent_refused = 0;
+  std::uint64_t agent_sparsified = 0;     // keyframes folded into the next agent node's edge (agents::Config)
   std::uint64_t snapshots_written = 0;
   std::uint64_t snapshot_failures = 0;
   std::uint64_t heartbeat_toggles = 0;
@@ -120,6 +125,10 @@ class Pipeline {
     v4l2_colour_sys_ = colour;
   }
   const drivers::RgbdSource* camera() const { return camera_; }
+  const OdometryInput& odometry() const { return odometry_; }
+  // After finish(): the agents' pose graph solve, and the trajectory error against the truth (ok == false without).
+  const backend::AgentGraphResult& pose_graph() const { return pose_graph_; }
+  const metrics::TrajectoryError& trajectory_error() const { return ate_unaligned_; }
   void set_run_observer(runtime::Scheduler::RunObserver observer, void* user) {
     scheduler_.set_run_observer(observer, user);
   }
@@ -148,7 +157,8 @@ class Pipeline {
   void integrate_keyframe(const runtime::TaskContext& c);
   void update_frontend(const runtime::TaskContext& c);
   std::int64_t data_to_loop_ns(std::int64_t sample_time_ns) const { return sample_time_ns + data_offset_ns_; }
-  bool frame_pose(const drivers::RgbdFrame& frame, Eigen::Isometry3d* world_T_camera) const;
+  bool init_odometry(std::string* error);
+  bool finish_trajectory(std::string* error);
 
   AppConfig config_;
   runtime::Clock* clock_ = nullptr;
@@ -160,7 +170,10 @@ class Pipeline {
   std::unique_ptr<sim::SimCamera> sim_camera_;
   std::unique_ptr<replay::TumReplay> replay_;
   std::unique_ptr<v4l2::V4l2RgbdSource> v4l2_;
-  replay::Trajectory camera_trajectory_;  // v4l2: poses from a TUM file (empty: static)
+  replay::Trajectory ground_truth_;  // sim: the true body path; replay: the dataset's camera poses (may be empty)
+  OdometryInput odometry_;
+  backend::AgentGraphResult pose_graph_;
+  metrics::TrajectoryError ate_unaligned_;
   v4l2::V4l2Syscalls* v4l2_depth_sys_ = nullptr;
   v4l2::V4l2Syscalls* v4l2_colour_sys_ = nullptr;
   drivers::RgbdSource* camera_ = nullptr;
@@ -169,9 +182,10 @@ class Pipeline {
   // Frame buffers: the camera reads into a free one; keyframes wait in the queue for reconstruction.
   std::unique_ptr<drivers::RgbdFrame[]> frames_;
   std::unique_ptr<Eigen::Isometry3d[]> frame_poses_;
+  std::unique_ptr<Eigen::Matrix<double, 6, 1>[]> frame_variances_;  // the odometry's covariance diagonal per frame
   runtime::BoundedQueue<int> free_frames_{"free_frames"};
   runtime::BoundedQueue<int> keyframe_queue_{"frames"};
-  int pending_frame_ = -1;        // read from the source, waiting for its time on the loop clock
+  int pending_frame_ = -1;        // read from the source, waiting for its time on the loop clock (and its pose)
   int current_keyframe_ = -1;     // popped for this keyframe's tasks
   std::int64_t data_offset_ns_ = 0;
   bool have_offset_ = false;

@@ -14,10 +14,19 @@ std::string Config::check() const {
   if (!std::islower(static_cast<unsigned char>(prefix)))
     return "prefix must be a lower-case letter (the robot's partition; 'p' is taken by places)";
   if (prefix == scene_graph::kPlacePrefix) return "prefix 'p' is the places layer's";
+  if (!(min_translation_m >= 0.0 && min_translation_m <= 100.0)) return "min_translation_m must be in [0, 100]";
+  if (!(min_rotation_rad >= 0.0 && min_rotation_rad <= 3.1416)) return "min_rotation_rad must be in [0, pi]";
+  if (!(max_interval_s > 0.0 && max_interval_s <= 3600.0)) return "max_interval_s must be in (0, 3600]";
+  if (!(fold_at_fraction >= 0.5 && fold_at_fraction <= 1.0)) return "fold_at_fraction must be in [0.5, 1]";
   return {};
 }
 
-void Config::print(std::FILE* out) const { std::fprintf(out, "agents: prefix='%c'\n", prefix); }
+void Config::print(std::FILE* out) const {
+  std::fprintf(out,
+               "agents: prefix='%c', a node every %.2f m or %.1f deg or %.1f s; the older half thinned at %.0f %% of "
+               "the store\n",
+               prefix, min_translation_m, min_rotation_rad * 180.0 / M_PI, max_interval_s, 100.0 * fold_at_fraction);
+}
 
 Capacities capacities_from_budget() {
   Capacities c;
@@ -26,13 +35,16 @@ Capacities capacities_from_budget() {
 }
 
 void Counters::print(std::FILE* out) const {
-  std::fprintf(out, "agents: keyframes=%" PRIu64 " rejected time=%" PRIu64 " full=%" PRIu64 " pose=%" PRIu64 "\n",
-               keyframes, rejected_time, rejected_full, rejected_pose);
+  std::fprintf(out,
+               "agents: nodes added=%" PRIu64 " keyframes sparsified=%" PRIu64 " nodes folded=%" PRIu64
+               " (in %" PRIu64 " passes) rejected time=%" PRIu64 " full=%" PRIu64 " pose=%" PRIu64 "\n",
+               keyframes, sparsified, folded, fold_passes, rejected_time, rejected_full, rejected_pose);
 }
 
 const char* to_string(AddResult r) {
   switch (r) {
     case AddResult::kAdded: return "added";
+    case AddResult::kSparsified: return "sparsified (too close to the last node)";
     case AddResult::kTimeNotIncreasing: return "timestamp not after the previous keyframe";
     case AddResult::kFull: return "full";
     case AddResult::kBadPose: return "non-finite pose";
@@ -53,8 +65,47 @@ bool AgentLayer::init(const Config& config, const Capacities& capacities, std::s
   }
   config_ = config;
   capacities_ = capacities;
+  chain_ = std::make_unique<ChainNode[]>(capacities.keyframes);
+  chain_size_ = chain_high_water_ = 0;
   ready_ = true;
   return true;
+}
+
+memory::ResourceStats AgentLayer::chain_stats() const {
+  memory::ResourceStats s;
+  s.name = "agents.chain";
+  s.unit = "nodes";
+  s.capacity = capacities_.keyframes;
+  s.in_use = chain_size_;
+  s.high_water = chain_high_water_;
+  s.failed = counters_.rejected_full;
+  return s;
+}
+
+// Folds every second node of the chain's older half (never the first, which anchors the map) into the odometry
+// edge between its neighbours. O(chain) and allocation-free; runs once per (1 - fold_at_fraction / 2 ...) of the
+// capacity, so its cost per keyframe is constant.
+void AgentLayer::fold_older_half(scene_graph::SceneGraph* graph) {
+  const std::size_t half = chain_size_ / 2;
+  std::size_t kept = 1;
+  for (std::size_t i = 1; i < chain_size_; ++i) {
+    const bool fold = i < half && i % 2 == 1;
+    if (!fold) {
+      chain_[kept++] = chain_[i];
+      continue;
+    }
+    // Its neighbours: the last kept node and the next one (i + 1 is kept: odd indices fold, i + 1 is even).
+    const scene_graph::NodeId prev = chain_[kept - 1].id, next = chain_[i + 1].id;
+    graph->remove_node(chain_[i].id);  // its odometry edges and its place edge go with it
+    if (graph->has_node(prev) && graph->has_node(next)) {
+      scene_graph::EdgeAttributes odometry;
+      odometry.weight = 1.0;
+      graph->add_edge(prev, next, odometry);  // fits: the removal freed two edges
+    }
+    ++counters_.folded;
+  }
+  chain_size_ = kept;
+  ++counters_.fold_passes;
 }
 
 void AgentLayer::log_rejection(const char* why, std::uint64_t count) const {
@@ -73,20 +124,34 @@ std::size_t free_of(const scene_graph::SceneGraph& graph, const char* name) {
 }  // namespace
 
 AddResult AgentLayer::add_keyframe(scene_graph::SceneGraph* graph, std::uint64_t timestamp_ns,
-                                   const Eigen::Isometry3d& world_T_body, std::uint64_t external_key) {
+                                   const Eigen::Isometry3d& world_T_body, std::uint64_t external_key,
+                                   const Eigen::Matrix<double, 6, 1>& variance) {
   if (!ready_ || graph == nullptr || !graph->initialized()) return AddResult::kNotInitialized;
   if (next_index_ > 0 && timestamp_ns <= last_time_ns_) {
     log_rejection(to_string(AddResult::kTimeNotIncreasing), ++counters_.rejected_time);
     return AddResult::kTimeNotIncreasing;
   }
-  if (!world_T_body.matrix().allFinite()) {
+  if (!world_T_body.matrix().allFinite() || !variance.allFinite()) {
     log_rejection(to_string(AddResult::kBadPose), ++counters_.rejected_pose);
     return AddResult::kBadPose;
   }
+  const Eigen::Quaterniond q(world_T_body.linear());
+  if (chain_size_ > 0) {
+    const ChainNode& last = chain_[chain_size_ - 1];
+    const bool moved = (world_T_body.translation() - last.t_m).norm() >= config_.min_translation_m;
+    const bool turned = last.q.angularDistance(q) >= config_.min_rotation_rad;
+    const bool waited = 1e-9 * static_cast<double>(timestamp_ns - last.time_ns) >= config_.max_interval_s;
+    if (!moved && !turned && !waited) {
+      ++counters_.sparsified;
+      return AddResult::kSparsified;
+    }
+  }
+  if (static_cast<double>(chain_size_) >= config_.fold_at_fraction * static_cast<double>(capacities_.keyframes))
+    fold_older_half(graph);
   // Check every store first, so a refusal never reaches the graph (whose debug policy is to abort).
   const scene_graph::Capacities& gc = graph->capacities();
   const bool need_edge = last_node_ != scene_graph::kNoNode && graph->has_node(last_node_);
-  const bool fits = next_index_ < capacities_.keyframes &&
+  const bool fits = chain_size_ < capacities_.keyframes &&
                     graph->num_nodes(scene_graph::NodeKind::kAgent) < gc.agent_nodes && graph->num_nodes() < gc.nodes() &&
                     (!need_edge || (graph->num_edges() < gc.edges && free_of(*graph, "scene_graph.adjacency_chunks") >= 2));
   if (!fits) {
@@ -110,6 +175,13 @@ AddResult AgentLayer::add_keyframe(scene_graph::SceneGraph* graph, std::uint64_t
     odometry.weight = 1.0;
     graph->add_edge(last_node_, id, odometry);  // fits: checked above
   }
+  ChainNode& c = chain_[chain_size_++];
+  c.id = id;
+  c.time_ns = timestamp_ns;
+  c.t_m = world_T_body.translation();
+  c.q = q.normalized();
+  c.variance = variance;
+  if (chain_size_ > chain_high_water_) chain_high_water_ = chain_size_;
   ++next_index_;
   ++counters_.keyframes;
   last_node_ = id;

@@ -1,11 +1,17 @@
 // Layer 2 agents: the robot's keyframes as agent nodes (pose, timestamp) joined by odometry edges in the scene
-// graph's agent partition, with bounded capacity and rejected (counted) out-of-order timestamps.
+// graph's agent partition, with bounded capacity and rejected (counted) out-of-order timestamps. The layer keeps
+// each node's odometric pose and covariance (the pose chain a pose graph optimizes) and sparsifies the chain so
+// that a mission of any length fits the store: see Config.
 #pragma once
 
+#include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <cstdint>
 #include <cstdio>
+#include <memory>
 #include <string>
+
+#include "core/memory/resource_stats.h"
 
 #include "core/scene_graph/node_id.h"
 
@@ -15,8 +21,17 @@ class SceneGraph;
 
 namespace qsg::agents {
 
+// Sparsification policy. A keyframe becomes an agent node when the body moved min_translation_m or turned
+// min_rotation_rad since the last node, or max_interval_s passed (a robot standing still); the others are folded
+// into the odometry edge between their neighbours. When the chain holds fold_at_fraction of its capacity, every
+// second node of its older half is folded the same way (its odometry edges composed into one, its other edges
+// dropped): the oldest part of the trajectory gets sparser, the store never fills, memory stays flat.
 struct Config {
   char prefix = scene_graph::kDefaultAgentPrefix;  // the robot's partition of layer 2 ('a', 'b', ...)
+  double min_translation_m = 0.25;
+  double min_rotation_rad = 0.2618;  // 15 degrees
+  double max_interval_s = 10.0;
+  double fold_at_fraction = 0.9;
   std::string check() const;                        // empty when usable, else the bad field and why
   void print(std::FILE* out) const;
 };
@@ -28,14 +43,27 @@ struct Capacities {
 Capacities capacities_from_budget();
 
 struct Counters {
-  std::uint64_t keyframes = 0;
+  std::uint64_t keyframes = 0;       // agent nodes added
+  std::uint64_t sparsified = 0;      // keyframes too close to the last node: folded into the next node's edge
+  std::uint64_t folded = 0;          // nodes folded out of the older half of the chain when it filled
+  std::uint64_t fold_passes = 0;
   std::uint64_t rejected_time = 0;   // timestamp not after the previous keyframe's
   std::uint64_t rejected_full = 0;   // capacity reached, or the graph's stores are full
   std::uint64_t rejected_pose = 0;   // non-finite pose
   void print(std::FILE* out) const;
 };
 
-enum class AddResult : std::uint8_t { kAdded, kTimeNotIncreasing, kFull, kBadPose, kNotInitialized };
+enum class AddResult : std::uint8_t { kAdded, kSparsified, kTimeNotIncreasing, kFull, kBadPose, kNotInitialized };
+
+// One node of the pose chain: the odometric pose it was added with (never moved by optimization) and the diagonal
+// of the odometry's covariance there ([t (m^2); r (rad^2)], growing with distance).
+struct ChainNode {
+  scene_graph::NodeId id = scene_graph::kNoNode;
+  std::uint64_t time_ns = 0;
+  Eigen::Vector3d t_m = Eigen::Vector3d::Zero();
+  Eigen::Quaterniond q = Eigen::Quaterniond::Identity();
+  Eigen::Matrix<double, 6, 1> variance = Eigen::Matrix<double, 6, 1>::Zero();
+};
 const char* to_string(AddResult r);
 
 class AgentLayer {
@@ -43,19 +71,28 @@ class AgentLayer {
   bool init(const Config& config, const Capacities& capacities, std::string* error);
 
   // Adds keyframe node make_node_id(prefix, k) for the k-th accepted keyframe with its pose and time, and an
-  // odometry edge from the previous keyframe. Never allocates; rejections are counted (and logged sparsely).
+  // odometry edge from the previous node; or sparsifies it (kSparsified, see Config). `variance` is the odometry's
+  // covariance diagonal at the keyframe (zero when unknown). Never allocates; rejections are counted (and logged
+  // sparsely).
   AddResult add_keyframe(scene_graph::SceneGraph* graph, std::uint64_t timestamp_ns, const Eigen::Isometry3d& world_T_body,
-                         std::uint64_t external_key = 0);
+                         std::uint64_t external_key = 0,
+                         const Eigen::Matrix<double, 6, 1>& variance = Eigen::Matrix<double, 6, 1>::Zero());
 
   scene_graph::NodeId last_node() const { return last_node_; }
   std::uint64_t last_timestamp_ns() const { return last_time_ns_; }
   std::size_t num_keyframes() const { return static_cast<std::size_t>(next_index_); }
+  // The id the k-th added node had (it may have been folded since: check the graph).
   scene_graph::NodeId node_of(std::size_t k) const { return scene_graph::make_node_id(config_.prefix, k); }
+  // The live pose chain, oldest first.
+  std::size_t chain_size() const { return chain_size_; }
+  const ChainNode& chain(std::size_t i) const { return chain_[i]; }
+  memory::ResourceStats chain_stats() const;
   const Config& config() const { return config_; }
   const Counters& counters() const { return counters_; }
 
  private:
   void log_rejection(const char* why, std::uint64_t count) const;
+  void fold_older_half(scene_graph::SceneGraph* graph);
 
   Config config_;
   Capacities capacities_;
@@ -64,6 +101,9 @@ class AgentLayer {
   std::uint64_t last_time_ns_ = 0;
   std::uint64_t next_index_ = 0;
   bool ready_ = false;
+  std::unique_ptr<ChainNode[]> chain_;
+  std::size_t chain_size_ = 0;
+  std::size_t chain_high_water_ = 0;
 };
 
 }  // namespace qsg::agents

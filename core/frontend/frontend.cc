@@ -51,8 +51,9 @@ bool Frontend::init(const Config& config, std::string* error) {
 }
 
 agents::AddResult Frontend::add_keyframe(scene_graph::SceneGraph* graph, std::uint64_t timestamp_ns,
-                                         const Eigen::Isometry3d& world_T_body) {
-  return agents_.add_keyframe(graph, timestamp_ns, world_T_body);
+                                         const Eigen::Isometry3d& world_T_body,
+                                         const Eigen::Matrix<double, 6, 1>& variance) {
+  return agents_.add_keyframe(graph, timestamp_ns, world_T_body, 0, variance);
 }
 
 UpdateSummary Frontend::update(const reconstruction::SemanticTsdf& tsdf, const Eigen::Vector3d& robot_m,
@@ -111,7 +112,8 @@ void Frontend::connect_interlayer(scene_graph::SceneGraph* graph, const Eigen::V
   });
   const std::size_t keyframes = agents_.num_keyframes();
   std::size_t k = agents_connected_;
-  for (; k < keyframes && !connect_nodes_.full(); ++k) connect_nodes_.push_back(agents_.node_of(k));
+  for (; k < keyframes && !connect_nodes_.full(); ++k)
+    if (graph->has_node(agents_.node_of(k))) connect_nodes_.push_back(agents_.node_of(k));  // not folded away
   // Keyframes connected before whose place has since been removed.
   constexpr std::size_t kOrphanChecksPerUpdate = 4096;
   for (std::size_t checked = 0;

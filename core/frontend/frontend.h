@@ -84,7 +84,8 @@ class Frontend {
   }
   // Every keyframe.
   agents::AddResult add_keyframe(scene_graph::SceneGraph* graph, std::uint64_t timestamp_ns,
-                                 const Eigen::Isometry3d& world_T_body);
+                                 const Eigen::Isometry3d& world_T_body,
+                                 const Eigen::Matrix<double, 6, 1>& variance = Eigen::Matrix<double, 6, 1>::Zero());
   // Every Nth keyframe: objects, then places until the deadline; when a places cycle completes, both are synced
   // and the inter-layer edges are refreshed.
   UpdateSummary update(const reconstruction::SemanticTsdf& tsdf, const Eigen::Vector3d& robot_m,

@@ -38,6 +38,8 @@ class SimCamera : public drivers::RgbdSource {
   std::size_t num_frames() const { return num_frames_; }
   // Ground truth: the optical-frame pose and sample time of frame `sequence` (false past the end).
   bool camera_pose(std::uint64_t sequence, Eigen::Isometry3d* world_T_camera, std::int64_t* time_ns) const;
+  // The camera's mount on the body (the trajectory's frame): world_T_camera = world_T_body * body_T_camera.
+  const Eigen::Isometry3d& body_T_camera() const { return body_T_camera_; }
   const replay::Trajectory& trajectory() const { return trajectory_; }
   const render::Renderer& renderer() const { return renderer_; }
 
