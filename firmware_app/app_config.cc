@@ -106,12 +106,18 @@ bool AppConfig::load(const std::string& path, std::string* error) {
                              why);
        }},
       {"exploration", [&](const Json& v, std::string* why) {
-         return read_section(v, "exploration",
-                             {{"camera_height_m", number(&exploration.camera_height_m)},
-                              {"speed_m_s", number(&exploration.speed_m_s)},
-                              {"spin_in_rooms", boolean(&exploration.spin_in_rooms)},
-                              {"return_to_start", boolean(&exploration.return_to_start)}},
-                             why);
+         double tours = exploration.tours;
+         if (!read_section(v, "exploration",
+                           {{"camera_height_m", number(&exploration.camera_height_m)},
+                            {"speed_m_s", number(&exploration.speed_m_s)},
+                            {"spin_in_rooms", boolean(&exploration.spin_in_rooms)},
+                            {"return_to_start", boolean(&exploration.return_to_start)},
+                            {"tours", number(&tours)}},
+                           why))
+           return false;
+         if (!whole_number_in(tours, 1.0, 100000.0)) return *why = "exploration.tours: expected an integer 1 .. 100000", false;
+         exploration.tours = static_cast<std::int32_t>(tours);
+         return true;
        }},
       {"camera", [&](const Json& v, std::string* why) {
          int width = camera.intrinsics.width, height = camera.intrinsics.height;

@@ -91,7 +91,7 @@ struct AppConfig {
     // stream: "udp" (bind_address:port; loopback unless configured otherwise) or "unix" (a datagram socket path).
     std::string stream_transport = "udp";
     std::string stream_bind_address = "127.0.0.1";
-    int stream_port = 47800;
+    int stream_port = 47600;
     std::string stream_unix_path = "/tmp/qsg_pose.sock";
     // A source silent this long (loop time) is a logged fault; the pipeline keeps its last state meanwhile.
     double silence_fault_s = 1.0;

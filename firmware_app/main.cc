@@ -22,7 +22,7 @@ void on_signal(int) { g_stop = 1; }
 void usage() {
   std::printf(
       "usage: qsg_app [--config FILE] [--driver sim|replay|v4l2] [--replay TUM_FOLDER] [--output DIR] [--duration S]\n"
-      "               [--realtime | --lockstep] [--seed N] [--rooms N] [--quiet]\n"
+      "               [--realtime | --lockstep] [--seed N] [--rooms N] [--tours N] [--quiet]\n"
       "               [--odometry auto|sim_drift|ground_truth|tum|stream|static] [--odometry-tum FILE]\n"
       "               [--pose-stream udp:ADDRESS:PORT | unix:PATH]\n"
       "       qsg_app --convert SPARK_DSG_JSON OUT_JSON   (validate a scene graph and write it canonically)\n"
@@ -94,6 +94,8 @@ int main(int argc, char** argv) {
       config.building.seed = std::strtoull(argv[++i], nullptr, 10);
     } else if (a == "--rooms" && has_value) {
       config.building.num_rooms = std::atoi(argv[++i]);
+    } else if (a == "--tours" && has_value) {
+      config.exploration.tours = std::atoi(argv[++i]);
     } else if (a == "--odometry" && has_value) {
       if (!app::odometry_source_from_string(argv[++i], &config.odometry.source)) {
         std::fprintf(stderr, "qsg_app: --odometry: expected auto, sim_drift, ground_truth, tum, stream or static, got '%s'\n",

@@ -39,6 +39,20 @@ double peak_rss_mb() {
   getrusage(RUSAGE_SELF, &usage);
   return static_cast<double>(usage.ru_maxrss) / 1024.0;
 }
+
+// Resident set now (not the peak), from /proc/self/statm without allocating; 0 where it cannot be read.
+double rss_mb() {
+  const int fd = ::open("/proc/self/statm", O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return 0.0;
+  char text[128];
+  const ssize_t n = ::read(fd, text, sizeof(text) - 1);
+  ::close(fd);
+  if (n <= 0) return 0.0;
+  text[n] = '\0';
+  unsigned long long size_pages = 0, resident_pages = 0;
+  if (std::sscanf(text, "%llu %llu", &size_pages, &resident_pages) != 2) return 0.0;
+  return static_cast<double>(resident_pages) * static_cast<double>(::sysconf(_SC_PAGESIZE)) / 1048576.0;
+}
 }  // namespace
 
 bool write_file_atomically(const std::string& path, const std::string& text, std::string* error) {
@@ -726,13 +740,20 @@ void Pipeline::print_telemetry(std::FILE* out) {
   std::fprintf(out,
                "[t=%7.1fs] kf/s=%.1f keyframes=%llu | max_us recon=%lld frontend=%lld overruns=%zu | blocks=%zu/%zu "
                "archive=%zu tri | graph nodes=%zu rooms=%llu | frames queue hw=%u drops=%llu | driver drops=%llu stalls=%llu "
-               "bad=%llu | gpio fail=%llu%s | fullest store %s hw %zu/%zu, refused %llu | rss=%.0f MB\n",
+               "bad=%llu | gpio fail=%llu%s | fullest store %s hw %zu/%zu, refused %llu | odometry %s rejected=%llu "
+               "gaps=%llu silences=%llu frames without pose=%llu | agents %zu/%zu (folded %llu) | rss=%.0f MB "
+               "(peak %.0f)\n",
                t_s, kf_per_s, (unsigned long long)counters_.keyframes, (long long)(recon ? recon->max_us : 0),
                (long long)(front ? front->max_us : 0), overruns, tsdf_.active_blocks(), tsdf_.capacities().max_blocks,
                tsdf_.archive_triangles(), graph_nodes, (unsigned long long)rooms_count_.load(), q.high_water, (unsigned long long)q.dropped,
                (unsigned long long)d.dropped, (unsigned long long)d.stalls, (unsigned long long)d.bad_frames,
                (unsigned long long)counters_.gpio_failures, paused() ? " PAUSED" : "", fullest.name, fullest.high_water,
-               fullest.capacity, (unsigned long long)refused, peak_rss_mb());
+               fullest.capacity, (unsigned long long)refused, odometry_.source_name(),
+               (unsigned long long)odometry_.buffer().counters().rejected(),
+               (unsigned long long)odometry_.buffer().counters().gaps, (unsigned long long)odometry_.counters().silences,
+               (unsigned long long)counters_.frames_without_pose, frontend_.agents().chain_size(),
+               frontend_.agents().chain_stats().capacity, (unsigned long long)frontend_.agents().counters().folded,
+               rss_mb(), peak_rss_mb());
   ++counters_.telemetry_lines;
 }
 

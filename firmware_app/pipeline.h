@@ -126,6 +126,8 @@ class Pipeline {
   }
   const drivers::RgbdSource* camera() const { return camera_; }
   const OdometryInput& odometry() const { return odometry_; }
+  // sim: the true body path of the tour; replay: the dataset's camera poses (empty when it has none).
+  const replay::Trajectory& ground_truth() const { return ground_truth_; }
   // After finish(): the agents' pose graph solve, and the trajectory error against the truth (ok == false without).
   const backend::AgentGraphResult& pose_graph() const { return pose_graph_; }
   const metrics::TrajectoryError& trajectory_error() const { return ate_unaligned_; }

@@ -424,16 +424,18 @@ std::string ExplorationConfig::check() const {
   if (!(preferred_clearance_m > 0.0)) return "preferred_clearance_m must be positive";
   if (!(peek_range_m > 0.0 && peek_range_m <= 20.0)) return "peek_range_m must be in (0, 20]";
   if (!(peek_sweep_deg >= 0.0 && peek_sweep_deg <= 180.0)) return "peek_sweep_deg must be in [0, 180]";
+  if (tours < 1 || tours > 100000) return "tours must be in [1, 100000]";
+  if (tours > 1 && !return_to_start) return "tours > 1 needs return_to_start";
   return {};
 }
 
 void ExplorationConfig::print(std::FILE* out) const {
   std::fprintf(out,
                "exploration: resolution %.3f m, robot radius %.2f m, max step %.2f m, camera height %.2f m, "
-               "speed %.2f m/s, yaw rate %.2f rad/s, %.1f Hz, spin in rooms %s, return to start %s, start room %d, "
-               "look into unreachable rooms %s (range %.1f m, sweep +-%.0f deg)\n",
+               "speed %.2f m/s, yaw rate %.2f rad/s, %.1f Hz, spin in rooms %s, return to start %s, %d tour(s), "
+               "start room %d, look into unreachable rooms %s (range %.1f m, sweep +-%.0f deg)\n",
                resolution_m, robot_radius_m, max_step_m, camera_height_m, speed_m_s, yaw_rate_rad_s, rate_hz,
-               spin_in_rooms ? "yes" : "no", return_to_start ? "yes" : "no", start_room,
+               spin_in_rooms ? "yes" : "no", return_to_start ? "yes" : "no", tours, start_room,
                look_into_unreachable_rooms ? "yes" : "no", peek_range_m, peek_sweep_deg);
 }
 
@@ -630,7 +632,25 @@ ExplorationResult plan_exploration(const world::World& world, const render::RayS
       if (!look_in(k + 1)) return result.error = kNoPath, result;
     }
   }
-  result.length_m = sampler.length_m();
+  if (config.tours > 1 && !result.trajectory.empty()) {
+    // Back at the start: face the first heading again, then walk the same tour again (times shifted by one tour).
+    const Eigen::Quaterniond& q0 = result.trajectory.front().world_R_body;
+    sampler.turn_to(std::atan2(2.0 * (q0.w() * q0.z() + q0.x() * q0.y()), 1.0 - 2.0 * (q0.y() * q0.y() + q0.z() * q0.z())));
+    const std::size_t n = result.trajectory.size();
+    const std::int64_t period_ns = result.trajectory.back().time_ns - result.trajectory.front().time_ns +
+                                   static_cast<std::int64_t>(std::llround(1e9 / config.rate_hz));
+    const double one_tour_m = sampler.length_m();
+    result.trajectory.reserve(n * static_cast<std::size_t>(config.tours));
+    for (std::int32_t tour = 1; tour < config.tours; ++tour)
+      for (std::size_t i = 0; i < n; ++i) {
+        replay::StampedPose p = result.trajectory[i];
+        p.time_ns += tour * period_ns;
+        result.trajectory.push_back(p);
+      }
+    result.length_m = one_tour_m * config.tours;
+  } else {
+    result.length_m = sampler.length_m();
+  }
   result.duration_s = result.trajectory.empty()
                           ? 0.0
                           : 1e-9 * static_cast<double>(result.trajectory.back().time_ns - result.trajectory.front().time_ns);

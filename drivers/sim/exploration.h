@@ -38,6 +38,9 @@ struct ExplorationConfig {
   double peek_range_m = 4.0;         // within the TSDF's integration range (core/reconstruction: 4.5 m)
   double peek_sweep_deg = 45.0;
   bool return_to_start = true;
+  // The same tour walked this many times in a row (a long mission; needs return_to_start): the robot turns back to
+  // its starting heading at the end of each.
+  std::int32_t tours = 1;
   std::int32_t start_room = -1;      // -1: the room with the lowest id that has free space
   std::int64_t start_time_ns = 0;
 
