@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 
@@ -22,11 +23,13 @@ Eigen::Isometry3d pose(double x, double yaw) {
   return T;
 }
 
+// Sparsification off (every keyframe moved "far enough"), unless a test sets it.
 AgentLayer make_layer(std::size_t keyframes = 100, char prefix = 'a') {
   AgentLayer layer;
   std::string error;
   Config c;
   c.prefix = prefix;
+  c.min_translation_m = 0.0;
   EXPECT_TRUE(layer.init(c, Capacities{keyframes}, &error)) << error;
   return layer;
 }
@@ -101,6 +104,63 @@ TEST(AgentLayerTest, AddingKeyframesDoesNotAllocate) {
   EXPECT_EQ(scene_graph::node_prefix(layer.last_node()), 'b');
 }
 
+TEST(AgentLayerTest, KeyframesCloserThanThePolicyAreFoldedIntoTheNextNode) {
+  auto graph = scene_graph::testing::make_graph();
+  AgentLayer layer;
+  std::string error;
+  Config c;  // defaults: 0.25 m, 15 degrees, 10 s
+  ASSERT_TRUE(layer.init(c, Capacities{100}, &error)) << error;
+  ASSERT_EQ(layer.add_keyframe(graph.get(), 1, pose(0.0, 0.0)), AddResult::kAdded);
+  EXPECT_EQ(layer.add_keyframe(graph.get(), 2, pose(0.1, 0.0)), AddResult::kSparsified);
+  EXPECT_EQ(layer.add_keyframe(graph.get(), 3, pose(0.2, 0.0)), AddResult::kSparsified);
+  EXPECT_EQ(layer.add_keyframe(graph.get(), 4, pose(0.3, 0.0)), AddResult::kAdded);   // moved 0.3 m
+  EXPECT_EQ(layer.add_keyframe(graph.get(), 5, pose(0.3, 0.3)), AddResult::kAdded);   // turned 17 degrees
+  const std::uint64_t s_ns = 1'000'000'000;
+  EXPECT_EQ(layer.add_keyframe(graph.get(), 5 + 9 * s_ns, pose(0.3, 0.3)), AddResult::kSparsified);
+  EXPECT_EQ(layer.add_keyframe(graph.get(), 5 + 11 * s_ns, pose(0.3, 0.3)), AddResult::kAdded);  // stood 11 s
+  EXPECT_EQ(layer.counters().sparsified, 3u);
+  EXPECT_EQ(layer.chain_size(), 4u);
+  EXPECT_EQ(graph->num_nodes(scene_graph::NodeKind::kAgent), 4u);
+  EXPECT_TRUE(graph->has_edge(make_node_id('a', 0), make_node_id('a', 1))) << "the chain joins the kept nodes";
+  EXPECT_NEAR(layer.chain(1).t_m.x(), 0.3, 1e-12);
+}
+
+// An 8-hour mission at 0.5 m/s adds far more nodes than any store holds: the chain folds its older half and never
+// refuses, the graph's agent store never fills, and the chain stays one connected path.
+TEST(AgentLayerTest, AFullChainFoldsItsOlderHalfAndNeverRefuses) {
+  scene_graph::Capacities gc = scene_graph::testing::small_capacities();
+  gc.agent_nodes = 64;
+  auto graph = scene_graph::testing::make_graph(gc);
+  AgentLayer layer = make_layer(64);
+  Eigen::Matrix<double, 6, 1> variance = Eigen::Matrix<double, 6, 1>::Zero();
+  std::size_t max_agents = 0;
+  EXPECT_NO_ALLOCATIONS({
+    for (int k = 0; k < 1000; ++k) {
+      variance.setConstant(1e-4 * k);
+      ASSERT_EQ(layer.add_keyframe(graph.get(), 100 + k, pose(0.5 * k, 0.0), 0, variance), AddResult::kAdded) << k;
+      max_agents = std::max(max_agents, graph->num_nodes(scene_graph::NodeKind::kAgent));
+    }
+  });
+  EXPECT_EQ(layer.counters().rejected_full, 0u);
+  EXPECT_GT(layer.counters().fold_passes, 10u);
+  EXPECT_LE(max_agents, 64u);
+  EXPECT_EQ(layer.chain_stats().high_water, 64u * 9 / 10 + 1);
+  // The first node anchors the map; the newest is the last; times increase along the chain; consecutive chain
+  // nodes are joined in the graph and no folded node is left in it.
+  ASSERT_GT(layer.chain_size(), 2u);
+  EXPECT_EQ(layer.chain(0).id, make_node_id('a', 0));
+  EXPECT_EQ(layer.chain(layer.chain_size() - 1).id, layer.last_node());
+  for (std::size_t i = 1; i < layer.chain_size(); ++i) {
+    EXPECT_LT(layer.chain(i - 1).time_ns, layer.chain(i).time_ns);
+    EXPECT_TRUE(graph->has_edge(layer.chain(i - 1).id, layer.chain(i).id)) << i;
+  }
+  EXPECT_EQ(graph->num_nodes(scene_graph::NodeKind::kAgent), layer.chain_size());
+  EXPECT_EQ(graph->num_edges(), layer.chain_size() - 1);
+  // The oldest part is the sparsest: spacing grows towards the start.
+  EXPECT_GT(layer.chain(1).t_m.x() - layer.chain(0).t_m.x(),
+            layer.chain(layer.chain_size() - 1).t_m.x() - layer.chain(layer.chain_size() - 2).t_m.x());
+}
+
 TEST(AgentLayerTest, BadConfigIsRejectedClearly) {
   AgentLayer layer;
   std::string error;
@@ -113,6 +173,14 @@ TEST(AgentLayerTest, BadConfigIsRejectedClearly) {
   EXPECT_NE(error.find("places"), std::string::npos) << error;
   EXPECT_FALSE(layer.init(Config{}, Capacities{0}, &error));
   EXPECT_NE(error.find("keyframes"), std::string::npos) << error;
+  c = Config{};
+  c.fold_at_fraction = 0.2;
+  EXPECT_FALSE(layer.init(c, Capacities{10}, &error));
+  EXPECT_NE(error.find("fold_at_fraction"), std::string::npos) << error;
+  c = Config{};
+  c.min_translation_m = -1.0;
+  EXPECT_FALSE(layer.init(c, Capacities{10}, &error));
+  EXPECT_NE(error.find("min_translation_m"), std::string::npos) << error;
   auto graph = scene_graph::testing::make_graph();
   EXPECT_EQ(layer.add_keyframe(graph.get(), 1, pose(0, 0)), AddResult::kNotInitialized);
   EXPECT_GT(capacities_from_budget().keyframes, 0u);

@@ -1,0 +1,182 @@
+// The app maps from odometry: the simulator's drift by default, ground truth, a TUM estimate, a live pose stream
+// from qsg_pose_send; frames without a pose are dropped and counted; bad odometry config is refused by name.
+#include <gtest/gtest.h>
+
+#include <spawn.h>
+#include <sys/wait.h>
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "drivers/replay/trajectory.h"
+#include "firmware_app/pipeline.h"
+
+extern char** environ;
+
+namespace qsg::app {
+namespace {
+
+AppConfig small_config(const std::string& name) {
+  AppConfig c;
+  c.output_dir = ::testing::TempDir() + "/qsg_odometry_" + name;
+  c.building.num_rooms = 4;
+  c.building.seed = 3;
+  c.camera.intrinsics = {160, 120, 131.25, 131.25, 79.5, 59.5};
+  c.snapshot_interval_s = 1e6;
+  c.telemetry_interval_s = 1e6;
+  return c;
+}
+
+void run_to_end(Pipeline& p) {
+  while (p.step()) {
+  }
+  std::string error;
+  ASSERT_TRUE(p.finish(&error)) << error;
+}
+
+TEST(OdometryPipelineTest, TheSimulatedRobotMapsFromDriftingOdometryByDefault) {
+  runtime::SteppedClock clock;
+  Pipeline p;
+  std::string error;
+  ASSERT_TRUE(p.init(small_config("drift"), &clock, &error)) << error;
+  EXPECT_EQ(p.odometry().kind(), OdometrySourceKind::kSimDrift);
+  run_to_end(p);
+  EXPECT_GT(p.counters().keyframes_integrated, 100u);
+  EXPECT_EQ(p.counters().frames_without_pose, 0u);
+  EXPECT_EQ(p.odometry().buffer().counters().rejected(), 0u);
+  // Scored against the truth the simulator kept: the map was built from poses that drift.
+  const metrics::TrajectoryError& e = p.trajectory_error();
+  ASSERT_TRUE(e.ok) << e.error;
+  EXPECT_GT(e.ate_rmse_m, 0.01);
+  EXPECT_LT(e.ate_rmse_m, 2.0);
+  EXPECT_EQ(e.associated, p.frontend().agents().chain_size());
+  // The pose graph holds the sparsified chain; with no loop closure the odometry is already consistent.
+  EXPECT_EQ(p.pose_graph().nodes, p.frontend().agents().chain_size());
+  EXPECT_EQ(p.pose_graph().odometry_edges + 1, p.pose_graph().nodes);
+  EXPECT_TRUE(p.pose_graph().solve.poses_updated()) << p.pose_graph().solve.message;
+  EXPECT_LT(p.pose_graph().solve.final_cost, 1e-9);
+  EXPECT_GT(p.counters().agent_sparsified, 0u);
+  EXPECT_TRUE(std::filesystem::exists(small_config("drift").output_dir + "/trajectory_estimate.txt"));
+  EXPECT_TRUE(std::filesystem::exists(small_config("drift").output_dir + "/trajectory_ground_truth.txt"));
+}
+
+TEST(OdometryPipelineTest, GroundTruthAndATumFileOfItMapWithoutError) {
+  AppConfig c = small_config("gt");
+  c.odometry.source = OdometrySourceKind::kGroundTruth;
+  runtime::SteppedClock clock;
+  Pipeline p;
+  std::string error;
+  ASSERT_TRUE(p.init(c, &clock, &error)) << error;
+  const std::string tum = c.output_dir + "/body_truth.txt";
+  ASSERT_TRUE(replay::write_tum_trajectory(tum, p.ground_truth(), &error)) << error;
+  run_to_end(p);
+  ASSERT_TRUE(p.trajectory_error().ok) << p.trajectory_error().error;
+  EXPECT_LT(p.trajectory_error().ate_max_m, 1e-6);
+
+  // The same path replayed from a file as the robot's estimate (TUM keeps 4 decimals of a second, 0.1 mm).
+  AppConfig t = small_config("tum");
+  t.odometry.source = OdometrySourceKind::kTum;
+  t.odometry.tum_path = tum;
+  runtime::SteppedClock clock2;
+  Pipeline q;
+  ASSERT_TRUE(q.init(t, &clock2, &error)) << error;
+  run_to_end(q);
+  EXPECT_EQ(q.odometry().kind(), OdometrySourceKind::kTum);
+  ASSERT_TRUE(q.trajectory_error().ok) << q.trajectory_error().error;
+  EXPECT_LT(q.trajectory_error().ate_max_m, 0.002);
+  EXPECT_GE(q.counters().keyframes_integrated + 2, p.counters().keyframes_integrated);
+}
+
+TEST(OdometryPipelineTest, FramesPastTheEndOfTheOdometryAreDroppedAndCounted) {
+  AppConfig c = small_config("short");
+  runtime::SteppedClock clock0;
+  Pipeline probe;
+  std::string error;
+  ASSERT_TRUE(probe.init(c, &clock0, &error)) << error;
+  replay::Trajectory half(probe.ground_truth().begin(),
+                          probe.ground_truth().begin() + static_cast<std::ptrdiff_t>(probe.ground_truth().size() / 2));
+  const std::string tum = c.output_dir + "/first_half.txt";
+  ASSERT_TRUE(replay::write_tum_trajectory(tum, half, &error)) << error;
+  c.odometry.source = OdometrySourceKind::kTum;
+  c.odometry.tum_path = tum;
+  runtime::SteppedClock clock;
+  Pipeline p;
+  ASSERT_TRUE(p.init(c, &clock, &error)) << error;
+  run_to_end(p);
+  EXPECT_GT(p.counters().frames_without_pose, 100u);
+  EXPECT_EQ(p.counters().frames_without_pose, p.odometry().counters().frames_dropped());
+  EXPECT_GT(p.counters().keyframes_integrated, 50u) << "what had a pose was mapped";
+}
+
+TEST(OdometryPipelineTest, BadOdometryConfigIsRefusedByName) {
+  AppConfig c = small_config("bad");
+  c.odometry.source = OdometrySourceKind::kTum;
+  EXPECT_NE(c.check().find("tum_path"), std::string::npos) << c.check();
+  c = small_config("bad");
+  c.driver = Driver::kV4l2;
+  c.odometry.source = OdometrySourceKind::kSimDrift;
+  EXPECT_NE(c.check().find("sim_drift"), std::string::npos) << c.check();
+  c = small_config("bad");
+  c.odometry.stream_transport = "tcp";
+  EXPECT_NE(c.check().find("stream_transport"), std::string::npos) << c.check();
+  c = small_config("bad");
+  c.odometry.body_q_camera_xyzw[3] = 2.0;
+  EXPECT_NE(c.check().find("body_q_camera_xyzw"), std::string::npos) << c.check();
+  c = small_config("bad");
+  c.odometry.buffer.max_speed_m_per_s = 0.0;
+  EXPECT_NE(c.check().find("max_speed_m_per_s"), std::string::npos) << c.check();
+  // A missing TUM file stops start-up with its name.
+  c = small_config("bad");
+  c.odometry.source = OdometrySourceKind::kTum;
+  c.odometry.tum_path = "/nonexistent/estimate.txt";
+  runtime::SteppedClock clock;
+  Pipeline p;
+  std::string error;
+  EXPECT_FALSE(p.init(c, &clock, &error));
+  EXPECT_NE(error.find("/nonexistent/estimate.txt"), std::string::npos) << error;
+}
+
+// End to end on the host: the app listens on a Unix datagram socket, qsg_pose_send streams the tour's true body
+// path at its own timestamps, the app (on the wall clock) maps from it.
+TEST(OdometryPipelineTest, ALivePoseStreamFromQsgPoseSendFeedsTheMap) {
+  AppConfig c = small_config("stream");
+  runtime::SteppedClock probe_clock;
+  Pipeline probe;
+  std::string error;
+  ASSERT_TRUE(probe.init(c, &probe_clock, &error)) << error;
+  const std::string tum = c.output_dir + "/body_truth.txt";
+  ASSERT_TRUE(replay::write_tum_trajectory(tum, probe.ground_truth(), &error)) << error;
+
+  c.lockstep = false;
+  c.duration_s = 4.0;
+  c.odometry.source = OdometrySourceKind::kStream;
+  c.odometry.stream_transport = "unix";
+  c.odometry.stream_unix_path = c.output_dir + "/pose.sock";
+  runtime::WallClock clock;
+  Pipeline p;
+  ASSERT_TRUE(p.init(c, &clock, &error)) << error;
+  std::vector<std::string> args = {QSG_POSE_SEND_PATH, tum, "--unix", c.odometry.stream_unix_path, "--speed", "1"};
+  std::vector<char*> argv;
+  for (std::string& a : args) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  pid_t pid = 0;
+  ASSERT_EQ(::posix_spawn(&pid, argv[0], nullptr, nullptr, argv.data(), environ), 0);
+  while (p.step()) {
+  }
+  ASSERT_TRUE(p.finish(&error)) << error;
+  ::kill(pid, SIGTERM);
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  EXPECT_EQ(p.odometry().kind(), OdometrySourceKind::kStream);
+  EXPECT_GT(p.odometry().counters().samples_read, 60u);
+  EXPECT_EQ(p.odometry().counters().source_bad, 0u);
+  EXPECT_GT(p.counters().keyframes_integrated, 10u);
+  // The sender starts a moment after the app: at most the first frames find no pose.
+  EXPECT_LE(p.counters().frames_without_pose, 3u);
+  ASSERT_TRUE(p.trajectory_error().ok) << p.trajectory_error().error;
+  EXPECT_LT(p.trajectory_error().ate_max_m, 0.01);
+}
+
+}  // namespace
+}  // namespace qsg::app
