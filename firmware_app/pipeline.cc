@@ -133,12 +133,14 @@ bool Pipeline::init(const AppConfig& config, runtime::Clock* clock, std::string*
       break;
     }
     case Driver::kReplay: {
-      replay::TumReplay::Config rc;
-      rc.require_groundtruth = true;  // the pose of each frame comes from groundtruth.txt
-      replay_ = std::make_unique<replay::TumReplay>();
-      if (!replay_->open(config.replay_path, rc, error)) return false;
-      std::printf("replay: %s, %zu frames\n", config.replay_path.c_str(), replay_->size());
-      camera_ = replay_.get();
+      replay::DatasetReplayConfig rc = config.replay;
+      rc.path = config.replay_path;
+      replay_ = std::make_unique<replay::DatasetReplay>();
+      if (!replay_->open(rc, error)) return false;
+      replay_->print(stdout);
+      if (replay_->ground_truth().empty())
+        std::printf("replay: NOTICE: the dataset has no poses; frames without one are skipped (counted as bad)\n");
+      camera_ = &replay_->camera();
       prefetch_outside_tasks_ = true;
       break;
     }
@@ -545,7 +547,9 @@ bool Pipeline::frame_pose(const drivers::RgbdFrame& frame, Eigen::Isometry3d* wo
   if (sim_camera_ != nullptr) return sim_camera_->camera_pose(frame.sequence, world_T_camera, nullptr);
   if (replay_ != nullptr) {
     replay::StampedPose pose;
-    if (!replay_->ground_truth_at(frame.sample_time_ns, &pose)) return false;
+    if (!replay::interpolate_pose(replay_->ground_truth(), frame.sample_time_ns, replay_->ground_truth_max_gap_ns(),
+                                  &pose))
+      return false;
     *world_T_camera = pose.world_T_body();
     return true;
   }
