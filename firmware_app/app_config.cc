@@ -264,6 +264,18 @@ bool AppConfig::load(const std::string& path, std::string* error) {
                               {"min_rotation_rad", number(&keyframes.min_rotation_rad)}},
                              why);
        }},
+      {"replay", [&](const Json& v, std::string* why) {
+         return read_section(v, "replay",
+                             {{"format", text(&replay.format)},
+                              {"calibration", text(&replay.calibration)},
+                              {"fx", number(&replay.fx)},
+                              {"fy", number(&replay.fy)},
+                              {"cx", number(&replay.cx)},
+                              {"cy", number(&replay.cy)},
+                              {"depth_scale_m", number(&replay.depth_scale_m)},
+                              {"frame_period_s", number(&replay.frame_period_s)}},
+                             why);
+       }},
       {"v4l2", [&](const Json& v, std::string* why) {
          return read_section(v, "v4l2",
                              {{"depth_device", text(&v4l2.depth_device)},
@@ -382,6 +394,7 @@ bool odometry_source_from_string(const std::string& name, OdometrySourceKind* ou
 
 std::string AppConfig::check() const {
   if (driver == Driver::kReplay && replay_path.empty()) return "driver replay needs replay_path";
+  if (const std::string r = replay.check(); !r.empty()) return "replay." + r;
   if (driver == Driver::kV4l2 && (v4l2.width < 16 || v4l2.height < 16 || v4l2.width > 640 || v4l2.height > 480))
     return "v4l2: width x height must be within 16x16 .. 640x480";
   if (driver == Driver::kV4l2 && !(v4l2.depth_scale_m > 0.0)) return "v4l2.depth_scale_m must be > 0";
@@ -442,6 +455,11 @@ void AppConfig::print(std::FILE* out) const {
                to_string(driver), driver == Driver::kReplay ? " replay_path=" : "",
                driver == Driver::kReplay ? replay_path.c_str() : "", output_dir.c_str(), duration_s, lockstep ? 1 : 0,
                snapshot_interval_s, telemetry_interval_s, ground_truth_labels ? 1 : 0);
+  if (driver == Driver::kReplay) {
+    replay::DatasetReplayConfig r = replay;
+    r.path = replay_path;
+    r.print(out);
+  }
   if (driver == Driver::kV4l2)
     std::fprintf(out, "v4l2: depth=%s colour=%s %dx%d depth_scale_m=%.5f\n", v4l2.depth_device.c_str(),
                  v4l2.colour_device.c_str(), v4l2.width, v4l2.height, v4l2.depth_scale_m);

@@ -10,6 +10,7 @@
 #include "core/reconstruction/semantic_tsdf.h"
 #include "core/rooms/door_detector.h"
 #include "core/rooms/room_finder.h"
+#include "drivers/replay/dataset_replay.h"
 #include "drivers/sim/exploration.h"
 #include "drivers/sim/sim_camera.h"
 #include "drivers/world/building_generator.h"
@@ -37,13 +38,17 @@ bool odometry_source_from_string(const std::string& name, OdometrySourceKind* ou
 
 struct AppConfig {
   Driver driver = Driver::kSim;
-  std::string replay_path;              // replay: a TUM RGB-D folder (rgb.txt, depth.txt, groundtruth.txt)
+  std::string replay_path;              // replay: a TUM RGB-D, Redwood or pose-list folder (drivers/replay/README.md)
   std::string output_dir = "qsg_output";
   double duration_s = 0.0;              // data time to run; 0 = until the source ends
   bool lockstep = true;                 // stepped clock, one thread; false = wall clock and worker threads
   double snapshot_interval_s = 10.0;    // scene-graph snapshots by atomic replace (loop time)
   double telemetry_interval_s = 1.0;
   bool ground_truth_labels = true;      // sim: the renderer's labels bypass segmentation
+
+  // Replay: the dataset's format and camera (its path is replay_path, which replay.path does not replace). fx, fy,
+  // cx, cy and depth_scale_m of 0 come from the dataset: its calibration file, else the format's default.
+  replay::DatasetReplayConfig replay;
 
   // The V4L2 RGB-D pair (a RealSense-style camera: aligned Z16 depth and colour nodes); its frames' poses come
   // from `odometry` (static by default; a pose stream on a robot).

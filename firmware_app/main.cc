@@ -21,14 +21,15 @@ void on_signal(int) { g_stop = 1; }
 
 void usage() {
   std::printf(
-      "usage: qsg_app [--config FILE] [--driver sim|replay|v4l2] [--replay TUM_FOLDER] [--output DIR] [--duration S]\n"
-      "               [--realtime | --lockstep] [--seed N] [--rooms N] [--tours N] [--quiet]\n"
+      "usage: qsg_app [--config FILE] [--driver sim|replay|v4l2] [--replay FOLDER [--calibration FILE]] [--output DIR]\n"
+      "               [--duration S] [--realtime | --lockstep] [--seed N] [--rooms N] [--tours N] [--quiet]\n"
       "               [--odometry auto|sim_drift|ground_truth|tum|stream|static] [--odometry-tum FILE]\n"
       "               [--pose-stream udp:ADDRESS:PORT | unix:PATH]\n"
       "       qsg_app --convert SPARK_DSG_JSON OUT_JSON   (validate a scene graph and write it canonically)\n"
       "  Defaults: the simulated quadruped explores a generated 12-room building in lockstep on the board's\n"
       "  task table (%s); outputs go to qsg_output/. Every key of firmware_app/config/default.json can be set\n"
-      "  in --config; the flags override it.\n",
+      "  in --config; the flags override it. With --driver replay, --replay is a TUM RGB-D, Redwood or pose-list\n"
+      "  folder; its camera comes from --calibration, else calibration.json beside the frames.\n",
       budgets::active::kBoard);
 }
 
@@ -82,6 +83,8 @@ int main(int argc, char** argv) {
       }
     } else if (a == "--replay" && has_value) {
       config.replay_path = argv[++i];
+    } else if (a == "--calibration" && has_value) {
+      config.replay.calibration = argv[++i];
     } else if (a == "--output" && has_value) {
       config.output_dir = argv[++i];
     } else if (a == "--duration" && has_value) {

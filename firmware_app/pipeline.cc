@@ -150,12 +150,15 @@ bool Pipeline::init(const AppConfig& config, runtime::Clock* clock, std::string*
       break;
     }
     case Driver::kReplay: {
-      replay::TumReplay::Config rc;
-      rc.require_groundtruth = true;  // the pose of each frame comes from groundtruth.txt
-      replay_ = std::make_unique<replay::TumReplay>();
-      if (!replay_->open(config.replay_path, rc, error)) return false;
-      std::printf("replay: %s, %zu frames\n", config.replay_path.c_str(), replay_->size());
-      camera_ = replay_.get();
+      replay::DatasetReplayConfig rc = config.replay;
+      rc.path = config.replay_path;
+      replay_ = std::make_unique<replay::DatasetReplay>();
+      if (!replay_->open(rc, error)) return false;
+      replay_->print(stdout);
+      ground_truth_ = replay_->ground_truth();  // the dataset's camera poses: an odometry source, and the truth
+      if (ground_truth_.empty())
+        std::printf("replay: NOTICE: the dataset has no poses: give the odometry (odometry.source tum or stream)\n");
+      camera_ = &replay_->camera();
       prefetch_outside_tasks_ = true;
       break;
     }

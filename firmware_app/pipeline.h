@@ -26,7 +26,7 @@
 #include "drivers/gpio/gpio_devices.h"
 #include "drivers/gpio/gpio_line.h"
 #include "drivers/gpio/sim_gpio.h"
-#include "drivers/replay/tum_replay.h"
+#include "drivers/replay/dataset_replay.h"
 #include "drivers/v4l2/v4l2_rgbd_source.h"
 #include "drivers/sim/sim_camera.h"
 #include "drivers/world/world.h"
@@ -170,7 +170,7 @@ class Pipeline {
 
   world::World world_;
   std::unique_ptr<sim::SimCamera> sim_camera_;
-  std::unique_ptr<replay::TumReplay> replay_;
+  std::unique_ptr<replay::DatasetReplay> replay_;
   std::unique_ptr<v4l2::V4l2RgbdSource> v4l2_;
   replay::Trajectory ground_truth_;  // sim: the true body path; replay: the dataset's camera poses (may be empty)
   OdometryInput odometry_;

@@ -430,7 +430,9 @@ bool SemanticTsdf::integrate(const drivers::RgbdFrame& frame, const Eigen::Isome
   // Allocation: pixels on a grid whose spacing spans at most one voxel at maximum range, each allocating the
   // blocks at the start, middle and end of its truncation band (the band, 2 x truncation, is shorter than a
   // block, so three samples touch every block it crosses).
-  const int stride = std::max(1, static_cast<int>(config_.voxel_size_m * std::min(in.fx, in.fy) / config_.max_range_m));
+  // |fy|: a negative fy (ICL-NUIM's image y axis points up) is as fine a grid as a positive one.
+  const int stride =
+      std::max(1, static_cast<int>(config_.voxel_size_m * std::min(in.fx, std::abs(in.fy)) / config_.max_range_m));
   const Eigen::Matrix3d R = world_T_camera.linear();
   for (int v = 0; v < in.height; v += stride) {
     for (int u = 0; u < in.width; u += stride) {

@@ -94,6 +94,25 @@ bool ImageListReplay::install(const char* name, std::vector<FrameFiles> frames, 
     }
     return false;
   }
+  if (!settings.size_from_first_frame) {
+    // Decoding one image is the only way to know its size; the first readable one stands for the folder.
+    for (const FrameFiles& f : frames_) {
+      if (!file_exists(f.depth_path)) continue;
+      const cv::Mat depth = read_image(f.depth_path, cv::IMREAD_UNCHANGED);
+      if (depth.empty()) continue;
+      if (depth.cols != intrinsics_.width || depth.rows != intrinsics_.height) {
+        if (error) {
+          *error = listed_at(settings.depth_list_name, f.depth_line) + "depth image '" + f.depth_path + "' is " +
+                   std::to_string(depth.cols) + "x" + std::to_string(depth.rows) + " but the intrinsics" +
+                   (intrinsics_source_.empty() ? std::string() : " (" + intrinsics_source_ + ")") +
+                   " are for " + std::to_string(intrinsics_.width) + "x" + std::to_string(intrinsics_.height) +
+                   " images";
+        }
+        return false;
+      }
+      break;
+    }
+  }
   return true;
 }
 
@@ -108,6 +127,13 @@ ImageListReplay::Outcome ImageListReplay::fail(Outcome outcome, const char* what
   return outcome;
 }
 
+ImageListReplay::Outcome ImageListReplay::wrong_size(const char* what, const std::string& path, int width,
+                                                     int height) {
+  std::snprintf(last_error_, sizeof(last_error_), "%s: %s is %dx%d, the intrinsics are for %dx%d", path.c_str(), what,
+                width, height, intrinsics_.width, intrinsics_.height);
+  return Outcome::kCorrupt;
+}
+
 ImageListReplay::Outcome ImageListReplay::decode(const FrameFiles& files, drivers::RgbdFrame& frame) {
   const int w = intrinsics_.width;
   const int h = intrinsics_.height;
@@ -119,9 +145,7 @@ ImageListReplay::Outcome ImageListReplay::decode(const FrameFiles& files, driver
     if (depth.type() != CV_16UC1) {
       return fail(Outcome::kCorrupt, "depth image is not 16-bit single channel", files.depth_path);
     }
-    if (depth.cols != w || depth.rows != h) {
-      return fail(Outcome::kCorrupt, "depth image has the wrong size", files.depth_path);
-    }
+    if (depth.cols != w || depth.rows != h) return wrong_size("depth image", files.depth_path, depth.cols, depth.rows);
     const float scale = depth_scale_m_;
     for (int v = 0; v < h; ++v) {
       const std::uint16_t* row = depth.ptr<std::uint16_t>(v);
@@ -136,9 +160,8 @@ ImageListReplay::Outcome ImageListReplay::decode(const FrameFiles& files, driver
     if (!file_exists(files.rgb_path)) return fail(Outcome::kMissing, "colour image missing", files.rgb_path);
     const cv::Mat bgr = read_image(files.rgb_path, cv::IMREAD_COLOR);
     if (bgr.empty()) return fail(Outcome::kCorrupt, "colour image cannot be decoded", files.rgb_path);
-    if (bgr.cols != w || bgr.rows != h || bgr.type() != CV_8UC3) {
-      return fail(Outcome::kCorrupt, "colour image has the wrong size", files.rgb_path);
-    }
+    if (bgr.cols != w || bgr.rows != h) return wrong_size("colour image", files.rgb_path, bgr.cols, bgr.rows);
+    if (bgr.type() != CV_8UC3) return fail(Outcome::kCorrupt, "colour image is not 8-bit", files.rgb_path);
     for (int v = 0; v < h; ++v) {
       const std::uint8_t* row = bgr.ptr<std::uint8_t>(v);
       std::uint8_t* out = frame.rgb.data() + static_cast<std::size_t>(v) * w * 3;

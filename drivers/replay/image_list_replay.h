@@ -8,6 +8,7 @@
 
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "drivers/sources.h"
@@ -46,6 +47,9 @@ class ImageListReplay : public drivers::RgbdSource {
   const std::vector<FrameFiles>& frames() const { return frames_; }
   // Starts over from the first frame (counters kept; the first frame after a rewind is not flagged backwards).
   void rewind();
+  // Where the intrinsics come from ("calibration /data/x/calibration.json", "the TUM default camera"), named in
+  // open's size error; set before open.
+  void set_intrinsics_source(std::string source) { intrinsics_source_ = std::move(source); }
   // Why the last skipped frame was skipped, naming the file ("" if none was skipped).
   const char* last_error() const { return last_error_; }
 
@@ -61,14 +65,18 @@ class ImageListReplay : public drivers::RgbdSource {
     std::string labels_list_name;
   };
   // Installs the frame list; called by the dataset-specific open(). False with an error naming file and line.
+  // When the size is not taken from the first frame, the first readable depth image must have it: a frame of
+  // another size is a camera the intrinsics do not describe, refused naming the file and both sizes.
   bool install(const char* name, std::vector<FrameFiles> frames, const ListSettings& settings, std::string* error);
 
  private:
   enum class Outcome { kOk, kMissing, kCorrupt };
   Outcome decode(const FrameFiles& files, drivers::RgbdFrame& frame);
   Outcome fail(Outcome outcome, const char* what, const std::string& path);
+  Outcome wrong_size(const char* what, const std::string& path, int width, int height);
 
   const char* name_ = "replay";
+  std::string intrinsics_source_;
   std::vector<FrameFiles> frames_;
   drivers::CameraIntrinsics intrinsics_;
   float depth_scale_m_ = 0.001f;

@@ -12,11 +12,11 @@ void PoseListReplay::Config::print(std::FILE* out) const {
   std::fprintf(out,
                "PoseListReplay: intrinsics %dx%d fx=%g fy=%g cx=%g cy=%g depth_scale_m=%g color=%s/<i>%s "
                "depth=%s/<i>%s first_index=%d pose_file='%s' frame_period_ns=%" PRId64 " publish_latency_ns=%" PRId64
-               " check_files_at_open=%d\n",
+               " check_files_at_open=%d size_from_first_frame=%d\n",
                intrinsics.width, intrinsics.height, intrinsics.fx, intrinsics.fy, intrinsics.cx, intrinsics.cy,
                static_cast<double>(depth_scale_m), color_dir.c_str(), color_ext.c_str(), depth_dir.c_str(),
                depth_ext.c_str(), first_index, pose_file.c_str(), frame_period_ns, publish_latency_ns,
-               check_files_at_open);
+               check_files_at_open, size_from_first_frame);
 }
 
 bool PoseListReplay::open(const std::string& folder, const Config& config, std::string* error) {
@@ -40,7 +40,7 @@ bool PoseListReplay::open(const std::string& folder, const Config& config, std::
   trajectory_odometry_.reset(std::move(trajectory), "pose_list_trajectory");
   ListSettings settings;
   settings.intrinsics = config.intrinsics;
-  settings.size_from_first_frame = false;
+  settings.size_from_first_frame = config.size_from_first_frame;
   settings.depth_scale_m = config.depth_scale_m;
   settings.publish_latency_ns = config.publish_latency_ns;
   settings.check_files_at_open = config.check_files_at_open;

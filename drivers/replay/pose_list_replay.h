@@ -26,6 +26,7 @@ class PoseListReplay : public ImageListReplay {
     std::int64_t frame_period_ns = 33'333'333;
     std::int64_t publish_latency_ns = 0;
     bool check_files_at_open = true;
+    bool size_from_first_frame = false;  // width/height from the first depth image instead of `intrinsics`
     void print(std::FILE* out) const;
   };
 

@@ -4,11 +4,9 @@
 #include <algorithm>
 #include <cinttypes>
 #include <filesystem>
-#include <fstream>
-#include <nlohmann/json.hpp>
-#include <sstream>
 #include <system_error>
 
+#include "drivers/replay/camera_calibration.h"
 #include "drivers/replay/text_parse.h"
 
 namespace qsg::replay {
@@ -38,65 +36,9 @@ std::vector<std::string> list_images(const std::string& folder, const std::strin
 
 bool read_camera_intrinsics_json(const std::string& path, drivers::CameraIntrinsics* intrinsics,
                                  std::string* error) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) {
-    if (error) *error = path + ": cannot open";
-    return false;
-  }
-  std::ostringstream text;
-  text << in.rdbuf();
-  nlohmann::json doc;
-  try {
-    doc = nlohmann::json::parse(text.str());
-  } catch (const nlohmann::json::exception& e) {
-    if (error) *error = path + ": " + e.what();
-    return false;
-  }
-  const nlohmann::json* cam = &doc;
-  if (doc.is_object() && !doc.contains("intrinsic_matrix") && doc.contains("intrinsic") && doc["intrinsic"].is_object()) {
-    cam = &doc["intrinsic"];
-  }
-  if (!cam->is_object()) {
-    if (error) *error = path + ": expected a JSON object";
-    return false;
-  }
-  const auto integer_field = [&](const char* key, int* value) {
-    if (!cam->contains(key) || !(*cam)[key].is_number_integer()) {
-      if (error) *error = path + ": field '" + key + "': expected an integer";
-      return false;
-    }
-    *value = (*cam)[key].get<int>();
-    return true;
-  };
-  drivers::CameraIntrinsics k;
-  if (!integer_field("width", &k.width) || !integer_field("height", &k.height)) return false;
-  if (!cam->contains("intrinsic_matrix") || !(*cam)["intrinsic_matrix"].is_array() ||
-      (*cam)["intrinsic_matrix"].size() != 9) {
-    if (error) *error = path + ": field 'intrinsic_matrix': expected an array of 9 numbers (column-major 3x3)";
-    return false;
-  }
-  double m[9];
-  for (std::size_t i = 0; i < 9; ++i) {
-    const nlohmann::json& v = (*cam)["intrinsic_matrix"][i];
-    if (!v.is_number()) {
-      if (error) *error = path + ": field 'intrinsic_matrix[" + std::to_string(i) + "]': expected a number";
-      return false;
-    }
-    m[i] = v.get<double>();
-  }
-  // Column-major: m[0] = K(0,0), m[4] = K(1,1), m[6] = K(0,2), m[7] = K(1,2).
-  k.fx = m[0];
-  k.fy = m[4];
-  k.cx = m[6];
-  k.cy = m[7];
-  if (!k.valid()) {
-    if (error) {
-      *error = path + ": intrinsics invalid or larger than the frame buffers (" + std::to_string(k.width) + "x" +
-               std::to_string(k.height) + ", fx " + std::to_string(k.fx) + ", fy " + std::to_string(k.fy) + ")";
-    }
-    return false;
-  }
-  *intrinsics = k;
+  CameraCalibration calibration;
+  if (!read_camera_calibration(path, &calibration, error)) return false;
+  *intrinsics = calibration.intrinsics;
   return true;
 }
 
@@ -104,10 +46,10 @@ void RedwoodReplay::Config::print(std::FILE* out) const {
   std::fprintf(out,
                "RedwoodReplay: intrinsics %dx%d fx=%g fy=%g cx=%g cy=%g camera_json='%s' trajectory_log='%s' "
                "match_list='%s' depth_scale_m=%g frame_period_ns=%" PRId64 " publish_latency_ns=%" PRId64
-               " check_files_at_open=%d\n",
+               " check_files_at_open=%d size_from_first_frame=%d\n",
                intrinsics.width, intrinsics.height, intrinsics.fx, intrinsics.fy, intrinsics.cx, intrinsics.cy,
                camera_json.c_str(), trajectory_log.c_str(), match_list.c_str(), static_cast<double>(depth_scale_m),
-               frame_period_ns, publish_latency_ns, check_files_at_open);
+               frame_period_ns, publish_latency_ns, check_files_at_open, size_from_first_frame);
 }
 
 bool RedwoodReplay::open(const std::string& folder, const Config& config, std::string* error) {
@@ -169,7 +111,7 @@ bool RedwoodReplay::open(const std::string& folder, const Config& config, std::s
       frames.push_back(std::move(f));
     }
   }
-  settings.size_from_first_frame = false;  // the camera file (or config) states the size; frames must match it
+  settings.size_from_first_frame = config.size_from_first_frame;
   settings.depth_scale_m = config.depth_scale_m;
   settings.publish_latency_ns = config.publish_latency_ns;
   settings.check_files_at_open = config.check_files_at_open;

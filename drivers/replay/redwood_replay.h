@@ -14,6 +14,7 @@ namespace qsg::replay {
 
 // Open3D camera JSON: {"width": w, "height": h, "intrinsic_matrix": [9 numbers, column-major]} (also accepted
 // nested under "intrinsic", as in Open3D's PinholeCameraTrajectory files). Errors name the file and field.
+// The intrinsics of read_camera_calibration (camera_calibration.h), without the depth scale.
 bool read_camera_intrinsics_json(const std::string& path, drivers::CameraIntrinsics* intrinsics, std::string* error);
 
 class RedwoodReplay : public ImageListReplay {
@@ -27,6 +28,7 @@ class RedwoodReplay : public ImageListReplay {
     std::int64_t frame_period_ns = 33'333'333;      // Redwood has no stamps: frame i is sampled at i * period
     std::int64_t publish_latency_ns = 0;
     bool check_files_at_open = true;
+    bool size_from_first_frame = false;  // width/height from the first depth image instead of `intrinsics`
     void print(std::FILE* out) const;
   };
 

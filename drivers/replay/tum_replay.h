@@ -70,8 +70,9 @@ class TumReplay : public ImageListReplay {
 };
 
 // Writes frames and poses as a TUM RGB-D folder: rgb/<t>.png (8-bit colour), depth/<t>.png (16-bit, value =
-// round(depth_m / depth_scale_m), 0 = no return), optional labels/<t>.png (16-bit) listed in labels.txt, and
-// groundtruth.txt. Not for the real-time path: encoding allocates.
+// round(depth_m / depth_scale_m), 0 = no return), optional labels/<t>.png (16-bit) listed in labels.txt,
+// groundtruth.txt, and calibration.json (camera_calibration.h) with the first frame's camera and the depth scale;
+// frames from another camera are refused. Not for the real-time path: encoding allocates.
 class TumWriter {
  public:
   struct Config {
@@ -109,6 +110,8 @@ class TumWriter {
   std::FILE* groundtruth_ = nullptr;
   bool have_last_time_ = false;
   std::int64_t last_time_ns_ = 0;
+  bool have_camera_ = false;
+  drivers::CameraIntrinsics camera_;
   Stats stats_;
 };
 

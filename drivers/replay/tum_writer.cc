@@ -5,6 +5,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <system_error>
 
+#include "drivers/replay/camera_calibration.h"
 #include "drivers/replay/text_parse.h"
 #include "drivers/replay/tum_replay.h"
 
@@ -47,6 +48,7 @@ bool TumWriter::open(const std::string& folder, const Config& config, std::strin
   folder_ = folder;
   stats_ = Stats{};
   have_last_time_ = false;
+  have_camera_ = false;
   if (!(config.depth_scale_m > 0.0f)) return fail(folder + ": depth scale must be positive", error);
   for (const char* sub : {"", "rgb", "depth", "labels"}) {
     std::error_code ec;
@@ -68,6 +70,7 @@ bool TumWriter::open(const std::string& folder, const Config& config, std::strin
   // A stale labels.txt from an earlier run would pair old label images with new frames.
   std::error_code ec;
   std::filesystem::remove(join_path(folder, "labels.txt"), ec);
+  std::filesystem::remove(join_path(folder, kCalibrationFileName), ec);  // written with the first frame
   return true;
 }
 
@@ -76,6 +79,26 @@ bool TumWriter::write_frame(const drivers::RgbdFrame& frame, std::string* error)
   const int w = frame.width();
   const int h = frame.height();
   if (!frame.intrinsics.valid()) return fail("TumWriter: frame has invalid intrinsics", error);
+  // The first frame's camera goes into calibration.json, so the folder replays with the camera that took it; a TUM
+  // folder has one camera, so a frame from another is refused.
+  const drivers::CameraIntrinsics& k = frame.intrinsics;
+  if (!have_camera_) {
+    CameraCalibration calibration;
+    calibration.intrinsics = k;
+    calibration.depth_scale_m = config_.depth_scale_m;
+    if (!write_camera_calibration(join_path(folder_, kCalibrationFileName), calibration, error)) return false;
+    camera_ = k;
+    have_camera_ = true;
+  } else if (k.width != camera_.width || k.height != camera_.height || k.fx != camera_.fx || k.fy != camera_.fy ||
+             k.cx != camera_.cx || k.cy != camera_.cy) {
+    char text[256];
+    std::snprintf(text, sizeof(text),
+                  "TumWriter: frame %llu's camera (%dx%d fx=%g fy=%g cx=%g cy=%g) is not the first frame's (%dx%d "
+                  "fx=%g fy=%g cx=%g cy=%g) that %s describes",
+                  static_cast<unsigned long long>(frame.sequence), k.width, k.height, k.fx, k.fy, k.cx, k.cy,
+                  camera_.width, camera_.height, camera_.fx, camera_.fy, camera_.cx, camera_.cy, kCalibrationFileName);
+    return fail(text, error);
+  }
   std::string stamp = format_ns_as_seconds(frame.sample_time_ns);
   // File names are stamps; a repeated or backwards stamp gets the sequence number so no file is overwritten.
   if (have_last_time_ && frame.sample_time_ns <= last_time_ns_) stamp += "_" + std::to_string(frame.sequence);

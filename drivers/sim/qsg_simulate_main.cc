@@ -242,8 +242,10 @@ int main(int argc, char** argv) {
     std::printf("rendered %ld frames at %dx%d: %.1f frames/s rendering, %.1f s in all\n", frames, o.width, o.height,
                 render_s > 0 ? frames / render_s : 0.0, seconds_since(t0));
   }
-  std::printf("wrote %s/{world.json, world.png, rgb.txt, depth.txt, groundtruth.txt (optical frame), odometry.txt "
-              "(body frame, drifting), ground_truth/}\n",
+  // calibration.json (the rendering camera and depth scale, from TumWriter) lets qsg_app replay this folder at any
+  // --size with the right camera.
+  std::printf("wrote %s/{world.json, world.png, rgb.txt, depth.txt, calibration.json, groundtruth.txt (optical "
+              "frame), odometry.txt (body frame, drifting), ground_truth/}\n",
               o.out.c_str());
   return 0;
 }

@@ -2,17 +2,25 @@
 // state, every store below its capacity, outputs written atomically and readable.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <sstream>
 #include <tuple>
 
 #include "core/reconstruction/ply_writer.h"
 #include "core/scene_graph/spark_dsg_json.h"
+#include "drivers/render/ray_scene.h"
+#include "drivers/replay/dataset_replay.h"
+#include "drivers/sim/exploration.h"
 #include "drivers/v4l2/fake_v4l2_device.h"
+#include "drivers/world/building_generator.h"
+#include "drivers/world/world_query.h"
 #include "firmware_app/pipeline.h"
 #include "tests/support/allocation_counter.h"
+#include "tests/support/test_data.h"
 
 namespace qsg::app {
 namespace {
@@ -230,6 +238,141 @@ TEST(PipelineTest, RunsOnAV4l2DepthAndColourPair) {
   EXPECT_GT(p.reconstruction().active_blocks(), 0u) << "the wall was integrated";
 }
 
+// Each shared RGB-D sample through the app's replay driver: every frame read, posed by the dataset's ground truth
+// and integrated with the sample's own camera (the fused surface lies where that camera back-projects the depth).
+struct ReplaySample {
+  const char* name;
+  const char* calibration;  // shipped in drivers/replay/calibration/, or "" (the dataset's own file)
+  drivers::CameraIntrinsics intrinsics;
+  float depth_scale_m;
+};
+
+void run_replay_sample(const ReplaySample& sample) {
+  const std::string data = ::qsg::testing::shared_data_dir();
+  if (data.empty() || !std::filesystem::exists(data + "/rgbd/" + sample.name))
+    GTEST_SKIP() << "shared data rgbd/" << sample.name << " not found ($QSG_SHARED_DATA, ../shared/data)";
+  AppConfig c = small_config(std::string("replay_") + sample.name);
+  c.driver = Driver::kReplay;
+  c.replay_path = data + "/rgbd/" + sample.name;
+  if (sample.calibration[0] != '\0')
+    c.replay.calibration = std::string(QSG_SOURCE_DIR) + "/drivers/replay/calibration/" + sample.calibration;
+  // Five frames of a sequence: spaced past the keyframe selector's minimum interval, each a keyframe however
+  // little the camera moved.
+  c.replay.frame_period_s = 0.2;
+  c.keyframes.min_translation_m = 0.0;
+  c.keyframes.min_rotation_rad = 0.0;
+  c.doors_online = false;
+  c.doors_at_finish = false;
+  ASSERT_TRUE(c.check().empty()) << c.check();
+  runtime::SteppedClock clock;
+  Pipeline p;
+  std::string error;
+  ASSERT_TRUE(p.init(c, &clock, &error)) << error;
+  const drivers::CameraIntrinsics k = p.camera()->intrinsics();
+  EXPECT_EQ(k.width, sample.intrinsics.width);
+  EXPECT_EQ(k.height, sample.intrinsics.height);
+  EXPECT_EQ(k.fx, sample.intrinsics.fx);
+  EXPECT_EQ(k.fy, sample.intrinsics.fy);
+  EXPECT_EQ(k.cx, sample.intrinsics.cx);
+  EXPECT_EQ(k.cy, sample.intrinsics.cy);
+  for (int i = 0; i < 5000 && p.step(); ++i) {
+  }
+  EXPECT_TRUE(p.done());
+  EXPECT_EQ(p.counters().frames_read, 5u);
+  EXPECT_EQ(p.counters().frames_bad, 0u);
+  EXPECT_EQ(p.counters().keyframes, 5u);
+  EXPECT_EQ(p.counters().keyframes_integrated, 5u);
+  EXPECT_EQ(p.counters().keyframes_refused, 0u);
+  EXPECT_GT(p.reconstruction().active_blocks(), 0u);
+
+  // The first frame back-projected with the sample's camera and pose lands on the fused surface.
+  replay::DatasetReplay dataset;
+  replay::DatasetReplayConfig rc = c.replay;
+  rc.path = c.replay_path;
+  ASSERT_TRUE(dataset.open(rc, &error)) << error;
+  EXPECT_EQ(dataset.depth_scale_m(), sample.depth_scale_m);
+  auto frame = std::make_unique<drivers::RgbdFrame>();
+  ASSERT_EQ(dataset.camera().read(*frame, 0), drivers::ReadStatus::kOk);
+  const Eigen::Isometry3d world_T_camera = dataset.ground_truth().front().world_T_body();
+  const double voxel_m = c.reconstruction.voxel_size_m;
+  int checked = 0, on_surface = 0;
+  for (int v = 8; v < k.height; v += 16) {
+    for (int u = 8; u < k.width; u += 16) {
+      const float z = frame->depth_m[v * k.width + u];
+      if (!(z > 0.5f && z < 3.5f)) continue;
+      const Eigen::Vector3d p_m = world_T_camera * Eigen::Vector3d((u - k.cx) * z / k.fx, (v - k.cy) * z / k.fy, z);
+      const reconstruction::Voxel* voxel = p.reconstruction().voxel_at(p_m);
+      ++checked;
+      if (voxel != nullptr && voxel->weight_q > 0 && std::abs(p.reconstruction().sdf_m(*voxel)) < 1.5 * voxel_m)
+        ++on_surface;
+    }
+  }
+  EXPECT_GT(checked, 200);
+  EXPECT_GT(on_surface, checked * 8 / 10) << on_surface << " of " << checked << " points on the surface";
+  std::printf("%s: %llu keyframes integrated, %d of %d back-projected points on the fused surface\n", sample.name,
+              static_cast<unsigned long long>(p.counters().keyframes_integrated), on_surface, checked);
+}
+
+TEST(PipelineReplayTest, RedwoodSampleIntegratesEveryFrameWithItsCamera) {
+  run_replay_sample({"redwood_open3d", "", {640, 480, 525.0, 525.0, 319.5, 239.5}, 0.001f});
+}
+
+TEST(PipelineReplayTest, IclNuimSampleIntegratesEveryFrameWithItsNegativeFy) {
+  run_replay_sample({"icl_nuim_livingroom5", "icl_nuim.json", {640, 480, 481.2, -480.0, 319.5, 239.5}, 1.0f / 5000.0f});
+}
+
+TEST(PipelineReplayTest, Kinect5SampleIntegratesEveryFrameWithItsCamera) {
+  run_replay_sample({"kinect5", "slambook2_kinect.json", {640, 480, 518.0, 519.0, 325.5, 253.5}, 0.001f});
+}
+
+// qsg_simulate's output (TumWriter with calibration.json) at 320x240 replays through the app with its own camera.
+TEST(PipelineReplayTest, SimulatorOutputAt320x240ReplaysWithItsCamera) {
+  const std::string dir = ::testing::TempDir() + "/qsg_pipeline_replay_sim_tum";
+  std::filesystem::remove_all(dir);
+  std::string error;
+  // A few frames of the small building from the simulated camera, written as qsg_simulate writes them.
+  const world::World world = world::generate_building(small_config("replay_sim_source").building);
+  render::RayScene scene;
+  ASSERT_TRUE(scene.build(world, &error)) << error;
+  const world::FreeSpaceIndex free_space(world);
+  const sim::ExplorationResult tour = sim::plan_exploration(world, scene, free_space, AppConfig().exploration);
+  ASSERT_TRUE(tour.ok) << tour.error;
+  sim::SimCamera camera;
+  sim::SimCamera::Config cc;
+  cc.intrinsics = {320, 240, 262.5, 262.5, 159.5, 119.5};
+  cc.rate_hz = 5.0;
+  cc.depth_scale_m = 1.0f / 5000.0f;
+  ASSERT_TRUE(camera.init(cc, render::Renderer::Config{}, world, tour.trajectory, &error)) << error;
+  replay::TumWriter writer;
+  ASSERT_TRUE(writer.open(dir, replay::TumWriter::Config{}, &error)) << error;
+  auto frame = std::make_unique<drivers::RgbdFrame>();
+  for (int i = 0; i < 8 && camera.read(*frame, 0) == drivers::ReadStatus::kOk; ++i) {
+    Eigen::Isometry3d world_T_camera;
+    ASSERT_TRUE(camera.camera_pose(frame->sequence, &world_T_camera, nullptr));
+    ASSERT_TRUE(writer.write_frame(*frame, &error)) << error;
+    ASSERT_TRUE(writer.write_pose(replay::StampedPose::from_isometry(frame->sample_time_ns, world_T_camera), &error))
+        << error;
+  }
+  ASSERT_TRUE(writer.close(&error)) << error;
+
+  AppConfig c = small_config("replay_sim");
+  c.driver = Driver::kReplay;
+  c.replay_path = dir;
+  c.keyframes.min_translation_m = 0.0;
+  c.keyframes.min_rotation_rad = 0.0;
+  runtime::SteppedClock clock;
+  Pipeline p;
+  ASSERT_TRUE(p.init(c, &clock, &error)) << error;
+  EXPECT_EQ(p.camera()->intrinsics().width, 320);
+  EXPECT_EQ(p.camera()->intrinsics().fx, 262.5);
+  EXPECT_EQ(p.camera()->intrinsics().cy, 119.5);
+  for (int i = 0; i < 5000 && p.step(); ++i) {
+  }
+  EXPECT_EQ(p.counters().frames_read, 8u);
+  EXPECT_EQ(p.counters().frames_bad, 0u);
+  EXPECT_EQ(p.counters().keyframes_integrated, 8u);
+}
+
 TEST(PipelineTest, MissingRoomWeightsLeaveRoomsUnknownAndTheRunGoesOn) {
   runtime::SteppedClock clock;
   Pipeline p;
@@ -402,6 +545,35 @@ TEST(AppConfigTest, LoadsKnownKeysAndNamesBadOnes) {
   EXPECT_FALSE(online.load(write("online_n.json", "{\"doors\": {\"online_every_n_updates\": 0}}"), &error));
   EXPECT_NE(error.find("online_every_n_updates"), std::string::npos) << error;
   EXPECT_FALSE(online.load(write("online_frac.json", "{\"doors\": {\"online_every_n_updates\": 1.5}}"), &error));
+  AppConfig replay;
+  ASSERT_TRUE(replay.load(write("replay.json", "{\"driver\": \"replay\", \"replay_path\": \"/data/icl\", "
+                                               "\"replay\": {\"format\": \"pose_list\", \"calibration\": \"c.json\", "
+                                               "\"fx\": 481.2, \"fy\": -480, \"cx\": 319.5, \"cy\": 239.5, "
+                                               "\"depth_scale_m\": 0.0002, \"frame_period_s\": 0.1}}"),
+                          &error))
+      << error;
+  EXPECT_EQ(replay.replay.format, "pose_list");
+  EXPECT_EQ(replay.replay.calibration, "c.json");
+  EXPECT_EQ(replay.replay.fx, 481.2);
+  EXPECT_EQ(replay.replay.fy, -480.0);
+  EXPECT_EQ(replay.replay.cx, 319.5);
+  EXPECT_EQ(replay.replay.cy, 239.5);
+  EXPECT_EQ(replay.replay.depth_scale_m, 0.0002);
+  EXPECT_EQ(replay.replay.frame_period_s, 0.1);
+  for (const auto& [file, text, field] :
+       {std::tuple{"replay_format.json", "{\"replay\": {\"format\": \"bag\"}}", "replay.format: expected auto"},
+        std::tuple{"replay_fx.json", "{\"replay\": {\"fx\": -1}}", "replay.fx must be 0"},
+        std::tuple{"replay_fy.json", "{\"replay\": {\"fy\": 0.5}}", "replay.fy must be 0"},
+        std::tuple{"replay_cx.json", "{\"replay\": {\"cx\": 700}}", "replay.cx must be 0"},
+        std::tuple{"replay_cy.json", "{\"replay\": {\"cy\": -2}}", "replay.cy must be 0"},
+        std::tuple{"replay_scale.json", "{\"replay\": {\"depth_scale_m\": 2}}", "replay.depth_scale_m must be 0"},
+        std::tuple{"replay_period.json", "{\"replay\": {\"frame_period_s\": 0}}", "replay.frame_period_s"},
+        std::tuple{"replay_key.json", "{\"replay\": {\"focal\": 500}}", "replay.focal: unknown key"},
+        std::tuple{"replay_type.json", "{\"replay\": {\"calibration\": 3}}", "replay.calibration: expected a string"}}) {
+    AppConfig bad;
+    EXPECT_FALSE(bad.load(write(file, text), &error)) << file;
+    EXPECT_NE(error.find(field), std::string::npos) << error;
+  }
   // The shipped default file loads and equals the built-in defaults where it spells them out.
   AppConfig shipped;
   ASSERT_TRUE(shipped.load(std::string(QSG_SOURCE_DIR) + "/firmware_app/config/default.json", &error)) << error;
@@ -448,6 +620,16 @@ TEST(AppConfigTest, LoadsKnownKeysAndNamesBadOnes) {
   EXPECT_EQ(shipped.doors.sight_cut_edges, AppConfig().doors.sight_cut_edges);
   EXPECT_EQ(shipped.doors.sight_furniture_max_m, AppConfig().doors.sight_furniture_max_m);
   EXPECT_EQ(shipped.doors.sight_furniture_min_width_m, AppConfig().doors.sight_furniture_min_width_m);
+  const replay::DatasetReplayConfig dz;
+  EXPECT_EQ(shipped.replay.format, dz.format);
+  EXPECT_EQ(shipped.replay.calibration, dz.calibration);
+  EXPECT_EQ(shipped.replay.fx, dz.fx);
+  EXPECT_EQ(shipped.replay.fy, dz.fy);
+  EXPECT_EQ(shipped.replay.cx, dz.cx);
+  EXPECT_EQ(shipped.replay.cy, dz.cy);
+  EXPECT_EQ(shipped.replay.depth_scale_m, dz.depth_scale_m);
+  EXPECT_EQ(shipped.replay.frame_period_s, dz.frame_period_s);
+  EXPECT_EQ(AppConfig().replay.frame_period_s, dz.frame_period_s);
   const places::Config& sp = shipped.frontend.places;
   const places::Config dp = AppConfig().frontend.places;
   EXPECT_EQ(sp.signed_surface_seeds, dp.signed_surface_seeds);
