@@ -262,7 +262,8 @@ bool run_level(const Options& opt, const world::World& w, const world::BuildingC
   std::uint64_t t_last = 0;
   out->keyframes = bench::for_each_posed_frame(
       *sim_tour, *frame,
-      [&](const drivers::RgbdFrame& f, const Eigen::Isometry3d& T, std::int64_t t_ns, const Eigen::Isometry3d& truth_T) {
+      [&](const drivers::RgbdFrame& f, const Eigen::Isometry3d& T, std::int64_t t_ns,
+          const Eigen::Isometry3d& truth_T) {
         tsdf->process(f, T);
         fe->add_keyframe(graph.get(), static_cast<std::uint64_t>(t_ns), T);
         fe->update(*tsdf, T.translation(), static_cast<std::uint64_t>(t_ns), graph.get(), frontend::Deadline{});
@@ -351,7 +352,8 @@ bool run_level(const Options& opt, const world::World& w, const world::BuildingC
 void print_row(const char* name, const Result& r, double gt_area_m2) {
   std::printf("  %-3s | ATE SE3 %.3f m, unaligned %.3f m (max %.3f m) | odometry error at the end %.2f %% of the "
               "tour, max %.2f m | objects found %.1f %% correct %.1f %% | places to GVD %.3f m | rooms P %.3f R %.3f "
-              "(%zu estimated, %zu truth) | mesh %.0f m^2 (x%.3f of gt), off > 5 cm %.1f %%, > 10 cm %.1f %% | %.0f s\n",
+              "(%zu estimated, %zu truth) | mesh %.0f m^2 (x%.3f of gt), off > 5 cm %.1f %%, > 10 cm %.1f %% | "
+              "%.0f s\n",
               name, r.ate_se3_m(), r.ate_none_m(), r.ate_none_max_m, r.end_error_percent(), r.max_error_m,
               r.pct(r.objects_found, r.objects_truth), r.pct(r.objects_correct, r.objects_estimated), r.gvd_mean_m(),
               r.rooms.precision_mean, r.rooms.recall_mean, r.rooms_estimated, r.rooms.rooms_truth, r.mesh_area_m2,

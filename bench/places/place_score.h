@@ -13,7 +13,8 @@ namespace qsg::bench {
 inline std::vector<double> place_distances_to_gvd(const scene_graph::SceneGraph& graph, const sim::GroundTruth& truth) {
   std::vector<double> distances;
   graph.for_each_node([&](const scene_graph::NodeRecord& n) {
-    if (n.kind == scene_graph::NodeKind::kPlace) distances.push_back(truth.distance_to_gvd(graph.place(n.id)->position_m));
+    if (n.kind == scene_graph::NodeKind::kPlace)
+      distances.push_back(truth.distance_to_gvd(graph.place(n.id)->position_m));
   });
   return distances;
 }

@@ -702,10 +702,12 @@ bool run_world(const Options& opt, const world::World& w, bool floor_plan, Build
   });
   // Finish any cycle in flight, and take in the keyframes observed since the last update (the robot where the
   // odometry puts it at the tour's end).
-  const Eigen::Vector3d last_m = sim_tour.odometry.estimated().empty() ? tour.trajectory.back().world_t_body_m
-                                                                      : sim_tour.odometry.estimated().back().world_t_body_m;
+  const replay::Trajectory& odometry = sim_tour.odometry.estimated();
+  const Eigen::Vector3d last_m =
+      odometry.empty() ? tour.trajectory.back().world_t_body_m : odometry.back().world_t_body_m;
   places.update(tsdf, last_m, places::Deadline::unlimited());
-  for (int i = 0; i < 100 && places.cycle_in_progress(); ++i) places.update(tsdf, last_m, places::Deadline::unlimited());
+  for (int i = 0; i < 100 && places.cycle_in_progress(); ++i)
+    places.update(tsdf, last_m, places::Deadline::unlimited());
   places.sync(&graph);
 
   sim::GroundTruth truth;

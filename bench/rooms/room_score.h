@@ -57,8 +57,8 @@ inline std::int32_t truth_near(const Raster& ras, int c, int r) {
 // oracle: every place (with a room or not) takes the ground-truth room of its cell instead (the nearest within 3
 // cells when its cell has none), so the score is the bound any room finder could reach on these places: what the
 // tour observed and the rasterization keep, with a perfect assignment of places to rooms.
-inline void label_from_places(const scene_graph::SceneGraph& g, double z_min_m, double z_max_m, double max_reach_m, Raster* ras,
-                       bool oracle = false) {
+inline void label_from_places(const scene_graph::SceneGraph& g, double z_min_m, double z_max_m, double max_reach_m,
+                              Raster* ras, bool oracle = false) {
   ras->estimate.assign(ras->free.size(), 0);
   std::vector<int> dist(ras->free.size(), -1);
   std::deque<std::pair<int, int>> queue;
@@ -67,7 +67,8 @@ inline void label_from_places(const scene_graph::SceneGraph& g, double z_min_m, 
   // the score depends on the graph's content only, not on the order its storage visits nodes in.
   std::vector<std::pair<scene_graph::NodeId, scene_graph::NodeId>> places;  // (place, room)
   g.for_each_node([&](const scene_graph::NodeRecord& n) {
-    if (n.kind == scene_graph::NodeKind::kPlace && (oracle || n.parent != scene_graph::kNoNode)) places.emplace_back(n.id, n.parent);
+    if (n.kind == scene_graph::NodeKind::kPlace && (oracle || n.parent != scene_graph::kNoNode))
+      places.emplace_back(n.id, n.parent);
   });
   std::sort(places.begin(), places.end());
   for (const auto& [id, parent] : places) {
@@ -121,7 +122,9 @@ inline void label_from_places(const scene_graph::SceneGraph& g, double z_min_m, 
 }
 
 // The benchmark's max-overlap precision and recall over the cells that are free and inside a ground-truth room.
-inline world::RoomSegmentationScore score(const Raster& ras) { return world::score_room_segmentation(ras.free, ras.truth, ras.estimate); }
+inline world::RoomSegmentationScore score(const Raster& ras) {
+  return world::score_room_segmentation(ras.free, ras.truth, ras.estimate);
+}
 
 // One raster per floor of a generated building over its footprint (0.05 m): room interiors are free, labelled by
 // room id + 1; with the z range of the places that floor's rooms are estimated from (from its floor up to the next

@@ -522,9 +522,10 @@ bool apply_doors(const Options& opt, const std::string& name, const std::vector<
 bool run_pipeline(const Options& opt, const world::World& w, std::uint64_t world_seed, const std::string& plan_key,
                   sg::SceneGraph* graph, std::vector<Eigen::Vector3f>* surface, RunStats* stats) {
   const auto start = std::chrono::steady_clock::now();
-  const std::string odometry_key = opt.odometry.ground_truth() ? std::string()
-                                                               : std::string(".odom-") + sim::to_string(opt.odometry.level) +
-                                                                     "-" + std::to_string(opt.odometry.seed);
+  const std::string odometry_key =
+      opt.odometry.ground_truth()
+          ? std::string()
+          : std::string(".odom-") + sim::to_string(opt.odometry.level) + "-" + std::to_string(opt.odometry.seed);
   const std::string key = plan_key + (opt.look_into_unreachable ? ".peek" : "") + odometry_key;
   const std::string cache_path = opt.cache_dir.empty() ? "" : opt.cache_dir + "/" + key + ".json";
   const std::string surface_path = opt.cache_dir.empty() ? "" : opt.cache_dir + "/" + key + ".surface.f32";
@@ -832,8 +833,8 @@ bool eval_plan(const Options& opt, const std::string& map, bool furnished, Score
   char furniture_key[32] = "";
   if (fc.furniture_height_m > 0.0) std::snprintf(furniture_key, sizeof(furniture_key), "_h%.2f", fc.furniture_height_m);
   std::vector<Eigen::Vector3f> surface;
-  if (!run_pipeline(opt, wr.world, 0, map + (furnished ? "_furnished" : "_plain") + furniture_key, graph.get(), &surface,
-                    st))
+  if (!run_pipeline(opt, wr.world, 0, map + (furnished ? "_furnished" : "_plain") + furniture_key, graph.get(),
+                    &surface, st))
     return false;
   // Ground truth straight from the benchmark's image: 8-connected white regions of more than 100 px.
   world::PlanRaster plan;

@@ -36,7 +36,8 @@ struct Options {
   bool ground_truth = true;
   double gt_voxel_m = 0.1;
   // The evaluations' --odometry sim level is this default (sim::kSimDrift).
-  double drift_m = sim::kSimDrift.translation_sigma_m_per_sqrt_m, drift_yaw_rad = sim::kSimDrift.yaw_sigma_rad_per_sqrt_m;
+  double drift_m = sim::kSimDrift.translation_sigma_m_per_sqrt_m;
+  double drift_yaw_rad = sim::kSimDrift.yaw_sigma_rad_per_sqrt_m;
 };
 
 void usage() {

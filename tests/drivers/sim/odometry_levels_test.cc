@@ -69,7 +69,8 @@ TEST(OdometryLevels, GroundTruthHandsOverTheTruePosesBitForBit) {
     const Eigen::Isometry3d camera = camera_at(truth[i]);
     Eigen::Isometry3d est;
     // At a sample, between two samples and past the end: always the pose given, unchanged.
-    for (const std::int64_t t : {truth[i].time_ns, truth[i].time_ns + std::int64_t{11'000'000}, truth.back().time_ns + 1}) {
+    const std::int64_t between_ns = truth[i].time_ns + 11'000'000;
+    for (const std::int64_t t : {truth[i].time_ns, between_ns, truth.back().time_ns + 1}) {
       ASSERT_TRUE(gt.estimate(t, camera, &est));
       EXPECT_EQ(est.matrix(), camera.matrix());
     }
