@@ -1,8 +1,9 @@
 // Places evaluation: the simulated robot explores generated buildings or an extruded benchmark floor plan
-// (ground-truth poses, noise-free depth, 0.1 m voxels); the TSDF and the places layer run every keyframe; prints the
-// mean distance from the place nodes to the ground-truth GVD, places components against connected free-space
-// regions, place edges through solid ground truth (walls, floors, slabs), nodes per 100 m^2, the per-update time of
-// places (median, p99) and the memory of the ESDF and GVD in the window, optionally as JSON.
+// (ground-truth poses, or drifting ones with --odometry sim|vio, noise-free depth, 0.1 m voxels); the TSDF and the
+// places layer run every keyframe; prints the mean distance from the place nodes to the ground-truth GVD (in the
+// world frame), places components against connected free-space regions, place edges through solid ground truth
+// (walls, floors, slabs), nodes per 100 m^2, the per-update time of places (median, p99) and the memory of the
+// ESDF and GVD in the window, optionally as JSON.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -22,6 +23,7 @@
 #include "core/reconstruction/semantic_tsdf.h"
 #include "core/scene_graph/scene_graph.h"
 #include "bench/figures.h"
+#include "bench/places/place_score.h"
 #include "bench/sim_tour.h"
 #include "budgets/budget_table.h"
 #include "drivers/render/ray_scene.h"
@@ -72,21 +74,26 @@ struct Options {
   bool two_floors = false;           // --two-floors: generated buildings with a second floor over a 0.2 m slab
   bool revive_check = true;          // --no-revive-check: Config::revive_in_same_free_space off
   bool relink_check = true;          // --no-relink-check: Config::relink_in_same_free_space off
+  bench::OdometryOption odometry;    // --odometry gt|sim|vio, --odometry-seed N (scored in the world frame)
 };
 
 void usage(const char* argv0) {
   std::fprintf(stderr,
                "usage: %s [--seeds 1,2,3] [--rooms N] [--size WxH] [--hfov-deg D] [--rate-hz R] [--every-n N] "
                "[--no-observe] [--no-free-space-edges] [--no-relink] [--no-bridges] [--no-contract] [--no-unobserved-obstacle] [--no-rim-guard] [--no-keep-rim-distances] [--no-signed-seeds] [--no-projective-correction] [--no-hold-distant] [--no-bridge-paths] [--no-revive-check] [--no-relink-check] [--two-floors] [--floorplan NAME [--furnished]] "
-               "[--plans-dir DIR] [--window-radius-m R] [--keep-edges-at-rim-m M] [--slab-above-m H] [--bridge-max-places N] [--unobserved-above-m H] [--trace X,Y,Z] [--json FILE] [--verbose] [--diagnose]\n"
+               "[--plans-dir DIR] [--window-radius-m R] [--keep-edges-at-rim-m M] [--slab-above-m H] [--bridge-max-places N] [--unobserved-above-m H] [--trace X,Y,Z] %s [--json FILE] [--verbose] [--diagnose]\n"
                "  NAME: a map of the plans dir (Freiburg52_scan, lab_c_scan, lab_intel, lab_ipa, office_a, office_e)\n",
-               argv0);
+               argv0, bench::odometry_usage());
 }
 
 bool parse(int argc, char** argv, Options* o) {
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--help" || a == "-h") return false;
+    if (const int odometry = bench::parse_odometry_flag(argc, argv, &i, &o->odometry)) {
+      if (odometry < 0) return false;
+      continue;
+    }
     if (a == "--verbose") {
       o->verbose = true;
       continue;
@@ -585,8 +592,8 @@ bool run_world(const Options& opt, const world::World& w, bool floor_plan, Build
     std::fprintf(stderr, "seed %llu: %s\n", static_cast<unsigned long long>(seed), error.c_str());
     return false;
   }
+  bench::set_odometry(opt.odometry, seed, &sim_tour);
   const sim::ExplorationResult& tour = sim_tour.tour;
-  sim::SimCamera& camera = *sim_tour.camera;
   reconstruction::SemanticTsdf tsdf;
   reconstruction::Config tc;
   places::Config pc;
@@ -676,8 +683,8 @@ bool run_world(const Options& opt, const world::World& w, bool floor_plan, Build
     }
   };
   auto frame = std::make_unique<drivers::RgbdFrame>();
-  bench::for_each_posed_frame(camera, *frame, [&](const drivers::RgbdFrame& f, const Eigen::Isometry3d& pose,
-                                                  std::int64_t) {
+  bench::for_each_posed_frame(sim_tour, *frame, [&](const drivers::RgbdFrame& f, const Eigen::Isometry3d& pose,
+                                                    std::int64_t, const Eigen::Isometry3d&) {
     tsdf.process(f, pose);
     const auto t_obs = std::chrono::steady_clock::now();
     if (opt.observe) places.observe(tsdf, pose);
@@ -693,10 +700,14 @@ bool run_world(const Options& opt, const world::World& w, bool floor_plan, Build
     if (opt.diagnose) track_history(graph, static_cast<int>(out->keyframes), &history);
     trace_voxels(out->keyframes, pose.translation());
   });
-  // Finish any cycle in flight, and take in the keyframes observed since the last update.
-  places.update(tsdf, tour.trajectory.back().world_t_body_m, places::Deadline::unlimited());
+  // Finish any cycle in flight, and take in the keyframes observed since the last update (the robot where the
+  // odometry puts it at the tour's end).
+  const replay::Trajectory& odometry = sim_tour.odometry.estimated();
+  const Eigen::Vector3d last_m =
+      odometry.empty() ? tour.trajectory.back().world_t_body_m : odometry.back().world_t_body_m;
+  places.update(tsdf, last_m, places::Deadline::unlimited());
   for (int i = 0; i < 100 && places.cycle_in_progress(); ++i)
-    places.update(tsdf, tour.trajectory.back().world_t_body_m, places::Deadline::unlimited());
+    places.update(tsdf, last_m, places::Deadline::unlimited());
   places.sync(&graph);
 
   sim::GroundTruth truth;
@@ -707,11 +718,10 @@ bool run_world(const Options& opt, const world::World& w, bool floor_plan, Build
   }
   out->memory = places.memory_use();
   out->tsdf_evicted = tsdf.counters().blocks_evicted;
-  std::vector<double> distances;
+  const std::vector<double> distances = bench::place_distances_to_gvd(graph, truth);
   graph.for_each_node([&](const scene_graph::NodeRecord& n) {
     if (n.kind != scene_graph::NodeKind::kPlace) return;
     const scene_graph::PlaceAttributes* a = graph.place(n.id);
-    distances.push_back(truth.distance_to_gvd(a->position_m));
     std::size_t at = 0;
     if (!gt_index(truth, a->position_m, &at)) return;
     out->places_in_solid += truth.voxel_room[at] == sim::kVoxelOccupied ? 1 : 0;
@@ -908,9 +918,7 @@ bool run_world(const Options& opt, const world::World& w, bool floor_plan, Build
                   a->is_active ? "active" : "inactive", b->position_m.x(), b->position_m.y(), b->position_m.z(),
                   b->distance_m, b->is_active ? "active" : "inactive", solid * kStep);
   });
-  double sum = 0.0;
-  for (double d : distances) sum += d;
-  out->mean_gvd_distance_m = distances.empty() ? 0.0 : sum / static_cast<double>(distances.size());
+  out->mean_gvd_distance_m = bench::mean(distances);
   out->median_gvd_distance_m = quantile(distances, 0.5);
   std::vector<std::size_t> sizes;
   out->components = place_components(graph, &sizes);
@@ -1106,7 +1114,7 @@ int main(int argc, char** argv) {
   if (!opt.json_path.empty()) {
     std::string seeds;
     for (std::uint64_t s : opt.seeds) seeds += (seeds.empty() ? "" : ",") + std::to_string(s);
-    char cond[384];
+    char cond[448];
     const std::string world_desc =
         opt.floorplan.empty() ? std::to_string(opt.rooms) + "-room generated " + (opt.two_floors ? "two-floor " : "") +
                                     "buildings seeds " + seeds + (opt.revive_check ? "" : ", no revive check") +
@@ -1118,9 +1126,10 @@ int main(int argc, char** argv) {
                               : "extruded floor plan " + opt.floorplan + (opt.furnished ? " furnished" : " plain");
     std::snprintf(cond, sizeof(cond),
                   "%s, %dx%d %.0f deg hfov, %.1f Hz keyframes, voxel 0.10 m, GVD voxel 0.20 m, places window "
-                  "%.1f m, ground-truth poses, noise-free depth, one core",
+                  "%.1f m, %s, noise-free depth, one core",
                   world_desc.c_str(), opt.width, opt.height, opt.hfov_deg, opt.rate_hz,
-                  opt.window_radius_m > 0.0 ? opt.window_radius_m : places::Config{}.window_radius_m);
+                  opt.window_radius_m > 0.0 ? opt.window_radius_m : places::Config{}.window_radius_m,
+                  opt.odometry.describe().c_str());
     bench::Figures figures(cond);
     const auto add = [&](const std::string& name, double value, const char* unit) { figures.add(name, value, unit); };
     add("places_eval.node_to_gvd_mean", mean_dist, "m");

@@ -1,7 +1,8 @@
 // Rooms evaluation: benchmark floor plans (IPA, plain and furnished) extruded to 3D and generated two-floor buildings
-// are explored by the simulated robot (ground-truth poses, noise-free depth), reconstructed (TSDF) and run through
-// the frontend (places) every keyframe, then the room finder runs once on the final graph. Scored with the
-// benchmark's max-overlap precision and recall (mean over rooms and area-weighted) against the ground truth.
+// are explored by the simulated robot (ground-truth poses, or drifting ones with --odometry sim|vio, noise-free
+// depth), reconstructed (TSDF) and run through the frontend (places) every keyframe, then the room finder runs once
+// on the final graph. Scored with the benchmark's max-overlap precision and recall (mean over rooms and
+// area-weighted) against the ground truth, in the world frame (bench/rooms/room_score.h).
 //
 // How estimated rooms become pixel sets (documented in the report): the free cells of a 2D raster (the floor plan's
 // own pixels, 0.05 m; for generated buildings a 0.05 m raster of each floor's room footprints) are labelled by a
@@ -40,6 +41,7 @@
 #include <vector>
 
 #include "bench/figures.h"
+#include "bench/rooms/room_score.h"
 #include "bench/sim_tour.h"
 #include "budgets/budget_table.h"
 #include "core/frontend/frontend.h"
@@ -66,6 +68,10 @@ namespace {
 
 using namespace qsg;
 namespace sg = scene_graph;
+using bench::label_from_places;
+using bench::Raster;
+using bench::score;
+using bench::truth_near;
 
 struct Options {
   std::string plans_dir = std::string(QSG_SHARED_DATA_DIR) + "/floorplans/ipa";
@@ -113,6 +119,9 @@ struct Options {
   bool online_doors = false;
   int online_every = 4;
   rooms::DoorConfig door;
+  // --odometry gt|sim|vio, --odometry-seed N: the poses the map is built from (scored in the world frame). Caches
+  // explored with drifting odometry are named "<plan>.odom-<level>-<seed>".
+  bench::OdometryOption odometry;
 };
 
 std::vector<std::string> split(const std::string& s) {
@@ -132,6 +141,10 @@ bool parse(int argc, char** argv, Options* o) {
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--help" || a == "-h" || i + 1 >= argc) return false;
+    if (const int odometry = bench::parse_odometry_flag(argc, argv, &i, &o->odometry)) {
+      if (odometry < 0) return false;
+      continue;
+    }
     const std::string v = argv[++i];
     char* end = nullptr;
     double* number = nullptr;
@@ -239,39 +252,6 @@ double median(std::vector<double> v) {
   return v[v.size() / 2];
 }
 
-// A 2D raster: which cells are free, the ground-truth room of each (0: none) and the estimated one (0: none).
-struct Raster {
-  int cols = 0, rows = 0;
-  double res_m = 0.05;
-  Eigen::Vector2d origin_m = Eigen::Vector2d::Zero();  // world x-y of cell (0, rows - 1)'s lower-left corner
-  std::vector<std::uint8_t> free;
-  std::vector<std::int32_t> truth;
-  std::vector<std::int32_t> estimate;
-  std::size_t idx(int c, int r) const { return static_cast<std::size_t>(r) * static_cast<std::size_t>(cols) + c; }
-  // Image convention (row 0 at the top, +y up), as the floor-plan importer.
-  bool cell_of(const Eigen::Vector3d& p, int* c, int* r) const {
-    *c = static_cast<int>(std::floor((p.x() - origin_m.x()) / res_m));
-    *r = rows - 1 - static_cast<int>(std::floor((p.y() - origin_m.y()) / res_m));
-    return *c >= 0 && *r >= 0 && *c < cols && *r < rows;
-  }
-  Eigen::Vector2d center_of(int c, int r) const {
-    return origin_m + res_m * Eigen::Vector2d(c + 0.5, rows - r - 0.5);
-  }
-};
-
-// The ground-truth room of cell (c, r), or of the nearest cell within 3 cells that has one (a place on a wall cell
-// after rasterization); 0: none.
-std::int32_t truth_near(const Raster& ras, int c, int r) {
-  for (int d = 0; d <= 3; ++d)
-    for (int dr = -d; dr <= d; ++dr)
-      for (int dc = -d; dc <= d; ++dc) {
-        const int cc = c + dc, rr = r + dr;
-        if (cc >= 0 && rr >= 0 && cc < ras.cols && rr < ras.rows && ras.truth[ras.idx(cc, rr)] > 0)
-          return ras.truth[ras.idx(cc, rr)];
-      }
-  return 0;
-}
-
 // One line per place, "P id x y z clearance room truth plan_clearance" (room: the parent's node id, 0 without one;
 // truth: the ground-truth room of its cell as the oracle takes it, 0: none; plan_clearance: the horizontal distance
 // from its cell to the plan's nearest occupied cell, the 2D clearance a map-based method sees), and per place-place
@@ -344,73 +324,6 @@ std::size_t apply_door_oracle(const Raster& ras, double clearance_m, sg::SceneGr
   return doors.size();
 }
 
-// Labels free cells with the room of the geodesically nearest place (multi-source BFS from the places' cells).
-// oracle: every place (with a room or not) takes the ground-truth room of its cell instead (the nearest within 3
-// cells when its cell has none), so the score is the bound any room finder could reach on these places: what the
-// tour observed and the rasterization keep, with a perfect assignment of places to rooms.
-void label_from_places(const sg::SceneGraph& g, double z_min_m, double z_max_m, double max_reach_m, Raster* ras,
-                       bool oracle = false) {
-  ras->estimate.assign(ras->free.size(), 0);
-  std::vector<int> dist(ras->free.size(), -1);
-  std::deque<std::pair<int, int>> queue;
-  std::map<sg::NodeId, std::int32_t> room_label;
-  // Seeds in the order of the places' ids (a cell two places share, and ties in the search, go to the lower id), so
-  // the score depends on the graph's content only, not on the order its storage visits nodes in.
-  std::vector<std::pair<sg::NodeId, sg::NodeId>> places;  // (place, room)
-  g.for_each_node([&](const sg::NodeRecord& n) {
-    if (n.kind == sg::NodeKind::kPlace && (oracle || n.parent != sg::kNoNode)) places.emplace_back(n.id, n.parent);
-  });
-  std::sort(places.begin(), places.end());
-  for (const auto& [id, parent] : places) {
-    const Eigen::Vector3d& p = g.place(id)->position_m;
-    if (p.z() < z_min_m || p.z() >= z_max_m) continue;
-    int c, r;
-    if (!ras->cell_of(p, &c, &r)) continue;
-    std::int32_t label = 0;
-    if (oracle) {
-      label = truth_near(*ras, c, r);
-      if (label <= 0) continue;
-    } else {
-      auto it = room_label.find(parent);
-      if (it == room_label.end())
-        it = room_label.emplace(parent, static_cast<std::int32_t>(room_label.size() + 1)).first;
-      label = it->second;
-    }
-    // A place on a wall cell (rasterization): the nearest free cell within 2 cells.
-    int best_c = -1, best_r = -1;
-    for (int d = 0; d <= 2 && best_c < 0; ++d)
-      for (int dr = -d; dr <= d && best_c < 0; ++dr)
-        for (int dc = -d; dc <= d && best_c < 0; ++dc) {
-          const int cc = c + dc, rr = r + dr;
-          if (cc >= 0 && rr >= 0 && cc < ras->cols && rr < ras->rows && ras->free[ras->idx(cc, rr)]) {
-            best_c = cc;
-            best_r = rr;
-          }
-        }
-    if (best_c < 0 || dist[ras->idx(best_c, best_r)] == 0) continue;
-    dist[ras->idx(best_c, best_r)] = 0;
-    ras->estimate[ras->idx(best_c, best_r)] = label;
-    queue.emplace_back(best_c, best_r);
-  }
-  const int max_steps = static_cast<int>(std::lround(max_reach_m / ras->res_m));
-  while (!queue.empty()) {
-    const auto [c, r] = queue.front();
-    queue.pop_front();
-    const int d = dist[ras->idx(c, r)];
-    if (d >= max_steps) continue;
-    for (int dr = -1; dr <= 1; ++dr)
-      for (int dc = -1; dc <= 1; ++dc) {
-        const int cc = c + dc, rr = r + dr;
-        if ((dc == 0 && dr == 0) || cc < 0 || rr < 0 || cc >= ras->cols || rr >= ras->rows) continue;
-        const std::size_t k = ras->idx(cc, rr);
-        if (!ras->free[k] || dist[k] >= 0) continue;
-        dist[k] = d + 1;
-        ras->estimate[k] = ras->estimate[ras->idx(c, r)];
-        queue.emplace_back(cc, rr);
-      }
-  }
-}
-
 using Score = world::RoomSegmentationScore;
 
 // Left: the estimated rooms, right: the ground truth, each room a colour from its id (black: occupied, grey: free but
@@ -441,8 +354,6 @@ void write_image(const Raster& ras, const std::string& path, const std::vector<r
   if (!cv::imwrite(path, out)) std::fprintf(stderr, "cannot write %s\n", path.c_str());
 }
 
-// The benchmark's max-overlap precision and recall over the cells that are free and inside a ground-truth room.
-Score score(const Raster& ras) { return world::score_room_segmentation(ras.free, ras.truth, ras.estimate); }
 
 struct RunStats {
   std::size_t keyframes = 0, places = 0, rooms = 0;
@@ -607,11 +518,15 @@ bool apply_doors(const Options& opt, const std::string& name, const std::vector<
 
 // Explores, reconstructs, runs the frontend every keyframe, the door stage (--doors) and the room finder at the end.
 // *surface: the robot's mesh vertices (from the cache when the graph comes from there; empty when the cache has
-// none).
-bool run_pipeline(const Options& opt, const world::World& w, const std::string& plan_key, sg::SceneGraph* graph,
-                  std::vector<Eigen::Vector3f>* surface, RunStats* stats) {
+// none). world_seed seeds the odometry's drift (--odometry).
+bool run_pipeline(const Options& opt, const world::World& w, std::uint64_t world_seed, const std::string& plan_key,
+                  sg::SceneGraph* graph, std::vector<Eigen::Vector3f>* surface, RunStats* stats) {
   const auto start = std::chrono::steady_clock::now();
-  const std::string key = plan_key + (opt.look_into_unreachable ? ".peek" : "");
+  const std::string odometry_key =
+      opt.odometry.ground_truth()
+          ? std::string()
+          : std::string(".odom-") + sim::to_string(opt.odometry.level) + "-" + std::to_string(opt.odometry.seed);
+  const std::string key = plan_key + (opt.look_into_unreachable ? ".peek" : "") + odometry_key;
   const std::string cache_path = opt.cache_dir.empty() ? "" : opt.cache_dir + "/" + key + ".json";
   const std::string surface_path = opt.cache_dir.empty() ? "" : opt.cache_dir + "/" + key + ".surface.f32";
   // The online doors depend on the pass settings, so those name the file: a cache explored with other settings is
@@ -634,8 +549,8 @@ bool run_pipeline(const Options& opt, const world::World& w, const std::string& 
     std::fprintf(stderr, "%s: %s\n", w.name.c_str(), error.c_str());
     return false;
   }
+  bench::set_odometry(opt.odometry, world_seed, &sim_tour);
   const sim::ExplorationResult& tour = sim_tour.tour;
-  sim::SimCamera& camera = *sim_tour.camera;
   stats->tour_m = tour.length_m;
   stats->unreachable = tour.unreachable_rooms.size();
   stats->unreachable_ids = tour.unreachable_rooms;
@@ -716,7 +631,8 @@ bool run_pipeline(const Options& opt, const world::World& w, const std::string& 
   std::uint64_t t_last = 0;
   std::size_t frontend_updates = 0;
   stats->keyframes = bench::for_each_posed_frame(
-      camera, *frame, [&](const drivers::RgbdFrame& f, const Eigen::Isometry3d& T, std::int64_t t_ns) {
+      sim_tour, *frame,
+      [&](const drivers::RgbdFrame& f, const Eigen::Isometry3d& T, std::int64_t t_ns, const Eigen::Isometry3d&) {
         tsdf->process(f, T);
         if (online) online->wall_map().repaint(*tsdf, painted_stamp.data(), painted_block.data(), painted_stamp.size());
         fe->add_keyframe(graph, static_cast<std::uint64_t>(t_ns), T);
@@ -917,8 +833,8 @@ bool eval_plan(const Options& opt, const std::string& map, bool furnished, Score
   char furniture_key[32] = "";
   if (fc.furniture_height_m > 0.0) std::snprintf(furniture_key, sizeof(furniture_key), "_h%.2f", fc.furniture_height_m);
   std::vector<Eigen::Vector3f> surface;
-  if (!run_pipeline(opt, wr.world, map + (furnished ? "_furnished" : "_plain") + furniture_key, graph.get(), &surface,
-                    st))
+  if (!run_pipeline(opt, wr.world, 0, map + (furnished ? "_furnished" : "_plain") + furniture_key, graph.get(),
+                    &surface, st))
     return false;
   // Ground truth straight from the benchmark's image: 8-connected white regions of more than 100 px.
   world::PlanRaster plan;
@@ -1159,59 +1075,30 @@ bool eval_generated(const Options& opt, std::uint64_t seed, Score* out, RunStats
   std::string error;
   if (!graph->init(sg::capacities_from_budget(), sg::arena_bytes_from_budget(), &error)) return false;
   std::vector<Eigen::Vector3f> surface;
-  if (!run_pipeline(opt, w, w.name, graph.get(), &surface, st)) return false;
+  if (!run_pipeline(opt, w, seed, w.name, graph.get(), &surface, st)) return false;
   label_rooms(w, *graph, labels);
   label_truth_rooms(w, labels);
-  // One raster per floor over the building's footprint: room interiors are free, labelled by room id + 1.
-  const world::Aabb box = world::world_bounds(w);
-  std::map<std::int32_t, double> floors;  // floor index -> floor z
-  for (const world::Room& room : w.rooms) floors[room.floor_index] = room.floor_z_m;
+  std::vector<bench::FloorRaster> floor_rasters = bench::generated_floor_rasters(w, bc);
   Score total, bound;
-  std::vector<std::pair<Raster, std::pair<double, double>>> floor_rasters;  // (raster, its places' z range)
-  for (const auto& [floor, z] : floors) {
-    Raster ras;
-    ras.res_m = 0.05;
-    ras.origin_m = box.min_m.head<2>();
-    ras.cols = static_cast<int>(std::ceil((box.max_m.x() - box.min_m.x()) / ras.res_m));
-    ras.rows = static_cast<int>(std::ceil((box.max_m.y() - box.min_m.y()) / ras.res_m));
-    ras.free.assign(static_cast<std::size_t>(ras.cols) * static_cast<std::size_t>(ras.rows), 0);
-    ras.truth.assign(ras.free.size(), 0);
-    for (const world::Room& room : w.rooms) {
-      if (room.floor_index != floor) continue;
-      for (int r = 0; r < ras.rows; ++r)
-        for (int c = 0; c < ras.cols; ++c) {
-          const Eigen::Vector2d p = ras.center_of(c, r);
-          for (const world::Polygon2& poly : room.footprint_m)
-            if (world::point_in_polygon(poly, p)) {
-              ras.free[ras.idx(c, r)] = 1;
-              ras.truth[ras.idx(c, r)] = room.id + 1;
-            }
-        }
-    }
-    // Places of this floor: from its floor up to the next floor's (stair places go with the floor below).
-    const double z_lo = z - 0.3, z_hi = z + bc.ceiling_height_m - 0.3 + bc.slab_thickness_m;
+  for (bench::FloorRaster& f : floor_rasters) {
+    Raster& ras = f.raster;
+    const double z_lo = f.z_min_m, z_hi = f.z_max_m;
     label_from_places(*graph, z_lo, z_hi, opt.max_reach_m, &ras, /*oracle=*/true);
     bound.add(score(ras));
     label_from_places(*graph, z_lo, z_hi, opt.max_reach_m, &ras);
     total.add(score(ras));
-    const std::string stem = w.name + "_floor" + std::to_string(floor);
+    const std::string stem = w.name + "_floor" + std::to_string(f.floor_index);
     if (!opt.dump_dir.empty())
       dump_places(*graph, ras, opt.dump_dir + "/" + stem + ".txt", opt.online_doors ? st->online_doors : st->doors,
                   z_lo, z_hi);
     if (!opt.images_dir.empty()) write_image(ras, opt.images_dir + "/" + stem + "_rooms.png", st->doors);
-    floor_rasters.push_back({std::move(ras), {z_lo, z_hi}});
   }
   *out = total;
   *oracle = bound;
   if (hydra != nullptr) {
     double dilation_m = 0.0;
     if (!run_hydra_peer(w.name, *st, graph.get(), &dilation_m)) return false;
-    Score peer;
-    for (auto& [ras, z] : floor_rasters) {
-      label_from_places(*graph, z.first, z.second, opt.max_reach_m, &ras);
-      peer.add(score(ras));
-    }
-    *hydra = peer;
+    *hydra = bench::score_generated_rooms(*graph, &floor_rasters, opt.max_reach_m);
   }
   return true;
 }
@@ -1236,9 +1123,9 @@ int main(int argc, char** argv) {
                  "[--visible-touch-max-clearance-m C] "
                  "[--sight-min-wall-m W] "
                  "[--sight-wall-dilation-m D] [--sight-furniture-max-m L] [--sight-furniture-min-width-m W] "
-                 "[--sight-cut-edges 0|1] "
+                 "[--sight-cut-edges 0|1] %s "
                  "[--json FILE]\n",
-                 argv[0]);
+                 argv[0], bench::odometry_usage());
     return 2;
   }
   // The output directories are made here, so a typo is one clear error at start-up rather than a missed cache.
@@ -1279,16 +1166,17 @@ int main(int argc, char** argv) {
     std::printf("DOOR ORACLE: on the IPA plans every place edge between two ground-truth rooms has clearance %.2f m; "
                 "the scores are the bound a perfect door and opening cue gives the room finder\n",
                 opt.door_oracle_m);
-  std::printf("camera %dx%d, %.0f deg hfov, %.1f Hz keyframes, ground-truth poses, noise-free depth; labels reach "
+  std::printf("camera %dx%d, %.0f deg hfov, %.1f Hz keyframes, %s, noise-free depth; labels reach "
               "%.1f m from places; robot radius %.2f m, %s\n",
-              opt.width, opt.height, opt.hfov_deg, opt.rate_hz, opt.max_reach_m, opt.robot_radius_m,
+              opt.width, opt.height, opt.hfov_deg, opt.rate_hz, opt.odometry.describe().c_str(), opt.max_reach_m,
+              opt.robot_radius_m,
               opt.look_into_unreachable ? "the tour looks into rooms it cannot enter" : "no looks into rooms");
   char cond[1536];
   std::snprintf(cond, sizeof(cond),
-                "sim camera %dx%d %.0f deg hfov %.1f Hz, ground-truth poses, noise-free depth, robot radius %.2f m%s, "
+                "sim camera %dx%d %.0f deg hfov %.1f Hz, %s, noise-free depth, robot radius %.2f m%s, "
                 "TSDF 0.1 m, frontend every keyframe, rooms seeding %s alpha %.2f persistence %.2f m [%.2f, %.2f] m "
                 "min %u",
-                opt.width, opt.height, opt.hfov_deg, opt.rate_hz, opt.robot_radius_m,
+                opt.width, opt.height, opt.hfov_deg, opt.rate_hz, opt.odometry.describe().c_str(), opt.robot_radius_m,
                 opt.look_into_unreachable ? ", looks into unreachable rooms" : "", rooms::to_string(opt.rooms.seeding),
                 opt.rooms.plateau_alpha, opt.rooms.min_persistence_m, opt.rooms.min_dilation_m,
                 opt.rooms.max_dilation_m, opt.rooms.min_component_size);

@@ -9,6 +9,7 @@
 
 #include "drivers/replay/tum_replay.h"
 #include "drivers/sim/drifting_odometry.h"
+#include "drivers/sim/odometry_levels.h"
 #include "drivers/sim/exploration.h"
 #include "drivers/sim/ground_truth.h"
 #include "drivers/sim/sim_camera.h"
@@ -34,7 +35,9 @@ struct Options {
   long max_frames = -1;
   bool ground_truth = true;
   double gt_voxel_m = 0.1;
-  double drift_m = 0.02, drift_yaw_rad = 0.003;
+  // The evaluations' --odometry sim level is this default (sim::kSimDrift).
+  double drift_m = sim::kSimDrift.translation_sigma_m_per_sqrt_m;
+  double drift_yaw_rad = sim::kSimDrift.yaw_sigma_rad_per_sqrt_m;
 };
 
 void usage() {
