@@ -256,6 +256,15 @@ bool AppConfig::load(const std::string& path, std::string* error) {
       {"frontend", [&](const Json& v, std::string* why) {
          return read_section(v, "frontend", {{"connect_interlayer", boolean(&frontend.connect_interlayer)}}, why);
        }},
+      {"agents", [&](const Json& v, std::string* why) {
+         agents::Config& a = frontend.agents;
+         return read_section(v, "agents",
+                             {{"min_translation_m", number(&a.min_translation_m)},
+                              {"min_rotation_rad", number(&a.min_rotation_rad)},
+                              {"max_interval_s", number(&a.max_interval_s)},
+                              {"fold_at_fraction", number(&a.fold_at_fraction)}},
+                             why);
+       }},
       {"keyframes", [&](const Json& v, std::string* why) {
          return read_section(v, "keyframes",
                              {{"min_interval_s", number(&keyframes.min_interval_s)},

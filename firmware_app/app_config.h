@@ -12,6 +12,7 @@
 #include "core/rooms/room_finder.h"
 #include "drivers/replay/dataset_replay.h"
 #include "drivers/sim/exploration.h"
+#include "drivers/sim/odometry_levels.h"
 #include "drivers/sim/sim_camera.h"
 #include "drivers/world/building_generator.h"
 #include "firmware_app/runtime/keyframe_selector.h"
@@ -86,9 +87,9 @@ struct AppConfig {
 
   struct Odometry {
     OdometrySourceKind source = OdometrySourceKind::kAuto;
-    // sim_drift: random walk per sqrt(metre) travelled, as qsg_simulate's default, plus optional biases.
-    double translation_sigma_m_per_sqrt_m = 0.02;
-    double yaw_sigma_rad_per_sqrt_m = 0.003;
+    // sim_drift: random walk per sqrt(metre) travelled, qsg_simulate's default level, plus optional biases.
+    double translation_sigma_m_per_sqrt_m = sim::kSimDrift.translation_sigma_m_per_sqrt_m;
+    double yaw_sigma_rad_per_sqrt_m = sim::kSimDrift.yaw_sigma_rad_per_sqrt_m;
     double scale_bias = 0.0;
     double yaw_bias_rad_per_m = 0.0;
     std::uint64_t seed = 1;
