@@ -112,6 +112,7 @@ bool AppConfig::load(const std::string& path, std::string* error) {
                             {"speed_m_s", number(&exploration.speed_m_s)},
                             {"spin_in_rooms", boolean(&exploration.spin_in_rooms)},
                             {"return_to_start", boolean(&exploration.return_to_start)},
+                            {"rate_hz", number(&exploration.rate_hz)},
                             {"tours", number(&tours)}},
                            why))
            return false;

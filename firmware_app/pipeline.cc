@@ -636,9 +636,11 @@ void Pipeline::heartbeat_task(void* self, const runtime::TaskContext&) {
   else ++p.counters_.gpio_failures;
 }
 
-void Pipeline::telemetry_task(void* self, const runtime::TaskContext& c) {
+void Pipeline::telemetry_task(void* self, const runtime::TaskContext&) {
   Pipeline& p = *static_cast<Pipeline*>(self);
-  if (c.now_ns - p.last_telemetry_ns_ < static_cast<std::int64_t>(p.config_.telemetry_interval_s * 1e9) - 1000000) return;
+  // The loop clock, like last_telemetry_ns_ (the task's context carries the cost clock: the wall in lockstep).
+  if (p.clock_->now_ns() - p.last_telemetry_ns_ < static_cast<std::int64_t>(p.config_.telemetry_interval_s * 1e9) - 1000000)
+    return;
   p.print_telemetry(stdout);
 }
 

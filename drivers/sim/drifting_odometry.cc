@@ -123,4 +123,19 @@ drivers::ReadStatus DriftingOdometry::read(drivers::OdometrySample& sample, std:
   return drivers::ReadStatus::kOk;
 }
 
+replay::Trajectory drifted_trajectory(const replay::Trajectory& truth, const DriftingOdometry::Config& config) {
+  DriftingOdometry odometry(truth, config);
+  replay::Trajectory estimate;
+  estimate.reserve(truth.size());
+  drivers::OdometrySample sample;
+  while (odometry.read(sample, 0) == drivers::ReadStatus::kOk) {
+    replay::StampedPose p;
+    p.time_ns = sample.sample_time_ns;
+    p.world_t_body_m = sample.world_t_body_m;
+    p.world_R_body = sample.world_R_body;
+    estimate.push_back(p);
+  }
+  return estimate;
+}
+
 }  // namespace qsg::sim

@@ -77,4 +77,7 @@ class DriftingOdometry : public drivers::OdometrySource {
   drivers::DriverCounters counters_;
 };
 
+// The whole estimate DriftingOdometry(truth, config) publishes, as a trajectory (allocates: set-up, not a read).
+replay::Trajectory drifted_trajectory(const replay::Trajectory& truth, const DriftingOdometry::Config& config);
+
 }  // namespace qsg::sim

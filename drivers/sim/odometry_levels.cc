@@ -36,16 +36,7 @@ DriftingOdometry::Config drift_config(OdometryLevel level, std::uint64_t seed) {
 OdometryPoses::OdometryPoses(const replay::Trajectory& truth, OdometryLevel level, std::uint64_t seed)
     : level_(level), seed_(seed), truth_(truth) {
   if (level_ == OdometryLevel::kGroundTruth) return;
-  DriftingOdometry odometry(truth_, drift_config(level_, seed_));
-  estimated_.reserve(truth_.size());
-  drivers::OdometrySample sample;
-  while (odometry.read(sample, 0) == drivers::ReadStatus::kOk) {
-    replay::StampedPose p;
-    p.time_ns = sample.sample_time_ns;
-    p.world_t_body_m = sample.world_t_body_m;
-    p.world_R_body = sample.world_R_body;
-    estimated_.push_back(p);
-  }
+  estimated_ = drifted_trajectory(truth_, drift_config(level_, seed_));
 }
 
 bool OdometryPoses::estimate(std::int64_t t_ns, const Eigen::Isometry3d& true_world_T_camera,

@@ -196,16 +196,7 @@ int main(int argc, char** argv) {
     dc.translation_sigma_m_per_sqrt_m = o.drift_m;
     dc.yaw_sigma_rad_per_sqrt_m = o.drift_yaw_rad;
     dc.seed = o.building.seed;
-    sim::DriftingOdometry odometry(tour.trajectory, dc);
-    replay::Trajectory drifted;
-    drivers::OdometrySample sample;
-    while (odometry.read(sample, 0) == drivers::ReadStatus::kOk) {
-      replay::StampedPose p;
-      p.time_ns = sample.sample_time_ns;
-      p.world_t_body_m = sample.world_t_body_m;
-      p.world_R_body = sample.world_R_body;
-      drifted.push_back(p);
-    }
+    const replay::Trajectory drifted = sim::drifted_trajectory(tour.trajectory, dc);
     if (!replay::write_tum_trajectory(o.out + "/odometry.txt", drifted, &error)) return fail(error);
   }
 

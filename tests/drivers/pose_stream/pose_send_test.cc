@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "drivers/pose_stream/pose_stream_source.h"
+#include "tests/support/temp_dir.h"
 #include "drivers/replay/trajectory.h"
 
 extern char** environ;
@@ -19,28 +20,13 @@ extern char** environ;
 namespace qsg::pose_stream {
 namespace {
 
+using ::qsg::testing::TempDir;
+
 using drivers::ReadStatus;
 
 // Upper bound on one read while the sender runs; a read returns as soon as a datagram is there.
 constexpr std::int64_t kReadTimeoutNs = 10'000'000'000;
 
-class TempDir {
- public:
-  TempDir() {
-    char pattern[] = "/tmp/qsg_pose_send_XXXXXX";
-    const char* made = ::mkdtemp(pattern);
-    EXPECT_NE(made, nullptr);
-    path_ = made ? made : "";
-  }
-  ~TempDir() {
-    std::error_code ignored;
-    if (!path_.empty()) std::filesystem::remove_all(path_, ignored);
-  }
-  std::string file(const std::string& name) const { return path_ + "/" + name; }
-
- private:
-  std::string path_;
-};
 
 // A walking-robot-like path with the digits a TUM file carries, and a comment line.
 std::string write_tum_file(const TempDir& dir, int poses) {
@@ -93,7 +79,7 @@ void expect_trajectory(PoseStreamSource& source, const replay::Trajectory& expec
 }
 
 TEST(PoseSendTest, StreamsATumFileOverAUnixSocket) {
-  TempDir dir;
+  TempDir dir("qsg_pose_send");
   const std::string tum = write_tum_file(dir, 60);
   replay::Trajectory expected;
   std::string error;
@@ -121,7 +107,7 @@ TEST(PoseSendTest, StreamsATumFileOverAUnixSocket) {
 }
 
 TEST(PoseSendTest, StreamsATumFileOverUdpLoopback) {
-  TempDir dir;
+  TempDir dir("qsg_pose_send");
   // Few enough poses that the socket's default receive buffer holds them all.
   const std::string tum = write_tum_file(dir, 20);
   replay::Trajectory expected;
@@ -140,7 +126,7 @@ TEST(PoseSendTest, StreamsATumFileOverUdpLoopback) {
 }
 
 TEST(PoseSendTest, RejectsBadArguments) {
-  TempDir dir;
+  TempDir dir("qsg_pose_send");
   const std::string tum = write_tum_file(dir, 2);
   EXPECT_EQ(wait_exit_code(spawn_sender({tum})), 2);                                       // no destination
   EXPECT_EQ(wait_exit_code(spawn_sender({tum, "--udp", "127.0.0.1:1", "--unix", "/x"})), 2);  // two

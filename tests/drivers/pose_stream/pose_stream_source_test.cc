@@ -2,6 +2,7 @@
 // arrives, what is counted (gaps, duplicates, backwards times, malformed datagrams), open errors, and no
 // allocation per read. Datagrams are sent before the reads, so nothing waits on another thread or sleeps.
 #include "drivers/pose_stream/pose_stream_source.h"
+#include "tests/support/temp_dir.h"
 
 #include <arpa/inet.h>
 #include <netinet/in.h>
@@ -25,27 +26,11 @@
 namespace qsg::pose_stream {
 namespace {
 
+using ::qsg::testing::TempDir;
+
 using drivers::ReadStatus;
 constexpr std::int64_t kArrivalTimeoutNs = 2'000'000'000;  // data sent already: returns as soon as it is there
 
-// A temporary folder, removed with what is in it.
-class TempDir {
- public:
-  TempDir() {
-    char pattern[] = "/tmp/qsg_pose_stream_XXXXXX";
-    const char* made = ::mkdtemp(pattern);
-    EXPECT_NE(made, nullptr);
-    path_ = made ? made : "";
-  }
-  ~TempDir() {
-    std::error_code ignored;
-    if (!path_.empty()) std::filesystem::remove_all(path_, ignored);
-  }
-  std::string file(const std::string& name) const { return path_ + "/" + name; }
-
- private:
-  std::string path_;
-};
 
 // The test's end of the socket: sends raw datagrams to a UDP port or a Unix path.
 class Sender {
@@ -194,7 +179,7 @@ TEST(PoseStreamSourceTest, UdpLoopbackDeliversAndCounts) {
 }
 
 TEST(PoseStreamSourceTest, UnixSocketDeliversAndCountsAndCleansUp) {
-  TempDir dir;
+  TempDir dir("qsg_pose_stream");
   SteppedClock clock;
   PoseStreamSource::Config config = udp_config(&clock);
   config.transport = "unix";
@@ -373,7 +358,7 @@ TEST(PoseStreamSourceTest, NonLoopbackBindIsExplicitAndWarned) {
 }
 
 TEST(PoseStreamSourceTest, UnixPathStaleSocketIsReplacedOtherFilesAreNot) {
-  TempDir dir;
+  TempDir dir("qsg_pose_stream");
   PoseStreamSource::Config config;
   config.transport = "unix";
   config.unix_path = dir.file("poses.sock");
