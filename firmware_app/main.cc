@@ -200,6 +200,7 @@ int main(int argc, char** argv) {
   pipeline.frontend().agents().counters().print(stdout);
   pipeline.frontend().agents().chain_stats().print(stdout);
   pipeline.graph().for_each_resource([](const memory::ResourceStats& s) { s.print(stdout); });
+  pipeline.frontend().for_each_resource([](const memory::ResourceStats& s) { s.print(stdout); });
   // Online doors before the final stage replaces them (finish() has stopped the backend that owns the door set).
   const app::PipelineCounters online = pipeline.counters();
   if (!pipeline.finish(&error)) {

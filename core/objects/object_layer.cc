@@ -213,14 +213,16 @@ std::string Config::check() const {
     }
   }
   if (!(index_cell_m >= 0.25 && index_cell_m <= 50.0)) return "index_cell_m must be in [0.25, 50] m";
+  if (max_keys_per_object < 1 || max_keys_per_object > 1000000) return "max_keys_per_object must be in [1, 1000000]";
   return {};
 }
 
 void Config::print(std::FILE* out) const {
   std::fprintf(out,
-               "objects: merge_overlapping=%d merge_intersecting=%d merge_by_size_prior=%d index_cell_m=%.2f; enabled "
-               "labels (tolerance_m, min..max vertices[, max_size_m]):",
-               merge_overlapping ? 1 : 0, merge_intersecting ? 1 : 0, merge_by_size_prior ? 1 : 0, index_cell_m);
+               "objects: merge_overlapping=%d merge_intersecting=%d merge_by_size_prior=%d index_cell_m=%.2f "
+               "max_keys_per_object=%u; enabled labels (tolerance_m, min..max vertices[, max_size_m]):",
+               merge_overlapping ? 1 : 0, merge_intersecting ? 1 : 0, merge_by_size_prior ? 1 : 0, index_cell_m,
+               max_keys_per_object);
   for (semantics::Label l = 0; l < semantics::kNumObjectLabels; ++l) {
     const LabelParams& p = labels[l];
     if (!p.enabled) continue;
@@ -268,13 +270,14 @@ void Counters::print(std::FILE* out) const {
                ") objects created=%" PRIu64 " merged=%" PRIu64 " (overlap %" PRIu64 " intersect %" PRIu64
                " size %" PRIu64 ") removed=%" PRIu64 " index queries=%" PRIu64 " (scans %" PRIu64
                ", visits %" PRIu64 ") boxes_recomputed=%" PRIu64 " vertices stale=%" PRIu64
-               " released=%" PRIu64 " blocks released=%" PRIu64 " overflow: candidate=%" PRIu64 " tracked=%" PRIu64
+               " released=%" PRIu64 " blocks released=%" PRIu64 " keys repeated=%" PRIu64 " capped=%" PRIu64
+               " overflow: candidate=%" PRIu64 " tracked=%" PRIu64
                " key=%" PRIu64 " block=%" PRIu64 " object=%" PRIu64 " graph_node=%" PRIu64
                " graph_connection=%" PRIu64 "\n",
                updates, vertices_presented, candidates, clusters, clusters_too_small, clusters_too_large,
                clusters_joined, clusters_overlap_merged, objects_created, objects_merged, objects_overlap_merged,
                objects_intersect_merged, objects_size_merged, objects_removed, index_queries, index_scans, index_visits,
-               boxes_recomputed, vertices_stale, vertices_released, blocks_released,
+               boxes_recomputed, vertices_stale, vertices_released, blocks_released, keys_repeated, keys_capped,
                candidate_overflow, tracked_overflow, key_overflow, block_overflow, object_overflow, graph_node_failures,
                graph_connection_failures);
 }
@@ -286,6 +289,7 @@ ObjectLayer::ObjectLayer()
       tracked_("objects.tracked_vertices", memory::OverflowPolicy::kRefuse),
       tracked_index_("objects.tracked_index", memory::OverflowPolicy::kRefuse),
       tracked_cells_("objects.tracked_cells", memory::OverflowPolicy::kRefuse),
+      kept_keys_("objects.kept_keys", memory::OverflowPolicy::kRefuse),
       blocks_("objects.blocks", memory::OverflowPolicy::kRefuse),
       block_index_("objects.block_index", memory::OverflowPolicy::kRefuse),
       key_chunks_("objects.key_chunks", memory::OverflowPolicy::kRefuse),
@@ -320,6 +324,7 @@ memory::ArenaPlan ObjectLayer::plan(const Capacities& c) {
   memory::Pool<Block>::plan(p, c.tracked_blocks);
   memory::SpatialHash<std::uint32_t>::plan(p, memory::SpatialHash<std::uint32_t>::slots_for(c.tracked_blocks));
   memory::Pool<KeyChunk>::plan(p, key_chunk_count(c));
+  U64Map::plan(p, U64Map::slots_for(c.vertex_keys));
   memory::ArenaVector<Candidate>::plan(p, c.cluster_vertices);
   U64Map::plan(p, U64Map::slots_for(c.cluster_vertices));
   memory::ArenaVector<SortedCandidate>::plan(p, c.cluster_vertices);
@@ -374,7 +379,9 @@ bool ObjectLayer::init(const Config& config, const Capacities& c, std::size_t bu
                   blocks_.carve(arena_, c.tracked_blocks) &&
                   block_index_.carve(arena_, memory::SpatialHash<std::uint32_t>::slots_for(c.tracked_blocks),
                                      c.tracked_blocks) &&
-                  key_chunks_.carve(arena_, key_chunk_count(c)) && candidates_.carve(arena_, c.cluster_vertices) &&
+                  key_chunks_.carve(arena_, key_chunk_count(c)) &&
+                  kept_keys_.carve(arena_, U64Map::slots_for(c.vertex_keys), c.vertex_keys) &&
+                  candidates_.carve(arena_, c.cluster_vertices) &&
                   candidate_index_.carve(arena_, candidate_slots, c.cluster_vertices) &&
                   sorted_candidates_.carve(arena_, c.cluster_vertices) &&
                   sorted_points_.carve(arena_, c.cluster_vertices) && cells_.carve(arena_, c.cluster_vertices) &&
@@ -529,6 +536,7 @@ void ObjectLayer::release_keys(std::uint32_t h) {
   Object& o = objects_[h];
   for (std::uint32_t c = o.key_head; c != kInvalidHandle;) {
     const std::uint32_t next = key_chunks_[c].next;
+    for (std::uint32_t i = 0; i < key_chunks_[c].count; ++i) kept_keys_.erase(key_chunks_[c].keys[i]);
     key_chunks_.release(c);
     c = next;
   }
@@ -592,8 +600,18 @@ void ObjectLayer::merge_objects(std::uint32_t into, std::uint32_t from) {
   mark_changed(into);
 }
 
+// Keeps `key` as one of object h's mesh connections: once per key (a block that left the window and came back
+// presents its vertices again), and up to Config::max_keys_per_object per object.
 bool ObjectLayer::append_key(std::uint32_t h, std::uint64_t key) {
   Object& o = objects_[h];
+  if (kept_keys_.find(key) != nullptr) {
+    ++counters_.keys_repeated;
+    return true;
+  }
+  if (o.num_keys >= config_.max_keys_per_object) {
+    ++counters_.keys_capped;
+    return true;
+  }
   if (o.key_tail == kInvalidHandle || key_chunks_[o.key_tail].count == kKeysPerChunk) {
     const std::uint32_t c = key_chunks_.acquire();
     if (c == kInvalidHandle) {
@@ -605,6 +623,10 @@ bool ObjectLayer::append_key(std::uint32_t h, std::uint64_t key) {
     if (o.key_tail == kInvalidHandle) o.key_head = c;
     else key_chunks_[o.key_tail].next = c;
     o.key_tail = c;
+  }
+  if (kept_keys_.insert(key, h) == nullptr) {  // sized as the chunks: full only with them
+    ++counters_.key_overflow;
+    return false;
   }
   KeyChunk& chunk = key_chunks_[o.key_tail];
   chunk.keys[chunk.count++] = key;

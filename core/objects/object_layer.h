@@ -94,6 +94,10 @@ struct Config {
   // Cell of the grid that indexes object box centres for the merge search: a performance knob (which objects may
   // merge does not depend on it); about the size of a large object.
   double index_cell_m = 2.0;
+  // Mesh-vertex references (mesh connections) an object keeps at most: a sample of its surface, not all of it. A
+  // revisited surface under drifting odometry lands on new vertices every pass; without a cap, a long mission's
+  // repeated tours fill the key store. Vertices past the cap still shape the object (centroid, box).
+  std::uint32_t max_keys_per_object = 2048;
   std::string check() const;      // empty when usable, else the bad field and why
   void print(std::FILE* out) const;
 };
@@ -135,6 +139,8 @@ struct Counters {
   std::uint64_t candidate_overflow = 0;  // also a candidate beyond the clustering grid's reach (not a store)
   std::uint64_t tracked_overflow = 0;
   std::uint64_t key_overflow = 0;
+  std::uint64_t keys_repeated = 0;       // a revisited vertex whose key an object already keeps: not stored twice
+  std::uint64_t keys_capped = 0;         // not kept: the object holds Config::max_keys_per_object already
   std::uint64_t block_overflow = 0;
   std::uint64_t object_overflow = 0;
   std::uint64_t graph_node_failures = 0;   // scene graph full: object not added (retried on the next sync)
@@ -241,6 +247,7 @@ class ObjectLayer {
     fn(objects_.stats());
     fn(tracked_.stats());
     fn(tracked_index_.stats());
+    fn(kept_keys_.stats());
     fn(tracked_cells_.stats());
     fn(blocks_.stats());
     fn(block_index_.stats());
@@ -334,6 +341,7 @@ class ObjectLayer {
   memory::Pool<TrackedVertex> tracked_;
   memory::FixedHashMap<std::uint64_t, std::uint32_t, memory::U64Hash> tracked_index_;  // vertex key -> slot
   memory::FixedHashMap<std::uint64_t, std::uint32_t, memory::U64Hash> tracked_cells_;  // (label, cell) -> list
+  memory::FixedHashMap<std::uint64_t, std::uint32_t, memory::U64Hash> kept_keys_;  // every key an object keeps
   memory::Pool<Block> blocks_;
   memory::SpatialHash<std::uint32_t> block_index_;
   memory::Pool<KeyChunk> key_chunks_;

@@ -214,6 +214,22 @@ int main(int argc, char** argv) {
     rc.seed = o.building.seed;
     if (!camera.init(cc, rc, w, tour.trajectory, &error)) return fail(error);
     cc.print(stdout);
+    // odometry.json: qsg_app's odometry section that replays this folder from its own drifting estimate
+    // (odometry.txt is the body's path; the frames are the camera's, mounted as body_T_camera).
+    {
+      const Eigen::Isometry3d& m = camera.body_T_camera();
+      const Eigen::Quaterniond q(m.linear());
+      std::FILE* f = std::fopen((o.out + "/odometry.json").c_str(), "w");
+      if (f == nullptr) return fail(o.out + "/odometry.json: cannot create");
+      std::fprintf(f,
+                   "// qsg_app --driver replay --replay %s --config %s/odometry.json: map from the drifting estimate\n"
+                   "{ \"odometry\": { \"source\": \"tum\", \"tum_path\": \"%s/odometry.txt\",\n"
+                   "                \"body_t_camera_m\": [%.9g, %.9g, %.9g],\n"
+                   "                \"body_q_camera_xyzw\": [%.17g, %.17g, %.17g, %.17g] } }\n",
+                   o.out.c_str(), o.out.c_str(), o.out.c_str(), m.translation().x(), m.translation().y(),
+                   m.translation().z(), q.x(), q.y(), q.z(), q.w());
+      if (std::fclose(f) != 0) return fail(o.out + "/odometry.json: write failed");
+    }
     replay::TumWriter writer;
     if (!writer.open(o.out, replay::TumWriter::Config{}, &error)) return fail(error);
     auto frame = std::make_unique<drivers::RgbdFrame>();
@@ -239,7 +255,8 @@ int main(int argc, char** argv) {
   // calibration.json (the rendering camera and depth scale, from TumWriter) lets qsg_app replay this folder at any
   // --size with the right camera.
   std::printf("wrote %s/{world.json, world.png, rgb.txt, depth.txt, calibration.json, groundtruth.txt (optical "
-              "frame), odometry.txt (body frame, drifting), ground_truth/}\n",
+              "frame), odometry.txt (body frame, drifting), odometry.json (qsg_app's odometry section for it), "
+              "ground_truth/}\n",
               o.out.c_str());
   return 0;
 }
