@@ -95,6 +95,14 @@ std::vector<ObjectView> objects_of(const ObjectLayer& layer) {
   return out;
 }
 
+std::size_t key_chunks_in_use(const ObjectLayer& layer) {
+  std::size_t in_use = 0;
+  layer.for_each_resource([&](const memory::ResourceStats& s) {
+    if (std::string(s.name) == "objects.key_chunks") in_use = s.in_use;
+  });
+  return in_use;
+}
+
 std::vector<Vertex> concat(std::vector<Vertex> a, const std::vector<Vertex>& b) {
   a.insert(a.end(), b.begin(), b.end());
   return a;
@@ -489,6 +497,36 @@ TEST(ObjectLayerTest, StaleVerticesLeaveTheirObjectAndReleasedBlocksKeepTheSumma
   EXPECT_EQ(layer2->num_objects(), 0u);
   ASSERT_TRUE(layer2->sync(graph.get()));
   EXPECT_FALSE(graph->has_node(node));
+}
+
+// A block that leaves the window and comes back (the robot's next tour) presents the same vertex keys again: the
+// object keeps each key once, so repeated tours do not fill the key store; an object keeps at most
+// max_keys_per_object keys (a revisit under drift lands on new keys every pass).
+TEST(ObjectLayerTest, ARevisitedBlockKeepsEachKeyOnceAndAnObjectsKeysAreCapped) {
+  auto layer = make_layer();
+  std::uint64_t key = 1;
+  const auto chair = box_surface({0.05, 0.05, 0.05}, {0.55, 0.55, 0.75}, semantics::kChair, &key);  // one block
+  std::size_t chunks_after_first = 0;
+  for (std::uint64_t tour = 0; tour < 5; ++tour) {
+    present(layer.get(), chair, 10 * tour + 1);
+    layer->begin_update(10 * tour + 2);
+    layer->release_block(block_of(0.1, 0.1, 0.1));
+    layer->end_update();
+    if (tour == 0) chunks_after_first = key_chunks_in_use(*layer);
+  }
+  ASSERT_EQ(layer->num_objects(), 1u);
+  EXPECT_EQ(objects_of(*layer)[0].num_keys, chair.size());
+  EXPECT_EQ(key_chunks_in_use(*layer), chunks_after_first);
+  EXPECT_EQ(layer->counters().keys_repeated, 4 * chair.size());
+
+  Config capped;
+  capped.max_keys_per_object = 10;
+  auto small = make_layer(capped);
+  present(small.get(), chair, 1);
+  ASSERT_EQ(small->num_objects(), 1u);
+  EXPECT_EQ(objects_of(*small)[0].num_keys, 10u);
+  EXPECT_EQ(objects_of(*small)[0].num_vertices, chair.size()) << "every vertex still shapes the object";
+  EXPECT_EQ(small->counters().keys_capped, chair.size() - 10);
 }
 
 TEST(ObjectLayerTest, FullStoresAreCountedNotFatal) {
