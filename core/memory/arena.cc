@@ -3,6 +3,7 @@
 
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <utility>
 
 namespace qsg::memory {
@@ -48,6 +49,9 @@ bool Arena::create(const char* name, const ArenaPlan& plan, std::size_t budget_b
       if (error != nullptr) *error = std::string("arena '") + name + "': the system refused " + std::to_string(bytes) + " bytes";
       return false;
     }
+    // Pre-fault: touch every page now, so the real-time path never takes a first-touch page fault and the resident
+    // set reaches its size at start-up (a run's memory is then flat from the first tick, and any later growth is real).
+    std::memset(base_, 0, bytes);
   }
   capacity_ = bytes;
   return true;

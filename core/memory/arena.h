@@ -3,8 +3,9 @@
 // Start-up works in two steps, as flight-software buffer managers do:
 //   1. the subsystem describes every buffer it needs in an ArenaPlan (name, element count, alignment);
 //   2. Arena::create() checks the plan against the board's byte budget, makes one allocation of exactly the
-//      planned size, the subsystem carves its buffers in the same order, and seal() asserts that the carve
-//      pointer ended exactly at the arena's end (a plan and a carve that disagree are a bug, caught at start-up).
+//      planned size and touches every page of it (pre-faulted: the real-time path takes no first-touch page
+//      fault), the subsystem carves its buffers in the same order, and seal() asserts that the carve pointer
+//      ended exactly at the arena's end (a plan and a carve that disagree are a bug, caught at start-up).
 // After seal() nothing can be carved: the real-time path never allocates.
 #pragma once
 
