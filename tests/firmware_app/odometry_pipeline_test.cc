@@ -142,7 +142,8 @@ TEST(OdometryPipelineTest, BadOdometryConfigIsRefusedByName) {
 // path at its own timestamps, the app (on the wall clock) maps from it.
 TEST(OdometryPipelineTest, ALivePoseStreamFromQsgPoseSendFeedsTheMap) {
   if (std::getenv("QSG_EMULATED") != nullptr)
-    GTEST_SKIP() << "runs on the wall clock: under qemu-user the app cannot keep up with a real-time sender";
+    GTEST_SKIP() << "under qemu-user a test cannot start the arm64 qsg_pose_send (no binfmt_misc), and the app on "
+                    "the wall clock could not keep up with a real-time sender";
   AppConfig c = small_config("stream");
   runtime::SteppedClock probe_clock;
   Pipeline probe;
