@@ -2042,17 +2042,11 @@ SyncResult Places::sync(scene_graph::SceneGraph* graph) {
           if (scene_graph::node_prefix(m) != scene_graph::kPlacePrefix) return;
           const scene_graph::PlaceAttributes* pm = graph->place(m);
           if (pm == nullptr || pm->is_active) return;
-          // One parked edge per inactive place and cell: a place that is removed and re-created in the same cell
-          // cycle after cycle (a robot turning on the spot, a revisit) parks the same edge again, and the newest
-          // replaces it rather than filling the list over a long mission.
-          Relink* same = nullptr;
-          for (std::size_t i = 0; i < num_relinks_ && same == nullptr; ++i)
-            if (relinks_[i].inactive == m && relinks_[i].cell == c.cell) same = &relinks_[i];
-          if (same == nullptr && num_relinks_ == capacities_.pending_relinks) {
+          if (num_relinks_ == capacities_.pending_relinks) {
             ++counters_.relinks_refused;
             return;
           }
-          Relink& l = same != nullptr ? *same : relinks_[num_relinks_++];
+          Relink& l = relinks_[num_relinks_++];
           relinks_high_water_ = std::max(relinks_high_water_, num_relinks_);
           l.inactive = m;
           l.position_m = c.position_m;
