@@ -83,8 +83,8 @@ memory::ResourceStats AgentLayer::chain_stats() const {
 }
 
 // Folds every second node of the chain's older half (never the first, which anchors the map) into the odometry
-// edge between its neighbours. O(chain) and allocation-free; runs once per (1 - fold_at_fraction / 2 ...) of the
-// capacity, so its cost per keyframe is constant.
+// edge between its neighbours. O(chain) and allocation-free; a pass frees about a quarter of the chain, so passes
+// come once per that many added nodes and the cost per keyframe stays bounded.
 void AgentLayer::fold_older_half(scene_graph::SceneGraph* graph) {
   const std::size_t half = chain_size_ / 2;
   std::size_t kept = 1;
