@@ -12,6 +12,7 @@
 
 #include "drivers/replay/trajectory.h"
 #include "firmware_app/pipeline.h"
+#include "tests/support/emulation.h"
 
 extern char** environ;
 
@@ -141,7 +142,7 @@ TEST(OdometryPipelineTest, BadOdometryConfigIsRefusedByName) {
 // End to end on the host: the app listens on a Unix datagram socket, qsg_pose_send streams the tour's true body
 // path at its own timestamps, the app (on the wall clock) maps from it.
 TEST(OdometryPipelineTest, ALivePoseStreamFromQsgPoseSendFeedsTheMap) {
-  if (std::getenv("QSG_EMULATED") != nullptr)
+  if (qsg::testing::running_emulated())
     GTEST_SKIP() << "under qemu-user a test cannot start the arm64 qsg_pose_send (no binfmt_misc), and the app on "
                     "the wall clock could not keep up with a real-time sender";
   AppConfig c = small_config("stream");

@@ -10,6 +10,7 @@
 #include <string>
 
 #include "tests/support/test_data.h"
+#include "tests/support/emulation.h"
 
 namespace {
 
@@ -38,8 +39,8 @@ std::string write_temp(const std::string& name, const std::string& text) {
 }
 
 TEST(TrajEvalCli, BadArgumentsAndFilesExitNonZero) {
-  if (std::getenv("QSG_EMULATED") != nullptr)
-    GTEST_SKIP() << "QSG_EMULATED: under qemu-user a test cannot start the arm64 qsg_traj_eval (no binfmt_misc)";
+  if (qsg::testing::running_emulated())
+    GTEST_SKIP() << "emulated: under qemu-user a test cannot start the arm64 qsg_traj_eval (no binfmt_misc)";
   const std::string good = write_temp("good.txt",
                                       "# t tx ty tz qx qy qz qw\n"
                                       "1.00 0 0 0 0 0 0 1\n1.10 1 0 0 0 0 0 1\n1.20 1 1 0 0 0 0 1\n"
@@ -76,8 +77,8 @@ TEST(TrajEvalCli, BadArgumentsAndFilesExitNonZero) {
 }
 
 TEST(TrajEvalCli, SharedPairWritesFigures) {
-  if (std::getenv("QSG_EMULATED") != nullptr)
-    GTEST_SKIP() << "QSG_EMULATED: under qemu-user a test cannot start the arm64 qsg_traj_eval (no binfmt_misc)";
+  if (qsg::testing::running_emulated())
+    GTEST_SKIP() << "emulated: under qemu-user a test cannot start the arm64 qsg_traj_eval (no binfmt_misc)";
   QSG_REQUIRE_SHARED_DATA(groundtruth, "trajectories/groundtruth.txt");
   QSG_REQUIRE_SHARED_DATA(estimated, "trajectories/estimated.txt");
   const std::string json_path = ::testing::TempDir() + "qsg_traj_eval_cli_figures.json";

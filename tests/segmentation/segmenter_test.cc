@@ -132,7 +132,7 @@ class RealModel : public ::testing::Test {
   }
   void SetUp() override {
     QSG_REQUIRE_SHARED_DATA(model, kModel);
-    if (slow_tests_disabled()) GTEST_SKIP() << "QSG_SKIP_SLOW_TESTS or QSG_EMULATED set: skipping the real network";
+    if (slow_tests_disabled()) GTEST_SKIP() << "QSG_SKIP_SLOW_TESTS set or running under qemu-user: skipping the real network";
     ASSERT_NE(seg_, nullptr) << init_error_;
   }
 
@@ -254,7 +254,7 @@ TEST_F(RealModel, OurStagesDoNotAllocateAfterWarmUp) {
 
 TEST(RealModelInit, NetworkClassCountDifferentFromConfigIsRefused) {
   QSG_REQUIRE_SHARED_DATA(model, kModel);
-  if (slow_tests_disabled()) GTEST_SKIP() << "QSG_SKIP_SLOW_TESTS or QSG_EMULATED set: skipping the real network";
+  if (slow_tests_disabled()) GTEST_SKIP() << "QSG_SKIP_SLOW_TESTS set or running under qemu-user: skipping the real network";
   // A 20-class map and config against the 21-class network: the error names the model and both counts.
   std::string json = R"({"network": "wrong", "classes": [)";
   for (int c = 0; c < 20; ++c)

@@ -6,6 +6,7 @@
 #include <cstdlib>
 #include <fstream>
 #include <string>
+#include "tests/support/emulation.h"
 
 namespace qsg::segmentation::testing {
 
@@ -21,7 +22,7 @@ inline bool env_set(const char* name) {
   return v != nullptr && v[0] != '\0' && std::string(v) != "0";
 }
 
-// A real forward pass takes ~0.1-0.3 s natively and minutes under qemu: the cross presets set QSG_EMULATED=1.
-inline bool slow_tests_disabled() { return env_set("QSG_SKIP_SLOW_TESTS") || env_set("QSG_EMULATED"); }
+// A real forward pass takes ~0.1-0.3 s natively and minutes under qemu (cross builds; support/emulation.h).
+inline bool slow_tests_disabled() { return env_set("QSG_SKIP_SLOW_TESTS") || qsg::testing::running_emulated(); }
 
 }  // namespace qsg::segmentation::testing

@@ -13,6 +13,7 @@
 
 #include "drivers/pose_stream/pose_stream_source.h"
 #include "tests/support/temp_dir.h"
+#include "tests/support/emulation.h"
 #include "drivers/replay/trajectory.h"
 
 extern char** environ;
@@ -47,8 +48,8 @@ std::string write_tum_file(const TempDir& dir, int poses) {
 // Under qemu-user (cross builds' ctest) a test cannot start another arm64 program: without binfmt_misc the host
 // kernel refuses to execute it. The sender is tested natively (default and sanitizer builds).
 #define QSG_SKIP_IF_EMULATED()                                                                       \
-  if (std::getenv("QSG_EMULATED") != nullptr)                                                        \
-  GTEST_SKIP() << "QSG_EMULATED: a test under qemu-user cannot start the arm64 qsg_pose_send binary"
+  if (qsg::testing::running_emulated())                                                        \
+  GTEST_SKIP() << "emulated: a test under qemu-user cannot start the arm64 qsg_pose_send binary"
 
 // Starts the sender; returns its pid (or -1).
 pid_t spawn_sender(std::vector<std::string> args) {
