@@ -67,6 +67,7 @@ struct Options {
   std::string plans_dir = std::string(QSG_SHARED_DATA_DIR) + "/floorplans/ipa";
   double window_radius_m = 0.0;  // --window-radius-m: places window (0: the Config default)
   double keep_edges_at_rim_m = -1.0;  // --keep-edges-at-rim-m: Config::keep_edges_at_rim_m (< 0: the default)
+  double merge_revisited_m = -1.0;    // --merge-revisited-m: Config::merge_revisited_within_m (< 0: the default)
   double slab_above_m = 0.0;     // --slab-above-m: ESDF slab above the robot (0: the Config default)
   int bridge_max_places = 0;     // --bridge-max-places: Config::bridge_max_fragment_places (0: the default)
   std::vector<Eigen::Vector3d> trace;  // --trace X,Y,Z (repeatable): the ESDF voxel there, whenever it changes
@@ -81,7 +82,7 @@ void usage(const char* argv0) {
   std::fprintf(stderr,
                "usage: %s [--seeds 1,2,3] [--rooms N] [--size WxH] [--hfov-deg D] [--rate-hz R] [--every-n N] "
                "[--no-observe] [--no-free-space-edges] [--no-relink] [--no-bridges] [--no-contract] [--no-unobserved-obstacle] [--no-rim-guard] [--no-keep-rim-distances] [--no-signed-seeds] [--no-projective-correction] [--no-hold-distant] [--no-bridge-paths] [--no-revive-check] [--no-relink-check] [--two-floors] [--floorplan NAME [--furnished]] "
-               "[--plans-dir DIR] [--window-radius-m R] [--keep-edges-at-rim-m M] [--slab-above-m H] [--bridge-max-places N] [--unobserved-above-m H] [--trace X,Y,Z] %s [--json FILE] [--verbose] [--diagnose]\n"
+               "[--plans-dir DIR] [--window-radius-m R] [--keep-edges-at-rim-m M] [--merge-revisited-m M] [--slab-above-m H] [--bridge-max-places N] [--unobserved-above-m H] [--trace X,Y,Z] %s [--json FILE] [--verbose] [--diagnose]\n"
                "  NAME: a map of the plans dir (Freiburg52_scan, lab_c_scan, lab_intel, lab_ipa, office_a, office_e)\n",
                argv0, bench::odometry_usage());
 }
@@ -229,6 +230,12 @@ bool parse(int argc, char** argv, Options* o) {
       o->keep_edges_at_rim_m = std::strtod(v.c_str(), &end);
       if (end != v.c_str() && *end == '\0' && !(o->keep_edges_at_rim_m >= 0.0 && o->keep_edges_at_rim_m <= 10.0)) {
         std::fprintf(stderr, "--keep-edges-at-rim-m: must be in [0, 10] m\n");
+        return false;
+      }
+    } else if (a == "--merge-revisited-m") {
+      o->merge_revisited_m = std::strtod(v.c_str(), &end);
+      if (end != v.c_str() && *end == '\0' && !(o->merge_revisited_m >= 0.0 && o->merge_revisited_m <= 1.0)) {
+        std::fprintf(stderr, "--merge-revisited-m: must be in [0, 1] m (0 turns the merge off)\n");
         return false;
       }
     } else if (a == "--size") {
@@ -601,6 +608,7 @@ bool run_world(const Options& opt, const world::World& w, bool floor_plan, Build
   pc.revive_in_same_free_space = opt.revive_check;
   pc.relink_in_same_free_space = opt.relink_check;
   if (opt.keep_edges_at_rim_m >= 0.0) pc.keep_edges_at_rim_m = opt.keep_edges_at_rim_m;
+  if (opt.merge_revisited_m >= 0.0) pc.merge_revisited_within_m = opt.merge_revisited_m;
   pc.relink_inactive = opt.relink;
   pc.bridge_fragments = opt.bridges;
   pc.enclosed_max_voxels = opt.bridges ? pc.enclosed_max_voxels : 0;

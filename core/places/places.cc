@@ -109,6 +109,7 @@ struct Places::Cluster {
   std::uint8_t bridge_check = 0;  // its edges changed: is it (still) a small fragment to bridge?
   std::uint8_t held = 0;          // an enclosed pocket (see Config::enclosed_max_voxels): kept out of the graph
   std::uint8_t revived = 0;       // its node is the cell's inactive node, brought back: checked at the next sync
+  std::uint8_t merge_check = 0;   // published by this sync: look for revisited inactive places near it
   float clearance_m = 0.0f;
   Eigen::Vector3d position_m = Eigen::Vector3d::Zero();
   std::uint32_t cell_next = kNoCluster;  // next live cluster of the same hash cell
@@ -125,6 +126,12 @@ struct Places::Relink {
   float clearance_m = 0.0f;
   float weight_m = 0.0f;  // the removed edge's weight
   memory::Index3 cell;
+};
+
+// One inactive place in the index (Places::inactive_): chained per hash cell, or on the free list.
+struct Places::InactiveEntry {
+  scene_graph::NodeId node = scene_graph::kNoNode;
+  std::uint32_t next = kNoRef;
 };
 
 // A fixed list of voxel refs (or dirty-block entries) with a usage counter.
@@ -169,6 +176,8 @@ std::string Config::check() const {
     return "contract_search_places must be in [1, " + std::to_string(kMaxContractSearch) + "]";
   if (!(keep_edges_at_rim_m >= 0.0 && keep_edges_at_rim_m < window_radius_m))
     return "keep_edges_at_rim_m must be in [0, window_radius_m) (at or beyond the radius, no edge would ever go)";
+  if (!(merge_revisited_within_m >= 0.0 && merge_revisited_within_m <= place_resolution_m))
+    return "merge_revisited_within_m must be in [0, place_resolution_m] (the merge searches the neighbouring cells)";
   return {};
 }
 
@@ -181,7 +190,8 @@ void Config::print(std::FILE* out) const {
                "enclosed_max_voxels=%d contract_removed=%d contract_search_places=%d unobserved_is_obstacle=%d "
                "unobserved_obstacle_above_m=%.2f rim_guard=%d signed_surface_seeds=%d correct_projective_distance=%d "
                "hold_distant_fragments=%d bridge_path_search=%d keep_distances_at_rim=%d "
-               "revive_in_same_free_space=%d keep_edges_at_rim_m=%.2f relink_in_same_free_space=%d\n",
+               "revive_in_same_free_space=%d keep_edges_at_rim_m=%.2f relink_in_same_free_space=%d "
+               "merge_revisited_within_m=%.2f\n",
                voxel_factor, max_distance_m, min_clearance_m, min_basis_angle_rad * 180.0 / 3.14159265358979,
                min_basis_points, place_resolution_m, window_radius_m, slab_below_m, slab_above_m, min_tsdf_weight,
                free_space_edges ? 1 : 0, relink_inactive ? 1 : 0, bridge_fragments ? 1 : 0,
@@ -191,7 +201,7 @@ void Config::print(std::FILE* out) const {
                unobserved_obstacle_above_m, rim_guard ? 1 : 0, signed_surface_seeds ? 1 : 0,
                correct_projective_distance ? 1 : 0, hold_distant_fragments ? 1 : 0,
                bridge_path_search ? 1 : 0, keep_distances_at_rim ? 1 : 0, revive_in_same_free_space ? 1 : 0,
-               keep_edges_at_rim_m, relink_in_same_free_space ? 1 : 0);
+               keep_edges_at_rim_m, relink_in_same_free_space ? 1 : 0, merge_revisited_within_m);
 }
 
 void Capacities::print(std::FILE* out) const {
@@ -281,7 +291,8 @@ memory::ArenaPlan Places::plan(const Capacities& c) {
   memory::Pool<Block>::plan(plan, c.max_blocks);
   memory::SpatialHash<std::uint32_t>::plan(plan, memory::SpatialHash<std::uint32_t>::slots_for(c.max_blocks));
   memory::Pool<Cluster>::plan(plan, c.place_nodes);
-  memory::SpatialHash<scene_graph::NodeId>::plan(plan, memory::SpatialHash<scene_graph::NodeId>::slots_for(c.inactive_cells));
+  memory::SpatialHash<std::uint32_t>::plan(plan, memory::SpatialHash<std::uint32_t>::slots_for(c.inactive_cells));
+  plan.add_array<InactiveEntry>(c.inactive_cells);
   memory::SpatialHash<std::uint32_t>::plan(plan, memory::SpatialHash<std::uint32_t>::slots_for(c.place_nodes));
   for (int i = 0; i < 2; ++i)
     memory::SpatialHash<std::uint32_t>::plan(plan, memory::SpatialHash<std::uint32_t>::slots_for(c.observed_blocks));
@@ -311,13 +322,18 @@ bool Places::init(const Config& config, const Capacities& c, std::size_t budget_
   bool ok = blocks_.carve(arena_, c.max_blocks) &&
             block_index_.carve(arena_, memory::SpatialHash<std::uint32_t>::slots_for(c.max_blocks), c.max_blocks) &&
             clusters_.carve(arena_, c.place_nodes) &&
-            inactive_.carve(arena_, memory::SpatialHash<scene_graph::NodeId>::slots_for(c.inactive_cells),
+            inactive_.carve(arena_, memory::SpatialHash<std::uint32_t>::slots_for(c.inactive_cells),
                             c.inactive_cells) &&
             cells_.carve(arena_, memory::SpatialHash<std::uint32_t>::slots_for(c.place_nodes), c.place_nodes) &&
             observed_[0].carve(arena_, memory::SpatialHash<std::uint32_t>::slots_for(c.observed_blocks),
                                c.observed_blocks) &&
             observed_[1].carve(arena_, memory::SpatialHash<std::uint32_t>::slots_for(c.observed_blocks),
                                c.observed_blocks);
+  inactive_entries_ = ok ? arena_.carve_array<InactiveEntry>(c.inactive_cells) : nullptr;
+  ok = ok && inactive_entries_ != nullptr;
+  for (std::size_t i = 0; ok && i < c.inactive_cells; ++i)
+    inactive_entries_[i].next = i + 1 < c.inactive_cells ? static_cast<std::uint32_t>(i + 1) : kNoRef;
+  inactive_free_ = 0;
   relinks_ = ok ? arena_.carve_array<Relink>(c.pending_relinks) : nullptr;
   ok = ok && relinks_ != nullptr;
   lists_ = ok ? arena_.carve_array<List>(kNumLists) : nullptr;
@@ -357,6 +373,17 @@ memory::ResourceStats Places::relink_stats() const {
   s.in_use = num_relinks_;
   s.high_water = relinks_high_water_;
   s.failed = counters_.relinks_refused;
+  return s;
+}
+
+memory::ResourceStats Places::inactive_entry_stats() const {
+  memory::ResourceStats s;
+  s.name = "places.inactive_places";
+  s.unit = "places";
+  s.capacity = capacities_.inactive_cells;
+  s.in_use = inactive_used_;
+  s.high_water = inactive_high_water_;
+  s.failed = counters_.inactive_forgotten;
   return s;
 }
 
@@ -1105,11 +1132,11 @@ std::uint32_t Places::new_cluster(const memory::Index3& cell) {
   c.cell = cell;
   // Back in a cell a place left when it went out of the window: the inactive node comes back to life.
   c.revived = 0;
-  if (const scene_graph::NodeId* old = inactive_.find(cell)) {
-    c.node = *old;
+  c.merge_check = 0;
+  if (const scene_graph::NodeId old = take_inactive(cell); old != scene_graph::kNoNode) {
+    c.node = old;
     c.synced = 1;
     c.revived = 1;
-    inactive_.erase(cell);
     ++counters_.reactivated;
   } else {
     c.node = scene_graph::make_node_id(scene_graph::kPlacePrefix, next_node_index_++);
@@ -1194,7 +1221,7 @@ void Places::retire_cluster(std::uint32_t cluster, std::uint8_t state) {
     c.revived = 0;
     if (counters_.reactivated > 0) --counters_.reactivated;
     if (state == kRemoved) {
-      inactive_.insert(c.cell, c.node);
+      park_inactive(c.cell, c.node);
       c.node = scene_graph::kNoNode;
       c.synced = 0;
     }
@@ -1217,7 +1244,7 @@ void Places::retire_cluster(std::uint32_t cluster, std::uint8_t state) {
   c.state = state;
   if (clusters_live_ > 0) --clusters_live_;
   counters_.places = clusters_live_;
-  if (state == kLeft && c.synced) inactive_.insert(c.cell, c.node);  // refused (counted) when full
+  if (state == kLeft && c.synced) park_inactive(c.cell, c.node);  // refused (counted) when full
   if (!c.synced) clusters_.release(cluster);
 }
 
@@ -2071,7 +2098,7 @@ SyncResult Places::sync(scene_graph::SceneGraph* graph) {
       const scene_graph::PlaceAttributes* old = graph->place(c.node);
       if (config_.revive_in_same_free_space && old != nullptr && !old->is_active &&
           !same_free_space(old->position_m, old->distance_m, c.position_m, c.clearance_m)) {
-        inactive_.insert(c.cell, c.node);  // stays inactive where it was; a later place of the cell may revive it
+        park_inactive(c.cell, c.node);  // stays inactive where it was; a later place of the cell may revive it
         c.node = scene_graph::make_node_id(scene_graph::kPlacePrefix, next_node_index_++);
         c.synced = 0;
         --counters_.reactivated;
@@ -2108,6 +2135,7 @@ SyncResult Places::sync(scene_graph::SceneGraph* graph) {
       *p = attrs;
       ++r.nodes_updated;
       c.synced = 1;
+      c.merge_check = 1;
       continue;
     }
     // Checked here so a full graph is a counted refusal in every build (the store's own policy may abort).
@@ -2119,6 +2147,7 @@ SyncResult Places::sync(scene_graph::SceneGraph* graph) {
     if (st == scene_graph::Status::kOk) {
       ++r.nodes_added;
       c.synced = 1;
+      c.merge_check = 1;
     } else {
       refuse("place node");
     }
@@ -2181,8 +2210,99 @@ SyncResult Places::sync(scene_graph::SceneGraph* graph) {
     }
     if (complete) c.sync_dirty = 0;
   }
+  if (config_.merge_revisited_within_m > 0.0) {
+    for (std::uint32_t h = 0; h < clusters_.capacity(); ++h) {
+      if (!clusters_.live(h)) continue;
+      Cluster& c = clusters_[h];
+      if (c.state == kLive && c.merge_check && c.synced) merge_revisited(graph, h, &r);
+      c.merge_check = 0;
+    }
+  }
   resolve_relinks(graph, &r);
   return r;
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// Inactive places: the index of revisits
+
+void Places::park_inactive(const memory::Index3& cell, scene_graph::NodeId node) {
+  if (inactive_free_ == kNoRef) {
+    ++counters_.inactive_forgotten;
+    return;
+  }
+  std::uint32_t* head = inactive_.find_or_insert(cell, kNoRef);
+  if (head == nullptr) {  // the cell map is full (counted by the map)
+    ++counters_.inactive_forgotten;
+    return;
+  }
+  const std::uint32_t e = inactive_free_;
+  inactive_free_ = inactive_entries_[e].next;
+  inactive_entries_[e].node = node;
+  inactive_entries_[e].next = *head;
+  *head = e;
+  inactive_high_water_ = std::max(inactive_high_water_, ++inactive_used_);
+}
+
+scene_graph::NodeId Places::take_inactive(const memory::Index3& cell) {
+  std::uint32_t* head = inactive_.find(cell);
+  if (head == nullptr) return scene_graph::kNoNode;
+  const std::uint32_t e = *head;
+  const scene_graph::NodeId node = inactive_entries_[e].node;
+  *head = inactive_entries_[e].next;
+  if (*head == kNoRef) inactive_.erase(cell);
+  inactive_entries_[e].next = inactive_free_;
+  inactive_free_ = e;
+  --inactive_used_;
+  return node;
+}
+
+// Config::merge_revisited_within_m: the inactive places of the 27 cells around a live place that lie within the
+// distance and in its free space are merged into it. Index entries of nodes gone from the graph are dropped on
+// the way; those of places still active (parked as they left, deactivated by this sync's start) are skipped.
+void Places::merge_revisited(scene_graph::SceneGraph* graph, std::uint32_t cluster, SyncResult* r) {
+  const Cluster& c = clusters_[cluster];
+  const double radius = config_.merge_revisited_within_m;
+  const Eigen::Vector3d& p = c.position_m;
+  const memory::Index3 home{static_cast<std::int32_t>(std::floor(p.x() / config_.place_resolution_m)),
+                            static_cast<std::int32_t>(std::floor(p.y() / config_.place_resolution_m)),
+                            static_cast<std::int32_t>(std::floor(p.z() / config_.place_resolution_m))};
+  for (int oi = 0; oi <= 26; ++oi) {
+    const memory::Index3 cell = oi < 26 ? add(home, kOffsets.o[oi].dx, kOffsets.o[oi].dy, kOffsets.o[oi].dz) : home;
+    std::uint32_t* head = inactive_.find(cell);
+    if (head == nullptr) continue;
+    std::uint32_t* link = head;
+    while (*link != kNoRef) {
+      const std::uint32_t e = *link;
+      const scene_graph::NodeId m = inactive_entries_[e].node;
+      const scene_graph::PlaceAttributes* pm = m != c.node ? graph->place(m) : nullptr;
+      bool drop = pm == nullptr;  // gone from the graph (or the live node itself): forget it
+      if (pm != nullptr && !pm->is_active && (pm->position_m - p).norm() <= radius &&
+          same_free_space(pm->position_m, pm->distance_m, p, c.clearance_m)) {
+        const scene_graph::SceneGraph::MergeResult mr = graph->merge_into(c.node, m);
+        if (mr.status == scene_graph::Status::kOk) {
+          ++counters_.revisits_merged;
+          counters_.merge_edges_moved += mr.moved;
+          ++r->nodes_removed;
+          r->edges_removed += mr.dropped + mr.refused;
+          if (mr.refused > 0) {
+            ++r->refused;
+            counters_.graph_refused += mr.refused;
+            r->status = scene_graph::Status::kFull;
+          }
+          drop = true;
+        }
+      }
+      if (!drop) {
+        link = &inactive_entries_[e].next;
+        continue;
+      }
+      *link = inactive_entries_[e].next;
+      inactive_entries_[e].next = inactive_free_;
+      inactive_free_ = e;
+      --inactive_used_;
+    }
+    if (*head == kNoRef) inactive_.erase(cell);
+  }
 }
 
 // The live, synced place of the cell or a neighbouring cell nearest to a removed place, among those whose
@@ -2356,8 +2476,8 @@ MemoryUse Places::memory_use() const {
     const memory::ResourceStats cs = clusters_.stats(), cells = cells_.stats(), in = inactive_.stats();
     memory::ArenaPlan p;
     memory::Pool<Cluster>::plan(p, capacities_.place_nodes);
-    memory::SpatialHash<scene_graph::NodeId>::plan(
-        p, memory::SpatialHash<scene_graph::NodeId>::slots_for(capacities_.inactive_cells));
+    memory::SpatialHash<std::uint32_t>::plan(p, memory::SpatialHash<std::uint32_t>::slots_for(capacities_.inactive_cells));
+    p.add_array<InactiveEntry>(capacities_.inactive_cells);
     memory::SpatialHash<std::uint32_t>::plan(p, memory::SpatialHash<std::uint32_t>::slots_for(capacities_.place_nodes));
     p.add_array<Relink>(capacities_.pending_relinks);
     m.places_planned_bytes = p.total_bytes();
@@ -2367,11 +2487,11 @@ MemoryUse Places::memory_use() const {
     };
     memory::ArenaPlan pc, pi, ph;
     memory::Pool<Cluster>::plan(pc, capacities_.place_nodes);
-    memory::SpatialHash<scene_graph::NodeId>::plan(
-        pi, memory::SpatialHash<scene_graph::NodeId>::slots_for(capacities_.inactive_cells));
+    memory::SpatialHash<std::uint32_t>::plan(pi, memory::SpatialHash<std::uint32_t>::slots_for(capacities_.inactive_cells));
     memory::SpatialHash<std::uint32_t>::plan(ph, memory::SpatialHash<std::uint32_t>::slots_for(capacities_.place_nodes));
     m.places_used_bytes = share(pc.total_bytes(), cs.high_water, cs.capacity) +
                           share(pi.total_bytes(), in.high_water, in.capacity) +
+                          inactive_high_water_ * sizeof(InactiveEntry) +
                           share(ph.total_bytes(), cells.high_water, cells.capacity) +
                           relinks_high_water_ * sizeof(Relink);
   }

@@ -122,6 +122,13 @@ struct Config {
   // buildings: 10 more edges joining free spaces apart at 0.5 m). 0: edges follow the GVD up to the rim; must be
   // below window_radius_m.
   double keep_edges_at_rim_m = 0.5;
+  // The paper's reconciliation of revisited places ("we merge nodes within a distance threshold, 0.4 m"): after
+  // each sync, an inactive place within this distance of a live place, and in the same free space (as for a
+  // revival), is merged into it: its edges move to the live node (SceneGraph::merge_into) and its node goes. A
+  // revisit re-derives the GVD from new views, and its places seldom come back in the hash cell they left (a 1 m
+  // cell's revival), so without this every tour of a building leaves a new set of places beside the old ones
+  // (bench/results/odometry.md, 8-hour mission). 0 turns it off; at most place_resolution_m.
+  double merge_revisited_within_m = 0.4;
   // Bridges (as Hydra joins its disconnected components): a live place whose component of live places holds at
   // most bridge_max_fragment_places places (e.g. a 1-2 place GVD piece under a table or a bed, in the same free
   // space as the room around it) is joined to the nearest live place outside that component, at most
@@ -157,7 +164,8 @@ struct Config {
 struct Capacities {
   std::size_t max_blocks = 512;      // ESDF blocks of kBlockVoxels voxels (the window's free space and surfaces)
   std::size_t place_nodes = 32768;   // clusters = place nodes alive in the window, plus those awaiting sync()
-  std::size_t inactive_cells = 32768;  // hash cells remembering the inactive node that left them (for revisits)
+  // Inactive places remembered by hash cell for revisits (revival and merging): cells, and places over all cells.
+  std::size_t inactive_cells = 32768;
   // TSDF blocks whose free space observe() remembers until the next cycle (each cycle holds one such set while
   // observe() fills the other); a frame touches a few hundred blocks, a cycle of 5 keyframes ~1000.
   std::size_t observed_blocks = 4096;
@@ -209,6 +217,9 @@ struct Counters {
   std::uint64_t graph_refused = 0;     // sync(): the scene graph's place or edge store was full
   std::uint64_t reactivated = 0;       // places re-created in a cell an inactive node had left: the node is reused
   std::uint64_t revivals_refused = 0;  // ... not reused: not the same free space (Config::revive_in_same_free_space)
+  std::uint64_t revisits_merged = 0;   // inactive places merged into a live one (Config::merge_revisited_within_m)
+  std::uint64_t merge_edges_moved = 0;  // ... their edges moved to the live node
+  std::uint64_t inactive_forgotten = 0;  // inactive places the index could not hold (never revived or merged)
   std::uint64_t edges_kept_at_rim = 0;  // syncs that kept an edge the GVD no longer gives (Config::keep_edges_at_rim_m)
   std::uint64_t free_space_edges = 0;  // current free-space edges (sphere overlap, not GVD adjacency)
   std::uint64_t relinked = 0;          // edges of removed places moved from an inactive place to a live one
@@ -341,6 +352,7 @@ class Places {
     fn(block_index_.stats());
     fn(clusters_.stats());
     fn(inactive_.stats());
+    fn(inactive_entry_stats());
     fn(cells_.stats());
     fn(observed_[0].stats());
     fn(observed_[1].stats());
@@ -361,6 +373,7 @@ class Places {
  private:
   memory::ResourceStats lower_queue_stats() const;
   memory::ResourceStats relink_stats() const;
+  memory::ResourceStats inactive_entry_stats() const;
   memory::ResourceStats list_stats(int which) const;
 
   // Geometry helpers.
@@ -423,6 +436,10 @@ class Places {
   std::uint32_t replacement_for(const Eigen::Vector3d& position_m, double clearance_m,
                                 const memory::Index3& cell) const;
   void resolve_relinks(scene_graph::SceneGraph* graph, SyncResult* r);
+  // The inactive-place index: nodes parked by hash cell (a cell holds any number, chained in a fixed array).
+  void park_inactive(const memory::Index3& cell, scene_graph::NodeId node);
+  scene_graph::NodeId take_inactive(const memory::Index3& cell);
+  void merge_revisited(scene_graph::SceneGraph* graph, std::uint32_t cluster, SyncResult* r);
   void bridge_fragment(std::uint32_t cluster);
   // interrupted: the deadline's clock expired during the search (to stays kNoCluster; nothing else changed).
   float bridge_by_path(const std::uint32_t* members, int num, std::uint32_t* from, std::uint32_t* to,
@@ -441,7 +458,11 @@ class Places {
   memory::Pool<Block> blocks_;
   memory::SpatialHash<std::uint32_t> block_index_;
   memory::Pool<Cluster> clusters_;
-  memory::SpatialHash<scene_graph::NodeId> inactive_;  // hash cell -> the inactive node that left it
+  memory::SpatialHash<std::uint32_t> inactive_;  // hash cell -> its first inactive entry (list via next)
+  struct InactiveEntry;
+  InactiveEntry* inactive_entries_ = nullptr;   // capacities_.inactive_cells entries
+  std::uint32_t inactive_free_ = 0;             // head of the free list
+  std::size_t inactive_used_ = 0, inactive_high_water_ = 0;
   memory::SpatialHash<std::uint32_t> cells_;           // hash cell -> first live cluster (list via cell_next)
   // observe(): TSDF block -> bit k set when view k saw it; [pending_] fills, the other belongs to the cycle.
   memory::SpatialHash<std::uint32_t> observed_[2];

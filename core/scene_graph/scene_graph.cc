@@ -319,6 +319,42 @@ bool SceneGraph::remove_edge(NodeId a, NodeId b) {
   return true;
 }
 
+SceneGraph::MergeResult SceneGraph::merge_into(NodeId into, NodeId from) {
+  MergeResult r;
+  const std::uint32_t* hi = node_index_.find(into);
+  const std::uint32_t* hf = node_index_.find(from);
+  if (hi == nullptr || hf == nullptr) {
+    r.status = Status::kMissingNode;
+    return r;
+  }
+  if (into == from) {
+    r.status = Status::kSelfLoop;
+    return r;
+  }
+  if (nodes_[*hi].kind != nodes_[*hf].kind || nodes_[*hi].layer.layer != nodes_[*hf].layer.layer) {
+    r.status = Status::kWrongKind;
+    return r;
+  }
+  const std::uint32_t h = *hf;
+  while (nodes_[h].degree > 0) {
+    // The newest edge of `from`: removed first (a child's parent edge must go before it can move), then re-added.
+    const NodeRecord& n = nodes_[h];
+    const EdgeRecord e = edges_[adjacency_[n.adjacency_head].edges[(n.degree - 1) % kAdjacencyChunkEdges]];
+    const NodeId other = e.source == from ? e.target : e.source;
+    remove_edge(from, other);
+    if (other == into || has_edge(into, other)) {
+      ++r.dropped;
+      continue;
+    }
+    const Status s = add_edge(into, other, e.info);
+    if (s == Status::kOk) ++r.moved;
+    else if (s == Status::kFull) ++r.refused;
+    else ++r.dropped;  // kParentExists: `into` keeps its own parent
+  }
+  remove_node(from);
+  return r;
+}
+
 void SceneGraph::release_attributes(const NodeRecord& n) {
   switch (n.kind) {
     case NodeKind::kObject: objects_.release(n.attributes); break;

@@ -103,6 +103,17 @@ class SceneGraph {
   // Edges are undirected; (a, b) and (b, a) are the same edge.
   Status add_edge(NodeId a, NodeId b, const EdgeAttributes& info = {});
   bool remove_edge(NodeId a, NodeId b);
+  // Merges `from` into `into` (two nodes of one kind found to be the same thing, e.g. a revisited place): every
+  // edge of `from` moves to `into` with its attributes, then `from` is removed. An edge `into` already has, one to
+  // `into` itself, and a second parent (`into` keeps its own) are dropped; so is an edge a full store refuses
+  // (counted in `refused`). Attributes of `into` are the caller's to update.
+  struct MergeResult {
+    Status status = Status::kOk;  // kMissingNode, kSelfLoop or kWrongKind: nothing changed
+    std::size_t moved = 0;
+    std::size_t dropped = 0;
+    std::size_t refused = 0;
+  };
+  MergeResult merge_into(NodeId into, NodeId from);
   // The rule add_edge() applies to two layers (also used to validate imports before touching the graph).
   static Status check_layers(const LayerKey& a, const LayerKey& b);
 

@@ -82,7 +82,10 @@ inline reconstruction::Capacities small_tsdf_capacities() {
 // viewpoint and integrates it.
 class Scanner {
  public:
-  bool init(const world::World& w, double max_weight, std::string* error) {
+  // `render` sets the renderer (depth noise and its seed; exact depth by default).
+  bool init(const world::World& w, double max_weight, std::string* error,
+            const render::Renderer::Config& render = render::Renderer::Config{}) {
+    render_config_ = render;
     if (!set_world(w, error)) return false;
     reconstruction::Config config;
     config.max_weight = max_weight;
@@ -97,7 +100,7 @@ class Scanner {
   // Re-renders with another world (same TSDF): a changed scene.
   bool set_world(const world::World& w, std::string* error) {
     renderer_ = std::make_unique<render::Renderer>();
-    return renderer_->init(render::Renderer::Config{}, w, error);
+    return renderer_->init(render_config_, w, error);
   }
   // after_frame(camera position) runs after each integrated frame (the places update of a keyframe).
   using Hook = std::function<void(const Eigen::Vector3d&)>;
@@ -114,19 +117,25 @@ class Scanner {
       for (int k = 0; k < yaws; ++k) {
         const Eigen::Isometry3d T = camera_pose(position_m, 2 * kPi * k / yaws, pitch);
         if (!renderer_->render(T, camera, seq_++, *frame_, &error)) return false;
-        if (!tsdf_->process(*frame_, T)) return false;
-        if (after_frame) after_frame(position_m);
+        Eigen::Isometry3d estimate = T;
+        estimate.translation() += pose_error_m_;
+        if (!tsdf_->process(*frame_, estimate)) return false;
+        if (after_frame) after_frame(position_m + pose_error_m_);
       }
     return true;
   }
+  // Frames are rendered at the true pose and integrated at the true pose plus this offset (an odometry error).
+  void set_pose_error(const Eigen::Vector3d& error_m) { pose_error_m_ = error_m; }
   reconstruction::SemanticTsdf& tsdf() { return *tsdf_; }
   drivers::RgbdFrame& frame() { return *frame_; }
 
  private:
+  render::Renderer::Config render_config_;
   std::unique_ptr<render::Renderer> renderer_;
   std::unique_ptr<reconstruction::SemanticTsdf> tsdf_;
   std::unique_ptr<drivers::RgbdFrame> frame_;
   std::uint64_t seq_ = 0;
+  Eigen::Vector3d pose_error_m_ = Eigen::Vector3d::Zero();
 };
 
 }  // namespace qsg::places::testing

@@ -82,6 +82,46 @@ TEST(SceneGraphTest, HierarchyRulesAreEnforced) {
   EXPECT_EQ(g->add_edge(kP0, kR1), Status::kOk);
 }
 
+// A revisited place merged into the live one: siblings, children and the parent move; shared edges, the edge
+// between the two and a second parent are dropped; the merged node is gone.
+TEST(SceneGraphTest, MergeIntoMovesEdgesAndRemovesTheNode) {
+  auto g = make_graph();
+  const NodeId kP2 = make_node_id('p', 2), kP3 = make_node_id('p', 3);
+  g->add_place(kP0, place_at(0, 0, 1));  // live
+  g->add_place(kP1, place_at(0.2, 0, 1));  // revisited, to merge
+  g->add_place(kP2, place_at(1, 0, 1));
+  g->add_place(kP3, place_at(-1, 0, 1));
+  g->add_object(kO0, ObjectAttributes{});
+  g->add_room(kR0, RoomAttributes{});
+  g->add_room(kR1, RoomAttributes{});
+  ASSERT_EQ(g->add_edge(kP1, kP2, {0.7, true}), Status::kOk);  // moves, weight kept
+  ASSERT_EQ(g->add_edge(kP1, kP3, {0.3, true}), Status::kOk);  // kP0 has it already: dropped
+  ASSERT_EQ(g->add_edge(kP0, kP3, {0.9, true}), Status::kOk);
+  ASSERT_EQ(g->add_edge(kP0, kP1), Status::kOk);                // the edge between the two: dropped
+  ASSERT_EQ(g->add_edge(kO0, kP1), Status::kOk);                // child: moves
+  ASSERT_EQ(g->add_edge(kR1, kP1), Status::kOk);                // second parent: dropped
+  ASSERT_EQ(g->add_edge(kR0, kP0), Status::kOk);
+
+  const SceneGraph::MergeResult r = g->merge_into(kP0, kP1);
+  EXPECT_EQ(r.status, Status::kOk);
+  EXPECT_EQ(r.moved, 2u);
+  EXPECT_EQ(r.dropped, 3u);
+  EXPECT_EQ(r.refused, 0u);
+  EXPECT_FALSE(g->has_node(kP1));
+  ASSERT_TRUE(g->has_edge(kP0, kP2));
+  EXPECT_DOUBLE_EQ(g->edge(kP0, kP2)->info.weight, 0.7);
+  EXPECT_DOUBLE_EQ(g->edge(kP0, kP3)->info.weight, 0.9) << "the live node's own edge wins";
+  EXPECT_EQ(g->parent(kO0), kP0);
+  EXPECT_EQ(g->parent(kP0), kR0);
+  EXPECT_EQ(g->node(kR1)->num_children, 0u);
+  EXPECT_EQ(g->num_edges(), 4u);
+
+  EXPECT_EQ(g->merge_into(kP0, kP1).status, Status::kMissingNode);
+  EXPECT_EQ(g->merge_into(kP0, kP0).status, Status::kSelfLoop);
+  EXPECT_EQ(g->merge_into(kP0, kR0).status, Status::kWrongKind);
+  EXPECT_TRUE(g->has_node(kR0)) << "a refused merge changes nothing";
+}
+
 TEST(SceneGraphTest, AdjacencyMatchesReferenceUnderRandomEdits) {
   auto g = make_graph();
   constexpr int kN = 60;
