@@ -7,6 +7,8 @@
 #include <cstring>
 #include <string>
 
+#include <unistd.h>
+
 #include "budgets/budget_table.h"
 #include "core/scene_graph/spark_dsg_json.h"
 #include "firmware_app/app_config.h"
@@ -171,10 +173,12 @@ int main(int argc, char** argv) {
   std::signal(SIGTERM, on_signal);
   std::uint64_t steps = 0;
   int last_percent = -1;
+  // The progress bar is for a terminal: into a log file its carriage returns make one endless line.
+  const bool progress_bar = !quiet && ::isatty(STDERR_FILENO) == 1;
   while (pipeline.step()) {
     if (g_stop) pipeline.request_stop();
     const double progress = pipeline.progress();
-    if (!quiet && progress >= 0.0 && ++steps % 64 == 0) {
+    if (progress_bar && progress >= 0.0 && ++steps % 64 == 0) {
       const int percent = static_cast<int>(progress * 100.0);
       if (percent != last_percent) {
         last_percent = percent;
@@ -185,7 +189,7 @@ int main(int argc, char** argv) {
       }
     }
   }
-  if (!quiet && last_percent >= 0) std::fprintf(stderr, "\n");
+  if (progress_bar && last_percent >= 0) std::fprintf(stderr, "\n");
   if (g_stop) std::printf("qsg_app: stopped by signal; writing the final outputs\n");
 
   std::printf("run: %llu frames, %llu keyframes (%llu integrated), %llu frontend updates, %llu agent nodes\n",

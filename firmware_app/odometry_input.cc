@@ -47,8 +47,20 @@ bool OdometryInput::init(const AppConfig& config, const replay::Trajectory& grou
       break;
     case OdometrySourceKind::kTum: {
       replay::Trajectory estimate;
-      if (!replay::read_tum_trajectory(o.tum_path, &estimate, error)) return *error = "odometry: " + *error, false;
-      if (estimate.empty()) return *error = "odometry: " + o.tum_path + " holds no pose", false;
+      replay::TumSkipped skipped;
+      if (!replay::read_tum_trajectory_skipping(o.tum_path, &estimate, &skipped, error))
+        return *error = "odometry: " + *error, false;
+      if (estimate.empty()) {
+        return *error = "odometry: " + o.tum_path + " holds no valid pose" +
+                        (skipped.lines > 0 ? " (" + std::to_string(skipped.lines) + " malformed lines, the first: " +
+                                                 skipped.first_reason + ")"
+                                           : std::string()),
+               false;
+      }
+      counters_.file_lines_skipped = skipped.lines;
+      if (skipped.lines > 0)
+        std::fprintf(stderr, "qsg_app: odometry: skipped %zu malformed line(s) of the TUM estimate; the first: %s\n",
+                     skipped.lines, skipped.first_reason.c_str());
       trajectory_ = std::make_unique<replay::TrajectoryOdometry>(std::move(estimate), replay::TrajectoryOdometry::Config{},
                                                                  "tum_estimate");
       source_ = trajectory_.get();
@@ -109,12 +121,17 @@ void OdometryInput::poll(std::int64_t now_loop_ns, bool have_offset, std::int64_
     last_sample_loop_ns_ = now_loop_ns;
     silent_ = false;
   }
-  // A source that goes quiet is a fault to see, not a reason to stop: the map keeps its last state.
-  if (last_sample_loop_ns_ >= 0 && !silent_ && now_loop_ns - last_sample_loop_ns_ > silence_fault_ns_) {
+  // A source that goes quiet is a fault to see, not a reason to stop: the map keeps its last state. A live
+  // stream that has sent nothing since the first poll is silent too (a paced source publishes on its own data's
+  // clock, so before its first sample it is not late).
+  if (first_poll_loop_ns_ < 0) first_poll_loop_ns_ = now_loop_ns;
+  const std::int64_t since = last_sample_loop_ns_ >= 0 ? last_sample_loop_ns_ : paced_ ? -1 : first_poll_loop_ns_;
+  if (since >= 0 && !silent_ && now_loop_ns - since > silence_fault_ns_) {
     silent_ = true;
     ++counters_.silences;
-    std::fprintf(stderr, "qsg_app: odometry: %s silent for %.1f s (fault %" PRIu64 "); frames wait for poses\n",
-                 source_name(), 1e-9 * static_cast<double>(now_loop_ns - last_sample_loop_ns_), counters_.silences);
+    std::fprintf(stderr, "qsg_app: odometry: %s silent for %.1f s%s (fault %" PRIu64 "); frames wait for poses\n",
+                 source_name(), 1e-9 * static_cast<double>(now_loop_ns - since),
+                 last_sample_loop_ns_ < 0 ? ", nothing received yet" : "", counters_.silences);
   }
 }
 
@@ -153,10 +170,12 @@ FramePose OdometryInput::frame_pose(std::int64_t sample_time_ns, std::int64_t wa
 void OdometryInput::print_report(std::FILE* out) const {
   const OdometryCounters& c = counters_;
   std::fprintf(out,
-               "odometry: source %s (%s): %" PRIu64 " samples read, %" PRIu64 " malformed; frames posed %" PRIu64
+               "odometry: source %s (%s): %" PRIu64 " samples read, %" PRIu64 " malformed, %" PRIu64
+               " file lines skipped; frames posed %" PRIu64
                ", waited %" PRIu64 ", dropped %" PRIu64 " (no pose in time %" PRIu64 ", older than the buffer %" PRIu64
                ", in a gap %" PRIu64 "); %" PRIu64 " silences, %" PRIu64 " disconnected reads\n",
-               to_string(kind_), source_name(), c.samples_read, c.source_bad, c.frames_posed, c.frames_waited,
+               to_string(kind_), source_name(), c.samples_read, c.source_bad, c.file_lines_skipped, c.frames_posed,
+               c.frames_waited,
                c.frames_dropped(), c.frames_no_pose, c.frames_pose_too_old, c.frames_in_gap, c.silences, c.disconnects);
   buffer_.counters().print(out);
   buffer_.stats().print(out);

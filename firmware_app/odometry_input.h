@@ -23,6 +23,7 @@ namespace qsg::app {
 struct OdometryCounters {
   std::uint64_t samples_read = 0;       // delivered by the source (before the pose buffer's checks)
   std::uint64_t source_bad = 0;         // the source said kBadFrame (a malformed message, counted by the driver)
+  std::uint64_t file_lines_skipped = 0;  // malformed lines of a TUM estimate, skipped at start-up
   std::uint64_t frames_posed = 0;
   std::uint64_t frames_waited = 0;      // frames whose pose had not arrived when they were due (they waited)
   std::uint64_t frames_no_pose = 0;     // dropped: no pose within the wait bound, or the source had ended
@@ -82,6 +83,7 @@ class OdometryInput {
   std::int64_t max_wait_ns_ = 0;
   std::int64_t silence_fault_ns_ = 0;
   std::int64_t last_sample_loop_ns_ = -1;
+  std::int64_t first_poll_loop_ns_ = -1;  // a live stream that never sends is a silence too, from its first poll
   bool silent_ = false;
   OdometryCounters counters_;
 };

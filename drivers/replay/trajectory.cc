@@ -52,32 +52,62 @@ StampedPose StampedPose::from_isometry(std::int64_t time_ns, const Eigen::Isomet
   return pose;
 }
 
+namespace {
+
+// One TUM line; false with the reason (naming file and line) when it is malformed.
+bool parse_tum_line(const std::string& path, const TextLine& line, StampedPose* pose, std::string* error) {
+  if (line.fields.size() != 8) {
+    if (error) {
+      *error = error_at(path, line.line_number,
+                        "expected 8 fields 't tx ty tz qx qy qz qw', found " + std::to_string(line.fields.size()));
+    }
+    return false;
+  }
+  if (!parse_seconds_to_ns(line.fields[0], &pose->time_ns)) {
+    if (error) *error = error_at(path, line.line_number, "timestamp '" + line.fields[0] + "' is not a number");
+    return false;
+  }
+  double v[7];
+  if (!parse_numbers(path, line, 1, 7, v, error)) return false;
+  pose->world_t_body_m = Eigen::Vector3d(v[0], v[1], v[2]);
+  if (!make_unit_quaternion(v[3], v[4], v[5], v[6], &pose->world_R_body)) {
+    if (error) *error = error_at(path, line.line_number, "quaternion (qx qy qz qw) is not of unit length");
+    return false;
+  }
+  return true;
+}
+
+}  // namespace
+
 bool read_tum_trajectory(const std::string& path, Trajectory* trajectory, std::string* error) {
   trajectory->clear();
   std::vector<TextLine> lines;
   if (!read_text_lines(path, &lines, error)) return false;
   trajectory->reserve(lines.size());
   for (const TextLine& line : lines) {
-    if (line.fields.size() != 8) {
-      if (error) {
-        *error = error_at(path, line.line_number,
-                          "expected 8 fields 't tx ty tz qx qy qz qw', found " + std::to_string(line.fields.size()));
-      }
-      return false;
-    }
     StampedPose pose;
-    if (!parse_seconds_to_ns(line.fields[0], &pose.time_ns)) {
-      if (error) *error = error_at(path, line.line_number, "timestamp '" + line.fields[0] + "' is not a number");
-      return false;
-    }
-    double v[7];
-    if (!parse_numbers(path, line, 1, 7, v, error)) return false;
-    pose.world_t_body_m = Eigen::Vector3d(v[0], v[1], v[2]);
-    if (!make_unit_quaternion(v[3], v[4], v[5], v[6], &pose.world_R_body)) {
-      if (error) *error = error_at(path, line.line_number, "quaternion (qx qy qz qw) is not of unit length");
-      return false;
-    }
+    if (!parse_tum_line(path, line, &pose, error)) return false;
     trajectory->push_back(pose);
+  }
+  return true;
+}
+
+bool read_tum_trajectory_skipping(const std::string& path, Trajectory* trajectory, TumSkipped* skipped,
+                                  std::string* error) {
+  trajectory->clear();
+  *skipped = TumSkipped{};
+  std::vector<TextLine> lines;
+  if (!read_text_lines(path, &lines, error)) return false;
+  trajectory->reserve(lines.size());
+  for (const TextLine& line : lines) {
+    StampedPose pose;
+    std::string why;
+    if (parse_tum_line(path, line, &pose, &why)) {
+      trajectory->push_back(pose);
+    } else {
+      if (skipped->lines == 0) skipped->first_reason = why;
+      ++skipped->lines;
+    }
   }
   return true;
 }

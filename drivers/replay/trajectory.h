@@ -28,6 +28,14 @@ using Trajectory = std::vector<StampedPose>;
 // TUM trajectory file: lines `t tx ty tz qx qy qz qw` (t in seconds), '#' comments. Quaternions are
 // normalised (the files carry 4-7 digits). Errors name the file and line.
 bool read_tum_trajectory(const std::string& path, Trajectory* trajectory, std::string* error);
+// The same for a robot's own estimate, where one corrupt line must not cost the mission: malformed lines are
+// skipped and counted (the first one's reason kept); false only when the file cannot be read.
+struct TumSkipped {
+  std::size_t lines = 0;
+  std::string first_reason;  // names the file and line
+};
+bool read_tum_trajectory_skipping(const std::string& path, Trajectory* trajectory, TumSkipped* skipped,
+                                  std::string* error);
 bool write_tum_trajectory(const std::string& path, const Trajectory& trajectory, std::string* error);
 // One TUM trajectory line (no newline) for streaming writers.
 std::string format_tum_pose(const StampedPose& pose);

@@ -7,6 +7,7 @@
 
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <string>
 #include <vector>
 
@@ -109,6 +110,72 @@ TEST(OdometryPipelineTest, FramesPastTheEndOfTheOdometryAreDroppedAndCounted) {
   EXPECT_GT(p.counters().frames_without_pose, 100u);
   EXPECT_EQ(p.counters().frames_without_pose, p.odometry().counters().frames_dropped());
   EXPECT_GT(p.counters().keyframes_integrated, 50u) << "what had a pose was mapped";
+}
+
+// A robot's estimate with corrupt lines (truncated, NaN, a quaternion far from unit length) maps from the rest;
+// every skipped line is counted. A file with no valid line at all stops start-up, saying why.
+TEST(OdometryPipelineTest, MalformedLinesOfATumEstimateAreSkippedAndCounted) {
+  AppConfig c = small_config("tum_corrupt");
+  runtime::SteppedClock clock0;
+  Pipeline probe;
+  std::string error;
+  ASSERT_TRUE(probe.init(c, &clock0, &error)) << error;
+  const std::string clean = c.output_dir + "/clean.txt";
+  ASSERT_TRUE(replay::write_tum_trajectory(clean, probe.ground_truth(), &error)) << error;
+  std::vector<std::string> lines;
+  {
+    std::ifstream in(clean);
+    for (std::string line; std::getline(in, line);) lines.push_back(line);
+  }
+  ASSERT_GT(lines.size(), 100u);
+  lines[20] = lines[20].substr(0, lines[20].size() / 2);  // truncated
+  lines[40] += " 7";                                      // a ninth field
+  lines[60] = "12.5 nan 0 0 0 0 0 1";
+  lines[80] = "13.5 0 0 0 0 0 0 3";  // |q| = 3
+  const std::string corrupt = c.output_dir + "/corrupt.txt";
+  {
+    std::ofstream out(corrupt);
+    for (const std::string& line : lines) out << line << "\n";
+  }
+  c.odometry.source = OdometrySourceKind::kTum;
+  c.odometry.tum_path = corrupt;
+  runtime::SteppedClock clock;
+  Pipeline p;
+  ASSERT_TRUE(p.init(c, &clock, &error)) << error;
+  EXPECT_EQ(p.odometry().counters().file_lines_skipped, 4u);
+  run_to_end(p);
+  EXPECT_GT(p.counters().keyframes_integrated, 100u);
+  ASSERT_TRUE(p.trajectory_error().ok) << p.trajectory_error().error;
+  EXPECT_LT(p.trajectory_error().ate_max_m, 0.01) << "a missing sample is interpolated over";
+
+  const std::string garbage = c.output_dir + "/garbage.txt";
+  std::ofstream(garbage) << "not a trajectory\n1 2 3\n";
+  c.output_dir += "_garbage";
+  c.odometry.tum_path = garbage;
+  runtime::SteppedClock clock2;
+  Pipeline q;
+  EXPECT_FALSE(q.init(c, &clock2, &error));
+  EXPECT_NE(error.find("no valid pose"), std::string::npos) << error;
+  EXPECT_NE(error.find("2 malformed lines"), std::string::npos) << error;
+}
+
+// A live stream that never sends anything is a logged fault (a silence) once silence_fault_s has passed, and
+// the frames that found no pose are dropped and counted; the run still ends cleanly.
+TEST(OdometryPipelineTest, AStreamThatNeverSendsIsASilenceFault) {
+  AppConfig c = small_config("mute");
+  c.duration_s = 4.0;
+  c.odometry.source = OdometrySourceKind::kStream;
+  c.odometry.stream_transport = "unix";
+  c.odometry.stream_unix_path = c.output_dir + "/mute.sock";
+  runtime::SteppedClock clock;
+  Pipeline p;
+  std::string error;
+  ASSERT_TRUE(p.init(c, &clock, &error)) << error;
+  run_to_end(p);
+  EXPECT_EQ(p.odometry().counters().samples_read, 0u);
+  EXPECT_EQ(p.odometry().counters().silences, 1u) << "one fault, logged once, not one per tick";
+  EXPECT_GT(p.counters().frames_without_pose, 10u);
+  EXPECT_EQ(p.counters().keyframes_integrated, 0u);
 }
 
 TEST(OdometryPipelineTest, BadOdometryConfigIsRefusedByName) {

@@ -3,6 +3,8 @@
 
 #include <gtest/gtest.h>
 
+#include <fstream>
+
 #include "tests/drivers/replay/replay_test_util.h"
 #include "tests/support/allocation_counter.h"
 #include "tests/support/test_data.h"
@@ -59,6 +61,32 @@ TEST(TumTrajectory, ParsesFieldsAsWritten) {
   EXPECT_EQ(t[0].world_t_body_m, Eigen::Vector3d(1.5, -2.25, 0.125));
   EXPECT_DOUBLE_EQ(t[0].world_R_body.z(), 0.6);
   EXPECT_DOUBLE_EQ(t[0].world_R_body.w(), 0.8);
+}
+
+// The strict reader stops at the first malformed line (a dataset's ground truth); the skipping one (a robot's
+// estimate) keeps every good line and counts the others, naming the first.
+TEST(TumTrajectory, TheSkippingReaderCountsMalformedLines) {
+  const std::string dir = testing::fresh_dir("tum_skipping");
+  std::ofstream(dir + "/est.txt") << "# t tx ty tz qx qy qz qw\n"
+                                     "1.0 0 0 0 0 0 0 1\n"
+                                     "1.1 0 0 0 0 0 1\n"        // 7 fields
+                                     "1.2 1 0 0 0 0 0 1\n"
+                                     "1.3 inf 0 0 0 0 0 1\n"    // not finite
+                                     "1.4 1 1 0 0.5 0 0 0.5\n"  // |q| = 0.71
+                                     "x 1 1 0 0 0 0 1\n"        // timestamp
+                                     "1.6 1 1 1 0 0 0 1\n";
+  std::string error;
+  Trajectory t;
+  EXPECT_FALSE(read_tum_trajectory(dir + "/est.txt", &t, &error));
+  EXPECT_NE(error.find("est.txt:3"), std::string::npos) << error;
+  TumSkipped skipped;
+  ASSERT_TRUE(read_tum_trajectory_skipping(dir + "/est.txt", &t, &skipped, &error)) << error;
+  ASSERT_EQ(t.size(), 3u);
+  EXPECT_EQ(t[1].time_ns, 1'200'000'000);
+  EXPECT_EQ(t[2].time_ns, 1'600'000'000);
+  EXPECT_EQ(skipped.lines, 4u);
+  EXPECT_NE(skipped.first_reason.find("est.txt:3: expected 8 fields"), std::string::npos) << skipped.first_reason;
+  EXPECT_FALSE(read_tum_trajectory_skipping(dir + "/missing.txt", &t, &skipped, &error)) << "an unreadable file";
 }
 
 TEST(Trajectory, InterpolatesBetweenSamples) {
