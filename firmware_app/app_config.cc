@@ -159,7 +159,8 @@ bool AppConfig::load(const std::string& path, std::string* error) {
                               {"correct_projective_distance", boolean(&pc.correct_projective_distance)},
                               {"bridge_max_fragment_places", number(&pc.bridge_max_fragment_places)},
                               {"hold_distant_fragments", boolean(&pc.hold_distant_fragments)},
-                              {"bridge_path_search", boolean(&pc.bridge_path_search)}},
+                              {"bridge_path_search", boolean(&pc.bridge_path_search)},
+                              {"merge_revisited_within_m", number(&pc.merge_revisited_within_m)}},
                              why);
        }},
       {"rooms", [&](const Json& v, std::string* why) {

@@ -78,6 +78,7 @@ struct Options {
   std::vector<std::string> maps{"lab_ipa", "Freiburg52_scan", "lab_c_scan", "lab_intel", "office_a", "office_e"};
   std::vector<std::string> variants{"plain", "furnished"};
   int generated = 2;          // two-floor generated buildings (seeds 1..N)
+  double merge_revisited_m = 0.4;  // --merge-revisited-m: places::Config::merge_revisited_within_m (0: off)
   int generated_rooms = 12;
   // Room labels alone on this many more generated two-floor buildings (seeds 1001..1000+N), on their ground-truth
   // rooms and objects: no exploration, so it is cheap enough to score hundreds of rooms.
@@ -199,6 +200,7 @@ bool parse(int argc, char** argv, Options* o) {
     } else if (a == "--hfov-deg") number = &o->hfov_deg;
     else if (a == "--rate-hz") number = &o->rate_hz;
     else if (a == "--max-reach-m") number = &o->max_reach_m;
+    else if (a == "--merge-revisited-m") number = &o->merge_revisited_m;
     else if (a == "--robot-radius-m") number = &o->robot_radius_m;
     else if (a == "--look-into-unreachable") o->look_into_unreachable = std::atoi(v.c_str()) != 0;
     else if (a == "--furniture-height-m") number = &o->furniture_height_m;
@@ -594,7 +596,9 @@ bool run_pipeline(const Options& opt, const world::World& w, std::uint64_t world
     return false;
   }
   auto fe = std::make_unique<frontend::Frontend>();
-  if (!fe->init(frontend::Config{}, &error)) {
+  frontend::Config fc;
+  fc.places.merge_revisited_within_m = opt.merge_revisited_m;
+  if (!fe->init(fc, &error)) {
     std::fprintf(stderr, "frontend: %s\n", error.c_str());
     return false;
   }
@@ -1110,7 +1114,7 @@ int main(int argc, char** argv) {
   if (!parse(argc, argv, &opt)) {
     std::fprintf(stderr,
                  "usage: %s [--plans-dir DIR] [--maps a,b|none] [--variants plain,furnished] [--generated N] "
-                 "[--generated-rooms N] [--label-buildings N] [--size WxH] [--hfov-deg D] [--rate-hz R] [--max-reach-m M] "
+                 "[--generated-rooms N] [--label-buildings N] [--size WxH] [--hfov-deg D] [--rate-hz R] [--max-reach-m M] [--merge-revisited-m M] "
                  "[--robot-radius-m R] [--look-into-unreachable 0|1] [--furniture-height-m H] [--alpha A] "
                  "[--min-dilation-m D] [--max-dilation-m D] [--min-component N] [--seeding plateau|persistence] "
                  "[--min-persistence-m P] [--max-door-clearance-m D] [--split-by-extent 0|1] [--extent-saturation-m S] "

@@ -657,6 +657,7 @@ TEST(AppConfigTest, LoadsKnownKeysAndNamesBadOnes) {
   EXPECT_EQ(sp.bridge_max_fragment_places, dp.bridge_max_fragment_places);
   EXPECT_EQ(sp.hold_distant_fragments, dp.hold_distant_fragments);
   EXPECT_EQ(sp.bridge_path_search, dp.bridge_path_search);
+  EXPECT_EQ(sp.merge_revisited_within_m, dp.merge_revisited_within_m);
   EXPECT_EQ(sp.unobserved_obstacle_above_m, dp.unobserved_obstacle_above_m);
 }
 
