@@ -1,6 +1,7 @@
 // Ceres implementation of the SE(3) pose-graph optimizer: input checks, residual, gauge fixing and solve.
 #include "core/backend/pose_graph.h"
 
+#include <Eigen/Cholesky>
 #include <ceres/autodiff_cost_function.h>
 #include <ceres/loss_function.h>
 #include <ceres/problem.h>
@@ -26,12 +27,20 @@ constexpr int kStateDim = kTranslationDim + kQuaternionDim;
 constexpr double kMinQuaternionNorm = 1e-6;
 
 using Vector6d = Eigen::Matrix<double, kResidualDim, 1>;
+using Matrix6d = Eigen::Matrix<double, kResidualDim, kResidualDim>;
 
-// Tangent-space error of one edge, whitened: [R_from^T (t_to - t_from) - t_meas; 2 vec(q_meas^-1 q_from^-1 q_to)].
+// Tangent-space error of one edge, whitened: [R_from^T (t_to - t_from) - t_meas; 2 vec(q_meas^-1 q_from^-1 q_to)]
+// (with a full information matrix the translation part is rotated into the measurement's `to` frame, as g2o's),
+// times sqrt(weight) when a weight is given (GNC's loop-closure weights, read at every evaluation).
 class RelativePoseResidual {
  public:
-  RelativePoseResidual(const Pose3& measured_from_T_to, const Vector6d& inv_sigma)
-      : measured_t_m_(measured_from_T_to.t_m), measured_q_(measured_from_T_to.q), inv_sigma_(inv_sigma) {}
+  RelativePoseResidual(const Pose3& measured_from_T_to, const Matrix6d& sqrt_information, bool translation_in_to_frame,
+                       const double* weight)
+      : measured_t_m_(measured_from_T_to.t_m),
+        measured_q_(measured_from_T_to.q),
+        sqrt_information_(sqrt_information),
+        translation_in_to_frame_(translation_in_to_frame),
+        weight_(weight) {}
 
   template <typename T>
   bool operator()(const T* t_from_ptr, const T* q_from_ptr, const T* t_to_ptr, const T* q_to_ptr,
@@ -47,17 +56,22 @@ class RelativePoseResidual {
     // |2 vec(q_err)| = 2 |sin(angle / 2)| whatever the sign of q_err, so q and -q need no special case.
     const Eigen::Quaternion<T> q_err = measured_q_.template cast<T>().conjugate() * (q_from_inv * q_to);
 
+    Eigen::Matrix<T, kResidualDim, 1> raw;
+    raw.template head<3>() = t_from_to - measured_t_m_.template cast<T>();
+    if (translation_in_to_frame_) raw.template head<3>() = measured_q_.template cast<T>().conjugate() * raw.template head<3>();
+    raw.template tail<3>() = T(2.0) * q_err.vec();
     Eigen::Map<Eigen::Matrix<T, kResidualDim, 1>> residual(residual_ptr);
-    residual.template head<3>() = t_from_to - measured_t_m_.template cast<T>();
-    residual.template tail<3>() = T(2.0) * q_err.vec();
-    residual = residual.cwiseProduct(inv_sigma_.template cast<T>());
+    residual = sqrt_information_.template cast<T>() * raw;
+    if (weight_ != nullptr) residual *= T(std::sqrt(*weight_));
     return true;
   }
 
  private:
   Eigen::Vector3d measured_t_m_;
   Eigen::Quaterniond measured_q_;
-  Vector6d inv_sigma_;
+  Matrix6d sqrt_information_;
+  bool translation_in_to_frame_ = false;
+  const double* weight_ = nullptr;
 };
 
 std::string format(const char* fmt, ...) __attribute__((format(printf, 1, 2)));
@@ -87,6 +101,14 @@ std::string check_config(const PoseGraphConfig& config) {
       !(std::isfinite(config.loop_closure_loss_scale_sigma) && config.loop_closure_loss_scale_sigma > 0.0)) {
     return format("loop_closure_loss_scale_sigma is %g, must be finite and > 0", config.loop_closure_loss_scale_sigma);
   }
+  if (config.loop_closure_loss == RobustLoss::kGncTls) {
+    if (config.gnc_max_outer_iterations < 1)
+      return format("gnc_max_outer_iterations is %d, must be >= 1", config.gnc_max_outer_iterations);
+    if (!(config.gnc_mu_factor > 1.0 && config.gnc_mu_factor <= 10.0))
+      return format("gnc_mu_factor is %g, must be in (1, 10]", config.gnc_mu_factor);
+    if (config.gnc_inner_iterations < 1)
+      return format("gnc_inner_iterations is %d, must be >= 1", config.gnc_inner_iterations);
+  }
   return {};
 }
 
@@ -102,6 +124,15 @@ std::string check_edge(std::size_t index, const RelativePoseEdge& edge, std::siz
   }
   if (edge.measured_from_T_to.q.norm() < kMinQuaternionNorm) {
     return format("edge %zu (%s %u -> %u): measured quaternion has zero norm", index, kind, edge.from, edge.to);
+  }
+  if (edge.has_information) {
+    const Eigen::LLT<Matrix6d> llt(edge.information);
+    if (!edge.information.allFinite() || !edge.information.isApprox(edge.information.transpose(), 1e-9) ||
+        llt.info() != Eigen::Success) {
+      return format("edge %zu (%s %u -> %u): information matrix must be finite, symmetric and positive definite",
+                    index, kind, edge.from, edge.to);
+    }
+    return {};
   }
   const bool sigmas_ok = edge.sigma_t_m.allFinite() && edge.sigma_rot_rad.allFinite() &&
                          edge.sigma_t_m.minCoeff() > 0.0 && edge.sigma_rot_rad.minCoeff() > 0.0;
@@ -121,15 +152,29 @@ ceres::LossFunction* make_loss(RobustLoss loss, double scale_sigma) {
     case RobustLoss::kCauchy:
       return new ceres::CauchyLoss(scale_sigma);
     case RobustLoss::kNone:
+    case RobustLoss::kGncTls:  // weights in the residuals, not a loss
       break;
   }
   return nullptr;
 }
 
-Vector6d inverse_sigma(const RelativePoseEdge& edge) {
+// W with |W r|^2 = r^T Information r: diag(1 / sigma), or the transposed Cholesky factor of the information.
+Matrix6d sqrt_information(const RelativePoseEdge& edge) {
+  if (edge.has_information) {
+    const Matrix6d upper = Eigen::LLT<Matrix6d>(edge.information).matrixU();
+    return upper;
+  }
   Vector6d inv_sigma;
   inv_sigma << edge.sigma_t_m.cwiseInverse(), edge.sigma_rot_rad.cwiseInverse();
-  return inv_sigma;
+  return inv_sigma.asDiagonal();
+}
+
+// GNC-TLS weight of a whitened residual norm r at surrogate parameter mu, threshold c (Yang et al. 2020, eq. 14).
+double gnc_tls_weight(double r, double c, double mu) {
+  const double r2 = r * r, c2 = c * c;
+  if (r2 >= (mu + 1.0) / mu * c2) return 0.0;
+  if (r2 <= mu / (mu + 1.0) * c2) return 1.0;
+  return c / r * std::sqrt(mu * (mu + 1.0)) - mu;
 }
 
 // Union-find root with path halving; components decide which pose holds each one's gauge.
@@ -151,6 +196,8 @@ const char* to_string(RobustLoss loss) {
       return "huber";
     case RobustLoss::kCauchy:
       return "cauchy";
+    case RobustLoss::kGncTls:
+      return "gnc_tls";
   }
   return "?";
 }
@@ -172,9 +219,11 @@ const char* to_string(PoseGraphStatus status) {
 void PoseGraphConfig::print(std::FILE* out) const {
   std::fprintf(out,
                "pose_graph: loop_closure_loss=%s loop_closure_loss_scale_sigma=%g huber_warm_start=%s "
-               "max_iterations=%d fix_first_pose=%s num_threads=%d\n",
+               "max_iterations=%d gnc_max_outer_iterations=%d gnc_mu_factor=%g gnc_inner_iterations=%d "
+               "fix_first_pose=%s num_threads=%d\n",
                to_string(loop_closure_loss), loop_closure_loss_scale_sigma, huber_warm_start ? "true" : "false",
-               max_iterations, fix_first_pose ? "true" : "false", num_threads);
+               max_iterations, gnc_max_outer_iterations, gnc_mu_factor, gnc_inner_iterations,
+               fix_first_pose ? "true" : "false", num_threads);
 }
 
 void PoseGraphResult::print(std::FILE* out) const {
@@ -238,6 +287,9 @@ PoseGraphResult optimize_pose_graph(const PoseGraphConfig& config, std::vector<P
     ceres_compat::set_quaternion_manifold(problem, q_block(i));
   };
 
+  const bool gnc = config.loop_closure_loss == RobustLoss::kGncTls;
+  // GNC's weights, read by the loop closures' residuals at every evaluation (1: plain least squares).
+  std::vector<double> weights(edges.size(), 1.0);
   std::vector<RelativePoseResidual> residuals;
   residuals.reserve(edges.size());
   bool has_loop_closure = false;
@@ -247,7 +299,8 @@ PoseGraphResult optimize_pose_graph(const PoseGraphConfig& config, std::vector<P
     add_pose(edge.to);
     Pose3 measured = edge.measured_from_T_to;
     measured.q.normalize();
-    residuals.emplace_back(measured, inverse_sigma(edge));
+    residuals.emplace_back(measured, sqrt_information(edge), edge.has_information,
+                           gnc && edge.is_loop_closure ? &weights[residuals.size()] : nullptr);
     using Cost = ceres::AutoDiffCostFunction<RelativePoseResidual, kResidualDim, kTranslationDim, kQuaternionDim,
                                              kTranslationDim, kQuaternionDim>;
     auto* cost = new Cost(new RelativePoseResidual(residuals.back()));
@@ -290,7 +343,57 @@ PoseGraphResult optimize_pose_graph(const PoseGraphConfig& config, std::vector<P
   ceres::Solver::Summary summary;
   const bool warm_start =
       config.huber_warm_start && config.loop_closure_loss == RobustLoss::kCauchy && has_loop_closure;
-  if (warm_start) {
+  // The loop closures' whitened residual norms at the current state (weights not applied).
+  const auto loop_closure_residuals = [&](std::vector<double>* r) {
+    r->assign(edges.size(), 0.0);
+    for (std::size_t k = 0; k < edges.size(); ++k) {
+      if (!edges[k].is_loop_closure) continue;
+      const double w = weights[k];
+      weights[k] = 1.0;
+      Vector6d v;
+      residuals[k](t_block(edges[k].from), q_block(edges[k].from), t_block(edges[k].to), q_block(edges[k].to),
+                   v.data());
+      weights[k] = w;
+      (*r)[k] = v.norm();
+    }
+  };
+  if (gnc && has_loop_closure) {
+    // Graduated non-convexity: least squares with every closure first, then the TLS surrogate from convex (mu
+    // small) to the truncated loss, re-weighting the closures after each weighted solve; last, one solve with the
+    // weights rounded to 0 or 1.
+    const double c = config.loop_closure_loss_scale_sigma;
+    ceres::Solve(options, &problem, &summary);
+    result.iterations = summary.num_successful_steps + summary.num_unsuccessful_steps;
+    std::vector<double> r;
+    loop_closure_residuals(&r);
+    const double r_max = *std::max_element(r.begin(), r.end());
+    if (summary.IsSolutionUsable() && r_max > c) {
+      double mu = c * c / std::max(2.0 * r_max * r_max - c * c, 1e-12);
+      ceres::Solver::Options inner = options;
+      inner.max_num_iterations = config.gnc_inner_iterations;
+      for (int outer = 0; outer < config.gnc_max_outer_iterations; ++outer) {
+        double undecided = 0.0;
+        for (std::size_t k = 0; k < edges.size(); ++k) {
+          if (!edges[k].is_loop_closure) continue;
+          weights[k] = gnc_tls_weight(r[k], c, mu);
+          undecided += weights[k] * (1.0 - weights[k]);
+        }
+        ceres::Solve(inner, &problem, &summary);
+        result.iterations += summary.num_successful_steps + summary.num_unsuccessful_steps;
+        ++result.gnc_outer_iterations;
+        if (!summary.IsSolutionUsable()) break;
+        loop_closure_residuals(&r);
+        if (undecided < 1e-6 && outer > 0) break;  // every weight 0 or 1: the surrogate is the TLS loss here
+        mu *= config.gnc_mu_factor;
+      }
+      for (std::size_t k = 0; k < edges.size(); ++k)
+        if (edges[k].is_loop_closure) weights[k] = r[k] <= c ? 1.0 : 0.0;
+      if (summary.IsSolutionUsable()) {
+        ceres::Solve(options, &problem, &summary);
+        result.iterations += summary.num_successful_steps + summary.num_unsuccessful_steps;
+      }
+    }
+  } else if (warm_start) {
     // Cauchy alone discards a correct closure that starts many sigmas away on a drifted trajectory; convex Huber
     // pulls every closure in first, then Cauchy lets go of the ones that still disagree.
     loop_closure_loss.Reset(make_loss(RobustLoss::kHuber, scale_sigma), ceres::TAKE_OWNERSHIP);
@@ -298,7 +401,7 @@ PoseGraphResult optimize_pose_graph(const PoseGraphConfig& config, std::vector<P
     result.iterations = summary.num_successful_steps + summary.num_unsuccessful_steps;
     loop_closure_loss.Reset(make_loss(RobustLoss::kCauchy, scale_sigma), ceres::TAKE_OWNERSHIP);
   }
-  if (!warm_start || summary.IsSolutionUsable()) {
+  if (!(gnc && has_loop_closure) && (!warm_start || summary.IsSolutionUsable())) {
     ceres::Solve(options, &problem, &summary);
     result.iterations += summary.num_successful_steps + summary.num_unsuccessful_steps;
   }
@@ -306,7 +409,8 @@ PoseGraphResult optimize_pose_graph(const PoseGraphConfig& config, std::vector<P
   const bool state_finite = std::all_of(state.begin(), state.end(), [](double v) { return std::isfinite(v); });
   if (!summary.IsSolutionUsable() || !state_finite) {
     result.status = PoseGraphStatus::kSolverFailed;
-    result.message = std::string("solver failed") + (warm_start ? " (Huber warm start or Cauchy solve): " : ": ") +
+    result.message = std::string("solver failed") +
+                     (gnc ? " (a GNC weighted solve): " : warm_start ? " (Huber warm start or Cauchy solve): " : ": ") +
                      summary.message;
     return result;
   }
@@ -316,17 +420,23 @@ PoseGraphResult optimize_pose_graph(const PoseGraphConfig& config, std::vector<P
     poses[i].t_m = Eigen::Map<const Eigen::Vector3d>(t_block(i));
     poses[i].q = Eigen::Map<const Eigen::Quaterniond>(q_block(i)).normalized();
   }
+  std::vector<double> unweighted;
+  loop_closure_residuals(&unweighted);
   result.edge_residual_sigma.resize(edges.size());
   for (std::size_t k = 0; k < edges.size(); ++k) {
-    Vector6d r;
-    residuals[k](t_block(edges[k].from), q_block(edges[k].from), t_block(edges[k].to), q_block(edges[k].to),
-                 r.data());
-    result.edge_residual_sigma[k] = r.norm();
-    if (edges[k].is_loop_closure && config.loop_closure_loss != RobustLoss::kNone &&
-        r.norm() > config.loop_closure_loss_scale_sigma) {
-      ++result.num_loop_closures_downweighted;
+    double norm = unweighted[k];
+    if (!edges[k].is_loop_closure) {
+      Vector6d r;
+      residuals[k](t_block(edges[k].from), q_block(edges[k].from), t_block(edges[k].to), q_block(edges[k].to),
+                   r.data());
+      norm = r.norm();
     }
+    result.edge_residual_sigma[k] = norm;
+    const bool off = gnc ? weights[k] == 0.0 : norm > config.loop_closure_loss_scale_sigma;
+    if (edges[k].is_loop_closure && config.loop_closure_loss != RobustLoss::kNone && off)
+      ++result.num_loop_closures_downweighted;
   }
+  if (gnc) result.edge_weight = weights;
   result.message = format("%s after %d iterations, cost %.6g -> %.6g: ", to_string(result.status), result.iterations,
                           result.initial_cost, result.final_cost) +
                    summary.message;

@@ -1,8 +1,9 @@
 // SE(3) pose-graph optimization of the agent layer (odometry and loop-closure edges) for the scene-graph backend.
 //
 // Minimizes sum_ij rho_ij(|W_ij r_ij|^2) over world_T_i (the paper's eq. (pgo) restricted to the agent layer), where
-// r_ij is the tangent-space relative-pose error of edge (i, j) and W_ij = diag(1 / sigma). Odometry is plain least
-// squares; loop closures get a robust rho, Huber then Cauchy, standing in for the paper's GNC outlier rejection.
+// r_ij is the tangent-space relative-pose error of edge (i, j) and W_ij = diag(1 / sigma) (or the square root of a
+// full information matrix). Odometry is plain least squares; loop closures get a robust rho: the paper's
+// graduated non-convexity with a truncated least-squares loss (kGncTls), or Huber then Cauchy.
 // Runs on the backend thread, not the real-time path, so it allocates. This header is Eigen-only; Ceres stays in
 // pose_graph.cc.
 #pragma once
@@ -42,12 +43,21 @@ struct RelativePoseEdge {
   Eigen::Vector3d sigma_t_m = Eigen::Vector3d::Constant(0.05);
   Eigen::Vector3d sigma_rot_rad = Eigen::Vector3d::Constant(0.01);
   bool is_loop_closure = false;
+  // A full information matrix (inverse covariance) of the residual [translation; rotation], used instead of the
+  // sigmas when set (e.g. from a g2o file, read_g2o_pose_graph). Then the translation error is expressed in the
+  // measurement's `to` frame, as g2o does; rotation in this residual's 2 vec(q_err) units (radians, small angles).
+  bool has_information = false;
+  Eigen::Matrix<double, 6, 6> information = Eigen::Matrix<double, 6, 6>::Identity();
 };
 
 enum class RobustLoss : std::uint8_t {
   kNone,    // plain least squares: one wrong loop closure bends the whole map
   kHuber,   // convex, but a wrong loop closure keeps pulling with a constant force
   kCauchy,  // redescending: the pull of a residual far beyond the scale fades away
+  // Graduated non-convexity with a truncated least-squares loss (Yang, Antonante, Tzoumas, Carlone, RA-L 2020), as
+  // the paper solves its scene-graph optimization: weighted least squares whose loop-closure weights go from a
+  // convex surrogate to 0 (beyond loop_closure_loss_scale_sigma) or 1 (within it); a wrong closure switches off.
+  kGncTls,
 };
 const char* to_string(RobustLoss loss);
 
@@ -60,6 +70,11 @@ struct PoseGraphConfig {
   // graduated non-convexity). Without it Cauchy can discard correct closures on a strongly drifted trajectory.
   bool huber_warm_start = true;
   int max_iterations = 50;  // per solve; the warm start adds a second solve
+  // kGncTls: outer iterations at most (each a weighted solve of gnc_inner_iterations), the surrogate's growth per
+  // outer iteration, and the Ceres iterations of each weighted solve (the first and the last get max_iterations).
+  int gnc_max_outer_iterations = 100;
+  double gnc_mu_factor = 1.4;
+  int gnc_inner_iterations = 10;
   // Removes the gauge freedom: holds poses[0], and the lowest-index pose of any component not connected to it.
   bool fix_first_pose = true;
   int num_threads = 1;
@@ -85,6 +100,10 @@ struct PoseGraphResult {
   std::vector<double> edge_residual_sigma;
   // Loop closures left beyond loop_closure_loss_scale_sigma: the ones the robust loss is treating as outliers.
   std::uint32_t num_loop_closures_downweighted = 0;
+  // kGncTls: per edge, in input order, the final weight (odometry 1; a loop closure 1 kept or 0 rejected), and the
+  // outer iterations run. Empty and 0 under the other losses.
+  std::vector<double> edge_weight;
+  int gnc_outer_iterations = 0;
   std::string message;
 
   bool converged() const { return status == PoseGraphStatus::kConverged; }

@@ -179,6 +179,94 @@ OutlierScenario outlier_scenario(double yaw_bias_per_step_rad = kYawBiasPerStep_
   return s;
 }
 
+// The square walked twice (poses 40..79 retrace 0..39) with correct closures between the laps, then as many wrong
+// closures again (random pairs, random relative poses): half the closures are outliers. GNC-TLS must switch every
+// wrong one off and land on the outlier-free solution; plain least squares must not (else this tests nothing).
+struct HalfOutliers {
+  std::vector<Pose3> initial;
+  std::vector<RelativePoseEdge> clean;    // odometry and the correct closures
+  std::vector<RelativePoseEdge> corrupt;  // the same plus the wrong closures, appended
+  std::size_t num_correct = 0;
+};
+
+HalfOutliers half_outliers() {
+  HalfOutliers h;
+  std::vector<Pose3> lap = square_ground_truth();
+  std::vector<Pose3> truth = lap;
+  const Pose3 back_to_start = between(lap.back(), lap.front());
+  Pose3 second = lap.back() * back_to_start;
+  for (std::size_t i = 0; i < lap.size(); ++i) truth.push_back(second * between(lap.front(), lap[i]));
+  h.clean = drifting_odometry(truth);
+  h.initial = chain_odometry(truth[0], h.clean);
+  for (std::uint32_t i = 0; i < kNumPoses; i += 3) h.clean.push_back(true_loop_closure(truth, kNumPoses + i, i));
+  h.num_correct = h.clean.size() - (truth.size() - 1);
+  h.corrupt = h.clean;
+  std::mt19937 rng(7u);
+  std::uniform_int_distribution<std::uint32_t> pick(0, static_cast<std::uint32_t>(truth.size() - 1));
+  std::uniform_real_distribution<double> offset(-3.0, 3.0), angle(-kPi, kPi);
+  while (h.corrupt.size() < h.clean.size() + h.num_correct) {
+    const std::uint32_t a = pick(rng), b = pick(rng);
+    if (a + 1 >= b) continue;
+    Eigen::Vector3d t;
+    for (int k = 0; k < 3; ++k) t[k] = offset(rng);
+    const double yaw_rad = angle(rng);
+    h.corrupt.push_back(make_edge(a, b, make_pose(t, yaw(yaw_rad)), true));
+  }
+  return h;
+}
+
+TEST(PoseGraph, GncTlsSwitchesOffHalfTheLoopClosuresWhenWrong) {
+  const HalfOutliers h = half_outliers();
+  PoseGraphConfig plain;
+  plain.loop_closure_loss = RobustLoss::kNone;
+  std::vector<Pose3> reference = h.initial;
+  ASSERT_TRUE(optimize_pose_graph(plain, reference, h.clean).poses_updated());
+
+  std::vector<Pose3> least_squares = h.initial;
+  ASSERT_TRUE(optimize_pose_graph(plain, least_squares, h.corrupt).poses_updated());
+  PoseGraphConfig gnc;
+  gnc.loop_closure_loss = RobustLoss::kGncTls;
+  std::vector<Pose3> robust = h.initial;
+  const PoseGraphResult r = optimize_pose_graph(gnc, robust, h.corrupt);
+  ASSERT_TRUE(r.poses_updated()) << r.message;
+  std::printf("[ pose graph ] %zu correct + %zu wrong closures: least squares %.3f m from the outlier-free solution, "
+              "GNC-TLS %.5f m (%d outer iterations, %u closures off)\n",
+              h.num_correct, h.corrupt.size() - h.clean.size(), ate_rmse_m(least_squares, reference),
+              ate_rmse_m(robust, reference), r.gnc_outer_iterations, r.num_loop_closures_downweighted);
+  EXPECT_GT(ate_rmse_m(least_squares, reference), 0.5) << "the wrong closures must bend a plain solution";
+  EXPECT_LT(ate_rmse_m(robust, reference), 0.01);
+  ASSERT_EQ(r.edge_weight.size(), h.corrupt.size());
+  for (std::size_t k = 0; k < h.corrupt.size(); ++k) {
+    const double expected = k < h.clean.size() ? 1.0 : 0.0;
+    EXPECT_EQ(r.edge_weight[k], expected) << "edge " << k;
+  }
+  EXPECT_EQ(r.num_loop_closures_downweighted, h.corrupt.size() - h.clean.size());
+  EXPECT_GT(r.gnc_outer_iterations, 0);
+}
+
+// An information matrix diag(1 / sigma^2) weighs as the sigmas do (translation in the `to` frame instead of the
+// `from` frame changes nothing for an isotropic translation sigma).
+TEST(PoseGraph, ADiagonalInformationMatrixEqualsItsSigmas) {
+  const OutlierScenario s = outlier_scenario();
+  std::vector<RelativePoseEdge> with_info = s.edges;
+  for (RelativePoseEdge& e : with_info) {
+    Eigen::Matrix<double, 6, 1> d;
+    d << e.sigma_t_m.cwiseAbs2().cwiseInverse(), e.sigma_rot_rad.cwiseAbs2().cwiseInverse();
+    e.information = d.asDiagonal();
+    e.has_information = true;
+  }
+  std::vector<Pose3> a = s.initial, b = s.initial;
+  const PoseGraphConfig config;
+  ASSERT_TRUE(optimize_pose_graph(config, a, s.edges).poses_updated());
+  ASSERT_TRUE(optimize_pose_graph(config, b, with_info).poses_updated());
+  EXPECT_LT(ate_rmse_m(a, b), 1e-6);
+  with_info[3].information(0, 0) = -1.0;
+  std::vector<Pose3> c = s.initial;
+  const PoseGraphResult bad = optimize_pose_graph(config, c, with_info);
+  EXPECT_EQ(bad.status, PoseGraphStatus::kInvalidInput);
+  EXPECT_NE(bad.message.find("positive definite"), std::string::npos) << bad.message;
+}
+
 TEST(PoseGraph, RobustLossDownweightsGrosslyWrongLoopClosure) {
   const OutlierScenario s = outlier_scenario();
   const RelativePoseEdge& wrong = s.edges[s.wrong_edge];
