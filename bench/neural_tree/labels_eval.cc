@@ -16,6 +16,9 @@
 // training-set figures (compare with the baselines' in-sample rows; the CV of the model itself is
 // train_neural_tree.py cv); the generated buildings are held out for every method.
 // An "unknown" answer counts as wrong in accuracy; labelled_precision is over the rooms given a label.
+// --cv-weights DIR (DIR from train_neural_tree.py folds --out DIR): the model too in cross-validation on the
+// Stanford sets (model_cv, model_forced_cv, model_before_cv): each fold's classifier, trained on the other clean
+// folds, scores its held-out rooms in each set's version.
 // --calibrate: instead, sweeps the model's blend weight and "unknown" threshold on generated buildings with
 // seeds 5001.. (never reported as results) and prints the choice.
 #include <Eigen/Dense>
@@ -25,6 +28,7 @@
 #include <cstdlib>
 #include <fstream>
 #include <map>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <numeric>
 #include <random>
@@ -416,7 +420,7 @@ void report(const std::string& set, const std::string& method, const Score& s, b
 }
 
 struct Options {
-  std::string json, data_dir, seg_map;
+  std::string json, data_dir, seg_map, cv_weights;
   int buildings = 20, rooms = 12, cv_repeats = 5;
   std::uint64_t clutter_seed = 38;
   bool calibrate = false, details = true;
@@ -538,12 +542,13 @@ int main(int argc, char** argv) {
     else if (a == "--rooms") opt.rooms = std::atoi(v.c_str()), ++i;
     else if (a == "--cv-repeats") opt.cv_repeats = std::atoi(v.c_str()), ++i;
     else if (a == "--clutter-seed") opt.clutter_seed = std::strtoull(v.c_str(), nullptr, 10), ++i;
+    else if (a == "--cv-weights") opt.cv_weights = v, ++i;
     else if (a == "--calibrate") opt.calibrate = true;
     else if (a == "--brief") opt.details = false;
     else {
       std::fprintf(stderr,
                    "usage: labels_eval [--json FILE] [--buildings N] [--rooms N] [--cv-repeats N] [--clutter-seed S] "
-                   "[--data DIR] [--segmentation-map FILE] [--calibrate] [--brief]\n");
+                   "[--data DIR] [--segmentation-map FILE] [--cv-weights DIR] [--calibrate] [--brief]\n");
       return 2;
     }
   }
@@ -583,6 +588,25 @@ int main(int argc, char** argv) {
   sets.push_back(segmentation_view(sets[3], "generated_seg", seen));
   for (Set& s : sets) s.stanford = s.name.rfind("stanford", 0) == 0;
 
+  // The model's fold classifiers (trained on the other clean folds) and the rooms each holds out.
+  std::vector<std::unique_ptr<RoomClassifier>> fold_after, fold_before;
+  std::vector<std::vector<int>> fold_test;
+  if (!opt.cv_weights.empty()) {
+    std::ifstream in(opt.cv_weights + "/folds.json");
+    const nlohmann::json doc = nlohmann::json::parse(in, nullptr, false);
+    if (!in || doc.is_discarded() || !doc.contains("test"))
+      return std::fprintf(stderr, "labels_eval: %s/folds.json: cannot read\n", opt.cv_weights.c_str()), 1;
+    for (const auto& [name, test] : doc["test"].items()) {
+      RoomClassifier::Config a = after_config, b = before_config;
+      a.weights_path = b.weights_path = opt.cv_weights + "/" + name + ".json";
+      fold_after.push_back(std::make_unique<RoomClassifier>(a));
+      fold_before.push_back(std::make_unique<RoomClassifier>(b));
+      if (!fold_after.back()->init(&error) || !fold_before.back()->init(&error))
+        return std::fprintf(stderr, "labels_eval: %s\n", error.c_str()), 1;
+      fold_test.push_back(test.get<std::vector<int>>());
+    }
+    std::printf("model CV: %zu fold classifiers from %s\n", fold_after.size(), opt.cv_weights.c_str());
+  }
   const int classes = after.weights().num_classes;
   const auto& class_label = after.weights().class_room_labels;
   std::vector<const Room*> train;
@@ -645,6 +669,21 @@ int main(int argc, char** argv) {
             cv_lr.add(r.truth, class_label[static_cast<std::size_t>(flr.predict(r))]);
           }
         }
+      }
+      if (!fold_after.empty()) {
+        Score cv_model, cv_forced, cv_before;
+        for (std::size_t k = 0; k < fold_after.size(); ++k)
+          for (int i : fold_test[k]) {
+            const Scene& scene = set.scenes[static_cast<std::size_t>(i)];
+            run_model(*fold_after[k], scene, &l, &f);
+            cv_model.add(scene.rooms[0].truth, l[0]);
+            cv_forced.add(scene.rooms[0].truth, f[0]);
+            run_model(*fold_before[k], scene, &l, &f);
+            cv_before.add(scene.rooms[0].truth, l[0]);
+          }
+        report(set.name, "model_before_cv", cv_before, &figures, opt.details);
+        report(set.name, "model_cv", cv_model, &figures, opt.details);
+        report(set.name, "model_forced_cv", cv_forced, &figures, false);
       }
       report(set.name, "naive_bayes_cv", cv_nb, &figures, opt.details);
       report(set.name, "lr_baseline_cv", cv_lr, &figures, opt.details);

@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstring>
 #include <fstream>
 #include <map>
@@ -23,7 +24,7 @@ namespace {
 
 using namespace semantics;
 
-TEST(LabelMap, EveryMpcat40LabelHasAReasonedReadingTheModelKnows) {
+TEST(RoomLabelMap, EveryMpcat40LabelHasAReasonedReadingTheModelKnows) {
   RoomClassifier classifier;
   std::string error;
   ASSERT_TRUE(classifier.init(&error)) << error;
@@ -52,7 +53,7 @@ TEST(LabelMap, EveryMpcat40LabelHasAReasonedReadingTheModelKnows) {
   EXPECT_EQ(label_reading(kInvalidLabel).label, kUnlabeled);
 }
 
-TEST(LabelMap, StanfordClassesRoundTripWhereTheAppCanNameThem) {
+TEST(RoomLabelMap, StanfordClassesRoundTripWhereTheAppCanNameThem) {
   std::map<std::string, std::string> back;
   for (int i = 0; i < kNumStanfordClasses; ++i) {
     const std::string coco = stanford_class(i);
@@ -73,7 +74,7 @@ TEST(LabelMap, StanfordClassesRoundTripWhereTheAppCanNameThem) {
   EXPECT_STREQ(stanford_class(kNumStanfordClasses), "");
 }
 
-TEST(LabelMap, SegmentationNetworkClassesReachOnlyTrainingClasses) {
+TEST(RoomLabelMap, SegmentationNetworkClassesReachOnlyTrainingClasses) {
   const std::string path = std::string(QSG_SOURCE_DIR) + "/firmware_app/config/segmentation_pascal_voc.json";
   std::ifstream in(path);
   ASSERT_TRUE(in) << path;
@@ -90,7 +91,7 @@ TEST(LabelMap, SegmentationNetworkClassesReachOnlyTrainingClasses) {
                                          "sofa->couch", "tvmonitor->tv"}));
 }
 
-TEST(LabelMap, ApplianceSplitRecoversStanfordAppliancesFromTheirBoxes) {
+TEST(RoomLabelMap, ApplianceSplitRecoversStanfordAppliancesFromTheirBoxes) {
   EXPECT_STREQ(appliance_class({0.7, 0.7, 1.8}), "refrigerator");
   EXPECT_STREQ(appliance_class({0.6, 0.6, 0.9}), "oven");
   EXPECT_STREQ(appliance_class({0.5, 0.35, 0.3}), "microwave");
@@ -217,6 +218,62 @@ TEST(RoomClassifierUnderClutter, AppliancesSplitByBoxAndWeakEvidenceStaysUnknown
   float sum = 0.0f;
   for (float q : model.predictions()[1].label_probabilities) sum += q;
   EXPECT_NEAR(sum, 1.0f, 1e-4f);
+}
+
+// The failure, end to end on the 482 Stanford3DSG rooms as the app would label them (mpcat40 through the
+// label map, clutter to 10-15 objects): the shipped classifier must not drift to one type ("kitchen" for two rooms
+// in three before), and must stay close to its clean figure. Training-set rooms (the model saw their clean form):
+// this guards the reading of labels, not generalisation (bench/neural_tree/labels_eval and
+// bench/results/room_labels.md for that).
+TEST(RoomClassifierUnderClutter, StanfordRoomsAsTheAppSeesThem) {
+  QSG_REQUIRE_SHARED_DATA(path, "scene_graphs/Stanford3DSG_rooms.json");
+  std::ifstream in(path);
+  const nlohmann::json doc = nlohmann::json::parse(in, nullptr, false);
+  ASSERT_FALSE(doc.is_discarded());
+  RoomClassifier::Config config;
+  config.min_probability = 0.0f;  // every room with a read object answers: the ranking is what is checked
+  RoomClassifier model(config);
+  std::string error;
+  ASSERT_TRUE(model.init(&error)) << error;
+  int rooms = 0, right = 0;
+  std::map<RoomLabel, int> answered;
+  std::uint64_t seed = 0;
+  for (const auto& g : doc["graphs"]) {
+    ObjectRoomGraph graph;
+    RoomLabel truth = kRoomUnknown;
+    int room = -1, objects = 0;
+    for (const auto& n : g["nodes"]) {
+      const auto& x = n["x"];
+      const Eigen::Vector3d c(x[0].get<double>(), x[1].get<double>(), x[2].get<double>());
+      const Eigen::Vector3d s(x[3].get<double>(), x[4].get<double>(), x[5].get<double>());
+      if (n["type"] == "room") {
+        const auto& classes = model.weights().classes;
+        const auto it = std::find(classes.begin(), classes.end(), n["label"].get<std::string>());
+        ASSERT_NE(it, classes.end());
+        truth = model.weights().class_room_labels[static_cast<std::size_t>(it - classes.begin())];
+        room = graph.add_room(c, s);
+      }
+    }
+    ASSERT_GE(room, 0);
+    for (const auto& n : g["nodes"]) {
+      if (n["type"] == "room") continue;
+      const auto& x = n["x"];
+      const Eigen::Vector3d s(x[3].get<double>(), x[4].get<double>(), x[5].get<double>());
+      const Label l = mpcat40_from_stanford(n["label"].get<std::string>());
+      graph.add_object(room, model.word_index(l, s), {x[0].get<double>(), x[1].get<double>(), x[2].get<double>()}, s);
+      ++objects;
+    }
+    for (const auto& it : bench::make_clutter(graph.nodes[room].centroid_m, graph.nodes[room].size_m, objects, ++seed))
+      graph.add_object(room, model.word_index(it.label, it.size_m), it.centroid_m, it.size_m);
+    ASSERT_TRUE(model.classify(graph, &error)) << error;
+    ++rooms;
+    right += model.predictions()[0].label == truth;
+    ++answered[model.predictions()[0].label];
+  }
+  ASSERT_EQ(rooms, 482);
+  std::printf("Stanford rooms as the app sees them (training rooms): %.1f %% right\n", 100.0 * right / rooms);
+  EXPECT_GE(right, rooms * 78 / 100);
+  for (const auto& [label, n] : answered) EXPECT_LT(n, rooms * 30 / 100) << room_label_name(label);
 }
 
 }  // namespace
