@@ -308,7 +308,8 @@ struct LogisticRegression {
 };
 
 // ---- the model ----
-// Predictions per room (scene order), and the label the model would give were it forced to answer.
+// Predictions per room (scene order), and the label the model would give were it forced to answer (its most
+// probable label, min_probability and min_objects ignored).
 void run_model(RoomClassifier& model, const Scene& scene, std::vector<semantics::RoomLabel>* labels,
                std::vector<semantics::RoomLabel>* forced) {
   ObjectRoomGraph g;
@@ -502,10 +503,8 @@ int calibrate(const Options& opt, RoomClassifier::Config base) {
       run_model(m, scene, &l, &f);
       for (std::size_t i = 0; i < scene.rooms.size(); ++i) {
         if (l[i] == semantics::kRoomUnknown) continue;
-        float p = 0.0f;
-        for (const auto& pr : m.predictions())
-          if (pr.label == l[i] && &pr == &m.predictions()[i]) p = pr.probability;
-        answered.emplace_back(p, l[i] == scene.rooms[i].truth);
+        // run_model adds the rooms first, in scene order: prediction i is room i's.
+        answered.emplace_back(m.predictions()[i].probability, l[i] == scene.rooms[i].truth);
       }
     }
   double best_t = 0.0;
