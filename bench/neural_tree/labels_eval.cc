@@ -425,6 +425,7 @@ struct Options {
   int buildings = 20, rooms = 12, cv_repeats = 5;
   std::uint64_t clutter_seed = 38;
   bool calibrate = false, details = true;
+  int empty_rooms_from_box = -1;  // -1: the Config default
 };
 
 std::vector<std::vector<int>> stratified_folds(const std::vector<int>& y, int k, std::mt19937_64& rng) {
@@ -521,6 +522,25 @@ int calibrate(const Options& opt, RoomClassifier::Config base) {
     }
   }
   std::printf("  chosen: lr_weight %.1f, min_probability %.2f\n", best_w, best_t);
+  // Rooms with nothing the classifier reads: "unknown", or the LR head alone on the room box.
+  for (const bool from_box : {false, true}) {
+    RoomClassifier::Config e = base;
+    e.lr_weight = best_w;
+    e.min_probability = static_cast<float>(best_t);
+    e.empty_rooms_from_box = from_box;
+    RoomClassifier me(e);
+    if (!me.init(&error)) return std::fprintf(stderr, "%s\n", error.c_str()), 1;
+    long right = 0, wrong = 0;
+    for (const Set* set : {&app, &seg})
+      for (const Scene& scene : set->scenes) {
+        std::vector<semantics::RoomLabel> l, f;
+        run_model(me, scene, &l, &f);
+        for (std::size_t i = 0; i < scene.rooms.size(); ++i)
+          if (l[i] != semantics::kRoomUnknown) (l[i] == scene.rooms[i].truth ? right : wrong)++;
+      }
+    std::printf("  empty_rooms_from_box %d: right %ld, wrong %ld, right - wrong %ld\n", from_box ? 1 : 0, right,
+                wrong, right - wrong);
+  }
   return 0;
 }
 
@@ -543,15 +563,18 @@ int main(int argc, char** argv) {
     else if (a == "--clutter-seed") opt.clutter_seed = std::strtoull(v.c_str(), nullptr, 10), ++i;
     else if (a == "--cv-weights") opt.cv_weights = v, ++i;
     else if (a == "--calibrate") opt.calibrate = true;
+    else if (a == "--empty-rooms-from-box") opt.empty_rooms_from_box = std::atoi(v.c_str()), ++i;
     else if (a == "--brief") opt.details = false;
     else {
       std::fprintf(stderr,
                    "usage: labels_eval [--json FILE] [--buildings N] [--rooms N] [--cv-repeats N] [--clutter-seed S] "
-                   "[--data DIR] [--segmentation-map FILE] [--cv-weights DIR] [--calibrate] [--brief]\n");
+                   "[--data DIR] [--segmentation-map FILE] [--cv-weights DIR] [--empty-rooms-from-box 0|1] [--calibrate] "
+                   "[--brief]\n");
       return 2;
     }
   }
   RoomClassifier::Config after_config;  // the shipped defaults
+  if (opt.empty_rooms_from_box >= 0) after_config.empty_rooms_from_box = opt.empty_rooms_from_box != 0;
   if (opt.calibrate) return calibrate(opt, after_config);
   RoomClassifier::Config before_config;
   before_config.read_through_label_map = false;

@@ -924,7 +924,8 @@ bool RoomClassifier::classify(const ObjectRoomGraph& input, std::string* error) 
   run_lr(graph);
   for (int r = 0; r < num_rooms_; ++r) {
     RoomPrediction& p = predictions_[r];
-    const double a = lr_weight() * (weights_.lr.weight_by_coverage ? lr_coverage_[r] : 1.0);
+    const bool from_box = config_.empty_rooms_from_box && object_count_[p.node] == 0;
+    const double a = from_box ? 1.0 : lr_weight() * (weights_.lr.weight_by_coverage ? lr_coverage_[r] : 1.0);
     // The blend: (1 - a) p_nt + a p_lr, or with log pooling p_nt^(1 - a) p_lr^a normalised.
     double sum = 0.0;
     for (int c = 0; c < weights_.num_classes; ++c) {
@@ -948,7 +949,7 @@ bool RoomClassifier::classify(const ObjectRoomGraph& input, std::string* error) 
         p.probability = p.label_probabilities[l];
         p.label = l;
       }
-    if (p.probability < config_.min_probability || object_count_[p.node] < config_.min_objects)
+    if (p.probability < config_.min_probability || (!from_box && object_count_[p.node] < config_.min_objects))
       p.label = semantics::kRoomUnknown;
   }
   return true;

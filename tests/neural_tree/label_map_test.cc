@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <fstream>
 #include <map>
@@ -218,6 +219,43 @@ TEST(RoomClassifierUnderClutter, AppliancesSplitByBoxAndWeakEvidenceStaysUnknown
   float sum = 0.0f;
   for (float q : model.predictions()[1].label_probabilities) sum += q;
   EXPECT_NEAR(sum, 1.0f, 1e-4f);
+}
+
+// A room with nothing the classifier reads: with empty_rooms_from_box (the default) its probabilities are the LR
+// head's alone (the room box) and it is labelled when they clear min_probability; off, it stays "unknown".
+TEST(RoomClassifierUnderClutter, EmptyRoomsAreReadFromTheirBoxByTheLrHeadAlone) {
+  for (const bool from_box : {true, false}) {
+    RoomClassifier::Config config;
+    config.empty_rooms_from_box = from_box;
+    config.min_probability = 0.0f;
+    RoomClassifier model(config);
+    std::string error;
+    ASSERT_TRUE(model.init(&error)) << error;
+    ObjectRoomGraph g;
+    const int corridor = g.add_room({0, 0, 1.25}, {1.6, 9.0, 2.5});
+    const int bath = g.add_room({3, 0, 1.25}, {2.0, 2.5, 2.5});
+    g.add_edge(corridor, bath);
+    g.add_object(corridor, model.word_index(kMisc), {0, 1, 0.5}, {0.3, 0.3, 0.3});  // not read
+    g.add_object(bath, model.word_index(kToilet), {3.5, 0.8, 0.4}, {0.4, 0.7, 0.75});
+    ASSERT_TRUE(model.classify(g, &error)) << error;
+    const auto blend = model.room_log_probabilities();
+    const auto lr = model.room_lr_probabilities();
+    const auto nt = model.room_nt_probabilities();
+    double lr_gap = 0.0, nt_gap = 0.0;
+    for (Eigen::Index c = 0; c < blend.cols(); ++c) {
+      lr_gap = std::max(lr_gap, std::abs(std::exp(static_cast<double>(blend(0, c))) - lr(0, c)));
+      nt_gap = std::max(nt_gap, std::abs(std::exp(static_cast<double>(blend(0, c))) - nt(0, c)));
+    }
+    if (from_box) {
+      EXPECT_LT(lr_gap, 1e-5) << "the empty room's probabilities are the LR head's";
+      EXPECT_NE(model.predictions()[0].label, kRoomUnknown);
+    } else {
+      EXPECT_GT(lr_gap, 1e-3) << "blended with the neural tree";
+      EXPECT_EQ(model.predictions()[0].label, kRoomUnknown) << "min_objects 1";
+    }
+    EXPECT_GT(nt_gap, 1e-3);
+    EXPECT_EQ(model.predictions()[1].label, kBathroom);
+  }
 }
 
 // The failure, end to end on the 482 Stanford3DSG rooms as the app would label them (mpcat40 through the
