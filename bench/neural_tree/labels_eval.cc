@@ -579,6 +579,7 @@ int main(int argc, char** argv) {
   RoomClassifier::Config before_config;
   before_config.read_through_label_map = false;
   before_config.drop_unread_objects = false;
+  before_config.empty_rooms_from_box = false;
   before_config.min_probability = 0.0f;
   before_config.lr_weight = -1.0;
   RoomClassifier before(before_config), after(after_config);
