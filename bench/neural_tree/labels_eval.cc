@@ -452,7 +452,8 @@ int calibrate(const Options& opt, RoomClassifier::Config base) {
   const Set seg = segmentation_view(app, "cal_seg", seen);
   std::printf("calibration on %d generated buildings (seeds 5001..%d), clutter on\n", opt.buildings,
               5000 + opt.buildings);
-  std::printf("  lr_weight  acc(app)  acc(seg)   [min_probability 0; rooms without a read object stay unknown]\n");
+  std::printf("  lr_weight  acc(app)  acc(seg)   [min_probability 0; rooms without a read object %s]\n",
+              base.empty_rooms_from_box ? "labelled from their box" : "unknown");
   std::vector<double> sum_acc;
   for (int k = 0; k <= 10; ++k) {
     RoomClassifier::Config c = base;
