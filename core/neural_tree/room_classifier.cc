@@ -2,14 +2,14 @@
 // and the logistic-regression head blended with it.
 #include "core/neural_tree/room_classifier.h"
 
-#include "core/neural_tree/label_map.h"
-
 #include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
+
+#include "core/neural_tree/label_map.h"
 
 namespace qsg::neural_tree {
 namespace {
@@ -476,10 +476,11 @@ void ObjectRoomGraph::add_edge(int a, int b) {
 void RoomClassifier::Config::print(std::FILE* out) const {
   std::fprintf(out,
                "RoomClassifier::Config: weights_path=%s max_rooms=%d min_probability=%.3f min_objects=%d "
-               "mpcat40_aliases=%s read_through_label_map=%s drop_unread_objects=%s lr_weight=%.3f\n",
+               "mpcat40_aliases=%s read_through_label_map=%s drop_unread_objects=%s empty_rooms_from_box=%s "
+               "lr_weight=%.3f\n",
                weights_path.c_str(), max_rooms, static_cast<double>(min_probability), min_objects,
                alias_mpcat40_to_training_classes ? "on" : "off", read_through_label_map ? "on" : "off",
-               drop_unread_objects ? "on" : "off", lr_weight);
+               drop_unread_objects ? "on" : "off", empty_rooms_from_box ? "on" : "off", lr_weight);
   h_tree.print(out);
 }
 
