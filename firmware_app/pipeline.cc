@@ -377,8 +377,10 @@ void Pipeline::label_rooms() {
     const int room = index_of(graph_.parent(n.parent));  // object -> place -> room
     if (room < 0) return;
     const scene_graph::ObjectAttributes* o = graph_.object(n.id);
-    room_graph_.add_object(room, classifier_->word_index(static_cast<semantics::Label>(o->semantic_label)), o->position_m,
-                           o->bounding_box.max_m - o->bounding_box.min_m);
+    const Eigen::Vector3d size = o->bounding_box.max_m - o->bounding_box.min_m;
+    // Through the classifier's label map: appliances split by their box, unread labels left out (label_map.h).
+    room_graph_.add_object(room, classifier_->word_index(static_cast<semantics::Label>(o->semantic_label), size),
+                           o->position_m, size);
   });
   graph_.for_each_edge([&](const scene_graph::EdgeRecord& e) {
     const int a = index_of(e.source), b = index_of(e.target);

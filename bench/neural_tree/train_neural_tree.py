@@ -17,6 +17,8 @@ Commands (from the repository root, Debian's python3-torch; fixed seeds, one thr
       (--jobs 2: folds in two processes, same figures; --seed-base: other fold splits, for tuning, e.g. 2001;
       --sweep: accuracy over LR l2, blend weight and mode and ensemble size; --oof FILE: the out-of-fold
       probabilities. Tune on a tuning split, never on the reported default one.)
+  /usr/bin/python3 bench/neural_tree/train_neural_tree.py folds --out DIR   # the cv's fold models as weights files
+      and folds.json (held-out rooms per file), for labels_eval --cv-weights DIR (same splits and seeds as cv)
   /usr/bin/python3 bench/neural_tree/train_neural_tree.py ssl       # the paper's 70/10/20 node-classification protocol
   /usr/bin/python3 bench/neural_tree/train_neural_tree.py train     # all rooms -> weights file (version 3: neural tree
       + LR head with its footprint classes + blend weight) + parity fixture (neural tree, LR and blended probabilities)
@@ -944,6 +946,50 @@ def cmd_train(args):
     print("wrote %s (%d cases)" % (args.fixture, len(cases)))
 
 
+def folds_task(task):
+    """One (repeat, fold) for cmd_folds: the neural tree and the LR head trained on the other folds (the same
+    split and seeds as cv_fold), written as a weights file. Returns (name, test room indices)."""
+    rep, k = task
+    d = _CV
+    torch.set_num_threads(1)
+    fold = stratified_folds(d["y"], d["folds"], np.random.RandomState(d["seed_base"] + rep))
+    tr, te = np.flatnonzero(fold != k), np.flatnonzero(fold == k)
+    models, _ = train_ensemble([d["items"][i] for i in tr], d["y"][tr], len(d["classes"]), seed=rep * 100 + k)
+    lr_head = train_lr(d["f"][tr], d["y"][tr], len(d["classes"]), CONFIG["lr_l2"])
+    name = "r%d_f%d" % (rep, k)
+    write_weights(models, d["classes"], d["word_names"], d["table"], os.path.join(d["out"], name + ".json"), lr_head,
+                  d["object_names"])
+    return name, te.tolist()
+
+
+def cmd_folds(args):
+    """The cv's (repeat, fold) models as weights files in --out, with folds.json naming each file's held-out rooms
+    (indices into the Stanford file's graphs): bench/neural_tree/labels_eval --cv-weights DIR scores the C++
+    classifier on them under label shift."""
+    graphs, classes, object_names = load_rooms()
+    words = load_words()
+    y = np.array([classes.index(next(n["label"] for n in g["nodes"] if n["type"] == "room")) for g in graphs])
+    _, items, _ = prepare(graphs, object_names, words)
+    word_names = list(object_names) + [m for m in MPCAT40 if m not in object_names]
+    os.makedirs(args.out, exist_ok=True)
+    _CV.update(y=y, items=items, f=lr_features(graphs, object_names, bool(CONFIG["lr_footprints"])),
+               classes=classes, folds=args.folds, seed_base=args.seed_base, out=args.out, word_names=word_names,
+               table=word_table_for(words, word_names, object_names), object_names=object_names)
+    tasks = [(rep, k) for rep in range(args.repeats) for k in range(args.folds)]
+    t0 = time.time()
+    if args.jobs > 1:
+        import multiprocessing
+        with multiprocessing.get_context("fork").Pool(args.jobs) as pool:
+            results = pool.map(folds_task, tasks, chunksize=1)
+    else:
+        results = [folds_task(t) for t in tasks]
+    index = {"seed_base": args.seed_base, "repeats": args.repeats, "folds": args.folds, "config": CONFIG,
+             "test": {name: te for name, te in sorted(results)}}
+    with open(os.path.join(args.out, "folds.json"), "w") as f:
+        json.dump(index, f)
+    print("wrote %d fold models and folds.json to %s in %.0f s" % (len(results), args.out, time.time() - t0))
+
+
 def main():
     torch.set_num_threads(1)
     torch.use_deterministic_algorithms(True)
@@ -958,6 +1004,12 @@ def main():
     c.add_argument("--sweep", action="store_true",
                    help="also print accuracy over LR l2, blend weight and mode, and ensemble size (for tuning splits)")
     c.add_argument("--oof", default="", help="also save the out-of-fold class probabilities to this .npz file")
+    fo = sub.add_parser("folds")
+    fo.add_argument("--out", required=True, help="folder for the fold weights files and folds.json")
+    fo.add_argument("--repeats", type=int, default=5)
+    fo.add_argument("--folds", type=int, default=5)
+    fo.add_argument("--jobs", type=int, default=1)
+    fo.add_argument("--seed-base", type=int, default=1000)
     s = sub.add_parser("ssl")
     s.add_argument("--runs", type=int, default=100)
     s.add_argument("--epochs", type=int, default=300)
@@ -966,13 +1018,13 @@ def main():
     t.add_argument("--fixture", default=FIXTURE_OUT)
     for sp in (c, s):
         sp.add_argument("--json", default="", help="also write the figures to this JSON file")
-    for sp in (c, s, t):
+    for sp in (c, s, t, fo):
         sp.add_argument("--set", action="append", default=[], help="override a CONFIG entry, key=value")
     args = p.parse_args()
     for kv in getattr(args, "set", []):
         k, v = kv.split("=")
         CONFIG[k] = type(CONFIG[k])(float(v)) if CONFIG[k] is not None else float(v)
-    {"cv": cmd_cv, "ssl": cmd_ssl, "train": cmd_train}[args.cmd](args)
+    {"cv": cmd_cv, "ssl": cmd_ssl, "train": cmd_train, "folds": cmd_folds}[args.cmd](args)
 
 
 if __name__ == "__main__":

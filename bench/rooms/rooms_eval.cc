@@ -981,7 +981,7 @@ void label_truth_rooms(const world::World& w, LabelScore* out) {
     const auto room = node_of_room.find(o.room_id);
     if (room == node_of_room.end()) continue;
     const Eigen::Vector3d extent = o.box.world_R_box.toRotationMatrix().cwiseAbs() * (2.0 * o.box.half_extents_m);
-    input.add_object(room->second, classifier.word_index(o.label), o.box.center_m, extent);
+    input.add_object(room->second, classifier.word_index(o.label, extent), o.box.center_m, extent);
   }
   for (const world::Door& d : w.doors) {
     const auto a = node_of_room.find(d.room_a), b = node_of_room.find(d.room_b);
@@ -1030,8 +1030,9 @@ bool label_rooms(const world::World& w, const sg::SceneGraph& g, LabelScore* out
     const auto room = node_of_room.find(g.parent(n.parent));
     if (room == node_of_room.end()) return;
     const sg::ObjectAttributes* o = g.object(n.id);
-    input.add_object(room->second, classifier.word_index(static_cast<semantics::Label>(o->semantic_label)),
-                     o->position_m, o->bounding_box.max_m - o->bounding_box.min_m);
+    const Eigen::Vector3d size = o->bounding_box.max_m - o->bounding_box.min_m;
+    input.add_object(room->second, classifier.word_index(static_cast<semantics::Label>(o->semantic_label), size),
+                     o->position_m, size);
   });
   g.for_each_edge([&](const sg::EdgeRecord& e) {
     const auto a = node_of_room.find(e.source), b = node_of_room.find(e.target);

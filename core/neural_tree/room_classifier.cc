@@ -9,6 +9,8 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "core/neural_tree/label_map.h"
+
 namespace qsg::neural_tree {
 namespace {
 
@@ -474,9 +476,11 @@ void ObjectRoomGraph::add_edge(int a, int b) {
 void RoomClassifier::Config::print(std::FILE* out) const {
   std::fprintf(out,
                "RoomClassifier::Config: weights_path=%s max_rooms=%d min_probability=%.3f min_objects=%d "
-               "mpcat40_aliases=%s\n",
+               "mpcat40_aliases=%s read_through_label_map=%s drop_unread_objects=%s empty_rooms_from_box=%s "
+               "lr_weight=%.3f\n",
                weights_path.c_str(), max_rooms, static_cast<double>(min_probability), min_objects,
-               alias_mpcat40_to_training_classes ? "on" : "off");
+               alias_mpcat40_to_training_classes ? "on" : "off", read_through_label_map ? "on" : "off",
+               drop_unread_objects ? "on" : "off", empty_rooms_from_box ? "on" : "off", lr_weight);
   h_tree.print(out);
 }
 
@@ -515,7 +519,15 @@ bool RoomClassifier::init(std::string* error) {
   mpcat40_word_.assign(semantics::kNumObjectLabels, -1);
   for (semantics::Label l = 0; l < semantics::kNumObjectLabels; ++l)
     mpcat40_word_[l] = word_index(semantics::object_label(l).name);
-  if (config_.alias_mpcat40_to_training_classes) {
+  refrigerator_word_ = word_index("refrigerator");
+  oven_word_ = word_index("oven");
+  microwave_word_ = word_index("microwave");
+  if (config_.read_through_label_map) {
+    for (semantics::Label l = 0; l < semantics::kNumObjectLabels; ++l) {
+      const char* reads = label_reading(l).reads_as;
+      mpcat40_word_[l] = std::strcmp(reads, "appliances") == 0 ? -1 : word_index(std::string(reads));
+    }
+  } else if (config_.alias_mpcat40_to_training_classes) {
     // mpcat40 name -> the COCO class (Stanford3DSG spelling) for the same object.
     static constexpr std::pair<semantics::Label, const char*> kAliases[] = {
         {semantics::kSofa, "couch"}, {semantics::kTvMonitor, "tv"}, {semantics::kTable, "dining_table"}};
@@ -525,6 +537,7 @@ bool RoomClassifier::init(std::string* error) {
   const auto nodes = static_cast<Eigen::Index>(config_.h_tree.max_htree_nodes);
   const auto graph_nodes = static_cast<std::size_t>(config_.h_tree.max_graph_nodes);
   layered_.layers.reserve(graph_nodes);
+  filtered_.reserve(static_cast<int>(graph_nodes), static_cast<int>(graph_nodes * 8));
   layered_.edge_a.reserve(graph_nodes * 8);
   layered_.edge_b.reserve(graph_nodes * 8);
   adj_begin_.reserve(static_cast<std::size_t>(nodes) + 1);
@@ -573,6 +586,16 @@ int RoomClassifier::word_index(const std::string& name) const {
 
 int RoomClassifier::word_index(semantics::Label mpcat40_label) const {
   return mpcat40_label < mpcat40_word_.size() ? mpcat40_word_[mpcat40_label] : -1;
+}
+
+int RoomClassifier::word_index(semantics::Label mpcat40_label, const Eigen::Vector3d& size_m) const {
+  if (config_.read_through_label_map && mpcat40_label == semantics::kAppliances) {
+    const char* c = appliance_class(size_m);
+    return std::strcmp(c, "refrigerator") == 0 ? refrigerator_word_
+           : std::strcmp(c, "oven") == 0       ? oven_word_
+                                               : microwave_word_;
+  }
+  return word_index(mpcat40_label);
 }
 
 bool RoomClassifier::fail(std::string* error, const std::string& message) {
@@ -847,13 +870,13 @@ void RoomClassifier::run_lr(const ObjectRoomGraph& graph) {
   }
 }
 
-bool RoomClassifier::classify(const ObjectRoomGraph& graph, std::string* error) {
+bool RoomClassifier::classify(const ObjectRoomGraph& input, std::string* error) {
   ++stats_.runs;
   predictions_.clear();
   num_rooms_ = 0;
-  const int n = static_cast<int>(graph.nodes.size());
+  const int n = static_cast<int>(input.nodes.size());
   for (int v = 0; v < n; ++v) {
-    if (graph.nodes[v].layer != NodeLayer::kRoom) continue;
+    if (input.nodes[v].layer != NodeLayer::kRoom) continue;
     if (static_cast<int>(predictions_.size()) == config_.max_rooms)
       return fail(error, "neural_tree: more than max_rooms = " + std::to_string(config_.max_rooms) + " rooms");
     RoomPrediction p;
@@ -861,6 +884,15 @@ bool RoomClassifier::classify(const ObjectRoomGraph& graph, std::string* error) 
     predictions_.push_back(p);
   }
   if (!ready_) return fail(error, "neural_tree: no weights loaded (" + config_.weights_path + "); rooms stay unknown");
+  if (config_.drop_unread_objects) {
+    // Unread objects (no word) lose their room: left out, as an object without a room always was.
+    filtered_.nodes.assign(input.nodes.begin(), input.nodes.end());
+    filtered_.edge_a.assign(input.edge_a.begin(), input.edge_a.end());
+    filtered_.edge_b.assign(input.edge_b.begin(), input.edge_b.end());
+    for (ObjectRoomGraph::Node& node : filtered_.nodes)
+      if (node.layer == NodeLayer::kObject && (node.word < 0 || node.word >= weights_.words.rows())) node.room = -1;
+  }
+  const ObjectRoomGraph& graph = config_.drop_unread_objects ? filtered_ : input;
   if (!build_graph(graph, error)) return fail(error, error ? *error : std::string());
   std::string reason;
   if (!builder_.build(layered_, &h_tree_, error ? error : &reason)) return fail(error, error ? *error : reason);
@@ -893,7 +925,8 @@ bool RoomClassifier::classify(const ObjectRoomGraph& graph, std::string* error) 
   run_lr(graph);
   for (int r = 0; r < num_rooms_; ++r) {
     RoomPrediction& p = predictions_[r];
-    const double a = weights_.lr.lr_weight * (weights_.lr.weight_by_coverage ? lr_coverage_[r] : 1.0);
+    const bool from_box = config_.empty_rooms_from_box && object_count_[p.node] == 0;
+    const double a = from_box ? 1.0 : lr_weight() * (weights_.lr.weight_by_coverage ? lr_coverage_[r] : 1.0);
     // The blend: (1 - a) p_nt + a p_lr, or with log pooling p_nt^(1 - a) p_lr^a normalised.
     double sum = 0.0;
     for (int c = 0; c < weights_.num_classes; ++c) {
@@ -917,7 +950,7 @@ bool RoomClassifier::classify(const ObjectRoomGraph& graph, std::string* error) 
         p.probability = p.label_probabilities[l];
         p.label = l;
       }
-    if (p.probability < config_.min_probability || object_count_[p.node] < config_.min_objects)
+    if (p.probability < config_.min_probability || (!from_box && object_count_[p.node] < config_.min_objects))
       p.label = semantics::kRoomUnknown;
   }
   return true;

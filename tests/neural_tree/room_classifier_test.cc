@@ -86,7 +86,10 @@ TEST(RoomClassifier, ShippedWeightsLoad) {
   ASSERT_GE(w.members.size(), 1u);
   EXPECT_EQ(w.members[0].layers.size(), 3u);
   EXPECT_GE(classifier.word_index(semantics::kChair), 0);
-  EXPECT_GE(classifier.word_index(semantics::kChestOfDrawers), 0);
+  // Through the label map (the default) a chest of drawers has no training class and is not read; read through
+  // its own word vector (as before issue 38) it has a row.
+  EXPECT_EQ(classifier.word_index(semantics::kChestOfDrawers), -1);
+  EXPECT_GE(classifier.word_index("chest_of_drawers"), 0);
   EXPECT_GE(classifier.word_index("refrigerator"), 0);
   EXPECT_EQ(classifier.word_index("no such label"), -1);
   classifier.config().print(stdout);
@@ -103,6 +106,7 @@ TEST(RoomClassifier, Mpcat40AliasesUseTheTrainingClassRow) {
   EXPECT_EQ(on.word_index(semantics::kChair), on.word_index("chair"));  // same name in both sets
   RoomClassifier::Config config;
   config.alias_mpcat40_to_training_classes = false;
+  config.read_through_label_map = false;  // the label map names the same classes and takes precedence
   RoomClassifier off(config);
   ASSERT_TRUE(off.init(&error)) << error;
   EXPECT_EQ(off.word_index(semantics::kSofa), off.word_index("sofa"));
@@ -178,7 +182,12 @@ TEST(RoomClassifier, ParityWithPyTorch) {
 // a couch; a label outside the LR vocabulary, or no word, is not counted. The box features follow lr_features,
 // then the footprint of the room's largest object of each footprint class (aliases included), 0 without one.
 TEST(RoomClassifier, LrFeaturesCountAliasedLabelsTheBoxAndFootprints) {
-  RoomClassifier classifier;
+  // Every object kept and mpcat40 labels read through their word vectors (the behaviour before issue 38), so that
+  // unread objects stay in the room and the coverage arithmetic is exercised.
+  RoomClassifier::Config keep_all;
+  keep_all.read_through_label_map = false;
+  keep_all.drop_unread_objects = false;
+  RoomClassifier classifier(keep_all);
   std::string error;
   ASSERT_TRUE(classifier.init(&error)) << error;
   const NeuralTreeWeights::LrHead& lr = classifier.weights().lr;
@@ -475,6 +484,7 @@ TEST(RoomClassifier, RoomsWithoutObjectsStayUnknown) {
   }
   RoomClassifier::Config config;
   config.min_objects = 0;
+  config.min_probability = 0.0f;
   RoomClassifier lenient(config);
   ASSERT_TRUE(lenient.init(&error)) << error;
   ASSERT_TRUE(lenient.classify(g, &error)) << error;
@@ -482,7 +492,9 @@ TEST(RoomClassifier, RoomsWithoutObjectsStayUnknown) {
 }
 
 TEST(RoomClassifier, SyntheticBuildingIsLabelledWithoutAllocating) {
-  RoomClassifier classifier;
+  RoomClassifier::Config config;
+  config.min_probability = 0.0f;  // every room with a read object gets a label (the random rooms are ambiguous)
+  RoomClassifier classifier(config);
   std::string error;
   ASSERT_TRUE(classifier.init(&error)) << error;
   ObjectRoomGraph g;
@@ -503,9 +515,17 @@ TEST(RoomClassifier, SyntheticBuildingIsLabelledWithoutAllocating) {
     EXPECT_GT(p.probability, 0.0f);
   }
   classifier.stats().print(stdout);
-  // The tree the classifier ran on is a valid H-tree over a valid Algorithm-1 decomposition.
-  const LayeredGraph& layered = classifier.layered_graph();
-  EXPECT_EQ(check_h_tree(layered, classifier.h_tree()), "");
+  // The tree the classifier ran on is a valid H-tree over a valid Algorithm-1 decomposition. Checked with every
+  // object kept: objects left out (unread labels) stay in the layered graph as isolated nodes, outside the H-tree.
+  RoomClassifier::Config keep_all = config;
+  keep_all.read_through_label_map = false;
+  keep_all.drop_unread_objects = false;
+  RoomClassifier full(keep_all);
+  ASSERT_TRUE(full.init(&error)) << error;
+  make_synthetic_building(30, 10, 3, full, &g);
+  ASSERT_TRUE(full.classify(g, &error)) << error;
+  const LayeredGraph& layered = full.layered_graph();
+  EXPECT_EQ(check_h_tree(layered, full.h_tree()), "");
   std::vector<std::int32_t> vertices(layered.layers.size());
   for (std::size_t v = 0; v < vertices.size(); ++v) vertices[v] = static_cast<std::int32_t>(v);
   BagTree td;
@@ -518,9 +538,9 @@ TEST(RoomClassifier, SyntheticBuildingIsLabelledWithoutAllocating) {
                                                  &error))
       << error;
   EXPECT_EQ(check_tree_decomposition(layered, vertices, td), "");
-  EXPECT_EQ(td.width(), classifier.h_tree().width);
-  std::printf("synthetic building 30 rooms / 300 objects: H-tree %d nodes, width %d\n", classifier.h_tree().num_nodes(),
-              classifier.h_tree().width);
+  EXPECT_EQ(td.width(), full.h_tree().width);
+  std::printf("synthetic building 30 rooms / 300 objects: H-tree %d nodes, width %d\n", full.h_tree().num_nodes(),
+              full.h_tree().width);
 }
 
 // End to end through the C++ path on all 482 Stanford rooms with the shipped model (neural tree blended with the LR
