@@ -9,6 +9,9 @@
 #include <memory>
 #include <sstream>
 #include <tuple>
+#include <vector>
+
+#include <opencv2/imgcodecs.hpp>
 
 #include "core/reconstruction/ply_writer.h"
 #include "core/scene_graph/spark_dsg_json.h"
@@ -18,6 +21,7 @@
 #include "drivers/v4l2/fake_v4l2_device.h"
 #include "drivers/world/building_generator.h"
 #include "drivers/world/world_query.h"
+#include "firmware_app/graph_picture.h"
 #include "firmware_app/pipeline.h"
 #include "tests/support/allocation_counter.h"
 #include "tests/support/test_data.h"
@@ -120,6 +124,93 @@ TEST(PipelineTest, StopWritesFinalOutputsAndSnapshotsReplaceAtomically) {
   reconstruction::Mesh mesh;
   ASSERT_TRUE(reconstruction::read_ply(config.output_dir + "/mesh.ply", &mesh, &error)) << error;
   EXPECT_GT(mesh.triangles.size(), 1000u);
+}
+
+std::string file_text(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+// Every final output replaces its file by rename (issue 36): a hard link to the previous file keeps the previous
+// content, which a write in place would have overwritten; no temporary file is left.
+TEST(PipelineTest, FinalOutputsReplaceTheirFilesAtomically) {
+  runtime::SteppedClock clock;
+  Pipeline p;
+  std::string error;
+  AppConfig config = small_config("atomic_outputs");
+  std::filesystem::remove_all(config.output_dir);
+  ASSERT_TRUE(p.init(config, &clock, &error)) << error;
+  const std::vector<std::string> outputs = {"scene_graph.json", "mesh.ply", "top_down.png", "trajectory_estimate.txt",
+                                            "trajectory_ground_truth.txt"};
+  for (const std::string& name : outputs) {
+    std::ofstream(config.output_dir + "/" + name) << "previous " << name;
+    std::filesystem::create_hard_link(config.output_dir + "/" + name, config.output_dir + "/old_" + name);
+  }
+  for (int k = 0; k < 600 && p.step(); ++k) {
+  }
+  p.request_stop();
+  EXPECT_FALSE(p.step());
+  ASSERT_TRUE(p.finish(&error)) << error;
+  for (const std::string& name : outputs) {
+    EXPECT_EQ(file_text(config.output_dir + "/old_" + name), "previous " + name) << name << " was written in place";
+    EXPECT_NE(file_text(config.output_dir + "/" + name), "previous " + name) << name << " was not replaced";
+    EXPECT_FALSE(std::filesystem::exists(config.output_dir + "/" + name + ".tmp")) << name;
+  }
+  cv::Mat picture = cv::imread(config.output_dir + "/top_down.png");
+  EXPECT_FALSE(picture.empty());
+}
+
+// One output that cannot be written (here top_down.png is a folder) is a named error, and every other output is
+// still written.
+TEST(PipelineTest, AnOutputThatFailsDoesNotTakeTheOthersDown) {
+  runtime::SteppedClock clock;
+  Pipeline p;
+  std::string error;
+  AppConfig config = small_config("picture_fails");
+  std::filesystem::remove_all(config.output_dir);
+  ASSERT_TRUE(p.init(config, &clock, &error)) << error;
+  std::filesystem::create_directories(config.output_dir + "/top_down.png/occupied");
+  for (int k = 0; k < 600 && p.step(); ++k) {
+  }
+  p.request_stop();
+  EXPECT_FALSE(p.step());
+  EXPECT_FALSE(p.finish(&error));
+  EXPECT_NE(error.find("top_down.png"), std::string::npos) << error;
+  for (const char* name : {"scene_graph.json", "mesh.ply", "trajectory_estimate.txt"})
+    EXPECT_TRUE(std::filesystem::is_regular_file(config.output_dir + "/" + name)) << name;
+  EXPECT_FALSE(std::filesystem::exists(config.output_dir + "/top_down.png.tmp"));
+}
+
+// Regression (issue 36): one ground-truth pose 20 km off framed the replay's picture at 100,000 x 100,000 px (30 GB)
+// and aborted the app at the very end. The picture's scale drops to keep it within its side limit.
+TEST(GraphPictureTest, AFarOffPoseShrinksThePictureInsteadOfGrowingIt) {
+  scene_graph::SceneGraph graph;
+  std::string error;
+  ASSERT_TRUE(graph.init(scene_graph::capacities_from_budget(), scene_graph::arena_bytes_from_budget(), &error)) << error;
+  const std::string path = ::testing::TempDir() + "/qsg_far_pose_top_down.png";
+  std::vector<Eigen::Vector3d> trajectory = {{0.0, 0.0, 0.0}, {1.0, 1.0, 0.0}, {20000.0, 20000.0, 0.0}, {2.0, 1.0, 0.0}};
+  ASSERT_TRUE(write_graph_picture(graph, world::World(), trajectory, path, &error)) << error;
+  cv::Mat picture = cv::imread(path);
+  ASSERT_FALSE(picture.empty());
+  EXPECT_LE(picture.cols, GraphPictureConfig{}.max_side_px);
+  EXPECT_LE(picture.rows, GraphPictureConfig{}.max_side_px);
+  EXPECT_GT(picture.cols, 1000);  // still the full frame, at a smaller scale
+  GraphPictureConfig small;
+  small.max_side_px = 512;
+  ASSERT_TRUE(write_graph_picture(graph, world::World(), trajectory, path, &error, small)) << error;
+  picture = cv::imread(path);
+  EXPECT_LE(picture.cols, 512);
+  EXPECT_LE(picture.rows, 512);
+  // Non-finite or absurd poses are left out of the frame rather than poisoning it.
+  trajectory.push_back({std::nan(""), 1.0, 0.0});
+  trajectory.push_back({-1e308, 1e308, 0.0});
+  EXPECT_TRUE(write_graph_picture(graph, world::World(), trajectory, path, &error, small)) << error;
+  small.max_side_px = 10;
+  EXPECT_FALSE(write_graph_picture(graph, world::World(), trajectory, path, &error, small));
+  EXPECT_NE(error.find("max_side_px must be in [256, 16384]"), std::string::npos) << error;
+  std::remove(path.c_str());
 }
 
 // When the run finishes, doors found on the final surface close place edges, and the rooms are found again.
@@ -412,6 +503,64 @@ TEST(PipelineTest, BadConfigAndUnwritableOutputAreClearErrors) {
   std::string why;
   EXPECT_FALSE(write_file_atomically("/proc/qsg_no/x.json", "{}", &why));
   EXPECT_FALSE(why.empty());
+}
+
+// Issue 36, item 5: integers must be integers within their type, duplicated keys are errors, and every section is
+// range-checked whatever the driver.
+TEST(AppConfigTest, RefusesNonsense) {
+  const std::string dir = ::testing::TempDir();
+  const auto write = [&](const std::string& name, const std::string& text) {
+    std::ofstream(dir + "/" + name) << text;
+    return dir + "/" + name;
+  };
+  const std::string deep = "{\"building\": " + std::string(40, '[') + std::string(40, ']') + "}";
+  for (const auto& [file, text, expected] : {
+           std::tuple{"wrap.json", "{\"gpio\": {\"heartbeat_line\": 4294967296}}",
+                      "gpio.heartbeat_line: expected an integer in [-2147483648, 2147483647], got 4294967296"},
+           std::tuple{"fraction.json", "{\"building\": {\"num_rooms\": 1.5}}",
+                      "building.num_rooms: expected an integer in [-2147483648, 2147483647], got 1.5"},
+           std::tuple{"negative_seed.json", "{\"building\": {\"seed\": -1}}",
+                      "building.seed: expected an integer in [0, 18446744073709551615], got -1"},
+           std::tuple{"width_text.json", "{\"camera\": {\"width\": \"320\"}}", "camera.width: expected an integer"},
+           std::tuple{"float_range.json", "{\"segmentation\": {\"min_confidence\": 1e39}}",
+                      "segmentation.min_confidence: expected a number within the range of its type, got 1e+39"},
+           std::tuple{"overflow.json", "{\"duration_s\": 1e400}",
+                      "not valid JSON: a number outside the double range (number overflow parsing '1e400')"},
+           std::tuple{"duplicate.json", "{\"duration_s\": 5, \"duration_s\": 6}", "': duration_s: duplicated key"},
+           std::tuple{"duplicate_nested.json", "{\"building\": {\"seed\": 1, \"num_rooms\": 4, \"seed\": 2}}",
+                      "': building.seed: duplicated key"},
+           std::tuple{"deep.json", deep.c_str(), "nested deeper than 32 levels"},
+           // Sections of a driver that is not selected are checked all the same.
+           std::tuple{"v4l2_unused.json", "{\"driver\": \"sim\", \"v4l2\": {\"width\": 100000}}",
+                      "v4l2: width x height must be within 16x16 .. 640x480"},
+           std::tuple{"v4l2_scale.json", "{\"v4l2\": {\"depth_scale_m\": 0}}", "v4l2.depth_scale_m must be in (0, 1]"},
+           std::tuple{"v4l2_fx.json", "{\"v4l2\": {\"fx\": -5}}", "v4l2.fx and v4l2.fy must be 0"},
+           // Upper bounds.
+           std::tuple{"snapshot.json", "{\"snapshot_interval_s\": 1e300}", "snapshot_interval_s must be in (0, 1e9]"},
+           std::tuple{"duration.json", "{\"duration_s\": 1e12}", "duration_s must be in [0, 1e9]"},
+           std::tuple{"deadline.json", "{\"segmentation\": {\"deadline_s\": 1e6}}", "segmentation.deadline_s must be in (0, 60]"},
+           std::tuple{"confidence.json", "{\"segmentation\": {\"min_confidence\": 2}}",
+                      "segmentation.min_confidence must be in [0, 1]"},
+           std::tuple{"trigger.json", "{\"gpio\": {\"trigger_width_s\": 5}}", "gpio.trigger_width_s must be in (0, 1]"},
+       }) {
+    AppConfig c;
+    std::string error;
+    EXPECT_FALSE(c.load(write(file, text), &error)) << file;
+    EXPECT_NE(error.find(expected), std::string::npos) << file << ": '" << error << "' does not say '" << expected << "'";
+    EXPECT_EQ(error.rfind("config '" + dir + "/" + file + "'", 0), 0u) << error;
+  }
+  // What is right still loads: integers where integers are due, whole or fractional numbers for doubles.
+  AppConfig good;
+  std::string error;
+  ASSERT_TRUE(good.load(write("good_numbers.json", "{\"building\": {\"seed\": 18446744073709551615, \"num_rooms\": 6},"
+                                                   " \"gpio\": {\"heartbeat_line\": 1023, \"trigger_line\": -1},"
+                                                   " \"duration_s\": 12, \"snapshot_interval_s\": 2.5}"),
+                        &error))
+      << error;
+  EXPECT_EQ(good.building.seed, 18446744073709551615ull);
+  EXPECT_EQ(good.gpio.heartbeat_line, 1023);
+  EXPECT_EQ(good.gpio.trigger_line, -1);
+  EXPECT_EQ(good.duration_s, 12.0);
 }
 
 TEST(AppConfigTest, LoadsKnownKeysAndNamesBadOnes) {
