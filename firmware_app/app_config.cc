@@ -32,6 +32,8 @@ AppConfig::AppConfig() {
   exploration.camera_height_m = 0.5;
   camera.rate_hz = 10.0;
   camera.pitch_rad = 0.15;
+  // A listed frame file that is missing is counted and skipped (drivers' missing_files), not a start-up error.
+  replay.check_files_at_open = false;
 }
 
 namespace {
@@ -317,7 +319,8 @@ bool AppConfig::load(const std::string& path, std::string* error) {
                               {"cx", number(&replay.cx)},
                               {"cy", number(&replay.cy)},
                               {"depth_scale_m", number(&replay.depth_scale_m)},
-                              {"frame_period_s", number(&replay.frame_period_s)}},
+                              {"frame_period_s", number(&replay.frame_period_s)},
+                              {"check_files_at_open", boolean(&replay.check_files_at_open)}},
                              why);
        }},
       {"v4l2", [&](const Json& v, std::string* why) {

@@ -179,6 +179,7 @@ bool Pipeline::init(const AppConfig& config, runtime::Clock* clock, std::string*
       rc.path = config.replay_path;
       replay_ = std::make_unique<replay::DatasetReplay>();
       if (!replay_->open(rc, error)) return false;
+      if (replay_->size() == 0) return fail("replay: '" + rc.path + "' lists no frames: nothing to map");
       replay_->print(stdout);
       ground_truth_ = replay_->ground_truth();  // the dataset's camera poses: an odometry source, and the truth
       if (ground_truth_.empty())
@@ -770,14 +771,14 @@ void Pipeline::print_telemetry(std::FILE* out) {
   std::fprintf(out,
                "[t=%7.1fs] kf/s=%.1f keyframes=%llu | max_us recon=%lld frontend=%lld overruns=%zu | blocks=%zu/%zu "
                "archive=%zu tri | graph nodes=%zu rooms=%llu | frames queue hw=%u drops=%llu | driver drops=%llu stalls=%llu "
-               "bad=%llu | gpio fail=%llu%s | fullest store %s hw %zu/%zu, refused %llu | odometry %s rejected=%llu "
+               "bad=%llu missing files=%llu | gpio fail=%llu%s | fullest store %s hw %zu/%zu, refused %llu | odometry %s rejected=%llu "
                "gaps=%llu silences=%llu frames without pose=%llu | agents %zu/%zu (folded %llu) | rss=%.0f MB "
                "(peak %.0f)\n",
                t_s, kf_per_s, (unsigned long long)counters_.keyframes, (long long)(recon ? recon->max_us : 0),
                (long long)(front ? front->max_us : 0), overruns, tsdf_.active_blocks(), tsdf_.capacities().max_blocks,
                tsdf_.archive_triangles(), graph_nodes, (unsigned long long)rooms_count_.load(), q.high_water, (unsigned long long)q.dropped,
                (unsigned long long)d.dropped, (unsigned long long)d.stalls, (unsigned long long)d.bad_frames,
-               (unsigned long long)counters_.gpio_failures, paused() ? " PAUSED" : "", fullest.name, fullest.high_water,
+               (unsigned long long)d.missing_files, (unsigned long long)counters_.gpio_failures, paused() ? " PAUSED" : "", fullest.name, fullest.high_water,
                fullest.capacity, (unsigned long long)refused, odometry_.source_name(),
                (unsigned long long)odometry_.buffer().counters().rejected(),
                (unsigned long long)odometry_.buffer().counters().gaps, (unsigned long long)odometry_.counters().silences,
@@ -785,6 +786,20 @@ void Pipeline::print_telemetry(std::FILE* out) {
                frontend_.agents().chain_stats().capacity, (unsigned long long)frontend_.agents().counters().folded,
                rss_mb(), peak_rss_mb());
   ++counters_.telemetry_lines;
+}
+
+std::string Pipeline::nothing_mapped_reason() const {
+  if (counters_.keyframes_integrated > 0) return {};
+  const drivers::DriverCounters& d = camera_->counters();
+  char text[512];
+  std::snprintf(text, sizeof(text),
+                "no keyframe was integrated: %llu frames read (%llu bad, %llu missing files, %llu without a pose, "
+                "%llu while paused), %llu keyframes (%llu refused by the reconstruction)",
+                (unsigned long long)counters_.frames_read, (unsigned long long)std::max(d.bad_frames, counters_.frames_bad),
+                (unsigned long long)d.missing_files, (unsigned long long)counters_.frames_without_pose,
+                (unsigned long long)counters_.frames_paused, (unsigned long long)counters_.keyframes,
+                (unsigned long long)counters_.keyframes_refused);
+  return text;
 }
 
 bool Pipeline::write_snapshot(std::string* error) {

@@ -102,6 +102,9 @@ class Pipeline {
   bool finish(std::string* error);
 
   const PipelineCounters& counters() const { return counters_; }
+  // "" when the run integrated at least one keyframe; otherwise why nothing was mapped, with the counts of
+  // frames read, bad, missing, without a pose and refused (qsg_app prints it and exits 3).
+  std::string nothing_mapped_reason() const;
   const runtime::Scheduler& scheduler() const { return scheduler_; }
   const reconstruction::SemanticTsdf& reconstruction() const { return tsdf_; }
   const frontend::Frontend& frontend() const { return frontend_; }

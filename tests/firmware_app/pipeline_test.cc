@@ -416,12 +416,11 @@ TEST(PipelineReplayTest, Kinect5SampleIntegratesEveryFrameWithItsCamera) {
   run_replay_sample({"kinect5", "slambook2_kinect.json", {640, 480, 518.0, 519.0, 325.5, 253.5}, 0.001f});
 }
 
-// qsg_simulate's output (TumWriter with calibration.json) at 320x240 replays through the app with its own camera.
-TEST(PipelineReplayTest, SimulatorOutputAt320x240ReplaysWithItsCamera) {
-  const std::string dir = ::testing::TempDir() + "/qsg_pipeline_replay_sim_tum";
+// A few frames of the small building from the simulated camera at 320x240, written as qsg_simulate writes them
+// (TumWriter with calibration.json and groundtruth.txt) into a fresh folder.
+void write_simulated_tum(const std::string& dir, int frames) {
   std::filesystem::remove_all(dir);
   std::string error;
-  // A few frames of the small building from the simulated camera, written as qsg_simulate writes them.
   const world::World world = world::generate_building(small_config("replay_sim_source").building);
   render::RayScene scene;
   ASSERT_TRUE(scene.build(world, &error)) << error;
@@ -437,7 +436,7 @@ TEST(PipelineReplayTest, SimulatorOutputAt320x240ReplaysWithItsCamera) {
   replay::TumWriter writer;
   ASSERT_TRUE(writer.open(dir, replay::TumWriter::Config{}, &error)) << error;
   auto frame = std::make_unique<drivers::RgbdFrame>();
-  for (int i = 0; i < 8 && camera.read(*frame, 0) == drivers::ReadStatus::kOk; ++i) {
+  for (int i = 0; i < frames && camera.read(*frame, 0) == drivers::ReadStatus::kOk; ++i) {
     Eigen::Isometry3d world_T_camera;
     ASSERT_TRUE(camera.camera_pose(frame->sequence, &world_T_camera, nullptr));
     ASSERT_TRUE(writer.write_frame(*frame, &error)) << error;
@@ -445,7 +444,42 @@ TEST(PipelineReplayTest, SimulatorOutputAt320x240ReplaysWithItsCamera) {
         << error;
   }
   ASSERT_TRUE(writer.close(&error)) << error;
+}
 
+// The depth images a TUM list names, in order.
+std::vector<std::string> listed_depth_files(const std::string& dir) {
+  std::vector<std::string> files;
+  std::ifstream in(dir + "/depth.txt");
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream fields(line);
+    std::string stamp, file;
+    if (fields >> stamp >> file) files.push_back(dir + "/" + file);
+  }
+  return files;
+}
+
+AppConfig replay_config(const std::string& name, const std::string& dir) {
+  AppConfig c = small_config(name);
+  c.driver = Driver::kReplay;
+  c.replay_path = dir;
+  c.keyframes.min_translation_m = 0.0;
+  c.keyframes.min_rotation_rad = 0.0;
+  return c;
+}
+
+void run_to_end(Pipeline& p) {
+  for (int i = 0; i < 5000 && p.step(); ++i) {
+  }
+  EXPECT_TRUE(p.done());
+}
+
+// qsg_simulate's output (TumWriter with calibration.json) at 320x240 replays through the app with its own camera.
+TEST(PipelineReplayTest, SimulatorOutputAt320x240ReplaysWithItsCamera) {
+  const std::string dir = ::testing::TempDir() + "/qsg_pipeline_replay_sim_tum";
+  write_simulated_tum(dir, 8);
+  std::string error;
   AppConfig c = small_config("replay_sim");
   c.driver = Driver::kReplay;
   c.replay_path = dir;
@@ -462,6 +496,73 @@ TEST(PipelineReplayTest, SimulatorOutputAt320x240ReplaysWithItsCamera) {
   EXPECT_EQ(p.counters().frames_read, 8u);
   EXPECT_EQ(p.counters().frames_bad, 0u);
   EXPECT_EQ(p.counters().keyframes_integrated, 8u);
+  EXPECT_EQ(p.nothing_mapped_reason(), "");
+}
+
+// Issue 36, item 4: a missing frame file is counted and skipped, not a start-up error (unless the config asks
+// for the check at open).
+TEST(PipelineReplayTest, AMissingFileIsCountedAndTheReplayGoesOn) {
+  const std::string dir = ::testing::TempDir() + "/qsg_pipeline_replay_missing";
+  write_simulated_tum(dir, 8);
+  const std::vector<std::string> depth = listed_depth_files(dir);
+  ASSERT_EQ(depth.size(), 8u);
+  ASSERT_TRUE(std::filesystem::remove(depth[3]));
+  std::string error;
+  runtime::SteppedClock clock;
+  Pipeline p;
+  ASSERT_TRUE(p.init(replay_config("replay_missing", dir), &clock, &error)) << error;
+  run_to_end(p);
+  EXPECT_EQ(p.camera()->counters().missing_files, 1u);
+  EXPECT_EQ(p.counters().frames_read, 7u);
+  EXPECT_EQ(p.counters().keyframes_integrated, 7u);
+  EXPECT_EQ(p.nothing_mapped_reason(), "");
+  // The strict check, asked for, refuses the dataset at start-up naming the file.
+  AppConfig strict = replay_config("replay_missing_strict", dir);
+  strict.replay.check_files_at_open = true;
+  Pipeline q;
+  EXPECT_FALSE(q.init(strict, &clock, &error));
+  EXPECT_NE(error.find("listed file '" + depth[3] + "' not found"), std::string::npos) << error;
+  AppConfig loaded;
+  std::ofstream(::testing::TempDir() + "/strict_replay.json") << "{\"replay\": {\"check_files_at_open\": true}}";
+  ASSERT_TRUE(loaded.load(::testing::TempDir() + "/strict_replay.json", &error)) << error;
+  EXPECT_TRUE(loaded.replay.check_files_at_open);
+  EXPECT_FALSE(AppConfig().replay.check_files_at_open);
+}
+
+// An empty or all-rejected input is named, with the counts that explain it (qsg_app exits 3 on it).
+TEST(PipelineReplayTest, AnEmptyOrAllRejectedInputIsNamed) {
+  const std::string dir = ::testing::TempDir() + "/qsg_pipeline_replay_rejected";
+  std::string error;
+  runtime::SteppedClock clock;
+  {
+    write_simulated_tum(dir, 0);
+    Pipeline p;
+    EXPECT_FALSE(p.init(replay_config("replay_empty", dir), &clock, &error));
+    EXPECT_NE(error.find("replay: '" + dir + "' lists no frames: nothing to map"), std::string::npos) << error;
+  }
+  {
+    write_simulated_tum(dir, 8);
+    for (const std::string& f : listed_depth_files(dir)) ASSERT_TRUE(std::filesystem::remove(f));
+    Pipeline p;
+    ASSERT_TRUE(p.init(replay_config("replay_all_missing", dir), &clock, &error)) << error;
+    run_to_end(p);
+    EXPECT_EQ(p.nothing_mapped_reason(),
+              "no keyframe was integrated: 0 frames read (0 bad, 8 missing files, 0 without a pose, 0 while paused), "
+              "0 keyframes (0 refused by the reconstruction)");
+  }
+  {
+    write_simulated_tum(dir, 8);
+    // Ground truth that covers none of the frames: every frame is dropped without a pose.
+    std::ofstream(dir + "/groundtruth.txt") << "# timestamp tx ty tz qx qy qz qw\n"
+                                               "1000.0 0 0 0 0 0 0 1\n1000.1 0 0 0 0 0 0 1\n";
+    Pipeline p;
+    ASSERT_TRUE(p.init(replay_config("replay_no_pose", dir), &clock, &error)) << error;
+    run_to_end(p);
+    EXPECT_EQ(p.counters().frames_read, 8u);
+    EXPECT_EQ(p.nothing_mapped_reason(),
+              "no keyframe was integrated: 8 frames read (0 bad, 0 missing files, 8 without a pose, 0 while paused), "
+              "0 keyframes (0 refused by the reconstruction)");
+  }
 }
 
 TEST(PipelineTest, MissingRoomWeightsLeaveRoomsUnknownAndTheRunGoesOn) {
