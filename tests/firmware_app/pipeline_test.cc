@@ -704,6 +704,16 @@ TEST(AppConfigTest, RefusesNonsense) {
            std::tuple{"confidence.json", "{\"segmentation\": {\"min_confidence\": 2}}",
                       "segmentation.min_confidence must be in [0, 1]"},
            std::tuple{"trigger.json", "{\"gpio\": {\"trigger_width_s\": 5}}", "gpio.trigger_width_s must be in (0, 1]"},
+           std::tuple{"range.json", "{\"reconstruction\": {\"max_range_m\": 1e9, \"window_radius_m\": 2e9}}",
+                      "reconstruction: max_range_m must be at most 50 m"},
+           std::tuple{"archive.json", "{\"reconstruction\": {\"archive_resolution_m\": 1e6}}",
+                      "archive_resolution_m must be in (0, 1] m"},
+           std::tuple{"keyframe_interval.json", "{\"keyframes\": {\"max_interval_s\": 1e12}}",
+                      "keyframes: max_interval_s must be at most 3600 s"},
+           std::tuple{"keyframe_rotation.json", "{\"keyframes\": {\"min_rotation_rad\": 7}}",
+                      "keyframes: min_rotation_rad must be in [0, pi]"},
+           std::tuple{"places_window.json", "{\"places\": {\"window_radius_m\": 1e6}}",
+                      "places: window_radius_m must be in (0, 100] m"},
        }) {
     AppConfig c;
     std::string error;
