@@ -1,14 +1,19 @@
 // Loading and checking the app's configuration.
 #include "firmware_app/app_config.h"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <fstream>
 #include <functional>
-#include <algorithm>
+#include <limits>
 #include <map>
 #include <tuple>
+#include <type_traits>
 #include <vector>
 #include <nlohmann/json.hpp>
+
+#include "core/json/json_guard.h"
 
 namespace qsg::app {
 
@@ -27,6 +32,8 @@ AppConfig::AppConfig() {
   exploration.camera_height_m = 0.5;
   camera.rate_hz = 10.0;
   camera.pitch_rad = 0.15;
+  // A listed frame file that is missing is counted and skipped (drivers' missing_files), not a start-up error.
+  replay.check_files_at_open = false;
 }
 
 namespace {
@@ -35,11 +42,35 @@ using Json = nlohmann::json;
 // A key's reader: checks the type, assigns; false with a message otherwise.
 using Reader = std::function<bool(const Json&, std::string*)>;
 
+// Integers must be JSON integers within the field's type (get<int>() turned 4294967296 into 0 and 1.5 into 1);
+// floating-point fields must fit their type (1e39 is not a float).
 template <typename T>
 Reader number(T* out) {
   return [out](const Json& v, std::string* why) {
-    if (!v.is_number()) return *why = "expected a number", false;
-    *out = v.get<T>();
+    if constexpr (std::is_integral_v<T>) {
+      const std::string range = "[" + std::to_string(std::numeric_limits<T>::min()) + ", " +
+                                std::to_string(std::numeric_limits<T>::max()) + "]";
+      if (!v.is_number_integer()) {
+        *why = "expected an integer in " + range + (v.is_number() ? ", got " + v.dump() : std::string());
+        return false;
+      }
+      bool fits = false;
+      if (v.is_number_unsigned()) {
+        fits = v.get<std::uint64_t>() <= static_cast<std::uint64_t>(std::numeric_limits<T>::max());
+      } else {
+        const std::int64_t i = v.get<std::int64_t>();
+        fits = i >= 0 ? static_cast<std::uint64_t>(i) <= static_cast<std::uint64_t>(std::numeric_limits<T>::max())
+                      : std::is_signed_v<T> && i >= static_cast<std::int64_t>(std::numeric_limits<T>::min());
+      }
+      if (!fits) return *why = "expected an integer in " + range + ", got " + v.dump(), false;
+      *out = v.get<T>();
+    } else {
+      if (!v.is_number()) return *why = "expected a number", false;
+      const double d = v.get<double>();
+      if (!(std::abs(d) <= static_cast<double>(std::numeric_limits<T>::max())))
+        return *why = "expected a number within the range of its type, got " + v.dump(), false;
+      *out = static_cast<T>(d);
+    }
     return true;
   };
 }
@@ -85,8 +116,13 @@ bool AppConfig::load(const std::string& path, std::string* error) {
     if (first != std::string::npos && line.compare(first, 2, "//") == 0) line.clear();
     text_without_comments += line + "\n";
   }
-  const Json doc = Json::parse(text_without_comments, nullptr, /*allow_exceptions=*/false);
-  if (doc.is_discarded()) return *error = "config '" + path + "': not valid JSON", false;
+  // Duplicated keys are errors (the JSON library would keep the last silently), and so is nesting past 32 levels.
+  Json doc;
+  if (json_guard::ParseFailure f; !json_guard::parse(text_without_comments, json_guard::Limits{}, &doc, &f)) {
+    using Kind = json_guard::ParseFailure::Kind;
+    if (f.kind == Kind::kDuplicateKey || f.kind == Kind::kTooDeep) return *error = "config '" + path + "': " + f.message, false;
+    return *error = "config '" + path + "': not valid JSON: " + f.message, false;
+  }
   std::string driver_name = to_string(driver);
   const std::map<std::string, Reader> top = {
       {"driver", text(&driver_name)},
@@ -284,7 +320,8 @@ bool AppConfig::load(const std::string& path, std::string* error) {
                               {"cx", number(&replay.cx)},
                               {"cy", number(&replay.cy)},
                               {"depth_scale_m", number(&replay.depth_scale_m)},
-                              {"frame_period_s", number(&replay.frame_period_s)}},
+                              {"frame_period_s", number(&replay.frame_period_s)},
+                              {"check_files_at_open", boolean(&replay.check_files_at_open)}},
                              why);
        }},
       {"v4l2", [&](const Json& v, std::string* why) {
@@ -406,23 +443,35 @@ bool odometry_source_from_string(const std::string& name, OdometrySourceKind* ou
 std::string AppConfig::check() const {
   if (driver == Driver::kReplay && replay_path.empty()) return "driver replay needs replay_path";
   if (const std::string r = replay.check(); !r.empty()) return "replay." + r;
-  if (driver == Driver::kV4l2 && (v4l2.width < 16 || v4l2.height < 16 || v4l2.width > 640 || v4l2.height > 480))
+  // Every section is checked whatever the driver: a bad value waiting in an unused section fails on the day the
+  // section is used, far from the file that set it.
+  if (v4l2.width < 16 || v4l2.height < 16 || v4l2.width > 640 || v4l2.height > 480)
     return "v4l2: width x height must be within 16x16 .. 640x480";
-  if (driver == Driver::kV4l2 && !(v4l2.depth_scale_m > 0.0)) return "v4l2.depth_scale_m must be > 0";
+  if (!(v4l2.depth_scale_m > 0.0 && v4l2.depth_scale_m <= 1.0)) return "v4l2.depth_scale_m must be in (0, 1]";
+  for (double f : {v4l2.fx, v4l2.fy})
+    if (!(f == 0.0 || (f >= 1.0 && f <= 100000.0))) return "v4l2.fx and v4l2.fy must be 0 (default) or in [1, 100000]";
+  if (!(v4l2.cx >= 0.0 && v4l2.cx <= v4l2.width && v4l2.cy >= 0.0 && v4l2.cy <= v4l2.height))
+    return "v4l2.cx and v4l2.cy must be 0 (default) or within the image";
   if (output_dir.empty()) return "output_dir must not be empty";
   if (!segmentation.model_path.empty() && segmentation.label_map_path.empty())
     return "segmentation.label_map_path must be set with a model";
-  if (!(segmentation.deadline_s > 0.0)) return "segmentation.deadline_s must be > 0";
+  if (!(segmentation.deadline_s > 0.0 && segmentation.deadline_s <= 60.0)) return "segmentation.deadline_s must be in (0, 60]";
+  if (!(segmentation.min_confidence >= 0.0f && segmentation.min_confidence <= 1.0f))
+    return "segmentation.min_confidence must be in [0, 1]";
   if (gpio.chip.empty()) return "gpio.chip must not be empty (\"sim\" for the simulated chip)";
   for (int line : {gpio.heartbeat_line, gpio.trigger_line, gpio.pause_line})
     if (line < -1 || line > 1023) return "gpio lines must be -1 (unused) or an offset in [0, 1023]";
   if ((gpio.heartbeat_line >= 0 && (gpio.heartbeat_line == gpio.trigger_line || gpio.heartbeat_line == gpio.pause_line)) ||
       (gpio.trigger_line >= 0 && gpio.trigger_line == gpio.pause_line))
     return "gpio: heartbeat_line, trigger_line and pause_line must differ";
-  if (!(gpio.trigger_width_s > 0.0 && gpio.pause_debounce_s >= 0.0)) return "gpio: bad trigger width or debounce";
-  if (!(duration_s >= 0.0)) return "duration_s must be >= 0";
-  if (!(snapshot_interval_s > 0.0)) return "snapshot_interval_s must be > 0";
-  if (!(telemetry_interval_s > 0.0)) return "telemetry_interval_s must be > 0";
+  if (!(gpio.trigger_width_s > 0.0 && gpio.trigger_width_s <= 1.0)) return "gpio.trigger_width_s must be in (0, 1]";
+  if (!(gpio.pause_debounce_s >= 0.0 && gpio.pause_debounce_s <= 10.0)) return "gpio.pause_debounce_s must be in [0, 10]";
+  // Times become int64 nanoseconds: kMaxTime_s (10^9 s; "never" in tests and benchmarks) keeps them from overflow.
+  constexpr double kMaxTime_s = 1e9;
+  if (!(duration_s >= 0.0 && duration_s <= kMaxTime_s)) return "duration_s must be in [0, 1e9]";
+  if (!(snapshot_interval_s > 0.0 && snapshot_interval_s <= kMaxTime_s)) return "snapshot_interval_s must be in (0, 1e9]";
+  if (!(telemetry_interval_s > 0.0 && telemetry_interval_s <= kMaxTime_s))
+    return "telemetry_interval_s must be in (0, 1e9]";
   if (const std::string b = building.validate(); !b.empty()) return "building: " + b;
   if (const std::string e = exploration.check(); !e.empty()) return "exploration: " + e;
   if (const std::string c = camera.check(); !c.empty()) return "camera: " + c;

@@ -3,17 +3,24 @@
 
 #include <algorithm>
 #include <cmath>
+#include <new>
+#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "drivers/world/top_down.h"
+#include "firmware_app/pipeline.h"
 
 namespace qsg::app {
 
 namespace {
 // The frame around every node of the graph when there is no world to frame it.
-world::TopDownFrame frame_around(const scene_graph::SceneGraph& graph, const std::vector<Eigen::Vector3d>& trajectory_m) {
+world::TopDownFrame frame_around(const scene_graph::SceneGraph& graph, const std::vector<Eigen::Vector3d>& trajectory_m,
+                                 int max_side_px) {
   Eigen::Vector2d lo(1e18, 1e18), hi(-1e18, -1e18);
   const auto grow = [&](const Eigen::Vector3d& p) {
+    // A non-finite or absurd point (farther than any robot goes) is drawn clipped, not framed.
+    constexpr double kFarthest_m = 1e7;
+    if (!(p.head<2>().cwiseAbs().maxCoeff() <= kFarthest_m)) return;
     lo = lo.cwiseMin(p.head<2>());
     hi = hi.cwiseMax(p.head<2>());
   };
@@ -26,17 +33,27 @@ world::TopDownFrame frame_around(const scene_graph::SceneGraph& graph, const std
   world::TopDownFrame f;
   const double margin_m = 1.0;
   const double extent = std::max(hi.x() - lo.x(), hi.y() - lo.y()) + 2 * margin_m;
-  f.pixels_per_m = std::clamp(2000.0 / std::max(extent, 1.0), 5.0, 80.0);
+  // 2000 px across by default, 5 .. 80 px/m, and never more than max_side_px a side whatever the extent.
+  f.pixels_per_m = std::min(std::clamp(2000.0 / std::max(extent, 1.0), 5.0, 80.0), (max_side_px - 1) / extent);
   f.origin_x_m = lo.x() - margin_m;
   f.origin_y_m = hi.y() + margin_m;
-  f.width_px = static_cast<int>(std::ceil((hi.x() - lo.x() + 2 * margin_m) * f.pixels_per_m));
-  f.height_px = static_cast<int>(std::ceil((hi.y() - lo.y() + 2 * margin_m) * f.pixels_per_m));
+  f.width_px = std::min(max_side_px, static_cast<int>(std::ceil((hi.x() - lo.x() + 2 * margin_m) * f.pixels_per_m)));
+  f.height_px = std::min(max_side_px, static_cast<int>(std::ceil((hi.y() - lo.y() + 2 * margin_m) * f.pixels_per_m)));
   return f;
 }
 }  // namespace
 
-bool write_graph_picture(const scene_graph::SceneGraph& graph, const world::World& world,
-                         const std::vector<Eigen::Vector3d>& trajectory_m, const std::string& path, std::string* error) {
+namespace {
+
+// Far-off points are drawn at the clamped position (off the canvas, which OpenCV clips) rather than overflowing int.
+cv::Point to_int_pixel(const cv::Point2d& q) {
+  constexpr double kLimit = 1e6;
+  const auto clamp = [&](double v) { return std::isfinite(v) ? std::clamp(v, -kLimit, kLimit) : -kLimit; };
+  return cv::Point(static_cast<int>(std::lround(clamp(q.x))), static_cast<int>(std::lround(clamp(q.y))));
+}
+
+cv::Mat draw_graph_picture(const scene_graph::SceneGraph& graph, const world::World& world,
+                           const std::vector<Eigen::Vector3d>& trajectory_m, const GraphPictureConfig& config) {
   world::TopDownFrame frame;
   cv::Mat image;
   if (!world.shapes.empty()) {
@@ -44,15 +61,13 @@ bool write_graph_picture(const scene_graph::SceneGraph& graph, const world::Worl
     style.fill_rooms = false;  // the plan as a faint background: the graph is the subject
     style.draw_objects = false;
     style.draw_room_names = false;
+    style.max_side_px = config.max_side_px;
     image = world::draw_top_down(world, style, &frame);
   } else {
-    frame = frame_around(graph, trajectory_m);
+    frame = frame_around(graph, trajectory_m, config.max_side_px);
     image = cv::Mat(frame.height_px, frame.width_px, CV_8UC3, cv::Scalar(255, 255, 255));
   }
-  const auto px = [&](const Eigen::Vector3d& p) {
-    const cv::Point2d q = frame.to_pixel(p.x(), p.y());
-    return cv::Point(static_cast<int>(std::lround(q.x)), static_cast<int>(std::lround(q.y)));
-  };
+  const auto px = [&](const Eigen::Vector3d& p) { return to_int_pixel(frame.to_pixel(p.x(), p.y())); };
   // Rooms: their places' hull would need the places; a disc at the room node and the room's label colour.
   graph.for_each_node([&](const scene_graph::NodeRecord& n) {
     if (n.kind != scene_graph::NodeKind::kRoom) return;
@@ -91,7 +106,33 @@ bool write_graph_picture(const scene_graph::SceneGraph& graph, const world::Worl
     cv::circle(image, px(o->position_m), 3, cv::Scalar(0, 110, 0), cv::FILLED, cv::LINE_AA);
   });
   world::draw_polyline(image, trajectory_m, frame, cv::Scalar(30, 30, 220), 1);
-  return world::write_png(image, path, error);
+  return image;
+}
+
+}  // namespace
+
+bool write_graph_picture(const scene_graph::SceneGraph& graph, const world::World& world,
+                         const std::vector<Eigen::Vector3d>& trajectory_m, const std::string& path, std::string* error,
+                         const GraphPictureConfig& config) {
+  if (config.max_side_px < 256 || config.max_side_px > 16384) {
+    *error = path + ": GraphPictureConfig::max_side_px must be in [256, 16384]";
+    return false;
+  }
+  std::vector<unsigned char> png;
+  try {
+    const cv::Mat image = draw_graph_picture(graph, world, trajectory_m, config);
+    if (!cv::imencode(".png", image, png)) {
+      *error = path + ": cannot encode the PNG";
+      return false;
+    }
+  } catch (const cv::Exception& e) {
+    *error = path + ": cannot draw the picture (" + e.what() + ")";
+    return false;
+  } catch (const std::bad_alloc&) {
+    *error = path + ": cannot draw the picture (out of memory)";
+    return false;
+  }
+  return write_file_atomically(path, std::string(png.begin(), png.end()), error);
 }
 
 }  // namespace qsg::app

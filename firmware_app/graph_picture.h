@@ -12,8 +12,16 @@
 
 namespace qsg::app {
 
-// world may be empty (replay, hardware): the picture is then framed around the graph. Writes a PNG.
+struct GraphPictureConfig {
+  // Neither side of the picture exceeds this: the scale drops instead, so one pose 20 km off (a bad ground-truth
+  // line) gives a small-scale picture, not a 30 GB one. Range 256 .. 16384.
+  int max_side_px = 6000;
+};
+
+// world may be empty (replay, hardware): the picture is then framed around the graph. Writes a PNG, atomically
+// (a temporary file beside it, fsync'd, renamed). Never throws: a failure is false with *error.
 bool write_graph_picture(const scene_graph::SceneGraph& graph, const world::World& world,
-                         const std::vector<Eigen::Vector3d>& trajectory_m, const std::string& path, std::string* error);
+                         const std::vector<Eigen::Vector3d>& trajectory_m, const std::string& path, std::string* error,
+                         const GraphPictureConfig& config = GraphPictureConfig{});
 
 }  // namespace qsg::app

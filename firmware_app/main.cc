@@ -31,7 +31,9 @@ void usage() {
       "  Defaults: the simulated quadruped explores a generated 12-room building in lockstep on the board's\n"
       "  task table (%s); outputs go to qsg_output/. Every key of firmware_app/config/default.json can be set\n"
       "  in --config; the flags override it. With --driver replay, --replay is a TUM RGB-D, Redwood or pose-list\n"
-      "  folder; its camera comes from --calibration, else calibration.json beside the frames.\n",
+      "  folder; its camera comes from --calibration, else calibration.json beside the frames.\n"
+      "  Exit status: 0 done; 1 start-up failed or an output could not be written; 2 bad arguments or config;\n"
+      "  3 nothing was mapped (an empty or all-rejected input; the outputs are written all the same).\n",
       budgets::active::kBoard);
 }
 
@@ -197,6 +199,14 @@ int main(int argc, char** argv) {
               (unsigned long long)pipeline.counters().keyframes_integrated,
               (unsigned long long)pipeline.counters().frontend_updates,
               (unsigned long long)pipeline.counters().agent_nodes);
+  {
+    const drivers::DriverCounters& d = pipeline.camera()->counters();
+    std::printf("camera %s: %llu delivered, %llu dropped, %llu stalls, %llu late, %llu timestamps backwards, %llu bad "
+                "frames, %llu missing files, %llu disconnects\n",
+                pipeline.camera()->name(), (unsigned long long)d.delivered, (unsigned long long)d.dropped,
+                (unsigned long long)d.stalls, (unsigned long long)d.late, (unsigned long long)d.timestamps_backwards,
+                (unsigned long long)d.bad_frames, (unsigned long long)d.missing_files, (unsigned long long)d.disconnects);
+  }
   pipeline.scheduler().print_stats(stdout);
   pipeline.reconstruction().counters().print(stdout);
   pipeline.frame_queue_stats().print(stdout);
@@ -207,10 +217,14 @@ int main(int argc, char** argv) {
   pipeline.frontend().for_each_resource([](const memory::ResourceStats& s) { s.print(stdout); });
   // Online doors before the final stage replaces them (finish() has stopped the backend that owns the door set).
   const app::PipelineCounters online = pipeline.counters();
-  if (!pipeline.finish(&error)) {
-    std::fprintf(stderr, "qsg_app: writing the outputs failed: %s\n", error.c_str());
-    return 1;
+  const bool outputs_written = pipeline.finish(&error);
+  if (!outputs_written) std::fprintf(stderr, "qsg_app: writing the outputs failed: %s\n", error.c_str());
+  // An empty or all-rejected input is a failed run, not an empty success (the outputs above are written anyway).
+  if (const std::string nothing = pipeline.nothing_mapped_reason(); !nothing.empty()) {
+    std::fprintf(stderr, "qsg_app: nothing was mapped: %s\n", nothing.c_str());
+    return 3;
   }
+  if (!outputs_written) return 1;
   pipeline.online_doors().for_each_resource([](const memory::ResourceStats& s) { s.print(stdout); });
   std::printf("online doors: %llu window passes (longest %.1f ms, %llu skipped on stairs), %llu doors (%llu kept "
               "through a missed pass, %llu dropped, %llu found but gone round by the places, %llu window places or "

@@ -58,8 +58,12 @@ double rss_mb() {
 }
 }  // namespace
 
+namespace {
+bool rename_into_place(const std::string& tmp, const std::string& path, std::string* error);
+}  // namespace
+
 bool write_file_atomically(const std::string& path, const std::string& text, std::string* error) {
-  const std::string tmp = path + ".tmp";
+  const std::string tmp = temporary_path_for(path);
   const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
   if (fd < 0) return *error = tmp + ": " + std::strerror(errno), false;
   std::size_t done = 0;
@@ -79,6 +83,11 @@ bool write_file_atomically(const std::string& path, const std::string& text, std
     ::unlink(tmp.c_str());
     return false;
   }
+  return rename_into_place(tmp, path, error);
+}
+
+namespace {
+bool rename_into_place(const std::string& tmp, const std::string& path, std::string* error) {
   if (::rename(tmp.c_str(), path.c_str()) != 0) {
     *error = path + ": rename failed: " + std::strerror(errno);
     ::unlink(tmp.c_str());
@@ -92,6 +101,22 @@ bool write_file_atomically(const std::string& path, const std::string& text, std
     ::close(dfd);
   }
   return true;
+}
+}  // namespace
+
+std::string temporary_path_for(const std::string& path) { return path + ".tmp"; }
+
+bool commit_file_atomically(const std::string& tmp, const std::string& path, std::string* error) {
+  const int fd = ::open(tmp.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return *error = tmp + ": " + std::strerror(errno), false;
+  if (::fsync(fd) != 0) {
+    *error = tmp + ": fsync failed: " + std::strerror(errno);
+    ::close(fd);
+    ::unlink(tmp.c_str());
+    return false;
+  }
+  ::close(fd);
+  return rename_into_place(tmp, path, error);
 }
 
 Pipeline::Pipeline() = default;
@@ -157,6 +182,7 @@ bool Pipeline::init(const AppConfig& config, runtime::Clock* clock, std::string*
       rc.path = config.replay_path;
       replay_ = std::make_unique<replay::DatasetReplay>();
       if (!replay_->open(rc, error)) return false;
+      if (replay_->size() == 0) return fail("replay: '" + rc.path + "' lists no frames: nothing to map");
       replay_->print(stdout);
       ground_truth_ = replay_->ground_truth();  // the dataset's camera poses: an odometry source, and the truth
       if (ground_truth_.empty())
@@ -750,14 +776,14 @@ void Pipeline::print_telemetry(std::FILE* out) {
   std::fprintf(out,
                "[t=%7.1fs] kf/s=%.1f keyframes=%llu | max_us recon=%lld frontend=%lld overruns=%zu | blocks=%zu/%zu "
                "archive=%zu tri | graph nodes=%zu rooms=%llu | frames queue hw=%u drops=%llu | driver drops=%llu stalls=%llu "
-               "bad=%llu | gpio fail=%llu%s | fullest store %s hw %zu/%zu, refused %llu | odometry %s rejected=%llu "
+               "bad=%llu missing files=%llu | gpio fail=%llu%s | fullest store %s hw %zu/%zu, refused %llu | odometry %s rejected=%llu "
                "gaps=%llu silences=%llu frames without pose=%llu | agents %zu/%zu (folded %llu) | rss=%.0f MB "
                "(peak %.0f)\n",
                t_s, kf_per_s, (unsigned long long)counters_.keyframes, (long long)(recon ? recon->max_us : 0),
                (long long)(front ? front->max_us : 0), overruns, tsdf_.active_blocks(), tsdf_.capacities().max_blocks,
                tsdf_.archive_triangles(), graph_nodes, (unsigned long long)rooms_count_.load(), q.high_water, (unsigned long long)q.dropped,
                (unsigned long long)d.dropped, (unsigned long long)d.stalls, (unsigned long long)d.bad_frames,
-               (unsigned long long)counters_.gpio_failures, paused() ? " PAUSED" : "", fullest.name, fullest.high_water,
+               (unsigned long long)d.missing_files, (unsigned long long)counters_.gpio_failures, paused() ? " PAUSED" : "", fullest.name, fullest.high_water,
                fullest.capacity, (unsigned long long)refused, odometry_.source_name(),
                (unsigned long long)odometry_.buffer().counters().rejected(),
                (unsigned long long)odometry_.buffer().counters().gaps, (unsigned long long)odometry_.counters().silences,
@@ -765,6 +791,20 @@ void Pipeline::print_telemetry(std::FILE* out) {
                frontend_.agents().chain_stats().capacity, (unsigned long long)frontend_.agents().counters().folded,
                rss_mb(), peak_rss_mb());
   ++counters_.telemetry_lines;
+}
+
+std::string Pipeline::nothing_mapped_reason() const {
+  if (counters_.keyframes_integrated > 0) return {};
+  const drivers::DriverCounters& d = camera_->counters();
+  char text[512];
+  std::snprintf(text, sizeof(text),
+                "no keyframe was integrated: %llu frames read (%llu bad, %llu missing files, %llu without a pose, "
+                "%llu while paused), %llu keyframes (%llu refused by the reconstruction)",
+                (unsigned long long)counters_.frames_read, (unsigned long long)std::max(d.bad_frames, counters_.frames_bad),
+                (unsigned long long)d.missing_files, (unsigned long long)counters_.frames_without_pose,
+                (unsigned long long)counters_.frames_paused, (unsigned long long)counters_.keyframes,
+                (unsigned long long)counters_.keyframes_refused);
+  return text;
 }
 
 bool Pipeline::write_snapshot(std::string* error) {
@@ -828,10 +868,27 @@ bool Pipeline::finish(std::string* error) {
   counters_.rooms_merged_visible = rooms_merged_visible_.load();
   std::lock_guard<std::mutex> lock(graph_mutex_);
   const std::string dir = config_.output_dir;
-  if (!write_file_atomically(dir + "/scene_graph.json", scene_graph::write_spark_dsg_json(graph_), error)) return false;
-  if (!reconstruction::write_ply(dir + "/mesh.ply", mesh, error)) return false;
-  if (!write_graph_picture(graph_, world_, trajectory_m_, dir + "/top_down.png", error)) return false;
-  if (!finish_trajectory(error)) return false;
+  // Every output is attempted whatever became of the others (the picture last: it is the least of them); each
+  // replaces its file atomically, so a failure or a kill leaves the previous file or none, never half of one.
+  std::string failures;
+  const auto attempt = [&](bool ok, const std::string& why) {
+    if (!ok) failures += (failures.empty() ? "" : "; ") + why;
+  };
+  std::string why;
+  attempt(write_file_atomically(dir + "/scene_graph.json", scene_graph::write_spark_dsg_json(graph_), &why), why);
+  const std::string mesh_path = dir + "/mesh.ply", mesh_tmp = temporary_path_for(mesh_path);
+  why.clear();
+  const bool mesh_ok = reconstruction::write_ply(mesh_tmp, mesh, &why) && commit_file_atomically(mesh_tmp, mesh_path, &why);
+  if (!mesh_ok) ::unlink(mesh_tmp.c_str());
+  attempt(mesh_ok, why);
+  why.clear();
+  attempt(finish_trajectory(&why), why);
+  why.clear();
+  attempt(write_graph_picture(graph_, world_, trajectory_m_, dir + "/top_down.png", &why), why);
+  if (!failures.empty()) {
+    *error = failures;
+    return false;
+  }
   std::printf("outputs: %s/scene_graph.json (%zu nodes), %s/mesh.ply (%zu vertices, %zu triangles), %s/top_down.png, "
               "%s/trajectory_estimate.txt%s\n",
               dir.c_str(), graph_.num_nodes(), dir.c_str(), mesh.vertices.size(), mesh.triangles.size(), dir.c_str(),
@@ -865,9 +922,15 @@ bool Pipeline::finish_trajectory(std::string* error) {
     ref.push_back({t_ns, world_T_camera.translation(), Eigen::Quaterniond(world_T_camera.linear())});
   }
   const std::string dir = config_.output_dir;
-  if (!replay::write_tum_trajectory(dir + "/trajectory_estimate.txt", estimate, error)) return false;
+  const auto write_atomically = [&](const std::string& path, const replay::Trajectory& t) {
+    const std::string tmp = temporary_path_for(path);
+    if (replay::write_tum_trajectory(tmp, t, error) && commit_file_atomically(tmp, path, error)) return true;
+    ::unlink(tmp.c_str());
+    return false;
+  };
+  if (!write_atomically(dir + "/trajectory_estimate.txt", estimate)) return false;
   if (truth.empty()) return true;
-  if (!replay::write_tum_trajectory(dir + "/trajectory_ground_truth.txt", truth, error)) return false;
+  if (!write_atomically(dir + "/trajectory_ground_truth.txt", truth)) return false;
   // The map is built in the odometry frame from the true start: the error without alignment is what the map shows.
   metrics::TrajectoryErrorConfig tc;
   tc.max_time_difference_ns = 0;

@@ -102,6 +102,9 @@ class Pipeline {
   bool finish(std::string* error);
 
   const PipelineCounters& counters() const { return counters_; }
+  // "" when the run integrated at least one keyframe; otherwise why nothing was mapped, with the counts of
+  // frames read, bad, missing, without a pose and refused (qsg_app prints it and exits 3).
+  std::string nothing_mapped_reason() const;
   const runtime::Scheduler& scheduler() const { return scheduler_; }
   const reconstruction::SemanticTsdf& reconstruction() const { return tsdf_; }
   const frontend::Frontend& frontend() const { return frontend_; }
@@ -270,5 +273,9 @@ class Pipeline {
 // Writes `text` to `path` so that a reader (or a kill) sees the old file or the new one, never half of one:
 // a temporary file in the same folder, fsync, rename, fsync of the folder.
 bool write_file_atomically(const std::string& path, const std::string& text, std::string* error);
+// The same for a file a writer of its own produced: write it to temporary_path_for(path) (same folder), then
+// commit_file_atomically() fsyncs it and renames it over path (on failure the temporary file is removed).
+std::string temporary_path_for(const std::string& path);
+bool commit_file_atomically(const std::string& tmp, const std::string& path, std::string* error);
 
 }  // namespace qsg::app

@@ -163,7 +163,7 @@ std::string Config::check() const {
   if (!(min_basis_angle_rad > 0.0 && min_basis_angle_rad <= 3.14159266)) return "min_basis_angle_rad must be in (0, pi]";
   if (min_basis_points < 2 || min_basis_points > kMaxBasis) return "min_basis_points must be in [2, 8]";
   if (!(place_resolution_m > 0.0 && place_resolution_m <= 20.0)) return "place_resolution_m must be in (0, 20] m";
-  if (!(window_radius_m > 0.0)) return "window_radius_m must be positive";
+  if (!(window_radius_m > 0.0 && window_radius_m <= 100.0)) return "window_radius_m must be in (0, 100] m";
   if (!(slab_below_m >= 0.0 && slab_above_m >= 0.0 && slab_below_m + slab_above_m > 0.0))
     return "slab_below_m and slab_above_m must be >= 0 and not both 0";
   if (!(min_tsdf_weight >= 0.0)) return "min_tsdf_weight must be >= 0";

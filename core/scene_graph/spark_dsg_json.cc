@@ -12,6 +12,8 @@
 #include <unordered_map>
 #include <vector>
 
+#include "core/json/json_guard.h"
+
 namespace qsg::scene_graph {
 namespace {
 
@@ -352,10 +354,16 @@ JsonImportResult read_spark_dsg_json(const std::string& text, SceneGraph& graph)
     return result;
   }
   json root;
-  try {
-    root = json::parse(text);
-  } catch (const json::parse_error& e) {
-    result.error = "(document): not valid JSON at byte " + std::to_string(e.byte) + " (truncated or malformed): " + e.what();
+  json_guard::Limits limits;
+  limits.reject_duplicate_keys = false;  // another tool's format: keep the last, as Spark-DSG's own reader does
+  if (json_guard::ParseFailure f; !json_guard::parse(text, limits, &root, &f)) {
+    using Kind = json_guard::ParseFailure::Kind;
+    if (f.kind == Kind::kSyntax && f.byte != std::string::npos)
+      result.error = "(document): not valid JSON at byte " + std::to_string(f.byte) + " (truncated or malformed): " + f.message;
+    else if (f.kind == Kind::kTooDeep)
+      result.error = f.message;  // names the path
+    else
+      result.error = "(document): " + f.message;
     return result;
   }
   Document doc;

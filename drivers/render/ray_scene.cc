@@ -85,6 +85,16 @@ bool RayScene::build(const world::World& world, std::string* error) {
     return false;
   };
 
+  // A shape's bounds become the BVH's float boxes: beyond kMaxAbsCoordinate_m they overflow or lose the precision
+  // the traversal needs (1e308 m made the build divide infinities).
+  auto add_bounds = [&](std::size_t i, const world::Shape& s, const double lo[3], const double hi[3]) {
+    for (int k = 0; k < 3; ++k)
+      if (!(std::fabs(lo[k]) <= kMaxAbsCoordinate_m && std::fabs(hi[k]) <= kMaxAbsCoordinate_m))
+        return fail(i, s, format("bounds [%g, %g] m on axis %d exceed the ray scene's limit of +-%g m", lo[k], hi[k], k,
+                                 kMaxAbsCoordinate_m));
+    boxes.push_back(padded(lo, hi));
+    return true;
+  };
   for (std::size_t i = 0; i < world.shapes.size(); ++i) {
     const world::Shape& s = world.shapes[i];
     const std::uint32_t shape_id = static_cast<std::uint32_t>(i);
@@ -138,7 +148,7 @@ bool RayScene::build(const world::World& world, std::string* error) {
           hi[k] = box.center_m[k] + half[k];
         }
         prims.push_back(p);
-        boxes.push_back(padded(lo, hi));
+        if (!add_bounds(i, s, lo, hi)) return false;
         break;
       }
       case world::ShapeKind::kCylinder: {
@@ -162,7 +172,7 @@ bool RayScene::build(const world::World& world, std::string* error) {
         const double lo[3] = {p.a[0] - c.radius_m, p.a[1] - c.radius_m, p.a[2]};
         const double hi[3] = {p.a[0] + c.radius_m, p.a[1] + c.radius_m, p.b[2]};
         prims.push_back(p);
-        boxes.push_back(padded(lo, hi));
+        if (!add_bounds(i, s, lo, hi)) return false;
         break;
       }
       case world::ShapeKind::kPrism: {
@@ -211,7 +221,7 @@ bool RayScene::build(const world::World& world, std::string* error) {
             }
           }
           prims.push_back(p);
-          boxes.push_back(padded(lo, hi));
+          if (!add_bounds(i, s, lo, hi)) return false;
         }
         break;
       }

@@ -35,6 +35,10 @@ struct RaySceneStats {
 
 class RayScene {
  public:
+  // Every finite shape lies within +-this of the origin: the BVH keeps float boxes (a metre's precision is lost
+  // past about 1e7 m). World files are bounded tighter by their reader (drivers/world/world_file.h).
+  static constexpr double kMaxAbsCoordinate_m = 1e6;
+
   // Validates every shape (errors name the shape index, kind and field) and builds the BVH; the World may be
   // destroyed afterwards. On failure the scene is left empty.
   bool build(const world::World& world, std::string* error);

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <functional>
 #include <limits>
 #include <queue>
@@ -426,6 +427,7 @@ std::string ExplorationConfig::check() const {
   if (!(peek_sweep_deg >= 0.0 && peek_sweep_deg <= 180.0)) return "peek_sweep_deg must be in [0, 180]";
   if (tours < 1 || tours > 100000) return "tours must be in [1, 100000]";
   if (tours > 1 && !return_to_start) return "tours > 1 needs return_to_start";
+  if (max_grid_cells < 1 || max_grid_cells > (std::size_t{1} << 28)) return "max_grid_cells must be in [1, 2^28]";
   return {};
 }
 
@@ -433,10 +435,11 @@ void ExplorationConfig::print(std::FILE* out) const {
   std::fprintf(out,
                "exploration: resolution %.3f m, robot radius %.2f m, max step %.2f m, camera height %.2f m, "
                "speed %.2f m/s, yaw rate %.2f rad/s, %.1f Hz, spin in rooms %s, return to start %s, %d tour(s), "
-               "start room %d, look into unreachable rooms %s (range %.1f m, sweep +-%.0f deg)\n",
+               "start room %d, look into unreachable rooms %s (range %.1f m, sweep +-%.0f deg), at most %zu grid "
+               "cells\n",
                resolution_m, robot_radius_m, max_step_m, camera_height_m, speed_m_s, yaw_rate_rad_s, rate_hz,
                spin_in_rooms ? "yes" : "no", return_to_start ? "yes" : "no", tours, start_room,
-               look_into_unreachable_rooms ? "yes" : "no", peek_range_m, peek_sweep_deg);
+               look_into_unreachable_rooms ? "yes" : "no", peek_range_m, peek_sweep_deg, max_grid_cells);
 }
 
 ExplorationResult plan_exploration(const world::World& world, const render::RayScene& scene,
@@ -453,6 +456,21 @@ ExplorationResult plan_exploration(const world::World& world, const render::RayS
   if (world.rooms.empty()) {
     result.error = "exploration: the world has no rooms to visit";
     return result;
+  }
+  {
+    // The grid Graph allocates, as it sizes it (two cells of margin each side), bounded before it exists.
+    const world::Aabb bounds = world::world_bounds(world);
+    const Eigen::Vector3d size = bounds.size_m();
+    const double cells = (std::ceil(size.x() / config.resolution_m) + 4.0) * (std::ceil(size.y() / config.resolution_m) + 4.0);
+    if (!size.allFinite() || !(cells <= static_cast<double>(config.max_grid_cells))) {
+      char text[320];
+      std::snprintf(text, sizeof(text),
+                    "exploration: the world's x-y extent (%.6g m x %.6g m) needs %.3g grid cells at resolution_m %.3g, "
+                    "more than max_grid_cells (%zu)",
+                    size.x(), size.y(), cells, config.resolution_m, config.max_grid_cells);
+      result.error = text;
+      return result;
+    }
   }
   const Graph graph(world, scene, free_space, config);
   result.graph_nodes = graph.size();

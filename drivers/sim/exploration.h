@@ -43,6 +43,10 @@ struct ExplorationConfig {
   std::int32_t tours = 1;
   std::int32_t start_room = -1;      // -1: the room with the lowest id that has free space
   std::int64_t start_time_ns = 0;
+  // The traversability grid's cells (x-y extent / resolution_m squared) may not exceed this: a world wider than
+  // that at this resolution is refused by name before the grid is allocated (a cell is about 24 bytes plus its
+  // nodes; 4 Mi cells is 200 m x 200 m at 0.1 m). Range 1 .. 2^28.
+  std::size_t max_grid_cells = std::size_t{4} << 20;
 
   std::string check() const;  // empty when usable, else the bad field
   void print(std::FILE* out) const;

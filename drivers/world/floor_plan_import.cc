@@ -3,7 +3,11 @@
 #include "drivers/world/floor_plan_import.h"
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstring>
 #include <limits>
 #include <map>
 #include <utility>
@@ -34,6 +38,14 @@ bool to_grey(const cv::Mat& in, cv::Mat* out, std::string* error) {
     case 4: cv::cvtColor(in, *out, cv::COLOR_BGRA2GRAY); return true;
     default: *error = "image must have 1, 3 or 4 channels, not " + std::to_string(in.channels()); return false;
   }
+}
+
+// Empty when a w x h image is within the config's limits, else why not.
+std::string image_size_error(std::int64_t w, std::int64_t h, const FloorPlanConfig& config) {
+  if (w <= config.max_image_side_px && h <= config.max_image_side_px && w * h <= config.max_image_pixels) return {};
+  return "image of " + std::to_string(w) + " x " + std::to_string(h) + " px exceeds the floor-plan limit (" +
+         "max_image_side_px " + std::to_string(config.max_image_side_px) + ", max_image_pixels " +
+         std::to_string(config.max_image_pixels) + ")";
 }
 
 std::string stem_of(const std::string& path) {
@@ -70,10 +82,121 @@ void FloorPlanConfig::print(std::FILE* out) const {
                "FloorPlanConfig: resolution_m_per_px=%.4f free_threshold=%d gt_room_threshold=%d min_room_area_px=%d "
                "wall_height_m=%.2f door_height_m=%.2f contour_epsilon_px=%.2f crop_margin_px=%d "
                "add_floor_and_ceiling=%d min_door_width_m=%.2f separator_search_px=%d furniture_height_m=%.2f "
-               "min_hole_area_px=%.0f\n",
+               "min_hole_area_px=%.0f max_image_side_px=%d max_image_pixels=%lld\n",
                resolution_m_per_px, free_threshold, gt_room_threshold, min_room_area_px, wall_height_m, door_height_m,
                contour_epsilon_px, crop_margin_px, add_floor_and_ceiling ? 1 : 0, min_door_width_m,
-               separator_search_px, furniture_height_m, min_hole_area_px);
+               separator_search_px, furniture_height_m, min_hole_area_px, max_image_side_px,
+               static_cast<long long>(max_image_pixels));
+}
+
+namespace {
+
+std::uint32_t big_endian(const unsigned char* p, int bytes) {
+  std::uint32_t v = 0;
+  for (int i = 0; i < bytes; ++i) v = (v << 8) | p[i];
+  return v;
+}
+
+// PNM: "P1".."P6", then width and height as decimal text, with whitespace and # comments between.
+bool pnm_size(std::FILE* f, int* w, int* h) {
+  long values[2] = {0, 0};
+  for (long& v : values) {
+    int c = std::fgetc(f);
+    for (;;) {
+      if (c == '#') {
+        while (c != '\n' && c != EOF) c = std::fgetc(f);
+      } else if (c == ' ' || c == '\t' || c == '\r' || c == '\n') {
+        c = std::fgetc(f);
+      } else {
+        break;
+      }
+    }
+    if (c < '0' || c > '9') return false;
+    for (; c >= '0' && c <= '9'; c = std::fgetc(f)) {
+      v = v * 10 + (c - '0');
+      if (v > 1000000000L) return false;
+    }
+  }
+  *w = static_cast<int>(values[0]);
+  *h = static_cast<int>(values[1]);
+  return true;
+}
+
+// JPEG: walk the marker segments to the first start-of-frame (SOF0..SOF15 but DHT, JPG and DAC).
+bool jpeg_size(std::FILE* f, int* w, int* h) {
+  unsigned char m[2];
+  for (int segments = 0; segments < 1000; ++segments) {
+    if (std::fread(m, 1, 2, f) != 2 || m[0] != 0xFF) return false;
+    while (m[1] == 0xFF)  // fill bytes
+      if (std::fread(&m[1], 1, 1, f) != 1) return false;
+    const unsigned marker = m[1];
+    if (marker == 0xD8 || marker == 0x01 || (marker >= 0xD0 && marker <= 0xD7)) continue;  // no length
+    unsigned char len[2];
+    if (std::fread(len, 1, 2, f) != 2) return false;
+    const std::uint32_t length = big_endian(len, 2);
+    if (length < 2) return false;
+    if (marker >= 0xC0 && marker <= 0xCF && marker != 0xC4 && marker != 0xC8 && marker != 0xCC) {
+      unsigned char sof[5];
+      if (length < 7 || std::fread(sof, 1, 5, f) != 5) return false;
+      *h = static_cast<int>(big_endian(sof + 1, 2));
+      *w = static_cast<int>(big_endian(sof + 3, 2));
+      return true;
+    }
+    if (std::fseek(f, static_cast<long>(length) - 2, SEEK_CUR) != 0) return false;
+  }
+  return false;
+}
+
+}  // namespace
+
+bool read_image_size(const std::string& path, int* width_px, int* height_px, std::string* error) {
+  std::FILE* f = std::fopen(path.c_str(), "rb");
+  if (f == nullptr) {
+    *error = path + ": cannot read (" + std::strerror(errno) + ")";
+    return false;
+  }
+  unsigned char head[26] = {};
+  const std::size_t n = std::fread(head, 1, sizeof(head), f);
+  static const unsigned char kPng[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n'};
+  bool ok = false;
+  std::int64_t w = 0, h = 0;
+  if (n >= 24 && std::equal(kPng, kPng + 8, head) && std::equal(head + 12, head + 16, "IHDR")) {
+    w = big_endian(head + 16, 4);
+    h = big_endian(head + 20, 4);
+    ok = true;
+  } else if (n >= 26 && head[0] == 'B' && head[1] == 'M') {
+    const auto le32 = [&](int at) {
+      return static_cast<std::int32_t>(static_cast<std::uint32_t>(head[at]) | (static_cast<std::uint32_t>(head[at + 1]) << 8) |
+                                       (static_cast<std::uint32_t>(head[at + 2]) << 16) |
+                                       (static_cast<std::uint32_t>(head[at + 3]) << 24));
+    };
+    w = le32(18);
+    h = le32(22);
+    if (h < 0) h = -h;  // top-down rows
+    ok = true;
+  } else if (n >= 3 && head[0] == 0xFF && head[1] == 0xD8 && head[2] == 0xFF) {
+    int jw = 0, jh = 0;
+    ok = std::fseek(f, 2, SEEK_SET) == 0 && jpeg_size(f, &jw, &jh);
+    w = jw;
+    h = jh;
+  } else if (n >= 2 && head[0] == 'P' && head[1] >= '1' && head[1] <= '6') {
+    int pw = 0, ph = 0;
+    ok = std::fseek(f, 2, SEEK_SET) == 0 && pnm_size(f, &pw, &ph);
+    w = pw;
+    h = ph;
+  } else {
+    std::fclose(f);
+    *error = path + ": not a PNG, JPEG, BMP or PNM image (the formats whose size is checked before decoding)";
+    return false;
+  }
+  std::fclose(f);
+  if (!ok || w <= 0 || h <= 0 || w > INT32_MAX || h > INT32_MAX) {
+    *error = path + ": unreadable image header";
+    return false;
+  }
+  *width_px = static_cast<int>(w);
+  *height_px = static_cast<int>(h);
+  return true;
 }
 
 std::string floor_plan_gt_path(const std::string& occupancy_path) {
@@ -93,6 +216,15 @@ WorldResult import_floor_plan(const cv::Mat& occupancy_in, const cv::Mat& gt_in,
   WorldResult result;
   FloorPlanStats stats;
   cv::Mat occ;
+  if (!(config.max_image_side_px >= 16 && config.max_image_side_px <= 32768 && config.max_image_pixels >= 256 &&
+        config.max_image_pixels <= (std::int64_t{1} << 28))) {
+    result.error = "max_image_side_px must be in [16, 32768] and max_image_pixels in [256, 2^28]";
+    return result;
+  }
+  if (const std::string bad = image_size_error(occupancy_in.cols, occupancy_in.rows, config); !bad.empty()) {
+    result.error = "occupancy " + bad;
+    return result;
+  }
   if (!to_grey(occupancy_in, &occ, &result.error)) {
     result.error = "occupancy " + result.error;
     return result;
@@ -347,23 +479,35 @@ WorldResult import_floor_plan(const cv::Mat& occupancy_in, const cv::Mat& gt_in,
   return result;
 }
 
-namespace {
-
-// Reads a plan's images as grey: the occupancy image (required) and the ground truth (when gt_path is not empty).
-bool read_plan_images(const std::string& occupancy_path, const std::string& gt_path, cv::Mat* occupancy, cv::Mat* gt,
-                      std::string* error) {
-  *occupancy = cv::imread(occupancy_path, cv::IMREAD_GRAYSCALE);
-  if (occupancy->empty()) {
-    *error = occupancy_path + ": cannot read the occupancy image";
+bool read_floor_plan_image(const std::string& path, const char* what, const FloorPlanConfig& config, cv::Mat* out,
+                           std::string* error) {
+  int w = 0, h = 0;
+  if (!read_image_size(path, &w, &h, error)) return false;
+  if (const std::string bad = image_size_error(w, h, config); !bad.empty()) {
+    *error = path + ": " + bad;
     return false;
   }
-  if (gt_path.empty()) return true;
-  *gt = cv::imread(gt_path, cv::IMREAD_GRAYSCALE);
-  if (gt->empty()) {
-    *error = gt_path + ": cannot read the ground-truth image";
+  try {
+    *out = cv::imread(path, cv::IMREAD_GRAYSCALE);
+  } catch (const cv::Exception& e) {
+    *error = path + ": cannot decode the " + what + " image (" + e.what() + ")";
+    return false;
+  }
+  if (out->empty()) {
+    *error = path + ": cannot read the " + what + " image";
     return false;
   }
   return true;
+}
+
+namespace {
+
+// Reads a plan's images as grey: the occupancy image (required) and the ground truth (when gt_path is not empty).
+bool read_plan_images(const std::string& occupancy_path, const std::string& gt_path, const FloorPlanConfig& config,
+                      cv::Mat* occupancy, cv::Mat* gt, std::string* error) {
+  if (!read_floor_plan_image(occupancy_path, "occupancy", config, occupancy, error)) return false;
+  if (gt_path.empty()) return true;
+  return read_floor_plan_image(gt_path, "ground-truth", config, gt, error);
 }
 
 }  // namespace
@@ -373,8 +517,8 @@ WorldResult import_furnished_floor_plan_files(const std::string& plain_path, con
                                               FloorPlanStats* stats) {
   WorldResult result;
   cv::Mat plain, furnished, gt, unused;
-  if (!read_plan_images(plain_path, "", &plain, &unused, &result.error) ||
-      !read_plan_images(furnished_path, gt_path, &furnished, &gt, &result.error))
+  if (!read_plan_images(plain_path, "", config, &plain, &unused, &result.error) ||
+      !read_plan_images(furnished_path, gt_path, config, &furnished, &gt, &result.error))
     return result;
   if (plain.size() != furnished.size()) {
     result.error = furnished_path + ": not the size of " + plain_path;
@@ -391,7 +535,7 @@ WorldResult import_floor_plan_files(const std::string& occupancy_path, const std
                                     const FloorPlanConfig& config, FloorPlanStats* stats) {
   WorldResult result;
   cv::Mat occ, gt;
-  if (!read_plan_images(occupancy_path, gt_path, &occ, &gt, &result.error)) return result;
+  if (!read_plan_images(occupancy_path, gt_path, config, &occ, &gt, &result.error)) return result;
   result = import_floor_plan(occ, gt, config, stem_of(occupancy_path), stats);
   if (!result.ok) result.error = occupancy_path + ": " + result.error;
   return result;

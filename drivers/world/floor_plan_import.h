@@ -2,6 +2,7 @@
 // pixels become wall boxes, each ground-truth room becomes a Room footprint, thin separator lines become doors.
 #pragma once
 
+#include <cstdint>
 #include <cstdio>
 #include <string>
 
@@ -31,6 +32,11 @@ struct FloorPlanConfig {
   // plain one) are extruded to this height, as furniture, instead of to the walls' height. 0: every occupied pixel
   // is a wall (the benchmark's own use of its furnished plans: furniture as 2.5 m posts).
   double furniture_height_m = 0.0;
+  // Images larger than this are refused from their header, before anything is decoded (a PNG may claim 65535 x
+  // 65535 in a few bytes). The benchmark's largest plan is 1234 x 727 px. Ranges: 16 .. 32768 px a side,
+  // 256 .. 2^28 pixels.
+  int max_image_side_px = 8192;
+  std::int64_t max_image_pixels = std::int64_t{16} << 20;
 
   void print(std::FILE* out) const;
 };
@@ -54,7 +60,8 @@ WorldResult import_floor_plan(const cv::Mat& occupancy, const cv::Mat& ground_tr
                               const std::string& name = "floor_plan", FloorPlanStats* stats = nullptr,
                               const cv::Mat& furniture = cv::Mat());
 
-// Reads the images with cv::imread. gt_path may be empty (no rooms).
+// Reads the images with cv::imread once their headers (PNG, JPEG, BMP or PNM; other formats are refused) show a
+// size within max_image_side_px and max_image_pixels. gt_path may be empty (no rooms).
 WorldResult import_floor_plan_files(const std::string& occupancy_path, const std::string& gt_path,
                                     const FloorPlanConfig& config, FloorPlanStats* stats = nullptr);
 
@@ -62,6 +69,15 @@ WorldResult import_floor_plan_files(const std::string& occupancy_path, const std
 WorldResult import_furnished_floor_plan_files(const std::string& plain_path, const std::string& furnished_path,
                                               const std::string& gt_path, const FloorPlanConfig& config,
                                               FloorPlanStats* stats = nullptr);
+
+// Width and height from an image file's header without decoding it (PNG, JPEG, BMP, PNM). False with *error
+// ("<path>: ...") when the file cannot be read or is none of these formats.
+bool read_image_size(const std::string& path, int* width_px, int* height_px, std::string* error);
+
+// Decodes an image as grey once read_image_size() shows it within config.max_image_side_px and max_image_pixels;
+// never throws. False with *error ("<path>: ...", naming the limit) otherwise. what: "occupancy", "ground-truth".
+bool read_floor_plan_image(const std::string& path, const char* what, const FloorPlanConfig& config, cv::Mat* grey,
+                           std::string* error);
 
 // The benchmark's ground-truth file for a map: "<dir>/<map>_gt_segmentation.png", with a "_furnitures" suffix of the
 // map name dropped (furnished variants share the plain map's ground truth).

@@ -14,11 +14,16 @@ namespace qsg::world {
 
 bool read_plan_raster(const std::string& occupancy_path, const std::string& gt_path, const FloorPlanConfig& config,
                       PlanRaster* out, std::string* error) {
-  const cv::Mat occ = cv::imread(occupancy_path, cv::IMREAD_GRAYSCALE);
-  const cv::Mat gt = cv::imread(gt_path, cv::IMREAD_GRAYSCALE);
-  if (occ.empty() || gt.empty() || occ.size() != gt.size()) {
+  cv::Mat occ, gt;
+  std::string why;
+  if (!read_floor_plan_image(occupancy_path, "occupancy", config, &occ, &why) ||
+      !read_floor_plan_image(gt_path, "ground-truth", config, &gt, &why)) {
+    if (error != nullptr) *error = why;
+    return false;
+  }
+  if (occ.size() != gt.size()) {
     if (error != nullptr)
-      *error = occupancy_path + ": cannot read the plan and its ground truth (" + gt_path + "), or their sizes differ";
+      *error = occupancy_path + ": the plan and its ground truth (" + gt_path + ") differ in size";
     return false;
   }
   cv::Mat labels, stats, centroids;

@@ -3,6 +3,7 @@
 
 #include <cerrno>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <fstream>
 #include <initializer_list>
@@ -10,6 +11,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "core/json/json_guard.h"
 #include "drivers/world/world_geometry.h"
 
 namespace qsg::world {
@@ -68,6 +70,19 @@ std::string field_path(const std::string& path, const char* key) { return path.e
 class Reader {
  public:
   std::string error;
+  double max_abs_value = WorldFileLimits{}.max_abs_value_m;
+
+  // Every number of the file is bounded before it is used, so no world can ask the renderer, the planner or the
+  // ground truth for a grid or a bounding volume that overflows (2^31 m, 1e308 m).
+  bool within_limit(double v, const std::string& path) {
+    if (std::abs(v) <= max_abs_value) return true;
+    char text[64];
+    std::snprintf(text, sizeof(text), "%.10g", v);
+    char limit[64];
+    std::snprintf(limit, sizeof(limit), "%g", max_abs_value);
+    return fail(path, std::string(text) + " is beyond the world file's limit of " + limit +
+                          " (WorldFileLimits::max_abs_value_m: every coordinate and size, in metres)");
+  }
 
   bool fail(const std::string& path, const std::string& message) {
     if (error.empty()) error = (path.empty() ? std::string("(top level)") : path) + ": " + message;
@@ -103,7 +118,7 @@ class Reader {
     if (!j.is_number()) return fail(path, "expected a number");
     *out = j.get<double>();
     if (!std::isfinite(*out)) return fail(path, "expected a finite number");
-    return true;
+    return within_limit(*out, path);
   }
   bool number_field(const json& obj, const std::string& path, const char* key, double* out, bool required) {
     const json* f = required ? require(obj, path, key) : find(obj, key);
@@ -135,6 +150,8 @@ class Reader {
     if (!j.is_array() || j.size() != 2 || !j[0].is_number() || !j[1].is_number()) return fail(path, "expected [x, y]");
     *out = Eigen::Vector2d(j[0].get<double>(), j[1].get<double>());
     if (!out->allFinite()) return fail(path, "expected finite coordinates");
+    for (int i = 0; i < 2; ++i)
+      if (!within_limit((*out)[i], index_path(path, static_cast<std::size_t>(i)))) return false;
     return true;
   }
   bool vec3(const json& j, const std::string& path, Eigen::Vector3d* out) {
@@ -142,6 +159,8 @@ class Reader {
       return fail(path, "expected [x, y, z]");
     *out = Eigen::Vector3d(j[0].get<double>(), j[1].get<double>(), j[2].get<double>());
     if (!out->allFinite()) return fail(path, "expected finite coordinates");
+    for (int i = 0; i < 3; ++i)
+      if (!within_limit((*out)[i], index_path(path, static_cast<std::size_t>(i)))) return false;
     return true;
   }
   bool vec2_field(const json& obj, const std::string& path, const char* key, Eigen::Vector2d* out) {
@@ -655,7 +674,7 @@ bool write_world_file(const World& world, const std::string& path, std::string* 
   return true;
 }
 
-WorldResult parse_world_json(const std::string& text, const std::string& source_name) {
+WorldResult parse_world_json(const std::string& text, const std::string& source_name, const WorldFileLimits& limits) {
   WorldResult result;
   json root;
   // Line and column (1-based) of a byte offset into the text.
@@ -672,23 +691,27 @@ WorldResult parse_world_json(const std::string& text, const std::string& source_
     }
     return source_name + ":" + std::to_string(line) + ":" + std::to_string(column);
   };
-  try {
-    root = json::parse(text);
-  } catch (const json::parse_error& e) {
-    std::string detail = e.what();
-    const std::size_t at = detail.find("syntax error");
-    if (at != std::string::npos) detail = detail.substr(at);
-    result.error = position(e.byte > 0 ? e.byte - 1 : 0) + ": JSON " + detail;
-    return result;
-  } catch (const std::exception& e) {
-    // Number overflow has no position; locate the quoted token the message names.
-    const std::string what = e.what();
-    const std::size_t q0 = what.find('\''), q1 = q0 == std::string::npos ? q0 : what.find('\'', q0 + 1);
-    const std::size_t found = q1 == std::string::npos ? std::string::npos : text.find(what.substr(q0 + 1, q1 - q0 - 1));
-    result.error = (found == std::string::npos ? source_name : position(found)) + ": cannot parse JSON: " + what;
+  json_guard::ParseFailure failure;
+  if (!json_guard::parse(text, json_guard::Limits{}, &root, &failure)) {
+    using Kind = json_guard::ParseFailure::Kind;
+    if (failure.kind == Kind::kSyntax && failure.byte != std::string::npos) {
+      std::string detail = failure.message;
+      const std::size_t at = detail.find("syntax error");
+      if (at != std::string::npos) detail = detail.substr(at);
+      result.error = position(failure.byte > 0 ? failure.byte - 1 : 0) + ": JSON " + detail;
+    } else if (failure.kind == Kind::kNumberRange) {
+      // Number overflow has no position; locate the quoted token the message names.
+      const std::string& what = failure.message;
+      const std::size_t q0 = what.find('\''), q1 = q0 == std::string::npos ? q0 : what.find('\'', q0 + 1);
+      const std::size_t found = q1 == std::string::npos ? std::string::npos : text.find(what.substr(q0 + 1, q1 - q0 - 1));
+      result.error = (found == std::string::npos ? source_name : position(found)) + ": cannot parse JSON: " + what;
+    } else {
+      result.error = source_name + ": " + failure.message;  // depth and duplicated keys name the path
+    }
     return result;
   }
   Reader rd;
+  rd.max_abs_value = limits.max_abs_value_m;
   bool ok = false;
   try {
     ok = parse_world(root, rd, result.world);
@@ -704,7 +727,7 @@ WorldResult parse_world_json(const std::string& text, const std::string& source_
   return result;
 }
 
-WorldResult read_world_file(const std::string& path) {
+WorldResult read_world_file(const std::string& path, const WorldFileLimits& limits) {
   std::ifstream file(path, std::ios::binary);
   if (!file) {
     WorldResult r;
@@ -713,7 +736,7 @@ WorldResult read_world_file(const std::string& path) {
   }
   std::stringstream buffer;
   buffer << file.rdbuf();
-  return parse_world_json(buffer.str(), path);
+  return parse_world_json(buffer.str(), path, limits);
 }
 
 bool worlds_equal(const World& a, const World& b, std::string* difference) {

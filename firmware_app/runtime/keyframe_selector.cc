@@ -7,7 +7,9 @@ namespace qsg::runtime {
 
 std::string KeyframeConfig::check() const {
   if (!(min_interval_s >= 0.0 && max_interval_s > min_interval_s)) return "need 0 <= min_interval_s < max_interval_s";
-  if (!(min_translation_m >= 0.0 && min_rotation_rad >= 0.0)) return "min_translation_m and min_rotation_rad must be >= 0";
+  if (!(max_interval_s <= 3600.0)) return "max_interval_s must be at most 3600 s";
+  if (!(min_translation_m >= 0.0 && min_translation_m <= 100.0)) return "min_translation_m must be in [0, 100] m";
+  if (!(min_rotation_rad >= 0.0 && min_rotation_rad <= 3.1416)) return "min_rotation_rad must be in [0, pi]";
   return {};
 }
 

@@ -2,6 +2,11 @@
 // state, every store below its capacity, outputs written atomically and readable.
 #include <gtest/gtest.h>
 
+#include <fcntl.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -9,6 +14,9 @@
 #include <memory>
 #include <sstream>
 #include <tuple>
+#include <vector>
+
+#include <opencv2/imgcodecs.hpp>
 
 #include "core/reconstruction/ply_writer.h"
 #include "core/scene_graph/spark_dsg_json.h"
@@ -18,9 +26,13 @@
 #include "drivers/v4l2/fake_v4l2_device.h"
 #include "drivers/world/building_generator.h"
 #include "drivers/world/world_query.h"
+#include "firmware_app/graph_picture.h"
 #include "firmware_app/pipeline.h"
 #include "tests/support/allocation_counter.h"
+#include "tests/support/emulation.h"
 #include "tests/support/test_data.h"
+
+extern char** environ;
 
 namespace qsg::app {
 namespace {
@@ -120,6 +132,93 @@ TEST(PipelineTest, StopWritesFinalOutputsAndSnapshotsReplaceAtomically) {
   reconstruction::Mesh mesh;
   ASSERT_TRUE(reconstruction::read_ply(config.output_dir + "/mesh.ply", &mesh, &error)) << error;
   EXPECT_GT(mesh.triangles.size(), 1000u);
+}
+
+std::string file_text(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+// Every final output replaces its file by rename (issue 36): a hard link to the previous file keeps the previous
+// content, which a write in place would have overwritten; no temporary file is left.
+TEST(PipelineTest, FinalOutputsReplaceTheirFilesAtomically) {
+  runtime::SteppedClock clock;
+  Pipeline p;
+  std::string error;
+  AppConfig config = small_config("atomic_outputs");
+  std::filesystem::remove_all(config.output_dir);
+  ASSERT_TRUE(p.init(config, &clock, &error)) << error;
+  const std::vector<std::string> outputs = {"scene_graph.json", "mesh.ply", "top_down.png", "trajectory_estimate.txt",
+                                            "trajectory_ground_truth.txt"};
+  for (const std::string& name : outputs) {
+    std::ofstream(config.output_dir + "/" + name) << "previous " << name;
+    std::filesystem::create_hard_link(config.output_dir + "/" + name, config.output_dir + "/old_" + name);
+  }
+  for (int k = 0; k < 600 && p.step(); ++k) {
+  }
+  p.request_stop();
+  EXPECT_FALSE(p.step());
+  ASSERT_TRUE(p.finish(&error)) << error;
+  for (const std::string& name : outputs) {
+    EXPECT_EQ(file_text(config.output_dir + "/old_" + name), "previous " + name) << name << " was written in place";
+    EXPECT_NE(file_text(config.output_dir + "/" + name), "previous " + name) << name << " was not replaced";
+    EXPECT_FALSE(std::filesystem::exists(config.output_dir + "/" + name + ".tmp")) << name;
+  }
+  cv::Mat picture = cv::imread(config.output_dir + "/top_down.png");
+  EXPECT_FALSE(picture.empty());
+}
+
+// One output that cannot be written (here top_down.png is a folder) is a named error, and every other output is
+// still written.
+TEST(PipelineTest, AnOutputThatFailsDoesNotTakeTheOthersDown) {
+  runtime::SteppedClock clock;
+  Pipeline p;
+  std::string error;
+  AppConfig config = small_config("picture_fails");
+  std::filesystem::remove_all(config.output_dir);
+  ASSERT_TRUE(p.init(config, &clock, &error)) << error;
+  std::filesystem::create_directories(config.output_dir + "/top_down.png/occupied");
+  for (int k = 0; k < 600 && p.step(); ++k) {
+  }
+  p.request_stop();
+  EXPECT_FALSE(p.step());
+  EXPECT_FALSE(p.finish(&error));
+  EXPECT_NE(error.find("top_down.png"), std::string::npos) << error;
+  for (const char* name : {"scene_graph.json", "mesh.ply", "trajectory_estimate.txt"})
+    EXPECT_TRUE(std::filesystem::is_regular_file(config.output_dir + "/" + name)) << name;
+  EXPECT_FALSE(std::filesystem::exists(config.output_dir + "/top_down.png.tmp"));
+}
+
+// Regression (issue 36): one ground-truth pose 20 km off framed the replay's picture at 100,000 x 100,000 px (30 GB)
+// and aborted the app at the very end. The picture's scale drops to keep it within its side limit.
+TEST(GraphPictureTest, AFarOffPoseShrinksThePictureInsteadOfGrowingIt) {
+  scene_graph::SceneGraph graph;
+  std::string error;
+  ASSERT_TRUE(graph.init(scene_graph::capacities_from_budget(), scene_graph::arena_bytes_from_budget(), &error)) << error;
+  const std::string path = ::testing::TempDir() + "/qsg_far_pose_top_down.png";
+  std::vector<Eigen::Vector3d> trajectory = {{0.0, 0.0, 0.0}, {1.0, 1.0, 0.0}, {20000.0, 20000.0, 0.0}, {2.0, 1.0, 0.0}};
+  ASSERT_TRUE(write_graph_picture(graph, world::World(), trajectory, path, &error)) << error;
+  cv::Mat picture = cv::imread(path);
+  ASSERT_FALSE(picture.empty());
+  EXPECT_LE(picture.cols, GraphPictureConfig{}.max_side_px);
+  EXPECT_LE(picture.rows, GraphPictureConfig{}.max_side_px);
+  EXPECT_GT(picture.cols, 1000);  // still the full frame, at a smaller scale
+  GraphPictureConfig small;
+  small.max_side_px = 512;
+  ASSERT_TRUE(write_graph_picture(graph, world::World(), trajectory, path, &error, small)) << error;
+  picture = cv::imread(path);
+  EXPECT_LE(picture.cols, 512);
+  EXPECT_LE(picture.rows, 512);
+  // Non-finite or absurd poses are left out of the frame rather than poisoning it.
+  trajectory.push_back({std::nan(""), 1.0, 0.0});
+  trajectory.push_back({-1e308, 1e308, 0.0});
+  EXPECT_TRUE(write_graph_picture(graph, world::World(), trajectory, path, &error, small)) << error;
+  small.max_side_px = 10;
+  EXPECT_FALSE(write_graph_picture(graph, world::World(), trajectory, path, &error, small));
+  EXPECT_NE(error.find("max_side_px must be in [256, 16384]"), std::string::npos) << error;
+  std::remove(path.c_str());
 }
 
 // When the run finishes, doors found on the final surface close place edges, and the rooms are found again.
@@ -325,12 +424,11 @@ TEST(PipelineReplayTest, Kinect5SampleIntegratesEveryFrameWithItsCamera) {
   run_replay_sample({"kinect5", "slambook2_kinect.json", {640, 480, 518.0, 519.0, 325.5, 253.5}, 0.001f});
 }
 
-// qsg_simulate's output (TumWriter with calibration.json) at 320x240 replays through the app with its own camera.
-TEST(PipelineReplayTest, SimulatorOutputAt320x240ReplaysWithItsCamera) {
-  const std::string dir = ::testing::TempDir() + "/qsg_pipeline_replay_sim_tum";
+// A few frames of the small building from the simulated camera at 320x240, written as qsg_simulate writes them
+// (TumWriter with calibration.json and groundtruth.txt) into a fresh folder.
+void write_simulated_tum(const std::string& dir, int frames) {
   std::filesystem::remove_all(dir);
   std::string error;
-  // A few frames of the small building from the simulated camera, written as qsg_simulate writes them.
   const world::World world = world::generate_building(small_config("replay_sim_source").building);
   render::RayScene scene;
   ASSERT_TRUE(scene.build(world, &error)) << error;
@@ -346,7 +444,7 @@ TEST(PipelineReplayTest, SimulatorOutputAt320x240ReplaysWithItsCamera) {
   replay::TumWriter writer;
   ASSERT_TRUE(writer.open(dir, replay::TumWriter::Config{}, &error)) << error;
   auto frame = std::make_unique<drivers::RgbdFrame>();
-  for (int i = 0; i < 8 && camera.read(*frame, 0) == drivers::ReadStatus::kOk; ++i) {
+  for (int i = 0; i < frames && camera.read(*frame, 0) == drivers::ReadStatus::kOk; ++i) {
     Eigen::Isometry3d world_T_camera;
     ASSERT_TRUE(camera.camera_pose(frame->sequence, &world_T_camera, nullptr));
     ASSERT_TRUE(writer.write_frame(*frame, &error)) << error;
@@ -354,7 +452,42 @@ TEST(PipelineReplayTest, SimulatorOutputAt320x240ReplaysWithItsCamera) {
         << error;
   }
   ASSERT_TRUE(writer.close(&error)) << error;
+}
 
+// The depth images a TUM list names, in order.
+std::vector<std::string> listed_depth_files(const std::string& dir) {
+  std::vector<std::string> files;
+  std::ifstream in(dir + "/depth.txt");
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream fields(line);
+    std::string stamp, file;
+    if (fields >> stamp >> file) files.push_back(dir + "/" + file);
+  }
+  return files;
+}
+
+AppConfig replay_config(const std::string& name, const std::string& dir) {
+  AppConfig c = small_config(name);
+  c.driver = Driver::kReplay;
+  c.replay_path = dir;
+  c.keyframes.min_translation_m = 0.0;
+  c.keyframes.min_rotation_rad = 0.0;
+  return c;
+}
+
+void run_to_end(Pipeline& p) {
+  for (int i = 0; i < 5000 && p.step(); ++i) {
+  }
+  EXPECT_TRUE(p.done());
+}
+
+// qsg_simulate's output (TumWriter with calibration.json) at 320x240 replays through the app with its own camera.
+TEST(PipelineReplayTest, SimulatorOutputAt320x240ReplaysWithItsCamera) {
+  const std::string dir = ::testing::TempDir() + "/qsg_pipeline_replay_sim_tum";
+  write_simulated_tum(dir, 8);
+  std::string error;
   AppConfig c = small_config("replay_sim");
   c.driver = Driver::kReplay;
   c.replay_path = dir;
@@ -371,6 +504,126 @@ TEST(PipelineReplayTest, SimulatorOutputAt320x240ReplaysWithItsCamera) {
   EXPECT_EQ(p.counters().frames_read, 8u);
   EXPECT_EQ(p.counters().frames_bad, 0u);
   EXPECT_EQ(p.counters().keyframes_integrated, 8u);
+  EXPECT_EQ(p.nothing_mapped_reason(), "");
+}
+
+// Issue 36, item 4: a missing frame file is counted and skipped, not a start-up error (unless the config asks
+// for the check at open).
+TEST(PipelineReplayTest, AMissingFileIsCountedAndTheReplayGoesOn) {
+  const std::string dir = ::testing::TempDir() + "/qsg_pipeline_replay_missing";
+  write_simulated_tum(dir, 8);
+  const std::vector<std::string> depth = listed_depth_files(dir);
+  ASSERT_EQ(depth.size(), 8u);
+  ASSERT_TRUE(std::filesystem::remove(depth[3]));
+  std::string error;
+  runtime::SteppedClock clock;
+  Pipeline p;
+  ASSERT_TRUE(p.init(replay_config("replay_missing", dir), &clock, &error)) << error;
+  run_to_end(p);
+  EXPECT_EQ(p.camera()->counters().missing_files, 1u);
+  EXPECT_EQ(p.counters().frames_read, 7u);
+  EXPECT_EQ(p.counters().keyframes_integrated, 7u);
+  EXPECT_EQ(p.nothing_mapped_reason(), "");
+  // The strict check, asked for, refuses the dataset at start-up naming the file.
+  AppConfig strict = replay_config("replay_missing_strict", dir);
+  strict.replay.check_files_at_open = true;
+  Pipeline q;
+  EXPECT_FALSE(q.init(strict, &clock, &error));
+  EXPECT_NE(error.find("listed file '" + depth[3] + "' not found"), std::string::npos) << error;
+  AppConfig loaded;
+  std::ofstream(::testing::TempDir() + "/strict_replay.json") << "{\"replay\": {\"check_files_at_open\": true}}";
+  ASSERT_TRUE(loaded.load(::testing::TempDir() + "/strict_replay.json", &error)) << error;
+  EXPECT_TRUE(loaded.replay.check_files_at_open);
+  EXPECT_FALSE(AppConfig().replay.check_files_at_open);
+}
+
+// An empty or all-rejected input is named, with the counts that explain it (qsg_app exits 3 on it).
+TEST(PipelineReplayTest, AnEmptyOrAllRejectedInputIsNamed) {
+  const std::string dir = ::testing::TempDir() + "/qsg_pipeline_replay_rejected";
+  std::string error;
+  runtime::SteppedClock clock;
+  {
+    write_simulated_tum(dir, 0);
+    Pipeline p;
+    EXPECT_FALSE(p.init(replay_config("replay_empty", dir), &clock, &error));
+    EXPECT_NE(error.find("replay: '" + dir + "' lists no frames: nothing to map"), std::string::npos) << error;
+  }
+  {
+    write_simulated_tum(dir, 8);
+    for (const std::string& f : listed_depth_files(dir)) ASSERT_TRUE(std::filesystem::remove(f));
+    Pipeline p;
+    ASSERT_TRUE(p.init(replay_config("replay_all_missing", dir), &clock, &error)) << error;
+    run_to_end(p);
+    EXPECT_EQ(p.nothing_mapped_reason(),
+              "no keyframe was integrated: 0 frames read (0 bad, 8 missing files, 0 without a pose, 0 while paused), "
+              "0 keyframes (0 refused by the reconstruction)");
+  }
+  {
+    write_simulated_tum(dir, 8);
+    // Ground truth that covers none of the frames: every frame is dropped without a pose.
+    std::ofstream(dir + "/groundtruth.txt") << "# timestamp tx ty tz qx qy qz qw\n"
+                                               "1000.0 0 0 0 0 0 0 1\n1000.1 0 0 0 0 0 0 1\n";
+    Pipeline p;
+    ASSERT_TRUE(p.init(replay_config("replay_no_pose", dir), &clock, &error)) << error;
+    run_to_end(p);
+    EXPECT_EQ(p.counters().frames_read, 8u);
+    EXPECT_EQ(p.nothing_mapped_reason(),
+              "no keyframe was integrated: 8 frames read (0 bad, 0 missing files, 8 without a pose, 0 while paused), "
+              "0 keyframes (0 refused by the reconstruction)");
+  }
+}
+
+// Runs qsg_app with `args`; its exit status (-1 if it did not exit normally: a signal such as SIGABRT) and what it
+// printed on stdout and stderr.
+int run_app(const std::vector<std::string>& args, const std::string& log_path, std::string* output) {
+  std::vector<std::string> all = {QSG_APP_PATH};
+  all.insert(all.end(), args.begin(), args.end());
+  std::vector<char*> argv;
+  for (std::string& a : all) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, log_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  posix_spawn_file_actions_adddup2(&actions, STDOUT_FILENO, STDERR_FILENO);
+  pid_t pid = 0;
+  const int spawned = ::posix_spawn(&pid, argv[0], &actions, nullptr, argv.data(), environ);
+  posix_spawn_file_actions_destroy(&actions);
+  if (spawned != 0) return -2;
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  *output = file_text(log_path);
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+// Issue 36 end to end: `qsg_app --convert` on a number outside the double range exits 1 with the reader's named
+// error (it aborted, 134), and a replay that maps nothing exits 3 saying why, its outputs written.
+TEST(AppExitStatusTest, BadInputEndsWithANamedErrorAndAnExitStatusNotAnAbort) {
+  if (qsg::testing::running_emulated())
+    GTEST_SKIP() << "under qemu-user a test cannot start the arm64 qsg_app (no binfmt_misc)";
+  const std::string dir = ::testing::TempDir() + "/qsg_app_exit_status";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  std::ofstream(dir + "/big.json") << "{\"nodes\": [], \"edges\": [], \"x\": 1e400}";
+  std::string output;
+  EXPECT_EQ(run_app({"--convert", dir + "/big.json", dir + "/out.json"}, dir + "/convert.log", &output), 1) << output;
+  EXPECT_NE(output.find("qsg_app: " + dir + "/big.json: (document): a number outside the double range (number "
+                        "overflow parsing '1e400')"),
+            std::string::npos)
+      << output;
+
+  const std::string data = dir + "/all_missing";
+  write_simulated_tum(data, 4);
+  for (const std::string& f : listed_depth_files(data)) ASSERT_TRUE(std::filesystem::remove(f));
+  EXPECT_EQ(run_app({"--driver", "replay", "--replay", data, "--output", dir + "/out", "--quiet"}, dir + "/replay.log",
+                    &output),
+            3)
+      << output;
+  EXPECT_NE(output.find("qsg_app: nothing was mapped: no keyframe was integrated: 0 frames read (0 bad, 4 missing "
+                        "files"),
+            std::string::npos)
+      << output;
+  for (const char* name : {"scene_graph.json", "mesh.ply", "top_down.png", "trajectory_estimate.txt"})
+    EXPECT_TRUE(std::filesystem::exists(dir + "/out/" + name)) << name;
 }
 
 TEST(PipelineTest, MissingRoomWeightsLeaveRoomsUnknownAndTheRunGoesOn) {
@@ -412,6 +665,74 @@ TEST(PipelineTest, BadConfigAndUnwritableOutputAreClearErrors) {
   std::string why;
   EXPECT_FALSE(write_file_atomically("/proc/qsg_no/x.json", "{}", &why));
   EXPECT_FALSE(why.empty());
+}
+
+// Issue 36, item 5: integers must be integers within their type, duplicated keys are errors, and every section is
+// range-checked whatever the driver.
+TEST(AppConfigTest, RefusesNonsense) {
+  const std::string dir = ::testing::TempDir();
+  const auto write = [&](const std::string& name, const std::string& text) {
+    std::ofstream(dir + "/" + name) << text;
+    return dir + "/" + name;
+  };
+  const std::string deep = "{\"building\": " + std::string(40, '[') + std::string(40, ']') + "}";
+  for (const auto& [file, text, expected] : {
+           std::tuple{"wrap.json", "{\"gpio\": {\"heartbeat_line\": 4294967296}}",
+                      "gpio.heartbeat_line: expected an integer in [-2147483648, 2147483647], got 4294967296"},
+           std::tuple{"fraction.json", "{\"building\": {\"num_rooms\": 1.5}}",
+                      "building.num_rooms: expected an integer in [-2147483648, 2147483647], got 1.5"},
+           std::tuple{"negative_seed.json", "{\"building\": {\"seed\": -1}}",
+                      "building.seed: expected an integer in [0, 18446744073709551615], got -1"},
+           std::tuple{"width_text.json", "{\"camera\": {\"width\": \"320\"}}", "camera.width: expected an integer"},
+           std::tuple{"float_range.json", "{\"segmentation\": {\"min_confidence\": 1e39}}",
+                      "segmentation.min_confidence: expected a number within the range of its type, got 1e+39"},
+           std::tuple{"overflow.json", "{\"duration_s\": 1e400}",
+                      "not valid JSON: a number outside the double range (number overflow parsing '1e400')"},
+           std::tuple{"duplicate.json", "{\"duration_s\": 5, \"duration_s\": 6}", "': duration_s: duplicated key"},
+           std::tuple{"duplicate_nested.json", "{\"building\": {\"seed\": 1, \"num_rooms\": 4, \"seed\": 2}}",
+                      "': building.seed: duplicated key"},
+           std::tuple{"deep.json", deep.c_str(), "nested deeper than 32 levels"},
+           // Sections of a driver that is not selected are checked all the same.
+           std::tuple{"v4l2_unused.json", "{\"driver\": \"sim\", \"v4l2\": {\"width\": 100000}}",
+                      "v4l2: width x height must be within 16x16 .. 640x480"},
+           std::tuple{"v4l2_scale.json", "{\"v4l2\": {\"depth_scale_m\": 0}}", "v4l2.depth_scale_m must be in (0, 1]"},
+           std::tuple{"v4l2_fx.json", "{\"v4l2\": {\"fx\": -5}}", "v4l2.fx and v4l2.fy must be 0"},
+           // Upper bounds.
+           std::tuple{"snapshot.json", "{\"snapshot_interval_s\": 1e300}", "snapshot_interval_s must be in (0, 1e9]"},
+           std::tuple{"duration.json", "{\"duration_s\": 1e12}", "duration_s must be in [0, 1e9]"},
+           std::tuple{"deadline.json", "{\"segmentation\": {\"deadline_s\": 1e6}}", "segmentation.deadline_s must be in (0, 60]"},
+           std::tuple{"confidence.json", "{\"segmentation\": {\"min_confidence\": 2}}",
+                      "segmentation.min_confidence must be in [0, 1]"},
+           std::tuple{"trigger.json", "{\"gpio\": {\"trigger_width_s\": 5}}", "gpio.trigger_width_s must be in (0, 1]"},
+           std::tuple{"range.json", "{\"reconstruction\": {\"max_range_m\": 1e9, \"window_radius_m\": 2e9}}",
+                      "reconstruction: max_range_m must be at most 50 m"},
+           std::tuple{"archive.json", "{\"reconstruction\": {\"archive_resolution_m\": 1e6}}",
+                      "archive_resolution_m must be in (0, 1] m"},
+           std::tuple{"keyframe_interval.json", "{\"keyframes\": {\"max_interval_s\": 1e12}}",
+                      "keyframes: max_interval_s must be at most 3600 s"},
+           std::tuple{"keyframe_rotation.json", "{\"keyframes\": {\"min_rotation_rad\": 7}}",
+                      "keyframes: min_rotation_rad must be in [0, pi]"},
+           std::tuple{"places_window.json", "{\"places\": {\"window_radius_m\": 1e6}}",
+                      "places: window_radius_m must be in (0, 100] m"},
+       }) {
+    AppConfig c;
+    std::string error;
+    EXPECT_FALSE(c.load(write(file, text), &error)) << file;
+    EXPECT_NE(error.find(expected), std::string::npos) << file << ": '" << error << "' does not say '" << expected << "'";
+    EXPECT_EQ(error.rfind("config '" + dir + "/" + file + "'", 0), 0u) << error;
+  }
+  // What is right still loads: integers where integers are due, whole or fractional numbers for doubles.
+  AppConfig good;
+  std::string error;
+  ASSERT_TRUE(good.load(write("good_numbers.json", "{\"building\": {\"seed\": 18446744073709551615, \"num_rooms\": 6},"
+                                                   " \"gpio\": {\"heartbeat_line\": 1023, \"trigger_line\": -1},"
+                                                   " \"duration_s\": 12, \"snapshot_interval_s\": 2.5}"),
+                        &error))
+      << error;
+  EXPECT_EQ(good.building.seed, 18446744073709551615ull);
+  EXPECT_EQ(good.gpio.heartbeat_line, 1023);
+  EXPECT_EQ(good.gpio.trigger_line, -1);
+  EXPECT_EQ(good.duration_s, 12.0);
 }
 
 TEST(AppConfigTest, LoadsKnownKeysAndNamesBadOnes) {

@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "core/json/json_guard.h"
 #include "tests/scene_graph/test_graph.h"
 #include "tests/support/test_data.h"
 
@@ -220,6 +221,30 @@ TEST_F(MalformedJsonTest, WrongTypesNameTheField) {
   doc.erase("nodes");
   expect_rejected(doc.dump(), "nodes");
   expect_rejected("[1, 2, 3]", "(document)");
+}
+
+// Regression (issue 36): a number outside the double range escaped the reader as an exception and aborted
+// `qsg_app --convert`.
+TEST_F(MalformedJsonTest, NumberOutsideTheDoubleRangeIsANamedError) {
+  std::string text = valid_.dump();
+  const std::string key = "\"distance\":";
+  std::size_t at = text.find(key);
+  ASSERT_NE(at, std::string::npos);
+  at += key.size();
+  const std::size_t end = text.find_first_of(",}", at);
+  text.replace(at, end - at, "1e400");
+  expect_rejected(text, "(document): a number outside the double range");
+  expect_rejected(text, "1e400");
+  expect_rejected("{\"nodes\": [], \"edges\": [], \"x\": -1e400}", "number overflow");
+}
+
+// Deep nesting is refused while parsing, by a named limit, instead of recursing through it.
+TEST_F(MalformedJsonTest, NestingDeeperThanTheLimitIsANamedError) {
+  const int depth = 100000;
+  const std::string text =
+      "{\"nodes\": [], \"edges\": [], \"mesh\": " + std::string(depth, '[') + std::string(depth, ']') + "}";
+  expect_rejected(text, "mesh");
+  expect_rejected(text, "nested deeper than " + std::to_string(json_guard::kDefaultMaxDepth) + " levels");
 }
 
 TEST_F(MalformedJsonTest, GraphRuleViolationsAreRejectedBeforeAnyChange) {

@@ -182,5 +182,33 @@ TEST(RayScene, EmptyWorldAndPlanesOnly) {
   EXPECT_FALSE(scene.intersect(Eigen::Vector3d::Zero(), Eigen::Vector3d(1.0, 0.0, -1.0), 0.0, 1.5, &hit));
 }
 
+// Regression (issue 36): a box of 1e308 m made the BVH build divide infinities and crash. Shapes beyond the
+// scene's float limit are refused by name and leave the scene empty.
+TEST(RayScene, ShapesBeyondTheFloatLimitAreRefusedByName) {
+  world::World w;
+  world::BoxShape b;
+  b.center_m = {0.0, 0.0, 0.0};
+  b.half_extents_m = {5e307, 5e307, 0.5};
+  w.add_box(b, label_material(1));
+  RayScene scene;
+  std::string error;
+  EXPECT_FALSE(scene.build(w, &error));
+  EXPECT_NE(error.find("shapes[0]"), std::string::npos) << error;
+  EXPECT_NE(error.find("exceed the ray scene's limit of +-1e+06 m"), std::string::npos) << error;
+  EXPECT_FALSE(scene.built());
+  world::World cylinder;
+  world::CylinderShape c;
+  c.base_center_m = {2e6, 0.0, 0.0};
+  c.radius_m = 1.0;
+  c.height_m = 1.0;
+  cylinder.add_cylinder(c, label_material(1));
+  EXPECT_FALSE(scene.build(cylinder, &error));
+  EXPECT_NE(error.find("limit of +-1e+06 m"), std::string::npos) << error;
+  b.half_extents_m = {1000.0, 1000.0, 0.5};  // large but within the limit
+  world::World ok;
+  ok.add_box(b, label_material(1));
+  EXPECT_TRUE(scene.build(ok, &error)) << error;
+}
+
 }  // namespace
 }  // namespace qsg::render

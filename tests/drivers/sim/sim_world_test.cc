@@ -154,6 +154,32 @@ TEST(ExplorationTest, HandHeldHeightAndConfigErrors) {
   EXPECT_NE(plan_exploration(p->world, p->scene, *p->free_space, config).error.find("start room 42"), std::string::npos);
 }
 
+// Regression (issue 36): a world shape of 2^31 m aborted the planner (its grid's size overflowed) and 1e6 m took
+// 11 GB. A world wider than the grid budget is refused by name before the grid exists.
+TEST(ExplorationTest, AWorldWiderThanTheGridBudgetIsRefusedByName) {
+  world::World w = box_room();
+  world::BoxShape far;
+  far.center_m = {900.0, 900.0, 0.5};  // 900 m away: 9,000 x 9,000 cells at 0.1 m, past 4 Mi
+  far.half_extents_m = {0.5, 0.5, 0.5};
+  world::Material m;
+  m.label = semantics::kWall;
+  w.add_box(far, m);
+  auto p = prepare(w);
+  ExplorationConfig config;
+  const ExplorationResult r = plan_exploration(p->world, p->scene, *p->free_space, config);
+  EXPECT_FALSE(r.ok);
+  EXPECT_NE(r.error.find("exploration: the world's x-y extent (900.7 m x 900.7 m) needs"), std::string::npos) << r.error;
+  EXPECT_NE(r.error.find("more than max_grid_cells (4194304)"), std::string::npos) << r.error;
+  EXPECT_TRUE(r.trajectory.empty());
+  // The budget is the config's: a coarser grid fits the same world.
+  config.resolution_m = 0.5;
+  EXPECT_EQ(plan_exploration(p->world, p->scene, *p->free_space, config).error.find("max_grid_cells"), std::string::npos);
+  config = ExplorationConfig{};
+  config.max_grid_cells = 0;
+  EXPECT_NE(plan_exploration(p->world, p->scene, *p->free_space, config).error.find("max_grid_cells must be in"),
+            std::string::npos);
+}
+
 // A 10 x 8 m floor plan: a ring corridor around a walled 4 x 3 m block (x 3-7 m, y 2.5-5.5 m) whose room opens by a
 // door door_px pixels (5 cm each) wide in its bottom wall, centred at x 5 m; the ground truth closes the doorway.
 world::World ring_plan(int door_px) {

@@ -4,6 +4,9 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdint>
+#include <fstream>
+#include <string>
 #include <vector>
 
 #include <opencv2/imgcodecs.hpp>
@@ -11,6 +14,7 @@
 
 #include "drivers/world/world_file.h"
 #include "drivers/world/world_query.h"
+#include "tests/support/temp_dir.h"
 #include "tests/support/test_data.h"
 
 namespace qsg::world {
@@ -185,6 +189,83 @@ TEST(FloorPlanImport, BadInputGivesClearErrors) {
   r = import_floor_plan_files("/nonexistent/plan.png", "", FloorPlanConfig());
   EXPECT_FALSE(r.ok);
   EXPECT_NE(r.error.find("/nonexistent/plan.png"), std::string::npos) << r.error;
+}
+
+// A PNG of only a signature and an IHDR chunk claiming width x height (nothing a decoder could use).
+std::string png_header_only(std::uint32_t width, std::uint32_t height) {
+  std::string bytes("\x89PNG\r\n\x1a\n", 8);
+  const auto be32 = [&](std::uint32_t v) {
+    for (int shift = 24; shift >= 0; shift -= 8) bytes.push_back(static_cast<char>((v >> shift) & 0xFF));
+  };
+  be32(13);
+  bytes += "IHDR";
+  be32(width);
+  be32(height);
+  bytes += std::string("\x08\x00\x00\x00\x00", 5);  // 8-bit grey
+  be32(0);                                             // CRC (not checked before the size)
+  return bytes;
+}
+
+// Regression (issue 36): a floor plan whose header claims 65535 x 65535 aborted the importer (OpenCV threw from
+// imread). Its size is now read from the header and refused by name before anything is decoded.
+TEST(FloorPlanImport, ImagesLargerThanTheLimitAreRefusedFromTheirHeader) {
+  qsg::testing::TempDir dir("qsg_floor_plan");
+  const std::string huge = dir.file("huge.png");
+  std::ofstream(huge, std::ios::binary) << png_header_only(65535, 65535);
+  int w = 0, h = 0;
+  std::string error;
+  ASSERT_TRUE(read_image_size(huge, &w, &h, &error)) << error;
+  EXPECT_EQ(w, 65535);
+  EXPECT_EQ(h, 65535);
+  const std::string expected = huge + ": image of 65535 x 65535 px exceeds the floor-plan limit (max_image_side_px 8192, "
+                                      "max_image_pixels 16777216)";
+  WorldResult r = import_floor_plan_files(huge, "", FloorPlanConfig());
+  EXPECT_FALSE(r.ok);
+  EXPECT_EQ(r.error, expected);
+  r = import_furnished_floor_plan_files(huge, huge, "", FloorPlanConfig());
+  EXPECT_EQ(r.error, expected);
+  // Within the side limit but past the pixel limit.
+  std::ofstream(dir.file("wide.png"), std::ios::binary) << png_header_only(8000, 4000);
+  r = import_floor_plan_files(dir.file("wide.png"), "", FloorPlanConfig());
+  EXPECT_NE(r.error.find("image of 8000 x 4000 px exceeds"), std::string::npos) << r.error;
+  // The ground truth is bounded the same way.
+  const SyntheticPlan plan;
+  ASSERT_TRUE(cv::imwrite(dir.file("plan.png"), plan.occupancy));
+  r = import_floor_plan_files(dir.file("plan.png"), huge, FloorPlanConfig());
+  EXPECT_EQ(r.error, expected);
+  // Not an image at all, and a header cut short.
+  std::ofstream(dir.file("text.png")) << "{\"not\": \"an image\"}";
+  r = import_floor_plan_files(dir.file("text.png"), "", FloorPlanConfig());
+  EXPECT_NE(r.error.find("not a PNG, JPEG, BMP or PNM image"), std::string::npos) << r.error;
+  std::ofstream(dir.file("cut.png"), std::ios::binary) << png_header_only(100, 100).substr(0, 20);
+  r = import_floor_plan_files(dir.file("cut.png"), "", FloorPlanConfig());
+  EXPECT_FALSE(r.ok);
+  // In-memory images obey the same limit.
+  FloorPlanConfig small;
+  small.max_image_side_px = 64;
+  r = import_floor_plan(plan.occupancy, plan.ground_truth, small);
+  EXPECT_NE(r.error.find("occupancy image of 160 x 120 px exceeds the floor-plan limit (max_image_side_px 64"),
+            std::string::npos)
+      << r.error;
+}
+
+// The header reader agrees with the decoder for every format it knows; a plan within the limits still imports.
+TEST(FloorPlanImport, ImageSizeFromTheHeaderOfEveryKnownFormat) {
+  qsg::testing::TempDir dir("qsg_floor_plan");
+  const SyntheticPlan plan;
+  for (const char* name : {"plan.png", "plan.jpg", "plan.bmp", "plan.pgm"}) {
+    const std::string path = dir.file(name);
+    ASSERT_TRUE(cv::imwrite(path, plan.occupancy)) << name;
+    int w = 0, h = 0;
+    std::string error;
+    ASSERT_TRUE(read_image_size(path, &w, &h, &error)) << name << ": " << error;
+    EXPECT_EQ(w, plan.occupancy.cols) << name;
+    EXPECT_EQ(h, plan.occupancy.rows) << name;
+  }
+  ASSERT_TRUE(cv::imwrite(dir.file("gt.png"), plan.ground_truth));
+  const WorldResult r = import_floor_plan_files(dir.file("plan.png"), dir.file("gt.png"), FloorPlanConfig());
+  ASSERT_TRUE(r.ok) << r.error;
+  EXPECT_EQ(r.world.rooms.size(), 2u);
 }
 
 TEST(FloorPlanImport, GroundTruthPathDropsTheFurnituresSuffix) {

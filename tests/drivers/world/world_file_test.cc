@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <fstream>
 #include <string>
+#include <utility>
 
 #include "drivers/world/building_generator.h"
 #include "drivers/world/world_geometry.h"
@@ -51,7 +52,7 @@ TEST(WorldFile, EveryShapeKindAndAwkwardNumbersRoundTrip) {
   m.texture_scale_m = 0.1f;
   BoxShape b;
   b.center_m = {1.0 / 3.0, -0.0, 1e-17};
-  b.half_extents_m = {0.1, 1e5 / 7.0, 2.5};
+  b.half_extents_m = {0.1, 1e3 / 7.0, 2.5};  // not exactly representable, within WorldFileLimits
   b.world_R_box = Eigen::Quaterniond(Eigen::AngleAxisd(0.3, Eigen::Vector3d(1, 2, 3).normalized()));
   w.add_box(b, m);
   w.add_box(yaw_box({1, 2, 3}, {0.4, 0.5, 0.6}, 2.0), m);
@@ -183,6 +184,60 @@ TEST(WorldFile, SyntaxErrorsGiveLineAndColumn) {
   const WorldResult empty = parse_world_json("", "empty.json");
   EXPECT_FALSE(empty.ok);
   EXPECT_EQ(empty.error.rfind("empty.json:1:", 0), 0u) << empty.error;
+}
+
+// Regressions (issue 36): 100,000 nested arrays overflowed the stack with the JSON library's recursive
+// destructor (nlohmann-json 3.7); shapes of 2^31 m and 1e308 m aborted the planner and the BVH build and 1e6 m
+// took 11 GB. The reader now refuses them by a named limit before anything is built.
+TEST(WorldFile, DeepNestingIsRefusedByName) {
+  const std::string deep = std::string(100000, '[') + std::string(100000, ']');
+  const WorldResult r = parse_world_json("{\"version\": 1, \"name\": " + deep + "}", "deep.json");
+  EXPECT_FALSE(r.ok);
+  EXPECT_EQ(r.error.rfind("deep.json: name[0]", 0), 0u) << r.error.substr(0, 200);
+  EXPECT_NE(r.error.find("nested deeper than 32 levels"), std::string::npos) << r.error.substr(0, 200);
+  // Legitimate depth (a room footprint: 6 levels) still reads.
+  EXPECT_TRUE(parse_world_json(R"({"version": 1, "rooms": [{"label": "kitchen", "footprint": [[[0,0],[1,0],[1,1]]]}]})",
+                               "ok.json")
+                  .ok);
+}
+
+TEST(WorldFile, DuplicatedKeysAreErrors) {
+  const WorldResult r = parse_world_json(R"({"version": 1, "rooms": [{"label": "kitchen", "label": "bedroom",
+      "footprint": [[[0,0],[1,0],[1,1]]]}]})", "dup.json");
+  EXPECT_FALSE(r.ok);
+  EXPECT_EQ(r.error, "dup.json: rooms[0].label: duplicated key");
+}
+
+TEST(WorldFile, HugeCoordinatesAndSizesAreRefusedByName) {
+  const auto box_of = [](const std::string& size) {
+    return R"({"version": 1, "rooms": [{"label": "kitchen", "footprint": [[[0,0],[4,0],[4,4],[0,4]]]}],
+      "shapes": [{"type": "box", "center": [0, 0, 0], "size": [)" + size + R"(, 1, 1], "material": {"label": "wall"}}]})";
+  };
+  for (const auto& [size, shown] : {std::pair{"2147483648", "2147483648"}, std::pair{"1e308", "1e+308"},
+                                    std::pair{"1e6", "1000000"}, std::pair{"-1000.5", "-1000.5"}}) {
+    const WorldResult r = parse_world_json(box_of(size), "big.json");
+    EXPECT_FALSE(r.ok) << size;
+    EXPECT_EQ(r.error, std::string("big.json: shapes[0].size[0]: ") + shown +
+                           " is beyond the world file's limit of 1000 (WorldFileLimits::max_abs_value_m: every "
+                           "coordinate and size, in metres)");
+    EXPECT_TRUE(r.world.shapes.empty());
+  }
+  EXPECT_TRUE(parse_world_json(box_of("1000"), "edge.json").ok);
+  // Every kind of number is bounded: scalars, 2D points, rotations.
+  const WorldResult radius = parse_world_json(
+      R"({"version": 1, "shapes": [{"type": "cylinder", "base": [0,0,0], "radius": 5000, "height": 1, "material": {"label": "wall"}}]})",
+      "r.json");
+  EXPECT_NE(radius.error.find("shapes[0].radius: 5000 is beyond"), std::string::npos) << radius.error;
+  const WorldResult door = parse_world_json(R"({"version": 1, "doors": [{"a": [0, 0], "b": [0, -2e9]}]})", "d.json");
+  EXPECT_NE(door.error.find("doors[0].b[1]: -2000000000 is beyond"), std::string::npos) << door.error;
+  const WorldResult yaw = parse_world_json(
+      R"({"version": 1, "objects": [{"label": "chair", "center": [0,0,0], "size": [1,1,1], "yaw": 1e300}]})", "y.json");
+  EXPECT_NE(yaw.error.find("objects[0].yaw: 1e+300 is beyond"), std::string::npos) << yaw.error;
+  // The limit is the caller's to set.
+  WorldFileLimits tight;
+  tight.max_abs_value_m = 50.0;
+  EXPECT_FALSE(parse_world_json(box_of("60"), "tight.json", tight).ok);
+  EXPECT_TRUE(parse_world_json(box_of("60"), "tight.json").ok);
 }
 
 TEST(WorldFile, FileErrorsNameTheFile) {
