@@ -35,6 +35,7 @@ struct ObjectLayer::Object {
   std::uint32_t key_head = kInvalidHandle;
   std::uint32_t key_tail = kInvalidHandle;
   std::uint32_t num_keys = 0;
+  std::uint64_t keys_seen = 0;  // distinct keys ever offered (the reservoir's count)
   std::uint64_t last_update_ns = 0;
   // Entry in the merge index (object_cells_), kept in step with the box by index_object().
   std::uint64_t index_cell = 0;
@@ -271,6 +272,7 @@ void Counters::print(std::FILE* out) const {
                " size %" PRIu64 ") removed=%" PRIu64 " index queries=%" PRIu64 " (scans %" PRIu64
                ", visits %" PRIu64 ") boxes_recomputed=%" PRIu64 " vertices stale=%" PRIu64
                " released=%" PRIu64 " blocks released=%" PRIu64 " keys repeated=%" PRIu64 " capped=%" PRIu64
+               " resampled=%" PRIu64
                " overflow: candidate=%" PRIu64 " tracked=%" PRIu64
                " key=%" PRIu64 " block=%" PRIu64 " object=%" PRIu64 " graph_node=%" PRIu64
                " graph_connection=%" PRIu64 "\n",
@@ -278,7 +280,7 @@ void Counters::print(std::FILE* out) const {
                clusters_joined, clusters_overlap_merged, objects_created, objects_merged, objects_overlap_merged,
                objects_intersect_merged, objects_size_merged, objects_removed, index_queries, index_scans, index_visits,
                boxes_recomputed, vertices_stale, vertices_released, blocks_released, keys_repeated, keys_capped,
-               candidate_overflow, tracked_overflow, key_overflow, block_overflow, object_overflow, graph_node_failures,
+               keys_resampled, candidate_overflow, tracked_overflow, key_overflow, block_overflow, object_overflow, graph_node_failures,
                graph_connection_failures);
 }
 
@@ -521,6 +523,7 @@ std::uint32_t ObjectLayer::create_object(semantics::Label label) {
   empty_box(o.lo, o.hi);
   empty_box(o.released_lo, o.released_hi);
   o.box_dirty = false;
+  o.keys_seen = 0;
   o.indexed = false;
   o.label_prev = kInvalidHandle;
   o.label_next = label_head_[label];
@@ -542,6 +545,7 @@ void ObjectLayer::release_keys(std::uint32_t h) {
   }
   o.key_head = o.key_tail = kInvalidHandle;
   o.num_keys = 0;
+  o.keys_seen = 0;
 }
 
 // Takes an object out of the merge index and its label's list, and frees its slot.
@@ -591,6 +595,7 @@ void ObjectLayer::merge_objects(std::uint32_t into, std::uint32_t from) {
     a.key_tail = b.key_tail;
     a.num_keys += b.num_keys;
   }
+  a.keys_seen += b.keys_seen;
   b.key_head = b.key_tail = kInvalidHandle;
   b.num_keys = 0;
   if (b.in_graph && !removed_nodes_.push_back(b.node)) ++counters_.graph_node_failures;
@@ -608,8 +613,36 @@ bool ObjectLayer::append_key(std::uint32_t h, std::uint64_t key) {
     ++counters_.keys_repeated;
     return true;
   }
+  ++o.keys_seen;
   if (o.num_keys >= config_.max_keys_per_object) {
-    ++counters_.keys_capped;
+    // Reservoir sampling (Vitter's algorithm R): the n-th key replaces a random kept one with probability cap / n,
+    // so the kept keys stay a uniform sample of every key the object was given. A hash of the key and the count
+    // stands in for the random draw: deterministic, and nothing to seed.
+    std::uint64_t z = key ^ (o.keys_seen * 0x9e3779b97f4a7c15ull);
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+    z ^= z >> 31;
+    std::uint64_t slot = z % o.keys_seen;
+    if (slot >= config_.max_keys_per_object) {
+      ++counters_.keys_capped;
+      return true;
+    }
+    for (std::uint32_t c = o.key_head; c != kInvalidHandle; c = key_chunks_[c].next) {
+      KeyChunk& chunk = key_chunks_[c];
+      if (slot >= chunk.count) {
+        slot -= chunk.count;
+        continue;
+      }
+      kept_keys_.erase(chunk.keys[slot]);
+      if (kept_keys_.insert(key, h) == nullptr) {  // cannot fail: one erased just before
+        ++counters_.key_overflow;
+        return false;
+      }
+      chunk.keys[slot] = key;
+      ++counters_.keys_resampled;
+      return true;
+    }
+    ++counters_.keys_capped;  // (merged lists always hold num_keys >= cap keys; not reached)
     return true;
   }
   if (o.key_tail == kInvalidHandle || key_chunks_[o.key_tail].count == kKeysPerChunk) {

@@ -94,10 +94,13 @@ struct Config {
   // Cell of the grid that indexes object box centres for the merge search: a performance knob (which objects may
   // merge does not depend on it); about the size of a large object.
   double index_cell_m = 2.0;
-  // Mesh-vertex references (mesh connections) an object keeps at most: a sample of its surface, not all of it. A
-  // revisited surface under drifting odometry lands on new vertices every pass; without a cap, a long mission's
-  // repeated tours fill the key store. Vertices past the cap still shape the object (centroid, box).
-  std::uint32_t max_keys_per_object = 2048;
+  // Mesh-vertex references (mesh connections) an object keeps at most: a uniform sample of its surface (reservoir
+  // sampling over every vertex it was given), not all of it. A revisited surface under drifting odometry lands on
+  // new vertices every pass, so each object reaches the cap: the key store (the budget's vertex_keys, 131,072 on
+  // xavier_nx) then holds vertex_keys / max_keys_per_object objects at the cap, 256 at 512 (an 8-hour mission
+  // under drift: 46-58 objects; at 2048 they filled the store after 2.7 h). Vertices past the cap still shape the
+  // object (centroid, box).
+  std::uint32_t max_keys_per_object = 512;
   std::string check() const;      // empty when usable, else the bad field and why
   void print(std::FILE* out) const;
 };
@@ -141,6 +144,7 @@ struct Counters {
   std::uint64_t key_overflow = 0;
   std::uint64_t keys_repeated = 0;       // a revisited vertex whose key an object already keeps: not stored twice
   std::uint64_t keys_capped = 0;         // not kept: the object holds Config::max_keys_per_object already
+  std::uint64_t keys_resampled = 0;      // ... kept in place of a random kept one (the reservoir's uniform sample)
   std::uint64_t block_overflow = 0;
   std::uint64_t object_overflow = 0;
   std::uint64_t graph_node_failures = 0;   // scene graph full: object not added (retried on the next sync)

@@ -43,6 +43,13 @@ std::unique_ptr<ObjectLayer> make_layer(const Config& config = Config{}, const C
   return layer;
 }
 
+// Every mesh-vertex key kept (no reservoir sampling): for tests that count an object's keys.
+Config all_keys() {
+  Config c;
+  c.max_keys_per_object = 1u << 16;
+  return c;
+}
+
 struct Vertex {
   InputVertex v;
   memory::Index3 block;
@@ -109,7 +116,7 @@ std::vector<Vertex> concat(std::vector<Vertex> a, const std::vector<Vertex>& b) 
 }
 
 TEST(ObjectLayerTest, TwoSeparatedChairsBecomeTwoObjectsInTheSceneGraph) {
-  auto layer = make_layer();
+  auto layer = make_layer(all_keys());
   std::uint64_t key = 1;
   const auto a = box_surface({0.0, 0.0, 0.0}, {0.5, 0.5, 0.9}, semantics::kChair, &key);
   const auto b = box_surface({2.0, 0.3, 0.0}, {2.5, 0.8, 0.9}, semantics::kChair, &key);
@@ -157,7 +164,7 @@ TEST(ObjectLayerTest, TwoSeparatedChairsBecomeTwoObjectsInTheSceneGraph) {
 }
 
 TEST(ObjectLayerTest, ChairSplitAcrossTwoUpdatesIsOneObject) {
-  auto layer = make_layer();
+  auto layer = make_layer(all_keys());
   auto graph = scene_graph::testing::make_graph();
   std::uint64_t key = 1;
   // One chair, its left half meshed in one update and its right half (touching it) in the next: the halves'
@@ -503,7 +510,7 @@ TEST(ObjectLayerTest, StaleVerticesLeaveTheirObjectAndReleasedBlocksKeepTheSumma
 // object keeps each key once, so repeated tours do not fill the key store; an object keeps at most
 // max_keys_per_object keys (a revisit under drift lands on new keys every pass).
 TEST(ObjectLayerTest, ARevisitedBlockKeepsEachKeyOnceAndAnObjectsKeysAreCapped) {
-  auto layer = make_layer();
+  auto layer = make_layer(all_keys());
   std::uint64_t key = 1;
   const auto chair = box_surface({0.05, 0.05, 0.05}, {0.55, 0.55, 0.75}, semantics::kChair, &key);  // one block
   std::size_t chunks_after_first = 0;
@@ -526,7 +533,21 @@ TEST(ObjectLayerTest, ARevisitedBlockKeepsEachKeyOnceAndAnObjectsKeysAreCapped) 
   ASSERT_EQ(small->num_objects(), 1u);
   EXPECT_EQ(objects_of(*small)[0].num_keys, 10u);
   EXPECT_EQ(objects_of(*small)[0].num_vertices, chair.size()) << "every vertex still shapes the object";
-  EXPECT_EQ(small->counters().keys_capped, chair.size() - 10);
+  EXPECT_EQ(small->counters().keys_capped + small->counters().keys_resampled, chair.size() - 10);
+  // A reservoir, not the first ten: kept keys come from across everything the object was given.
+  EXPECT_GT(small->counters().keys_resampled, 0u);
+  std::uint64_t first = chair.front().v.key, last = chair.front().v.key;
+  for (const auto& v : chair) {
+    first = std::min(first, v.v.key);
+    last = std::max(last, v.v.key);
+  }
+  std::size_t kept = 0, from_second_half = 0;
+  small->for_each_vertex_key(objects_of(*small)[0].node, [&](std::uint64_t k) {
+    ++kept;
+    from_second_half += k > first + (last - first) / 2 ? 1 : 0;
+  });
+  EXPECT_EQ(kept, 10u);
+  EXPECT_GT(from_second_half, 0u) << "the sample must reach the keys given last";
 }
 
 TEST(ObjectLayerTest, FullStoresAreCountedNotFatal) {
@@ -691,7 +712,7 @@ TEST(ObjectLayerTest, PositionIsTheBoxCentreAndTheVertexMeanIsKeptApart) {
 // contains the far end's centre: the paper's rule merges the two existing objects, one node goes.
 TEST(ObjectLayerTest, ExistingObjectsMergeWhenAGrownBoxContainsTheOthersCentre) {
   for (const bool merge : {true, false}) {
-    Config config;
+    Config config = all_keys();
     config.merge_overlapping = merge;
     config.merge_intersecting = merge;    // the side's box reaches into the far end's
     config.merge_by_size_prior = false;   // the two ends fit one table: the prior alone would merge them at once
