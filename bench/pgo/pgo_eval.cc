@@ -1,0 +1,216 @@
+// Pose-graph optimizer on the public g2o benchmarks (../shared/data/pose_graphs): the cost reached and the time from
+// the file's odometry guess; then, with wrong loop closures injected (10 %, 30 %, 50 % of all closures by default:
+// random pairs, random relative poses, each with the information matrix of a real closure, so they look as sure),
+// the trajectory error against the outlier-free solution, for GNC-TLS (the backend's outlier rejection) and for
+// the Cauchy loss beside it. One thread; every figure also as JSON.
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <random>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "bench/figures.h"
+#include "core/backend/g2o_file.h"
+#include "core/backend/pose_graph.h"
+
+namespace {
+
+using namespace qsg;
+using backend::Pose3;
+using backend::RelativePoseEdge;
+
+struct Options {
+  std::string data_dir = std::string(QSG_SHARED_DATA_DIR) + "/pose_graphs";
+  std::vector<std::string> graphs{"smallGrid3D", "parking-garage", "sphere2500", "torus3D", "cubicle"};
+  std::vector<double> outliers{0.1, 0.3, 0.5};
+  unsigned seed = 1;
+  std::string json_path;
+};
+
+std::vector<std::string> split(const std::string& text) {
+  std::vector<std::string> out;
+  std::stringstream in(text);
+  for (std::string item; std::getline(in, item, ',');)
+    if (!item.empty()) out.push_back(item);
+  return out;
+}
+
+bool parse(int argc, char** argv, Options* o) {
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (i + 1 >= argc) return false;
+    const std::string v = argv[++i];
+    if (a == "--data-dir") {
+      o->data_dir = v;
+    } else if (a == "--graphs") {
+      o->graphs = split(v);
+    } else if (a == "--outliers") {
+      o->outliers.clear();
+      for (const std::string& f : split(v)) {
+        char* end = nullptr;
+        const double x = std::strtod(f.c_str(), &end);
+        if (end == f.c_str() || *end != '\0' || !(x >= 0.0 && x < 1.0)) return false;
+        o->outliers.push_back(x);
+      }
+    } else if (a == "--seed") {
+      o->seed = static_cast<unsigned>(std::strtoul(v.c_str(), nullptr, 10));
+    } else if (a == "--json") {
+      o->json_path = v;
+    } else {
+      return false;
+    }
+  }
+  return !o->graphs.empty();
+}
+
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+// RMSE of positions against the reference (pose 0 is held at the file's guess in both: no alignment needed), and
+// the reference's RMS distance to its centroid (the scale the error is judged against).
+double rmse_m(const std::vector<Pose3>& a, const std::vector<Pose3>& b) {
+  double s = 0.0;
+  for (std::size_t i = 0; i < a.size(); ++i) s += (a[i].t_m - b[i].t_m).squaredNorm();
+  return std::sqrt(s / static_cast<double>(a.size()));
+}
+double rms_radius_m(const std::vector<Pose3>& p) {
+  Eigen::Vector3d c = Eigen::Vector3d::Zero();
+  for (const Pose3& x : p) c += x.t_m;
+  c /= static_cast<double>(p.size());
+  double s = 0.0;
+  for (const Pose3& x : p) s += (x.t_m - c).squaredNorm();
+  return std::sqrt(s / static_cast<double>(p.size()));
+}
+
+// Wrong closures: `count` random pairs at least 2 ids apart, random rotation, translation uniform in the
+// trajectory's bounding box size, with the information matrix of a random real closure.
+std::vector<RelativePoseEdge> wrong_closures(const backend::G2oPoseGraph& g, std::size_t count, std::mt19937* rng) {
+  std::vector<const RelativePoseEdge*> real;
+  for (const RelativePoseEdge& e : g.edges)
+    if (e.is_loop_closure) real.push_back(&e);
+  Eigen::Vector3d lo = g.poses[0].t_m, hi = lo;
+  for (const Pose3& p : g.poses) {
+    lo = lo.cwiseMin(p.t_m);
+    hi = hi.cwiseMax(p.t_m);
+  }
+  const Eigen::Vector3d span = (hi - lo).cwiseMax(Eigen::Vector3d::Constant(1.0));
+  std::uniform_int_distribution<std::uint32_t> pick(0, static_cast<std::uint32_t>(g.poses.size() - 1));
+  std::uniform_real_distribution<double> unit(-0.5, 0.5);
+  std::normal_distribution<double> gauss(0.0, 1.0);
+  std::vector<RelativePoseEdge> out;
+  while (out.size() < count) {
+    std::uint32_t a = pick(*rng), b = pick(*rng);
+    if (a > b) std::swap(a, b);
+    if (b - a < 2) continue;
+    RelativePoseEdge e = real.empty() ? RelativePoseEdge{} : *real[pick(*rng) % real.size()];
+    e.from = a;
+    e.to = b;
+    e.is_loop_closure = true;
+    for (int k = 0; k < 3; ++k) e.measured_from_T_to.t_m[k] = unit(*rng) * span[k];
+    Eigen::Quaterniond q;
+    q.coeffs() << gauss(*rng), gauss(*rng), gauss(*rng), gauss(*rng);
+    e.measured_from_T_to.q = q.normalized();
+    out.push_back(e);
+  }
+  return out;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options opt;
+  if (!parse(argc, argv, &opt)) {
+    std::fprintf(stderr,
+                 "usage: %s [--data-dir DIR] [--graphs a,b,...] [--outliers 0.1,0.3,0.5] [--seed N] [--json OUT]\n"
+                 "  DIR holds NAME.g2o (default ../shared/data/pose_graphs); an outlier fraction f injects\n"
+                 "  f / (1 - f) x (the file's loop closures) wrong ones, so they are f of all closures.\n",
+                 argv[0]);
+    return 2;
+  }
+  bench::Figures figures("pgo_eval: g2o pose graphs from the file's initial guess, Ceres sparse normal Cholesky, 1 "
+                         "thread; wrong closures seed " + std::to_string(opt.seed));
+  int failures = 0;
+  for (const std::string& name : opt.graphs) {
+    backend::G2oPoseGraph g;
+    std::string error;
+    if (!backend::read_g2o_pose_graph(opt.data_dir + "/" + name + ".g2o", &g, &error)) {
+      std::fprintf(stderr, "%s\n", error.c_str());
+      ++failures;
+      continue;
+    }
+    backend::PoseGraphConfig plain;
+    plain.loop_closure_loss = backend::RobustLoss::kNone;
+    plain.max_iterations = 100;
+    std::vector<Pose3> reference = g.poses;
+    auto t0 = std::chrono::steady_clock::now();
+    const backend::PoseGraphResult ref = backend::optimize_pose_graph(plain, reference, g.edges);
+    const double ref_s = seconds_since(t0);
+    if (!ref.poses_updated()) {
+      std::fprintf(stderr, "%s: %s\n", name.c_str(), ref.message.c_str());
+      ++failures;
+      continue;
+    }
+    const double radius = rms_radius_m(reference);
+    std::printf("%-15s %5zu poses %6zu edges (%zu loop closures): least squares cost %.6g -> %.6g (chi2 %.6g) in %d "
+                "iterations, %.2f s; trajectory RMS radius %.2f m\n",
+                name.c_str(), g.poses.size(), g.edges.size(), g.num_loop_closures, ref.initial_cost, ref.final_cost,
+                2.0 * ref.final_cost, ref.iterations, ref_s, radius);
+    const std::string p = "pgo_eval." + name + ".";
+    figures.add(p + "poses", static_cast<double>(g.poses.size()), "poses");
+    figures.add(p + "loop_closures", static_cast<double>(g.num_loop_closures), "edges");
+    figures.add(p + "initial_cost", ref.initial_cost, "half chi2");
+    figures.add(p + "final_cost", ref.final_cost, "half chi2");
+    figures.add(p + "iterations", ref.iterations, "iterations");
+    figures.add(p + "solve_time", ref_s, "s");
+    for (const double f : opt.outliers) {
+      const auto count = static_cast<std::size_t>(std::lround(f / (1.0 - f) * static_cast<double>(g.num_loop_closures)));
+      std::mt19937 rng(opt.seed);
+      std::vector<RelativePoseEdge> edges = g.edges;
+      const std::vector<RelativePoseEdge> wrong = wrong_closures(g, count, &rng);
+      edges.insert(edges.end(), wrong.begin(), wrong.end());
+      for (const backend::RobustLoss loss : {backend::RobustLoss::kGncTls, backend::RobustLoss::kCauchy}) {
+        backend::PoseGraphConfig config;
+        config.loop_closure_loss = loss;
+        config.max_iterations = 100;
+        std::vector<Pose3> poses = g.poses;
+        t0 = std::chrono::steady_clock::now();
+        const backend::PoseGraphResult r = backend::optimize_pose_graph(config, poses, edges);
+        const double s = seconds_since(t0);
+        if (!r.poses_updated()) {
+          std::printf("  %2.0f %% wrong, %-7s: %s\n", 100.0 * f, backend::to_string(loss), r.message.c_str());
+          ++failures;
+          continue;
+        }
+        const double e = rmse_m(poses, reference);
+        std::size_t wrong_kept = 0, right_dropped = 0;
+        for (std::size_t k = 0; k < edges.size(); ++k) {
+          if (!edges[k].is_loop_closure) continue;
+          const bool off = r.edge_weight.empty()
+                               ? r.edge_residual_sigma[k] > config.loop_closure_loss_scale_sigma
+                               : r.edge_weight[k] == 0.0;
+          if (k >= g.edges.size() && !off) ++wrong_kept;
+          if (k < g.edges.size() && off) ++right_dropped;
+        }
+        std::printf("  %2.0f %% wrong (%zu), %-7s: %.4f m from the outlier-free solution (%.3f %% of its radius); "
+                    "%zu wrong kept, %zu right dropped; %d iterations%s, %.2f s\n",
+                    100.0 * f, count, backend::to_string(loss), e, 100.0 * e / radius, wrong_kept, right_dropped,
+                    r.iterations,
+                    r.gnc_outer_iterations > 0 ? (" (" + std::to_string(r.gnc_outer_iterations) + " GNC)").c_str() : "",
+                    s);
+        const std::string q = p + "outliers_" + std::to_string(static_cast<int>(std::lround(100.0 * f))) + "." +
+                              backend::to_string(loss) + ".";
+        figures.add(q + "rmse_to_outlier_free", e, "m");
+        figures.add(q + "rmse_to_outlier_free_share", e / radius, "fraction of the RMS radius");
+        figures.add(q + "wrong_kept", static_cast<double>(wrong_kept), "edges");
+        figures.add(q + "right_dropped", static_cast<double>(right_dropped), "edges");
+        figures.add(q + "solve_time", s, "s");
+      }
+    }
+  }
+  if (!opt.json_path.empty() && !figures.write(opt.json_path)) return 1;
+  return failures == 0 ? 0 : 1;
+}
