@@ -28,6 +28,7 @@ struct Options {
   std::vector<double> outliers{0.1, 0.3, 0.5};
   unsigned seed = 1;
   std::string json_path;
+  backend::PoseGraphConfig robust;  // --threshold-sigma, --gnc-inner, --gnc-mu-factor, --gnc-max-outer
 };
 
 std::vector<std::string> split(const std::string& text) {
@@ -55,6 +56,14 @@ bool parse(int argc, char** argv, Options* o) {
         if (end == f.c_str() || *end != '\0' || !(x >= 0.0 && x < 1.0)) return false;
         o->outliers.push_back(x);
       }
+    } else if (a == "--threshold-sigma") {
+      o->robust.loop_closure_loss_scale_sigma = std::strtod(v.c_str(), nullptr);
+    } else if (a == "--gnc-inner") {
+      o->robust.gnc_inner_iterations = std::atoi(v.c_str());
+    } else if (a == "--gnc-mu-factor") {
+      o->robust.gnc_mu_factor = std::strtod(v.c_str(), nullptr);
+    } else if (a == "--gnc-max-outer") {
+      o->robust.gnc_max_outer_iterations = std::atoi(v.c_str());
     } else if (a == "--seed") {
       o->seed = static_cast<unsigned>(std::strtoul(v.c_str(), nullptr, 10));
     } else if (a == "--json") {
@@ -126,6 +135,7 @@ int main(int argc, char** argv) {
   if (!parse(argc, argv, &opt)) {
     std::fprintf(stderr,
                  "usage: %s [--data-dir DIR] [--graphs a,b,...] [--outliers 0.1,0.3,0.5] [--seed N] [--json OUT]\n"
+                 "          [--threshold-sigma C] [--gnc-inner N] [--gnc-mu-factor F] [--gnc-max-outer N]\n"
                  "  DIR holds NAME.g2o (default ../shared/data/pose_graphs); an outlier fraction f injects\n"
                  "  f / (1 - f) x (the file's loop closures) wrong ones, so they are f of all closures.\n",
                  argv[0]);
@@ -173,7 +183,7 @@ int main(int argc, char** argv) {
       const std::vector<RelativePoseEdge> wrong = wrong_closures(g, count, &rng);
       edges.insert(edges.end(), wrong.begin(), wrong.end());
       for (const backend::RobustLoss loss : {backend::RobustLoss::kGncTls, backend::RobustLoss::kCauchy}) {
-        backend::PoseGraphConfig config;
+        backend::PoseGraphConfig config = opt.robust;
         config.loop_closure_loss = loss;
         config.max_iterations = 100;
         std::vector<Pose3> poses = g.poses;
@@ -196,11 +206,11 @@ int main(int argc, char** argv) {
           if (k < g.edges.size() && off) ++right_dropped;
         }
         std::printf("  %2.0f %% wrong (%zu), %-7s: %.4f m from the outlier-free solution (%.3f %% of its radius); "
-                    "%zu wrong kept, %zu right dropped; %d iterations%s, %.2f s\n",
+                    "%zu wrong kept, %zu right dropped; %d iterations%s, %.2f s [%s]\n",
                     100.0 * f, count, backend::to_string(loss), e, 100.0 * e / radius, wrong_kept, right_dropped,
                     r.iterations,
                     r.gnc_outer_iterations > 0 ? (" (" + std::to_string(r.gnc_outer_iterations) + " GNC)").c_str() : "",
-                    s);
+                    s, r.message.c_str());
         const std::string q = p + "outliers_" + std::to_string(static_cast<int>(std::lround(100.0 * f))) + "." +
                               backend::to_string(loss) + ".";
         figures.add(q + "rmse_to_outlier_free", e, "m");

@@ -258,6 +258,7 @@ PoseGraphResult optimize_pose_graph(const PoseGraphConfig& config, std::vector<P
     Eigen::Map<Eigen::Quaterniond>(q_block(i)) = poses[i].q.normalized();
   }
 
+  const std::vector<double> initial_state = state;
   PoseGraphResult result;
   if (edges.empty()) {
     for (std::size_t i = 0; i < num_poses; ++i) poses[i].q.normalize();
@@ -388,6 +389,9 @@ PoseGraphResult optimize_pose_graph(const PoseGraphConfig& config, std::vector<P
       }
       for (std::size_t k = 0; k < edges.size(); ++k)
         if (edges[k].is_loop_closure) weights[k] = r[k] <= c ? 1.0 : 0.0;
+      // The inliers decided, the last solve starts again from the caller's poses: the annealing's path went
+      // through states bent by the outliers, from which least squares can settle in another basin.
+      state = initial_state;
       if (summary.IsSolutionUsable()) {
         ceres::Solve(options, &problem, &summary);
         result.iterations += summary.num_successful_steps + summary.num_unsuccessful_steps;
