@@ -589,13 +589,18 @@ void ObjectLayer::merge_objects(std::uint32_t into, std::uint32_t from) {
   }
   a.box_dirty = a.box_dirty || b.box_dirty;
   a.num_vertices += b.num_vertices;
-  if (b.key_head != kInvalidHandle) {
-    if (a.key_tail == kInvalidHandle) a.key_head = b.key_head;
-    else key_chunks_[a.key_tail].next = b.key_head;
-    a.key_tail = b.key_tail;
-    a.num_keys += b.num_keys;
+  // b's keys are offered to a one by one: a's sample stays within Config::max_keys_per_object (a concatenation would
+  // let every merge exceed it, and drift merges a new cluster into its object every pass), and chunks stay full.
+  for (std::uint32_t c = b.key_head; c != kInvalidHandle;) {
+    const std::uint32_t next = key_chunks_[c].next;
+    for (std::uint32_t i = 0; i < key_chunks_[c].count; ++i) {
+      const std::uint64_t key = key_chunks_[c].keys[i];
+      kept_keys_.erase(key);
+      append_key(into, key);
+    }
+    key_chunks_.release(c);
+    c = next;
   }
-  a.keys_seen += b.keys_seen;
   b.key_head = b.key_tail = kInvalidHandle;
   b.num_keys = 0;
   if (b.in_graph && !removed_nodes_.push_back(b.node)) ++counters_.graph_node_failures;

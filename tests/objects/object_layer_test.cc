@@ -742,6 +742,30 @@ TEST(ObjectLayerTest, ExistingObjectsMergeWhenAGrownBoxContainsTheOthersCentre) 
   }
 }
 
+// A merge offers the merged object's keys to the one that stays through its reservoir: the cap holds after a
+// merge too (a concatenation let every merge exceed it; under drift a new cluster merges into its object each pass).
+TEST(ObjectLayerTest, AMergedObjectKeepsItsKeysWithinTheCap) {
+  Config config;
+  config.max_keys_per_object = 40;
+  config.merge_by_size_prior = false;
+  auto layer = make_layer(config);
+  std::uint64_t key = 1;
+  const auto near = box_surface({0.0, 0.0, 0.0}, {0.3, 1.0, 0.7}, semantics::kTable, &key);
+  const auto far = box_surface({1.0, 0.5, 0.0}, {1.3, 1.0, 0.7}, semantics::kTable, &key);
+  present(layer.get(), concat(near, far), 1);
+  ASSERT_EQ(layer->num_objects(), 2u);
+  const auto side = box_surface({0.35, 0.0, 0.0}, {1.3, 0.1, 0.7}, semantics::kTable, &key);
+  present(layer.get(), concat(concat(near, far), side), 2);
+  ASSERT_EQ(layer->num_objects(), 1u);
+  const auto objs = objects_of(*layer);
+  EXPECT_EQ(objs[0].num_keys, 40u);
+  EXPECT_GT(objs[0].num_vertices, 200u);
+  std::size_t kept = 0;
+  layer->for_each_vertex_key(objs[0].node, [&](std::uint64_t) { ++kept; });
+  EXPECT_EQ(kept, 40u);
+  EXPECT_LE(key_chunks_in_use(*layer), (40u + 14u) / 15u) << "chunks stay full: no partial chunk per merge";
+}
+
 // A fragment too small to be an object on its own, farther than the tolerance from an object's vertices but
 // inside its box, joins that object rather than lingering as a tentative one.
 TEST(ObjectLayerTest, ATentativeFragmentInsideAnObjectsBoxJoinsIt) {
