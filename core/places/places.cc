@@ -377,14 +377,8 @@ memory::ResourceStats Places::relink_stats() const {
 }
 
 memory::ResourceStats Places::inactive_entry_stats() const {
-  memory::ResourceStats s;
-  s.name = "places.inactive_places";
-  s.unit = "places";
-  s.capacity = capacities_.inactive_cells;
-  s.in_use = inactive_used_;
-  s.high_water = inactive_high_water_;
-  s.failed = counters_.inactive_forgotten;
-  return s;
+  return {"places.inactive_places", "places", capacities_.inactive_cells, inactive_used_, inactive_high_water_,
+          counters_.inactive_forgotten};
 }
 
 memory::ResourceStats Places::list_stats(int which) const {

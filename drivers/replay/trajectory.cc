@@ -79,23 +79,12 @@ bool parse_tum_line(const std::string& path, const TextLine& line, StampedPose* 
 
 }  // namespace
 
-bool read_tum_trajectory(const std::string& path, Trajectory* trajectory, std::string* error) {
-  trajectory->clear();
-  std::vector<TextLine> lines;
-  if (!read_text_lines(path, &lines, error)) return false;
-  trajectory->reserve(lines.size());
-  for (const TextLine& line : lines) {
-    StampedPose pose;
-    if (!parse_tum_line(path, line, &pose, error)) return false;
-    trajectory->push_back(pose);
-  }
-  return true;
-}
+namespace {
 
-bool read_tum_trajectory_skipping(const std::string& path, Trajectory* trajectory, TumSkipped* skipped,
-                                  std::string* error) {
+// Strict (skipped == nullptr): the first malformed line fails the read. Otherwise malformed lines are counted.
+bool read_tum(const std::string& path, Trajectory* trajectory, TumSkipped* skipped, std::string* error) {
   trajectory->clear();
-  *skipped = TumSkipped{};
+  if (skipped != nullptr) *skipped = TumSkipped{};
   std::vector<TextLine> lines;
   if (!read_text_lines(path, &lines, error)) return false;
   trajectory->reserve(lines.size());
@@ -104,12 +93,26 @@ bool read_tum_trajectory_skipping(const std::string& path, Trajectory* trajector
     std::string why;
     if (parse_tum_line(path, line, &pose, &why)) {
       trajectory->push_back(pose);
-    } else {
-      if (skipped->lines == 0) skipped->first_reason = why;
-      ++skipped->lines;
+      continue;
     }
+    if (skipped == nullptr) {
+      if (error != nullptr) *error = why;
+      return false;
+    }
+    if (skipped->lines++ == 0) skipped->first_reason = why;
   }
   return true;
+}
+
+}  // namespace
+
+bool read_tum_trajectory(const std::string& path, Trajectory* trajectory, std::string* error) {
+  return read_tum(path, trajectory, nullptr, error);
+}
+
+bool read_tum_trajectory_skipping(const std::string& path, Trajectory* trajectory, TumSkipped* skipped,
+                                  std::string* error) {
+  return read_tum(path, trajectory, skipped, error);
 }
 
 std::string format_tum_pose(const StampedPose& pose) {
