@@ -139,12 +139,14 @@ TEST(OdometryPipelineTest, MalformedLinesOfATumEstimateAreSkippedAndCounted) {
   }
   c.odometry.source = OdometrySourceKind::kTum;
   c.odometry.tum_path = corrupt;
+  c.duration_s = 30.0;  // the corrupt lines lie in the first seconds; the rest of the tour adds nothing here
   runtime::SteppedClock clock;
   Pipeline p;
   ASSERT_TRUE(p.init(c, &clock, &error)) << error;
   EXPECT_EQ(p.odometry().counters().file_lines_skipped, 4u);
   run_to_end(p);
-  EXPECT_GT(p.counters().keyframes_integrated, 100u);
+  EXPECT_GT(p.counters().keyframes_integrated, 50u);
+  EXPECT_EQ(p.counters().frames_without_pose, 0u);
   ASSERT_TRUE(p.trajectory_error().ok) << p.trajectory_error().error;
   EXPECT_LT(p.trajectory_error().ate_max_m, 0.01) << "a missing sample is interpolated over";
 
