@@ -1,0 +1,373 @@
+// The embedded deformation graph: build (agents, control points, places and their edges), solve, interpolate.
+#include "core/backend/deformation_graph.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
+namespace qsg::backend {
+
+std::string DeformationConfig::check() const {
+  if (!(control_point_spacing_m >= 0.1 && control_point_spacing_m <= 20.0))
+    return "control_point_spacing_m must be in [0.1, 20] m";
+  if (!(control_edge_radius_m > 0.0 && control_edge_radius_m <= 50.0)) return "control_edge_radius_m must be in (0, 50] m";
+  if (max_control_neighbours < 1 || max_control_neighbours > 64) return "max_control_neighbours must be in [1, 64]";
+  if (!(sigma_position_m > 0.0 && sigma_position_m <= 10.0)) return "sigma_position_m must be in (0, 10] m";
+  if (!(place_control_radius_m >= 0.0 && place_control_radius_m <= 50.0)) return "place_control_radius_m must be in [0, 50] m";
+  if (interpolation_neighbours < 1 || interpolation_neighbours > 16) return "interpolation_neighbours must be in [1, 16]";
+  if (!(time_horizon_s > 0.0 && time_horizon_s <= 86400.0)) return "time_horizon_s must be in (0, 86400] s";
+  return "";
+}
+
+void DeformationConfig::print(std::FILE* out) const {
+  std::fprintf(out,
+               "deformation graph: control points every %.2f m, joined within %.2f m (<= %u), position sigma %.3f m, "
+               "place to control point within %.2f m, %u nodes per interpolated point, time horizon %.0f s\n",
+               control_point_spacing_m, control_edge_radius_m, max_control_neighbours, sigma_position_m,
+               place_control_radius_m, interpolation_neighbours, time_horizon_s);
+  agents.print(out);
+}
+
+void DeformationResult::print(std::FILE* out) const {
+  std::fprintf(out,
+               "deformation graph: %zu agents, %zu control points, %zu places; edges aa %zu mm %zu pp %zu am %zu ap %zu "
+               "mp %zu; %zu of %zu loop closures kept; ",
+               agents, control_points, places, edges_aa, edges_mm, edges_pp, edges_am, edges_ap, edges_mp,
+               loop_closures_kept, loop_closures);
+  solve.print(out);
+}
+
+namespace {
+
+std::uint64_t pack_cell(std::int64_t x, std::int64_t y, std::int64_t z) {
+  const auto u = [](std::int64_t v) { return static_cast<std::uint64_t>(v + (1 << 20)) & 0x1FFFFF; };
+  return u(x) | (u(y) << 21) | (u(z) << 42);
+}
+
+std::uint64_t cell_of(const Eigen::Vector3d& p, double spacing) {
+  return pack_cell(static_cast<std::int64_t>(std::floor(p.x() / spacing)),
+                   static_cast<std::int64_t>(std::floor(p.y() / spacing)),
+                   static_cast<std::int64_t>(std::floor(p.z() / spacing)));
+}
+
+// A relative-position measurement from `from` to `to`: translation only (rotation information ~0).
+RelativePoseEdge position_edge(std::uint32_t from, std::uint32_t to, const Pose3& from_pose, const Eigen::Vector3d& to_m,
+                               double sigma_m) {
+  RelativePoseEdge e;
+  e.from = from;
+  e.to = to;
+  e.measured_from_T_to.t_m = from_pose.q.conjugate() * (to_m - from_pose.t_m);
+  e.measured_from_T_to.q = from_pose.q.conjugate();  // the `to` node starts with identity rotation
+  e.has_information = true;
+  e.information.setZero();
+  e.information.diagonal() << Eigen::Vector3d::Constant(1.0 / (sigma_m * sigma_m)), Eigen::Vector3d::Constant(1e-8);
+  return e;
+}
+
+struct UnionFind {
+  std::vector<std::uint32_t> parent;
+  explicit UnionFind(std::size_t n) : parent(n) { std::iota(parent.begin(), parent.end(), 0u); }
+  std::uint32_t find(std::uint32_t x) {
+    while (parent[x] != x) x = parent[x] = parent[parent[x]];
+    return x;
+  }
+  bool unite(std::uint32_t a, std::uint32_t b) {
+    a = find(a);
+    b = find(b);
+    if (a == b) return false;
+    parent[a] = b;
+    return true;
+  }
+};
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------------------
+// Control points
+
+bool ControlPoints::init(std::size_t capacity, double spacing_m, std::string* error) {
+  if (capacity == 0 || !(spacing_m >= 0.1 && spacing_m <= 20.0))
+    return *error = "control points: capacity must be positive and the spacing in [0.1, 20] m", false;
+  spacing_m_ = spacing_m;
+  points_.clear();
+  times_.clear();
+  points_.reserve(capacity);
+  times_.reserve(capacity);
+  const std::size_t slots = decltype(cells_)::slots_for(capacity);
+  cell_storage_.assign((decltype(cells_)::storage_bytes(slots) + 7) / 8, 0);
+  cells_.bind(cell_storage_.data(), slots, capacity);
+  refused_ = 0;
+  return true;
+}
+
+void ControlPoints::clear() {
+  points_.clear();
+  times_.clear();
+  cells_.clear();
+}
+
+bool ControlPoints::offer(const Eigen::Vector3d& p_m, std::uint64_t time_ns) {
+  if (!p_m.allFinite() || points_.capacity() == 0) return false;
+  bool inserted = false;
+  const auto next = static_cast<std::uint32_t>(points_.size());
+  if (points_.size() == points_.capacity()) {
+    const std::uint32_t* slot = cells_.find(cell_of(p_m, spacing_m_));
+    if (slot == nullptr || time_ns > times_[*slot] + horizon_ns_) ++refused_;
+    return false;
+  }
+  std::uint32_t* slot = cells_.find_or_insert(cell_of(p_m, spacing_m_), next, &inserted);
+  if (slot == nullptr) {
+    ++refused_;
+    return false;
+  }
+  if (!inserted) {
+    if (time_ns <= times_[*slot] + horizon_ns_) return false;  // the cell's control point is recent enough
+    *slot = next;  // a revisit: a new control point, the cell's newest
+  }
+  points_.push_back(p_m);
+  times_.push_back(time_ns);
+  return true;
+}
+
+memory::ResourceStats ControlPoints::stats() const {
+  memory::ResourceStats s;
+  s.name = "backend.control_points";
+  s.unit = "points";
+  s.capacity = points_.capacity();
+  s.in_use = points_.size();
+  s.high_water = points_.size();
+  s.failed = refused_;
+  return s;
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// Build and solve
+
+std::uint64_t DeformationGraph::cell_key(const Eigen::Vector3d& p) const {
+  return cell_of(p, config_.control_point_spacing_m);
+}
+
+DeformationResult DeformationGraph::optimize(const agents::AgentLayer& agents,
+                                             const std::vector<ChainLoopClosure>& loop_closures,
+                                             const ControlPoints& control, const scene_graph::SceneGraph& graph) {
+  DeformationResult r;
+  const std::size_t A = agents.chain_size();
+  const std::size_t C = control.size();
+  r.agents = A;
+  r.control_points = C;
+  r.loop_closures = loop_closures.size();
+  if (A < 2) {
+    r.solve.status = PoseGraphStatus::kInvalidInput;
+    r.solve.message = "fewer than two agent poses";
+    return r;
+  }
+  // Places: index them after the control points.
+  std::unordered_map<scene_graph::NodeId, std::uint32_t> place_index;
+  std::vector<scene_graph::NodeId> place_ids;
+  graph.for_each_node([&](const scene_graph::NodeRecord& n) {
+    if (n.kind != scene_graph::NodeKind::kPlace) return;
+    place_index.emplace(n.id, static_cast<std::uint32_t>(A + C + place_ids.size()));
+    place_ids.push_back(n.id);
+  });
+  r.places = place_ids.size();
+  std::vector<Pose3> poses;
+  poses.reserve(A + C + place_ids.size());
+  for (std::size_t k = 0; k < A; ++k) poses.push_back(Pose3{agents.chain(k).t_m, agents.chain(k).q});
+  for (std::size_t i = 0; i < C; ++i) poses.push_back(Pose3{control.point(i), Eigen::Quaterniond::Identity()});
+  for (scene_graph::NodeId id : place_ids) poses.push_back(Pose3{graph.place(id)->position_m, Eigen::Quaterniond::Identity()});
+
+  // E_aa: odometry along the chain, then the loop closures (GNC).
+  std::vector<RelativePoseEdge> edges = chain_odometry_edges(agents, config_.agents);
+  r.edges_aa = edges.size();
+  const std::size_t first_closure = edges.size();
+  for (const ChainLoopClosure& c : loop_closures) {
+    RelativePoseEdge e;
+    e.from = c.a;
+    e.to = c.b;
+    e.measured_from_T_to = c.a_T_b;
+    e.sigma_t_m = c.sigma_t_m;
+    e.sigma_rot_rad = c.sigma_rot_rad;
+    e.is_loop_closure = true;
+    edges.push_back(e);
+  }
+  const double sigma = config_.sigma_position_m;
+  // The chain node a time belongs to: the last one at or before it.
+  const auto agent_at = [&](std::uint64_t t) {
+    std::size_t lo = 0, hi = A;
+    while (hi - lo > 1) {
+      const std::size_t mid = (lo + hi) / 2;
+      (agents.chain(mid).time_ns <= t ? lo : hi) = mid;
+    }
+    return static_cast<std::uint32_t>(lo);
+  };
+  // Control points by cell for the neighbour searches.
+  std::unordered_multimap<std::uint64_t, std::uint32_t> cp_cells;
+  cp_cells.reserve(C);
+  for (std::size_t i = 0; i < C; ++i) cp_cells.emplace(cell_key(control.point(i)), static_cast<std::uint32_t>(i));
+  const double spacing = config_.control_point_spacing_m;
+  const auto horizon_ns = static_cast<std::uint64_t>(config_.time_horizon_s * 1e9);
+  const auto within_horizon = [&](std::uint64_t a, std::uint64_t b) { return (a > b ? a - b : b - a) <= horizon_ns; };
+  // Control points within `radius` of p seen within the time horizon of time_ns, nearest first.
+  const auto near_control = [&](const Eigen::Vector3d& p, std::uint64_t time_ns, double radius,
+                                std::vector<std::pair<double, std::uint32_t>>* out) {
+    out->clear();
+    const int reach = static_cast<int>(std::ceil(radius / spacing));
+    const Eigen::Vector3d c = (p / spacing).array().floor();
+    for (int dx = -reach; dx <= reach; ++dx)
+      for (int dy = -reach; dy <= reach; ++dy)
+        for (int dz = -reach; dz <= reach; ++dz) {
+          const auto range = cp_cells.equal_range(pack_cell(static_cast<std::int64_t>(c.x()) + dx,
+                                                            static_cast<std::int64_t>(c.y()) + dy,
+                                                            static_cast<std::int64_t>(c.z()) + dz));
+          for (auto it = range.first; it != range.second; ++it) {
+            if (!within_horizon(control.time_ns(it->second), time_ns)) continue;
+            const double d = (control.point(it->second) - p).norm();
+            if (d <= radius) out->emplace_back(d, it->second);
+          }
+        }
+    std::sort(out->begin(), out->end());
+  };
+  std::vector<std::pair<double, std::uint32_t>> near;
+  // E_am and E_mm.
+  for (std::size_t i = 0; i < C; ++i) {
+    const auto node = static_cast<std::uint32_t>(A + i);
+    const std::uint32_t k = agent_at(control.time_ns(i));
+    edges.push_back(position_edge(k, node, poses[k], control.point(i), sigma));
+    ++r.edges_am;
+    near_control(control.point(i), control.time_ns(i), config_.control_edge_radius_m, &near);
+    std::uint32_t added = 0;
+    for (const auto& [d, j] : near) {
+      if (j == i || added == config_.max_control_neighbours) continue;
+      edges.push_back(position_edge(node, static_cast<std::uint32_t>(A + j), poses[node], control.point(j), sigma));
+      ++r.edges_mm;
+      ++added;
+    }
+  }
+  // E_pp: a minimum spanning tree of the place-place edges (Kruskal); E_ap: agents to their places; E_mp.
+  std::vector<std::pair<double, std::pair<std::uint32_t, std::uint32_t>>> place_edges;
+  std::unordered_map<scene_graph::NodeId, std::uint32_t> agent_index;
+  for (std::size_t k = 0; k < A; ++k) agent_index.emplace(agents.chain(k).id, static_cast<std::uint32_t>(k));
+  graph.for_each_edge([&](const scene_graph::EdgeRecord& e) {
+    const auto ps = place_index.find(e.source), pt = place_index.find(e.target);
+    if (ps != place_index.end() && pt != place_index.end()) {
+      place_edges.push_back({(poses[ps->second].t_m - poses[pt->second].t_m).norm(), {ps->second, pt->second}});
+      return;
+    }
+    const auto as = agent_index.find(e.source), at = agent_index.find(e.target);
+    if (as != agent_index.end() && pt != place_index.end()) {
+      edges.push_back(position_edge(as->second, pt->second, poses[as->second], poses[pt->second].t_m, sigma));
+      ++r.edges_ap;
+    } else if (at != agent_index.end() && ps != place_index.end()) {
+      edges.push_back(position_edge(at->second, ps->second, poses[at->second], poses[ps->second].t_m, sigma));
+      ++r.edges_ap;
+    }
+  });
+  std::sort(place_edges.begin(), place_edges.end());
+  UnionFind forest(poses.size());
+  for (const auto& [length, ends] : place_edges) {
+    if (!forest.unite(ends.first, ends.second)) continue;
+    edges.push_back(position_edge(ends.first, ends.second, poses[ends.first], poses[ends.second].t_m, sigma));
+    ++r.edges_pp;
+  }
+  for (std::size_t p = 0; p < place_ids.size(); ++p) {
+    const auto node = static_cast<std::uint32_t>(A + C + p);
+    const scene_graph::PlaceAttributes* a = graph.place(place_ids[p]);
+    const Eigen::Vector3d basis = a->mesh_connections.empty() ? a->position_m : a->mesh_connections[0].voxel_pos_m;
+    near_control(basis, a->last_update_time_ns, config_.place_control_radius_m, &near);
+    if (near.empty()) continue;
+    edges.push_back(position_edge(node, static_cast<std::uint32_t>(A + near[0].second), poses[node],
+                                  control.point(near[0].second), sigma));
+    ++r.edges_mp;
+  }
+
+  std::vector<Pose3> solved = poses;
+  r.solve = optimize_pose_graph(config_.agents.solver, solved, edges);
+  if (!r.solve.poses_updated()) return r;
+  for (std::size_t c = 0; c < loop_closures.size(); ++c) {
+    const double w = r.solve.edge_weight.empty() ? 1.0 : r.solve.edge_weight[first_closure + c];
+    r.loop_closure_weight.push_back(w);
+    r.loop_closures_kept += w > 0.5 ? 1 : 0;
+  }
+  agent_poses_.assign(solved.begin(), solved.begin() + static_cast<std::ptrdiff_t>(A));
+  nodes_.clear();
+  nodes_.reserve(C + place_ids.size());
+  for (std::size_t i = 0; i < C; ++i) nodes_.push_back(Node{poses[A + i].t_m, control.time_ns(i), solved[A + i]});
+  for (std::size_t p = 0; p < place_ids.size(); ++p)
+    nodes_.push_back(Node{poses[A + C + p].t_m, graph.place(place_ids[p])->last_update_time_ns, solved[A + C + p]});
+  place_node_.clear();
+  for (std::size_t p = 0; p < place_ids.size(); ++p) place_node_.emplace(place_ids[p], static_cast<std::uint32_t>(C + p));
+  index_nodes();
+  solved_ = true;
+  return r;
+}
+
+void DeformationGraph::index_nodes() {
+  cells_.clear();
+  cells_.reserve(nodes_.size());
+  for (std::size_t i = 0; i < nodes_.size(); ++i) cells_.emplace_back(cell_key(nodes_[i].original), static_cast<std::uint32_t>(i));
+  std::sort(cells_.begin(), cells_.end());
+}
+
+bool DeformationGraph::place_position(scene_graph::NodeId id, Eigen::Vector3d* out) const {
+  const auto it = place_node_.find(id);
+  if (it == place_node_.end()) return false;
+  *out = nodes_[it->second].optimized.t_m;
+  return true;
+}
+
+// Embedded deformation (Sumner et al. 2007): p' = sum_j w_j (R_j (p - g_j) + g_j'), over the k nearest nodes with
+// w_j = (1 - d_j / d_max)^2, d_max the distance of the (k+1)-th nearest. Searches 1, then 2, then 4 cells out.
+Eigen::Vector3d DeformationGraph::deform(const Eigen::Vector3d& p, std::uint64_t time_ns) const {
+  if (!solved_ || nodes_.empty()) return p;
+  constexpr std::size_t kMax = 17;
+  std::pair<double, std::uint32_t> best[kMax];
+  const std::size_t want = std::min<std::size_t>(config_.interpolation_neighbours + 1, kMax);
+  std::size_t found = 0;
+  const double spacing = config_.control_point_spacing_m;
+  const Eigen::Vector3d c = (p / spacing).array().floor();
+  const auto horizon_ns = static_cast<std::uint64_t>(config_.time_horizon_s * 1e9);
+  // First the nodes within the time horizon of the point, then (none found) any.
+  for (int pass = time_ns == 0 ? 1 : 0; pass < 2 && found == 0; ++pass)
+  for (int reach = 1; reach <= 4 && found < want; reach *= 2) {
+    found = 0;
+    for (int dx = -reach; dx <= reach; ++dx)
+      for (int dy = -reach; dy <= reach; ++dy)
+        for (int dz = -reach; dz <= reach; ++dz) {
+          const std::uint64_t key = pack_cell(static_cast<std::int64_t>(c.x()) + dx, static_cast<std::int64_t>(c.y()) + dy,
+                                              static_cast<std::int64_t>(c.z()) + dz);
+          auto it = std::lower_bound(cells_.begin(), cells_.end(), std::make_pair(key, std::uint32_t{0}));
+          for (; it != cells_.end() && it->first == key; ++it) {
+            const std::uint64_t t = nodes_[it->second].time_ns;
+            if (pass == 0 && (t > time_ns ? t - time_ns : time_ns - t) > horizon_ns) continue;
+            const double d = (nodes_[it->second].original - p).norm();
+            if (found < want) {
+              best[found++] = {d, it->second};
+              std::push_heap(best, best + found);
+            } else if (d < best[0].first) {
+              std::pop_heap(best, best + found);
+              best[found - 1] = {d, it->second};
+              std::push_heap(best, best + found);
+            }
+          }
+        }
+  }
+  if (found == 0) return p;  // nothing within reach: no node bends this point
+  std::sort_heap(best, best + found);
+  const std::size_t k = found == want ? found - 1 : found;
+  const double d_max = found == want ? best[found - 1].first : best[found - 1].first + spacing;
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  double sw = 0.0;
+  for (std::size_t j = 0; j < k; ++j) {
+    const Node& n = nodes_[best[j].second];
+    const double w = d_max > 0.0 ? std::pow(std::max(0.0, 1.0 - best[j].first / d_max), 2.0) : 1.0;
+    sum += w * (n.optimized.q * (p - n.original) + n.optimized.t_m);
+    sw += w;
+  }
+  if (sw <= 0.0) {
+    const Node& n = nodes_[best[0].second];
+    return n.optimized.q * (p - n.original) + n.optimized.t_m;
+  }
+  return sum / sw;
+}
+
+}  // namespace qsg::backend

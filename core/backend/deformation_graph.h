@@ -1,0 +1,129 @@
+// The scene graph as an embedded deformation graph (the paper's section "3D Scene Graph Optimization", after
+// Sumner et al. 2007 and Kimera-PGMO): one pose per agent of the pose chain, per mesh control point and per place;
+// edges for odometry and loop closures between agents (E_aa), between control points closer than a radius (E_mm),
+// along a minimum spanning tree of the places (E_pp), from an agent to the control points first seen from it (E_am)
+// and to its nearest places (E_ap), and from a place to the control point of its nearest basis point (E_mp).
+// Relative-position edges weigh only translation (the paper's diag[0 0 0 w_t]); odometry edges carry the chain's
+// covariances; loop closures go through graduated non-convexity with a truncated least-squares loss, so wrong ones
+// switch themselves off. The solved graph then deforms any point of the odometric map by its nearest nodes
+// (interpolation), and gives agents and places their optimized poses.
+//
+// Control points are kept incrementally (ControlPoints): the first mesh vertex seen in a cell of the spatial hash,
+// with the time it was seen; fixed capacity, refusals counted. Building and solving the graph runs on the backend
+// thread and allocates there (Ceres); nothing here is on the real-time path.
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include <cstdint>
+#include <cstdio>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include "core/agents/agent_layer.h"
+#include "core/backend/agent_pose_graph.h"
+#include "core/memory/fixed_hash_map.h"
+#include "core/memory/resource_stats.h"
+#include "core/scene_graph/scene_graph.h"
+
+namespace qsg::backend {
+
+struct DeformationConfig {
+  double control_point_spacing_m = 1.0;  // spatial-hash cell of the mesh control points
+  double control_edge_radius_m = 2.5;    // E_mm: control points closer than this (the paper's 2.5 m)
+  std::uint32_t max_control_neighbours = 8;  // ... the nearest ones only
+  // Relative-position edges: w_t = 1 / sigma^2, how much the map may bend. Stiffer, and the mesh (built from the
+  // drifted odometry) holds the drift against the loop closures, which GNC then rejects.
+  double sigma_position_m = 0.2;
+  double place_control_radius_m = 2.0;   // E_mp: a place's nearest control point within this
+  // Control points, places and points to interpolate are tied only to nodes seen within this time of them: a
+  // revisit's mesh (drifted by what the loop closure corrects) must not be held to, or moved by, the first visit's.
+  double time_horizon_s = 30.0;
+  std::uint32_t interpolation_neighbours = 4;  // nodes that move a point (Sumner's k)
+  AgentGraphConfig agents;               // odometry sigma floors and the solver (loop closures under GNC-TLS)
+
+  DeformationConfig() {
+    agents.solver.loop_closure_loss = RobustLoss::kGncTls;
+    agents.solver.max_iterations = 30;
+    agents.solver.gnc_inner_iterations = 5;
+  }
+  std::string check() const;
+  void print(std::FILE* out) const;
+};
+
+// Mesh control points: one per occupied cell of a spatial hash, at the first vertex seen there (odometric frame).
+// offer() runs on the loop thread: fixed storage, no allocation after init.
+class ControlPoints {
+ public:
+  bool init(std::size_t capacity, double spacing_m, std::string* error);
+  // Keeps p as a control point unless its cell has one; time_ns: when it was seen (ties it to an agent).
+  // A cell seen again more than `horizon_ns` after its control point was made gets a new one (a revisit).
+  bool offer(const Eigen::Vector3d& p_m, std::uint64_t time_ns);
+  void set_horizon_ns(std::uint64_t horizon_ns) { horizon_ns_ = horizon_ns; }
+  std::size_t size() const { return points_.size(); }
+  const Eigen::Vector3d& point(std::size_t i) const { return points_[i]; }
+  std::uint64_t time_ns(std::size_t i) const { return times_[i]; }
+  double spacing_m() const { return spacing_m_; }
+  memory::ResourceStats stats() const;
+  void clear();
+
+ private:
+  double spacing_m_ = 1.0;
+  std::uint64_t horizon_ns_ = 30'000'000'000ull;
+  std::vector<Eigen::Vector3d> points_;
+  std::vector<std::uint64_t> times_;
+  std::vector<std::uint64_t> cell_storage_;  // the hash map's slots (8-byte aligned)
+  memory::FixedHashMap<std::uint64_t, std::uint32_t, memory::U64Hash> cells_{"backend.control_cells",
+                                                                             memory::OverflowPolicy::kRefuse};
+  std::uint64_t refused_ = 0;
+};
+
+struct DeformationResult {
+  std::size_t agents = 0, control_points = 0, places = 0;
+  std::size_t edges_aa = 0, edges_mm = 0, edges_pp = 0, edges_am = 0, edges_ap = 0, edges_mp = 0;
+  std::size_t loop_closures = 0;
+  std::size_t loop_closures_kept = 0;  // GNC weight above 0.5 after the solve
+  std::vector<double> loop_closure_weight;  // per loop closure, in input order
+  PoseGraphResult solve;
+  void print(std::FILE* out) const;
+};
+
+class DeformationGraph {
+ public:
+  explicit DeformationGraph(const DeformationConfig& config = {}) : config_(config) {}
+  // Builds the graph from the chain, its loop closures, the control points and the graph's places (and the agents'
+  // place edges), then solves it. On failure the previous solution (or none) stays in use.
+  DeformationResult optimize(const agents::AgentLayer& agents, const std::vector<ChainLoopClosure>& loop_closures,
+                             const ControlPoints& control, const scene_graph::SceneGraph& graph);
+
+  bool solved() const { return solved_; }
+  // An odometric point seen at time_ns moved by its nearest deformation nodes seen within the time horizon of it
+  // (any time when none is, or when time_ns is 0); identity before any solve.
+  Eigen::Vector3d deform(const Eigen::Vector3d& p_m, std::uint64_t time_ns = 0) const;
+  // The optimized pose of chain node k (the odometric one before any solve, or beyond the solved chain).
+  Pose3 agent_pose(std::size_t k) const { return k < agent_poses_.size() ? agent_poses_[k] : Pose3{}; }
+  std::size_t num_agent_poses() const { return agent_poses_.size(); }
+  // A place's optimized position, or false when the place was not in the solved graph.
+  bool place_position(scene_graph::NodeId id, Eigen::Vector3d* out) const;
+  const DeformationConfig& config() const { return config_; }
+
+ private:
+  struct Node {
+    Eigen::Vector3d original = Eigen::Vector3d::Zero();
+    std::uint64_t time_ns = 0;
+    Pose3 optimized;
+  };
+  std::uint64_t cell_key(const Eigen::Vector3d& p) const;
+  void index_nodes();
+
+  DeformationConfig config_;
+  bool solved_ = false;
+  std::vector<Pose3> agent_poses_;
+  std::vector<Node> nodes_;  // control points then places: what interpolation reads
+  std::unordered_map<scene_graph::NodeId, std::uint32_t> place_node_;
+  std::vector<std::pair<std::uint64_t, std::uint32_t>> cells_;  // sorted (cell, node)
+};
+
+}  // namespace qsg::backend

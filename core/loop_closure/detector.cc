@@ -1,0 +1,180 @@
+#include "core/loop_closure/detector.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace qsg::loop_closure {
+
+std::string DetectorConfig::check() const {
+  if (!(places_threshold >= 0.0 && places_threshold <= 1.0)) return "places_threshold must be in [0, 1]";
+  if (!(objects_threshold >= 0.0 && objects_threshold <= 1.0)) return "objects_threshold must be in [0, 1]";
+  if (min_objects > kMaxDescriptorObjects) return "min_objects must be at most 32";
+  if (!(min_time_separation_s >= 0.0 && min_time_separation_s <= 86400.0))
+    return "min_time_separation_s must be in [0, 86400] s";
+  if (!(min_path_separation_m >= 0.0 && min_path_separation_m <= 1e5)) return "min_path_separation_m must be in [0, 1e5] m";
+  if (!(ratio > 0.0 && ratio <= 1.0)) return "ratio must be in (0, 1]";
+  if (!(ratio_distance_m >= 0.0 && ratio_distance_m <= 1000.0)) return "ratio_distance_m must be in [0, 1000] m";
+  if (max_verifications < 1 || max_verifications > 64) return "max_verifications must be in [1, 64]";
+  if (rebuild_batch < 1 || rebuild_batch > 100000) return "rebuild_batch must be in [1, 100000]";
+  if (const std::string why = registration.check(); !why.empty()) return "registration." + why;
+  return "";
+}
+
+void DetectorConfig::print(std::FILE* out) const {
+  std::fprintf(out,
+               "loop-closure detection: places >= %.2f, objects >= %.2f (>= %u objects), separation >= %.0f s and "
+               "%.1f m of path, ratio test %.2f beyond %.1f m, <= %u verifications per query\n",
+               places_threshold, objects_threshold, min_objects, min_time_separation_s, min_path_separation_m, ratio,
+               ratio_distance_m, max_verifications);
+  registration.print(out);
+}
+
+void DetectorCounters::print(std::FILE* out) const {
+  std::fprintf(out,
+               "loop closures: %llu queries (%llu without enough objects), %llu places candidates, %llu objects "
+               "candidates, %llu ratio rejections, %llu verified of which %llu failed registration, %llu proposed; "
+               "%llu agents refused (full), %llu tree rebuilds\n",
+               static_cast<unsigned long long>(queries), static_cast<unsigned long long>(queries_without_objects),
+               static_cast<unsigned long long>(places_candidates), static_cast<unsigned long long>(objects_candidates),
+               static_cast<unsigned long long>(ratio_rejections), static_cast<unsigned long long>(verifications),
+               static_cast<unsigned long long>(registration_failures), static_cast<unsigned long long>(proposed),
+               static_cast<unsigned long long>(refused), static_cast<unsigned long long>(tree_rebuilds));
+}
+
+bool LoopClosureDetector::init(std::size_t capacity, const DetectorConfig& config, std::string* error) {
+  if (const std::string why = config.check(); !why.empty()) return *error = "loop_closure.detector: " + why, false;
+  if (capacity == 0) return *error = "loop_closure.detector: capacity must be at least 1", false;
+  config_ = config;
+  registration_ = ObjectRegistration(config.registration);
+  entries_.clear();
+  entries_.reserve(capacity);
+  order_.assign(capacity, 0);
+  mu_.assign(capacity, 0.0f);
+  scratch_.assign(capacity, 0.0f);
+  candidates_.reserve(capacity);
+  indexed_ = 0;
+  counters_ = {};
+  return true;
+}
+
+memory::ResourceStats LoopClosureDetector::stats() const {
+  memory::ResourceStats s;
+  s.name = "loop_closure.agents";
+  s.unit = "agents";
+  s.capacity = entries_.capacity();
+  s.in_use = entries_.size();
+  s.high_water = entries_.size();
+  s.failed = counters_.refused;
+  return s;
+}
+
+float LoopClosureDetector::places_distance(std::uint32_t entry, const AgentDescriptor& d) const {
+  const auto& a = entries_[entry].descriptor.places;
+  float l1 = 0.0f;
+  for (int i = 0; i < kPlaceBins; ++i) l1 += std::abs(a[static_cast<std::size_t>(i)] - d.places[static_cast<std::size_t>(i)]);
+  return l1;
+}
+
+// Vantage-point tree over order_[lo, hi): order_[lo] is the vantage point, [lo + 1, mid) lie within mu_[lo] of it,
+// [mid, hi) beyond. Median split, so the depth is log2(n).
+void LoopClosureDetector::build(std::uint32_t lo, std::uint32_t hi) {
+  if (hi - lo <= 1) return;
+  const AgentDescriptor& v = entries_[order_[lo]].descriptor;
+  for (std::uint32_t i = lo + 1; i < hi; ++i) scratch_[order_[i]] = places_distance(order_[i], v);
+  const std::uint32_t mid = lo + 1 + (hi - lo - 1) / 2;
+  std::nth_element(order_.begin() + lo + 1, order_.begin() + mid, order_.begin() + hi,
+                   [&](std::uint32_t a, std::uint32_t b) { return scratch_[a] < scratch_[b]; });
+  mu_[lo] = scratch_[order_[mid]];
+  build(lo + 1, mid);
+  build(mid, hi);
+}
+
+void LoopClosureDetector::rebuild() {
+  indexed_ = static_cast<std::uint32_t>(entries_.size());
+  for (std::uint32_t i = 0; i < indexed_; ++i) order_[i] = i;
+  build(0, indexed_);
+  ++counters_.tree_rebuilds;
+}
+
+void LoopClosureDetector::consider(std::uint32_t entry, const AgentEntry& query) {
+  const AgentEntry& e = entries_[entry];
+  if (e.time_ns + static_cast<std::uint64_t>(config_.min_time_separation_s * 1e9) > query.time_ns) return;
+  if (e.path_m + config_.min_path_separation_m > query.path_m) return;
+  const float places = histogram_similarity(e.descriptor.places.data(), query.descriptor.places.data(), kPlaceBins);
+  if (places < config_.places_threshold) return;
+  ++counters_.places_candidates;
+  if (e.descriptor.num_points < config_.min_objects) return;
+  const float objects = histogram_similarity(e.descriptor.objects.data(), query.descriptor.objects.data(), kObjectBins);
+  candidates_.push_back(Candidate{entry, places, objects});
+}
+
+void LoopClosureDetector::search(std::uint32_t lo, std::uint32_t hi, const AgentDescriptor& d, float radius,
+                                 const AgentEntry& query) {
+  if (lo >= hi) return;
+  const float dist = places_distance(order_[lo], d);
+  if (dist <= radius) consider(order_[lo], query);
+  if (hi - lo == 1) return;
+  const std::uint32_t mid = lo + 1 + (hi - lo - 1) / 2;
+  if (dist - radius <= mu_[lo]) search(lo + 1, mid, d, radius, query);  // the ball reaches inside
+  if (dist + radius >= mu_[lo]) search(mid, hi, d, radius, query);      // ... and outside
+}
+
+bool LoopClosureDetector::add_and_detect(const AgentEntry& query, LoopClosure* out) {
+  ++counters_.queries;
+  bool found = false;
+  if (query.descriptor.num_points < config_.min_objects) {
+    ++counters_.queries_without_objects;
+  } else {
+    candidates_.clear();
+    const float radius = 2.0f * (1.0f - static_cast<float>(config_.places_threshold));  // similarity -> L1
+    search(0, indexed_, query.descriptor, radius, query);
+    for (std::uint32_t i = indexed_; i < entries_.size(); ++i) consider(i, query);  // the newest, not in the tree
+    std::sort(candidates_.begin(), candidates_.end(),
+              [](const Candidate& a, const Candidate& b) { return a.objects > b.objects; });
+    std::size_t n = 0;
+    while (n < candidates_.size() && candidates_[n].objects >= config_.objects_threshold) ++n;
+    counters_.objects_candidates += n;
+    if (n > 0 && config_.ratio < 1.0) {
+      // The best candidate elsewhere (the list is sorted, so the first far one is the best far one).
+      const Eigen::Vector3d best_at = entries_[candidates_[0].entry].world_T_agent.translation();
+      for (const Candidate& c : candidates_) {
+        if ((entries_[c.entry].world_T_agent.translation() - best_at).norm() < config_.ratio_distance_m) continue;
+        if (c.objects > config_.ratio * candidates_[0].objects) {
+          ++counters_.ratio_rejections;
+          n = 0;
+        }
+        break;
+      }
+    }
+    for (std::size_t k = 0; k < n && k < config_.max_verifications && !found; ++k) {
+      const AgentEntry& match = entries_[candidates_[k].entry];
+      ++counters_.verifications;
+      const Registration r = registration_.register_sets(query.descriptor.points.data(), query.descriptor.num_points,
+                                                         match.descriptor.points.data(), match.descriptor.num_points);
+      if (!r.ok()) {
+        ++counters_.registration_failures;
+        continue;
+      }
+      // r maps the query's odometric frame onto the match's: match_T_query = (w_T_m)^-1 * T * w_T_q.
+      out->match = match.agent;
+      out->query = query.agent;
+      out->match_time_ns = match.time_ns;
+      out->query_time_ns = query.time_ns;
+      out->match_T_query = match.world_T_agent.inverse() * r.target_T_source * query.world_T_agent;
+      out->places_similarity = candidates_[k].places;
+      out->objects_similarity = candidates_[k].objects;
+      out->registration = r;
+      ++counters_.proposed;
+      found = true;
+    }
+  }
+  if (entries_.size() == entries_.capacity()) {
+    ++counters_.refused;
+  } else {
+    entries_.push_back(query);
+    if (entries_.size() - indexed_ >= config_.rebuild_batch) rebuild();
+  }
+  return found;
+}
+
+}  // namespace qsg::loop_closure

@@ -1,0 +1,118 @@
+// Top-down loop-closure detection and bottom-up verification over agent descriptors (the paper's section
+// "Loop Closure Detection and Geometric Verification"):
+//   places: a range search for past agents whose places descriptor is similar enough (a vantage-point tree over the
+//           L1 distance, a metric: sublinear in the number of agents; rebuilt in batches, the newest batch scanned);
+//   objects: the candidates' objects descriptors, best first, above a threshold, with a ratio test against the best
+//            candidate elsewhere (perceptual aliasing);
+//   verification: object-based registration (object_registration.h) of the two agents' object sets; the first
+//                 candidate that registers gives the loop closure.
+// Candidates must be at least min_time_separation_s and min_path_separation_m (along the trajectory) older than
+// the query. Capacity is fixed at init; when full, new agents are not stored (counted), queries still run.
+// Backend thread only; nothing allocates after init.
+#pragma once
+
+#include <Eigen/Geometry>
+
+#include <cstdint>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include "core/loop_closure/object_registration.h"
+#include "core/loop_closure/scene_descriptor.h"
+#include "core/memory/resource_stats.h"
+#include "core/scene_graph/node_id.h"
+
+namespace qsg::loop_closure {
+
+struct DetectorConfig {
+  double places_threshold = 0.6;       // places similarity a candidate must reach
+  double objects_threshold = 0.5;      // objects similarity a candidate must reach to be verified
+  std::uint32_t min_objects = 4;       // objects a descriptor needs to take part (fewer cannot register)
+  double min_time_separation_s = 30.0;
+  double min_path_separation_m = 8.0;
+  // Ratio test: the best candidate's objects similarity must exceed `ratio` times the best candidate's at least
+  // ratio_distance_m away from it (odometric positions), else the place is ambiguous and nothing is proposed.
+  // 1 disables it.
+  double ratio = 0.95;
+  double ratio_distance_m = 4.0;
+  std::uint32_t max_verifications = 3;  // candidates registered per query at most, best first
+  std::uint32_t rebuild_batch = 64;     // agents scanned linearly before the tree is rebuilt over them
+  RegistrationConfig registration;
+
+  std::string check() const;
+  void print(std::FILE* out) const;
+};
+
+// One described agent: its odometric pose, time, distance travelled to it, descriptor.
+struct AgentEntry {
+  scene_graph::NodeId agent = scene_graph::kNoNode;
+  std::uint64_t time_ns = 0;
+  double path_m = 0.0;
+  Eigen::Isometry3d world_T_agent = Eigen::Isometry3d::Identity();  // odometric
+  AgentDescriptor descriptor;
+};
+
+struct LoopClosure {
+  scene_graph::NodeId match = scene_graph::kNoNode;  // the older agent
+  scene_graph::NodeId query = scene_graph::kNoNode;
+  std::uint64_t match_time_ns = 0;
+  std::uint64_t query_time_ns = 0;
+  Eigen::Isometry3d match_T_query = Eigen::Isometry3d::Identity();  // the measured relative pose
+  float places_similarity = 0.0f;
+  float objects_similarity = 0.0f;
+  Registration registration;
+};
+
+struct DetectorCounters {
+  std::uint64_t queries = 0;
+  std::uint64_t queries_without_objects = 0;  // descriptor below min_objects: no detection
+  std::uint64_t places_candidates = 0;        // past agents within the places threshold (and separation)
+  std::uint64_t objects_candidates = 0;       // ... also within the objects threshold
+  std::uint64_t ratio_rejections = 0;
+  std::uint64_t verifications = 0;
+  std::uint64_t registration_failures = 0;
+  std::uint64_t proposed = 0;                 // verified loop closures handed to the optimizer
+  std::uint64_t refused = 0;                  // agents not stored: the database is full
+  std::uint64_t tree_rebuilds = 0;
+  void print(std::FILE* out) const;
+};
+
+class LoopClosureDetector {
+ public:
+  bool init(std::size_t capacity, const DetectorConfig& config, std::string* error);
+  // Looks for a verified match of `query` among the stored agents, then stores it. True with `out` filled when a
+  // loop closure is proposed.
+  bool add_and_detect(const AgentEntry& query, LoopClosure* out);
+  std::size_t size() const { return entries_.size(); }
+  const AgentEntry& entry(std::size_t i) const { return entries_[i]; }
+  const DetectorCounters& counters() const { return counters_; }
+  const DetectorConfig& config() const { return config_; }
+  memory::ResourceStats stats() const;
+  std::size_t bytes() const { return entries_.capacity() * sizeof(AgentEntry) + order_.capacity() * 12; }
+
+ private:
+  struct Candidate {
+    std::uint32_t entry;
+    float places;
+    float objects;
+  };
+  float places_distance(std::uint32_t entry, const AgentDescriptor& d) const;
+  void rebuild();
+  void build(std::uint32_t lo, std::uint32_t hi);
+  void search(std::uint32_t lo, std::uint32_t hi, const AgentDescriptor& d, float radius, const AgentEntry& query);
+  void consider(std::uint32_t entry, const AgentEntry& query);
+
+  DetectorConfig config_;
+  ObjectRegistration registration_;
+  std::vector<AgentEntry> entries_;
+  std::vector<std::uint32_t> order_;  // the vantage-point tree: entries in tree order over [0, indexed_)
+  std::vector<float> mu_;             // per tree position: the split radius of the node rooted there
+  std::vector<float> scratch_;
+  std::uint32_t indexed_ = 0;
+  std::vector<Candidate> candidates_;
+  DetectorCounters counters_;
+  std::uint64_t high_water_ = 0;
+};
+
+}  // namespace qsg::loop_closure

@@ -1,0 +1,186 @@
+// The embedded deformation graph: a drifted square loop with its mesh control points and places; one true loop
+// closure must pull agents, control points, places and any interpolated point back towards the truth, and a wrong
+// loop closure next to it must switch itself off.
+#include "core/backend/deformation_graph.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <vector>
+
+#include "tests/scene_graph/test_graph.h"
+
+namespace qsg::backend {
+namespace {
+
+Eigen::Isometry3d planar(double x, double y, double yaw) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  T.translation() = Eigen::Vector3d(x, y, 0.0);
+  return T;
+}
+
+// A 6 m square walked once in 0.5 m steps; the odometry's yaw drifts 0.6 degree per step.
+struct Walk {
+  std::vector<Eigen::Isometry3d> truth, odometry;
+};
+Walk square_walk() {
+  Walk w;
+  Eigen::Isometry3d est = Eigen::Isometry3d::Identity(), prev = Eigen::Isometry3d::Identity();
+  const Eigen::Vector3d corner[4] = {{0, 0, 0}, {6, 0, 0}, {6, 6, 0}, {0, 6, 0}};
+  for (int side = 0; side < 4; ++side)
+    for (int k = 0; k < 12; ++k) {
+      const double yaw = side * M_PI / 2;
+      const Eigen::Vector3d p = corner[side] + 0.5 * k * (Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) * Eigen::Vector3d::UnitX());
+      const Eigen::Isometry3d t = planar(p.x(), p.y(), yaw);
+      if (!w.truth.empty()) {
+        Eigen::Isometry3d step = prev.inverse() * t;
+        step.linear() = Eigen::AngleAxisd(0.6 * M_PI / 180.0, Eigen::Vector3d::UnitZ()).toRotationMatrix() * step.linear();
+        est = est * step;
+      }
+      prev = t;
+      w.truth.push_back(t);
+      w.odometry.push_back(est);
+    }
+  return w;
+}
+
+class DeformationGraphTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    walk_ = square_walk();
+    graph_ = scene_graph::testing::make_graph();
+    agents::Config c;
+    c.min_translation_m = 0.0;
+    std::string error;
+    ASSERT_TRUE(layer_.init(c, agents::Capacities{100}, &error)) << error;
+    ASSERT_TRUE(control_.init(1000, 1.0, &error)) << error;
+    for (std::size_t i = 0; i < walk_.odometry.size(); ++i) {
+      Eigen::Matrix<double, 6, 1> variance;
+      variance << 1e-4 * i, 1e-4 * i, 1e-6 * i, 1e-7 * i, 1e-7 * i, 1.2e-4 * i;  // yaw: the 0.6 degrees it drifts
+      const std::uint64_t t = 1'000'000'000ull + 2'000'000'000ull * i;  // 0.25 m/s
+      ASSERT_EQ(layer_.add_keyframe(graph_.get(), t, walk_.odometry[i], 0, variance), agents::AddResult::kAdded);
+      // The wall 1.5 m to the robot's left, seen at this keyframe: a control point in the odometric frame.
+      const Eigen::Vector3d wall(0.0, 1.5, 1.0);
+      if (control_.offer(walk_.odometry[i] * wall, t))
+        walls_.push_back({walk_.odometry[i] * wall, walk_.truth[i] * wall, t});
+      // A place 0.7 m to the left every other keyframe, joined to the previous place and to the agent.
+      if (i % 2 == 0) {
+        scene_graph::PlaceAttributes p;
+        p.position_m = walk_.odometry[i] * Eigen::Vector3d(0.0, 0.7, 0.0);
+        p.last_update_time_ns = t;
+        const scene_graph::NodeId id = scene_graph::make_node_id(scene_graph::kPlacePrefix, i);
+        ASSERT_EQ(graph_->add_place(id, p), scene_graph::Status::kOk);
+        places_.push_back({id, walk_.truth[i] * Eigen::Vector3d(0.0, 0.7, 0.0)});
+        if (i > 0) graph_->add_edge(scene_graph::make_node_id(scene_graph::kPlacePrefix, i - 2), id);
+        graph_->add_edge(layer_.chain(i).id, id);
+      }
+    }
+    ASSERT_GT(walls_.size(), 10u);
+  }
+  ChainLoopClosure true_closure(std::uint32_t a, std::uint32_t b) const {
+    const Eigen::Isometry3d a_T_b = walk_.truth[a].inverse() * walk_.truth[b];
+    ChainLoopClosure c;
+    c.a = a;
+    c.b = b;
+    c.a_T_b = Pose3{a_T_b.translation(), Eigen::Quaterniond(a_T_b.linear())};
+    return c;
+  }
+  double agent_rmse(const DeformationGraph& d) const {
+    double sum = 0.0;
+    for (std::size_t k = 0; k < walk_.truth.size(); ++k) {
+      const Eigen::Vector3d p = d.solved() ? d.agent_pose(k).t_m : walk_.odometry[k].translation();
+      sum += (p - walk_.truth[k].translation()).squaredNorm();
+    }
+    return std::sqrt(sum / static_cast<double>(walk_.truth.size()));
+  }
+  double wall_rmse(const DeformationGraph& d) const {
+    double sum = 0.0;
+    for (const Wall& w : walls_) sum += (d.deform(w.odom, w.time_ns) - w.truth).squaredNorm();
+    return std::sqrt(sum / static_cast<double>(walls_.size()));
+  }
+
+  Walk walk_;
+  std::unique_ptr<scene_graph::SceneGraph> graph_;
+  agents::AgentLayer layer_;
+  ControlPoints control_;
+  struct Wall {
+    Eigen::Vector3d odom, truth;
+    std::uint64_t time_ns;
+  };
+  std::vector<Wall> walls_;
+  std::vector<std::pair<scene_graph::NodeId, Eigen::Vector3d>> places_;
+};
+
+TEST_F(DeformationGraphTest, ATrueLoopClosureCorrectsEveryLayer) {
+  DeformationGraph d;
+  const double agents_before = agent_rmse(d), walls_before = wall_rmse(d);
+  ASSERT_GT(agents_before, 0.4) << "the test needs visible drift";
+  const auto last = static_cast<std::uint32_t>(walk_.truth.size() - 1);
+  const DeformationResult r = d.optimize(layer_, {true_closure(0, last)}, control_, *graph_);
+  ASSERT_TRUE(r.solve.poses_updated()) << r.solve.message;
+  EXPECT_EQ(r.agents, walk_.truth.size());
+  EXPECT_EQ(r.control_points, walls_.size());
+  EXPECT_EQ(r.places, places_.size());
+  EXPECT_EQ(r.edges_am, walls_.size());
+  EXPECT_EQ(r.edges_pp, places_.size() - 1) << "a spanning tree of the place chain";
+  EXPECT_EQ(r.edges_ap, places_.size());
+  EXPECT_GT(r.edges_mm, 0u);
+  EXPECT_EQ(r.loop_closures_kept, 1u);
+  EXPECT_LT(agent_rmse(d), 0.3 * agents_before);
+  EXPECT_LT(wall_rmse(d), 0.3 * walls_before) << "control points and what they carry follow the agents";
+  double places_before = 0.0, places_after = 0.0;
+  for (const auto& [id, truth] : places_) {
+    Eigen::Vector3d p;
+    ASSERT_TRUE(d.place_position(id, &p));
+    places_before += (graph_->place(id)->position_m - truth).squaredNorm();
+    places_after += (p - truth).squaredNorm();
+  }
+  EXPECT_LT(places_after, 0.09 * places_before);
+}
+
+TEST_F(DeformationGraphTest, AWrongLoopClosureSwitchesItselfOff) {
+  DeformationGraph d;
+  const double agents_before = agent_rmse(d);
+  const auto last = static_cast<std::uint32_t>(walk_.truth.size() - 1);
+  ChainLoopClosure wrong = true_closure(10, 30);
+  wrong.a_T_b = Pose3{Eigen::Vector3d(0.5, 0.2, 0.0), Eigen::Quaterniond::Identity()};  // "the same place": it is not
+  // Three views of the start from the end (a revisit proposes several), and one wrong closure among them.
+  const DeformationResult r =
+      d.optimize(layer_, {true_closure(0, last), true_closure(1, last), wrong, true_closure(0, last - 1)}, control_,
+                 *graph_);
+  ASSERT_TRUE(r.solve.poses_updated()) << r.solve.message;
+  ASSERT_EQ(r.loop_closure_weight.size(), 4u);
+  EXPECT_GT(r.loop_closure_weight[0], 0.5);
+  EXPECT_GT(r.loop_closure_weight[1], 0.5);
+  EXPECT_LT(r.loop_closure_weight[2], 0.5) << "the wrong one";
+  EXPECT_GT(r.loop_closure_weight[3], 0.5);
+  EXPECT_EQ(r.loop_closures_kept, 3u);
+  EXPECT_LT(agent_rmse(d), 0.3 * agents_before);
+}
+
+TEST_F(DeformationGraphTest, WithoutLoopClosuresNothingMoves) {
+  DeformationGraph d;
+  const DeformationResult r = d.optimize(layer_, {}, control_, *graph_);
+  ASSERT_TRUE(r.solve.poses_updated()) << r.solve.message;
+  for (const Wall& w : walls_) EXPECT_LT((d.deform(w.odom, w.time_ns) - w.odom).norm(), 1e-6);
+  EXPECT_LT((d.agent_pose(5).t_m - walk_.odometry[5].translation()).norm(), 1e-6);
+}
+
+TEST(ControlPointsTest, OnePerCellAndAFullStoreRefuses) {
+  ControlPoints c;
+  std::string error;
+  ASSERT_TRUE(c.init(3, 1.0, &error)) << error;
+  EXPECT_TRUE(c.offer(Eigen::Vector3d(0.2, 0.2, 0.2), 1));
+  EXPECT_FALSE(c.offer(Eigen::Vector3d(0.8, 0.9, 0.1), 2)) << "same cell";
+  EXPECT_TRUE(c.offer(Eigen::Vector3d(1.2, 0.2, 0.2), 3));
+  EXPECT_TRUE(c.offer(Eigen::Vector3d(-0.2, 0.2, 0.2), 4));
+  EXPECT_FALSE(c.offer(Eigen::Vector3d(5.0, 5.0, 5.0), 5));
+  EXPECT_FALSE(c.offer(Eigen::Vector3d(std::nan(""), 0, 0), 6));
+  EXPECT_EQ(c.size(), 3u);
+  EXPECT_EQ(c.stats().failed, 1u);
+  EXPECT_EQ(c.time_ns(1), 3u);
+}
+
+}  // namespace
+}  // namespace qsg::backend
