@@ -291,6 +291,28 @@ bool AppConfig::load(const std::string& path, std::string* error) {
          doors.online_misses_to_drop = static_cast<int>(misses);
          return true;
        }},
+      {"loop_closure", [&](const Json& v, std::string* why) {
+         LoopClosure& lc = loop_closure;
+         double min_inliers = lc.detector.registration.min_inliers;
+         if (!read_section(v, "loop_closure",
+                           {{"enabled", boolean(&lc.enabled)},
+                            {"horizon_s", number(&lc.horizon_s)},
+                            {"describe_every_m", number(&lc.describe_every_m)},
+                            {"radius_m", number(&lc.descriptor.radius_m)},
+                            {"places_threshold", number(&lc.detector.places_threshold)},
+                            {"objects_threshold", number(&lc.detector.objects_threshold)},
+                            {"min_time_separation_s", number(&lc.detector.min_time_separation_s)},
+                            {"ratio", number(&lc.detector.ratio)},
+                            {"noise_bound_m", number(&lc.detector.registration.noise_bound_m)},
+                            {"min_inliers", number(&min_inliers)},
+                            {"sigma_position_m", number(&lc.deformation.sigma_position_m)}},
+                           why))
+           return false;
+         if (!whole_number_in(min_inliers, 2.0, 256.0))
+           return *why = "loop_closure.min_inliers: expected an integer 2 .. 256", false;
+         lc.detector.registration.min_inliers = static_cast<std::uint32_t>(min_inliers);
+         return true;
+       }},
       {"frontend", [&](const Json& v, std::string* why) {
          return read_section(v, "frontend", {{"connect_interlayer", boolean(&frontend.connect_interlayer)}}, why);
        }},
@@ -482,7 +504,16 @@ std::string AppConfig::check() const {
   if (const std::string k = keyframes.check(); !k.empty()) return "keyframes: " + k;
   if (const std::string o = check_odometry(); !o.empty()) return "odometry: " + o;
   if (const std::string s = scheduler.check(); !s.empty()) return "scheduler: " + s;
+  if (const std::string l = loop_closure.check(); !l.empty()) return "loop_closure: " + l;
   return {};
+}
+
+std::string AppConfig::LoopClosure::check() const {
+  if (!(horizon_s >= 0.0 && horizon_s <= 3600.0)) return "horizon_s must be in [0, 3600] s";
+  if (!(describe_every_m > 0.0 && describe_every_m <= 100.0)) return "describe_every_m must be in (0, 100] m";
+  if (const std::string d = descriptor.check(); !d.empty()) return d;
+  if (const std::string d = detector.check(); !d.empty()) return d;
+  return deformation.check();
 }
 
 std::string AppConfig::check_odometry() const {

@@ -6,7 +6,9 @@
 #include <cstdio>
 #include <string>
 
+#include "core/backend/deformation_graph.h"
 #include "core/frontend/frontend.h"
+#include "core/loop_closure/detector.h"
 #include "core/reconstruction/semantic_tsdf.h"
 #include "core/rooms/door_detector.h"
 #include "core/rooms/room_finder.h"
@@ -122,6 +124,18 @@ struct AppConfig {
   bool doors_online = true;
   std::uint32_t doors_online_every_n = 4;
   rooms::DoorConfig doors;
+  // The persistent scene graph (backend thread): agents described once the robot is horizon_s past them (one per
+  // describe_every_m of path), loop closures detected and verified over the scene graph, and the deformation graph
+  // solved after each new one. Its stores are the budget table's "loop_closure" arena.
+  struct LoopClosure {
+    bool enabled = true;
+    double horizon_s = 15.0;
+    double describe_every_m = 1.0;
+    loop_closure::DescriptorConfig descriptor;
+    loop_closure::DetectorConfig detector;
+    backend::DeformationConfig deformation;
+    std::string check() const;
+  } loop_closure;
   runtime::KeyframeConfig keyframes;
   runtime::SchedulerConfig scheduler;
 

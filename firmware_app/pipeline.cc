@@ -229,7 +229,9 @@ bool Pipeline::init(const AppConfig& config, runtime::Clock* clock, std::string*
   keyframe_queue_.set_on_drop([](void* self, int&& index) { static_cast<Pipeline*>(self)->free_frames_.push(int{index}); },
                               this);
 
-  if (!init_odometry(error) || !init_gpio(error) || !init_segmentation(error) || !init_backend(error)) return false;
+  if (!init_odometry(error) || !init_gpio(error) || !init_segmentation(error) || !init_backend(error) ||
+      !init_loop_closure(error))
+    return false;
 
   // The task table.
   if (!scheduler_.init(config.scheduler, table, clock_, error)) return false;
@@ -375,6 +377,7 @@ void Pipeline::run_backend_update(const BackendUpdate& u, bool door_pass) {
   backend_updates_.fetch_add(1);
   rooms_count_.store(r.rooms);
   if (r.rooms > 0 && classifier_ != nullptr && classifier_->ready()) label_rooms();
+  run_loop_closure(time_ns);
 }
 
 // The classifier's input from the scene graph (caller holds graph_mutex_): rooms with their box, each object in
@@ -696,6 +699,7 @@ void Pipeline::integrate_keyframe(const runtime::TaskContext& c) {
                                                          frame_variances_[static_cast<std::size_t>(current_keyframe_)]);
   if (added == agents::AddResult::kAdded) {
     ++counters_.agent_nodes;
+    capture_agent_frame(frame, frontend_.agents().last_node(), latest_keyframe_ns_);
     if (trajectory_m_.size() < trajectory_m_.capacity()) trajectory_m_.push_back(robot_m_);
   } else if (added == agents::AddResult::kSparsified) {
     ++counters_.agent_sparsified;
@@ -729,6 +733,7 @@ void Pipeline::update_frontend(const runtime::TaskContext& c) {
   {
     std::lock_guard<std::mutex> lock(graph_mutex_);
     s = frontend_.update(tsdf_, robot_m_, latest_keyframe_ns_, &graph_, deadline);
+    offer_control_points();
   }
   ++counters_.frontend_updates;
   if (!s.places_complete) ++counters_.frontend_deadline_stops;
@@ -867,6 +872,7 @@ bool Pipeline::finish(std::string* error) {
   counters_.rooms_labelled = rooms_labelled_.load();
   counters_.rooms_merged_visible = rooms_merged_visible_.load();
   std::lock_guard<std::mutex> lock(graph_mutex_);
+  correct_outputs(&mesh);
   const std::string dir = config_.output_dir;
   // Every output is attempted whatever became of the others (the picture last: it is the least of them); each
   // replaces its file atomically, so a failure or a kill leaves the previous file or none, never half of one.
@@ -903,22 +909,25 @@ bool Pipeline::finish_trajectory(std::string* error) {
   std::vector<backend::Pose3> optimized;
   pose_graph_ = backend::optimize_agent_chain(agents, {}, backend::AgentGraphConfig{}, &optimized);
   pose_graph_.print(stdout);
-  replay::Trajectory estimate, truth;
-  std::vector<metrics::TimedPose> est, ref;
+  replay::Trajectory estimate, odometric, truth;
+  std::vector<metrics::TimedPose> est, odo, ref;
   const Eigen::Isometry3d mount = sim_camera_ != nullptr ? sim_camera_->body_T_camera() : Eigen::Isometry3d::Identity();
   for (std::size_t k = 0; k < agents.chain_size(); ++k) {
     const agents::ChainNode& n = agents.chain(k);
     const auto t_ns = static_cast<std::int64_t>(n.time_ns);
+    const Eigen::Isometry3d corrected = corrected_pose(k);  // the odometric pose without loop closures
+    estimate.push_back(replay::StampedPose::from_isometry(t_ns, corrected));
     replay::StampedPose p;
     p.time_ns = t_ns;
     p.world_t_body_m = n.t_m;
     p.world_R_body = n.q;
-    estimate.push_back(p);
+    odometric.push_back(p);
     replay::StampedPose g;
     if (ground_truth_.empty() || !replay::interpolate_pose(ground_truth_, t_ns, INT64_MAX, &g)) continue;
     const Eigen::Isometry3d world_T_camera = g.world_T_body() * mount;
     truth.push_back(replay::StampedPose::from_isometry(t_ns, world_T_camera));
-    est.push_back({t_ns, n.t_m, n.q});
+    est.push_back({t_ns, corrected.translation(), Eigen::Quaterniond(corrected.linear())});
+    odo.push_back({t_ns, n.t_m, n.q});
     ref.push_back({t_ns, world_T_camera.translation(), Eigen::Quaterniond(world_T_camera.linear())});
   }
   const std::string dir = config_.output_dir;
@@ -929,6 +938,7 @@ bool Pipeline::finish_trajectory(std::string* error) {
     return false;
   };
   if (!write_atomically(dir + "/trajectory_estimate.txt", estimate)) return false;
+  if (deformation_.solved() && !write_atomically(dir + "/trajectory_odometry.txt", odometric)) return false;
   if (truth.empty()) return true;
   if (!write_atomically(dir + "/trajectory_ground_truth.txt", truth)) return false;
   // The map is built in the odometry frame from the true start: the error without alignment is what the map shows.
@@ -936,6 +946,13 @@ bool Pipeline::finish_trajectory(std::string* error) {
   tc.max_time_difference_ns = 0;
   tc.alignment = metrics::Alignment::kNone;
   ate_unaligned_ = metrics::evaluate_trajectory(ref, est, tc);
+  ate_odometry_ = metrics::evaluate_trajectory(ref, odo, tc);
+  if (deformation_.solved() && ate_odometry_.ok && ate_unaligned_.ok)
+    std::printf("loop closure: %llu proposed, %llu kept; ATE RMSE %.3f m with odometry alone, %.3f m optimized "
+                "(%.1f %%)\n",
+                static_cast<unsigned long long>(counters_.loop_closures),
+                static_cast<unsigned long long>(counters_.loop_closures_kept), ate_odometry_.ate_rmse_m,
+                ate_unaligned_.ate_rmse_m, 100.0 * ate_unaligned_.ate_rmse_m / std::max(1e-9, ate_odometry_.ate_rmse_m));
   tc.alignment = metrics::Alignment::kSE3;
   const metrics::TrajectoryError aligned = metrics::evaluate_trajectory(ref, est, tc);
   if (ate_unaligned_.ok && aligned.ok)

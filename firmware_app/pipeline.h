@@ -15,6 +15,8 @@
 #include <vector>
 
 #include "core/backend/agent_pose_graph.h"
+#include "core/backend/deformation_graph.h"
+#include "core/loop_closure/detector.h"
 #include "core/frontend/frontend.h"
 #include "core/metrics/trajectory_error.h"
 #include "core/reconstruction/semantic_tsdf.h"
@@ -81,6 +83,17 @@ struct PipelineCounters {
   std::uint64_t keyframes_segmented = 0;
   std::uint64_t keyframes_unlabelled = 0; // waited past the segmentation deadline (or segmentation failed)
   std::uint64_t telemetry_lines = 0;
+  // Loop closure (AppConfig::loop_closure).
+  std::uint64_t agents_described = 0;      // agents given a descriptor (the detector's queries)
+  std::uint64_t loop_closures = 0;         // proposed: detected and verified
+  std::uint64_t loop_closures_kept = 0;    // kept by the latest optimization (GNC)
+  std::uint64_t loop_closures_true = 0;    // proposed within 10 cm / 1 degree of the truth (sim, replay with poses)
+  std::uint64_t loop_closures_dropped = 0; // beyond the "loop_closures" capacity (counted, not optimized)
+  std::uint64_t agent_frames_dropped = 0;  // agents to describe whose keyframe found no free slot (no appearance)
+  std::uint64_t loop_closures_by_appearance = 0;
+  std::uint64_t graph_optimizations = 0;
+  std::uint64_t graph_optimization_failures = 0;
+  std::uint64_t graph_optimization_max_us = 0;  // the longest solve (backend thread; wall time)
 };
 
 class Pipeline {
@@ -134,6 +147,7 @@ class Pipeline {
   // After finish(): the agents' pose graph solve, and the trajectory error against the truth (ok == false without).
   const backend::AgentGraphResult& pose_graph() const { return pose_graph_; }
   const metrics::TrajectoryError& trajectory_error() const { return ate_unaligned_; }
+  const metrics::TrajectoryError& odometry_trajectory_error() const { return ate_odometry_; }
   void set_run_observer(runtime::Scheduler::RunObserver observer, void* user) {
     scheduler_.set_run_observer(observer, user);
   }
@@ -178,7 +192,8 @@ class Pipeline {
   replay::Trajectory ground_truth_;  // sim: the true body path; replay: the dataset's camera poses (may be empty)
   OdometryInput odometry_;
   backend::AgentGraphResult pose_graph_;
-  metrics::TrajectoryError ate_unaligned_;
+  metrics::TrajectoryError ate_unaligned_;  // of the estimate (optimized when loops closed), as mapped
+  metrics::TrajectoryError ate_odometry_;   // of the odometric chain alone
   v4l2::V4l2Syscalls* v4l2_depth_sys_ = nullptr;
   v4l2::V4l2Syscalls* v4l2_colour_sys_ = nullptr;
   drivers::RgbdSource* camera_ = nullptr;
@@ -238,6 +253,65 @@ class Pipeline {
   neural_tree::ObjectRoomGraph room_graph_;
   std::atomic<std::uint64_t> rooms_labelled_{0};
   std::atomic<std::uint64_t> rooms_merged_visible_{0};
+  // Loop closure and the deformation graph. Control points are offered by the loop thread after each frontend
+  // update, the rest runs on the backend thread; all of it under graph_mutex_.
+  bool init_loop_closure(std::string* error);
+  void offer_control_points();
+  void run_loop_closure(std::uint64_t time_ns);
+  bool optimize_graph();
+  // At the finish (graph_mutex_ held): the final solve over every loop closure, then agents and places to their
+  // optimized poses, objects, rooms and the mesh moved by the deformation graph; the counters and a summary line.
+  void correct_outputs(reconstruction::Mesh* mesh);
+  void score_loop_closures();
+  // world_T_camera of chain node k after the latest optimization (nodes after the solved chain follow the
+  // correction of the last solved one); the odometric pose before any.
+  Eigen::Isometry3d corrected_pose(std::size_t k) const;
+  // Keyframes of agents to be described (one per describe_every_m of path): the loop copies grey and depth into a
+  // free slot (none free: dropped, counted); the backend extracts their appearance and keeps it until the agent is
+  // described.
+  void capture_agent_frame(const drivers::RgbdFrame& frame, scene_graph::NodeId agent, std::uint64_t time_ns);
+  void extract_captured_frames();
+  struct AgentFrame {
+    scene_graph::NodeId agent = scene_graph::kNoNode;
+    std::uint64_t time_ns = 0;
+    drivers::CameraIntrinsics intrinsics;
+    std::vector<std::uint8_t> grey;  // sized for the largest frame at init
+    std::vector<float> depth_m;
+  };
+  struct PendingAppearance {
+    scene_graph::NodeId agent = scene_graph::kNoNode;
+    std::uint64_t time_ns = 0;
+    loop_closure::AppearanceFeatures features;
+  };
+  std::vector<AgentFrame> lc_frames_;
+  runtime::BoundedQueue<int> lc_free_frames_{"loop_closure.free_frames"};
+  runtime::BoundedQueue<int> lc_ready_frames_{"loop_closure.frames"};
+  std::vector<PendingAppearance> lc_pending_;  // captured, waiting for their description (time order)
+  loop_closure::AppearanceExtractor lc_appearance_;
+  Eigen::Vector3d lc_captured_m_ = Eigen::Vector3d::Zero();
+  bool lc_have_captured_ = false;
+  std::uint64_t lc_frames_dropped_ = 0;     // loop thread: no free slot
+  std::atomic<std::uint64_t> lc_pending_dropped_{0};
+  loop_closure::DescriptorBuilder lc_descriptors_;
+  loop_closure::LoopClosureDetector lc_detector_;
+  backend::ControlPoints control_points_;
+  backend::DeformationGraph deformation_;
+  backend::DeformationResult deformation_result_;
+  std::vector<loop_closure::LoopClosure> loop_closures_;  // capacity: the budget's loop_closure.loop_closures
+  std::uint64_t lc_described_until_ns_ = 0;  // chain nodes up to this time are described (or skipped)
+  double lc_path_m_ = 0.0;                   // path along the chain to the last node looked at
+  Eigen::Vector3d lc_last_m_ = Eigen::Vector3d::Zero();
+  bool lc_have_last_ = false;
+  std::size_t lc_optimized_closures_ = 0;   // closures in the latest solve
+  std::uint32_t cp_mesh_stamp_ = 0;         // blocks meshed after this stamp are offered as control points
+  std::atomic<std::uint64_t> agents_described_{0};
+  std::atomic<std::uint64_t> loop_closures_count_{0};
+  std::atomic<std::uint64_t> loop_closures_kept_{0};
+  std::atomic<std::uint64_t> loop_closures_dropped_{0};
+  std::atomic<std::uint64_t> loop_closures_by_appearance_{0};
+  std::atomic<std::uint64_t> graph_optimizations_{0};
+  std::atomic<std::uint64_t> graph_optimization_failures_{0};
+  std::atomic<std::uint64_t> graph_optimization_max_us_{0};
   std::string classifier_error_;  // the latest failure (backend thread only)
   void label_rooms();
   runtime::BoundedQueue<BackendUpdate> backend_queue_{"frontend_to_backend"};

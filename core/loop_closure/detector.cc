@@ -16,6 +16,8 @@ std::string DetectorConfig::check() const {
   if (!(ratio_distance_m >= 0.0 && ratio_distance_m <= 1000.0)) return "ratio_distance_m must be in [0, 1000] m";
   if (max_verifications < 1 || max_verifications > 64) return "max_verifications must be in [1, 64]";
   if (rebuild_batch < 1 || rebuild_batch > 100000) return "rebuild_batch must be in [1, 100000]";
+  if (max_appearance_checks > 64) return "max_appearance_checks must be in [0, 64]";
+  if (const std::string why = appearance.check(); !why.empty()) return "appearance." + why;
   if (const std::string why = registration.check(); !why.empty()) return "registration." + why;
   return "";
 }
@@ -27,18 +29,24 @@ void DetectorConfig::print(std::FILE* out) const {
                places_threshold, objects_threshold, min_objects, min_time_separation_s, min_path_separation_m, ratio,
                ratio_distance_m, max_verifications);
   registration.print(out);
+  appearance.print(out);
 }
+
+const char* to_string(ClosureSource s) { return s == ClosureSource::kAppearance ? "appearance" : "objects"; }
 
 void DetectorCounters::print(std::FILE* out) const {
   std::fprintf(out,
                "loop closures: %llu queries (%llu without enough objects), %llu places candidates, %llu objects "
-               "candidates, %llu ratio rejections, %llu verified of which %llu failed registration, %llu proposed; "
-               "%llu agents refused (full), %llu tree rebuilds\n",
+               "candidates, %llu ratio rejections, %llu appearance checks of which %llu registered, %llu verified by "
+               "objects of which %llu failed registration, %llu proposed; "
+               "%llu agents refused, %llu folds, %llu tree rebuilds\n",
                static_cast<unsigned long long>(queries), static_cast<unsigned long long>(queries_without_objects),
                static_cast<unsigned long long>(places_candidates), static_cast<unsigned long long>(objects_candidates),
-               static_cast<unsigned long long>(ratio_rejections), static_cast<unsigned long long>(verifications),
+               static_cast<unsigned long long>(ratio_rejections), static_cast<unsigned long long>(appearance_checks),
+               static_cast<unsigned long long>(appearance_accepted), static_cast<unsigned long long>(verifications),
                static_cast<unsigned long long>(registration_failures), static_cast<unsigned long long>(proposed),
-               static_cast<unsigned long long>(refused), static_cast<unsigned long long>(tree_rebuilds));
+               static_cast<unsigned long long>(refused), static_cast<unsigned long long>(folds),
+               static_cast<unsigned long long>(tree_rebuilds));
 }
 
 bool LoopClosureDetector::init(std::size_t capacity, const DetectorConfig& config, std::string* error) {
@@ -63,7 +71,7 @@ memory::ResourceStats LoopClosureDetector::stats() const {
   s.unit = "agents";
   s.capacity = entries_.capacity();
   s.in_use = entries_.size();
-  s.high_water = entries_.size();
+  s.high_water = static_cast<std::size_t>(high_water_);
   s.failed = counters_.refused;
   return s;
 }
@@ -94,6 +102,18 @@ void LoopClosureDetector::rebuild() {
   for (std::uint32_t i = 0; i < indexed_; ++i) order_[i] = i;
   build(0, indexed_);
   ++counters_.tree_rebuilds;
+}
+
+// Full: every second agent of the older half goes (the chain's own folding policy), so a long mission keeps the
+// whole trajectory at a coarser spacing instead of forgetting its start or refusing its present.
+void LoopClosureDetector::fold() {
+  const std::size_t half = entries_.size() / 2;
+  std::size_t out = 0;
+  for (std::size_t i = 0; i < entries_.size(); ++i)
+    if (i >= half || i % 2 == 0) entries_[out++] = entries_[i];
+  entries_.resize(out);
+  ++counters_.folds;
+  rebuild();
 }
 
 void LoopClosureDetector::consider(std::uint32_t entry, const AgentEntry& query) {
@@ -134,6 +154,7 @@ bool LoopClosureDetector::add_and_detect(const AgentEntry& query, LoopClosure* o
     std::size_t n = 0;
     while (n < candidates_.size() && candidates_[n].objects >= config_.objects_threshold) ++n;
     counters_.objects_candidates += n;
+    bool ambiguous = false;  // the ratio test failed: neither verification may pick one of the look-alikes
     if (n > 0 && config_.ratio < 1.0) {
       // The best candidate elsewhere (the list is sorted, so the first far one is the best far one).
       const Eigen::Vector3d best_at = entries_[candidates_[0].entry].world_T_agent.translation();
@@ -141,9 +162,37 @@ bool LoopClosureDetector::add_and_detect(const AgentEntry& query, LoopClosure* o
         if ((entries_[c.entry].world_T_agent.translation() - best_at).norm() < config_.ratio_distance_m) continue;
         if (c.objects > config_.ratio * candidates_[0].objects) {
           ++counters_.ratio_rejections;
+          ambiguous = true;
           n = 0;
         }
         break;
+      }
+    }
+    const auto propose = [&](const Candidate& c, const AgentEntry& match) {
+      out->match = match.agent;
+      out->query = query.agent;
+      out->match_time_ns = match.time_ns;
+      out->query_time_ns = query.time_ns;
+      out->places_similarity = c.places;
+      out->objects_similarity = c.objects;
+      ++counters_.proposed;
+      found = true;
+    };
+    // Appearance first (precise), over the best candidates whatever their objects score, unless the place is
+    // ambiguous (n == 0 after the ratio test with candidates left).
+    if (query.appearance.count > 0 && !ambiguous) {
+      for (std::size_t k = 0; k < candidates_.size() && k < config_.max_appearance_checks && !found; ++k) {
+        const AgentEntry& match = entries_[candidates_[k].entry];
+        if (match.appearance.count == 0) continue;
+        ++counters_.appearance_checks;
+        const AppearanceRegistration a = register_appearance(query.appearance, match.appearance, config_.appearance,
+                                                             static_cast<std::uint32_t>(counters_.appearance_checks));
+        if (!a.ok) continue;
+        ++counters_.appearance_accepted;
+        out->source = ClosureSource::kAppearance;
+        out->appearance = a;
+        out->match_T_query = a.match_T_query;
+        propose(candidates_[k], match);
       }
     }
     for (std::size_t k = 0; k < n && k < config_.max_verifications && !found; ++k) {
@@ -156,24 +205,20 @@ bool LoopClosureDetector::add_and_detect(const AgentEntry& query, LoopClosure* o
         continue;
       }
       // r maps the query's odometric frame onto the match's: match_T_query = (w_T_m)^-1 * T * w_T_q.
-      out->match = match.agent;
-      out->query = query.agent;
-      out->match_time_ns = match.time_ns;
-      out->query_time_ns = query.time_ns;
-      out->match_T_query = match.world_T_agent.inverse() * r.target_T_source * query.world_T_agent;
-      out->places_similarity = candidates_[k].places;
-      out->objects_similarity = candidates_[k].objects;
+      out->source = ClosureSource::kObjects;
       out->registration = r;
-      ++counters_.proposed;
-      found = true;
+      out->match_T_query = match.world_T_agent.inverse() * r.target_T_source * query.world_T_agent;
+      propose(candidates_[k], match);
     }
   }
+  if (entries_.size() == entries_.capacity() && entries_.size() >= 4) fold();
   if (entries_.size() == entries_.capacity()) {
     ++counters_.refused;
   } else {
     entries_.push_back(query);
     if (entries_.size() - indexed_ >= config_.rebuild_batch) rebuild();
   }
+  high_water_ = std::max<std::uint64_t>(high_water_, entries_.size());
   return found;
 }
 

@@ -4,10 +4,12 @@
 //           L1 distance, a metric: sublinear in the number of agents; rebuilt in batches, the newest batch scanned);
 //   objects: the candidates' objects descriptors, best first, above a threshold, with a ratio test against the best
 //            candidate elsewhere (perceptual aliasing);
-//   verification: object-based registration (object_registration.h) of the two agents' object sets; the first
+//   verification, bottom-up: the appearance of the two agents' keyframes (appearance.h: ORB matches and RANSAC
+//                 on their 3D points) for the best max_appearance_checks candidates, precise where it succeeds; else
+//                 object-based registration (object_registration.h) of the best max_verifications; the first
 //                 candidate that registers gives the loop closure.
 // Candidates must be at least min_time_separation_s and min_path_separation_m (along the trajectory) older than
-// the query. Capacity is fixed at init; when full, new agents are not stored (counted), queries still run.
+// the query. Capacity is fixed at init; when full, every second agent of the older half is dropped (folds, counted).
 // Backend thread only; nothing allocates after init.
 #pragma once
 
@@ -18,6 +20,7 @@
 #include <string>
 #include <vector>
 
+#include "core/loop_closure/appearance.h"
 #include "core/loop_closure/object_registration.h"
 #include "core/loop_closure/scene_descriptor.h"
 #include "core/memory/resource_stats.h"
@@ -36,9 +39,11 @@ struct DetectorConfig {
   // 1 disables it.
   double ratio = 0.95;
   double ratio_distance_m = 4.0;
-  std::uint32_t max_verifications = 3;  // candidates registered per query at most, best first
+  std::uint32_t max_verifications = 3;  // candidates registered by their objects per query at most, best first
+  std::uint32_t max_appearance_checks = 8;  // candidates registered by appearance first (agents with features)
   std::uint32_t rebuild_batch = 64;     // agents scanned linearly before the tree is rebuilt over them
   RegistrationConfig registration;
+  AppearanceConfig appearance;
 
   std::string check() const;
   void print(std::FILE* out) const;
@@ -51,7 +56,11 @@ struct AgentEntry {
   double path_m = 0.0;
   Eigen::Isometry3d world_T_agent = Eigen::Isometry3d::Identity();  // odometric
   AgentDescriptor descriptor;
+  AppearanceFeatures appearance;  // count 0: none (verification by objects only)
 };
+
+enum class ClosureSource : std::uint8_t { kAppearance, kObjects };
+const char* to_string(ClosureSource s);
 
 struct LoopClosure {
   scene_graph::NodeId match = scene_graph::kNoNode;  // the older agent
@@ -61,7 +70,9 @@ struct LoopClosure {
   Eigen::Isometry3d match_T_query = Eigen::Isometry3d::Identity();  // the measured relative pose
   float places_similarity = 0.0f;
   float objects_similarity = 0.0f;
-  Registration registration;
+  ClosureSource source = ClosureSource::kObjects;
+  Registration registration;            // kObjects
+  AppearanceRegistration appearance;    // kAppearance
 };
 
 struct DetectorCounters {
@@ -70,10 +81,13 @@ struct DetectorCounters {
   std::uint64_t places_candidates = 0;        // past agents within the places threshold (and separation)
   std::uint64_t objects_candidates = 0;       // ... also within the objects threshold
   std::uint64_t ratio_rejections = 0;
-  std::uint64_t verifications = 0;
+  std::uint64_t appearance_checks = 0;
+  std::uint64_t appearance_accepted = 0;
+  std::uint64_t verifications = 0;        // by objects
   std::uint64_t registration_failures = 0;
   std::uint64_t proposed = 0;                 // verified loop closures handed to the optimizer
-  std::uint64_t refused = 0;                  // agents not stored: the database is full
+  std::uint64_t refused = 0;                  // agents not stored (a database of fewer than 4)
+  std::uint64_t folds = 0;                    // full: every second agent of the older half dropped
   std::uint64_t tree_rebuilds = 0;
   void print(std::FILE* out) const;
 };
@@ -99,6 +113,7 @@ class LoopClosureDetector {
   };
   float places_distance(std::uint32_t entry, const AgentDescriptor& d) const;
   void rebuild();
+  void fold();
   void build(std::uint32_t lo, std::uint32_t hi);
   void search(std::uint32_t lo, std::uint32_t hi, const AgentDescriptor& d, float radius, const AgentEntry& query);
   void consider(std::uint32_t entry, const AgentEntry& query);

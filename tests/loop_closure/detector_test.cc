@@ -172,16 +172,23 @@ TEST_F(DetectorTest, TreeSearchFindsWhatALinearScanFinds) {
   EXPECT_EQ(tree.counters().places_candidates, scan.counters().places_candidates);
 }
 
-TEST_F(DetectorTest, AFullDatabaseRefusesAndCounts) {
+TEST_F(DetectorTest, AFullDatabaseFoldsItsOlderHalf) {
   std::string error;
   LoopClosureDetector small;
-  ASSERT_TRUE(small.init(2, DetectorConfig{}, &error));
+  ASSERT_TRUE(small.init(8, DetectorConfig{}, &error));
   LoopClosure lc;
-  AgentEntry e;
-  for (int i = 0; i < 5; ++i) small.add_and_detect(e, &lc);
-  EXPECT_EQ(small.size(), 2u);
-  EXPECT_EQ(small.counters().refused, 3u);
-  EXPECT_EQ(small.stats().failed, 3u);
+  for (int i = 0; i < 9; ++i) {
+    AgentEntry e;
+    e.agent = make_node_id('a', static_cast<std::uint64_t>(i));
+    small.add_and_detect(e, &lc);
+  }
+  // At the 9th: entries 0..7 fold to 0, 2, 4..7, then 8 joins.
+  ASSERT_EQ(small.size(), 7u);
+  EXPECT_EQ(small.counters().folds, 1u);
+  EXPECT_EQ(small.counters().refused, 0u);
+  EXPECT_EQ(small.entry(1).agent, make_node_id('a', 2));
+  EXPECT_EQ(small.entry(6).agent, make_node_id('a', 8));
+  EXPECT_EQ(small.stats().high_water, 8u);
 }
 
 TEST_F(DetectorTest, BadConfigIsRefusedWithTheField) {
