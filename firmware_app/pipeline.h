@@ -282,6 +282,7 @@ class Pipeline {
     scene_graph::NodeId agent = scene_graph::kNoNode;
     std::uint64_t time_ns = 0;
     loop_closure::AppearanceFeatures features;
+    loop_closure::DepthCloud cloud;
   };
   std::vector<AgentFrame> lc_frames_;
   runtime::BoundedQueue<int> lc_free_frames_{"loop_closure.free_frames"};

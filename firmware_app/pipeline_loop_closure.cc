@@ -119,6 +119,7 @@ void Pipeline::extract_captured_frames() {
     v.cx = f.intrinsics.cx;
     v.cy = f.intrinsics.cy;
     lc_appearance_.extract(v, &p.features);
+    loop_closure::make_depth_cloud(v, config_.loop_closure.detector.icp.max_depth_m, &p.cloud);
     lc_free_frames_.push(int{slot});
   }
 }
@@ -170,6 +171,7 @@ void Pipeline::run_loop_closure(std::uint64_t time_ns) {
     e.path_m = lc_path_m_;
     e.world_T_agent = isometry(n.t_m, n.q);
     e.appearance = lc_pending_.front().features;
+    e.cloud = lc_pending_.front().cloud;
     lc_pending_.erase(lc_pending_.begin());
     agents_described_.fetch_add(1);
     loop_closure::LoopClosure closure;
@@ -199,10 +201,13 @@ bool Pipeline::optimize_graph() {
     if (cc.a >= cc.b) continue;
     cc.a_T_b = backend::Pose3{lc.match_T_query.translation(), Eigen::Quaterniond(lc.match_T_query.linear())};
     // Appearance: depth-precise; objects: centroids of partial views, a decimetre and a degree or so.
-    const bool appearance = lc.source == loop_closure::ClosureSource::kAppearance;
-    cc.sigma_t_m = Eigen::Vector3d::Constant(appearance ? std::max(0.02, lc.appearance.inlier_rmse_m)
-                                                        : std::max(0.15, lc.registration.inlier_rmse_m));
-    cc.sigma_rot_rad = Eigen::Vector3d::Constant(appearance ? 0.005 : 0.03);
+    // ICP-refined: depth-precise too (its gate is a few centimetres).
+    const bool precise = lc.source == loop_closure::ClosureSource::kAppearance || lc.refined;
+    const double rmse = lc.source == loop_closure::ClosureSource::kAppearance ? lc.appearance.inlier_rmse_m
+                        : lc.refined                                          ? lc.icp.rmse_m
+                                                                              : lc.registration.inlier_rmse_m;
+    cc.sigma_t_m = Eigen::Vector3d::Constant(precise ? std::max(0.02, rmse) : std::max(0.15, rmse));
+    cc.sigma_rot_rad = Eigen::Vector3d::Constant(precise ? 0.005 : 0.03);
     closures.push_back(cc);
   }
   const auto start = std::chrono::steady_clock::now();
@@ -334,8 +339,8 @@ void Pipeline::score_loop_closures() {
     const bool kept = i < deformation_result_.loop_closure_weight.size() && deformation_result_.loop_closure_weight[i] > 0.5;
     kept_within += good && kept ? 1 : 0;
     if (std::getenv("QSG_DEBUG_LOOP_CLOSURES") != nullptr)
-      std::printf("  closure %zu (%s): %.1f s -> %.1f s, error %.3f m %.2f deg, %u inliers, kept %d\n", i,
-                  loop_closure::to_string(lc.source), lc.match_time_ns * 1e-9, lc.query_time_ns * 1e-9, e_m,
+      std::printf("  closure %zu (%s%s, icp overlap %.2f): %.1f s -> %.1f s, error %.3f m %.2f deg, %u inliers, kept %d\n", i,
+                  loop_closure::to_string(lc.source), lc.refined ? "+icp" : "", lc.icp.overlap, lc.match_time_ns * 1e-9, lc.query_time_ns * 1e-9, e_m,
                   e_rad * 180.0 / M_PI,
                   lc.source == loop_closure::ClosureSource::kAppearance ? lc.appearance.inliers : lc.registration.inliers,
                   kept ? 1 : 0);

@@ -18,6 +18,7 @@ std::string DetectorConfig::check() const {
   if (rebuild_batch < 1 || rebuild_batch > 100000) return "rebuild_batch must be in [1, 100000]";
   if (max_appearance_checks > 64) return "max_appearance_checks must be in [0, 64]";
   if (const std::string why = appearance.check(); !why.empty()) return "appearance." + why;
+  if (const std::string why = icp.check(); !why.empty()) return "icp." + why;
   if (const std::string why = registration.check(); !why.empty()) return "registration." + why;
   return "";
 }
@@ -30,6 +31,7 @@ void DetectorConfig::print(std::FILE* out) const {
                ratio_distance_m, max_verifications);
   registration.print(out);
   appearance.print(out);
+  icp.print(out);
 }
 
 const char* to_string(ClosureSource s) { return s == ClosureSource::kAppearance ? "appearance" : "objects"; }
@@ -38,13 +40,14 @@ void DetectorCounters::print(std::FILE* out) const {
   std::fprintf(out,
                "loop closures: %llu queries (%llu without enough objects), %llu places candidates, %llu objects "
                "candidates, %llu ratio rejections, %llu appearance checks of which %llu registered, %llu verified by "
-               "objects of which %llu failed registration, %llu proposed; "
+               "objects of which %llu failed registration (%llu refined by ICP, %llu not), %llu proposed; "
                "%llu agents refused, %llu folds, %llu tree rebuilds\n",
                static_cast<unsigned long long>(queries), static_cast<unsigned long long>(queries_without_objects),
                static_cast<unsigned long long>(places_candidates), static_cast<unsigned long long>(objects_candidates),
                static_cast<unsigned long long>(ratio_rejections), static_cast<unsigned long long>(appearance_checks),
                static_cast<unsigned long long>(appearance_accepted), static_cast<unsigned long long>(verifications),
-               static_cast<unsigned long long>(registration_failures), static_cast<unsigned long long>(proposed),
+               static_cast<unsigned long long>(registration_failures), static_cast<unsigned long long>(icp_refined),
+               static_cast<unsigned long long>(icp_refused), static_cast<unsigned long long>(proposed),
                static_cast<unsigned long long>(refused), static_cast<unsigned long long>(folds),
                static_cast<unsigned long long>(tree_rebuilds));
 }
@@ -208,6 +211,17 @@ bool LoopClosureDetector::add_and_detect(const AgentEntry& query, LoopClosure* o
       out->source = ClosureSource::kObjects;
       out->registration = r;
       out->match_T_query = match.world_T_agent.inverse() * r.target_T_source * query.world_T_agent;
+      out->refined = false;
+      if (config_.icp.enabled && query.cloud.count > 0 && match.cloud.count > 0) {
+        out->icp = refine_icp(query.cloud, match.cloud, out->match_T_query, config_.icp);
+        if (out->icp.ok) {
+          out->match_T_query = out->icp.match_T_query;
+          out->refined = true;
+          ++counters_.icp_refined;
+        } else {
+          ++counters_.icp_refused;
+        }
+      }
       propose(candidates_[k], match);
     }
   }

@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "core/loop_closure/appearance.h"
+#include "core/loop_closure/depth_cloud.h"
 #include "core/loop_closure/object_registration.h"
 #include "core/loop_closure/scene_descriptor.h"
 #include "core/memory/resource_stats.h"
@@ -44,6 +45,7 @@ struct DetectorConfig {
   std::uint32_t rebuild_batch = 64;     // agents scanned linearly before the tree is rebuilt over them
   RegistrationConfig registration;
   AppearanceConfig appearance;
+  IcpConfig icp;  // refinement of object registrations on the two keyframes' depth
 
   std::string check() const;
   void print(std::FILE* out) const;
@@ -57,6 +59,7 @@ struct AgentEntry {
   Eigen::Isometry3d world_T_agent = Eigen::Isometry3d::Identity();  // odometric
   AgentDescriptor descriptor;
   AppearanceFeatures appearance;  // count 0: none (verification by objects only)
+  DepthCloud cloud;               // count 0: none (no ICP refinement)
 };
 
 enum class ClosureSource : std::uint8_t { kAppearance, kObjects };
@@ -73,6 +76,8 @@ struct LoopClosure {
   ClosureSource source = ClosureSource::kObjects;
   Registration registration;            // kObjects
   AppearanceRegistration appearance;    // kAppearance
+  bool refined = false;                 // kObjects: the estimate refined by ICP on the keyframes' depth
+  IcpResult icp;
 };
 
 struct DetectorCounters {
@@ -85,6 +90,8 @@ struct DetectorCounters {
   std::uint64_t appearance_accepted = 0;
   std::uint64_t verifications = 0;        // by objects
   std::uint64_t registration_failures = 0;
+  std::uint64_t icp_refined = 0;          // object registrations refined by ICP
+  std::uint64_t icp_refused = 0;          // ... where ICP was tried and not trusted (coarse estimate kept)
   std::uint64_t proposed = 0;                 // verified loop closures handed to the optimizer
   std::uint64_t refused = 0;                  // agents not stored (a database of fewer than 4)
   std::uint64_t folds = 0;                    // full: every second agent of the older half dropped

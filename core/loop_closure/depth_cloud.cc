@@ -1,0 +1,141 @@
+#include "core/loop_closure/depth_cloud.h"
+
+#include <Eigen/Cholesky>
+
+#include <algorithm>
+#include <cmath>
+
+namespace qsg::loop_closure {
+
+std::string IcpConfig::check() const {
+  if (!(max_depth_m > 0.0 && max_depth_m <= 100.0)) return "max_depth_m must be in (0, 100] m";
+  if (iterations < 1 || iterations > 200) return "iterations must be in [1, 200]";
+  if (!(inlier_m > 0.0 && start_inlier_m >= inlier_m && start_inlier_m <= 5.0))
+    return "0 < inlier_m <= start_inlier_m <= 5 m";
+  if (!(min_overlap > 0.0 && min_overlap <= 1.0)) return "min_overlap must be in (0, 1]";
+  if (!(neighbour_m >= inlier_m && neighbour_m <= 5.0)) return "neighbour_m must be in [inlier_m, 5] m";
+  if (!(max_correction_m > 0.0 && max_correction_rad > 0.0)) return "max_correction_m and max_correction_rad must be positive";
+  return "";
+}
+
+void IcpConfig::print(std::FILE* out) const {
+  std::fprintf(out,
+               "icp refinement: %s, %u iterations, gate %.2f -> %.2f m, overlap >= %.2f, correction <= %.2f m and "
+               "%.3f rad\n",
+               enabled ? "on" : "off", iterations, start_inlier_m, inlier_m, min_overlap, max_correction_m,
+               max_correction_rad);
+}
+
+bool make_depth_cloud(const GreyDepthView& v, double max_depth_m, DepthCloud* out) {
+  out->count = 0;
+  if (v.depth_m == nullptr || v.width < 8 || v.height < 8 || v.fx <= 0.0 || v.fy <= 0.0) return false;
+  // A grid of about kMaxCloudPoints cells over the image.
+  const double cell = std::sqrt(static_cast<double>(v.width) * v.height / kMaxCloudPoints);
+  const int step = std::max(2, static_cast<int>(std::ceil(cell)));
+  const auto point = [&](int x, int y, Eigen::Vector3d* p) {
+    const float d = v.depth_m[y * v.width + x];
+    if (!(d > 0.05f && d <= max_depth_m)) return false;
+    *p = Eigen::Vector3d((x - v.cx) / v.fx * d, (y - v.cy) / v.fy * d, d);
+    return true;
+  };
+  for (int y = step / 2; y + 1 < v.height && out->count < kMaxCloudPoints; y += step)
+    for (int x = step / 2; x + 1 < v.width && out->count < kMaxCloudPoints; x += step) {
+      Eigen::Vector3d p, px, py;
+      if (!point(x, y, &p) || !point(x + 1, y, &px) || !point(x, y + 1, &py)) continue;
+      Eigen::Vector3d n = (px - p).cross(py - p);
+      if (n.norm() < 1e-9 || (px - p).norm() > 0.05 || (py - p).norm() > 0.05) continue;  // an edge: no normal
+      n.normalize();
+      if (n.dot(p) > 0.0) n = -n;  // towards the camera
+      const std::size_t i = out->count++;
+      for (int k = 0; k < 3; ++k) {
+        out->points_mm[i][k] = static_cast<std::int16_t>(std::lround(p[k] * 1000.0));
+        out->normals[i][k] = static_cast<std::int8_t>(std::lround(n[k] * 127.0));
+      }
+    }
+  return out->count >= 32;
+}
+
+namespace {
+
+Eigen::Vector3d point_of(const DepthCloud& c, std::size_t i) {
+  return Eigen::Vector3d(c.points_mm[i][0], c.points_mm[i][1], c.points_mm[i][2]) * 1e-3;
+}
+Eigen::Vector3d normal_of(const DepthCloud& c, std::size_t i) {
+  return Eigen::Vector3d(c.normals[i][0], c.normals[i][1], c.normals[i][2]).normalized();
+}
+
+}  // namespace
+
+IcpResult refine_icp(const DepthCloud& query, const DepthCloud& match, const Eigen::Isometry3d& initial,
+                     const IcpConfig& config) {
+  IcpResult r;
+  if (query.count < 32 || match.count < 32) return r;
+  Eigen::Vector3d mp[kMaxCloudPoints], mn[kMaxCloudPoints], qp[kMaxCloudPoints];
+  for (std::uint32_t j = 0; j < match.count; ++j) {
+    mp[j] = point_of(match, j);
+    mn[j] = normal_of(match, j);
+  }
+  for (std::uint32_t i = 0; i < query.count; ++i) qp[i] = point_of(query, i);
+  Eigen::Isometry3d T = initial;
+  const auto nearest = [&](const Eigen::Vector3d& p, double gate2, std::uint32_t* best) {
+    double best_d2 = gate2;
+    bool found = false;
+    for (std::uint32_t j = 0; j < match.count; ++j) {
+      const double d2 = (mp[j] - p).squaredNorm();
+      if (d2 < best_d2) {
+        best_d2 = d2;
+        *best = j;
+        found = true;
+      }
+    }
+    return found;
+  };
+  for (std::uint32_t it = 0; it < config.iterations; ++it) {
+    const double gate = std::max(config.inlier_m, config.start_inlier_m * std::pow(0.7, it));
+    Eigen::Matrix<double, 6, 6> H = Eigen::Matrix<double, 6, 6>::Zero();
+    Eigen::Matrix<double, 6, 1> g = Eigen::Matrix<double, 6, 1>::Zero();
+    std::uint32_t pairs = 0;
+    for (std::uint32_t i = 0; i < query.count; ++i) {
+      const Eigen::Vector3d p = T * qp[i];
+      std::uint32_t j = 0;
+      if (!nearest(p, gate * gate, &j)) continue;
+      // Point to plane: r = n . (p - m), p = exp(xi) T q ~ p + w x p + v.
+      const double res = mn[j].dot(p - mp[j]);
+      Eigen::Matrix<double, 6, 1> J;
+      J << p.cross(mn[j]), mn[j];
+      H += J * J.transpose();
+      g += J * res;
+      ++pairs;
+    }
+    r.iterations = it + 1;
+    if (pairs < 24) return r;
+    H.diagonal().array() += 1e-6;
+    const Eigen::Matrix<double, 6, 1> xi = -H.ldlt().solve(g);
+    Eigen::Isometry3d step = Eigen::Isometry3d::Identity();
+    const double angle = xi.head<3>().norm();
+    if (angle > 1e-12) step.linear() = Eigen::AngleAxisd(angle, xi.head<3>() / angle).toRotationMatrix();
+    step.translation() = xi.tail<3>();
+    T = step * T;
+    if (xi.norm() < 1e-5) break;
+  }
+  std::uint32_t inliers = 0;
+  double sum = 0.0;
+  for (std::uint32_t i = 0; i < query.count; ++i) {
+    const Eigen::Vector3d p = T * qp[i];
+    std::uint32_t j = 0;
+    if (!nearest(p, config.neighbour_m * config.neighbour_m, &j)) continue;
+    const double d = mn[j].dot(p - mp[j]);
+    if (std::abs(d) > config.inlier_m) continue;
+    ++inliers;
+    sum += d * d;
+  }
+  r.overlap = static_cast<double>(inliers) / query.count;
+  r.rmse_m = inliers > 0 ? std::sqrt(sum / inliers) : 0.0;
+  r.match_T_query = T;
+  const Eigen::Isometry3d correction = initial.inverse() * T;
+  r.ok = r.overlap >= config.min_overlap && correction.translation().norm() <= config.max_correction_m &&
+         Eigen::AngleAxisd(correction.linear()).angle() <= config.max_correction_rad;
+  return r;
+}
+
+}  // namespace qsg::loop_closure

@@ -1,0 +1,82 @@
+#include "core/loop_closure/depth_cloud.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+#include <vector>
+
+namespace qsg::loop_closure {
+namespace {
+
+// A corner of a room seen by a camera: floor, two walls and a box on the floor, sampled at random points.
+void add_point(DepthCloud* c, const Eigen::Vector3d& p, const Eigen::Vector3d& n) {
+  const std::size_t i = c->count++;
+  for (int k = 0; k < 3; ++k) {
+    c->points_mm[i][k] = static_cast<std::int16_t>(std::lround(p[k] * 1000.0));
+    c->normals[i][k] = static_cast<std::int8_t>(std::lround(n[k] * 127.0));
+  }
+}
+
+DepthCloud corner(const Eigen::Isometry3d& camera_T_world, std::uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(0.0, 3.0), v(0.0, 2.0);
+  DepthCloud c;
+  for (int i = 0; i < 500; ++i) {
+    Eigen::Vector3d p, n;
+    switch (i % 4) {
+      case 0: p = {u(rng), u(rng), 0.0}; n = {0, 0, 1}; break;      // floor
+      case 1: p = {0.0, u(rng), v(rng)}; n = {1, 0, 0}; break;      // wall x = 0
+      case 2: p = {u(rng), 0.0, v(rng)}; n = {0, 1, 0}; break;      // wall y = 0
+      default: p = {1.5, 1.0 + 0.5 * u(rng) / 3.0, 0.5 * v(rng) / 2.0}; n = {1, 0, 0}; break;  // a box face
+    }
+    add_point(&c, camera_T_world * p, camera_T_world.linear() * n);
+  }
+  return c;
+}
+
+Eigen::Isometry3d pose(double x, double y, double z, double yaw, double pitch) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = (Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(pitch, Eigen::Vector3d::UnitX()))
+                   .toRotationMatrix();
+  T.translation() = Eigen::Vector3d(x, y, z);
+  return T;
+}
+
+TEST(DepthCloudTest, IcpRefinesACoarseEstimateToTheDepthsPrecision) {
+  const Eigen::Isometry3d world_T_match = pose(2.5, 2.5, 0.5, 3.9, 0.1), world_T_query = pose(2.2, 2.8, 0.5, 4.1, 0.1);
+  const DepthCloud match = corner(world_T_match.inverse(), 1), query = corner(world_T_query.inverse(), 2);
+  const Eigen::Isometry3d truth = world_T_match.inverse() * world_T_query;  // match_T_query
+  const Eigen::Isometry3d coarse = truth * pose(0.08, -0.06, 0.02, 0.03, 0.0);  // what object centroids give
+  const IcpResult r = refine_icp(query, match, coarse, IcpConfig{});
+  ASSERT_TRUE(r.ok) << "overlap " << r.overlap;
+  const Eigen::Isometry3d error = truth.inverse() * r.match_T_query;
+  EXPECT_LT(error.translation().norm(), 0.01);
+  EXPECT_LT(Eigen::AngleAxisd(error.linear()).angle(), 0.003);
+  EXPECT_GT(r.overlap, 0.8);
+}
+
+TEST(DepthCloudTest, CloudsThatDoNotOverlapAreNotTrusted) {
+  const DepthCloud match = corner(pose(0, 0, 0, 0, 0).inverse(), 1);
+  const DepthCloud query = corner(pose(20, 0, 0, 0, 0).inverse(), 2);  // another room, 20 m away
+  const IcpResult r = refine_icp(query, match, Eigen::Isometry3d::Identity(), IcpConfig{});
+  EXPECT_FALSE(r.ok);
+}
+
+TEST(DepthCloudTest, ADepthImageOfAPlaneGivesPointsWithTheirNormal) {
+  const int w = 64, h = 48;
+  std::vector<float> depth(w * h, 2.0f);
+  for (int x = 0; x < 8; ++x) depth[x] = std::nanf("");
+  GreyDepthView v{nullptr, depth.data(), w, h, 50.0, 50.0, 31.5, 23.5};
+  DepthCloud c;
+  ASSERT_TRUE(make_depth_cloud(v, 4.0, &c));
+  EXPECT_GT(c.count, 100u);
+  for (std::uint32_t i = 0; i < c.count; ++i) {
+    EXPECT_EQ(c.points_mm[i][2], 2000);
+    EXPECT_EQ(c.normals[i][2], -127) << "the plane faces the camera";
+  }
+  EXPECT_FALSE(make_depth_cloud(GreyDepthView{}, 4.0, &c));
+}
+
+}  // namespace
+}  // namespace qsg::loop_closure
