@@ -365,7 +365,7 @@ void Pipeline::run_backend_update(const BackendUpdate& u, bool door_pass) {
   const bool online = config_.doors_online && online_doors_.initialized();
   if (online && door_pass && backend_passes_due_++ % config_.doors_online_every_n == 0) run_door_pass(u.robot_m);
   const std::uint64_t time_ns = u.time_ns;
-  std::lock_guard<std::mutex> lock(graph_mutex_);
+  std::unique_lock<std::mutex> lock(graph_mutex_);
   // Sight lines: the final door stage's (close_doors, at the finish) for the last update; during the run, the last
   // online door pass's window. The online stage's buffers are only written by a pass, on this thread.
   const rooms::WallSight* sight = final_sight_.slices() > 0 ? &final_sight_
@@ -377,7 +377,12 @@ void Pipeline::run_backend_update(const BackendUpdate& u, bool door_pass) {
   backend_updates_.fetch_add(1);
   rooms_count_.store(r.rooms);
   if (r.rooms > 0 && classifier_ != nullptr && classifier_->ready()) label_rooms();
-  run_loop_closure(time_ns);
+  if (!run_loop_closure(time_ns)) return;
+  // A new loop closure: the deformation graph is built under the lock, solved without it (seconds at worst: the
+  // loop keeps mapping meanwhile).
+  backend::DeformationProblem problem = build_deformation();
+  lock.unlock();
+  solve_deformation(std::move(problem));
 }
 
 // The classifier's input from the scene graph (caller holds graph_mutex_): rooms with their box, each object in

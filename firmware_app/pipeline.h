@@ -257,8 +257,10 @@ class Pipeline {
   // update, the rest runs on the backend thread; all of it under graph_mutex_.
   bool init_loop_closure(std::string* error);
   void offer_control_points();
-  void run_loop_closure(std::uint64_t time_ns);
-  bool optimize_graph();
+  bool run_loop_closure(std::uint64_t time_ns);  // true when a new loop closure was verified
+  backend::DeformationProblem build_deformation();  // graph_mutex_ held
+  bool solve_deformation(backend::DeformationProblem problem);  // without it (backend thread) or at the finish
+  bool optimize_graph() { return solve_deformation(build_deformation()); }
   // At the finish (graph_mutex_ held): the final solve over every loop closure, then agents and places to their
   // optimized poses, objects, rooms and the mesh moved by the deformation graph; the counters and a summary line.
   void correct_outputs(reconstruction::Mesh* mesh);
@@ -304,6 +306,7 @@ class Pipeline {
   Eigen::Vector3d lc_last_m_ = Eigen::Vector3d::Zero();
   bool lc_have_last_ = false;
   std::size_t lc_optimized_closures_ = 0;   // closures in the latest solve
+  std::size_t lc_built_closures_ = 0;       // ... in the latest build
   std::uint32_t cp_mesh_stamp_ = 0;         // blocks meshed after this stamp are offered as control points
   std::atomic<std::uint64_t> agents_described_{0};
   std::atomic<std::uint64_t> loop_closures_count_{0};

@@ -141,11 +141,11 @@ void Pipeline::offer_control_points() {
 // Backend thread, graph_mutex_ held: describes the chain nodes the robot left horizon_s ago (one per
 // describe_every_m of path), looks each up among the earlier ones, and re-solves the deformation graph when a new
 // loop closure was verified.
-void Pipeline::run_loop_closure(std::uint64_t time_ns) {
+bool Pipeline::run_loop_closure(std::uint64_t time_ns) {
   const AppConfig::LoopClosure& c = config_.loop_closure;
-  if (!c.enabled) return;
+  if (!c.enabled) return false;
   const auto horizon_ns = static_cast<std::uint64_t>(c.horizon_s * 1e9);
-  if (time_ns < horizon_ns) return;
+  if (time_ns < horizon_ns) return false;
   extract_captured_frames();
   const agents::AgentLayer& agents = frontend_.agents();
   std::size_t k = 0;
@@ -185,12 +185,12 @@ void Pipeline::run_loop_closure(std::uint64_t time_ns) {
     if (closure.source == loop_closure::ClosureSource::kAppearance) loop_closures_by_appearance_.fetch_add(1);
     found = true;
   }
-  if (found) optimize_graph();
+  return found;
 }
 
 // Backend thread (or the finish), graph_mutex_ held: the deformation graph over the chain, every loop closure so far,
-// the control points and the places.
-bool Pipeline::optimize_graph() {
+// the control points and the places; solve_deformation() solves it without the lock.
+backend::DeformationProblem Pipeline::build_deformation() {
   const agents::AgentLayer& agents = frontend_.agents();
   std::vector<backend::ChainLoopClosure> closures;
   closures.reserve(loop_closures_.size());
@@ -210,8 +210,13 @@ bool Pipeline::optimize_graph() {
     cc.sigma_rot_rad = Eigen::Vector3d::Constant(precise ? 0.005 : 0.03);
     closures.push_back(cc);
   }
+  lc_built_closures_ = closures.size();
+  return deformation_.build(agents, closures, control_points_, graph_);
+}
+
+bool Pipeline::solve_deformation(backend::DeformationProblem problem) {
   const auto start = std::chrono::steady_clock::now();
-  deformation_result_ = deformation_.optimize(agents, closures, control_points_, graph_);
+  deformation_result_ = deformation_.solve(std::move(problem));
   const auto us = static_cast<std::uint64_t>(
       std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::steady_clock::now() - start).count());
   graph_optimizations_.fetch_add(1);
@@ -222,7 +227,7 @@ bool Pipeline::optimize_graph() {
                  deformation_result_.solve.message.c_str());
     return false;
   }
-  lc_optimized_closures_ = closures.size();
+  lc_optimized_closures_ = lc_built_closures_;
   loop_closures_kept_.store(deformation_result_.loop_closures_kept);
   return true;
 }

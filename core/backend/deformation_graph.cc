@@ -147,10 +147,11 @@ std::uint64_t DeformationGraph::cell_key(const Eigen::Vector3d& p) const {
   return cell_of(p, config_.control_point_spacing_m);
 }
 
-DeformationResult DeformationGraph::optimize(const agents::AgentLayer& agents,
-                                             const std::vector<ChainLoopClosure>& loop_closures,
-                                             const ControlPoints& control, const scene_graph::SceneGraph& graph) {
-  DeformationResult r;
+DeformationProblem DeformationGraph::build(const agents::AgentLayer& agents,
+                                           const std::vector<ChainLoopClosure>& loop_closures,
+                                           const ControlPoints& control, const scene_graph::SceneGraph& graph) const {
+  DeformationProblem problem;
+  DeformationResult& r = problem.result;
   const std::size_t A = agents.chain_size();
   const std::size_t C = control.size();
   r.agents = A;
@@ -159,27 +160,28 @@ DeformationResult DeformationGraph::optimize(const agents::AgentLayer& agents,
   if (A < 2) {
     r.solve.status = PoseGraphStatus::kInvalidInput;
     r.solve.message = "fewer than two agent poses";
-    return r;
+    return problem;
   }
   // Places: index them after the control points.
   std::unordered_map<scene_graph::NodeId, std::uint32_t> place_index;
-  std::vector<scene_graph::NodeId> place_ids;
+  std::vector<scene_graph::NodeId>& place_ids = problem.place_ids;
   graph.for_each_node([&](const scene_graph::NodeRecord& n) {
     if (n.kind != scene_graph::NodeKind::kPlace) return;
     place_index.emplace(n.id, static_cast<std::uint32_t>(A + C + place_ids.size()));
     place_ids.push_back(n.id);
   });
   r.places = place_ids.size();
-  std::vector<Pose3> poses;
+  std::vector<Pose3>& poses = problem.poses;
   poses.reserve(A + C + place_ids.size());
   for (std::size_t k = 0; k < A; ++k) poses.push_back(Pose3{agents.chain(k).t_m, agents.chain(k).q});
   for (std::size_t i = 0; i < C; ++i) poses.push_back(Pose3{control.point(i), Eigen::Quaterniond::Identity()});
   for (scene_graph::NodeId id : place_ids) poses.push_back(Pose3{graph.place(id)->position_m, Eigen::Quaterniond::Identity()});
 
   // E_aa: odometry along the chain, then the loop closures (GNC).
-  std::vector<RelativePoseEdge> edges = chain_odometry_edges(agents, config_.agents);
+  std::vector<RelativePoseEdge>& edges = problem.edges;
+  edges = chain_odometry_edges(agents, config_.agents);
   r.edges_aa = edges.size();
-  const std::size_t first_closure = edges.size();
+  problem.first_closure = edges.size();
   for (const ChainLoopClosure& c : loop_closures) {
     RelativePoseEdge e;
     e.from = c.a;
@@ -280,22 +282,38 @@ DeformationResult DeformationGraph::optimize(const agents::AgentLayer& agents,
     ++r.edges_mp;
   }
 
-  std::vector<Pose3> solved = poses;
-  r.solve = optimize_pose_graph(config_.agents.solver, solved, edges);
+  problem.originals.reserve(C + place_ids.size());
+  problem.times_ns.reserve(C + place_ids.size());
+  for (std::size_t i = 0; i < C; ++i) {
+    problem.originals.push_back(control.point(i));
+    problem.times_ns.push_back(control.time_ns(i));
+  }
+  for (scene_graph::NodeId id : place_ids) {
+    problem.originals.push_back(graph.place(id)->position_m);
+    problem.times_ns.push_back(graph.place(id)->last_update_time_ns);
+  }
+  return problem;
+}
+
+DeformationResult DeformationGraph::solve(DeformationProblem problem) {
+  DeformationResult r = problem.result;
+  if (problem.poses.empty()) return r;
+  const std::size_t A = r.agents, nodes = problem.originals.size();
+  std::vector<Pose3> solved = problem.poses;
+  r.solve = optimize_pose_graph(config_.agents.solver, solved, problem.edges);
   if (!r.solve.poses_updated()) return r;
-  for (std::size_t c = 0; c < loop_closures.size(); ++c) {
-    const double w = r.solve.edge_weight.empty() ? 1.0 : r.solve.edge_weight[first_closure + c];
+  for (std::size_t c = 0; c < r.loop_closures; ++c) {
+    const double w = r.solve.edge_weight.empty() ? 1.0 : r.solve.edge_weight[problem.first_closure + c];
     r.loop_closure_weight.push_back(w);
     r.loop_closures_kept += w > 0.5 ? 1 : 0;
   }
   agent_poses_.assign(solved.begin(), solved.begin() + static_cast<std::ptrdiff_t>(A));
   nodes_.clear();
-  nodes_.reserve(C + place_ids.size());
-  for (std::size_t i = 0; i < C; ++i) nodes_.push_back(Node{poses[A + i].t_m, control.time_ns(i), solved[A + i]});
-  for (std::size_t p = 0; p < place_ids.size(); ++p)
-    nodes_.push_back(Node{poses[A + C + p].t_m, graph.place(place_ids[p])->last_update_time_ns, solved[A + C + p]});
+  nodes_.reserve(nodes);
+  for (std::size_t i = 0; i < nodes; ++i) nodes_.push_back(Node{problem.originals[i], problem.times_ns[i], solved[A + i]});
   place_node_.clear();
-  for (std::size_t p = 0; p < place_ids.size(); ++p) place_node_.emplace(place_ids[p], static_cast<std::uint32_t>(C + p));
+  for (std::size_t p = 0; p < problem.place_ids.size(); ++p)
+    place_node_.emplace(problem.place_ids[p], static_cast<std::uint32_t>(r.control_points + p));
   index_nodes();
   solved_ = true;
   return r;

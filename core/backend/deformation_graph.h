@@ -90,13 +90,32 @@ struct DeformationResult {
   void print(std::FILE* out) const;
 };
 
+// The graph to solve, built from the scene graph (which it no longer needs): the caller can build it under the
+// scene graph's lock and solve it without.
+struct DeformationProblem {
+  DeformationResult result;  // sizes; the solve fills the rest
+  std::vector<Pose3> poses;  // agents [0, A), control points [A, A + C), places after
+  std::vector<RelativePoseEdge> edges;
+  std::size_t first_closure = 0;
+  std::vector<Eigen::Vector3d> originals;      // control points and places: their odometric positions
+  std::vector<std::uint64_t> times_ns;         // ... and when they were seen
+  std::vector<scene_graph::NodeId> place_ids;
+};
+
 class DeformationGraph {
  public:
   explicit DeformationGraph(const DeformationConfig& config = {}) : config_(config) {}
   // Builds the graph from the chain, its loop closures, the control points and the graph's places (and the agents'
-  // place edges), then solves it. On failure the previous solution (or none) stays in use.
+  // place edges).
+  DeformationProblem build(const agents::AgentLayer& agents, const std::vector<ChainLoopClosure>& loop_closures,
+                           const ControlPoints& control, const scene_graph::SceneGraph& graph) const;
+  // Solves it and, on success, makes it the deformation in use; on failure the previous one (or none) stays.
+  DeformationResult solve(DeformationProblem problem);
+  // build() then solve().
   DeformationResult optimize(const agents::AgentLayer& agents, const std::vector<ChainLoopClosure>& loop_closures,
-                             const ControlPoints& control, const scene_graph::SceneGraph& graph);
+                             const ControlPoints& control, const scene_graph::SceneGraph& graph) {
+    return solve(build(agents, loop_closures, control, graph));
+  }
 
   bool solved() const { return solved_; }
   // An odometric point seen at time_ns moved by its nearest deformation nodes seen within the time horizon of it
