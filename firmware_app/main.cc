@@ -49,11 +49,15 @@ int convert(const std::string& in, const std::string& out) {
     std::fprintf(stderr, "qsg_app: %s\n", r.error.c_str());
     return 1;
   }
-  if (!scene_graph::write_spark_dsg_json_file(graph, out, &error)) {
+  scene_graph::JsonExportOptions options;
+  options.labelspaces = &r.labelspaces;  // the file's label names go through
+  if (!scene_graph::write_spark_dsg_json_file(graph, out, &error, options)) {
     std::fprintf(stderr, "qsg_app: %s\n", error.c_str());
     return 1;
   }
-  std::printf("qsg_app: %s -> %s (%zu nodes)\n", in.c_str(), out.c_str(), graph.num_nodes());
+  std::printf("qsg_app: %s (Spark-DSG %d.%d.%d) -> %s (1.1.3, %zu nodes)\n", in.c_str(), r.version[0], r.version[1],
+              r.version[2], out.c_str(), graph.num_nodes());
+  if (r.truncated.total() != 0) std::printf("qsg_app: kept short of the file: %s\n", r.truncated.summary().c_str());
   return 0;
 }
 
