@@ -18,12 +18,14 @@
 #include "budgets/budget_table.h"
 #include "core/backend/agent_pose_graph.h"
 #include "core/metrics/trajectory_error.h"
+#include "core/reconstruction/mesh_cleanup.h"
 #include "core/reconstruction/ply_writer.h"
 #include "core/scene_graph/spark_dsg_json.h"
 #include "drivers/gpio/gpiod_chip.h"
 #include "drivers/gpio/sim_gpio.h"
 #include "drivers/render/ray_scene.h"
 #include "drivers/world/top_down.h"
+#include "firmware_app/graph_outputs.h"
 #include "firmware_app/graph_picture.h"
 #include "drivers/world/world_query.h"
 
@@ -811,7 +813,11 @@ bool Pipeline::write_snapshot(std::string* error) {
   std::string text;
   {
     std::lock_guard<std::mutex> lock(graph_mutex_);
-    text = scene_graph::write_spark_dsg_json(graph_);
+    // No mesh goes with a snapshot: the objects' mesh connections are left out (graph_outputs.h).
+    scene_graph::JsonExportOptions options;
+    options.labelspaces = &app_label_spaces();
+    options.write_stored_mesh_connections = false;
+    text = scene_graph::write_spark_dsg_json(graph_, options);
   }
   const bool ok = write_file_atomically(config_.output_dir + "/scene_graph_snapshot.json", text, error);
   if (ok) ++counters_.snapshots_written;
@@ -860,6 +866,7 @@ bool Pipeline::finish(std::string* error) {
   if (backend_thread_.joinable()) backend_thread_.join();
   reconstruction::Mesh mesh;
   tsdf_.extract_full_mesh(&mesh);
+  reconstruction::clean_mesh(&mesh).print(stdout);
   if (config_.doors_at_finish) close_doors(mesh);
   run_backend_update(BackendUpdate{latest_keyframe_ns_, 0, robot_m_}, false);
   counters_.backend_updates = backend_updates_.load();
@@ -875,7 +882,14 @@ bool Pipeline::finish(std::string* error) {
     if (!ok) failures += (failures.empty() ? "" : "; ") + why;
   };
   std::string why;
-  attempt(write_file_atomically(dir + "/scene_graph.json", scene_graph::write_spark_dsg_json(graph_), &why), why);
+  std::size_t unmatched = 0;
+  const scene_graph::ObjectMeshIndices mesh_indices = object_mesh_indices(frontend_.objects(), tsdf_, mesh, &unmatched);
+  if (unmatched != 0) std::printf("objects: %zu kept mesh-vertex keys have no vertex in the written mesh\n", unmatched);
+  scene_graph::JsonExportOptions graph_options;
+  graph_options.labelspaces = &app_label_spaces();
+  graph_options.object_mesh_indices = &mesh_indices;
+  attempt(write_file_atomically(dir + "/scene_graph.json", scene_graph::write_spark_dsg_json(graph_, graph_options), &why),
+          why);
   const std::string mesh_path = dir + "/mesh.ply", mesh_tmp = temporary_path_for(mesh_path);
   why.clear();
   const bool mesh_ok = reconstruction::write_ply(mesh_tmp, mesh, &why) && commit_file_atomically(mesh_tmp, mesh_path, &why);

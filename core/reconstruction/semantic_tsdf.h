@@ -167,6 +167,8 @@ class SemanticTsdf {
   // global voxel-edge key: a vertex on a block border appears in both blocks with the same key, and keeps it
   // while the surface is re-meshed.
   bool next_block_vertex(std::uint32_t handle, VertexCursor* cursor, MeshVertex* vertex, std::uint64_t* key) const;
+  // The middle of the voxel edge a vertex key names: the vertex lies on that edge, within half a voxel of it.
+  Eigen::Vector3d vertex_key_edge_middle_m(std::uint64_t key) const;
   std::uint32_t frame_stamp() const { return frame_stamp_; }
   std::uint32_t mesh_stamp() const { return mesh_stamp_; }
   double block_size_m() const { return config_.voxel_size_m * kBlockSide; }
