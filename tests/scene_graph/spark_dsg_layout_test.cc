@@ -6,6 +6,7 @@
 #include <map>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <vector>
 
 #include "core/scene_graph/spark_dsg_json.h"
 #include "tests/scene_graph/test_graph.h"
@@ -174,6 +175,46 @@ TEST(SparkDsgLayoutTest, ReadsTheOlderLayout) {
   EXPECT_EQ(room->class_probabilities[0], (LabelProbability{1, 0.75f}));
   EXPECT_EQ(g->agent(make_node_id('a', 3))->timestamp_ns, 42u);
   EXPECT_EQ(g->node(make_node_id('a', 3))->layer.partition, 'a');
+}
+
+// Every value of a valid 1.1.3 document replaced, one at a time, by each of a set of wrong values (other types,
+// negative, huge, empty, out of the double range): each import ends in a graph or in an error naming a field, and
+// a failed one leaves the graph as it was.
+TEST(SparkDsgLayoutTest, AnyReplacedValueGivesAGraphOrANamedError) {
+  auto g = testing::make_graph();
+  build(*g);
+  const LabelSpaces spaces = label_spaces();
+  JsonExportOptions options;
+  options.labelspaces = &spaces;
+  const std::string valid = write_spark_dsg_json(*g, options);
+  const json doc = json::parse(valid);
+  auto target = testing::make_graph();
+  ASSERT_TRUE(read_spark_dsg_json(valid, *target).ok);
+  const std::string before = write_spark_dsg_json(*target);
+  const std::vector<std::string> wrong = {"null", "\"x\"", "-1", "1e400", "18446744073709551616", "[]", "{}",
+                                          "[1, 2, 3, 4, 5]", "0.5", "true"};
+  std::size_t imports = 0, refused = 0;
+  const json flat = doc.flatten();
+  for (auto it = flat.begin(); it != flat.end(); ++it) {
+    for (const std::string& w : wrong) {
+      json changed = flat;
+      changed[it.key()] = "@@WRONG@@";
+      std::string text = changed.unflatten().dump();
+      text.replace(text.find("\"@@WRONG@@\""), 11, w);
+      const JsonImportResult r = read_spark_dsg_json(text, *target);
+      ++imports;
+      if (r.ok) {
+        ASSERT_TRUE(read_spark_dsg_json(valid, *target).ok);  // back to the reference for the next case
+        continue;
+      }
+      ++refused;
+      ASSERT_FALSE(r.error.empty());
+      EXPECT_TRUE(r.error.find(':') != std::string::npos) << it.key() << " = " << w << ": " << r.error;
+      ASSERT_EQ(write_spark_dsg_json(*target), before) << it.key() << " = " << w << ": a failed import changed the graph";
+    }
+  }
+  EXPECT_GT(imports, 1000u);
+  EXPECT_GT(refused, imports / 2);
 }
 
 // The graph Spark-DSG 1.1.3 saved itself: every node and edge, agents in their partition, boxes from centre and
