@@ -1,6 +1,6 @@
 // qsg_app: the onboard program. Runs the perception pipeline on a driver (the simulated quadruped in a generated
 // building by default) under the board's task table, writes periodic scene-graph snapshots and, at the end or on
-// SIGINT/SIGTERM, a Spark-DSG scene graph, a PLY mesh and a top-down picture.
+// SIGINT/SIGTERM, a Spark-DSG scene graph, a PLY mesh, a top-down picture and a 3D view for the browser.
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>

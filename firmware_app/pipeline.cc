@@ -27,6 +27,7 @@
 #include "drivers/world/top_down.h"
 #include "firmware_app/graph_outputs.h"
 #include "firmware_app/graph_picture.h"
+#include "firmware_app/graph_viewer.h"
 #include "drivers/world/world_query.h"
 
 namespace qsg::app {
@@ -899,14 +900,21 @@ bool Pipeline::finish(std::string* error) {
   attempt(finish_trajectory(&why), why);
   why.clear();
   attempt(write_graph_picture(graph_, world_, trajectory_m_, dir + "/top_down.png", &why), why);
+  why.clear();
+  // The browser view needs three.js (Debian's libjs-three): where it is missing the page is left out, not a failure.
+  std::string html;
+  const bool viewer = graph_viewer_html(graph_, app_label_spaces(), &mesh, ViewerConfig{}, &html, &why);
+  if (!viewer) std::printf("viewer: scene_graph.html not written: %s\n", why.c_str());
+  else attempt(write_file_atomically(dir + "/scene_graph.html", html, &why), why);
+  why.clear();
   if (!failures.empty()) {
     *error = failures;
     return false;
   }
   std::printf("outputs: %s/scene_graph.json (%zu nodes), %s/mesh.ply (%zu vertices, %zu triangles), %s/top_down.png, "
-              "%s/trajectory_estimate.txt%s\n",
+              "%s%s/trajectory_estimate.txt%s\n",
               dir.c_str(), graph_.num_nodes(), dir.c_str(), mesh.vertices.size(), mesh.triangles.size(), dir.c_str(),
-              dir.c_str(), ground_truth_.empty() ? "" : " and trajectory_ground_truth.txt");
+              viewer ? "scene_graph.html, " : "", dir.c_str(), ground_truth_.empty() ? "" : " and trajectory_ground_truth.txt");
   return true;
 }
 
