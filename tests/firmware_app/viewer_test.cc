@@ -1,5 +1,6 @@
 // The browser view (scene_graph.html) opened in headless Chromium: every layer and the mesh draw in their colours,
-// the page's toggles hide them, and the page fetches nothing (three.js and the data are inlined).
+// the page's toggles hide them, and the page fetches nothing (three.js and the data are inlined). And the room
+// names on the top-down picture.
 #include <gtest/gtest.h>
 
 #include <cstdlib>
@@ -9,6 +10,7 @@
 #include <string>
 
 #include "core/semantics/labels.h"
+#include "firmware_app/graph_picture.h"
 #include "firmware_app/graph_viewer.h"
 #include "tests/scene_graph/test_graph.h"
 #include "tests/support/emulation.h"
@@ -135,6 +137,37 @@ TEST(GraphViewerTest, PageDrawsEveryLayerInHeadlessChromium) {
   EXPECT_EQ(pixels_of(some, kViewerRoomColor), 0u);
   EXPECT_GT(pixels_of(some, kViewerPlaceColor), 18 * 15u);
   EXPECT_GT(pixels_of(some, kViewerBuildingColor), 100u);
+}
+
+// The top-down picture names each room at its node: dark text where the picture without names has none.
+TEST(GraphPictureTest, RoomsAreNamedOnTheTopDownPicture) {
+  auto g = scene_graph::testing::make_graph();
+  build(*g);
+  const std::string dir = ::testing::TempDir() + "/qsg_picture_names";
+  std::filesystem::create_directories(dir);
+  std::string error;
+  GraphPictureConfig named, plain;
+  plain.draw_room_names = false;
+  ASSERT_TRUE(write_graph_picture(*g, world::World(), {}, dir + "/named.png", &error, named)) << error;
+  ASSERT_TRUE(write_graph_picture(*g, world::World(), {}, dir + "/plain.png", &error, plain)) << error;
+  const cv::Mat a = cv::imread(dir + "/named.png", cv::IMREAD_COLOR), b = cv::imread(dir + "/plain.png", cv::IMREAD_COLOR);
+  ASSERT_FALSE(a.empty());
+  ASSERT_EQ(a.size(), b.size());
+  const auto text_pixels = [](const cv::Mat& m) {
+    std::size_t n = 0;
+    for (int r = 0; r < m.rows; ++r)
+      for (int c = 0; c < m.cols; ++c) n += m.at<cv::Vec3b>(r, c) == cv::Vec3b(40, 40, 40) ? 1 : 0;
+    return n;
+  };
+  EXPECT_EQ(text_pixels(b), 0u);
+  EXPECT_GT(text_pixels(a), 200u) << "two room names";
+  // Both names sit at their rooms: dark pixels in each half of the picture (the rooms are 5 m apart along x).
+  std::size_t left = 0, right = 0;
+  for (int r = 0; r < a.rows; ++r)
+    for (int c = 0; c < a.cols; ++c)
+      if (a.at<cv::Vec3b>(r, c) == cv::Vec3b(40, 40, 40)) ++(c < a.cols / 2 ? left : right);
+  EXPECT_GT(left, 50u);
+  EXPECT_GT(right, 50u);
 }
 
 }  // namespace
