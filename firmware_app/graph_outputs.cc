@@ -7,6 +7,8 @@
 #include <vector>
 
 #include "core/semantics/labels.h"
+#include "firmware_app/graph_viewer.h"
+#include "firmware_app/pipeline.h"
 
 namespace qsg::app {
 namespace {
@@ -71,6 +73,35 @@ scene_graph::ObjectMeshIndices object_mesh_indices(const objects::ObjectLayer& o
   });
   if (unmatched != nullptr) *unmatched = missed;
   return out;
+}
+
+scene_graph::JsonExportOptions snapshot_graph_options() {
+  scene_graph::JsonExportOptions options;
+  options.labelspaces = &app_label_spaces();
+  options.write_stored_mesh_connections = false;
+  return options;
+}
+
+void write_final_graph(const scene_graph::SceneGraph& graph, const objects::ObjectLayer& objects,
+                       const reconstruction::SemanticTsdf& tsdf, const reconstruction::Mesh& mesh, const std::string& dir,
+                       std::string* failures, bool* viewer_written) {
+  const auto failed = [&](const std::string& why) { *failures += (failures->empty() ? "" : "; ") + why; };
+  std::size_t unmatched = 0;
+  const scene_graph::ObjectMeshIndices indices = object_mesh_indices(objects, tsdf, mesh, &unmatched);
+  if (unmatched != 0) std::printf("objects: %zu kept mesh-vertex keys have no vertex in the written mesh\n", unmatched);
+  scene_graph::JsonExportOptions options;
+  options.labelspaces = &app_label_spaces();
+  options.object_mesh_indices = &indices;
+  std::string why;
+  if (!write_file_atomically(dir + "/scene_graph.json", scene_graph::write_spark_dsg_json(graph, options), &why)) failed(why);
+  // The browser view needs three.js (Debian's libjs-three): where it is missing the page is left out.
+  std::string html;
+  why.clear();
+  *viewer_written = false;
+  if (!graph_viewer_html(graph, app_label_spaces(), &mesh, ViewerConfig{}, &html, &why))
+    std::printf("viewer: scene_graph.html not written: %s\n", why.c_str());
+  else if (!write_file_atomically(dir + "/scene_graph.html", html, &why)) failed(why);
+  else *viewer_written = true;
 }
 
 }  // namespace qsg::app

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstddef>
+#include <string>
 
 #include "core/objects/object_layer.h"
 #include "core/reconstruction/semantic_tsdf.h"
@@ -19,5 +20,15 @@ const scene_graph::LabelSpaces& app_label_spaces();
 scene_graph::ObjectMeshIndices object_mesh_indices(const objects::ObjectLayer& objects,
                                                    const reconstruction::SemanticTsdf& tsdf,
                                                    const reconstruction::Mesh& mesh, std::size_t* unmatched);
+
+// A snapshot's export options: the label names, and no object mesh connections (no mesh goes with a snapshot).
+scene_graph::JsonExportOptions snapshot_graph_options();
+
+// The final scene_graph.json (label names; objects' mesh connections into `mesh`, the mesh as written) and, where
+// three.js is installed, scene_graph.html (graph_viewer.h), each replaced atomically in dir. A failure is appended
+// to *failures ("; " between); *viewer_written says whether the page was written (its absence is no failure).
+void write_final_graph(const scene_graph::SceneGraph& graph, const objects::ObjectLayer& objects,
+                       const reconstruction::SemanticTsdf& tsdf, const reconstruction::Mesh& mesh, const std::string& dir,
+                       std::string* failures, bool* viewer_written);
 
 }  // namespace qsg::app

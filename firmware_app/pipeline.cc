@@ -27,7 +27,6 @@
 #include "drivers/world/top_down.h"
 #include "firmware_app/graph_outputs.h"
 #include "firmware_app/graph_picture.h"
-#include "firmware_app/graph_viewer.h"
 #include "drivers/world/world_query.h"
 
 namespace qsg::app {
@@ -814,11 +813,7 @@ bool Pipeline::write_snapshot(std::string* error) {
   std::string text;
   {
     std::lock_guard<std::mutex> lock(graph_mutex_);
-    // No mesh goes with a snapshot: the objects' mesh connections are left out (graph_outputs.h).
-    scene_graph::JsonExportOptions options;
-    options.labelspaces = &app_label_spaces();
-    options.write_stored_mesh_connections = false;
-    text = scene_graph::write_spark_dsg_json(graph_, options);
+    text = scene_graph::write_spark_dsg_json(graph_, snapshot_graph_options());
   }
   const bool ok = write_file_atomically(config_.output_dir + "/scene_graph_snapshot.json", text, error);
   if (ok) ++counters_.snapshots_written;
@@ -883,14 +878,8 @@ bool Pipeline::finish(std::string* error) {
     if (!ok) failures += (failures.empty() ? "" : "; ") + why;
   };
   std::string why;
-  std::size_t unmatched = 0;
-  const scene_graph::ObjectMeshIndices mesh_indices = object_mesh_indices(frontend_.objects(), tsdf_, mesh, &unmatched);
-  if (unmatched != 0) std::printf("objects: %zu kept mesh-vertex keys have no vertex in the written mesh\n", unmatched);
-  scene_graph::JsonExportOptions graph_options;
-  graph_options.labelspaces = &app_label_spaces();
-  graph_options.object_mesh_indices = &mesh_indices;
-  attempt(write_file_atomically(dir + "/scene_graph.json", scene_graph::write_spark_dsg_json(graph_, graph_options), &why),
-          why);
+  bool viewer = false;  // scene_graph.json and, where three.js is installed, scene_graph.html
+  write_final_graph(graph_, frontend_.objects(), tsdf_, mesh, dir, &failures, &viewer);
   const std::string mesh_path = dir + "/mesh.ply", mesh_tmp = temporary_path_for(mesh_path);
   why.clear();
   const bool mesh_ok = reconstruction::write_ply(mesh_tmp, mesh, &why) && commit_file_atomically(mesh_tmp, mesh_path, &why);
@@ -900,13 +889,6 @@ bool Pipeline::finish(std::string* error) {
   attempt(finish_trajectory(&why), why);
   why.clear();
   attempt(write_graph_picture(graph_, world_, trajectory_m_, dir + "/top_down.png", &why), why);
-  why.clear();
-  // The browser view needs three.js (Debian's libjs-three): where it is missing the page is left out, not a failure.
-  std::string html;
-  const bool viewer = graph_viewer_html(graph_, app_label_spaces(), &mesh, ViewerConfig{}, &html, &why);
-  if (!viewer) std::printf("viewer: scene_graph.html not written: %s\n", why.c_str());
-  else attempt(write_file_atomically(dir + "/scene_graph.html", html, &why), why);
-  why.clear();
   if (!failures.empty()) {
     *error = failures;
     return false;
