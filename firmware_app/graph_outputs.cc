@@ -75,6 +75,17 @@ scene_graph::ObjectMeshIndices object_mesh_indices(const objects::ObjectLayer& o
   return out;
 }
 
+scene_graph::EmbeddedMesh embedded_mesh(const reconstruction::Mesh& mesh) {
+  scene_graph::EmbeddedMesh out;
+  for (const reconstruction::MeshVertex& v : mesh.vertices) {
+    out.xyz.insert(out.xyz.end(), {v.x, v.y, v.z});
+    out.rgb.insert(out.rgb.end(), {v.r, v.g, v.b});
+    out.labels.push_back(v.label);
+  }
+  for (const reconstruction::MeshTriangle& t : mesh.triangles) out.faces.insert(out.faces.end(), t.v, t.v + 3);
+  return out;
+}
+
 scene_graph::JsonExportOptions snapshot_graph_options() {
   scene_graph::JsonExportOptions options;
   options.labelspaces = &app_label_spaces();

@@ -21,6 +21,9 @@ scene_graph::ObjectMeshIndices object_mesh_indices(const objects::ObjectLayer& o
                                                    const reconstruction::SemanticTsdf& tsdf,
                                                    const reconstruction::Mesh& mesh, std::size_t* unmatched);
 
+// The mesh as Spark-DSG embeds it in a graph file (vertex colours and labels kept).
+scene_graph::EmbeddedMesh embedded_mesh(const reconstruction::Mesh& mesh);
+
 // A snapshot's export options: the label names, and no object mesh connections (no mesh goes with a snapshot).
 scene_graph::JsonExportOptions snapshot_graph_options();
 

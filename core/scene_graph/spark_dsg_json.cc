@@ -417,7 +417,9 @@ void read_document(const json& root, Document& doc) {
     doc.edges.push_back(pe);
   }
   if (const json* mesh = optional_member(root, "mesh")) {
-    if (const json* v = optional_member(*mesh, "vertices"); v != nullptr && v->is_array()) doc.ignored_mesh_vertices = v->size();
+    // "points" (Spark-DSG 1.0.2 on) or "vertices" (before).
+    if (const json* v = optional_member(*mesh, "points"); v != nullptr && v->is_array()) doc.ignored_mesh_vertices = v->size();
+    else if (const json* w = optional_member(*mesh, "vertices"); w != nullptr && w->is_array()) doc.ignored_mesh_vertices = w->size();
   }
 }
 

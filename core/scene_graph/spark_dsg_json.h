@@ -53,7 +53,7 @@ struct JsonImportResult {
   int version[3] = {1, 0, 0};     // the file's SPARK_DSG_header version (1.0.0 when it has none)
   LabelSpaces labelspaces;        // the file's label names (empty when it has none)
   ImportTruncations truncated;
-  std::size_t ignored_mesh_vertices = 0;  // the file's "mesh" (Layer 1 is not stored in the graph yet)
+  std::size_t ignored_mesh_vertices = 0;  // the file's "mesh" vertices (Layer 1 is not kept in the graph)
   std::size_t ignored_dbow_entries = 0;   // agents' bag-of-words descriptors (not used by this system)
 };
 
@@ -63,6 +63,15 @@ JsonImportResult read_spark_dsg_json_file(const std::string& path, SceneGraph& g
 
 // Object mesh connections in the written file: Spark-DSG reads them as indices into the graph's mesh.
 using ObjectMeshIndices = std::unordered_map<NodeId, std::vector<std::uint32_t>>;
+
+// A mesh embedded in the file as Spark-DSG does ("mesh": points, colours, labels, faces): Spark-DSG loads it as
+// the graph's mesh, which the objects' mesh_connections then index.
+struct EmbeddedMesh {
+  std::vector<float> xyz;             // 3 per vertex
+  std::vector<std::uint8_t> rgb;      // 3 per vertex, or empty
+  std::vector<std::uint32_t> labels;  // 1 per vertex, or empty
+  std::vector<std::uint32_t> faces;   // 3 per triangle
+};
 
 struct JsonExportOptions {
   int indent = -1;  // -1: compact; >= 0: pretty-printed with this many spaces
@@ -74,6 +83,7 @@ struct JsonExportOptions {
   // the field is omitted (the app's graph stores internal handles, meaningless outside the process).
   const ObjectMeshIndices* object_mesh_indices = nullptr;
   bool write_stored_mesh_connections = true;
+  const EmbeddedMesh* mesh = nullptr;  // written as the file's "mesh" when set
 };
 
 // Spark-DSG 1.1.3 layout (see the top of this file).

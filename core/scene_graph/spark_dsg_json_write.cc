@@ -122,6 +122,31 @@ json room_attributes(const RoomAttributes& r, const LabelSpaces* spaces) {
   return a;
 }
 
+json header() {
+  return {{"project_name", "main"}, {"version", {{"major", kVersion[0]}, {"minor", kVersion[1]}, {"patch", kVersion[2]}}}};
+}
+
+// Spark-DSG's Mesh as its JSON writer lays it out (points as [x, y, z], colours as {r, g, b, a}, faces as [a, b, c]).
+json mesh_json(const EmbeddedMesh& m) {
+  const std::size_t n = m.xyz.size() / 3;
+  json out{{"header", header()},
+           {"has_colors", !m.rgb.empty()},
+           {"has_timestamps", false},
+           {"has_labels", !m.labels.empty()},
+           {"has_first_seen_stamps", false}};
+  json& points = out["points"] = json::array();
+  for (std::size_t i = 0; i < n; ++i) points.push_back({m.xyz[3 * i], m.xyz[3 * i + 1], m.xyz[3 * i + 2]});
+  if (!m.rgb.empty()) {
+    json& colors = out["colors"] = json::array();
+    for (std::size_t i = 0; i < n; ++i)
+      colors.push_back({{"r", m.rgb[3 * i]}, {"g", m.rgb[3 * i + 1]}, {"b", m.rgb[3 * i + 2]}, {"a", 255}});
+  }
+  if (!m.labels.empty()) out["labels"] = m.labels;
+  json& faces = out["faces"] = json::array();
+  for (std::size_t i = 0; i + 2 < m.faces.size(); i += 3) faces.push_back({m.faces[i], m.faces[i + 1], m.faces[i + 2]});
+  return out;
+}
+
 json agent_attributes(const AgentAttributes& g) {
   json a;
   write_node_common(g.position_m, g.last_update_time_ns, g.is_active, a);
@@ -138,8 +163,7 @@ json agent_attributes(const AgentAttributes& g) {
 
 std::string write_spark_dsg_json(const SceneGraph& graph, const JsonExportOptions& options) {
   json root;
-  root["SPARK_DSG_header"] = {{"project_name", "main"},
-                              {"version", {{"major", kVersion[0]}, {"minor", kVersion[1]}, {"patch", kVersion[2]}}}};
+  root["SPARK_DSG_header"] = header();
   root["directed"] = false;
   root["multigraph"] = false;
   root["metadata"] = metadata(options.labelspaces);
@@ -191,6 +215,7 @@ std::string write_spark_dsg_json(const SceneGraph& graph, const JsonExportOption
                      {"target", e->target},
                      {"info", {{"type", "EdgeAttributes"}, {"weight", e->info.weight}, {"weighted", e->info.weighted}}}});
   }
+  if (options.mesh != nullptr) root["mesh"] = mesh_json(*options.mesh);
   return root.dump(options.indent);
 }
 

@@ -3,10 +3,10 @@
 # this project's own reading; reads back what Spark-DSG saves; checks the graph Spark-DSG wrote itself (the shared
 # fixture) both ways (tests/interop/spark_dsg_check.cc).
 #
-#   tests/interop/run_spark_dsg_check.sh [APP_GRAPH.json]
+#   tests/interop/run_spark_dsg_check.sh [APP_GRAPH.json [APP_MESH.ply]]
 #
 # Without a graph it runs qsg_app on a short simulated mission (4 rooms; build/default's qsg_app, built first if
-# missing) and checks its scene_graph.json. Spark-DSG is built once from ../shared/peers/spark_dsg (Debian packages
+# missing) and checks its scene_graph.json and mesh.ply (embedded in the graph as Spark-DSG does). Spark-DSG is built once from ../shared/peers/spark_dsg (Debian packages
 # only: nlohmann-json3-dev, libeigen3-dev; its own LTO makes that 2-4 minutes on two cores) into build/spark_dsg-*,
 # and rebuilt only when the tarball changes. Test-only: the product never links it. Exit status 0 when every
 # reading agrees.
@@ -45,7 +45,7 @@ cmake --build build/interop --target spark_dsg_check -j"$jobs" > build/interop-b
   { tail -30 build/interop-build.log >&2; exit 1; }
 
 # 3. The graph to check: the given one, or a short simulated mission's.
-graph=${1:-}
+graph=${1:-} mesh=${2:-}
 if [[ -z "$graph" ]]; then
   app=build/default/firmware_app/qsg_app
   if [[ ! -x "$app" ]]; then
@@ -57,8 +57,8 @@ if [[ -z "$graph" ]]; then
   start=$SECONDS
   "$app" --rooms 4 --seed 3 --quiet --output "$out" > build/interop/app_run.log
   echo "run_spark_dsg_check: qsg_app mapped 4 rooms in $((SECONDS - start)) s ($(grep -m1 '^outputs:' build/interop/app_run.log | cut -c1-100)...)"
-  graph=$out/scene_graph.json
+  graph=$out/scene_graph.json mesh=$out/mesh.ply
 fi
 
 # 4. The comparisons.
-build/interop/tests/interop/spark_dsg_check "$graph" "$fixtures" build/interop/check
+build/interop/tests/interop/spark_dsg_check "$graph" "$fixtures" build/interop/check ${mesh:+"$mesh"}

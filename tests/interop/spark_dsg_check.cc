@@ -4,9 +4,11 @@
 //      (timestamps and label names included) equals this project's own reading of the file;
 //   2. what Spark-DSG saves of it (JSON and its binary format) reads back the same in both libraries;
 //   3. the graph Spark-DSG 1.1.3 wrote itself (the shared fixture) reads the same in both, and this project's
-//      rewrite of it loads in Spark-DSG with the same content.
+//      rewrite of it loads in Spark-DSG with the same content;
+//   4. with the app's mesh given: the graph written with the mesh embedded loads in Spark-DSG with that mesh, vertex
+//      for vertex and face for face, and the objects' mesh connections index it.
 //
-//   spark_dsg_check APP_GRAPH.json FIXTURE_DIR OUT_DIR
+//   spark_dsg_check APP_GRAPH.json FIXTURE_DIR OUT_DIR [APP_MESH.ply]
 #include <cstdio>
 #include <exception>
 #include <filesystem>
@@ -17,6 +19,7 @@
 #include <spark_dsg/labelspace.h>
 #include <spark_dsg/node_attributes.h>
 
+#include "core/reconstruction/ply_writer.h"
 #include "core/scene_graph/spark_dsg_json.h"
 #include "tests/interop/graph_fields.h"
 
@@ -313,16 +316,73 @@ bool check_file(const std::string& label, const std::string& path, const std::st
   return ok;
 }
 
+// The app's graph written with its mesh embedded: Spark-DSG's mesh equals the PLY's, and every object's mesh
+// connection is a vertex of it.
+bool check_embedded_mesh(const std::string& graph_path, const std::string& mesh_path, const std::string& out_dir) {
+  Ours ours;
+  reconstruction::Mesh mesh;
+  std::string error;
+  if (!read_ours(graph_path, &ours)) return false;
+  if (!reconstruction::read_ply(mesh_path, &mesh, &error)) {
+    std::fprintf(stderr, "spark_dsg_check: %s\n", error.c_str());
+    return false;
+  }
+  scene_graph::EmbeddedMesh embedded;
+  for (const reconstruction::MeshVertex& v : mesh.vertices) {
+    embedded.xyz.insert(embedded.xyz.end(), {v.x, v.y, v.z});
+    embedded.rgb.insert(embedded.rgb.end(), {v.r, v.g, v.b});
+    embedded.labels.push_back(v.label);
+  }
+  for (const reconstruction::MeshTriangle& t : mesh.triangles) embedded.faces.insert(embedded.faces.end(), t.v, t.v + 3);
+  scene_graph::JsonExportOptions options;
+  options.labelspaces = &ours.result.labelspaces;
+  options.mesh = &embedded;
+  const std::string path = out_dir + "/app_output.with_mesh.json";
+  if (!scene_graph::write_spark_dsg_json_file(ours.graph, path, &error, options)) {
+    std::fprintf(stderr, "spark_dsg_check: %s\n", error.c_str());
+    return false;
+  }
+  const auto spark = load_spark(path);
+  const auto m = spark ? spark->mesh() : nullptr;
+  if (!m) {
+    std::printf("FAIL app_output with its mesh embedded: Spark-DSG has no mesh\n");
+    return false;
+  }
+  std::size_t differences = 0;
+  if (m->numVertices() != mesh.vertices.size() || m->numFaces() != mesh.triangles.size()) ++differences;
+  for (std::size_t i = 0; differences == 0 && i < mesh.vertices.size(); ++i) {
+    const reconstruction::MeshVertex& v = mesh.vertices[i];
+    const auto& p = m->pos(i);
+    const auto& c = m->color(i);
+    if (p.x() != v.x || p.y() != v.y || p.z() != v.z || c.r != v.r || c.g != v.g || c.b != v.b || m->label(i) != v.label)
+      ++differences;
+  }
+  for (std::size_t i = 0; differences == 0 && i < mesh.triangles.size(); ++i)
+    for (int k = 0; k < 3; ++k) differences += m->face(i)[k] != mesh.triangles[i].v[k] ? 1 : 0;
+  std::size_t connections = 0;
+  for (const auto& [id, key] : spark->node_lookup())
+    if (const auto* o = dynamic_cast<const spark_dsg::ObjectNodeAttributes*>(&spark->getNode(id).attributes()))
+      for (std::size_t v : o->mesh_connections) {
+        ++connections;
+        differences += v < m->numVertices() ? 0 : 1;
+      }
+  std::printf("%-4s app_output with its mesh embedded: Spark-DSG's mesh %zu vertices, %zu faces (the PLY's: %zu, %zu), "
+              "%zu object mesh connections into it, %zu differences\n", differences == 0 ? "ok" : "FAIL",
+              m->numVertices(), m->numFaces(), mesh.vertices.size(), mesh.triangles.size(), connections, differences);
+  return differences == 0 && connections > 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (argc != 4) {
-    std::fprintf(stderr, "usage: spark_dsg_check APP_GRAPH.json FIXTURE_DIR OUT_DIR\n");
+  if (argc != 4 && argc != 5) {
+    std::fprintf(stderr, "usage: spark_dsg_check APP_GRAPH.json FIXTURE_DIR OUT_DIR [APP_MESH.ply]\n");
     return 2;
   }
   const std::string app_graph = argv[1], fixture_dir = argv[2], out_dir = argv[3];
   std::filesystem::create_directories(out_dir);
   bool ok = check_file("app_output", app_graph, out_dir, "");
+  if (argc == 5) ok &= check_embedded_mesh(app_graph, argv[4], out_dir);
   const std::string fixture = fixture_dir + "/written_by_spark_dsg.json";
   if (std::filesystem::exists(fixture)) {
     ok &= check_file("fixture", fixture, out_dir, fixture_dir + "/written_by_spark_dsg.sparkdsg");

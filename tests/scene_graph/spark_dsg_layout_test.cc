@@ -124,6 +124,34 @@ TEST(SparkDsgLayoutTest, ObjectMeshConnectionsAreGivenIndicesOrOmitted) {
             json::array());
 }
 
+// The mesh embedded as Spark-DSG's Mesh JSON lays it out; our reader counts its vertices and keeps the graph.
+TEST(SparkDsgLayoutTest, EmbedsTheMeshAsSparkDsgDoes) {
+  auto g = testing::make_graph();
+  build(*g);
+  EmbeddedMesh mesh;
+  mesh.xyz = {0, 0, 0, 1, 0, 0, 0, 1, 0.5f};
+  mesh.rgb = {10, 20, 30, 40, 50, 60, 70, 80, 90};
+  mesh.labels = {2, 2, 5};
+  mesh.faces = {0, 1, 2};
+  JsonExportOptions options;
+  options.mesh = &mesh;
+  const json doc = json::parse(write_spark_dsg_json(*g, options));
+  const json& m = doc.at("mesh");
+  EXPECT_EQ(m.at("header").at("version"), (json{{"major", 1}, {"minor", 1}, {"patch", 3}}));
+  EXPECT_EQ(m.at("has_colors"), true);
+  EXPECT_EQ(m.at("has_labels"), true);
+  EXPECT_EQ(m.at("has_timestamps"), false);
+  EXPECT_EQ(m.at("points"), json::parse("[[0, 0, 0], [1, 0, 0], [0, 1, 0.5]]"));
+  EXPECT_EQ(m.at("colors")[2], (json{{"r", 70}, {"g", 80}, {"b", 90}, {"a", 255}}));
+  EXPECT_EQ(m.at("labels"), json::parse("[2, 2, 5]"));
+  EXPECT_EQ(m.at("faces"), json::parse("[[0, 1, 2]]"));
+  auto back = testing::make_graph();
+  const JsonImportResult r = read_spark_dsg_json(doc.dump(), *back);
+  ASSERT_TRUE(r.ok) << r.error;
+  EXPECT_EQ(r.ignored_mesh_vertices, 3u);
+  EXPECT_EQ(back->num_nodes(), g->num_nodes());
+}
+
 // What a fixed-capacity attribute cannot hold is dropped and counted, not a refusal of the whole file.
 TEST(SparkDsgLayoutTest, TruncationsAreCountedNotRefused) {
   auto g = testing::make_graph();
