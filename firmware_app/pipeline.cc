@@ -896,7 +896,8 @@ bool Pipeline::finish(std::string* error) {
   std::printf("outputs: %s/scene_graph.json (%zu nodes), %s/mesh.ply (%zu vertices, %zu triangles), %s/top_down.png, "
               "%s%s/trajectory_estimate.txt%s\n",
               dir.c_str(), graph_.num_nodes(), dir.c_str(), mesh.vertices.size(), mesh.triangles.size(), dir.c_str(),
-              viewer ? "scene_graph.html, " : "", dir.c_str(), ground_truth_.empty() ? "" : " and trajectory_ground_truth.txt");
+              viewer ? (dir + "/scene_graph.html, ").c_str() : "", dir.c_str(),
+              ground_truth_.empty() ? "" : " and trajectory_ground_truth.txt");
   return true;
 }
 

@@ -14,6 +14,7 @@
 
 #include "core/reconstruction/mesh_cleanup.h"
 #include "core/reconstruction/ply_writer.h"
+#include "firmware_app/graph_viewer.h"
 #include "firmware_app/pipeline.h"
 
 namespace qsg::app {
@@ -146,6 +147,11 @@ TEST(AppOutputsTest, MeshIsCleanAndTheGraphPointsIntoIt) {
   EXPECT_GT(agents, 1u);
   EXPECT_GE(agent_stamped + 1, agents) << "every agent after the first at t = 0 has its timestamp";
   EXPECT_GE(objects_with_vertices * 10, objects * 9) << "most objects point at their vertices";
+
+  // The browser view is written where three.js is installed (its drawing: viewer_test.cc).
+  if (!find_three_js().empty()) {
+    EXPECT_TRUE(std::filesystem::exists(c.output_dir + "/scene_graph.html"));
+  }
 
   // A snapshot has no mesh beside it: no object mesh connections either.
   std::ifstream snap(c.output_dir + "/scene_graph_snapshot.json");
