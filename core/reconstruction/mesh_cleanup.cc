@@ -43,7 +43,8 @@ Eigen::Vector3d position(const MeshVertex& v) { return Eigen::Vector3d(v.x, v.y,
 
 void MeshCleanupStats::print(std::FILE* out) const {
   std::fprintf(out, "mesh clean-up: %zu degenerate, %zu duplicated and %zu back-to-back triangles removed, %zu "
-               "unreferenced vertices removed\n", degenerate, duplicated, back_to_back, unreferenced);
+               "unreferenced vertices removed; %zu non-manifold edges left\n", degenerate, duplicated, back_to_back,
+               unreferenced, non_manifold_edges);
 }
 
 MeshCleanupStats clean_mesh(Mesh* mesh, std::vector<std::uint32_t>* old_to_new, double min_area_m2) {
@@ -90,6 +91,13 @@ MeshCleanupStats clean_mesh(Mesh* mesh, std::vector<std::uint32_t>* old_to_new, 
   mesh->vertices.resize(next);
   for (MeshTriangle& t : mesh->triangles)
     for (std::uint32_t& v : t.v) v = remap[v];
+  std::unordered_map<std::uint64_t, std::uint32_t> edge_uses;
+  edge_uses.reserve(3 * mesh->triangles.size());
+  for (const MeshTriangle& t : mesh->triangles)
+    for (int k = 0; k < 3; ++k) {
+      const std::uint64_t a = std::min(t.v[k], t.v[(k + 1) % 3]), b = std::max(t.v[k], t.v[(k + 1) % 3]);
+      if (++edge_uses[(a << 32) | b] == 3) ++stats.non_manifold_edges;
+    }
   if (old_to_new != nullptr) *old_to_new = std::move(remap);
   return stats;
 }

@@ -16,6 +16,7 @@ struct MeshCleanupStats {
   std::size_t duplicated = 0;       // the same three corners in the same winding as an earlier triangle
   std::size_t back_to_back = 0;     // the same three corners in the opposite winding: a zero-thickness sheet
   std::size_t unreferenced = 0;     // vertices no triangle kept uses
+  std::size_t non_manifold_edges = 0;  // left as they are: edges more than two kept triangles share (counted only)
   void print(std::FILE* out) const;
 };
 

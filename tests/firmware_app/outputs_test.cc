@@ -67,10 +67,20 @@ TEST(MeshCleanupTest, RemovesEveryKindOfDefectAndRenumbers) {
   EXPECT_EQ(s.unreferenced, 2u);  // 6 and 7
   ASSERT_EQ(m.triangles.size(), 3u);
   ASSERT_EQ(m.vertices.size(), 6u);
+  EXPECT_EQ(s.non_manifold_edges, 0u);
   EXPECT_EQ(remap[6], memory::kInvalidHandle);
   EXPECT_EQ(remap[5], 5u);
   const MeshDefects d = find_defects(m);
   EXPECT_EQ(d.repeated_corner + d.zero_area + d.same_corners + d.unreferenced, 0u);
+}
+
+TEST(MeshCleanupTest, CountsNonManifoldEdges) {
+  reconstruction::Mesh m;
+  m.vertices = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}};
+  m.triangles = {{{0, 1, 2}}, {{1, 0, 3}}, {{0, 1, 4}}};  // edge 0-1 shared by three triangles
+  const reconstruction::MeshCleanupStats s = reconstruction::clean_mesh(&m);
+  EXPECT_EQ(s.non_manifold_edges, 1u);
+  EXPECT_EQ(m.triangles.size(), 3u);  // counted, not removed
 }
 
 // A short simulated run (4 rooms, 30 s): the outputs another program reads.
