@@ -757,15 +757,6 @@ void SemanticTsdf::extract_active_mesh(Mesh* out) {
 // ---------------------------------------------------------------------------------------------------------
 // Window and archive
 
-Eigen::Vector3d SemanticTsdf::vertex_key_edge_middle_m(std::uint64_t key) const {
-  const auto unpack = [](std::uint64_t v) { return static_cast<double>(static_cast<std::int32_t>(v & 0xFFFFF) - (1 << 19)); };
-  const int axis = static_cast<int>(key & 3);
-  // Voxel centres sit at (index + 0.5) voxels; the edge runs from the key's voxel one voxel along its axis.
-  Eigen::Vector3d g(unpack(key >> 42) + 0.5, unpack(key >> 22) + 0.5, unpack(key >> 2) + 0.5);
-  g[axis] += 0.5;
-  return g * config_.voxel_size_m;
-}
-
 memory::Index3 SemanticTsdf::archive_cell(const MeshVertex& v) const {
   const double r = archive_resolution_m_;
   return {static_cast<std::int32_t>(std::floor(v.x / r)), static_cast<std::int32_t>(std::floor(v.y / r)),
