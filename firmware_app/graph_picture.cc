@@ -6,7 +6,9 @@
 #include <new>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <string>
 
+#include "core/semantics/labels.h"
 #include "drivers/world/top_down.h"
 #include "firmware_app/pipeline.h"
 
@@ -50,6 +52,25 @@ cv::Point to_int_pixel(const cv::Point2d& q) {
   constexpr double kLimit = 1e6;
   const auto clamp = [&](double v) { return std::isfinite(v) ? std::clamp(v, -kLimit, kLimit) : -kLimit; };
   return cv::Point(static_cast<int>(std::lround(clamp(q.x))), static_cast<int>(std::lround(clamp(q.y))));
+}
+
+// Each room's name at its node, dark on a white outline so it reads over any fill: the label's name once the room
+// is labelled, its node name ("R(3)") until then.
+void draw_room_names(const scene_graph::SceneGraph& graph, const world::TopDownFrame& frame, cv::Mat& image) {
+  const double scale = std::clamp(frame.pixels_per_m / 50.0, 0.4, 1.6);
+  const int thickness = std::max(1, static_cast<int>(std::lround(2 * scale)));
+  graph.for_each_node([&](const scene_graph::NodeRecord& n) {
+    const scene_graph::RoomAttributes* r = graph.room(n.id);
+    if (r == nullptr) return;
+    const std::string name = r->semantic_label != semantics::kRoomUnknown && r->semantic_label < semantics::kNumRoomLabels
+                                 ? semantics::room_label_name(static_cast<semantics::RoomLabel>(r->semantic_label))
+                                 : std::string(r->name.c_str(), r->name.size());
+    int baseline = 0;
+    const cv::Size size = cv::getTextSize(name, cv::FONT_HERSHEY_SIMPLEX, scale, thickness, &baseline);
+    const cv::Point at = to_int_pixel(frame.to_pixel(r->position_m.x(), r->position_m.y())) - cv::Point(size.width / 2, -size.height / 2);
+    cv::putText(image, name, at, cv::FONT_HERSHEY_SIMPLEX, scale, cv::Scalar(255, 255, 255), thickness + 3, cv::LINE_AA);
+    cv::putText(image, name, at, cv::FONT_HERSHEY_SIMPLEX, scale, cv::Scalar(40, 40, 40), thickness, cv::LINE_AA);
+  });
 }
 
 cv::Mat draw_graph_picture(const scene_graph::SceneGraph& graph, const world::World& world,
@@ -106,6 +127,7 @@ cv::Mat draw_graph_picture(const scene_graph::SceneGraph& graph, const world::Wo
     cv::circle(image, px(o->position_m), 3, cv::Scalar(0, 110, 0), cv::FILLED, cv::LINE_AA);
   });
   world::draw_polyline(image, trajectory_m, frame, cv::Scalar(30, 30, 220), 1);
+  if (config.draw_room_names) draw_room_names(graph, frame, image);
   return image;
 }
 

@@ -1,6 +1,6 @@
 // qsg_app: the onboard program. Runs the perception pipeline on a driver (the simulated quadruped in a generated
 // building by default) under the board's task table, writes periodic scene-graph snapshots and, at the end or on
-// SIGINT/SIGTERM, a Spark-DSG scene graph, a PLY mesh and a top-down picture.
+// SIGINT/SIGTERM, a Spark-DSG scene graph, a PLY mesh, a top-down picture and a 3D view for the browser.
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
@@ -10,8 +10,10 @@
 #include <unistd.h>
 
 #include "budgets/budget_table.h"
+#include "core/reconstruction/ply_writer.h"
 #include "core/scene_graph/spark_dsg_json.h"
 #include "firmware_app/app_config.h"
+#include "firmware_app/graph_outputs.h"
 #include "firmware_app/pipeline.h"
 
 namespace {
@@ -27,7 +29,8 @@ void usage() {
       "               [--duration S] [--realtime | --lockstep] [--seed N] [--rooms N] [--tours N] [--quiet]\n"
       "               [--odometry auto|sim_drift|ground_truth|tum|stream|static] [--odometry-tum FILE]\n"
       "               [--pose-stream udp:ADDRESS:PORT | unix:PATH]\n"
-      "       qsg_app --convert SPARK_DSG_JSON OUT_JSON   (validate a scene graph and write it canonically)\n"
+      "       qsg_app --convert SPARK_DSG_JSON OUT_JSON [--mesh MESH.ply]   (validate a scene graph and write it in the\n"
+      "               Spark-DSG 1.1.3 layout, canonically; --mesh embeds the mesh as Spark-DSG does)\n"
       "  Defaults: the simulated quadruped explores a generated 12-room building in lockstep on the board's\n"
       "  task table (%s); outputs go to qsg_output/. Every key of firmware_app/config/default.json can be set\n"
       "  in --config; the flags override it. With --driver replay, --replay is a TUM RGB-D, Redwood or pose-list\n"
@@ -37,7 +40,7 @@ void usage() {
       budgets::active::kBoard);
 }
 
-int convert(const std::string& in, const std::string& out) {
+int convert(const std::string& in, const std::string& out, const std::string& mesh_path) {
   scene_graph::SceneGraph graph;
   std::string error;
   if (!graph.init(scene_graph::capacities_from_budget(), scene_graph::arena_bytes_from_budget(), &error)) {
@@ -49,11 +52,25 @@ int convert(const std::string& in, const std::string& out) {
     std::fprintf(stderr, "qsg_app: %s\n", r.error.c_str());
     return 1;
   }
-  if (!scene_graph::write_spark_dsg_json_file(graph, out, &error)) {
+  scene_graph::JsonExportOptions options;
+  options.labelspaces = &r.labelspaces;  // the file's label names go through
+  scene_graph::EmbeddedMesh embedded;
+  if (!mesh_path.empty()) {
+    reconstruction::Mesh mesh;
+    if (!reconstruction::read_ply(mesh_path, &mesh, &error)) {
+      std::fprintf(stderr, "qsg_app: %s\n", error.c_str());
+      return 1;
+    }
+    embedded = app::embedded_mesh(mesh);
+    options.mesh = &embedded;
+  }
+  if (!scene_graph::write_spark_dsg_json_file(graph, out, &error, options)) {
     std::fprintf(stderr, "qsg_app: %s\n", error.c_str());
     return 1;
   }
-  std::printf("qsg_app: %s -> %s (%zu nodes)\n", in.c_str(), out.c_str(), graph.num_nodes());
+  std::printf("qsg_app: %s (Spark-DSG %d.%d.%d) -> %s (1.1.3, %zu nodes)\n", in.c_str(), r.version[0], r.version[1],
+              r.version[2], out.c_str(), graph.num_nodes());
+  if (r.truncated.total() != 0) std::printf("qsg_app: kept short of the file: %s\n", r.truncated.summary().c_str());
   return 0;
 }
 
@@ -75,7 +92,8 @@ int main(int argc, char** argv) {
     if (a == "--config" && has_value) {
       ++i;
     } else if (a == "--convert" && i + 2 < argc) {
-      return convert(argv[i + 1], argv[i + 2]);
+      const bool with_mesh = i + 4 < argc && std::strcmp(argv[i + 3], "--mesh") == 0;
+      return convert(argv[i + 1], argv[i + 2], with_mesh ? argv[i + 4] : "");
     } else if (a == "--driver" && has_value) {
       const std::string d = argv[++i];
       if (d == "sim") config.driver = app::Driver::kSim;

@@ -18,12 +18,14 @@
 #include "budgets/budget_table.h"
 #include "core/backend/agent_pose_graph.h"
 #include "core/metrics/trajectory_error.h"
+#include "core/reconstruction/mesh_cleanup.h"
 #include "core/reconstruction/ply_writer.h"
 #include "core/scene_graph/spark_dsg_json.h"
 #include "drivers/gpio/gpiod_chip.h"
 #include "drivers/gpio/sim_gpio.h"
 #include "drivers/render/ray_scene.h"
 #include "drivers/world/top_down.h"
+#include "firmware_app/graph_outputs.h"
 #include "firmware_app/graph_picture.h"
 #include "drivers/world/world_query.h"
 
@@ -821,7 +823,7 @@ bool Pipeline::write_snapshot(std::string* error) {
   std::string text;
   {
     std::lock_guard<std::mutex> lock(graph_mutex_);
-    text = scene_graph::write_spark_dsg_json(graph_);
+    text = scene_graph::write_spark_dsg_json(graph_, snapshot_graph_options());
   }
   const bool ok = write_file_atomically(config_.output_dir + "/scene_graph_snapshot.json", text, error);
   if (ok) ++counters_.snapshots_written;
@@ -870,6 +872,7 @@ bool Pipeline::finish(std::string* error) {
   if (backend_thread_.joinable()) backend_thread_.join();
   reconstruction::Mesh mesh;
   tsdf_.extract_full_mesh(&mesh);
+  reconstruction::clean_mesh(&mesh).print(stdout);
   if (config_.doors_at_finish) close_doors(mesh);
   run_backend_update(BackendUpdate{latest_keyframe_ns_, 0, robot_m_}, false);
   counters_.backend_updates = backend_updates_.load();
@@ -886,7 +889,8 @@ bool Pipeline::finish(std::string* error) {
     if (!ok) failures += (failures.empty() ? "" : "; ") + why;
   };
   std::string why;
-  attempt(write_file_atomically(dir + "/scene_graph.json", scene_graph::write_spark_dsg_json(graph_), &why), why);
+  bool viewer = false;  // scene_graph.json and, where three.js is installed, scene_graph.html
+  write_final_graph(graph_, frontend_.objects(), tsdf_, mesh, dir, &failures, &viewer);
   const std::string mesh_path = dir + "/mesh.ply", mesh_tmp = temporary_path_for(mesh_path);
   why.clear();
   const bool mesh_ok = reconstruction::write_ply(mesh_tmp, mesh, &why) && commit_file_atomically(mesh_tmp, mesh_path, &why);
@@ -901,9 +905,10 @@ bool Pipeline::finish(std::string* error) {
     return false;
   }
   std::printf("outputs: %s/scene_graph.json (%zu nodes), %s/mesh.ply (%zu vertices, %zu triangles), %s/top_down.png, "
-              "%s/trajectory_estimate.txt%s\n",
+              "%s%s/trajectory_estimate.txt%s\n",
               dir.c_str(), graph_.num_nodes(), dir.c_str(), mesh.vertices.size(), mesh.triangles.size(), dir.c_str(),
-              dir.c_str(), ground_truth_.empty() ? "" : " and trajectory_ground_truth.txt");
+              viewer ? (dir + "/scene_graph.html, ").c_str() : "", dir.c_str(),
+              ground_truth_.empty() ? "" : " and trajectory_ground_truth.txt");
   return true;
 }
 

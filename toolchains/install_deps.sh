@@ -5,7 +5,8 @@
 #   toolchains/install_deps.sh [--native] [--cross]
 #
 #   --native  (default) compiler, CMake, Ninja and the -dev packages of the host build (Eigen, OpenCV, Ceres,
-#             libgpiod, libv4l, nanoflann, yaml-cpp, nlohmann-json, GoogleTest, Google Benchmark), ccache.
+#             libgpiod, libv4l, nanoflann, yaml-cpp, nlohmann-json, GoogleTest, Google Benchmark), ccache;
+#             three.js (libjs-three, inlined into the app's scene_graph.html) and headless Chromium (its test).
 #   --cross   also the aarch64 tools (GCC cross compiler, clang + lld, qemu-user, mmdebstrap; qemu-system-arm,
 #             kmod and cpio for the VM stage) and both arm64 sysroots under build/sysroots/: bookworm-arm64
 #             (arm64 CI tests) and bullseye-arm64 (Xavier deploy), built by toolchains/make_sysroot.sh (itself
@@ -27,7 +28,8 @@ done
 
 packages=(cmake ninja-build g++ git pkg-config ccache
           libeigen3-dev libopencv-dev libceres-dev libgpiod-dev libv4l-dev libnanoflann-dev libyaml-cpp-dev
-          nlohmann-json3-dev libgtest-dev libbenchmark-dev)
+          nlohmann-json3-dev libgtest-dev libbenchmark-dev
+          libjs-three chromium fonts-dejavu-core)
 if (( cross )); then
   packages+=(g++-aarch64-linux-gnu binutils-aarch64-linux-gnu qemu-user mmdebstrap clang lld)
   # The VM stage (toolchains/vm/): qemu-system-arm boots Debian's arm64 kernel, depmod (kmod) resolves the
@@ -38,7 +40,8 @@ if (( cross )); then
 fi
 # Installed without their recommends: qemu-system-arm's (GUI, EFI firmware, block backends) are about 60
 # packages that a headless -kernel boot never uses.
-no_recommends=" qemu-system-arm "
+# chromium's (a desktop's worth of fonts, icons and plugins) are not needed to render the viewer headless.
+no_recommends=" qemu-system-arm chromium "
 
 missing=()
 for p in "${packages[@]}"; do

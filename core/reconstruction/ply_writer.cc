@@ -14,9 +14,10 @@ namespace {
 constexpr const char* kVertexProperties[] = {"property float x",        "property float y",
                                              "property float z",        "property uchar red",
                                              "property uchar green",     "property uchar blue",
-                                             "property ushort label"};
+                                             "property int label"};
 constexpr const char* kFaceProperty = "property list uchar int vertex_indices";
-constexpr std::size_t kVertexBytes = 3 * 4 + 3 + 2;
+// The label as a 32-bit "int": every common reader knows it (meshio, for one, refuses "ushort").
+constexpr std::size_t kVertexBytes = 3 * 4 + 3 + 4;
 constexpr std::size_t kFaceBytes = 1 + 3 * 4;
 
 // Little-endian byte copies that do not depend on the host's byte order.
@@ -65,8 +66,7 @@ bool write_ply(const std::string& path, const Mesh& mesh, std::string* error) {
     p[12] = v.r;
     p[13] = v.g;
     p[14] = v.b;
-    p[15] = static_cast<unsigned char>(v.label & 0xFF);
-    p[16] = static_cast<unsigned char>(v.label >> 8);
+    put_u32(p + 15, v.label);
   }
   out.write(reinterpret_cast<const char*>(buf.data()), static_cast<std::streamsize>(buf.size()));
   buf.assign(mesh.triangles.size() * kFaceBytes, 0);
@@ -129,7 +129,9 @@ bool read_ply(const std::string& path, Mesh* mesh, std::string* error) {
     v.r = p[12];
     v.g = p[13];
     v.b = p[14];
-    v.label = static_cast<semantics::Label>(p[15] | (p[16] << 8));
+    const std::uint32_t label = get_u32(p + 15);
+    if (label > 0xFFFF) return fail("vertex " + std::to_string(i) + ": label " + std::to_string(label) + " out of range");
+    v.label = static_cast<semantics::Label>(label);
   }
   buf.assign(num_faces * kFaceBytes, 0);
   if (!in.read(reinterpret_cast<char*>(buf.data()), static_cast<std::streamsize>(buf.size())))

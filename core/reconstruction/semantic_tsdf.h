@@ -167,6 +167,14 @@ class SemanticTsdf {
   // global voxel-edge key: a vertex on a block border appears in both blocks with the same key, and keeps it
   // while the surface is re-meshed.
   bool next_block_vertex(std::uint32_t handle, VertexCursor* cursor, MeshVertex* vertex, std::uint64_t* key) const;
+  // The middle of the voxel edge a vertex key names: the vertex lies on that edge, within half a voxel of it. Keys
+  // pack the edge's lower voxel (20 bits per axis, offset by 2^19) and its axis; voxel centres sit at index + 0.5.
+  Eigen::Vector3d vertex_key_edge_middle_m(std::uint64_t key) const {
+    const auto unpack = [](std::uint64_t v) { return static_cast<double>(static_cast<std::int32_t>(v & 0xFFFFF) - (1 << 19)) + 0.5; };
+    Eigen::Vector3d g(unpack(key >> 42), unpack(key >> 22), unpack(key >> 2));
+    g[static_cast<int>(key & 3)] += 0.5;
+    return g * config_.voxel_size_m;
+  }
   std::uint32_t frame_stamp() const { return frame_stamp_; }
   std::uint32_t mesh_stamp() const { return mesh_stamp_; }
   double block_size_m() const { return config_.voxel_size_m * kBlockSide; }

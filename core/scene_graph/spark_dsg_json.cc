@@ -1,4 +1,4 @@
-// Spark-DSG JSON import (validate everything, then commit) and export.
+// Spark-DSG JSON import: validate everything, then commit (export: spark_dsg_json_write.cc).
 #include "core/scene_graph/spark_dsg_json.h"
 
 #include <algorithm>
@@ -87,13 +87,13 @@ void read_name(const json& attrs, const std::string& path, Str& out) {
 }
 
 std::array<std::uint8_t, 3> read_color(const json& j, const std::string& path) {
-  if (j.is_array()) {  // Spark-DSG 1.0: [r, g, b]
-    if (j.size() != 3) fail(path, "expected [r, g, b]");
+  if (j.is_array()) {  // Spark-DSG up to 1.0.2: [r, g, b] or [r, g, b, a] (alpha is not kept)
+    if (j.size() != 3 && j.size() != 4) fail(path, "expected [r, g, b] or [r, g, b, a]");
     return {static_cast<std::uint8_t>(as_uint(j[0], path + "[0]", 255)),
             static_cast<std::uint8_t>(as_uint(j[1], path + "[1]", 255)),
             static_cast<std::uint8_t>(as_uint(j[2], path + "[2]", 255))};
   }
-  if (j.is_object()) {  // later versions: {"r", "g", "b", "a"}
+  if (j.is_object()) {  // later versions: {"r", "g", "b", "a"} (alpha is not kept)
     return {static_cast<std::uint8_t>(as_uint(member(j, "r", path), path + ".r", 255)),
             static_cast<std::uint8_t>(as_uint(member(j, "g", path), path + ".g", 255)),
             static_cast<std::uint8_t>(as_uint(member(j, "b", path), path + ".b", 255))};
@@ -101,18 +101,34 @@ std::array<std::uint8_t, 3> read_color(const json& j, const std::string& path) {
   fail(path, "expected a colour");
 }
 
+// Spark-DSG up to 1.0.2 writes min and max (and the centre); 1.0.3 on writes the centre and the dimensions, and
+// this project writes both (min and max give its boxes back exactly). An invalid box carries nothing else that
+// Spark-DSG reads, so nothing else is read here either.
 BoundingBox read_bbox(const json& j, const std::string& path) {
   BoundingBox b;
-  const std::string& type = as_string(member(j, "type", path), path + ".type");
-  if (type == "INVALID") b.type = BoundingBox::Type::kInvalid;
-  else if (type == "AABB") b.type = BoundingBox::Type::kAabb;
+  const json& type_field = member(j, "type", path);
+  if (type_field.is_null()) return b;
+  const std::string& type = as_string(type_field, path + ".type");
+  if (type == "INVALID") return b;
+  if (type == "AABB") b.type = BoundingBox::Type::kAabb;
   else if (type == "OBB") b.type = BoundingBox::Type::kObb;
   else if (type == "RAABB") b.type = BoundingBox::Type::kRaabb;
   else fail(path + ".type", "unknown bounding-box type '" + type + "'");
-  b.min_m = as_vec3(member(j, "min", path), path + ".min");
-  b.max_m = as_vec3(member(j, "max", path), path + ".max");
-  if (const json* c = optional_member(j, "world_P_center")) b.world_P_center_m = as_vec3(*c, path + ".world_P_center");
   if (const json* r = optional_member(j, "world_R_center")) b.world_R_center = as_quat(*r, path + ".world_R_center");
+  if (optional_member(j, "min") != nullptr || optional_member(j, "max") != nullptr) {
+    b.min_m = as_vec3(member(j, "min", path), path + ".min");
+    b.max_m = as_vec3(member(j, "max", path), path + ".max");
+    if (const json* c = optional_member(j, "world_P_center")) b.world_P_center_m = as_vec3(*c, path + ".world_P_center");
+    else b.world_P_center_m = 0.5 * (b.min_m + b.max_m);
+    return b;
+  }
+  const json* d = optional_member(j, "dimensions");
+  if (d == nullptr) fail(path + ".dimensions", "missing (and no legacy min and max)");
+  const Eigen::Vector3d dims = as_vec3(*d, path + ".dimensions");
+  if ((dims.array() < 0.0).any()) fail(path + ".dimensions", "negative");
+  b.world_P_center_m = as_vec3(member(j, "world_P_center", path), path + ".world_P_center");
+  b.min_m = b.world_P_center_m - 0.5 * dims;
+  b.max_m = b.world_P_center_m + 0.5 * dims;
   return b;
 }
 
@@ -132,12 +148,86 @@ void read_semantic(const json& attrs, const std::string& path, SemanticAttribute
     s.semantic_label = static_cast<std::uint32_t>(as_uint(*l, path + ".semantic_label", 0xFFFFFFFFu));
 }
 
+// Reads (and validates) every entry, keeps the first N and adds the rest to *dropped.
 template <typename T, std::size_t N, typename ReadOne>
-void read_bounded(const json* j, const std::string& path, memory::BoundedArray<T, N>& out, ReadOne&& read_one) {
+void read_bounded(const json* j, const std::string& path, memory::BoundedArray<T, N>& out, std::size_t* dropped,
+                  ReadOne&& read_one) {
   if (j == nullptr) return;
   as_array(*j, path);
-  if (j->size() > N) fail(path, "has " + std::to_string(j->size()) + " entries; at most " + std::to_string(N) + " are kept");
-  for (std::size_t i = 0; i < j->size(); ++i) out.push_back(read_one((*j)[i], path + "[" + std::to_string(i) + "]"));
+  for (std::size_t i = 0; i < j->size(); ++i) {
+    const T value = read_one((*j)[i], path + "[" + std::to_string(i) + "]");
+    if (out.size() < N) out.push_back(value);
+    else ++*dropped;
+  }
+}
+
+// A label space: [[label, "name"], ...] as Spark-DSG writes a std::map with integer keys, or {"label": "name"}.
+std::map<std::uint32_t, std::string> read_labelspace(const json& j, const std::string& path) {
+  std::map<std::uint32_t, std::string> out;
+  if (j.is_object()) {
+    for (auto it = j.begin(); it != j.end(); ++it) {
+      const std::string& key = it.key();
+      if (key.empty() || key.size() > 10 || key.find_first_not_of("0123456789") != std::string::npos ||
+          std::stoull(key) > 0xFFFFFFFFull)
+        fail(path + "." + key, "expected a label number as the key");
+      out[static_cast<std::uint32_t>(std::stoull(key))] = as_string(it.value(), path + "." + key);
+    }
+    return out;
+  }
+  as_array(j, path);
+  for (std::size_t i = 0; i < j.size(); ++i) {
+    const std::string p = path + "[" + std::to_string(i) + "]";
+    if (!j[i].is_array() || j[i].size() != 2) fail(p, "expected [label, \"name\"]");
+    out[static_cast<std::uint32_t>(as_uint(j[i][0], p + "[0]", 0xFFFFFFFFu))] = as_string(j[i][1], p + "[1]");
+  }
+  return out;
+}
+
+void read_labelspaces(const json& metadata, LabelSpaces& out) {
+  if (!metadata.is_object()) fail("metadata", "expected an object");
+  const json* spaces = optional_member(metadata, "labelspaces");
+  if (spaces == nullptr) return;
+  if (!spaces->is_object()) fail("metadata.labelspaces", "expected an object");
+  if (const json* o = optional_member(*spaces, "_l2p0")) out.objects = read_labelspace(*o, "metadata.labelspaces._l2p0");
+  if (const json* r = optional_member(*spaces, "_l4p0")) out.rooms = read_labelspace(*r, "metadata.labelspaces._l4p0");
+}
+
+// A room's class probabilities: an object keyed by class name (Spark-DSG 1.0.2 on; a name the file's room label
+// space does not have, unless it is a label number, is dropped and counted) or the list of {label, probability}
+// this project wrote before. The most likely kMaxRoomClasses are kept, the rest counted.
+void read_class_probabilities(const json& j, const std::string& path, const LabelSpaces& spaces,
+                              ImportTruncations& truncated, RoomAttributes& room) {
+  std::vector<LabelProbability> all;
+  if (j.is_object()) {
+    std::map<std::string, std::uint32_t> by_name;
+    for (const auto& [label, name] : spaces.rooms) by_name.emplace(name, label);
+    for (auto it = j.begin(); it != j.end(); ++it) {
+      const std::string& key = it.key();
+      const std::string p = path + "." + key;
+      const float probability = static_cast<float>(as_double(it.value(), p));
+      if (const auto named = by_name.find(key); named != by_name.end()) {
+        all.push_back({named->second, probability});
+      } else if (!key.empty() && key.size() <= 10 && key.find_first_not_of("0123456789") == std::string::npos &&
+                 std::stoull(key) <= 0xFFFFFFFFull) {
+        all.push_back({static_cast<std::uint32_t>(std::stoull(key)), probability});
+      } else {
+        ++truncated.unknown_class_names;
+      }
+    }
+  } else {
+    as_array(j, path);
+    for (std::size_t i = 0; i < j.size(); ++i) {
+      const std::string cp = path + "[" + std::to_string(i) + "]";
+      const std::uint32_t label = static_cast<std::uint32_t>(as_uint(member(j[i], "label", cp), cp + ".label", 0xFFFFFFFFu));
+      all.push_back({label, static_cast<float>(as_double(member(j[i], "probability", cp), cp + ".probability"))});
+    }
+  }
+  std::stable_sort(all.begin(), all.end(),
+                   [](const LabelProbability& a, const LabelProbability& b) { return a.probability > b.probability; });
+  for (const LabelProbability& lp : all) {
+    if (room.class_probabilities.size() < kMaxRoomClasses) room.class_probabilities.push_back(lp);
+    else ++truncated.room_class_probabilities;
+  }
 }
 
 struct PendingObject {
@@ -164,6 +254,9 @@ struct Document {
   std::vector<std::pair<NodeId, BuildingAttributes>> buildings;
   std::vector<PendingEdge> edges;
   std::unordered_map<NodeId, LayerKey> layers;
+  LabelSpaces labelspaces;
+  ImportTruncations truncated;
+  int version[3] = {1, 0, 0};
   std::size_t ignored_mesh_vertices = 0;
   std::size_t ignored_dbow_entries = 0;
 };
@@ -181,6 +274,9 @@ void read_node(const json& n, const std::string& path, Document& doc) {
   };
   NodeKind kind;
   char prefix = 0;
+  if (const json* part = optional_member(n, "partition");
+      part != nullptr && type != "AgentNodeAttributes" && as_uint(*part, path + ".partition", 255) != 0)
+    fail(path + ".partition", "only agents are kept in a partition here (layer " + std::to_string(layer) + ")");
   if (type == "ObjectNodeAttributes") {
     expect_layer(Layer::kObjects);
     kind = NodeKind::kObject;
@@ -205,7 +301,7 @@ void read_node(const json& n, const std::string& path, Document& doc) {
     if (const json* b = optional_member(attrs, "num_basis_points"))
       p.num_basis_points = static_cast<std::uint32_t>(as_uint(*b, apath + ".num_basis_points", 0xFFFFFFFFu));
     read_bounded(optional_member(attrs, "voxblox_mesh_connections"), apath + ".voxblox_mesh_connections",
-                 p.mesh_connections, [](const json& c, const std::string& cp) {
+                 p.mesh_connections, &doc.truncated.place_mesh_connections, [](const json& c, const std::string& cp) {
                    PlaceMeshConnection pc;
                    const json& block = member(c, "block", cp);
                    if (!block.is_array() || block.size() != 3) fail(cp + ".block", "expected 3 integers");
@@ -220,25 +316,21 @@ void read_node(const json& n, const std::string& path, Document& doc) {
     const auto read_u32 = [](const json& v, const std::string& vp) {
       return static_cast<std::uint32_t>(as_uint(v, vp, 0xFFFFFFFFu));
     };
+    std::size_t* other = &doc.truncated.place_other_connections;
     read_bounded(optional_member(attrs, "deformation_connections"), apath + ".deformation_connections",
-                 p.deformation_connections, read_u64);
+                 p.deformation_connections, other, read_u64);
     read_bounded(optional_member(attrs, "mesh_vertex_labels"), apath + ".mesh_vertex_labels", p.mesh_vertex_labels,
-                 read_u32);
+                 other, read_u32);
     read_bounded(optional_member(attrs, "pcl_mesh_connections"), apath + ".pcl_mesh_connections",
-                 p.pcl_mesh_connections, read_u64);
+                 p.pcl_mesh_connections, other, read_u64);
     doc.places.emplace_back(id, p);
   } else if (type == "RoomNodeAttributes") {
     expect_layer(Layer::kRooms);
     kind = NodeKind::kRoom;
     RoomAttributes r;
     read_semantic(attrs, apath, r);
-    read_bounded(optional_member(attrs, "semantic_class_probabilities"), apath + ".semantic_class_probabilities",
-                 r.class_probabilities, [](const json& c, const std::string& cp) {
-                   LabelProbability lp;
-                   lp.label = static_cast<std::uint32_t>(as_uint(member(c, "label", cp), cp + ".label", 0xFFFFFFFFu));
-                   lp.probability = static_cast<float>(as_double(member(c, "probability", cp), cp + ".probability"));
-                   return lp;
-                 });
+    if (const json* probs = optional_member(attrs, "semantic_class_probabilities"))
+      read_class_probabilities(*probs, apath + ".semantic_class_probabilities", doc.labelspaces, doc.truncated, r);
     doc.rooms.emplace_back(id, r);
   } else if (type == "SemanticNodeAttributes" && layer == static_cast<std::uint8_t>(Layer::kBuildings)) {
     kind = NodeKind::kBuilding;
@@ -248,10 +340,15 @@ void read_node(const json& n, const std::string& path, Document& doc) {
   } else if (type == "AgentNodeAttributes") {
     expect_layer(Layer::kAgents);
     kind = NodeKind::kAgent;
+    // The partition: "partition" (1.1.0 on), "prefix" (this project's 1.0 files), else the id's character.
     PendingAgent a{id, node_prefix(id), {}};
-    if (const json* p = optional_member(n, "prefix")) a.prefix = static_cast<char>(as_uint(*p, path + ".prefix", 255));
-    if (a.prefix == 0) fail(path + ".prefix", "an agent needs a non-zero partition prefix");
-    a.attributes.timestamp_ns = as_uint(member(n, "timestamp", path), path + ".timestamp");
+    if (const json* p = optional_member(n, "partition")) a.prefix = static_cast<char>(as_uint(*p, path + ".partition", 255));
+    else if (const json* q = optional_member(n, "prefix")) a.prefix = static_cast<char>(as_uint(*q, path + ".prefix", 255));
+    if (a.prefix == 0) fail(path + ".partition", "an agent needs a non-zero partition");
+    // The timestamp: among the attributes from 1.1.0 on, on the node before.
+    if (const json* t = optional_member(attrs, "timestamp")) a.attributes.timestamp_ns = as_uint(*t, apath + ".timestamp");
+    else if (const json* u = optional_member(n, "timestamp")) a.attributes.timestamp_ns = as_uint(*u, path + ".timestamp");
+    else fail(apath + ".timestamp", "missing (an agent's timestamp, nor on the node as before 1.1.0)");
     read_common(attrs, apath, a.attributes.position_m, a.attributes.last_update_time_ns, a.attributes.is_active);
     a.attributes.world_R_body = as_quat(member(attrs, "world_R_body", apath), apath + ".world_R_body");
     if (const json* k = optional_member(attrs, "external_key")) a.attributes.external_key = as_uint(*k, apath + ".external_key");
@@ -269,9 +366,15 @@ void read_document(const json& root, Document& doc) {
   if (!root.is_object()) fail("(document)", "expected a JSON object");
   if (const json* header = optional_member(root, "SPARK_DSG_header")) {
     const json& version = member(*header, "version", "SPARK_DSG_header");
-    const auto major = as_uint(member(version, "major", "SPARK_DSG_header.version"), "SPARK_DSG_header.version.major");
-    if (major != 1) fail("SPARK_DSG_header.version.major", "unsupported Spark-DSG major version " + std::to_string(major));
+    const std::string vpath = "SPARK_DSG_header.version";
+    const auto major = as_uint(member(version, "major", vpath), vpath + ".major", 255);
+    if (major != 1) fail(vpath + ".major", "unsupported Spark-DSG major version " + std::to_string(major));
+    doc.version[0] = 1;
+    doc.version[1] = static_cast<int>(as_uint(member(version, "minor", vpath), vpath + ".minor", 255));
+    doc.version[2] = static_cast<int>(as_uint(member(version, "patch", vpath), vpath + ".patch", 255));
   }
+  // Label names before the nodes: room probabilities are keyed by them.
+  if (const json* metadata = optional_member(root, "metadata")) read_labelspaces(*metadata, doc.labelspaces);
   if (const json* directed = optional_member(root, "directed"); directed != nullptr && as_bool(*directed, "directed"))
     fail("directed", "directed scene graphs are not supported");
   const json& nodes = as_array(member(root, "nodes", "(document)"), "nodes");
@@ -314,7 +417,9 @@ void read_document(const json& root, Document& doc) {
     doc.edges.push_back(pe);
   }
   if (const json* mesh = optional_member(root, "mesh")) {
-    if (const json* v = optional_member(*mesh, "vertices"); v != nullptr && v->is_array()) doc.ignored_mesh_vertices = v->size();
+    // "points" (Spark-DSG 1.0.2 on) or "vertices" (before).
+    if (const json* v = optional_member(*mesh, "points"); v != nullptr && v->is_array()) doc.ignored_mesh_vertices = v->size();
+    else if (const json* w = optional_member(*mesh, "vertices"); w != nullptr && w->is_array()) doc.ignored_mesh_vertices = w->size();
   }
 }
 
@@ -346,6 +451,19 @@ void check_capacities(const Document& doc, const SceneGraph& graph) {
 }
 
 }  // namespace
+
+std::string ImportTruncations::summary() const {
+  std::string out;
+  const auto add = [&](std::size_t n, const char* what) {
+    if (n != 0) out += (out.empty() ? "" : ", ") + std::to_string(n) + " " + what;
+  };
+  const std::string places = std::to_string(kMaxPlaceConnections), rooms = std::to_string(kMaxRoomClasses);
+  add(place_mesh_connections, ("place mesh connections past " + places).c_str());
+  add(place_other_connections, ("place deformation/pcl connections or vertex labels past " + places).c_str());
+  add(room_class_probabilities, ("room class probabilities past " + rooms + " (the least likely)").c_str());
+  add(unknown_class_names, "room class probabilities keyed by an unknown class name");
+  return out;
+}
 
 JsonImportResult read_spark_dsg_json(const std::string& text, SceneGraph& graph) {
   JsonImportResult result;
@@ -400,6 +518,9 @@ JsonImportResult read_spark_dsg_json(const std::string& text, SceneGraph& graph)
   result.nodes = graph.num_nodes();
   result.edges = graph.num_edges();
   result.ignored_mesh_vertices = doc.ignored_mesh_vertices;
+  std::copy(doc.version, doc.version + 3, result.version);
+  result.labelspaces = std::move(doc.labelspaces);
+  result.truncated = doc.truncated;
   result.ignored_dbow_entries = doc.ignored_dbow_entries;
   return result;
 }
@@ -416,147 +537,6 @@ JsonImportResult read_spark_dsg_json_file(const std::string& path, SceneGraph& g
   JsonImportResult r = read_spark_dsg_json(buffer.str(), graph);
   if (!r.ok) r.error = path + ": " + r.error;
   return r;
-}
-
-namespace {
-
-json vec3(const Eigen::Vector3d& v) { return json::array({v.x(), v.y(), v.z()}); }
-json quat(const Eigen::Quaterniond& q) { return json{{"w", q.w()}, {"x", q.x()}, {"y", q.y()}, {"z", q.z()}}; }
-
-json bbox(const BoundingBox& b) {
-  static const char* const kTypes[] = {"INVALID", "AABB", "OBB", "RAABB"};
-  return json{{"type", kTypes[static_cast<int>(b.type)]},
-              {"min", vec3(b.min_m)},
-              {"max", vec3(b.max_m)},
-              {"world_P_center", vec3(b.world_P_center_m)},
-              {"world_R_center", quat(b.world_R_center)}};
-}
-
-void write_semantic(const SemanticAttributes& s, json& a) {
-  a["position"] = vec3(s.position_m);
-  a["last_update_time_ns"] = s.last_update_time_ns;
-  a["is_active"] = s.is_active;
-  a["name"] = std::string(s.name.c_str(), s.name.size());
-  a["color"] = json::array({s.color[0], s.color[1], s.color[2]});
-  a["bounding_box"] = bbox(s.bounding_box);
-  a["semantic_label"] = s.semantic_label;
-}
-
-template <typename T, std::size_t N>
-json array_of(const memory::BoundedArray<T, N>& values) {
-  json out = json::array();
-  for (const T& v : values) out.push_back(v);
-  return out;
-}
-
-}  // namespace
-
-std::string write_spark_dsg_json(const SceneGraph& graph, const JsonExportOptions& options) {
-  json root;
-  root["SPARK_DSG_header"] = {{"project_name", "main"}, {"version", {{"major", 1}, {"minor", 0}, {"patch", 0}}}};
-  root["directed"] = false;
-  root["multigraph"] = false;
-  root["layer_ids"] = json::array({2, 3, 4, 5});
-  root["mesh_layer_id"] = 1;
-  root["mesh_edges"] = json::array();
-  // Canonical order (nodes by layer then id, edges by endpoints), so equal graphs give equal files.
-  std::vector<const NodeRecord*> records;
-  records.reserve(graph.num_nodes());
-  graph.for_each_node([&](const NodeRecord& n) { records.push_back(&n); });
-  std::sort(records.begin(), records.end(), [](const NodeRecord* a, const NodeRecord* b) {
-    return a->layer.layer != b->layer.layer ? a->layer.layer < b->layer.layer : a->id < b->id;
-  });
-  json& nodes = root["nodes"] = json::array();
-  for (const NodeRecord* record : records) {
-    const NodeRecord& n = *record;
-    json node{{"id", n.id}, {"layer", n.layer.layer}};
-    json a;
-    switch (n.kind) {
-      case NodeKind::kObject: {
-        const ObjectAttributes& o = *graph.object(n.id);
-        write_semantic(o, a);
-        a["type"] = "ObjectNodeAttributes";
-        a["registered"] = o.registered;
-        a["world_R_object"] = quat(o.world_R_object);
-        json mesh = json::array();
-        graph.for_each_mesh_connection(n.id, [&](std::uint32_t v) { mesh.push_back(v); });
-        a["mesh_connections"] = std::move(mesh);
-        break;
-      }
-      case NodeKind::kPlace: {
-        const PlaceAttributes& p = *graph.place(n.id);
-        write_semantic(p, a);
-        a["type"] = "PlaceNodeAttributes";
-        a["distance"] = p.distance_m;
-        a["num_basis_points"] = p.num_basis_points;
-        json conns = json::array();
-        for (const PlaceMeshConnection& c : p.mesh_connections)
-          conns.push_back({{"block", {c.block.x, c.block.y, c.block.z}}, {"vertex", c.vertex}, {"voxel_pos", vec3(c.voxel_pos_m)}});
-        a["voxblox_mesh_connections"] = std::move(conns);
-        a["deformation_connections"] = array_of(p.deformation_connections);
-        a["mesh_vertex_labels"] = array_of(p.mesh_vertex_labels);
-        a["pcl_mesh_connections"] = array_of(p.pcl_mesh_connections);
-        break;
-      }
-      case NodeKind::kRoom: {
-        const RoomAttributes& r = *graph.room(n.id);
-        write_semantic(r, a);
-        a["type"] = "RoomNodeAttributes";
-        if (!r.class_probabilities.empty()) {
-          json probs = json::array();
-          for (const LabelProbability& lp : r.class_probabilities)
-            probs.push_back({{"label", lp.label}, {"probability", lp.probability}});
-          a["semantic_class_probabilities"] = std::move(probs);
-        }
-        break;
-      }
-      case NodeKind::kBuilding:
-        write_semantic(*graph.building(n.id), a);
-        a["type"] = "SemanticNodeAttributes";
-        break;
-      case NodeKind::kAgent: {
-        const AgentAttributes& g = *graph.agent(n.id);
-        node["prefix"] = static_cast<unsigned char>(n.layer.partition);
-        node["timestamp"] = g.timestamp_ns;
-        a["type"] = "AgentNodeAttributes";
-        a["position"] = vec3(g.position_m);
-        a["last_update_time_ns"] = g.last_update_time_ns;
-        a["is_active"] = g.is_active;
-        a["world_R_body"] = quat(g.world_R_body);
-        a["external_key"] = g.external_key;
-        a["dbow_ids"] = nullptr;
-        a["dbow_values"] = nullptr;
-        break;
-      }
-    }
-    node["attributes"] = std::move(a);
-    nodes.push_back(std::move(node));
-  }
-  std::vector<const EdgeRecord*> edge_records;
-  edge_records.reserve(graph.num_edges());
-  graph.for_each_edge([&](const EdgeRecord& e) { edge_records.push_back(&e); });
-  std::sort(edge_records.begin(), edge_records.end(), [](const EdgeRecord* a, const EdgeRecord* b) {
-    return a->source != b->source ? a->source < b->source : a->target < b->target;
-  });
-  json& edges = root["edges"] = json::array();
-  for (const EdgeRecord* e : edge_records) {
-    edges.push_back({{"source", e->source},
-                     {"target", e->target},
-                     {"info", {{"type", "EdgeAttributes"}, {"weight", e->info.weight}, {"weighted", e->info.weighted}}}});
-  }
-  return root.dump(options.indent);
-}
-
-bool write_spark_dsg_json_file(const SceneGraph& graph, const std::string& path, std::string* error,
-                               const JsonExportOptions& options) {
-  const std::string text = write_spark_dsg_json(graph, options);
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  if (out) out << text;
-  if (!out) {
-    if (error != nullptr) *error = "cannot write '" + path + "'";
-    return false;
-  }
-  return true;
 }
 
 }  // namespace qsg::scene_graph
