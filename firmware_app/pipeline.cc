@@ -880,7 +880,8 @@ bool Pipeline::finish(std::string* error) {
   counters_.rooms_labelled = rooms_labelled_.load();
   counters_.rooms_merged_visible = rooms_merged_visible_.load();
   std::lock_guard<std::mutex> lock(graph_mutex_);
-  correct_outputs(&mesh);
+  reconstruction::Mesh odometric;  // the mesh as mapped, when a correction moves the written one
+  correct_outputs(&mesh, &odometric);
   const std::string dir = config_.output_dir;
   // Every output is attempted whatever became of the others (the picture last: it is the least of them); each
   // replaces its file atomically, so a failure or a kill leaves the previous file or none, never half of one.
@@ -890,7 +891,8 @@ bool Pipeline::finish(std::string* error) {
   };
   std::string why;
   bool viewer = false;  // scene_graph.json and, where three.js is installed, scene_graph.html
-  write_final_graph(graph_, frontend_.objects(), tsdf_, mesh, dir, &failures, &viewer);
+  write_final_graph(graph_, frontend_.objects(), tsdf_, mesh, odometric.vertices.empty() ? mesh : odometric, dir,
+                    &failures, &viewer);
   const std::string mesh_path = dir + "/mesh.ply", mesh_tmp = temporary_path_for(mesh_path);
   why.clear();
   const bool mesh_ok = reconstruction::write_ply(mesh_tmp, mesh, &why) && commit_file_atomically(mesh_tmp, mesh_path, &why);

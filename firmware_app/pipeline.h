@@ -263,7 +263,7 @@ class Pipeline {
   bool optimize_graph() { return solve_deformation(build_deformation()); }
   // At the finish (graph_mutex_ held): the final solve over every loop closure, then agents and places to their
   // optimized poses, objects, rooms and the mesh moved by the deformation graph; the counters and a summary line.
-  void correct_outputs(reconstruction::Mesh* mesh);
+  void correct_outputs(reconstruction::Mesh* mesh, reconstruction::Mesh* odometric);
   void score_loop_closures();
   // world_T_camera of chain node k after the latest optimization (nodes after the solved chain follow the
   // correction of the last solved one); the odometric pose before any.

@@ -249,7 +249,7 @@ Eigen::Isometry3d Pipeline::corrected_pose(std::size_t k) const {
 
 namespace qsg::app {
 
-void Pipeline::correct_outputs(reconstruction::Mesh* mesh) {
+void Pipeline::correct_outputs(reconstruction::Mesh* mesh, reconstruction::Mesh* odometric) {
   counters_.agents_described = agents_described_.load();
   if (config_.loop_closure.enabled && !loop_closures_.empty() && !optimize_graph())
     std::fprintf(stderr, "loop closure: the final optimization failed; outputs keep the last solution\n");
@@ -307,7 +307,9 @@ void Pipeline::correct_outputs(reconstruction::Mesh* mesh) {
       s->bounding_box.world_P_center_m += shift;
     }
   });
-  // The mesh: vertices carry no time, so each moves with its nearest nodes of any time.
+  // The mesh: vertices carry no time, so each moves with its nearest nodes of any time. The mesh as mapped is kept
+  // for the objects' vertex keys, which name positions there.
+  *odometric = *mesh;
   for (reconstruction::MeshVertex& v : mesh->vertices) {
     const Eigen::Vector3d p = deformation_.deform(Eigen::Vector3d(v.x, v.y, v.z));
     v.x = static_cast<float>(p.x());
