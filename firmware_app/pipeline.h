@@ -31,6 +31,7 @@
 #include "drivers/sim/sim_camera.h"
 #include "drivers/world/world.h"
 #include "firmware_app/app_config.h"
+#include "firmware_app/fault_injection.h"
 #include "firmware_app/odometry_input.h"
 #include "firmware_app/runtime/bounded_queue.h"
 #include "firmware_app/runtime/clock.h"
@@ -128,6 +129,8 @@ class Pipeline {
     v4l2_colour_sys_ = colour;
   }
   const drivers::RgbdSource* camera() const { return camera_; }
+  // The fault plan's decorators and the recovery from its faults (inactive without a plan).
+  const FaultInjection& faults() const { return faults_; }
   const OdometryInput& odometry() const { return odometry_; }
   // sim: the true body path of the tour; replay: the dataset's camera poses (empty when it has none).
   const replay::Trajectory& ground_truth() const { return ground_truth_; }
@@ -182,6 +185,7 @@ class Pipeline {
   v4l2::V4l2Syscalls* v4l2_depth_sys_ = nullptr;
   v4l2::V4l2Syscalls* v4l2_colour_sys_ = nullptr;
   drivers::RgbdSource* camera_ = nullptr;
+  FaultInjection faults_;  // the fault plan, when one is given: wraps camera_ and the odometry's source
   bool prefetch_outside_tasks_ = false;  // sim and replay: producing a frame is the simulator's cost, not the robot's
 
   // Frame buffers: the camera reads into a free one; keyframes wait in the queue for reconstruction.

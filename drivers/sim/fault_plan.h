@@ -210,7 +210,7 @@ class FaultInjectingRgbdSource : public drivers::RgbdSource {
   const drivers::DriverCounters& counters() const override { return injector_.counters(); }
   const FaultTally& injected() const { return injector_.tally(); }
   const FaultInjector& injector() const { return injector_; }
-  drivers::RgbdSource& inner() { return inner_; }
+  const char* inner_name() const { return inner_.name(); }
 
  private:
   drivers::RgbdSource& inner_;
@@ -225,7 +225,7 @@ class FaultInjectingOdometrySource : public drivers::OdometrySource {
   const drivers::DriverCounters& counters() const override { return injector_.counters(); }
   const FaultTally& injected() const { return injector_.tally(); }
   const FaultInjector& injector() const { return injector_; }
-  drivers::OdometrySource& inner() { return inner_; }
+  const char* inner_name() const { return inner_.name(); }
 
  private:
   drivers::OdometrySource& inner_;
