@@ -212,6 +212,8 @@ ReportGroup faults_group(const FaultInjection& f) {
   g.add("last_recovery_s", r.last_recovery_ns >= 0 ? 1e-9 * U(r.last_recovery_ns) : -1.0);
   g.add("max_recovery_s", r.max_recovery_ns >= 0 ? 1e-9 * U(r.max_recovery_ns) : -1.0);
   g.add("last_fault_end_s", r.last_end_ns >= 0 ? 1e-9 * U(r.last_end_ns) : -1.0);
+  g.add("max_catch_up_s", r.max_catch_up_ns >= 0 ? 1e-9 * U(r.max_catch_up_ns) : -1.0);
+  g.add("still_behind", r.catching_up ? 1.0 : 0.0);
   return g;
 }
 

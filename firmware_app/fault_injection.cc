@@ -114,6 +114,7 @@ drivers::OdometrySource* FaultInjection::wrap_odometry(drivers::OdometrySource* 
 void FaultInjection::note_end(const sim::FaultInjector& injector, std::uint64_t* seen) {
   if (injector.faults_ended() == *seen) return;
   recovery_.faults_ended += injector.faults_ended() - *seen;
+  pending_ends_ += injector.faults_ended() - *seen;
   *seen = injector.faults_ended();
   recovery_.last_end_ns = std::max(recovery_.last_end_ns, injector.last_fault_end_ns());
   recovery_.waiting = true;
@@ -124,13 +125,26 @@ void FaultInjection::settle() {
   if (odometry_ != nullptr) note_end(odometry_->injector(), &odometry_ends_seen_);
 }
 
-void FaultInjection::on_keyframe_integrated(std::int64_t sample_time_ns) {
+void FaultInjection::on_keyframe_integrated(std::int64_t sample_time_ns, std::int64_t now_loop_ns,
+                                            std::int64_t due_loop_ns) {
   settle();
-  if (!recovery_.waiting || sample_time_ns < recovery_.last_end_ns) return;
-  recovery_.waiting = false;
-  ++recovery_.recovered;
-  recovery_.last_recovery_ns = sample_time_ns - recovery_.last_end_ns;
-  recovery_.max_recovery_ns = std::max(recovery_.max_recovery_ns, recovery_.last_recovery_ns);
+  FaultRecovery& r = recovery_;
+  if (r.catching_up && now_loop_ns - due_loop_ns <= kCaughtUpNs) {
+    r.catching_up = false;
+    r.max_catch_up_ns = std::max(r.max_catch_up_ns, now_loop_ns - catch_up_start_ns_);
+  }
+  if (!r.waiting || sample_time_ns < r.last_end_ns) return;
+  r.waiting = false;
+  r.recovered += pending_ends_;
+  pending_ends_ = 0;
+  r.last_recovery_ns = sample_time_ns - r.last_end_ns;
+  r.max_recovery_ns = std::max(r.max_recovery_ns, r.last_recovery_ns);
+  if (now_loop_ns - due_loop_ns > kCaughtUpNs) {
+    r.catching_up = true;
+    catch_up_start_ns_ = now_loop_ns;
+  } else if (!r.catching_up) {
+    r.max_catch_up_ns = std::max<std::int64_t>(r.max_catch_up_ns, 0);
+  }
 }
 
 void FaultInjection::print_plan(std::FILE* out) const {
@@ -157,10 +171,13 @@ void FaultInjection::print_report(std::FILE* out) const {
   const FaultRecovery& r = recovery_;
   std::fprintf(out,
                "fault recovery: %" PRIu64 " fault ends, %" PRIu64 " followed by an integrated keyframe; latest %.3f s, "
-               "longest %.3f s after the fault ended (data time)%s\n",
+               "longest %.3f s after the fault ended (data time); back within %.2f s of real time %.3f s after "
+               "(loop time, longest)%s%s\n",
                r.faults_ended, r.recovered, r.last_recovery_ns >= 0 ? 1e-9 * static_cast<double>(r.last_recovery_ns) : -1.0,
-               r.max_recovery_ns >= 0 ? 1e-9 * static_cast<double>(r.max_recovery_ns) : -1.0,
-               r.waiting ? "; NOT RECOVERED: no keyframe integrated after the latest fault ended" : "");
+               r.max_recovery_ns >= 0 ? 1e-9 * static_cast<double>(r.max_recovery_ns) : -1.0, 1e-9 * kCaughtUpNs,
+               r.max_catch_up_ns >= 0 ? 1e-9 * static_cast<double>(r.max_catch_up_ns) : -1.0,
+               r.waiting ? "; NOT RECOVERED: no keyframe integrated after the latest fault ended" : "",
+               r.catching_up ? "; STILL BEHIND real time at the end" : "");
 }
 
 }  // namespace qsg::app

@@ -47,14 +47,20 @@ bool parse_app_fault_plan(const std::string& text, const std::string& origin, Ap
 
 // Recovery from a fault: from the fault's end (the sample time of the first message its source delivered clean)
 // to the sample time of the first keyframe integrated at or after it (the data clock, i.e. simulated time).
+// Catch-up: on the loop clock (simulated time in lockstep), from the first keyframe integrated after a fault's end
+// until a keyframe is integrated within kCaughtUpNs of its due time again (a stall or an unplug leaves a backlog of
+// frames the loop works through).
 struct FaultRecovery {
   std::uint64_t faults_ended = 0;  // fault ends seen (camera and odometry together)
-  std::uint64_t recovered = 0;     // ... followed by an integrated keyframe
+  std::uint64_t recovered = 0;     // ... followed by an integrated keyframe (ends before it count once each)
   std::int64_t last_end_ns = -1;   // sample time of the latest fault end (-1: none)
   std::int64_t last_recovery_ns = -1;
   std::int64_t max_recovery_ns = -1;
+  std::int64_t max_catch_up_ns = -1;  // loop time to be back within kCaughtUpNs of real time
   bool waiting = false;  // a fault ended and no keyframe has been integrated since (at the end: not recovered)
+  bool catching_up = false;
 };
+inline constexpr std::int64_t kCaughtUpNs = 250'000'000;  // the odometry's frame wait bound on both boards
 
 class FaultInjection {
  public:
@@ -76,8 +82,9 @@ class FaultInjection {
   const sim::FaultInjectingRgbdSource* camera() const { return camera_.get(); }
   const sim::FaultInjectingOdometrySource* odometry() const { return odometry_.get(); }
 
-  // Called for every keyframe integrated, with its sample time. Allocation-free.
-  void on_keyframe_integrated(std::int64_t sample_time_ns);
+  // Called for every keyframe integrated, with its sample time, the loop time now and the loop time it was due
+  // (its sample time on the loop clock). Allocation-free.
+  void on_keyframe_integrated(std::int64_t sample_time_ns, std::int64_t now_loop_ns, std::int64_t due_loop_ns);
   // At the end of the run: takes in fault ends no keyframe followed (recovery().waiting then says so).
   void settle();
   const FaultRecovery& recovery() const { return recovery_; }
@@ -95,6 +102,8 @@ class FaultInjection {
   std::unique_ptr<sim::FaultInjectingOdometrySource> odometry_;
   std::uint64_t camera_ends_seen_ = 0;
   std::uint64_t odometry_ends_seen_ = 0;
+  std::uint64_t pending_ends_ = 0;       // fault ends no keyframe has followed yet
+  std::int64_t catch_up_start_ns_ = 0;   // loop time of the first keyframe after the latest fault end
   FaultRecovery recovery_;
 };
 

@@ -695,7 +695,7 @@ void Pipeline::integrate_keyframe(const runtime::TaskContext& c) {
     return;
   }
   ++counters_.keyframes_integrated;
-  faults_.on_keyframe_integrated(frame.sample_time_ns);
+  faults_.on_keyframe_integrated(frame.sample_time_ns, clock_->now_ns(), data_to_loop_ns(frame.sample_time_ns));
   paint_walls();
   frontend_.observe(tsdf_, world_T_camera);
   robot_m_ = world_T_camera.translation();
