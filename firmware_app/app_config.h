@@ -48,6 +48,8 @@ struct AppConfig {
   double snapshot_interval_s = 10.0;    // scene-graph snapshots by atomic replace (loop time)
   double telemetry_interval_s = 1.0;
   bool ground_truth_labels = true;      // sim: the renderer's labels bypass segmentation
+  // A fault plan (firmware_app/FAULT_PLAN.md) wrapping the camera and odometry sources; "" = none.
+  std::string fault_plan;
 
   // Replay: the dataset's format and camera (its path is replay_path, which replay.path does not replace). fx, fy,
   // cx, cy and depth_scale_m of 0 come from the dataset: its calibration file, else the format's default.

@@ -14,6 +14,8 @@
 #include "core/scene_graph/spark_dsg_json.h"
 #include "firmware_app/app_config.h"
 #include "firmware_app/graph_outputs.h"
+#include "firmware_app/exit_report.h"
+#include "firmware_app/fault_injection.h"
 #include "firmware_app/pipeline.h"
 
 namespace {
@@ -28,7 +30,7 @@ void usage() {
       "usage: qsg_app [--config FILE] [--driver sim|replay|v4l2] [--replay FOLDER [--calibration FILE]] [--output DIR]\n"
       "               [--duration S] [--realtime | --lockstep] [--seed N] [--rooms N] [--tours N] [--quiet]\n"
       "               [--odometry auto|sim_drift|ground_truth|tum|stream|static] [--odometry-tum FILE]\n"
-      "               [--pose-stream udp:ADDRESS:PORT | unix:PATH]\n"
+      "               [--pose-stream udp:ADDRESS:PORT | unix:PATH] [--fault-plan FILE] [--report-json FILE]\n"
       "       qsg_app --convert SPARK_DSG_JSON OUT_JSON [--mesh MESH.ply]   (validate a scene graph and write it in the\n"
       "               Spark-DSG 1.1.3 layout, canonically; --mesh embeds the mesh as Spark-DSG does)\n"
       "  Defaults: the simulated quadruped explores a generated 12-room building in lockstep on the board's\n"
@@ -36,7 +38,9 @@ void usage() {
       "  in --config; the flags override it. With --driver replay, --replay is a TUM RGB-D, Redwood or pose-list\n"
       "  folder; its camera comes from --calibration, else calibration.json beside the frames.\n"
       "  Exit status: 0 done; 1 start-up failed or an output could not be written; 2 bad arguments or config;\n"
-      "  3 nothing was mapped (an empty or all-rejected input; the outputs are written all the same).\n",
+      "  3 nothing was mapped (an empty or all-rejected input; the outputs are written all the same).\n"
+      "  --fault-plan: faults injected into the camera and odometry (firmware_app/FAULT_PLAN.md); --report-json:\n"
+      "  the exit report (every counter) as JSON.\n",
       budgets::active::kBoard);
 }
 
@@ -79,7 +83,7 @@ int convert(const std::string& in, const std::string& out, const std::string& me
 int main(int argc, char** argv) {
   app::AppConfig config;
   bool quiet = false;
-  std::string error;
+  std::string error, report_json;
   // The config file first, so the flags override it wherever they appear.
   for (int i = 1; i + 1 < argc; ++i)
     if (std::strcmp(argv[i], "--config") == 0 && !config.load(argv[i + 1], &error)) {
@@ -151,6 +155,10 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "qsg_app: --pose-stream: expected udp:ADDRESS:PORT or unix:PATH, got '%s'\n", v.c_str());
         return 2;
       }
+    } else if (a == "--fault-plan" && has_value) {
+      config.fault_plan = argv[++i];
+    } else if (a == "--report-json" && has_value) {
+      report_json = argv[++i];
     } else if (a == "--quiet") {
       quiet = true;
     } else if (a == "--help" || a == "-h") {
@@ -164,6 +172,10 @@ int main(int argc, char** argv) {
   }
   if (const std::string bad = config.check(); !bad.empty()) {
     std::fprintf(stderr, "qsg_app: config: %s\n", bad.c_str());
+    return 2;
+  }
+  if (app::AppFaultPlan plan; !config.fault_plan.empty() && !app::load_app_fault_plan(config.fault_plan, &plan, &error)) {
+    std::fprintf(stderr, "qsg_app: %s\n", error.c_str());
     return 2;
   }
 
@@ -217,14 +229,6 @@ int main(int argc, char** argv) {
               (unsigned long long)pipeline.counters().keyframes_integrated,
               (unsigned long long)pipeline.counters().frontend_updates,
               (unsigned long long)pipeline.counters().agent_nodes);
-  {
-    const drivers::DriverCounters& d = pipeline.camera()->counters();
-    std::printf("camera %s: %llu delivered, %llu dropped, %llu stalls, %llu late, %llu timestamps backwards, %llu bad "
-                "frames, %llu missing files, %llu disconnects\n",
-                pipeline.camera()->name(), (unsigned long long)d.delivered, (unsigned long long)d.dropped,
-                (unsigned long long)d.stalls, (unsigned long long)d.late, (unsigned long long)d.timestamps_backwards,
-                (unsigned long long)d.bad_frames, (unsigned long long)d.missing_files, (unsigned long long)d.disconnects);
-  }
   pipeline.scheduler().print_stats(stdout);
   pipeline.reconstruction().counters().print(stdout);
   pipeline.frame_queue_stats().print(stdout);
@@ -237,8 +241,18 @@ int main(int argc, char** argv) {
   const app::PipelineCounters online = pipeline.counters();
   const bool outputs_written = pipeline.finish(&error);
   if (!outputs_written) std::fprintf(stderr, "qsg_app: writing the outputs failed: %s\n", error.c_str());
+  // Every counter of every driver and stage, the faults injected and the recovery from them.
+  const std::vector<app::ReportGroup> report = app::collect_exit_report(pipeline);
+  app::print_exit_report(report, stdout);
+  pipeline.faults().print_report(stdout);
   // An empty or all-rejected input is a failed run, not an empty success (the outputs above are written anyway).
-  if (const std::string nothing = pipeline.nothing_mapped_reason(); !nothing.empty()) {
+  const std::string nothing = pipeline.nothing_mapped_reason();
+  const int status = !nothing.empty() ? 3 : !outputs_written ? 1 : 0;
+  if (!report_json.empty() && !app::write_exit_report_json(report, status, report_json, &error)) {
+    std::fprintf(stderr, "qsg_app: the exit report: %s\n", error.c_str());
+    if (status == 0) return 1;
+  }
+  if (!nothing.empty()) {
     std::fprintf(stderr, "qsg_app: nothing was mapped: %s\n", nothing.c_str());
     return 3;
   }

@@ -4,6 +4,7 @@
 #include <cinttypes>
 
 #include "drivers/pose_stream/pose_stream_source.h"
+#include "firmware_app/fault_injection.h"
 
 namespace qsg::app {
 
@@ -84,10 +85,12 @@ bool OdometryInput::init(const AppConfig& config, const replay::Trajectory& grou
       source_ = nullptr;
       break;
   }
+  if (source_ != nullptr) source_name_ = source_->name();
+  if (faults_ != nullptr) source_ = faults_->wrap_odometry(source_);
   return buffer_.init(buffer_depth, o.buffer, error);
 }
 
-const char* OdometryInput::source_name() const { return source_ != nullptr ? source_->name() : "static"; }
+const char* OdometryInput::source_name() const { return source_name_; }
 
 const drivers::DriverCounters* OdometryInput::driver_counters() const {
   return source_ != nullptr ? &source_->counters() : nullptr;

@@ -20,6 +20,8 @@ class PoseStreamSource;
 
 namespace qsg::app {
 
+class FaultInjection;
+
 struct OdometryCounters {
   std::uint64_t samples_read = 0;       // delivered by the source (before the pose buffer's checks)
   std::uint64_t source_bad = 0;         // the source said kBadFrame (a malformed message, counted by the driver)
@@ -59,6 +61,9 @@ class OdometryInput {
   FramePose frame_pose(std::int64_t sample_time_ns, std::int64_t waited_ns, Eigen::Isometry3d* world_T_camera,
                        Eigen::Matrix<double, 6, 1>* variance);
 
+  // Before init(): the source is read through the plan's odometry faults (when it has any).
+  void set_fault_injection(FaultInjection* faults) { faults_ = faults; }
+
   OdometrySourceKind kind() const { return kind_; }
   const char* source_name() const;
   const runtime::PoseBuffer& buffer() const { return buffer_; }
@@ -74,6 +79,8 @@ class OdometryInput {
   std::unique_ptr<replay::TrajectoryOdometry> trajectory_;
   std::unique_ptr<pose_stream::PoseStreamSource> stream_;
   drivers::OdometrySource* source_ = nullptr;  // null: static
+  const char* source_name_ = "static";         // the source's own name (source_ may be a fault decorator)
+  FaultInjection* faults_ = nullptr;
   bool paced_ = false;                         // in-memory: published on the loop clock
   bool ended_ = false;
   bool have_pending_ = false;

@@ -1,6 +1,8 @@
 // The onboard pipeline: sources, keyframes, reconstruction, frontend, telemetry, snapshots, final outputs.
 #include "firmware_app/pipeline.h"
 
+#include "firmware_app/exit_report.h"
+
 #include <fcntl.h>
 #if defined(__GLIBC__)
 #include <malloc.h>
@@ -151,8 +153,11 @@ bool Pipeline::init(const AppConfig& config, runtime::Clock* clock, std::string*
   std::filesystem::create_directories(config.output_dir, ec);
   if (ec) return fail("output_dir '" + config.output_dir + "': " + ec.message());
 
-  // Stores, from the board's budget.
-  if (!graph_.init(scene_graph::capacities_from_budget(), scene_graph::arena_bytes_from_budget(), error)) return false;
+  // Stores, from the board's budget (a fault plan may cap the graph's below it).
+  if (!faults_.init(config.fault_plan, error)) return false;
+  faults_.print_plan(stdout);
+  if (!graph_.init(faults_.capped(scene_graph::capacities_from_budget()), scene_graph::arena_bytes_from_budget(), error))
+    return false;
   if (!tsdf_.init(config.reconstruction, reconstruction::capacities_from_budget(),
                   budgets::active::reconstruction::kArenaBytes, error))
     return false;
@@ -213,6 +218,8 @@ bool Pipeline::init(const AppConfig& config, runtime::Clock* clock, std::string*
     }
   }
 
+  camera_ = faults_.wrap_camera(camera_);
+
   // Frame buffers and the keyframe queue, with the depth and drop policy the board declares.
   const budgets::QueueBudget* frames_budget = find_queue(table, "frames");
   if (frames_budget == nullptr) return fail(std::string("budget table ") + table.board + ": no 'frames' queue");
@@ -268,6 +275,7 @@ bool Pipeline::init_odometry(std::string* error) {
                                                 o.body_q_camera_xyzw[2]).normalized().toRotationMatrix();
     body_T_camera.translation() = Eigen::Vector3d(o.body_t_camera_m[0], o.body_t_camera_m[1], o.body_t_camera_m[2]);
   }
+  odometry_.set_fault_injection(&faults_);
   if (!odometry_.init(config_, ground_truth_, body_T_camera, q->depth, static_cast<std::int64_t>(q->max_wait_us) * 1000,
                       error))
     return false;
@@ -539,6 +547,7 @@ bool Pipeline::step() {
   if (stop_requested_.load() || duration_over ||
       (source_ended_ && pending_frame_ < 0 && keyframe_queue_.stats().size == 0 && segmentation_in_flight_ == 0)) {
     done_ = true;
+    faults_.settle();  // a fault that ended after the last keyframe is one the run did not recover from
     return false;
   }
   if (sim_gpio_ != nullptr) sim_gpio_->set_time_ns(tick_start);
@@ -696,6 +705,7 @@ void Pipeline::integrate_keyframe(const runtime::TaskContext& c) {
     return;
   }
   ++counters_.keyframes_integrated;
+  faults_.on_keyframe_integrated(frame.sample_time_ns, clock_->now_ns(), data_to_loop_ns(frame.sample_time_ns));
   paint_walls();
   frontend_.observe(tsdf_, world_T_camera);
   robot_m_ = world_T_camera.translation();
@@ -790,7 +800,7 @@ void Pipeline::print_telemetry(std::FILE* out) {
                "archive=%zu tri | graph nodes=%zu rooms=%llu | frames queue hw=%u drops=%llu | driver drops=%llu stalls=%llu "
                "bad=%llu missing files=%llu | gpio fail=%llu%s | fullest store %s hw %zu/%zu, refused %llu | odometry %s rejected=%llu "
                "gaps=%llu silences=%llu frames without pose=%llu | agents %zu/%zu (folded %llu) | rss=%.0f MB "
-               "(peak %.0f)\n",
+               "(peak %.0f)",
                t_s, kf_per_s, (unsigned long long)counters_.keyframes, (long long)(recon ? recon->max_us : 0),
                (long long)(front ? front->max_us : 0), overruns, tsdf_.active_blocks(), tsdf_.capacities().max_blocks,
                tsdf_.archive_triangles(), graph_nodes, (unsigned long long)rooms_count_.load(), q.high_water, (unsigned long long)q.dropped,
@@ -802,6 +812,7 @@ void Pipeline::print_telemetry(std::FILE* out) {
                (unsigned long long)counters_.frames_without_pose, frontend_.agents().chain_size(),
                frontend_.agents().chain_stats().capacity, (unsigned long long)frontend_.agents().counters().folded,
                rss_mb(), peak_rss_mb());
+  print_telemetry_faults(*this, out);  // the rest of the fault counters, and the line's end
   ++counters_.telemetry_lines;
 }
 

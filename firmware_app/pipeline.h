@@ -33,6 +33,7 @@
 #include "drivers/sim/sim_camera.h"
 #include "drivers/world/world.h"
 #include "firmware_app/app_config.h"
+#include "firmware_app/fault_injection.h"
 #include "firmware_app/odometry_input.h"
 #include "firmware_app/runtime/bounded_queue.h"
 #include "firmware_app/runtime/clock.h"
@@ -141,6 +142,8 @@ class Pipeline {
     v4l2_colour_sys_ = colour;
   }
   const drivers::RgbdSource* camera() const { return camera_; }
+  // The fault plan's decorators and the recovery from its faults (inactive without a plan).
+  const FaultInjection& faults() const { return faults_; }
   const OdometryInput& odometry() const { return odometry_; }
   // sim: the true body path of the tour; replay: the dataset's camera poses (empty when it has none).
   const replay::Trajectory& ground_truth() const { return ground_truth_; }
@@ -150,6 +153,21 @@ class Pipeline {
   const metrics::TrajectoryError& odometry_trajectory_error() const { return ate_odometry_; }
   void set_run_observer(runtime::Scheduler::RunObserver observer, void* user) {
     scheduler_.set_run_observer(observer, user);
+  }
+
+  // The loop-closure stores (the "loop_closure" arena): described agents, control points, loop closures.
+  template <typename Fn>
+  void for_each_loop_closure_resource(Fn&& fn) const {
+    if (!config_.loop_closure.enabled) return;
+    fn(lc_detector_.stats());
+    fn(control_points_.stats());
+    memory::ResourceStats s;
+    s.name = "loop_closure.closures";
+    s.unit = "closures";
+    s.capacity = loop_closures_.capacity();
+    s.in_use = s.high_water = loop_closures_.size();
+    s.failed = loop_closures_dropped_.load();
+    fn(s);
   }
 
   void print_telemetry(std::FILE* out);
@@ -197,6 +215,7 @@ class Pipeline {
   v4l2::V4l2Syscalls* v4l2_depth_sys_ = nullptr;
   v4l2::V4l2Syscalls* v4l2_colour_sys_ = nullptr;
   drivers::RgbdSource* camera_ = nullptr;
+  FaultInjection faults_;  // the fault plan, when one is given: wraps camera_ and the odometry's source
   bool prefetch_outside_tasks_ = false;  // sim and replay: producing a frame is the simulator's cost, not the robot's
 
   // Frame buffers: the camera reads into a free one; keyframes wait in the queue for reconstruction.

@@ -7,7 +7,7 @@
 #   --native  (default) compiler, CMake, Ninja and the -dev packages of the host build (Eigen, OpenCV, Ceres,
 #             libgpiod, libv4l, nanoflann, yaml-cpp, nlohmann-json, GoogleTest, Google Benchmark), ccache;
 #             three.js (libjs-three, inlined into the app's scene_graph.html) and headless Chromium (its test).
-#   --cross   also the aarch64 tools (GCC cross compiler, clang + lld, qemu-user, mmdebstrap; qemu-system-arm,
+#   --cross   also the aarch64 tools (GCC cross compiler, clang + lld and its libFuzzer, qemu-user, mmdebstrap; qemu-system-arm,
 #             kmod and cpio for the VM stage) and both arm64 sysroots under build/sysroots/: bookworm-arm64
 #             (arm64 CI tests) and bullseye-arm64 (Xavier deploy), built by toolchains/make_sysroot.sh (itself
 #             a no-op when a sysroot is up to date).
@@ -32,6 +32,8 @@ packages=(cmake ninja-build g++ git pkg-config ccache
           libjs-three chromium fonts-dejavu-core)
 if (( cross )); then
   packages+=(g++-aarch64-linux-gnu binutils-aarch64-linux-gnu qemu-user mmdebstrap clang lld)
+  # libFuzzer and the sanitizer runtimes for clang (the fuzz preset, fuzz/run_fuzzers.sh).
+  packages+=(libclang-rt-14-dev)
   # The VM stage (toolchains/vm/): qemu-system-arm boots Debian's arm64 kernel, depmod (kmod) resolves the
   # modules vivid needs, cpio packs the initramfs. The arm64 kernel and busybox are .debs that
   # toolchains/vm/fetch_kernel.sh downloads through its own apt state, so the host needs no arm64 dpkg

@@ -77,6 +77,7 @@ bool parse_int64(const std::string& field, std::int64_t* value) {
 }
 
 bool parse_seconds_to_ns(const std::string& field, std::int64_t* value_ns) {
+  constexpr std::int64_t kMaxSeconds = 9'000'000'000;  // year 2255; 9e18 ns fits in int64
   if (field.empty()) return false;
   std::size_t i = 0;
   bool negative = false;
@@ -115,6 +116,8 @@ bool parse_seconds_to_ns(const std::string& field, std::int64_t* value_ns) {
       }
     }
   }
+  // Past 9e9 s the nanoseconds leave int64 (9.22e18); the double path below refuses those, as it does any form.
+  if (whole > kMaxSeconds) plain = false;
   if (plain && (whole_digits > 0 || frac_digits > 0)) {
     for (int d = std::min(frac_digits, 9); d < 9; ++d) frac_ns *= 10;
     const std::int64_t ns = whole * 1000000000LL + frac_ns;
@@ -123,7 +126,7 @@ bool parse_seconds_to_ns(const std::string& field, std::int64_t* value_ns) {
   }
   // Exponent or very large forms: go through a double (loses sub-microsecond precision on epoch stamps).
   double seconds = 0.0;
-  if (!parse_double(field, &seconds) || std::fabs(seconds) > 9.0e9) return false;
+  if (!parse_double(field, &seconds) || std::fabs(seconds) > static_cast<double>(kMaxSeconds)) return false;
   *value_ns = std::llround(seconds * 1e9);
   return true;
 }

@@ -16,12 +16,14 @@ namespace {
 
 constexpr const char* kKindNames[kNumFaultKinds] = {"drop",      "stall",      "late",
                                                     "backwards", "depth_nan",  "depth_zero",
-                                                    "depth_saturated", "wrong_size", "unplug"};
+                                                    "depth_saturated", "wrong_size", "unplug",
+                                                    "dropout",   "pose_jump"};
 // A read gives up (returns kTimeout) after this many consecutive dropped frames, so a drop rate of 1 on an
 // endless source cannot spin forever.
 constexpr int kMaxDropsPerRead = 64;
 
 bool is_read_fault(FaultKind kind) { return kind == FaultKind::kStall || kind == FaultKind::kUnplug; }
+bool has_samples(FaultKind kind) { return kind == FaultKind::kDropout || kind == FaultKind::kPoseJump; }
 bool is_depth_fault(FaultKind kind) {
   return kind == FaultKind::kDepthNan || kind == FaultKind::kDepthZero || kind == FaultKind::kDepthSaturated;
 }
@@ -93,6 +95,18 @@ bool parse_size(const std::string& s, int* w, int* h) {
   const std::size_t x = s.find('x');
   if (x == std::string::npos) return false;
   return parse_positive_int(s.substr(0, x), w) && parse_positive_int(s.substr(x + 1), h);
+}
+
+// "x,y,z" in metres, each within +-1e4.
+bool parse_offset(const std::string& s, double* v) {
+  std::size_t pos = 0;
+  for (int i = 0; i < 3; ++i) {
+    const std::size_t comma = i < 2 ? s.find(',', pos) : s.size();
+    if (comma == std::string::npos || !parse_number(s.substr(pos, comma - pos), &v[i]) || std::fabs(v[i]) > 1e4)
+      return false;
+    pos = comma + 1;
+  }
+  return true;
 }
 
 std::vector<std::vector<std::string>> split_lines(const std::string& text) {
@@ -172,13 +186,16 @@ void FaultPlan::print(std::FILE* out) const {
   std::fprintf(out, "FaultPlan: %zu events, seed %" PRIu64 ", rates", events.size(), random.seed);
   for (int i = 0; i < kNumFaultKinds; ++i) std::fprintf(out, " %s=%g", kKindNames[i], random.rate[i]);
   std::fprintf(out,
-               ", stall_reads=%d unplug_reads=%d delay_ns=%" PRId64 " back_ns=%" PRId64 " region=%dx%d px\n",
+               ", stall_reads=%d unplug_reads=%d delay_ns=%" PRId64 " back_ns=%" PRId64
+               " region=%dx%d px dropout_samples=%d window=[%" PRIu64 ", %" PRIu64 ")\n",
                random.stall_reads, random.unplug_reads, random.delay_ns, random.back_ns, random.region_width_px,
-               random.region_height_px);
+               random.region_height_px, random.dropout_samples, random.from, random.until);
   for (const FaultEvent& e : events) {
-    std::fprintf(out, "  at %" PRIu64 " %s reads=%d delay_ns=%" PRId64 " back_ns=%" PRId64 " rect=%d,%d,%d,%d\n",
+    std::fprintf(out,
+                 "  at %" PRIu64 " %s reads=%d delay_ns=%" PRId64 " back_ns=%" PRId64
+                 " rect=%d,%d,%d,%d samples=%d offset_m=%g,%g,%g\n",
                  e.sequence, to_string(e.kind), e.reads, e.delay_ns, e.back_ns, e.rect.x_px, e.rect.y_px,
-                 e.rect.width_px, e.rect.height_px);
+                 e.rect.width_px, e.rect.height_px, e.samples, e.offset_m[0], e.offset_m[1], e.offset_m[2]);
   }
 }
 
@@ -200,6 +217,7 @@ bool parse_fault_plan_text(const std::string& text, const std::string& origin, F
       double p = 0.0;
       if (f.size() != 3) return fail("expected 'rate <fault> <probability>'");
       if (!fault_kind_from_string(f[1], &kind)) return fail("unknown fault '" + f[1] + "' (expected " + kind_list() + ")");
+      if (kind == FaultKind::kPoseJump) return fail("pose_jump has no random rate (script it with 'at')");
       if (!parse_number(f[2], &p) || p < 0.0 || p > 1.0) return fail("probability '" + f[2] + "' is not in [0, 1]");
       result.random.rate[static_cast<int>(kind)] = p;
     } else if (f[0] == "random") {
@@ -214,7 +232,12 @@ bool parse_fault_plan_text(const std::string& text, const std::string& origin, F
         else if (key == "delay_ms") ok = parse_ms_to_ns(value, &result.random.delay_ns);
         else if (key == "back_ms") ok = parse_ms_to_ns(value, &result.random.back_ns);
         else if (key == "region") ok = parse_size(value, &result.random.region_width_px, &result.random.region_height_px);
-        else return fail("unknown key '" + key + "' (expected stall_reads, unplug_reads, delay_ms, back_ms, region)");
+        else if (key == "dropout_samples") ok = parse_positive_int(value, &result.random.dropout_samples);
+        else if (key == "from") ok = parse_u64(value, &result.random.from);
+        else if (key == "until") ok = parse_u64(value, &result.random.until);
+        else
+          return fail("unknown key '" + key +
+                      "' (expected stall_reads, unplug_reads, delay_ms, back_ms, region, dropout_samples, from, until)");
         if (!ok) return fail("bad value '" + value + "' for '" + key + "'");
       }
     } else if (f[0] == "at") {
@@ -224,6 +247,7 @@ bool parse_fault_plan_text(const std::string& text, const std::string& origin, F
       if (!parse_u64(f[1], &e.sequence)) return fail("sequence '" + f[1] + "' is not an unsigned integer");
       if (!fault_kind_from_string(f[2], &e.kind)) return fail("unknown fault '" + f[2] + "' (expected " + kind_list() + ")");
       bool have_rect = false;
+      bool have_offset = false;
       for (std::size_t i = 3; i < f.size(); ++i) {
         const std::size_t eq = f[i].find('=');
         const std::string key = f[i].substr(0, eq);
@@ -243,13 +267,21 @@ bool parse_fault_plan_text(const std::string& text, const std::string& origin, F
           applies = is_depth_fault(e.kind);
           ok = parse_rect(value, &e.rect);
           have_rect = true;
+        } else if (key == "samples") {
+          applies = has_samples(e.kind);
+          ok = parse_positive_int(value, &e.samples);
+        } else if (key == "offset_m") {
+          applies = e.kind == FaultKind::kPoseJump;
+          ok = parse_offset(value, e.offset_m);
+          have_offset = true;
         } else {
-          return fail("unknown key '" + key + "' (expected reads, delay_ms, back_ms, rect)");
+          return fail("unknown key '" + key + "' (expected reads, delay_ms, back_ms, rect, samples, offset_m)");
         }
         if (!applies) return fail("'" + key + "' does not apply to fault '" + f[2] + "'");
         if (!ok) return fail("bad value '" + value + "' for '" + key + "'");
       }
       if (is_depth_fault(e.kind) && !have_rect) return fail("fault '" + f[2] + "' needs rect=x,y,width,height");
+      if (e.kind == FaultKind::kPoseJump && !have_offset) return fail("fault 'pose_jump' needs offset_m=x,y,z");
       result.events.push_back(e);
     } else {
       return fail("unknown directive '" + f[0] + "' (expected seed, rate, random, at)");
@@ -300,6 +332,7 @@ bool parse_fault_plan_json(const std::string& text, const std::string& origin, F
         if (!fault_kind_from_string(r.key(), &kind)) {
           return fail("rates." + r.key(), "unknown fault (expected " + kind_list() + ")");
         }
+        if (kind == FaultKind::kPoseJump) return fail("rates.pose_jump", "no random rate (script it in events)");
         if (!r.value().is_number() || r.value().get<double>() < 0.0 || r.value().get<double>() > 1.0) {
           return fail("rates." + r.key(), "expected a probability in [0, 1]");
         }
@@ -318,8 +351,14 @@ bool parse_fault_plan_json(const std::string& text, const std::string& origin, F
           if (!r.value().is_array() || r.value().size() != 2) return fail(field, "expected [width, height]");
           ok = get_positive_int(r.value()[0], field + "[0]", &result.random.region_width_px) &&
                get_positive_int(r.value()[1], field + "[1]", &result.random.region_height_px);
+        } else if (r.key() == "dropout_samples") {
+          ok = get_positive_int(r.value(), field, &result.random.dropout_samples);
+        } else if (r.key() == "from" || r.key() == "until") {
+          if (!r.value().is_number_unsigned()) return fail(field, "expected an unsigned integer sequence number");
+          (r.key() == "from" ? result.random.from : result.random.until) = r.value().get<std::uint64_t>();
         } else {
-          return fail(field, "unknown key (expected stall_reads, unplug_reads, delay_ms, back_ms, region)");
+          return fail(field, "unknown key (expected stall_reads, unplug_reads, delay_ms, back_ms, region, "
+                             "dropout_samples, from, until)");
         }
         if (!ok) return false;
       }
@@ -339,6 +378,7 @@ bool parse_fault_plan_json(const std::string& text, const std::string& origin, F
           return fail(prefix + ".fault", "expected one of " + kind_list());
         }
         bool have_rect = false;
+        bool have_offset = false;
         for (auto f = ej.begin(); f != ej.end(); ++f) {
           const std::string field = prefix + "." + f.key();
           bool ok = true;
@@ -367,13 +407,28 @@ bool parse_fault_plan_json(const std::string& text, const std::string& origin, F
               }
               e.rect = PixelRect{r[0].get<int>(), r[1].get<int>(), r[2].get<int>(), r[3].get<int>()};
             }
+          } else if (f.key() == "samples") {
+            applies = has_samples(e.kind);
+            ok = applies && get_positive_int(f.value(), field, &e.samples);
+          } else if (f.key() == "offset_m") {
+            applies = e.kind == FaultKind::kPoseJump;
+            have_offset = true;
+            if (applies) {
+              const nlohmann::json& o = f.value();
+              bool valid = o.is_array() && o.size() == 3;
+              for (std::size_t k = 0; valid && k < 3; ++k)
+                valid = o[k].is_number() && std::fabs(o[k].get<double>()) <= 1e4;
+              if (!valid) return fail(field, "expected [x, y, z] in metres, each within +-1e4");
+              for (int k = 0; k < 3; ++k) e.offset_m[k] = o[static_cast<std::size_t>(k)].get<double>();
+            }
           } else {
-            return fail(field, "unknown key (expected at, fault, reads, delay_ms, back_ms, rect)");
+            return fail(field, "unknown key (expected at, fault, reads, delay_ms, back_ms, rect, samples, offset_m)");
           }
           if (!applies) return fail(field, "does not apply to fault '" + std::string(to_string(e.kind)) + "'");
           if (!ok) return false;
         }
         if (is_depth_fault(e.kind) && !have_rect) return fail(prefix + ".rect", "required for depth faults");
+        if (e.kind == FaultKind::kPoseJump && !have_offset) return fail(prefix + ".offset_m", "required for pose_jump");
         result.events.push_back(e);
       }
     } else {
@@ -428,7 +483,7 @@ drivers::ReadStatus FaultScheduler::before_read() {
         ++tally_[static_cast<int>(FaultKind::kUnplug)];
       }
     }
-    if (random_enabled_ && !slot_drawn_) {
+    if (random_enabled_ && !slot_drawn_ && in_window(next_expected_)) {
       slot_drawn_ = true;
       if (fires(FaultKind::kStall)) {
         pending_timeouts_ += random_.stall_reads;
@@ -471,19 +526,36 @@ FaultScheduler::FrameFaults FaultScheduler::on_frame(std::uint64_t sequence, boo
         faults.depth_kind = kind;
         faults.rect = rect;
         break;
+      case FaultKind::kDropout:
+      case FaultKind::kPoseJump:
       case FaultKind::kStall:
       case FaultKind::kUnplug: break;
     }
   };
   while (frame_cursor_ < frame_events_.size() && frame_events_[frame_cursor_].sequence <= sequence) {
     const FaultEvent& e = frame_events_[frame_cursor_++];
-    if (is_depth_fault(e.kind) && !has_depth) continue;
-    apply(e.kind, e.delay_ns, e.back_ns, e.rect);
+    if ((is_depth_fault(e.kind) && !has_depth) || (e.kind == FaultKind::kPoseJump && has_depth)) continue;
+    if (e.kind == FaultKind::kDropout) {
+      ++tally_[static_cast<int>(FaultKind::kDropout)];
+      pending_dropout_ = std::max(pending_dropout_, e.samples);
+    } else if (e.kind == FaultKind::kPoseJump) {
+      ++tally_[static_cast<int>(FaultKind::kPoseJump)];
+      pending_jump_ = e.samples;
+      for (int i = 0; i < 3; ++i) jump_m_[i] = e.offset_m[i];
+    } else {
+      apply(e.kind, e.delay_ns, e.back_ns, e.rect);
+    }
   }
-  if (random_enabled_) {
+  if (random_enabled_ && in_window(sequence)) {
     for (int k = 0; k < kNumFaultKinds; ++k) {
       const FaultKind kind = static_cast<FaultKind>(k);
-      if (is_read_fault(kind) || (is_depth_fault(kind) && !has_depth) || !fires(kind)) continue;
+      if (is_read_fault(kind) || kind == FaultKind::kPoseJump || (is_depth_fault(kind) && !has_depth) || !fires(kind))
+        continue;
+      if (kind == FaultKind::kDropout) {
+        ++tally_[k];
+        pending_dropout_ = std::max(pending_dropout_, random_.dropout_samples);
+        continue;
+      }
       PixelRect rect;
       if (is_depth_fault(kind)) {
         rect.width_px = std::min(random_.region_width_px, std::max(width_px, 1));
@@ -493,6 +565,15 @@ FaultScheduler::FrameFaults FaultScheduler::on_frame(std::uint64_t sequence, boo
       }
       apply(kind, random_.delay_ns, random_.back_ns, rect);
     }
+  }
+  if (pending_dropout_ > 0) {
+    --pending_dropout_;
+    faults.drop = true;
+  }
+  if (pending_jump_ > 0) {
+    --pending_jump_;
+    faults.jump = true;
+    for (int i = 0; i < 3; ++i) faults.jump_m[i] = jump_m_[i];
   }
   return faults;
 }
@@ -529,6 +610,7 @@ drivers::ReadStatus FaultInjector::read(Source& inner, Message& message, std::in
   for (int attempt = 0; attempt < kMaxDropsPerRead; ++attempt) {
     const drivers::ReadStatus before = scheduler_.before_read();
     if (before != drivers::ReadStatus::kOk) {
+      fault_open_ = true;
       if (before == drivers::ReadStatus::kTimeout) ++own_.stalls;
       return finish(before, inner.counters());
     }
@@ -537,6 +619,7 @@ drivers::ReadStatus FaultInjector::read(Source& inner, Message& message, std::in
     const DepthShape shape = depth_shape(message);
     const FaultScheduler::FrameFaults faults =
         scheduler_.on_frame(message.sequence, shape.has_depth, shape.width, shape.height);
+    if (faults.any()) fault_open_ = true;
     if (faults.drop) {
       ++own_.dropped;
       gap_pending_ = true;
@@ -563,6 +646,11 @@ drivers::ReadStatus FaultInjector::read(Source& inner, Message& message, std::in
     if (scheduler_.take_reconnect()) {
       message.flags |= drivers::kFrameAfterReconnect;
       ++own_.reconnects;
+    }
+    if (!faults.any() && fault_open_) {
+      fault_open_ = false;
+      ++faults_ended_;
+      last_fault_end_ns_ = message.sample_time_ns;
     }
     gap_pending_ = false;
     have_last_ = true;
@@ -601,7 +689,9 @@ FaultInjectingOdometrySource::FaultInjectingOdometrySource(drivers::OdometrySour
 
 drivers::ReadStatus FaultInjectingOdometrySource::read(drivers::OdometrySample& sample, std::int64_t timeout_ns) {
   return injector_.read(inner_, sample, timeout_ns,
-                        [](drivers::OdometrySample&, const FaultScheduler::FrameFaults&, drivers::DriverCounters&) {});
+                        [](drivers::OdometrySample& s, const FaultScheduler::FrameFaults& faults, drivers::DriverCounters&) {
+                          if (faults.jump) s.world_t_body_m += Eigen::Vector3d(faults.jump_m[0], faults.jump_m[1], faults.jump_m[2]);
+                        });
 }
 
 }  // namespace qsg::sim

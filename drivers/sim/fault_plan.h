@@ -12,9 +12,14 @@
 //   at 25 depth_nan rect=10,20,40,30    # x,y,width,height in pixels; also depth_zero, depth_saturated
 //   at 30 wrong_size                    # the read returns kBadFrame, the frame is discarded
 //   at 40 unplug reads=5                # 5 reads return kDisconnected, the next frame has kFrameAfterReconnect
-// JSON: {"seed": 42, "rates": {"drop": 0.01}, "random": {"stall_reads": 3, "region": [32, 24]},
+//   at 50 dropout samples=20            # 20 consecutive messages lost from 50 on (an odometry or camera dropout)
+//   at 60 pose_jump offset_m=2,0,0 samples=3   # odometry: 3 samples from 60 on shifted by (2, 0, 0) m
+//   random from=100 until=400           # random faults only for messages 100..399 (default: always)
+// JSON: {"seed": 42, "rates": {"drop": 0.01}, "random": {"stall_reads": 3, "region": [32, 24], "from": 100},
 //        "events": [{"at": 12, "fault": "stall", "reads": 3},
-//                   {"at": 25, "fault": "depth_nan", "rect": [10, 20, 40, 30]}]}
+//                   {"at": 25, "fault": "depth_nan", "rect": [10, 20, 40, 30]},
+//                   {"at": 60, "fault": "pose_jump", "offset_m": [2, 0, 0], "samples": 3}]}
+// pose_jump has no random rate (a jump needs an offset); dropout's random length is random.dropout_samples.
 //
 // Events are keyed by the inner source's frame sequence number (simulated sources and replays count from 0): a
 // frame fault (drop, late, backwards, depth, wrong_size) hits the first inner frame whose sequence is >= the
@@ -26,6 +31,7 @@
 #include <array>
 #include <cstdint>
 #include <cstdio>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -43,9 +49,12 @@ enum class FaultKind : std::uint8_t {
   kDepthSaturated,
   kWrongSize,
   kUnplug,
+  kDropout,   // `samples` consecutive messages lost
+  kPoseJump,  // odometry: `samples` consecutive poses shifted by `offset_m` (ignored on frames)
 };
-inline constexpr int kNumFaultKinds = 9;
-// Name used in plan files: drop, stall, late, backwards, depth_nan, depth_zero, depth_saturated, wrong_size, unplug.
+inline constexpr int kNumFaultKinds = 11;
+// Name used in plan files: drop, stall, late, backwards, depth_nan, depth_zero, depth_saturated, wrong_size, unplug,
+// dropout, pose_jump.
 const char* to_string(FaultKind kind);
 bool fault_kind_from_string(const std::string& name, FaultKind* kind);
 
@@ -63,6 +72,8 @@ struct FaultEvent {
   std::int64_t delay_ns = 50'000'000;  // late: added to the publish time
   std::int64_t back_ns = 10'000'000;   // backwards: sample time this far before the previous delivered frame's
   PixelRect rect;                      // depth_nan / depth_zero / depth_saturated (clipped to the frame)
+  int samples = 1;                     // dropout, pose_jump: how many consecutive messages
+  double offset_m[3] = {0.0, 0.0, 0.0};  // pose_jump: added to world_t_body
   int line_number = 0;                 // where the plan file declared it (0: built in code)
 };
 
@@ -76,6 +87,10 @@ struct FaultRandom {
   std::int64_t back_ns = 10'000'000;
   int region_width_px = 32;
   int region_height_px = 32;
+  int dropout_samples = 10;
+  // Random faults fire only on messages whose sequence is in [from, until) (a transient fault's window).
+  std::uint64_t from = 0;
+  std::uint64_t until = std::numeric_limits<std::uint64_t>::max();
 };
 
 struct FaultPlan {
@@ -107,6 +122,9 @@ class FaultScheduler {
     bool depth = false;
     FaultKind depth_kind = FaultKind::kDepthNan;
     PixelRect rect;
+    bool jump = false;
+    double jump_m[3] = {0.0, 0.0, 0.0};
+    bool any() const { return drop || wrong_size || late_ns > 0 || back_ns > 0 || depth || jump; }
   };
 
   explicit FaultScheduler(const FaultPlan& plan);
@@ -124,6 +142,7 @@ class FaultScheduler {
  private:
   double uniform();
   bool fires(FaultKind kind);
+  bool in_window(std::uint64_t sequence) const { return sequence >= random_.from && sequence < random_.until; }
 
   std::vector<FaultEvent> read_events_;   // stall, unplug; sorted by sequence
   std::vector<FaultEvent> frame_events_;  // the rest; sorted by sequence
@@ -137,6 +156,9 @@ class FaultScheduler {
   int pending_timeouts_ = 0;
   int pending_disconnects_ = 0;
   bool reconnect_pending_ = false;
+  int pending_dropout_ = 0;     // messages a dropout still drops
+  int pending_jump_ = 0;        // poses a jump still shifts, by jump_m_
+  double jump_m_[3] = {0.0, 0.0, 0.0};
   std::uint64_t disconnects_ = 0;
   FaultTally tally_{};
 };
@@ -152,6 +174,11 @@ class FaultInjector {
   drivers::ReadStatus read(Source& inner, Message& message, std::int64_t timeout_ns, Extra&& apply_extra);
   const drivers::DriverCounters& counters() const { return counters_; }
   const FaultTally& tally() const { return scheduler_.tally(); }
+  // A fault is open from the first read or message it hits until the next message delivered clean; then it has
+  // ended, at that message's sample time (the data clock). Recovery is measured from there.
+  std::uint64_t faults_ended() const { return faults_ended_; }
+  std::int64_t last_fault_end_ns() const { return last_fault_end_ns_; }
+  bool fault_open() const { return fault_open_; }
   // Folds the inner source's counts in (also before the first read).
   void refresh(const drivers::DriverCounters& inner);
 
@@ -163,6 +190,9 @@ class FaultInjector {
   drivers::DriverCounters counters_;  // own_ + the inner source's fault counts
   bool have_last_ = false;
   bool gap_pending_ = false;
+  bool fault_open_ = false;
+  std::uint64_t faults_ended_ = 0;
+  std::int64_t last_fault_end_ns_ = 0;
   std::uint64_t last_sequence_ = 0;
   std::int64_t last_sample_time_ns_ = 0;
 };
@@ -179,6 +209,8 @@ class FaultInjectingRgbdSource : public drivers::RgbdSource {
   drivers::ReadStatus read(drivers::RgbdFrame& frame, std::int64_t timeout_ns) override;
   const drivers::DriverCounters& counters() const override { return injector_.counters(); }
   const FaultTally& injected() const { return injector_.tally(); }
+  const FaultInjector& injector() const { return injector_; }
+  const char* inner_name() const { return inner_.name(); }
 
  private:
   drivers::RgbdSource& inner_;
@@ -192,6 +224,8 @@ class FaultInjectingOdometrySource : public drivers::OdometrySource {
   drivers::ReadStatus read(drivers::OdometrySample& sample, std::int64_t timeout_ns) override;
   const drivers::DriverCounters& counters() const override { return injector_.counters(); }
   const FaultTally& injected() const { return injector_.tally(); }
+  const FaultInjector& injector() const { return injector_; }
+  const char* inner_name() const { return inner_.name(); }
 
  private:
   drivers::OdometrySource& inner_;

@@ -27,6 +27,19 @@ TEST(TextParse, SecondsToNanosecondsIsExact) {
   }
 }
 
+// Found by fuzz_tum: ten digits of seconds past 9.22e9 overflowed int64 nanoseconds (undefined behaviour). Both
+// paths now stop at 9e9 s.
+TEST(TextParse, SecondsBeyondTheInt64RangeAreRefusedNotWrapped) {
+  std::int64_t ns = 0;
+  ASSERT_TRUE(parse_seconds_to_ns("9000000000.999999999", &ns));
+  EXPECT_EQ(ns, 9'000'000'000'999'999'999LL);
+  ASSERT_TRUE(parse_seconds_to_ns("-9000000000", &ns));
+  EXPECT_EQ(ns, -9'000'000'000'000'000'000LL);
+  for (const char* bad : {"9305031098.6659", "9999999999", "-9223372037.0", "9000000001", "9.1e9"}) {
+    EXPECT_FALSE(parse_seconds_to_ns(bad, &ns)) << bad;
+  }
+}
+
 TEST(TextParse, FormatsNanosecondsAsTumSeconds) {
   EXPECT_EQ(format_ns_as_seconds(1305031102175304000LL), "1305031102.175304");
   EXPECT_EQ(format_ns_as_seconds(0), "0.000000");

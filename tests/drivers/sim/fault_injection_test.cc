@@ -2,6 +2,7 @@
 // seeded and deterministic; steady-state reads do not allocate.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <memory>
 #include <string>
@@ -243,12 +244,72 @@ TEST(FaultInjection, SteadyStateReadsDoNotAllocate) {
       "seed 3\nrate drop 0.05\nrate stall 0.05\nrate late 0.05\nrate backwards 0.05\nrate depth_nan 0.05\n"
       "rate depth_zero 0.05\nrate depth_saturated 0.05\nrate wrong_size 0.05\nrate unplug 0.02\n"
       "at 5 drop\nat 6 stall reads=2\nat 7 late\nat 8 backwards\nat 9 depth_nan rect=0,0,4,4\nat 10 wrong_size\n"
-      "at 11 unplug reads=2",
+      "at 11 unplug reads=2\nrate dropout 0.01\nrandom dropout_samples=3\nat 12 dropout samples=2",
       400);
   int ok = 0;
   EXPECT_NO_ALLOCATIONS(for (int i = 0; i < 600; ++i) ok += rig.read() == ReadStatus::kOk ? 1 : 0);
-  EXPECT_GT(ok, 200);
-  for (int k = 0; k < kNumFaultKinds; ++k) EXPECT_GT(rig.source.injected()[k], 0u) << to_string(static_cast<FaultKind>(k));
+  EXPECT_GT(ok, 150);
+  for (int k = 0; k < kNumFaultKinds; ++k) {
+    if (static_cast<FaultKind>(k) == FaultKind::kPoseJump) continue;  // odometry only, scripted only
+    EXPECT_GT(rig.source.injected()[k], 0u) << to_string(static_cast<FaultKind>(k));
+  }
+}
+
+TEST(FaultInjection, DropoutLosesConsecutiveFramesAndTheFaultEndsAtTheNextCleanOne) {
+  Rig rig("at 4 dropout samples=3");
+  std::vector<std::uint64_t> sequences;
+  while (rig.read() == ReadStatus::kOk) {
+    sequences.push_back(rig.frame->sequence);
+    if (rig.frame->sequence == 7) {
+      EXPECT_TRUE((rig.frame->flags & drivers::kFrameSequenceGap) != 0);
+      EXPECT_EQ(rig.source.injector().faults_ended(), 1u);
+      EXPECT_EQ(rig.source.injector().last_fault_end_ns(), rig.frame->sample_time_ns);
+    } else if (rig.frame->sequence < 4) {
+      EXPECT_EQ(rig.source.injector().faults_ended(), 0u);
+    }
+  }
+  EXPECT_EQ(sequences, (std::vector<std::uint64_t>{0, 1, 2, 3, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18, 19}));
+  EXPECT_EQ(rig.source.counters().dropped, 3u);
+  EXPECT_EQ(rig.source.injected()[static_cast<int>(FaultKind::kDropout)], 1u);
+  EXPECT_FALSE(rig.source.injector().fault_open());
+}
+
+TEST(FaultInjection, RandomFaultsFireOnlyInsideTheirWindow) {
+  Rig rig("seed 5\nrate drop 0.5\nrandom from=5 until=10", 20);
+  std::vector<std::uint64_t> sequences;
+  while (rig.read() == ReadStatus::kOk) sequences.push_back(rig.frame->sequence);
+  for (std::uint64_t s = 0; s < 20; ++s) {
+    const bool delivered = std::find(sequences.begin(), sequences.end(), s) != sequences.end();
+    if (s < 5 || s >= 10) {
+      EXPECT_TRUE(delivered) << s;
+    }
+  }
+  EXPECT_GT(rig.source.counters().dropped, 0u);
+  EXPECT_EQ(rig.source.counters().delivered + rig.source.counters().dropped, 20u);
+  // The fault ends with the first clean frame after the window's last drop.
+  EXPECT_EQ(rig.source.injector().faults_ended() > 0, true);
+  EXPECT_LE(rig.source.injector().last_fault_end_ns(), static_cast<std::int64_t>(10) * 33'333'333);
+}
+
+TEST(OdometryFaultInjection, PoseJumpShiftsItsSamplesOnlyAndIsIgnoredOnFrames) {
+  MemoryOdometrySource inner(10);
+  FaultInjectingOdometrySource source(inner, plan_from("at 3 pose_jump offset_m=5,-1,0.5 samples=2"));
+  drivers::OdometrySample s;
+  for (std::uint64_t i = 0; i < 10; ++i) {
+    ASSERT_EQ(source.read(s, 0), ReadStatus::kOk);
+    const bool jumped = i == 3 || i == 4;
+    const Eigen::Vector3d expected(0.1 * static_cast<double>(i) + (jumped ? 5.0 : 0.0), jumped ? -1.0 : 0.0,
+                                   jumped ? 0.5 : 0.0);
+    EXPECT_LT((s.world_t_body_m - expected).norm(), 1e-12) << i;
+  }
+  EXPECT_EQ(source.injected()[static_cast<int>(FaultKind::kPoseJump)], 1u);
+  EXPECT_EQ(source.injector().faults_ended(), 1u);
+  EXPECT_EQ(source.injector().last_fault_end_ns(), 5 * 10'000'000);
+
+  Rig rig("at 3 pose_jump offset_m=5,0,0");
+  while (rig.read() == ReadStatus::kOk) EXPECT_EQ(rig.frame->flags, 0u);
+  EXPECT_EQ(rig.source.counters().delivered, 20u);
+  EXPECT_EQ(rig.source.injector().faults_ended(), 0u);
 }
 
 TEST(OdometryFaultInjection, SameFaultsOnSamplesAndDepthFaultsIgnored) {

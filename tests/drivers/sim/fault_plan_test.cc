@@ -130,6 +130,13 @@ TEST(FaultPlanText, ErrorsNameTheLineAndTheProblem) {
       {"seed -1\n", "plan.txt:1: expected 'seed <unsigned integer>'"},
       {"random region=16\n", "plan.txt:1: bad value '16' for 'region'"},
       {"frobnicate 3\n", "plan.txt:1: unknown directive 'frobnicate'"},
+      {"at 3 pose_jump samples=2\n", "plan.txt:1: fault 'pose_jump' needs offset_m"},
+      {"at 3 pose_jump offset_m=1,2\n", "plan.txt:1: bad value '1,2' for 'offset_m'"},
+      {"at 3 pose_jump offset_m=1,2,1e9\n", "plan.txt:1: bad value"},
+      {"at 3 drop samples=2\n", "plan.txt:1: 'samples' does not apply to fault 'drop'"},
+      {"at 3 dropout samples=0\n", "plan.txt:1: bad value '0' for 'samples'"},
+      {"rate pose_jump 0.1\n", "plan.txt:1: pose_jump has no random rate"},
+      {"random until=x\n", "plan.txt:1: bad value 'x' for 'until'"},
   };
   for (const BadText& c : cases) {
     FaultPlan plan;
@@ -156,6 +163,13 @@ TEST(FaultPlanJson, ErrorsNameTheField) {
       {"{\"sead\": 4}", "plan.json: sead: unknown key"},
       {"[1, 2]", "plan.json: (top level): expected an object"},
       {"{\"seed\": 4,,}", "plan.json: [json.exception.parse_error"},
+      {"{\"events\": [{\"at\": 1, \"fault\": \"pose_jump\"}]}", "plan.json: events[0].offset_m: required"},
+      {"{\"events\": [{\"at\": 1, \"fault\": \"pose_jump\", \"offset_m\": [1, \"a\", 2]}]}",
+       "plan.json: events[0].offset_m: expected [x, y, z]"},
+      {"{\"events\": [{\"at\": 1, \"fault\": \"dropout\", \"samples\": 1.5}]}",
+       "plan.json: events[0].samples: expected a positive integer"},
+      {"{\"rates\": {\"pose_jump\": 0.1}}", "plan.json: rates.pose_jump: no random rate"},
+      {"{\"random\": {\"from\": -1}}", "plan.json: random.from: expected an unsigned integer"},
   };
   for (const BadText& c : cases) {
     FaultPlan plan;
@@ -163,6 +177,27 @@ TEST(FaultPlanJson, ErrorsNameTheField) {
     EXPECT_FALSE(parse_fault_plan_json(c.text, "plan.json", &plan, &error)) << c.text;
     EXPECT_NE(error.find(c.expected), std::string::npos) << "input: " << c.text << "\nerror: " << error;
   }
+}
+
+TEST(FaultPlanJson, ParsesDropoutPoseJumpAndTheRandomWindow) {
+  FaultPlan plan;
+  std::string error;
+  ASSERT_TRUE(parse_fault_plan_json(
+      "{\"rates\": {\"dropout\": 0.1}, \"random\": {\"from\": 10, \"until\": 20, \"dropout_samples\": 4},"
+      " \"events\": [{\"at\": 3, \"fault\": \"pose_jump\", \"offset_m\": [1, -2, 0.5], \"samples\": 2},"
+      " {\"at\": 5, \"fault\": \"dropout\", \"samples\": 7}]}",
+      "plan.json", &plan, &error))
+      << error;
+  EXPECT_EQ(plan.random.from, 10u);
+  EXPECT_EQ(plan.random.until, 20u);
+  EXPECT_EQ(plan.random.dropout_samples, 4);
+  EXPECT_DOUBLE_EQ(plan.random.rate[static_cast<int>(FaultKind::kDropout)], 0.1);
+  ASSERT_EQ(plan.events.size(), 2u);
+  EXPECT_EQ(plan.events[0].kind, FaultKind::kPoseJump);
+  EXPECT_EQ(plan.events[0].samples, 2);
+  EXPECT_DOUBLE_EQ(plan.events[0].offset_m[1], -2.0);
+  EXPECT_EQ(plan.events[1].kind, FaultKind::kDropout);
+  EXPECT_EQ(plan.events[1].samples, 7);
 }
 
 TEST(FaultPlan, PrintListsEveryEvent) {
