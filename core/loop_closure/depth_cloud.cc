@@ -1,6 +1,7 @@
 #include "core/loop_closure/depth_cloud.h"
 
 #include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
 
 #include <algorithm>
 #include <cmath>
@@ -14,6 +15,7 @@ std::string IcpConfig::check() const {
     return "0 < inlier_m <= start_inlier_m <= 5 m";
   if (!(min_overlap > 0.0 && min_overlap <= 1.0)) return "min_overlap must be in (0, 1]";
   if (!(neighbour_m >= inlier_m && neighbour_m <= 5.0)) return "neighbour_m must be in [inlier_m, 5] m";
+  if (!(min_constraint_ratio >= 0.0 && min_constraint_ratio <= 1.0)) return "min_constraint_ratio must be in [0, 1]";
   if (!(max_correction_m > 0.0 && max_correction_rad > 0.0)) return "max_correction_m and max_correction_rad must be positive";
   return "";
 }
@@ -120,6 +122,7 @@ IcpResult refine_icp(const DepthCloud& query, const DepthCloud& match, const Eig
   }
   std::uint32_t inliers = 0;
   double sum = 0.0;
+  Eigen::Matrix3d Hr = Eigen::Matrix3d::Zero(), Ht = Eigen::Matrix3d::Zero();
   for (std::uint32_t i = 0; i < query.count; ++i) {
     const Eigen::Vector3d p = T * qp[i];
     std::uint32_t j = 0;
@@ -128,12 +131,21 @@ IcpResult refine_icp(const DepthCloud& query, const DepthCloud& match, const Eig
     if (std::abs(d) > config.inlier_m) continue;
     ++inliers;
     sum += d * d;
+    const Eigen::Vector3d c = p.cross(mn[j]);
+    Hr += c * c.transpose();
+    Ht += mn[j] * mn[j].transpose();
   }
+  const auto ratio = [](const Eigen::Matrix3d& m) {
+    const Eigen::Vector3d e = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(m).eigenvalues();
+    return e(2) > 0.0 ? std::max(0.0, e(0)) / e(2) : 0.0;
+  };
+  r.constraint_ratio = std::min(ratio(Hr), ratio(Ht));
   r.overlap = static_cast<double>(inliers) / query.count;
   r.rmse_m = inliers > 0 ? std::sqrt(sum / inliers) : 0.0;
   r.match_T_query = T;
   const Eigen::Isometry3d correction = initial.inverse() * T;
-  r.ok = r.overlap >= config.min_overlap && correction.translation().norm() <= config.max_correction_m &&
+  r.ok = r.overlap >= config.min_overlap && r.constraint_ratio >= config.min_constraint_ratio &&
+         correction.translation().norm() <= config.max_correction_m &&
          Eigen::AngleAxisd(correction.linear()).angle() <= config.max_correction_rad;
   return r;
 }

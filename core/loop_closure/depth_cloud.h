@@ -33,6 +33,9 @@ struct IcpConfig {
   double inlier_m = 0.05;        // final gate, and the point-to-plane distance of an overlapping point
   double neighbour_m = 0.2;      // overlap: a query point with a match point this near (clouds are sparse) ...
   double min_overlap = 0.3;      // ... within inlier_m of its plane; at least this share of the query's points
+  // The geometry must pin every direction: the smallest eigenvalue of the normal equations' rotation and
+  // translation blocks over the largest at least this (a wall and a floor leave a translation free: ICP slides).
+  double min_constraint_ratio = 0.05;
   double max_correction_m = 0.5; // beyond these from the coarse estimate the refinement is not trusted
   double max_correction_rad = 0.15;
 
@@ -49,6 +52,7 @@ struct IcpResult {
   Eigen::Isometry3d match_T_query = Eigen::Isometry3d::Identity();
   double overlap = 0.0;
   double rmse_m = 0.0;
+  double constraint_ratio = 0.0;  // min over the rotation and translation blocks (see IcpConfig)
   std::uint32_t iterations = 0;
 };
 

@@ -142,6 +142,51 @@ void LoopClosureDetector::search(std::uint32_t lo, std::uint32_t hi, const Agent
   if (dist + radius >= mu_[lo]) search(mid, hi, d, radius, query);      // ... and outside
 }
 
+// The ICP refinement of an object registration: the match's keyframe may look elsewhere than the query's, so the
+// agents described just before and after it (odometry between them is locally exact) are tried too, the ones whose
+// optical axis is closest to the query's first. Returns the agent the closure ends up with (the match when nothing
+// refines) and updates out->match_T_query, refined and icp.
+const AgentEntry* LoopClosureDetector::refine_with_neighbours(const AgentEntry& query, std::uint32_t match_entry,
+                                                             LoopClosure* out) {
+  const AgentEntry& match = entries_[match_entry];
+  // The query's camera in the match's odometric frame, by the coarse estimate.
+  const Eigen::Isometry3d world_T_query = match.world_T_agent * out->match_T_query;
+  const Eigen::Vector3d axis = world_T_query.linear().col(2);
+  std::uint32_t order[2 * kIcpNeighbours + 1];
+  double score[2 * kIcpNeighbours + 1];
+  std::uint32_t n = 0;
+  const std::uint32_t lo = match_entry >= kIcpNeighbours ? match_entry - kIcpNeighbours : 0;
+  const std::uint32_t hi = std::min<std::uint32_t>(static_cast<std::uint32_t>(entries_.size()) - 1,
+                                                   match_entry + kIcpNeighbours);
+  for (std::uint32_t e = lo; e <= hi; ++e) {
+    const AgentEntry& m = entries_[e];
+    if (m.cloud.count == 0 || m.time_ns + static_cast<std::uint64_t>(config_.min_time_separation_s * 1e9) > query.time_ns)
+      continue;
+    if ((m.world_T_agent.translation() - match.world_T_agent.translation()).norm() > config_.icp_neighbour_m) continue;
+    order[n] = e;
+    score[n++] = -axis.dot(m.world_T_agent.linear().col(2));
+  }
+  // Insertion sort by score (n <= 2 * kIcpNeighbours + 1).
+  for (std::uint32_t i = 1; i < n; ++i)
+    for (std::uint32_t j = i; j > 0 && score[j] < score[j - 1]; --j) {
+      std::swap(score[j], score[j - 1]);
+      std::swap(order[j], order[j - 1]);
+    }
+  for (std::uint32_t i = 0; i < n; ++i) {
+    const AgentEntry& m = entries_[order[i]];
+    const Eigen::Isometry3d initial = m.world_T_agent.inverse() * world_T_query;
+    const IcpResult r = refine_icp(query.cloud, m.cloud, initial, config_.icp);
+    if (!r.ok) continue;
+    out->icp = r;
+    out->match_T_query = r.match_T_query;
+    out->refined = true;
+    ++counters_.icp_refined;
+    return &m;
+  }
+  ++counters_.icp_refused;
+  return &match;
+}
+
 bool LoopClosureDetector::add_and_detect(const AgentEntry& query, LoopClosure* out) {
   ++counters_.queries;
   bool found = false;
@@ -212,17 +257,9 @@ bool LoopClosureDetector::add_and_detect(const AgentEntry& query, LoopClosure* o
       out->registration = r;
       out->match_T_query = match.world_T_agent.inverse() * r.target_T_source * query.world_T_agent;
       out->refined = false;
-      if (config_.icp.enabled && query.cloud.count > 0 && match.cloud.count > 0) {
-        out->icp = refine_icp(query.cloud, match.cloud, out->match_T_query, config_.icp);
-        if (out->icp.ok) {
-          out->match_T_query = out->icp.match_T_query;
-          out->refined = true;
-          ++counters_.icp_refined;
-        } else {
-          ++counters_.icp_refused;
-        }
-      }
-      propose(candidates_[k], match);
+      const AgentEntry* matched = &match;
+      if (config_.icp.enabled && query.cloud.count > 0) matched = refine_with_neighbours(query, candidates_[k].entry, out);
+      propose(candidates_[k], *matched);
     }
   }
   if (entries_.size() == entries_.capacity() && entries_.size() >= 4) fold();

@@ -46,6 +46,7 @@ struct DetectorConfig {
   RegistrationConfig registration;
   AppearanceConfig appearance;
   IcpConfig icp;  // refinement of object registrations on the two keyframes' depth
+  double icp_neighbour_m = 3.0;  // ... also against the match's neighbours (in the database) this close to it
 
   std::string check() const;
   void print(std::FILE* out) const;
@@ -121,6 +122,8 @@ class LoopClosureDetector {
   float places_distance(std::uint32_t entry, const AgentDescriptor& d) const;
   void rebuild();
   void fold();
+  static constexpr std::uint32_t kIcpNeighbours = 4;
+  const AgentEntry* refine_with_neighbours(const AgentEntry& query, std::uint32_t match_entry, LoopClosure* out);
   void build(std::uint32_t lo, std::uint32_t hi);
   void search(std::uint32_t lo, std::uint32_t hi, const AgentDescriptor& d, float radius, const AgentEntry& query);
   void consider(std::uint32_t entry, const AgentEntry& query);

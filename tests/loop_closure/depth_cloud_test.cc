@@ -56,6 +56,22 @@ TEST(DepthCloudTest, IcpRefinesACoarseEstimateToTheDepthsPrecision) {
   EXPECT_GT(r.overlap, 0.8);
 }
 
+// A wall and the floor pin two directions of translation, not the third: ICP could slide along it.
+TEST(DepthCloudTest, AWallAndAFloorAloneAreDegenerate) {
+  DepthCloud a, b;
+  std::mt19937 rng(6);
+  std::uniform_real_distribution<double> u(0.0, 3.0);
+  for (DepthCloud* c : {&a, &b})
+    for (int i = 0; i < 400; ++i) {
+      if (i % 2 == 0) add_point(c, Eigen::Vector3d(u(rng), u(rng), 0.0), Eigen::Vector3d(0, 0, 1));
+      else add_point(c, Eigen::Vector3d(0.0, u(rng), u(rng) / 1.5), Eigen::Vector3d(1, 0, 0));
+    }
+  const IcpResult r = refine_icp(a, b, Eigen::Isometry3d::Identity(), IcpConfig{});
+  EXPECT_GT(r.overlap, 0.8);
+  EXPECT_LT(r.constraint_ratio, 0.05);
+  EXPECT_FALSE(r.ok);
+}
+
 TEST(DepthCloudTest, CloudsThatDoNotOverlapAreNotTrusted) {
   const DepthCloud match = corner(pose(0, 0, 0, 0, 0).inverse(), 1);
   const DepthCloud query = corner(pose(20, 0, 0, 0, 0).inverse(), 2);  // another room, 20 m away
