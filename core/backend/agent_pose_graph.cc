@@ -17,6 +17,17 @@ void AgentGraphResult::print(std::FILE* out) const {
   solve.print(out);
 }
 
+RelativePoseEdge loop_closure_edge(const ChainLoopClosure& c) {
+  RelativePoseEdge e;
+  e.from = c.a;
+  e.to = c.b;
+  e.measured_from_T_to = c.a_T_b;
+  e.sigma_t_m = c.sigma_t_m;
+  e.sigma_rot_rad = c.sigma_rot_rad;
+  e.is_loop_closure = true;
+  return e;
+}
+
 std::vector<RelativePoseEdge> chain_odometry_edges(const agents::AgentLayer& agents, const AgentGraphConfig& config) {
   std::vector<RelativePoseEdge> edges;
   const std::size_t n = agents.chain_size();
@@ -50,16 +61,7 @@ AgentGraphResult optimize_agent_chain(const agents::AgentLayer& agents, const st
   for (std::size_t k = 0; k < n; ++k) optimized->push_back(Pose3{agents.chain(k).t_m, agents.chain(k).q});
   std::vector<RelativePoseEdge> edges = chain_odometry_edges(agents, config);
   result.odometry_edges = edges.size();
-  for (const ChainLoopClosure& c : loop_closures) {
-    RelativePoseEdge e;
-    e.from = c.a;
-    e.to = c.b;
-    e.measured_from_T_to = c.a_T_b;
-    e.sigma_t_m = c.sigma_t_m;
-    e.sigma_rot_rad = c.sigma_rot_rad;
-    e.is_loop_closure = true;
-    edges.push_back(e);
-  }
+  for (const ChainLoopClosure& c : loop_closures) edges.push_back(loop_closure_edge(c));
   result.loop_closures = loop_closures.size();
   if (n < 2) {
     result.solve.status = PoseGraphStatus::kConverged;

@@ -39,6 +39,9 @@ struct AgentGraphResult {
   void print(std::FILE* out) const;
 };
 
+// A loop closure as a robust edge of the pose graph.
+RelativePoseEdge loop_closure_edge(const ChainLoopClosure& c);
+
 // The odometry edges of the chain (edge k joins node k and k + 1), for inspection and tests.
 std::vector<RelativePoseEdge> chain_odometry_edges(const agents::AgentLayer& agents, const AgentGraphConfig& config);
 

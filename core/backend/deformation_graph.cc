@@ -182,16 +182,7 @@ DeformationProblem DeformationGraph::build(const agents::AgentLayer& agents,
   edges = chain_odometry_edges(agents, config_.agents);
   r.edges_aa = edges.size();
   problem.first_closure = edges.size();
-  for (const ChainLoopClosure& c : loop_closures) {
-    RelativePoseEdge e;
-    e.from = c.a;
-    e.to = c.b;
-    e.measured_from_T_to = c.a_T_b;
-    e.sigma_t_m = c.sigma_t_m;
-    e.sigma_rot_rad = c.sigma_rot_rad;
-    e.is_loop_closure = true;
-    edges.push_back(e);
-  }
+  for (const ChainLoopClosure& c : loop_closures) edges.push_back(loop_closure_edge(c));
   const double sigma = config_.sigma_position_m;
   // The chain node a time belongs to: the last one at or before it.
   const auto agent_at = [&](std::uint64_t t) {
