@@ -80,6 +80,7 @@ int main(int argc, char** argv) {
       c.building.seed = std::strtoull(seed.c_str(), nullptr, 10);
       c.building.num_rooms = rooms;
       c.exploration.tours = tours;
+      c.loop_closure.enabled = true;
       c.odometry.source = app::OdometrySourceKind::kSimDrift;
       c.odometry.seed = c.building.seed;
       c.odometry.translation_sigma_m_per_sqrt_m = drift.translation_sigma_m_per_sqrt_m;

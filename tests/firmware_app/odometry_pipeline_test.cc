@@ -42,7 +42,9 @@ TEST(OdometryPipelineTest, TheSimulatedRobotMapsFromDriftingOdometryByDefault) {
   runtime::SteppedClock clock;
   Pipeline p;
   std::string error;
-  ASSERT_TRUE(p.init(small_config("drift"), &clock, &error)) << error;
+  AppConfig config = small_config("drift");
+  config.loop_closure.enabled = true;
+  ASSERT_TRUE(p.init(config, &clock, &error)) << error;
   EXPECT_EQ(p.odometry().kind(), OdometrySourceKind::kSimDrift);
   run_to_end(p);
   EXPECT_GT(p.counters().keyframes_integrated, 100u);
@@ -90,7 +92,7 @@ TEST(OdometryPipelineTest, GroundTruthAndATumFileOfItMapWithoutError) {
   AppConfig t = small_config("tum");
   t.odometry.source = OdometrySourceKind::kTum;
   t.odometry.tum_path = tum;
-  t.loop_closure.enabled = false;  // this compares the input paths; loop closures would add their own noise
+  t.loop_closure.enabled = false;  // this compares the input paths (loop closures would add their own noise)
   runtime::SteppedClock clock2;
   Pipeline q;
   ASSERT_TRUE(q.init(t, &clock2, &error)) << error;
