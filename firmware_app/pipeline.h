@@ -324,8 +324,6 @@ class Pipeline {
   double lc_path_m_ = 0.0;                   // path along the chain to the last node looked at
   Eigen::Vector3d lc_last_m_ = Eigen::Vector3d::Zero();
   bool lc_have_last_ = false;
-  std::size_t lc_optimized_closures_ = 0;   // closures in the latest solve
-  std::size_t lc_built_closures_ = 0;       // ... in the latest build
   std::uint32_t cp_mesh_stamp_ = 0;         // blocks meshed after this stamp are offered as control points
   std::atomic<std::uint64_t> agents_described_{0};
   std::atomic<std::uint64_t> loop_closures_count_{0};

@@ -210,7 +210,6 @@ backend::DeformationProblem Pipeline::build_deformation() {
     cc.sigma_rot_rad = Eigen::Vector3d::Constant(precise ? 0.005 : 0.03);
     closures.push_back(cc);
   }
-  lc_built_closures_ = closures.size();
   return deformation_.build(agents, closures, control_points_, graph_);
 }
 
@@ -227,7 +226,6 @@ bool Pipeline::solve_deformation(backend::DeformationProblem problem) {
                  deformation_result_.solve.message.c_str());
     return false;
   }
-  lc_optimized_closures_ = lc_built_closures_;
   loop_closures_kept_.store(deformation_result_.loop_closures_kept);
   return true;
 }

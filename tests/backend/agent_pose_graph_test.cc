@@ -8,17 +8,13 @@
 #include <vector>
 
 #include "core/scene_graph/scene_graph.h"
+#include "tests/backend/planar_pose.h"
 #include "tests/scene_graph/test_graph.h"
 
 namespace qsg::backend {
 namespace {
 
-Eigen::Isometry3d planar(double x, double y, double yaw) {
-  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  T.linear() = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
-  T.translation() = Eigen::Vector3d(x, y, 0.0);
-  return T;
-}
+using testing::planar;
 
 // A 4 m square walked once, 0.5 m steps, ending where it started; the odometry's yaw drifts 0.5 degree per step.
 struct SquareLoop {

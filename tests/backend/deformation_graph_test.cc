@@ -8,17 +8,13 @@
 #include <cmath>
 #include <vector>
 
+#include "tests/backend/planar_pose.h"
 #include "tests/scene_graph/test_graph.h"
 
 namespace qsg::backend {
 namespace {
 
-Eigen::Isometry3d planar(double x, double y, double yaw) {
-  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  T.linear() = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
-  T.translation() = Eigen::Vector3d(x, y, 0.0);
-  return T;
-}
+using testing::planar;
 
 // A 6 m square walked once in 0.5 m steps; the odometry's yaw drifts 0.6 degree per step.
 struct Walk {

@@ -20,6 +20,7 @@
 #include "firmware_app/fault_injection.h"
 #include "firmware_app/pipeline.h"
 #include "tests/support/allocation_counter.h"
+#include "tests/firmware_app/run_app.h"
 #include "tests/support/emulation.h"
 
 extern char** environ;
@@ -231,29 +232,7 @@ TEST(AppFaultInjection, SteadyStateTicksWithFaultsFiringDoNotAllocate) {
   EXPECT_GT(p.odometry().driver_counters()->dropped, 0u);
 }
 
-// Runs qsg_app; its exit status (-1 when it did not exit: a signal) and its output.
-int run_app(const std::vector<std::string>& args, const std::string& log_path, std::string* output) {
-  std::vector<std::string> all = {QSG_APP_PATH};
-  all.insert(all.end(), args.begin(), args.end());
-  std::vector<char*> argv;
-  for (std::string& a : all) argv.push_back(a.data());
-  argv.push_back(nullptr);
-  posix_spawn_file_actions_t actions;
-  posix_spawn_file_actions_init(&actions);
-  posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, log_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  posix_spawn_file_actions_adddup2(&actions, STDOUT_FILENO, STDERR_FILENO);
-  pid_t pid = 0;
-  const int spawned = ::posix_spawn(&pid, argv[0], &actions, nullptr, argv.data(), environ);
-  posix_spawn_file_actions_destroy(&actions);
-  if (spawned != 0) return -2;
-  int status = 0;
-  ::waitpid(pid, &status, 0);
-  std::ifstream in(log_path);
-  std::stringstream text;
-  text << in.rdbuf();
-  *output = text.str();
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
+using testing::run_app;
 
 TEST(AppFaultPlanFlag, TheAppTakesAPlanReportsItsFaultsAndRefusesABadOne) {
   if (qsg::testing::running_emulated())

@@ -29,6 +29,7 @@
 #include "firmware_app/graph_picture.h"
 #include "firmware_app/pipeline.h"
 #include "tests/support/allocation_counter.h"
+#include "tests/firmware_app/run_app.h"
 #include "tests/support/emulation.h"
 #include "tests/support/test_data.h"
 
@@ -573,27 +574,7 @@ TEST(PipelineReplayTest, AnEmptyOrAllRejectedInputIsNamed) {
   }
 }
 
-// Runs qsg_app with `args`; its exit status (-1 if it did not exit normally: a signal such as SIGABRT) and what it
-// printed on stdout and stderr.
-int run_app(const std::vector<std::string>& args, const std::string& log_path, std::string* output) {
-  std::vector<std::string> all = {QSG_APP_PATH};
-  all.insert(all.end(), args.begin(), args.end());
-  std::vector<char*> argv;
-  for (std::string& a : all) argv.push_back(a.data());
-  argv.push_back(nullptr);
-  posix_spawn_file_actions_t actions;
-  posix_spawn_file_actions_init(&actions);
-  posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, log_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  posix_spawn_file_actions_adddup2(&actions, STDOUT_FILENO, STDERR_FILENO);
-  pid_t pid = 0;
-  const int spawned = ::posix_spawn(&pid, argv[0], &actions, nullptr, argv.data(), environ);
-  posix_spawn_file_actions_destroy(&actions);
-  if (spawned != 0) return -2;
-  int status = 0;
-  ::waitpid(pid, &status, 0);
-  *output = file_text(log_path);
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
+using testing::run_app;
 
 // Issue 36 end to end: `qsg_app --convert` on a number outside the double range exits 1 with the reader's named
 // error (it aborted, 134), and a replay that maps nothing exits 3 saying why, its outputs written.
