@@ -166,7 +166,8 @@ TEST(AppOutputsTest, MeshIsCleanAndTheGraphPointsIntoIt) {
   // A snapshot has no mesh beside it: no object mesh connections either.
   std::ifstream snap(c.output_dir + "/scene_graph_snapshot.json");
   ASSERT_TRUE(snap.good());
-  for (const json& n : json::parse(snap).at("nodes"))
+  const json snapshot = json::parse(snap);  // named: a temporary would die before the loop
+  for (const json& n : snapshot.at("nodes"))
     EXPECT_FALSE(n.at("attributes").contains("mesh_connections"));
 }
 
