@@ -16,6 +16,8 @@ std::string DeformationConfig::check() const {
   if (!(place_control_radius_m >= 0.0 && place_control_radius_m <= 50.0)) return "place_control_radius_m must be in [0, 50] m";
   if (interpolation_neighbours < 1 || interpolation_neighbours > 16) return "interpolation_neighbours must be in [1, 16]";
   if (!(time_horizon_s > 0.0 && time_horizon_s <= 86400.0)) return "time_horizon_s must be in (0, 86400] s";
+  if (!(whole_function_tolerance > 0.0 && whole_function_tolerance < 1.0))
+    return "whole_function_tolerance must be in (0, 1)";
   return "";
 }
 
@@ -25,6 +27,9 @@ void DeformationConfig::print(std::FILE* out) const {
                "place to control point within %.2f m, %u nodes per interpolated point, time horizon %.0f s\n",
                control_point_spacing_m, control_edge_radius_m, max_control_neighbours, sigma_position_m,
                place_control_radius_m, interpolation_neighbours, time_horizon_s);
+  std::fprintf(out, "deformation graph: loop closures decided %s\n",
+               decide_on_agents ? "by GNC on the agent layer, then the whole graph by least squares"
+                                : "by GNC over the whole graph");
   agents.print(out);
 }
 
@@ -35,6 +40,10 @@ void DeformationResult::print(std::FILE* out) const {
                agents, control_points, places, edges_aa, edges_mm, edges_pp, edges_am, edges_ap, edges_mp,
                loop_closures_kept, loop_closures);
   solve.print(out);
+  if (decide.iterations > 0) {
+    std::fprintf(out, "deformation graph: decided on the agent layer: ");
+    decide.print(out);
+  }
 }
 
 namespace {
@@ -286,18 +295,82 @@ DeformationProblem DeformationGraph::build(const agents::AgentLayer& agents,
   return problem;
 }
 
+namespace {
+
+// decide_on_agents, first step: GNC over the agents and the edges between them; the closures' weights in input
+// order into *weights, the agents' solution into the first A poses, every other node carried along rigidly with the
+// agent it hangs from (an E_am or E_ap edge, else its place's control point), as the start of the whole solve.
+PoseGraphResult decide_on_agents(const PoseGraphConfig& solver, const DeformationProblem& problem,
+                                 std::vector<Pose3>* poses, std::vector<double>* weights) {
+  const std::size_t A = problem.result.agents;
+  std::vector<Pose3> agents(poses->begin(), poses->begin() + static_cast<std::ptrdiff_t>(A));
+  std::vector<RelativePoseEdge> edges;
+  std::vector<std::size_t> closure_edge;  // per loop closure: its index in `edges`
+  for (std::size_t k = 0; k < problem.edges.size(); ++k) {
+    const RelativePoseEdge& e = problem.edges[k];
+    if (e.from >= A || e.to >= A) continue;
+    if (k >= problem.first_closure && k < problem.first_closure + problem.result.loop_closures)
+      closure_edge.push_back(edges.size());
+    edges.push_back(e);
+  }
+  PoseGraphResult r = optimize_pose_graph(solver, agents, edges);
+  if (!r.poses_updated()) return r;
+  weights->clear();
+  for (std::size_t i : closure_edge) weights->push_back(r.edge_weight.empty() ? 1.0 : r.edge_weight[i]);
+  std::vector<std::int64_t> anchor(poses->size(), -1);
+  for (const RelativePoseEdge& e : problem.edges)
+    if (e.from < A && e.to >= A && anchor[e.to] < 0) anchor[e.to] = e.from;
+  for (const RelativePoseEdge& e : problem.edges)  // E_mp: a place without an agent edge follows its control point
+    if (e.from >= A && e.to >= A && anchor[e.from] < 0 && anchor[e.to] >= 0) anchor[e.from] = anchor[e.to];
+  for (std::size_t i = A; i < poses->size(); ++i) {
+    if (anchor[i] < 0) continue;
+    const Pose3& before = (*poses)[static_cast<std::size_t>(anchor[i])];
+    const Pose3& after = agents[static_cast<std::size_t>(anchor[i])];
+    const Eigen::Quaterniond dq = after.q * before.q.conjugate();
+    (*poses)[i].t_m = after.t_m + dq * ((*poses)[i].t_m - before.t_m);
+    (*poses)[i].q = (dq * (*poses)[i].q).normalized();
+  }
+  std::copy(agents.begin(), agents.end(), poses->begin());
+  return r;
+}
+
+}  // namespace
+
 DeformationResult DeformationGraph::solve(DeformationProblem problem) {
   DeformationResult r = problem.result;
   if (problem.poses.empty()) return r;
   const std::size_t A = r.agents, nodes = problem.originals.size();
   std::vector<Pose3> solved = problem.poses;
-  r.solve = optimize_pose_graph(config_.agents.solver, solved, problem.edges);
-  if (!r.solve.poses_updated()) return r;
-  for (std::size_t c = 0; c < r.loop_closures; ++c) {
-    const double w = r.solve.edge_weight.empty() ? 1.0 : r.solve.edge_weight[problem.first_closure + c];
-    r.loop_closure_weight.push_back(w);
-    r.loop_closures_kept += w > 0.5 ? 1 : 0;
+  if (config_.decide_on_agents && r.loop_closures > 0) {
+    r.decide = decide_on_agents(config_.agents.solver, problem, &solved, &r.loop_closure_weight);
+    if (!r.decide.poses_updated()) {
+      r.solve = r.decide;
+      r.loop_closure_weight.clear();
+      return r;
+    }
+    // The whole graph by least squares over the closures kept.
+    std::vector<RelativePoseEdge> edges;
+    edges.reserve(problem.edges.size());
+    for (std::size_t k = 0; k < problem.edges.size(); ++k) {
+      const bool closure = k >= problem.first_closure && k < problem.first_closure + r.loop_closures;
+      if (!closure || r.loop_closure_weight[k - problem.first_closure] > 0.5) edges.push_back(problem.edges[k]);
+    }
+    PoseGraphConfig whole = config_.agents.solver;
+    whole.loop_closure_loss = RobustLoss::kNone;
+    whole.function_tolerance = config_.whole_function_tolerance;
+    r.solve = optimize_pose_graph(whole, solved, edges);
+    if (!r.solve.poses_updated()) {
+      r.loop_closure_weight.clear();
+      return r;
+    }
+  } else {
+    r.solve = optimize_pose_graph(config_.agents.solver, solved, problem.edges);
+    if (!r.solve.poses_updated()) return r;
+    for (std::size_t c = 0; c < r.loop_closures; ++c)
+      r.loop_closure_weight.push_back(r.solve.edge_weight.empty() ? 1.0
+                                                                  : r.solve.edge_weight[problem.first_closure + c]);
   }
+  for (double w : r.loop_closure_weight) r.loop_closures_kept += w > 0.5 ? 1 : 0;
   agent_poses_.assign(solved.begin(), solved.begin() + static_cast<std::ptrdiff_t>(A));
   nodes_.clear();
   nodes_.reserve(nodes);

@@ -96,6 +96,8 @@ bool all_finite(const Pose3& pose) { return pose.t_m.allFinite() && pose.q.coeff
 // Empty string when the config is usable.
 std::string check_config(const PoseGraphConfig& config) {
   if (config.max_iterations < 1) return format("max_iterations is %d, must be >= 1", config.max_iterations);
+  if (!(config.function_tolerance > 0.0 && config.function_tolerance < 1.0))
+    return format("function_tolerance is %g, must be in (0, 1)", config.function_tolerance);
   if (config.num_threads < 1) return format("num_threads is %d, must be >= 1", config.num_threads);
   if (config.loop_closure_loss != RobustLoss::kNone &&
       !(std::isfinite(config.loop_closure_loss_scale_sigma) && config.loop_closure_loss_scale_sigma > 0.0)) {
@@ -324,6 +326,7 @@ PoseGraphResult optimize_pose_graph(const PoseGraphConfig& config, std::vector<P
   ceres::Solver::Options options;
   options.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
   options.max_num_iterations = config.max_iterations;
+  options.function_tolerance = config.function_tolerance;
   options.num_threads = config.num_threads;
   options.logging_type = ceres::SILENT;
   options.minimizer_progress_to_stdout = false;

@@ -70,6 +70,8 @@ struct PoseGraphConfig {
   // graduated non-convexity). Without it Cauchy can discard correct closures on a strongly drifted trajectory.
   bool huber_warm_start = true;
   int max_iterations = 50;  // per solve; the warm start adds a second solve
+  // Ceres' stopping rule: |cost change| / cost below this ends a solve (Ceres' default 1e-6).
+  double function_tolerance = 1e-6;
   // kGncTls: outer iterations at most (each a weighted solve of gnc_inner_iterations), the surrogate's growth per
   // outer iteration, and the Ceres iterations of each weighted solve (the first and the last get max_iterations).
   int gnc_max_outer_iterations = 100;

@@ -6,8 +6,11 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <fstream>
+#include <string>
 #include <vector>
 
+#include "core/backend/deformation_io.h"
 #include "tests/backend/planar_pose.h"
 #include "tests/scene_graph/test_graph.h"
 
@@ -108,8 +111,17 @@ class DeformationGraphTest : public ::testing::Test {
   std::vector<std::pair<scene_graph::NodeId, Eigen::Vector3d>> places_;
 };
 
+// Both ways of deciding the loop closures (DeformationConfig::decide_on_agents) must pass every test below.
+DeformationConfig strategy(bool decide_on_agents) {
+  DeformationConfig c;
+  c.decide_on_agents = decide_on_agents;
+  return c;
+}
+
 TEST_F(DeformationGraphTest, ATrueLoopClosureCorrectsEveryLayer) {
-  DeformationGraph d;
+  for (bool on_agents : {true, false}) {
+  SCOPED_TRACE(on_agents ? "decided on the agent layer" : "GNC over the whole graph");
+  DeformationGraph d(strategy(on_agents));
   const double agents_before = agent_rmse(d), walls_before = wall_rmse(d);
   ASSERT_GT(agents_before, 0.4) << "the test needs visible drift";
   const auto last = static_cast<std::uint32_t>(walk_.truth.size() - 1);
@@ -133,10 +145,13 @@ TEST_F(DeformationGraphTest, ATrueLoopClosureCorrectsEveryLayer) {
     places_after += (p - truth).squaredNorm();
   }
   EXPECT_LT(places_after, 0.09 * places_before);
+  }
 }
 
 TEST_F(DeformationGraphTest, AWrongLoopClosureSwitchesItselfOff) {
-  DeformationGraph d;
+  for (bool on_agents : {true, false}) {
+  SCOPED_TRACE(on_agents ? "decided on the agent layer" : "GNC over the whole graph");
+  DeformationGraph d(strategy(on_agents));
   const double agents_before = agent_rmse(d);
   const auto last = static_cast<std::uint32_t>(walk_.truth.size() - 1);
   ChainLoopClosure wrong = true_closure(10, 30);
@@ -153,6 +168,52 @@ TEST_F(DeformationGraphTest, AWrongLoopClosureSwitchesItselfOff) {
   EXPECT_GT(r.loop_closure_weight[3], 0.5);
   EXPECT_EQ(r.loop_closures_kept, 3u);
   EXPECT_LT(agent_rmse(d), 0.3 * agents_before);
+  EXPECT_LT(wall_rmse(d), 0.3 * wall_rmse(DeformationGraph{})) << "the mesh follows, whichever way was decided";
+  }
+}
+
+// A problem written to a file reads back equal, and solves to the same poses (bench/loop_closure/dg_solve).
+TEST_F(DeformationGraphTest, AProblemFileReadsBackAndSolvesTheSame) {
+  DeformationGraph d;
+  const auto last = static_cast<std::uint32_t>(walk_.truth.size() - 1);
+  const DeformationProblem problem = d.build(layer_, {true_closure(0, last)}, control_, *graph_);
+  std::vector<Eigen::Vector3d> truth;
+  for (const Eigen::Isometry3d& t : walk_.truth) truth.push_back(t.translation());
+  const std::string path = ::testing::TempDir() + "/deformation_problem.txt";
+  std::string error;
+  ASSERT_TRUE(write_deformation_problem(path, problem, truth, &error)) << error;
+  DeformationProblemFile read;
+  ASSERT_TRUE(read_deformation_problem(path, &read, &error)) << error;
+  ASSERT_EQ(read.problem.poses.size(), problem.poses.size());
+  ASSERT_EQ(read.problem.edges.size(), problem.edges.size());
+  EXPECT_EQ(read.problem.first_closure, problem.first_closure);
+  EXPECT_EQ(read.truth_m.size(), truth.size());
+  for (std::size_t k = 0; k < problem.poses.size(); ++k) {
+    EXPECT_EQ(read.problem.poses[k].t_m, problem.poses[k].t_m) << k;
+    EXPECT_EQ(read.problem.poses[k].q.coeffs(), problem.poses[k].q.coeffs()) << k;
+  }
+  for (std::size_t k = 0; k < problem.edges.size(); ++k) {
+    EXPECT_EQ(read.problem.edges[k].from, problem.edges[k].from);
+    EXPECT_EQ(read.problem.edges[k].to, problem.edges[k].to);
+    EXPECT_EQ(read.problem.edges[k].has_information, problem.edges[k].has_information);
+    EXPECT_EQ(read.problem.edges[k].measured_from_T_to.t_m, problem.edges[k].measured_from_T_to.t_m);
+    EXPECT_EQ(read.problem.edges[k].measured_from_T_to.q.coeffs(), problem.edges[k].measured_from_T_to.q.coeffs()) << k;
+    EXPECT_EQ(read.problem.edges[k].is_loop_closure, problem.edges[k].is_loop_closure);
+    EXPECT_EQ(read.problem.edges[k].information, problem.edges[k].information);
+  }
+  DeformationGraph a, b;
+  const DeformationResult ra = a.solve(problem), rb = b.solve(read.problem);
+  ASSERT_TRUE(ra.solve.poses_updated() && rb.solve.poses_updated());
+  for (std::size_t k = 0; k < ra.agents; ++k) EXPECT_LT((a.agent_pose(k).t_m - b.agent_pose(k).t_m).norm(), 1e-9);
+
+  // Malformed: named by line, never a crash.
+  std::ofstream(path) << "qsg_deformation_problem 1\nsizes 2 0 0 1 5 1 0\n";
+  EXPECT_FALSE(read_deformation_problem(path, &read, &error));
+  EXPECT_NE(error.find(":2:"), std::string::npos) << error;
+  std::ofstream(path) << "qsg_deformation_problem 1\nsizes 2 0 0 1 0 1 0\np 0 0 0 0 0 0 1\np 1 0 0 0 0 0 1\n"
+                         "e 0 7 0 0 1 0 0 0 0 0 1 1 1 1 1 1 1\n";
+  EXPECT_FALSE(read_deformation_problem(path, &read, &error));
+  EXPECT_NE(error.find("in range"), std::string::npos) << error;
 }
 
 TEST_F(DeformationGraphTest, WithoutLoopClosuresNothingMoves) {

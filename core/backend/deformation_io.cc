@@ -1,0 +1,134 @@
+// The deformation problem's text format (version 1):
+//   qsg_deformation_problem 1
+//   sizes AGENTS CONTROL_POINTS PLACES FIRST_CLOSURE LOOP_CLOSURES EDGES TRUTH(0|1)
+//   p tx ty tz qx qy qz qw                       one per node: agents, control points, places
+//   o x y z time_ns                              one per control point and place: odometric position, time seen
+//   e from to loop_closure info(0|1) tx ty tz qx qy qz qw  then 6 sigmas, or the 36 information entries
+//   t x y z                                      one per agent when TRUTH is 1
+#include "core/backend/deformation_io.h"
+
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+
+namespace qsg::backend {
+
+bool write_deformation_problem(const std::string& path, const DeformationProblem& problem,
+                               const std::vector<Eigen::Vector3d>& truth_m, std::string* error) {
+  const DeformationResult& r = problem.result;
+  const bool truth = !truth_m.empty() && truth_m.size() == r.agents;
+  const std::string tmp = path + ".tmp";
+  std::FILE* f = std::fopen(tmp.c_str(), "w");
+  if (f == nullptr) return *error = "cannot write '" + tmp + "'", false;
+  std::fprintf(f, "qsg_deformation_problem 1\nsizes %zu %zu %zu %zu %zu %zu %d\n", r.agents, r.control_points, r.places,
+               problem.first_closure, r.loop_closures, problem.edges.size(), truth ? 1 : 0);
+  for (const Pose3& p : problem.poses)
+    std::fprintf(f, "p %.17g %.17g %.17g %.17g %.17g %.17g %.17g\n", p.t_m.x(), p.t_m.y(), p.t_m.z(), p.q.x(), p.q.y(),
+                 p.q.z(), p.q.w());
+  for (std::size_t i = 0; i < problem.originals.size(); ++i)
+    std::fprintf(f, "o %.17g %.17g %.17g %llu\n", problem.originals[i].x(), problem.originals[i].y(),
+                 problem.originals[i].z(), static_cast<unsigned long long>(problem.times_ns[i]));
+  for (const RelativePoseEdge& e : problem.edges) {
+    const Pose3& m = e.measured_from_T_to;
+    std::fprintf(f, "e %u %u %d %d %.17g %.17g %.17g %.17g %.17g %.17g %.17g", e.from, e.to, e.is_loop_closure ? 1 : 0,
+                 e.has_information ? 1 : 0, m.t_m.x(), m.t_m.y(), m.t_m.z(), m.q.x(), m.q.y(), m.q.z(), m.q.w());
+    if (e.has_information) {
+      for (int i = 0; i < 36; ++i) std::fprintf(f, " %.17g", e.information(i / 6, i % 6));
+    } else {
+      for (int i = 0; i < 3; ++i) std::fprintf(f, " %.17g", e.sigma_t_m[i]);
+      for (int i = 0; i < 3; ++i) std::fprintf(f, " %.17g", e.sigma_rot_rad[i]);
+    }
+    std::fputc('\n', f);
+  }
+  if (truth)
+    for (const Eigen::Vector3d& t : truth_m) std::fprintf(f, "t %.17g %.17g %.17g\n", t.x(), t.y(), t.z());
+  const bool ok = std::fflush(f) == 0 && std::ferror(f) == 0;
+  std::fclose(f);
+  if (!ok || std::rename(tmp.c_str(), path.c_str()) != 0) return *error = "cannot write '" + path + "'", false;
+  return true;
+}
+
+bool read_deformation_problem(const std::string& path, DeformationProblemFile* out, std::string* error) {
+  std::ifstream in(path);
+  if (!in) return *error = "cannot read '" + path + "'", false;
+  std::string line, tag;
+  std::size_t line_no = 0;
+  const auto fail = [&](const std::string& what) {
+    *error = path + ":" + std::to_string(line_no) + ": " + what;
+    return false;
+  };
+  const auto next = [&](std::istringstream* s) {
+    if (!std::getline(in, line)) return false;
+    ++line_no;
+    s->clear();
+    s->str(line);
+    return true;
+  };
+  std::istringstream s;
+  int version = 0;
+  if (!next(&s) || !(s >> tag >> version) || tag != "qsg_deformation_problem" || version != 1)
+    return fail("not a version-1 deformation problem");
+  std::size_t A = 0, C = 0, P = 0, first = 0, closures = 0, num_edges = 0;
+  int truth = 0;
+  if (!next(&s) || !(s >> tag >> A >> C >> P >> first >> closures >> num_edges >> truth) || tag != "sizes" ||
+      first > num_edges || closures > num_edges - first || A < 2 || A + C + P > (1u << 30) || num_edges > (1u << 30))
+    return fail("bad sizes line");
+  DeformationProblem& p = out->problem;
+  p = DeformationProblem{};
+  p.result.agents = A;
+  p.result.control_points = C;
+  p.result.places = P;
+  p.result.loop_closures = closures;
+  p.first_closure = first;
+  const std::size_t N = A + C + P;
+  p.poses.resize(N);
+  for (Pose3& pose : p.poses) {
+    double q[4];
+    if (!next(&s) || !(s >> tag >> pose.t_m.x() >> pose.t_m.y() >> pose.t_m.z() >> q[0] >> q[1] >> q[2] >> q[3]) ||
+        tag != "p")
+      return fail("expected a pose line");
+    pose.q = Eigen::Quaterniond(q[3], q[0], q[1], q[2]);
+  }
+  p.originals.resize(C + P);
+  p.times_ns.resize(C + P);
+  for (std::size_t i = 0; i < C + P; ++i) {
+    unsigned long long t = 0;
+    if (!next(&s) || !(s >> tag >> p.originals[i].x() >> p.originals[i].y() >> p.originals[i].z() >> t) || tag != "o")
+      return fail("expected an original-position line");
+    p.times_ns[i] = t;
+  }
+  p.edges.resize(num_edges);
+  for (std::size_t k = 0; k < num_edges; ++k) {
+    RelativePoseEdge& e = p.edges[k];
+    int lc = 0, info = 0;
+    double q[4];
+    Pose3& m = e.measured_from_T_to;
+    if (!next(&s) || !(s >> tag >> e.from >> e.to >> lc >> info >> m.t_m.x() >> m.t_m.y() >> m.t_m.z() >> q[0] >> q[1] >>
+                       q[2] >> q[3]) ||
+        tag != "e" || e.from >= N || e.to >= N)
+      return fail("expected an edge line with nodes in range");
+    m.q = Eigen::Quaterniond(q[3], q[0], q[1], q[2]);
+    e.is_loop_closure = lc != 0;
+    e.has_information = info != 0;
+    if (e.is_loop_closure != (k >= first && k < first + closures))
+      return fail("the loop closures must be edges [first, first + loop closures)");
+    if (e.has_information) {
+      for (int i = 0; i < 36; ++i)
+        if (!(s >> e.information(i / 6, i % 6))) return fail("expected 36 information entries");
+    } else {
+      for (int i = 0; i < 3; ++i)
+        if (!(s >> e.sigma_t_m[i])) return fail("expected 6 sigmas");
+      for (int i = 0; i < 3; ++i)
+        if (!(s >> e.sigma_rot_rad[i])) return fail("expected 6 sigmas");
+    }
+  }
+  out->truth_m.clear();
+  if (truth != 0) {
+    out->truth_m.resize(A);
+    for (Eigen::Vector3d& t : out->truth_m)
+      if (!next(&s) || !(s >> tag >> t.x() >> t.y() >> t.z()) || tag != "t") return fail("expected a truth line");
+  }
+  return true;
+}
+
+}  // namespace qsg::backend
