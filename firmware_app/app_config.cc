@@ -134,6 +134,7 @@ bool AppConfig::load(const std::string& path, std::string* error) {
       {"telemetry_interval_s", number(&telemetry_interval_s)},
       {"ground_truth_labels", boolean(&ground_truth_labels)},
       {"fault_plan", text(&fault_plan)},
+      {"world_path", text(&world_path)},
       {"building", [&](const Json& v, std::string* why) {
          return read_section(v, "building",
                              {{"seed", number(&building.seed)},
@@ -299,6 +300,7 @@ bool AppConfig::load(const std::string& path, std::string* error) {
                            {{"enabled", boolean(&lc.enabled)},
                             {"horizon_s", number(&lc.horizon_s)},
                             {"describe_every_m", number(&lc.describe_every_m)},
+                            {"solve_interval_s", number(&lc.solve_interval_s)},
                             {"radius_m", number(&lc.descriptor.radius_m)},
                             {"places_threshold", number(&lc.detector.places_threshold)},
                             {"objects_threshold", number(&lc.detector.objects_threshold)},
@@ -512,6 +514,7 @@ std::string AppConfig::check() const {
 std::string AppConfig::LoopClosure::check() const {
   if (!(horizon_s >= 0.0 && horizon_s <= 3600.0)) return "horizon_s must be in [0, 3600] s";
   if (!(describe_every_m > 0.0 && describe_every_m <= 100.0)) return "describe_every_m must be in (0, 100] m";
+  if (!(solve_interval_s >= 0.0 && solve_interval_s <= 3600.0)) return "solve_interval_s must be in [0, 3600] s";
   if (const std::string d = descriptor.check(); !d.empty()) return d;
   if (const std::string d = detector.check(); !d.empty()) return d;
   return deformation.check();

@@ -50,6 +50,9 @@ struct AppConfig {
   bool ground_truth_labels = true;      // sim: the renderer's labels bypass segmentation
   // A fault plan (firmware_app/FAULT_PLAN.md) wrapping the camera and odometry sources; "" = none.
   std::string fault_plan;
+  // Sim driver: the building from a world file (drivers/world/WORLD_FORMAT.md) instead of generating one; "" =
+  // generate from `building`.
+  std::string world_path;
 
   // Replay: the dataset's format and camera (its path is replay_path, which replay.path does not replace). fx, fy,
   // cx, cy and depth_scale_m of 0 come from the dataset: its calibration file, else the format's default.
@@ -135,6 +138,9 @@ struct AppConfig {
     bool enabled = false;
     double horizon_s = 15.0;
     double describe_every_m = 1.0;
+    // The deformation graph is re-solved after a new loop closure at most once per this much mission time; closures
+    // found meanwhile wait for the next solve (and the finish solves whatever is pending).
+    double solve_interval_s = 10.0;
     loop_closure::DescriptorConfig descriptor;
     loop_closure::DetectorConfig detector;
     backend::DeformationConfig deformation;

@@ -28,7 +28,8 @@ void on_signal(int) { g_stop = 1; }
 void usage() {
   std::printf(
       "usage: qsg_app [--config FILE] [--driver sim|replay|v4l2] [--replay FOLDER [--calibration FILE]] [--output DIR]\n"
-      "               [--duration S] [--realtime | --lockstep] [--seed N] [--rooms N] [--tours N] [--quiet]\n"
+      "               [--duration S] [--realtime | --lockstep] [--seed N] [--rooms N] [--tours N] [--world FILE]\n"
+      "               [--quiet]\n"
       "               [--odometry auto|sim_drift|ground_truth|tum|stream|static] [--odometry-tum FILE]\n"
       "               [--pose-stream udp:ADDRESS:PORT | unix:PATH] [--fault-plan FILE] [--report-json FILE]\n"
       "       qsg_app --convert SPARK_DSG_JSON OUT_JSON [--mesh MESH.ply]   (validate a scene graph and write it in the\n"
@@ -155,6 +156,8 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "qsg_app: --pose-stream: expected udp:ADDRESS:PORT or unix:PATH, got '%s'\n", v.c_str());
         return 2;
       }
+    } else if (a == "--world" && has_value) {
+      config.world_path = argv[++i];
     } else if (a == "--fault-plan" && has_value) {
       config.fault_plan = argv[++i];
     } else if (a == "--report-json" && has_value) {

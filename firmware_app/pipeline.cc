@@ -29,6 +29,7 @@
 #include "drivers/world/top_down.h"
 #include "firmware_app/graph_outputs.h"
 #include "firmware_app/graph_picture.h"
+#include "drivers/world/world_file.h"
 #include "drivers/world/world_query.h"
 
 namespace qsg::app {
@@ -167,7 +168,13 @@ bool Pipeline::init(const AppConfig& config, runtime::Clock* clock, std::string*
   // The source.
   switch (config.driver) {
     case Driver::kSim: {
-      world_ = world::generate_building(config.building);
+      if (config.world_path.empty()) {
+        world_ = world::generate_building(config.building);
+      } else {
+        world::WorldResult read = world::read_world_file(config.world_path);
+        if (!read.ok) return fail("world: " + read.error);
+        world_ = std::move(read.world);
+      }
       render::RayScene scene;
       if (!scene.build(world_, error)) return false;
       const world::FreeSpaceIndex free_space(world_);
@@ -387,9 +394,13 @@ void Pipeline::run_backend_update(const BackendUpdate& u, bool door_pass) {
   backend_updates_.fetch_add(1);
   rooms_count_.store(r.rooms);
   if (r.rooms > 0 && classifier_ != nullptr && classifier_->ready()) label_rooms();
-  if (!run_loop_closure(time_ns)) return;
-  // A new loop closure: the deformation graph is built under the lock, solved without it (seconds at worst: the
-  // loop keeps mapping meanwhile).
+  if (run_loop_closure(time_ns)) lc_solve_pending_ = true;
+  const auto interval_ns = static_cast<std::uint64_t>(config_.loop_closure.solve_interval_s * 1e9);
+  if (!lc_solve_pending_ || (lc_last_solve_ns_ > 0 && time_ns < lc_last_solve_ns_ + interval_ns)) return;
+  lc_solve_pending_ = false;
+  lc_last_solve_ns_ = time_ns;
+  // New loop closures: the deformation graph is built under the lock, solved without it (the loop keeps mapping
+  // meanwhile).
   backend::DeformationProblem problem = build_deformation();
   lock.unlock();
   solve_deformation(std::move(problem));

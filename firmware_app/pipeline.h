@@ -89,6 +89,8 @@ struct PipelineCounters {
   std::uint64_t loop_closures = 0;         // proposed: detected and verified
   std::uint64_t loop_closures_kept = 0;    // kept by the latest optimization (GNC)
   std::uint64_t loop_closures_true = 0;    // proposed within 10 cm / 1 degree of the truth (sim, replay with poses)
+  std::uint64_t loop_closures_false = 0;   // proposed more than 0.5 m or 5 degrees off the truth
+  std::uint64_t loop_closures_false_kept = 0;  // ... and kept by the optimization: what bends the map
   std::uint64_t loop_closures_dropped = 0; // beyond the "loop_closures" capacity (counted, not optimized)
   std::uint64_t agent_frames_dropped = 0;  // agents to describe whose keyframe found no free slot (no appearance)
   std::uint64_t loop_closures_by_appearance = 0;
@@ -320,6 +322,8 @@ class Pipeline {
   backend::DeformationGraph deformation_;
   backend::DeformationResult deformation_result_;
   std::vector<loop_closure::LoopClosure> loop_closures_;  // capacity: the budget's loop_closure.loop_closures
+  bool lc_solve_pending_ = false;             // a loop closure not yet in a solve (backend thread)
+  std::uint64_t lc_last_solve_ns_ = 0;       // mission time of the last solve
   std::uint64_t lc_described_until_ns_ = 0;  // chain nodes up to this time are described (or skipped)
   double lc_path_m_ = 0.0;                   // path along the chain to the last node looked at
   Eigen::Vector3d lc_last_m_ = Eigen::Vector3d::Zero();

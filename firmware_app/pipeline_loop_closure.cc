@@ -7,6 +7,7 @@
 #include <cstdlib>
 
 #include "budgets/budget_table.h"
+#include "core/backend/deformation_io.h"
 #include "firmware_app/pipeline.h"
 
 namespace qsg::app {
@@ -210,7 +211,26 @@ backend::DeformationProblem Pipeline::build_deformation() {
     cc.sigma_rot_rad = Eigen::Vector3d::Constant(precise ? 0.005 : 0.03);
     closures.push_back(cc);
   }
-  return deformation_.build(agents, closures, control_points_, graph_);
+  backend::DeformationProblem problem = deformation_.build(agents, closures, control_points_, graph_);
+  // Debugging and bench/loop_closure/dg_solve: the problem (and each agent's true camera position where known) to a
+  // file, to reproduce this solve offline.
+  if (const char* path = std::getenv("QSG_DUMP_DEFORMATION"); path != nullptr && *path != '\0') {
+    std::vector<Eigen::Vector3d> truth;
+    const Eigen::Isometry3d mount =
+        sim_camera_ != nullptr ? sim_camera_->body_T_camera() : Eigen::Isometry3d::Identity();
+    for (std::size_t k = 0; k < problem.result.agents && !ground_truth_.empty(); ++k) {
+      replay::StampedPose g;
+      if (!replay::interpolate_pose(ground_truth_, static_cast<std::int64_t>(agents.chain(k).time_ns), INT64_MAX, &g)) {
+        truth.clear();
+        break;
+      }
+      truth.push_back((g.world_T_body() * mount).translation());
+    }
+    std::string error;
+    if (!backend::write_deformation_problem(path, problem, truth, &error))
+      std::fprintf(stderr, "loop closure: QSG_DUMP_DEFORMATION: %s\n", error.c_str());
+  }
+  return problem;
 }
 
 bool Pipeline::solve_deformation(backend::DeformationProblem problem) {
@@ -325,7 +345,7 @@ namespace qsg::app {
 void Pipeline::score_loop_closures() {
   if (ground_truth_.empty() || loop_closures_.empty()) return;
   const Eigen::Isometry3d mount = sim_camera_ != nullptr ? sim_camera_->body_T_camera() : Eigen::Isometry3d::Identity();
-  std::size_t scored = 0, within = 0, kept_within = 0;
+  std::size_t scored = 0, within = 0, kept_within = 0, wrong = 0, wrong_kept = 0;
   std::vector<double> errors_m;
   for (std::size_t i = 0; i < loop_closures_.size(); ++i) {
     const loop_closure::LoopClosure& lc = loop_closures_[i];
@@ -343,6 +363,9 @@ void Pipeline::score_loop_closures() {
     within += good ? 1 : 0;
     const bool kept = i < deformation_result_.loop_closure_weight.size() && deformation_result_.loop_closure_weight[i] > 0.5;
     kept_within += good && kept ? 1 : 0;
+    const bool false_closure = e_m > 0.5 || e_rad > 5.0 * M_PI / 180.0;
+    wrong += false_closure ? 1 : 0;
+    wrong_kept += false_closure && kept ? 1 : 0;
     if (std::getenv("QSG_DEBUG_LOOP_CLOSURES") != nullptr)
       std::printf("  closure %zu (%s%s, icp overlap %.2f): %.1f s -> %.1f s, error %.3f m %.2f deg, %u inliers, kept %d\n", i,
                   loop_closure::to_string(lc.source), lc.refined ? "+icp" : "", lc.icp.overlap, lc.match_time_ns * 1e-9, lc.query_time_ns * 1e-9, e_m,
@@ -353,9 +376,11 @@ void Pipeline::score_loop_closures() {
   if (scored == 0) return;
   std::sort(errors_m.begin(), errors_m.end());
   std::printf("loop closure: %zu of %zu proposed within 10 cm / 1 deg of the truth (%zu of them kept); median "
-              "translation error %.3f m\n",
-              within, scored, kept_within, errors_m[errors_m.size() / 2]);
+              "translation error %.3f m; %zu false (over 0.5 m or 5 deg off), %zu of them kept\n",
+              within, scored, kept_within, errors_m[errors_m.size() / 2], wrong, wrong_kept);
   counters_.loop_closures_true = within;
+  counters_.loop_closures_false = wrong;
+  counters_.loop_closures_false_kept = wrong_kept;
 }
 
 }  // namespace qsg::app

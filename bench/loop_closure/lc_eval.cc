@@ -22,7 +22,9 @@ using namespace qsg;
 
 int usage(int status) {
   std::printf("usage: lc_eval [--levels sim,vio] [--seeds 1,2] [--rooms N (8)] [--tours N (1)] [--duration S (0: all)]\n"
-              "               [--output DIR (/tmp/lc_eval)] [--json FILE]\n");
+              "               [--output DIR (/tmp/lc_eval)] [--json FILE] [--world FILE]\n"
+              "  --world: explore a world file instead of generated buildings (the seeds then vary the odometry only),\n"
+              "  e.g. bench/loop_closure/worlds/identical_rooms_4.json, where every false closure counts\n");
   return status;
 }
 
@@ -45,7 +47,7 @@ int main(int argc, char** argv) {
   std::vector<std::string> seeds = {"1"};
   int rooms = 8, tours = 1;
   double duration_s = 0.0;
-  std::string output = "/tmp/lc_eval", json;
+  std::string output = "/tmp/lc_eval", json, world;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     const bool has = i + 1 < argc;
@@ -56,15 +58,17 @@ int main(int argc, char** argv) {
     else if (a == "--duration" && has) duration_s = std::atof(argv[++i]);
     else if (a == "--output" && has) output = argv[++i];
     else if (a == "--json" && has) json = argv[++i];
+    else if (a == "--world" && has) world = argv[++i];
     else return usage(a == "--help" ? 0 : 2);
   }
   if (rooms < 2 || rooms > 64 || tours < 1 || tours > 1000 || duration_s < 0.0) return usage(2);
   char conditions[200];
-  std::snprintf(conditions, sizeof conditions, "%d-room generated buildings, %d tour(s), lockstep on %s, loop closure on",
-                rooms, tours, budgets::active::kTable.board);
+  std::snprintf(conditions, sizeof conditions, "%s, %d tour(s), lockstep on %s, loop closure on",
+                world.empty() ? (std::to_string(rooms) + "-room generated buildings").c_str() : world.c_str(), tours,
+                budgets::active::kTable.board);
   bench::Figures figures(conditions);
-  std::printf("%-5s %5s %10s %10s %7s %9s %6s %6s %10s\n", "level", "seed", "ate_odo_m", "ate_opt_m", "ratio",
-              "proposed", "kept", "true", "solve_ms");
+  std::printf("%-5s %5s %10s %10s %7s %9s %6s %6s %6s %10s\n", "level", "seed", "ate_odo_m", "ate_opt_m", "ratio",
+              "proposed", "kept", "true", "false", "solve_ms");
   for (const std::string& level_name : levels) {
     sim::OdometryLevel level;
     if (!sim::parse_odometry_level(level_name, &level) || level == sim::OdometryLevel::kGroundTruth) {
@@ -80,6 +84,7 @@ int main(int argc, char** argv) {
       c.building.seed = std::strtoull(seed.c_str(), nullptr, 10);
       c.building.num_rooms = rooms;
       c.exploration.tours = tours;
+      c.world_path = world;
       c.loop_closure.enabled = true;
       c.odometry.source = app::OdometrySourceKind::kSimDrift;
       c.odometry.seed = c.building.seed;
@@ -106,10 +111,12 @@ int main(int argc, char** argv) {
       const metrics::TrajectoryError& opt = p.trajectory_error();
       const app::PipelineCounters& k = p.counters();
       const double ratio = odo.ok && opt.ok && odo.ate_rmse_m > 0.0 ? opt.ate_rmse_m / odo.ate_rmse_m : -1.0;
-      std::printf("%-5s %5s %10.3f %10.3f %7.2f %9llu %6llu %6llu %10.1f\n", level_name.c_str(), seed.c_str(),
-                  odo.ate_rmse_m, opt.ate_rmse_m, ratio, static_cast<unsigned long long>(k.loop_closures),
+      std::printf("%-5s %5s %10.3f %10.3f %7.2f %9llu %6llu %6llu %3llu/%-2llu %10.1f\n", level_name.c_str(),
+                  seed.c_str(), odo.ate_rmse_m, opt.ate_rmse_m, ratio, static_cast<unsigned long long>(k.loop_closures),
                   static_cast<unsigned long long>(k.loop_closures_kept),
-                  static_cast<unsigned long long>(k.loop_closures_true), k.graph_optimization_max_us / 1000.0);
+                  static_cast<unsigned long long>(k.loop_closures_true),
+                  static_cast<unsigned long long>(k.loop_closures_false_kept),
+                  static_cast<unsigned long long>(k.loop_closures_false), k.graph_optimization_max_us / 1000.0);
       const std::string prefix = level_name + "_seed" + seed + ".";
       figures.add(prefix + "ate_odometry", odo.ate_rmse_m, "m");
       figures.add(prefix + "ate_optimized", opt.ate_rmse_m, "m");
@@ -117,6 +124,8 @@ int main(int argc, char** argv) {
       figures.add(prefix + "loop_closures_proposed", static_cast<double>(k.loop_closures), "count");
       figures.add(prefix + "loop_closures_kept", static_cast<double>(k.loop_closures_kept), "count");
       figures.add(prefix + "loop_closures_true", static_cast<double>(k.loop_closures_true), "count");
+      figures.add(prefix + "loop_closures_false", static_cast<double>(k.loop_closures_false), "count");
+      figures.add(prefix + "loop_closures_false_kept", static_cast<double>(k.loop_closures_false_kept), "count");
       figures.add(prefix + "loop_closures_by_appearance", static_cast<double>(k.loop_closures_by_appearance), "count");
       figures.add(prefix + "agents_described", static_cast<double>(k.agents_described), "count");
       figures.add(prefix + "solve_max", k.graph_optimization_max_us / 1000.0, "ms");
