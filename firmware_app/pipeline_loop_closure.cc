@@ -204,9 +204,9 @@ backend::DeformationProblem Pipeline::build_deformation() {
     // Appearance: depth-precise; objects: centroids of partial views, a decimetre and a degree or so.
     // ICP-refined: depth-precise too (its gate is a few centimetres).
     const bool precise = lc.source == loop_closure::ClosureSource::kAppearance || lc.refined;
-    const double rmse = lc.source == loop_closure::ClosureSource::kAppearance ? lc.appearance.inlier_rmse_m
-                        : lc.refined                                          ? lc.icp.rmse_m
-                                                                              : lc.registration.inlier_rmse_m;
+    const double rmse = lc.refined                                            ? lc.icp.rmse_m
+                        : lc.source == loop_closure::ClosureSource::kAppearance ? lc.appearance.inlier_rmse_m
+                                                                                : lc.registration.inlier_rmse_m;
     cc.sigma_t_m = Eigen::Vector3d::Constant(precise ? std::max(0.02, rmse) : std::max(0.15, rmse));
     cc.sigma_rot_rad = Eigen::Vector3d::Constant(precise ? 0.005 : 0.03);
     closures.push_back(cc);

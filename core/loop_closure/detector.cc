@@ -240,6 +240,18 @@ bool LoopClosureDetector::add_and_detect(const AgentEntry& query, LoopClosure* o
         out->source = ClosureSource::kAppearance;
         out->appearance = a;
         out->match_T_query = a.match_T_query;
+        out->refined = false;
+        // The refinement pass on the same pair: a RANSAC pose from a dozen features can be a few degrees off in
+        // rotation; ICP on the two views' depth pins it where the views constrain every direction.
+        if (config_.icp.enabled && query.cloud.count > 0 && match.cloud.count > 0) {
+          const IcpResult r = refine_icp(query.cloud, match.cloud, a.match_T_query, config_.icp);
+          if (r.ok) {
+            out->icp = r;
+            out->match_T_query = r.match_T_query;
+            out->refined = true;
+            ++counters_.icp_refined;
+          }
+        }
         propose(candidates_[k], match);
       }
     }

@@ -77,7 +77,7 @@ struct LoopClosure {
   ClosureSource source = ClosureSource::kObjects;
   Registration registration;            // kObjects
   AppearanceRegistration appearance;    // kAppearance
-  bool refined = false;                 // kObjects: the estimate refined by ICP on the keyframes' depth
+  bool refined = false;                 // the estimate refined by ICP on the keyframes' depth (either source)
   IcpResult icp;
 };
 
@@ -91,7 +91,7 @@ struct DetectorCounters {
   std::uint64_t appearance_accepted = 0;
   std::uint64_t verifications = 0;        // by objects
   std::uint64_t registration_failures = 0;
-  std::uint64_t icp_refined = 0;          // object registrations refined by ICP
+  std::uint64_t icp_refined = 0;          // registrations (appearance or objects) refined by ICP
   std::uint64_t icp_refused = 0;          // ... where ICP was tried and not trusted (coarse estimate kept)
   std::uint64_t proposed = 0;                 // verified loop closures handed to the optimizer
   std::uint64_t refused = 0;                  // agents not stored (a database of fewer than 4)
