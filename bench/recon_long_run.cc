@@ -190,7 +190,7 @@ int main(int argc, char** argv) {
   std::printf("%9s %7s %7s %12s %12s %10s %10s %9s %9s %9s\n", "dist_m", "frames", "blocks", "window_used_B",
               "arena_hw_B", "arch_vert", "arch_tri", "rss_MB", "med_ms", "max_ms");
 
-  auto frame = std::make_unique<drivers::RgbdFrame>();
+  auto frame = std::make_unique<messages::RgbdFrame>();
   std::vector<double> all_ms;
   all_ms.reserve(camera.num_frames());
   std::vector<double> interval_ms;

@@ -228,7 +228,7 @@ bool Pipeline::init(const AppConfig& config, runtime::Clock* clock, std::string*
   const budgets::QueueBudget* segmentation_budget = find_queue(table, "segmentation");
   const int pool = static_cast<int>(frames_budget->depth) + 2 +
                    (segmentation_budget != nullptr ? static_cast<int>(segmentation_budget->depth) + 2 : 0);
-  frames_ = std::make_unique<drivers::RgbdFrame[]>(static_cast<std::size_t>(pool));
+  frames_ = std::make_unique<messages::RgbdFrame[]>(static_cast<std::size_t>(pool));
   frame_poses_ = std::make_unique<Eigen::Isometry3d[]>(static_cast<std::size_t>(pool));
   frame_variances_ = std::make_unique<Eigen::Matrix<double, 6, 1>[]>(static_cast<std::size_t>(pool));
   if (!free_frames_.init(static_cast<std::uint32_t>(pool), budgets::DropPolicy::kDropNewest, nullptr, error) ||
@@ -460,7 +460,7 @@ void Pipeline::backend_worker() {
 }
 
 bool Pipeline::segment_frame(int index) {
-  drivers::RgbdFrame& frame = frames_[static_cast<std::size_t>(index)];
+  messages::RgbdFrame& frame = frames_[static_cast<std::size_t>(index)];
   if (segmenter_->segment(frame)) return true;
   frame.has_labels = false;
   segmentation_failures_.fetch_add(1);
@@ -598,7 +598,7 @@ void Pipeline::poll_camera() {
   if (pending_frame_ < 0 && !source_ended_) {
     int index = -1;
     if (!free_frames_.try_pop(&index)) return;  // every buffer is queued: the queue's drop policy decides
-    drivers::RgbdFrame& frame = frames_[static_cast<std::size_t>(index)];
+    messages::RgbdFrame& frame = frames_[static_cast<std::size_t>(index)];
     const drivers::ReadStatus status = camera_->read(frame, 0);
     if (status == drivers::ReadStatus::kOk) {
       ++counters_.frames_read;
@@ -615,7 +615,7 @@ void Pipeline::poll_camera() {
     }
   }
   if (pending_frame_ < 0) return;
-  const drivers::RgbdFrame& frame = frames_[static_cast<std::size_t>(pending_frame_)];
+  const messages::RgbdFrame& frame = frames_[static_cast<std::size_t>(pending_frame_)];
   const std::int64_t due_ns = data_to_loop_ns(frame.sample_time_ns);
   if (due_ns > clock_->now_ns()) return;  // not its time yet
   // Its pose from the odometry at its sample time; it may wait for the odometry, up to the budget's bound.
@@ -696,7 +696,7 @@ void Pipeline::telemetry_task(void* self, const runtime::TaskContext&) {
 
 void Pipeline::integrate_keyframe(const runtime::TaskContext& c) {
   if (current_keyframe_ < 0) return;
-  const drivers::RgbdFrame& frame = frames_[static_cast<std::size_t>(current_keyframe_)];
+  const messages::RgbdFrame& frame = frames_[static_cast<std::size_t>(current_keyframe_)];
   const Eigen::Isometry3d& world_T_camera = frame_poses_[static_cast<std::size_t>(current_keyframe_)];
   if (segmenter_ != nullptr && config_.lockstep && !frame.has_labels)
     ++(segment_frame(current_keyframe_) ? counters_.keyframes_segmented : counters_.keyframes_unlabelled);

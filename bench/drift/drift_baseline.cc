@@ -257,12 +257,12 @@ bool run_level(const Options& opt, const world::World& w, const world::BuildingC
 
   // Map from the odometry's poses, every frame a keyframe, the frontend every keyframe (rooms_eval's loop).
   std::vector<metrics::TimedPose> reference, estimate;
-  auto frame = std::make_unique<drivers::RgbdFrame>();
+  auto frame = std::make_unique<messages::RgbdFrame>();
   Eigen::Vector3d last = Eigen::Vector3d::Zero();
   std::uint64_t t_last = 0;
   out->keyframes = bench::for_each_posed_frame(
       *sim_tour, *frame,
-      [&](const drivers::RgbdFrame& f, const Eigen::Isometry3d& T, std::int64_t t_ns,
+      [&](const messages::RgbdFrame& f, const Eigen::Isometry3d& T, std::int64_t t_ns,
           const Eigen::Isometry3d& truth_T) {
         tsdf->process(f, T);
         fe->add_keyframe(graph.get(), static_cast<std::uint64_t>(t_ns), T);

@@ -184,10 +184,10 @@ bool run_building(std::uint64_t seed, const Options& opt, Score* score, std::vec
     layer.capacities().print(stdout);
   }
 
-  auto frame = std::make_unique<drivers::RgbdFrame>();
+  auto frame = std::make_unique<messages::RgbdFrame>();
   const std::size_t frames = bench::for_each_posed_frame(
       sim_tour, *frame,
-      [&](const drivers::RgbdFrame& f, const Eigen::Isometry3d& T, std::int64_t t_ns, const Eigen::Isometry3d&) {
+      [&](const messages::RgbdFrame& f, const Eigen::Isometry3d& T, std::int64_t t_ns, const Eigen::Isometry3d&) {
     const auto t0 = std::chrono::steady_clock::now();
     tsdf.process(f, T);
     const auto t1 = std::chrono::steady_clock::now();

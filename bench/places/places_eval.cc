@@ -690,8 +690,8 @@ bool run_world(const Options& opt, const world::World& w, bool floor_plan, Build
                   opt.trace[i].z(), keyframe, robot_m.x(), robot_m.y(), robot_m.z(), line);
     }
   };
-  auto frame = std::make_unique<drivers::RgbdFrame>();
-  bench::for_each_posed_frame(sim_tour, *frame, [&](const drivers::RgbdFrame& f, const Eigen::Isometry3d& pose,
+  auto frame = std::make_unique<messages::RgbdFrame>();
+  bench::for_each_posed_frame(sim_tour, *frame, [&](const messages::RgbdFrame& f, const Eigen::Isometry3d& pose,
                                                     std::int64_t, const Eigen::Isometry3d&) {
     tsdf.process(f, pose);
     const auto t_obs = std::chrono::steady_clock::now();

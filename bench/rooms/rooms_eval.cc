@@ -57,7 +57,7 @@
 #include "drivers/sim/sim_camera.h"
 #include "drivers/world/building_generator.h"
 #include "drivers/world/floor_plan_import.h"
-#include "drivers/world/floor_plan_rooms.h"
+#include "bench/rooms/floor_plan_rooms.h"
 #include "drivers/world/world_query.h"
 
 #ifndef QSG_SHARED_DATA_DIR
@@ -326,7 +326,7 @@ std::size_t apply_door_oracle(const Raster& ras, double clearance_m, sg::SceneGr
   return doors.size();
 }
 
-using Score = world::RoomSegmentationScore;
+using Score = bench::RoomSegmentationScore;
 
 // Left: the estimated rooms, right: the ground truth, each room a colour from its id (black: occupied, grey: free but
 // unlabelled).
@@ -630,13 +630,13 @@ bool run_pipeline(const Options& opt, const world::World& w, std::uint64_t world
     stats->doors_bypassed += pr.bypassed;
     stats->pass_ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
   };
-  auto frame = std::make_unique<drivers::RgbdFrame>();
+  auto frame = std::make_unique<messages::RgbdFrame>();
   Eigen::Vector3d last = Eigen::Vector3d::Zero();
   std::uint64_t t_last = 0;
   std::size_t frontend_updates = 0;
   stats->keyframes = bench::for_each_posed_frame(
       sim_tour, *frame,
-      [&](const drivers::RgbdFrame& f, const Eigen::Isometry3d& T, std::int64_t t_ns, const Eigen::Isometry3d&) {
+      [&](const messages::RgbdFrame& f, const Eigen::Isometry3d& T, std::int64_t t_ns, const Eigen::Isometry3d&) {
         tsdf->process(f, T);
         if (online) online->wall_map().repaint(*tsdf, painted_stamp.data(), painted_block.data(), painted_stamp.size());
         fe->add_keyframe(graph, static_cast<std::uint64_t>(t_ns), T);
@@ -841,9 +841,9 @@ bool eval_plan(const Options& opt, const std::string& map, bool furnished, Score
                     &surface, st))
     return false;
   // Ground truth straight from the benchmark's image: 8-connected white regions of more than 100 px.
-  world::PlanRaster plan;
+  bench::PlanRaster plan;
   std::string read_error;
-  if (!world::read_plan_raster(occ_path, gt_path, fc, &plan, &read_error)) {
+  if (!bench::read_plan_raster(occ_path, gt_path, fc, &plan, &read_error)) {
     std::fprintf(stderr, "%s\n", read_error.c_str());
     return false;
   }
@@ -854,23 +854,23 @@ bool eval_plan(const Options& opt, const std::string& map, bool furnished, Score
   ras.free = std::move(plan.free);
   ras.truth = std::move(plan.truth);
   if (peers != nullptr) {
-    world::DistanceSegmentationConfig dc;
+    bench::DistanceSegmentationConfig dc;
     dc.resolution_m = ras.res_m;
-    world::MorphologicalSegmentationConfig mc;
+    bench::MorphologicalSegmentationConfig mc;
     mc.resolution_m = ras.res_m;
-    world::DistanceSegmentationConfig dpc = dc;
-    dpc.level = world::DistanceSegmentationConfig::Level::kPlateau;
-    world::PlanSegmentation by_distance, by_distance_plateau, by_erosion;
+    bench::DistanceSegmentationConfig dpc = dc;
+    dpc.level = bench::DistanceSegmentationConfig::Level::kPlateau;
+    bench::PlanSegmentation by_distance, by_distance_plateau, by_erosion;
     const char* why = nullptr;
-    if (!world::segment_by_distance_transform(ras.free, ras.cols, ras.rows, dc, &by_distance, &why) ||
-        !world::segment_by_distance_transform(ras.free, ras.cols, ras.rows, dpc, &by_distance_plateau, &why) ||
-        !world::segment_by_erosion(ras.free, ras.cols, ras.rows, mc, &by_erosion, &why)) {
+    if (!bench::segment_by_distance_transform(ras.free, ras.cols, ras.rows, dc, &by_distance, &why) ||
+        !bench::segment_by_distance_transform(ras.free, ras.cols, ras.rows, dpc, &by_distance_plateau, &why) ||
+        !bench::segment_by_erosion(ras.free, ras.cols, ras.rows, mc, &by_erosion, &why)) {
       std::fprintf(stderr, "%s: %s\n", map.c_str(), why);
       return false;
     }
-    peers->distance = world::score_room_segmentation(ras.free, ras.truth, by_distance.labels);
-    peers->distance_plateau = world::score_room_segmentation(ras.free, ras.truth, by_distance_plateau.labels);
-    peers->erosion = world::score_room_segmentation(ras.free, ras.truth, by_erosion.labels);
+    peers->distance = bench::score_room_segmentation(ras.free, ras.truth, by_distance.labels);
+    peers->distance_plateau = bench::score_room_segmentation(ras.free, ras.truth, by_distance_plateau.labels);
+    peers->erosion = bench::score_room_segmentation(ras.free, ras.truth, by_erosion.labels);
     peers->distance_level_m = by_distance.level_m;
     peers->distance_plateau_level_m = by_distance_plateau.level_m;
     peers->erosion_level_m = by_erosion.level_m;
