@@ -332,7 +332,11 @@ bool Pipeline::init_backend(std::string* error) {
   std::string why;
   if (!classifier_->init(&why))
     std::fprintf(stderr, "qsg_app: room labels off: %s (rooms stay \"unknown\")\n", why.c_str());
-  room_graph_.reserve(2048, 8192);
+  // The classifier's input holds every room, object and building node the graph can (room-room edges at most one
+  // per pair of rooms), so labelling never grows it.
+  const scene_graph::Capacities& gc = graph_.capacities();
+  room_graph_.reserve(static_cast<int>(gc.room_nodes + gc.object_nodes + gc.building_nodes),
+                      static_cast<int>(std::min(gc.edges, gc.room_nodes * (gc.room_nodes - 1) / 2)));
   if (config_.doors_online) {
     if (!online_doors_.init(config_.doors, rooms::OnlineDoorCapacities::from_budget(),
                             budgets::active::doors::kArenaBytes, error))
@@ -399,8 +403,9 @@ void Pipeline::run_backend_update(const BackendUpdate& u, bool door_pass) {
 // the room of the place it hangs from, room-room edges, the building.
 void Pipeline::label_rooms() {
   room_graph_.clear();
-  std::int32_t room_index[4096];
-  scene_graph::NodeId room_ids[4096];
+  constexpr int kRooms = static_cast<int>(budgets::active::scene_graph::kRoomNodes);
+  std::int32_t room_index[kRooms];
+  scene_graph::NodeId room_ids[kRooms];
   int rooms = 0;
   const auto index_of = [&](scene_graph::NodeId id) {
     for (int i = 0; i < rooms; ++i)
@@ -408,7 +413,7 @@ void Pipeline::label_rooms() {
     return -1;
   };
   graph_.for_each_node([&](const scene_graph::NodeRecord& n) {
-    if (n.kind != scene_graph::NodeKind::kRoom || rooms >= 4096) return;
+    if (n.kind != scene_graph::NodeKind::kRoom || rooms >= kRooms) return;
     const scene_graph::RoomAttributes* a = graph_.room(n.id);
     const Eigen::Vector3d size = a->bounding_box.type == scene_graph::BoundingBox::Type::kInvalid
                                      ? Eigen::Vector3d::Zero()

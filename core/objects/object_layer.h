@@ -105,12 +105,13 @@ struct Config {
   void print(std::FILE* out) const;
 };
 
+// Sizes of the layer's stores: the budget table's "objects" arena (capacities_from_budget()), or a test's own.
 struct Capacities {
-  std::size_t cluster_vertices = 65536;   // new (not yet tracked) vertices clustered in one update
-  std::size_t tracked_vertices = 131072;  // object vertices in the active window
-  std::size_t vertex_keys = 262144;       // mesh-vertex keys kept by all objects (their mesh connections)
-  std::size_t tracked_blocks = 2048;      // active-window blocks holding object vertices
-  std::size_t objects = 4096;
+  std::size_t cluster_vertices = 0;  // new (not yet tracked) vertices clustered in one update
+  std::size_t tracked_vertices = 0;  // object vertices in the active window
+  std::size_t vertex_keys = 0;       // mesh-vertex keys kept by all objects (their mesh connections)
+  std::size_t tracked_blocks = 0;    // active-window blocks holding object vertices
+  std::size_t objects = 0;
   std::string check() const;
   void print(std::FILE* out) const;
 };

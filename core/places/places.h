@@ -161,15 +161,17 @@ struct Config {
   void print(std::FILE* out) const;
 };
 
+// Sizes of the layer's stores: the budget table's "places" arena (capacities_from_budget()), or a test's own. No
+// defaults: a number lives only in budgets/<board>.json.
 struct Capacities {
-  std::size_t max_blocks = 512;      // ESDF blocks of kBlockVoxels voxels (the window's free space and surfaces)
-  std::size_t place_nodes = 32768;   // clusters = place nodes alive in the window, plus those awaiting sync()
+  std::size_t max_blocks = 0;        // ESDF blocks of kBlockVoxels voxels (the window's free space and surfaces)
+  std::size_t place_nodes = 0;       // clusters = place nodes alive in the window, plus those awaiting sync()
   // Inactive places remembered by hash cell for revisits (revival and merging): cells, and places over all cells.
-  std::size_t inactive_cells = 32768;
+  std::size_t inactive_cells = 0;
   // TSDF blocks whose free space observe() remembers until the next cycle (each cycle holds one such set while
   // observe() fills the other); a frame touches a few hundred blocks, a cycle of 5 keyframes ~1000.
-  std::size_t observed_blocks = 4096;
-  std::size_t pending_relinks = 512;   // inactive-place edges waiting for a live place to move to
+  std::size_t observed_blocks = 0;
+  std::size_t pending_relinks = 0;     // inactive-place edges waiting for a live place to move to
   void print(std::FILE* out) const;
 };
 Capacities capacities_from_budget();

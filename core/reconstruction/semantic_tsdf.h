@@ -79,12 +79,13 @@ struct Config {
   void print(std::FILE* out) const;
 };
 
+// Sizes of the layer's stores: the budget table's "reconstruction" arena (capacities_from_budget()), or a test's own.
 struct Capacities {
-  std::size_t max_blocks = 1408;
-  std::size_t mesh_vertices = 524288;    // active-window mesh, all blocks together
-  std::size_t mesh_triangles = 1048576;
-  std::size_t archive_vertices = 1048576;
-  std::size_t archive_triangles = 2097152;
+  std::size_t max_blocks = 0;
+  std::size_t mesh_vertices = 0;       // active-window mesh, all blocks together
+  std::size_t mesh_triangles = 0;
+  std::size_t archive_vertices = 0;
+  std::size_t archive_triangles = 0;
 };
 Capacities capacities_from_budget();
 

@@ -167,11 +167,11 @@ struct Config {
   void print(std::FILE* out) const;
 };
 
-// Fixed sizes of the finder's stores; from the scene graph's capacities by default.
+// Fixed sizes of the finder's stores: the scene graph's capacities (from_scene_graph), or a test's own.
 struct Capacities {
-  std::size_t places = 32768;       // place nodes read per update (more are ignored and counted)
-  std::size_t place_edges = 262144; // place-place edges read per update (more are ignored and counted)
-  std::size_t rooms = 512;          // rooms per update (more seeds are dropped, smallest first, and counted)
+  std::size_t places = 0;       // place nodes read per update (more are ignored and counted)
+  std::size_t place_edges = 0;  // place-place edges read per update (more are ignored and counted)
+  std::size_t rooms = 0;        // rooms per update (more seeds are dropped, smallest first, and counted)
   static Capacities from_scene_graph(const scene_graph::Capacities& graph);
   std::string check() const;
   void print(std::FILE* out) const;
