@@ -50,7 +50,9 @@ struct Options {
 void usage(const char* argv0) {
   std::fprintf(stderr,
                "usage: %s [--seeds 1,2,3 | --seeds 4 5 6] [--rooms N] [--size WxH] [--spacing-m S] [--tolerance-m T] "
-               "%s [--json FILE]\n",
+               "%s [--json FILE]\n"
+               "  Objects of the app's pipeline on generated buildings against the simulator's ground truth: found,\n"
+               "  correct, merges, time (objects_eval.*). --odometry gt|sim|vio: drivers/sim/odometry_levels.h.\n",
                argv0, bench::odometry_usage());
 }
 
