@@ -164,7 +164,7 @@ struct Result {
   std::size_t places = 0;
   double gvd_distance_sum_m = 0.0;
   // Rooms.
-  world::RoomSegmentationScore rooms;
+  bench::RoomSegmentationScore rooms;
   std::size_t rooms_estimated = 0;
   // Mesh.
   std::size_t mesh_vertices = 0, mesh_off_surface = 0, mesh_off_voxel = 0;

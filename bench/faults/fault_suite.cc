@@ -241,7 +241,7 @@ Score score_graph(const std::string& path, const world::World& w, const world::B
   for (NodeKind k : {NodeKind::kObject, NodeKind::kAgent, NodeKind::kPlace, NodeKind::kRoom, NodeKind::kBuilding})
     s.nodes[scene_graph::to_string(k)] = static_cast<double>(g.num_nodes(k));
   std::vector<bench::FloorRaster> floors = bench::generated_floor_rasters(w, bc);
-  const world::RoomSegmentationScore rooms = bench::score_generated_rooms(g, &floors, 3.0);
+  const bench::RoomSegmentationScore rooms = bench::score_generated_rooms(g, &floors, 3.0);
   s.rooms_precision = rooms.precision_mean;
   s.rooms_recall = rooms.recall_mean;
   std::vector<bench::EstimatedObject> objects;
