@@ -105,7 +105,7 @@ void BM_Open3d_IntegrateAndExtract(benchmark::State& state) {
   }
   open3d::pipelines::integration::ScalableTSDFVolume volume(
       kVoxelM, kVoxelM * kTruncationVoxels, open3d::pipelines::integration::TSDFVolumeColorType::RGB8);
-  const drivers::CameraIntrinsics& in = data.intrinsics;
+  const messages::CameraIntrinsics& in = data.intrinsics;
   const open3d::camera::PinholeCameraIntrinsic intrinsic(in.width, in.height, in.fx, in.fy, in.cx, in.cy);
   std::size_t k = 0;
   std::size_t triangles = 0;
@@ -130,7 +130,7 @@ void BM_Ratio_Open3dOverOurs(benchmark::State& state) {
     state.SkipWithError("no frames rendered");
     return;
   }
-  const drivers::CameraIntrinsics& in = data.intrinsics;
+  const messages::CameraIntrinsics& in = data.intrinsics;
   const open3d::camera::PinholeCameraIntrinsic intrinsic(in.width, in.height, in.fx, in.fy, in.cx, in.cy);
   double ours_s = 0.0;
   double open3d_s = 0.0;

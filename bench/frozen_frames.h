@@ -14,8 +14,8 @@
 namespace qsg::bench {
 
 struct FrozenFrames {
-  drivers::CameraIntrinsics intrinsics;
-  std::vector<std::unique_ptr<drivers::RgbdFrame>> frames;
+  messages::CameraIntrinsics intrinsics;
+  std::vector<std::unique_ptr<messages::RgbdFrame>> frames;
   std::vector<Eigen::Isometry3d> poses;  // world_T_camera (optical frame)
 };
 
@@ -35,7 +35,7 @@ inline std::unique_ptr<FrozenFrames> render_frozen_frames(int width, int height,
   sim::SimCamera& camera = *sim_tour.camera;
   out->intrinsics = config.intrinsics;
   while (out->frames.size() < count) {
-    auto frame = std::make_unique<drivers::RgbdFrame>();
+    auto frame = std::make_unique<messages::RgbdFrame>();
     const drivers::ReadStatus status = camera.read(*frame, 0);
     if (status == drivers::ReadStatus::kEndOfStream) break;
     if (status != drivers::ReadStatus::kOk) continue;

@@ -26,13 +26,13 @@
 namespace qsg::bench {
 
 // A RealSense-like camera of the given size: 525 px focal length at 640 px width, principal point centred.
-inline drivers::CameraIntrinsics camera_of_size(int width, int height) {
+inline messages::CameraIntrinsics camera_of_size(int width, int height) {
   const double f = 525.0 * width / 640.0;
   return {width, height, f, f, (width - 1) / 2.0, (height - 1) / 2.0};
 }
 
 // A pinhole camera of the given size and horizontal field of view, principal point centred.
-inline drivers::CameraIntrinsics camera_of_fov(int width, int height, double hfov_deg) {
+inline messages::CameraIntrinsics camera_of_fov(int width, int height, double hfov_deg) {
   const double f = 0.5 * width / std::tan(0.5 * hfov_deg * 3.14159265358979 / 180.0);
   return {width, height, f, f, (width - 1) / 2.0, (height - 1) / 2.0};
 }
@@ -105,7 +105,7 @@ inline void set_odometry(const OdometryOption& option, std::uint64_t world_seed,
 // estimate at the frame's time, what the map is built from; true_world_T_camera the ground truth, for scoring.
 // Returns the number of frames passed to fn.
 template <typename Fn>
-std::size_t for_each_posed_frame(sim::SimCamera& camera, const sim::OdometryPoses& odometry, drivers::RgbdFrame& frame,
+std::size_t for_each_posed_frame(sim::SimCamera& camera, const sim::OdometryPoses& odometry, messages::RgbdFrame& frame,
                                  Fn&& fn) {
   std::size_t frames = 0;
   for (;;) {
@@ -123,7 +123,7 @@ std::size_t for_each_posed_frame(sim::SimCamera& camera, const sim::OdometryPose
 
 // Tour convenience: the frames posed by the tour's odometry.
 template <typename Fn>
-std::size_t for_each_posed_frame(SimTour& tour, drivers::RgbdFrame& frame, Fn&& fn) {
+std::size_t for_each_posed_frame(SimTour& tour, messages::RgbdFrame& frame, Fn&& fn) {
   return for_each_posed_frame(*tour.camera, tour.odometry, frame, std::forward<Fn>(fn));
 }
 

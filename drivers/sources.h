@@ -4,7 +4,7 @@
 
 #include <cstdint>
 
-#include "drivers/sensor_types.h"
+#include "core/messages/sensor_types.h"
 
 namespace qsg::drivers {
 
@@ -35,9 +35,9 @@ class RgbdSource {
  public:
   virtual ~RgbdSource() = default;
   virtual const char* name() const = 0;
-  virtual CameraIntrinsics intrinsics() const = 0;
+  virtual messages::CameraIntrinsics intrinsics() const = 0;
   // Waits up to timeout_ns (of the source's clock; simulated sources do not sleep) for the next frame.
-  virtual ReadStatus read(RgbdFrame& frame, std::int64_t timeout_ns) = 0;
+  virtual ReadStatus read(messages::RgbdFrame& frame, std::int64_t timeout_ns) = 0;
   virtual const DriverCounters& counters() const = 0;
 };
 
@@ -45,7 +45,7 @@ class OdometrySource {
  public:
   virtual ~OdometrySource() = default;
   virtual const char* name() const = 0;
-  virtual ReadStatus read(OdometrySample& sample, std::int64_t timeout_ns) = 0;
+  virtual ReadStatus read(messages::OdometrySample& sample, std::int64_t timeout_ns) = 0;
   virtual const DriverCounters& counters() const = 0;
 };
 

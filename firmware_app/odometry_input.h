@@ -84,7 +84,7 @@ class OdometryInput {
   bool paced_ = false;                         // in-memory: published on the loop clock
   bool ended_ = false;
   bool have_pending_ = false;
-  drivers::OdometrySample pending_;
+  messages::OdometrySample pending_;
   runtime::PoseBuffer buffer_;
   Eigen::Isometry3d body_T_camera_ = Eigen::Isometry3d::Identity();
   std::int64_t max_wait_ns_ = 0;

@@ -235,7 +235,7 @@ bool Pipeline::init(const AppConfig& config, runtime::Clock* clock, std::string*
   const budgets::QueueBudget* segmentation_budget = find_queue(table, "segmentation");
   const int pool = static_cast<int>(frames_budget->depth) + 2 +
                    (segmentation_budget != nullptr ? static_cast<int>(segmentation_budget->depth) + 2 : 0);
-  frames_ = std::make_unique<drivers::RgbdFrame[]>(static_cast<std::size_t>(pool));
+  frames_ = std::make_unique<messages::RgbdFrame[]>(static_cast<std::size_t>(pool));
   frame_poses_ = std::make_unique<Eigen::Isometry3d[]>(static_cast<std::size_t>(pool));
   frame_variances_ = std::make_unique<Eigen::Matrix<double, 6, 1>[]>(static_cast<std::size_t>(pool));
   if (!free_frames_.init(static_cast<std::uint32_t>(pool), budgets::DropPolicy::kDropNewest, nullptr, error) ||
@@ -339,7 +339,11 @@ bool Pipeline::init_backend(std::string* error) {
   std::string why;
   if (!classifier_->init(&why))
     std::fprintf(stderr, "qsg_app: room labels off: %s (rooms stay \"unknown\")\n", why.c_str());
-  room_graph_.reserve(2048, 8192);
+  // The classifier's input holds every room, object and building node the graph can (room-room edges at most one
+  // per pair of rooms), so labelling never grows it.
+  const scene_graph::Capacities& gc = graph_.capacities();
+  room_graph_.reserve(static_cast<int>(gc.room_nodes + gc.object_nodes + gc.building_nodes),
+                      static_cast<int>(std::min(gc.edges, gc.room_nodes * (gc.room_nodes - 1) / 2)));
   if (config_.doors_online) {
     if (!online_doors_.init(config_.doors, rooms::OnlineDoorCapacities::from_budget(),
                             budgets::active::doors::kArenaBytes, error))
@@ -410,8 +414,9 @@ void Pipeline::run_backend_update(const BackendUpdate& u, bool door_pass) {
 // the room of the place it hangs from, room-room edges, the building.
 void Pipeline::label_rooms() {
   room_graph_.clear();
-  std::int32_t room_index[4096];
-  scene_graph::NodeId room_ids[4096];
+  constexpr int kRooms = static_cast<int>(budgets::active::scene_graph::kRoomNodes);
+  std::int32_t room_index[kRooms];
+  scene_graph::NodeId room_ids[kRooms];
   int rooms = 0;
   const auto index_of = [&](scene_graph::NodeId id) {
     for (int i = 0; i < rooms; ++i)
@@ -419,7 +424,7 @@ void Pipeline::label_rooms() {
     return -1;
   };
   graph_.for_each_node([&](const scene_graph::NodeRecord& n) {
-    if (n.kind != scene_graph::NodeKind::kRoom || rooms >= 4096) return;
+    if (n.kind != scene_graph::NodeKind::kRoom || rooms >= kRooms) return;
     const scene_graph::RoomAttributes* a = graph_.room(n.id);
     const Eigen::Vector3d size = a->bounding_box.type == scene_graph::BoundingBox::Type::kInvalid
                                      ? Eigen::Vector3d::Zero()
@@ -471,7 +476,7 @@ void Pipeline::backend_worker() {
 }
 
 bool Pipeline::segment_frame(int index) {
-  drivers::RgbdFrame& frame = frames_[static_cast<std::size_t>(index)];
+  messages::RgbdFrame& frame = frames_[static_cast<std::size_t>(index)];
   if (segmenter_->segment(frame)) return true;
   frame.has_labels = false;
   segmentation_failures_.fetch_add(1);
@@ -609,7 +614,7 @@ void Pipeline::poll_camera() {
   if (pending_frame_ < 0 && !source_ended_) {
     int index = -1;
     if (!free_frames_.try_pop(&index)) return;  // every buffer is queued: the queue's drop policy decides
-    drivers::RgbdFrame& frame = frames_[static_cast<std::size_t>(index)];
+    messages::RgbdFrame& frame = frames_[static_cast<std::size_t>(index)];
     const drivers::ReadStatus status = camera_->read(frame, 0);
     if (status == drivers::ReadStatus::kOk) {
       ++counters_.frames_read;
@@ -626,7 +631,7 @@ void Pipeline::poll_camera() {
     }
   }
   if (pending_frame_ < 0) return;
-  const drivers::RgbdFrame& frame = frames_[static_cast<std::size_t>(pending_frame_)];
+  const messages::RgbdFrame& frame = frames_[static_cast<std::size_t>(pending_frame_)];
   const std::int64_t due_ns = data_to_loop_ns(frame.sample_time_ns);
   if (due_ns > clock_->now_ns()) return;  // not its time yet
   // Its pose from the odometry at its sample time; it may wait for the odometry, up to the budget's bound.
@@ -707,7 +712,7 @@ void Pipeline::telemetry_task(void* self, const runtime::TaskContext&) {
 
 void Pipeline::integrate_keyframe(const runtime::TaskContext& c) {
   if (current_keyframe_ < 0) return;
-  const drivers::RgbdFrame& frame = frames_[static_cast<std::size_t>(current_keyframe_)];
+  const messages::RgbdFrame& frame = frames_[static_cast<std::size_t>(current_keyframe_)];
   const Eigen::Isometry3d& world_T_camera = frame_poses_[static_cast<std::size_t>(current_keyframe_)];
   if (segmenter_ != nullptr && config_.lockstep && !frame.has_labels)
     ++(segment_frame(current_keyframe_) ? counters_.keyframes_segmented : counters_.keyframes_unlabelled);

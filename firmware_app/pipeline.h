@@ -221,7 +221,7 @@ class Pipeline {
   bool prefetch_outside_tasks_ = false;  // sim and replay: producing a frame is the simulator's cost, not the robot's
 
   // Frame buffers: the camera reads into a free one; keyframes wait in the queue for reconstruction.
-  std::unique_ptr<drivers::RgbdFrame[]> frames_;
+  std::unique_ptr<messages::RgbdFrame[]> frames_;
   std::unique_ptr<Eigen::Isometry3d[]> frame_poses_;
   std::unique_ptr<Eigen::Matrix<double, 6, 1>[]> frame_variances_;  // the odometry's covariance diagonal per frame
   runtime::BoundedQueue<int> free_frames_{"free_frames"};
@@ -292,12 +292,12 @@ class Pipeline {
   // Keyframes of agents to be described (one per describe_every_m of path): the loop copies grey and depth into a
   // free slot (none free: dropped, counted); the backend extracts their appearance and keeps it until the agent is
   // described.
-  void capture_agent_frame(const drivers::RgbdFrame& frame, scene_graph::NodeId agent, std::uint64_t time_ns);
+  void capture_agent_frame(const messages::RgbdFrame& frame, scene_graph::NodeId agent, std::uint64_t time_ns);
   void extract_captured_frames();
   struct AgentFrame {
     scene_graph::NodeId agent = scene_graph::kNoNode;
     std::uint64_t time_ns = 0;
-    drivers::CameraIntrinsics intrinsics;
+    messages::CameraIntrinsics intrinsics;
     std::vector<std::uint8_t> grey;  // sized for the largest frame at init
     std::vector<float> depth_m;
   };

@@ -51,8 +51,8 @@ bool Pipeline::init_loop_closure(std::string* error) {
   const auto slots = static_cast<std::uint32_t>(lc::kAppearanceFrames);
   lc_frames_.resize(slots);
   for (AgentFrame& f : lc_frames_) {
-    f.grey.assign(drivers::kMaxFramePixels, 0);
-    f.depth_m.assign(drivers::kMaxFramePixels, 0.0f);
+    f.grey.assign(messages::kMaxFramePixels, 0);
+    f.depth_m.assign(messages::kMaxFramePixels, 0.0f);
   }
   if (!lc_free_frames_.init(slots, budgets::DropPolicy::kDropNewest, nullptr, error) ||
       !lc_ready_frames_.init(slots, budgets::DropPolicy::kDropNewest, nullptr, error))
@@ -61,7 +61,7 @@ bool Pipeline::init_loop_closure(std::string* error) {
   lc_pending_.reserve(2 * slots);
   loop_closures_.reserve(lc::kLoopClosures);
   const std::size_t bytes = lc_detector_.bytes() + lc::kControlPoints * (sizeof(Eigen::Vector3d) + 8 + 16) +
-                            slots * drivers::kMaxFramePixels * (1 + sizeof(float)) +
+                            slots * messages::kMaxFramePixels * (1 + sizeof(float)) +
                             lc_pending_.capacity() * sizeof(PendingAppearance);
   if (bytes > lc::kArenaBytes)
     return *error = "budget: loop_closure stores need " + std::to_string(bytes) + " bytes, the arena has " +
@@ -72,7 +72,7 @@ bool Pipeline::init_loop_closure(std::string* error) {
 
 // Loop thread: the keyframe of a new agent node, when it is describe_every_m from the last captured one, goes to
 // the backend for its appearance. Copies into a preallocated slot; none free, it is dropped and counted.
-void Pipeline::capture_agent_frame(const drivers::RgbdFrame& frame, scene_graph::NodeId agent, std::uint64_t time_ns) {
+void Pipeline::capture_agent_frame(const messages::RgbdFrame& frame, scene_graph::NodeId agent, std::uint64_t time_ns) {
   if (!config_.loop_closure.enabled) return;
   const agents::AgentLayer& agents = frontend_.agents();
   if (agents.chain_size() == 0) return;

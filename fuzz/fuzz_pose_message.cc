@@ -21,7 +21,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     const std::uint32_t crc = pose_stream::crc32(message, pose_stream::kOffsetCrc);
     for (int i = 0; i < 4; ++i) message[pose_stream::kOffsetCrc + i] = static_cast<std::uint8_t>(crc >> (8 * i));
   }
-  drivers::OdometrySample sample;
+  messages::OdometrySample sample;
   char frame_id[pose_stream::kFrameIdBytes];
   std::uint32_t flags = 0;
   if (pose_stream::decode_pose_message(message, n, &sample, frame_id, &flags) != pose_stream::DecodeStatus::kOk)

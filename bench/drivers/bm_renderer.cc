@@ -198,8 +198,8 @@ std::vector<Eigen::Isometry3d> make_path(int num_poses) {
   return poses;
 }
 
-qsg::drivers::CameraIntrinsics intrinsics_for_width(int width) {
-  qsg::drivers::CameraIntrinsics k;
+qsg::messages::CameraIntrinsics intrinsics_for_width(int width) {
+  qsg::messages::CameraIntrinsics k;
   const double scale = width / 640.0;
   k.width = width;
   k.height = width * 3 / 4;
@@ -227,8 +227,8 @@ void run_render(benchmark::State& state, const qsg::world::World& world, const s
     state.SkipWithError(error.c_str());
     return;
   }
-  const qsg::drivers::CameraIntrinsics k = intrinsics_for_width(static_cast<int>(state.range(0)));
-  auto frame = std::make_unique<qsg::drivers::RgbdFrame>();
+  const qsg::messages::CameraIntrinsics k = intrinsics_for_width(static_cast<int>(state.range(0)));
+  auto frame = std::make_unique<qsg::messages::RgbdFrame>();
   std::size_t next = 0;
   double max_frame_s = 0.0, max_frame_cpu_s = 0.0;
   std::uint64_t sequence = 0;

@@ -50,7 +50,9 @@ struct Options {
 void usage(const char* argv0) {
   std::fprintf(stderr,
                "usage: %s [--seeds 1,2,3 | --seeds 4 5 6] [--rooms N] [--size WxH] [--spacing-m S] [--tolerance-m T] "
-               "%s [--json FILE]\n",
+               "%s [--json FILE]\n"
+               "  Objects of the app's pipeline on generated buildings against the simulator's ground truth: found,\n"
+               "  correct, merges, time (objects_eval.*). --odometry gt|sim|vio: drivers/sim/odometry_levels.h.\n",
                argv0, bench::odometry_usage());
 }
 
@@ -184,10 +186,10 @@ bool run_building(std::uint64_t seed, const Options& opt, Score* score, std::vec
     layer.capacities().print(stdout);
   }
 
-  auto frame = std::make_unique<drivers::RgbdFrame>();
+  auto frame = std::make_unique<messages::RgbdFrame>();
   const std::size_t frames = bench::for_each_posed_frame(
       sim_tour, *frame,
-      [&](const drivers::RgbdFrame& f, const Eigen::Isometry3d& T, std::int64_t t_ns, const Eigen::Isometry3d&) {
+      [&](const messages::RgbdFrame& f, const Eigen::Isometry3d& T, std::int64_t t_ns, const Eigen::Isometry3d&) {
     const auto t0 = std::chrono::steady_clock::now();
     tsdf.process(f, T);
     const auto t1 = std::chrono::steady_clock::now();

@@ -137,7 +137,11 @@ int main(int argc, char** argv) {
                  "usage: %s [--data-dir DIR] [--graphs a,b,...] [--outliers 0.1,0.3,0.5] [--seed N] [--json OUT]\n"
                  "          [--threshold-sigma C] [--gnc-inner N] [--gnc-mu-factor F] [--gnc-max-outer N]\n"
                  "  DIR holds NAME.g2o (default ../shared/data/pose_graphs); an outlier fraction f injects\n"
-                 "  f / (1 - f) x (the file's loop closures) wrong ones, so they are f of all closures.\n",
+                 "  f / (1 - f) x (the file's loop closures) wrong ones, so they are f of all closures.\n"
+                 "  The backend's pose-graph optimizer on the public g2o benchmarks: least-squares cost, iterations\n"
+                 "  and time from the file's guess (one thread), then with wrong loop closures injected: RMSE to the\n"
+                 "  outlier-free solution for GNC-TLS and Cauchy, wrong closures kept and right ones dropped.\n"
+                 "  JSON: pgo_eval.<graph>.*; results in bench/results/pose_graph.md.\n",
                  argv[0]);
     return 2;
   }

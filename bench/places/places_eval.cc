@@ -78,13 +78,33 @@ struct Options {
   bench::OdometryOption odometry;    // --odometry gt|sim|vio, --odometry-seed N (scored in the world frame)
 };
 
+const char kDetails[] = R"(
+Places of the app's pipeline on generated buildings (--two-floors: a second floor over a 0.2 m slab) or on an
+extruded IPA plan (--floorplan NAME [--furnished]), against the simulator's ground truth (places_eval.*):
+  - every run counts the place edges that run through solid ground truth (walls, floors, slabs) for at least 0.1 m,
+    an edge a planner would follow through a wall (edges_through_solid[_share]), and of those the ones whose ends
+    the ground truth's free space does not join within 1 m around them, two free spaces the edge wrongly makes one
+    rather than a wall corner its straight segment clips (edges_joining_apart); and the places whose clearance
+    exceeds the true one by more than 0.25 m and 0.5 m.
+  - --no-revive-check and --no-relink-check turn places::Config::revive_in_same_free_space and
+    relink_in_same_free_space off; --keep-edges-at-rim-m M sets keep_edges_at_rim_m (0: off); --merge-revisited-m M
+    sets merge_revisited_within_m (0: revisited places are not merged); --unobserved-above-m H,
+    --no-unobserved-obstacle, --no-rim-guard, --no-keep-rim-distances, --no-projective-correction,
+    --no-signed-seeds, --no-hold-distant, --no-bridge-paths and --bridge-max-places N compare the other options.
+  - --verbose --diagnose lists the places farthest from the true GVD with the ESDF around them and their basis
+    points, and explains every extra component; --trace X,Y,Z prints the ESDF voxel there (state, distance,
+    parent) at every keyframe where it changes.
+What each option earned: bench/results/places.md.
+)";
+
 void usage(const char* argv0) {
   std::fprintf(stderr,
                "usage: %s [--seeds 1,2,3] [--rooms N] [--size WxH] [--hfov-deg D] [--rate-hz R] [--every-n N] "
                "[--no-observe] [--no-free-space-edges] [--no-relink] [--no-bridges] [--no-contract] [--no-unobserved-obstacle] [--no-rim-guard] [--no-keep-rim-distances] [--no-signed-seeds] [--no-projective-correction] [--no-hold-distant] [--no-bridge-paths] [--no-revive-check] [--no-relink-check] [--two-floors] [--floorplan NAME [--furnished]] "
                "[--plans-dir DIR] [--window-radius-m R] [--keep-edges-at-rim-m M] [--merge-revisited-m M] [--slab-above-m H] [--bridge-max-places N] [--unobserved-above-m H] [--trace X,Y,Z] %s [--json FILE] [--verbose] [--diagnose]\n"
-               "  NAME: a map of the plans dir (Freiburg52_scan, lab_c_scan, lab_intel, lab_ipa, office_a, office_e)\n",
-               argv0, bench::odometry_usage());
+               "  NAME: a map of the plans dir (Freiburg52_scan, lab_c_scan, lab_intel, lab_ipa, office_a, office_e)\n"
+               "%s",
+               argv0, bench::odometry_usage(), kDetails);
 }
 
 bool parse(int argc, char** argv, Options* o) {
@@ -690,8 +710,8 @@ bool run_world(const Options& opt, const world::World& w, bool floor_plan, Build
                   opt.trace[i].z(), keyframe, robot_m.x(), robot_m.y(), robot_m.z(), line);
     }
   };
-  auto frame = std::make_unique<drivers::RgbdFrame>();
-  bench::for_each_posed_frame(sim_tour, *frame, [&](const drivers::RgbdFrame& f, const Eigen::Isometry3d& pose,
+  auto frame = std::make_unique<messages::RgbdFrame>();
+  bench::for_each_posed_frame(sim_tour, *frame, [&](const messages::RgbdFrame& f, const Eigen::Isometry3d& pose,
                                                     std::int64_t, const Eigen::Isometry3d&) {
     tsdf.process(f, pose);
     const auto t_obs = std::chrono::steady_clock::now();

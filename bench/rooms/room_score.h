@@ -14,7 +14,7 @@
 
 #include "core/scene_graph/scene_graph.h"
 #include "drivers/world/building_generator.h"
-#include "drivers/world/floor_plan_rooms.h"
+#include "bench/rooms/floor_plan_rooms.h"
 #include "drivers/world/world.h"
 #include "drivers/world/world_query.h"
 
@@ -122,8 +122,8 @@ inline void label_from_places(const scene_graph::SceneGraph& g, double z_min_m, 
 }
 
 // The benchmark's max-overlap precision and recall over the cells that are free and inside a ground-truth room.
-inline world::RoomSegmentationScore score(const Raster& ras) {
-  return world::score_room_segmentation(ras.free, ras.truth, ras.estimate);
+inline bench::RoomSegmentationScore score(const Raster& ras) {
+  return bench::score_room_segmentation(ras.free, ras.truth, ras.estimate);
 }
 
 // One raster per floor of a generated building over its footprint (0.05 m): room interiors are free, labelled by
@@ -166,10 +166,10 @@ inline std::vector<FloorRaster> generated_floor_rasters(const world::World& w, c
 
 // The estimated rooms of a generated building scored over its floors (oracle: each place given its ground-truth
 // room instead, the bound exploration and rasterization allow).
-inline world::RoomSegmentationScore score_generated_rooms(const scene_graph::SceneGraph& g,
+inline bench::RoomSegmentationScore score_generated_rooms(const scene_graph::SceneGraph& g,
                                                           std::vector<FloorRaster>* floors, double max_reach_m,
                                                           bool oracle = false) {
-  world::RoomSegmentationScore total;
+  bench::RoomSegmentationScore total;
   for (FloorRaster& f : *floors) {
     label_from_places(g, f.z_min_m, f.z_max_m, max_reach_m, &f.raster, oracle);
     total.add(score(f.raster));

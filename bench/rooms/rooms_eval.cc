@@ -57,7 +57,7 @@
 #include "drivers/sim/sim_camera.h"
 #include "drivers/world/building_generator.h"
 #include "drivers/world/floor_plan_import.h"
-#include "drivers/world/floor_plan_rooms.h"
+#include "bench/rooms/floor_plan_rooms.h"
 #include "drivers/world/world_query.h"
 
 #ifndef QSG_SHARED_DATA_DIR
@@ -326,7 +326,7 @@ std::size_t apply_door_oracle(const Raster& ras, double clearance_m, sg::SceneGr
   return doors.size();
 }
 
-using Score = world::RoomSegmentationScore;
+using Score = bench::RoomSegmentationScore;
 
 // Left: the estimated rooms, right: the ground truth, each room a colour from its id (black: occupied, grey: free but
 // unlabelled).
@@ -630,13 +630,13 @@ bool run_pipeline(const Options& opt, const world::World& w, std::uint64_t world
     stats->doors_bypassed += pr.bypassed;
     stats->pass_ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
   };
-  auto frame = std::make_unique<drivers::RgbdFrame>();
+  auto frame = std::make_unique<messages::RgbdFrame>();
   Eigen::Vector3d last = Eigen::Vector3d::Zero();
   std::uint64_t t_last = 0;
   std::size_t frontend_updates = 0;
   stats->keyframes = bench::for_each_posed_frame(
       sim_tour, *frame,
-      [&](const drivers::RgbdFrame& f, const Eigen::Isometry3d& T, std::int64_t t_ns, const Eigen::Isometry3d&) {
+      [&](const messages::RgbdFrame& f, const Eigen::Isometry3d& T, std::int64_t t_ns, const Eigen::Isometry3d&) {
         tsdf->process(f, T);
         if (online) online->wall_map().repaint(*tsdf, painted_stamp.data(), painted_block.data(), painted_stamp.size());
         fe->add_keyframe(graph, static_cast<std::uint64_t>(t_ns), T);
@@ -841,9 +841,9 @@ bool eval_plan(const Options& opt, const std::string& map, bool furnished, Score
                     &surface, st))
     return false;
   // Ground truth straight from the benchmark's image: 8-connected white regions of more than 100 px.
-  world::PlanRaster plan;
+  bench::PlanRaster plan;
   std::string read_error;
-  if (!world::read_plan_raster(occ_path, gt_path, fc, &plan, &read_error)) {
+  if (!bench::read_plan_raster(occ_path, gt_path, fc, &plan, &read_error)) {
     std::fprintf(stderr, "%s\n", read_error.c_str());
     return false;
   }
@@ -854,23 +854,23 @@ bool eval_plan(const Options& opt, const std::string& map, bool furnished, Score
   ras.free = std::move(plan.free);
   ras.truth = std::move(plan.truth);
   if (peers != nullptr) {
-    world::DistanceSegmentationConfig dc;
+    bench::DistanceSegmentationConfig dc;
     dc.resolution_m = ras.res_m;
-    world::MorphologicalSegmentationConfig mc;
+    bench::MorphologicalSegmentationConfig mc;
     mc.resolution_m = ras.res_m;
-    world::DistanceSegmentationConfig dpc = dc;
-    dpc.level = world::DistanceSegmentationConfig::Level::kPlateau;
-    world::PlanSegmentation by_distance, by_distance_plateau, by_erosion;
+    bench::DistanceSegmentationConfig dpc = dc;
+    dpc.level = bench::DistanceSegmentationConfig::Level::kPlateau;
+    bench::PlanSegmentation by_distance, by_distance_plateau, by_erosion;
     const char* why = nullptr;
-    if (!world::segment_by_distance_transform(ras.free, ras.cols, ras.rows, dc, &by_distance, &why) ||
-        !world::segment_by_distance_transform(ras.free, ras.cols, ras.rows, dpc, &by_distance_plateau, &why) ||
-        !world::segment_by_erosion(ras.free, ras.cols, ras.rows, mc, &by_erosion, &why)) {
+    if (!bench::segment_by_distance_transform(ras.free, ras.cols, ras.rows, dc, &by_distance, &why) ||
+        !bench::segment_by_distance_transform(ras.free, ras.cols, ras.rows, dpc, &by_distance_plateau, &why) ||
+        !bench::segment_by_erosion(ras.free, ras.cols, ras.rows, mc, &by_erosion, &why)) {
       std::fprintf(stderr, "%s: %s\n", map.c_str(), why);
       return false;
     }
-    peers->distance = world::score_room_segmentation(ras.free, ras.truth, by_distance.labels);
-    peers->distance_plateau = world::score_room_segmentation(ras.free, ras.truth, by_distance_plateau.labels);
-    peers->erosion = world::score_room_segmentation(ras.free, ras.truth, by_erosion.labels);
+    peers->distance = bench::score_room_segmentation(ras.free, ras.truth, by_distance.labels);
+    peers->distance_plateau = bench::score_room_segmentation(ras.free, ras.truth, by_distance_plateau.labels);
+    peers->erosion = bench::score_room_segmentation(ras.free, ras.truth, by_erosion.labels);
     peers->distance_level_m = by_distance.level_m;
     peers->distance_plateau_level_m = by_distance_plateau.level_m;
     peers->erosion_level_m = by_erosion.level_m;
@@ -1110,6 +1110,67 @@ bool eval_generated(const Options& opt, std::uint64_t seed, Score* out, RunStats
 
 }  // namespace
 
+const char kDetails[] = R"(
+Rooms of the app's pipeline on the IPA floor plans (extruded, plain and furnished) and generated buildings against
+the simulator's ground truth, scored as the room-segmentation benchmark does (bench/rooms/floor_plan_rooms.h: mean
+and area precision and recall; rooms_eval.*, rooms_eval.ipa.<set>.*).
+Exploration and caches:
+  --cache-dir DIR keeps each explored graph so room parameters (--seeding, --min-component, --min-persistence-m,
+  ...) can be swept in seconds; a cache holds what that build's simulator and pipeline explored: make a new one
+  after changing them (and for each --merge-revisited-m M, places::Config::merge_revisited_within_m, 0 off). The
+  tour visits every room it can enter and looks into each room it cannot from the reachable spot that sees most of
+  it (sim::ExplorationConfig::look_into_unreachable_rooms; --look-into-unreachable 0 turns it off; caches explored
+  with it on are named <plan>.peek); each plan's line counts the unreachable rooms and those looked into, and a
+  second line scores only the rooms the tour could reach.
+  --furniture-height-m H extrudes the furnished plans' furniture to H instead of the walls' 2.5 m and reports that
+  set as furnished_low (the benchmark's own use, and the targets, keep furniture as 2.5 m posts).
+Bounds and peers, beside every score:
+  the oracle bound (each observed place given its ground-truth room, same rasterization and score: the gap to it is
+  the room finder's); on the IPA plans three peers on the complete plan: Bormann et al.'s distance-transform
+  segmentation (peer_distance), the same with the threshold chosen per map by the paper's alpha plateau rule over
+  [0.5, 1.2] m (peer_distance_plateau), their morphological segmentation (peer_morphological), and ours over theirs
+  (...peer_<method>.ours_over_peer.*); on every plan and building Hydra's own room clustering
+  (rooms::Config::paper(), the door stage's cuts undone) on the same explored places (peer_hydra, ours over it in
+  "ALL peer Hydra"; not run with --door-oracle-m).
+The room finder (rooms::Config): --split-by-extent 0|1, --extent-saturation-m, --split-min-extent-m,
+  --split-max-extent-m, --split-min-persistence-m, --split-min-component (the extent split); --merge-corridors 0|1,
+  --corridor-min-neighbours N, --corridor-min-open-edges N (the corridor merge); --merge-visible 0|1,
+  --visible-min-share S, --visible-samples N, --visible-local-radius-m R (0: off), --visible-local-min-share S (the
+  visibility merge and its test near the rooms' boundary); --visible-touching 0|1,
+  --visible-touch-max-clearance-m C (rooms adjacent where two places' free-space spheres touch in sight with no
+  place edge between them). Each plan prints the rooms merged (and of them by the boundary test only), the pairs
+  tested, the touching place pairs found and dropped, and the open place edges read as closed through walls.
+Doors (rooms::DoorConfig): by default the door stage runs as the app's does when a run finishes
+  (rooms::find_doors on the robot's own mesh, cached beside each graph as .surface.f32, then cut_place_edges);
+  --doors 0 turns it off; --door-* flags set DoorConfig, among them --door-bypass-max-m D (0: off),
+  --door-bypass-extension-m E and --door-bypass-max-edge-m L (a door the places graph goes round is dropped; each
+  plan's doors line counts them). The same slices give the room finder its sight lines (rooms::WallSight):
+  --sight-min-wall-m W, --sight-wall-dilation-m D, --sight-furniture-max-m L and --sight-furniture-min-width-m W
+  (thick islands as furniture; L 0: off) set what is structure, --sight-cut-edges 0|1 the closing of place edges
+  that cross it. Each door the room finder read is judged by the ground-truth rooms on its two sides (the first room
+  cell 0.15 to 1 m out along its normal): between two rooms, inside one room (a false door) or unknown
+  (rooms_eval.ipa.<set>.doors_{between_rooms,inside_a_room,inside_a_room_share}).
+  --doors online runs the app's online stage instead: the exploration paints each re-meshed block into the wall map
+  and every --online-every N-th frontend update (4, as the app) runs a window pass around the robot
+  (--online-misses N and --online-match-m M: DoorConfig::online_misses_to_drop and online_match_m, 2 and 0.5 m as
+  the app); the room finder reads the final door set and the last pass's sight lines (cached as .sight), and merges
+  by visibility only with --merge-visible-in-window 1, as in the app. It writes .online_doors_*,
+  online_doors_{added,dropped}_per_pass, online_door_pass_ms_{median,p99,max} and online_wall_tiles_max, and
+  caches the doors as .online_doors.every<N>.misses<M>.match<X>.f64 (a cache explored with other online settings is
+  refused; change the --door-* detector flags in a new cache dir).
+  --door-oracle-m C cuts every place edge between two ground-truth rooms before the scored run on the IPA plans:
+  the bound a perfect door and opening detector gives the seeding (add --min-persistence-m 9 --min-dilation-m 0.1
+  --split-by-extent 0: one room per connected piece of the cut graph with at least --min-component places).
+Pictures and dumps: --images DIR draws each plan (doors in red); --dump-places DIR writes each plan's (and each
+  generated floor's) places and place edges with their estimated and ground-truth rooms and the doors read (D
+  lines), which rooms/finder_sandbox.py DIR reads: a Python mirror of the room finder (persistence seeding,
+  closed-off regions, flood fill, extent split, corridor merge; close to the C++, not exact) with a per-place proxy
+  score, to try a room-finder idea in under a second (--no-extent-split, --no-corridor-merge mirror the flags).
+Labels: the neural tree's room labels are scored on the generated buildings; --label-buildings N scores them on N
+  more generated buildings' own rooms and objects (no exploration), per room type.
+What each setting earned: bench/results/rooms.md.
+)";
+
 int main(int argc, char** argv) {
   Options opt;
   if (!parse(argc, argv, &opt)) {
@@ -1129,8 +1190,8 @@ int main(int argc, char** argv) {
                  "[--sight-min-wall-m W] "
                  "[--sight-wall-dilation-m D] [--sight-furniture-max-m L] [--sight-furniture-min-width-m W] "
                  "[--sight-cut-edges 0|1] %s "
-                 "[--json FILE]\n",
-                 argv[0], bench::odometry_usage());
+                 "[--json FILE]\n%s",
+                 argv[0], bench::odometry_usage(), kDetails);
     return 2;
   }
   // The output directories are made here, so a typo is one clear error at start-up rather than a missed cache.

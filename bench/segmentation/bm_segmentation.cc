@@ -48,7 +48,7 @@ struct Setup {
   std::string error;  // non-empty: skip
   LabelMap map;
   Segmenter seg;
-  std::unique_ptr<qsg::drivers::RgbdFrame> frame = std::make_unique<qsg::drivers::RgbdFrame>();
+  std::unique_ptr<qsg::messages::RgbdFrame> frame = std::make_unique<qsg::messages::RgbdFrame>();
 };
 
 // Loaded once: the model (with its warm-up pass) and the TUM desk frame as RGB.
@@ -167,7 +167,7 @@ void BM_segmentation_postprocess(benchmark::State& state) {
   }
   std::vector<float> logits(21u * 384u * 384u);
   for (std::size_t i = 0; i < logits.size(); ++i) logits[i] = static_cast<float>((i * 2654435761u) % 1000u) * 0.01f;
-  auto frame = std::make_unique<qsg::drivers::RgbdFrame>();
+  auto frame = std::make_unique<qsg::messages::RgbdFrame>();
   frame->intrinsics.width = 640;
   frame->intrinsics.height = 480;
   for (auto _ : state) {

@@ -27,8 +27,8 @@ struct Config {
   // get their parent among the active places every cycle. Every this many places cycles the others (out of the
   // window, or nearer its rim) get the place of the whole graph, active or not, whose free-space sphere is
   // nearest. Before, an object seen from afar (through a door, before its own room had places) kept the place
-  // behind the wall once it left the window: 10 of 66 objects in the wrong room on generated two-floor
-  // buildings (bench/rooms/rooms_eval). One k-d tree rebuild over all places per refresh. 0: off (every
+  // behind the wall once it left the window, in the wrong room (bench/results/objects.md). One k-d tree rebuild
+  // over all places per refresh. 0: off (every
   // tracked object among the active places every cycle, as before).
   std::uint32_t reparent_untracked_every = 10;
   std::string check() const;

@@ -119,11 +119,11 @@ class RoomClassifier {
     // A room whose best label is less likely stays "unknown" (its probabilities are still reported): weak
     // evidence says so. 0.45 maximises right minus wrong answers ("unknown" scoring 0) on held-out generated
     // buildings with clutter, as the app and as the segmentation network see them (labels_eval --calibrate,
-    // bench/results/room_labels.md): of 300 answers at 0, 86 wrong; at 0.45, 227 answers, 16 wrong, 2 right lost.
+    // bench/results/room_labels.md).
     float min_probability = 0.45f;
     // A room with fewer objects stays "unknown": every training room holds at least one, so the network has never
-    // seen an empty room and labels one at random (generated buildings: all 160 hallways and stairwells of 480
-    // rooms wrong). The probabilities are still reported. 0 labels every room.
+    // seen an empty room and labels one at random (generated buildings' hallways and stairwells,
+    // bench/results/room_labels.md). The probabilities are still reported. 0 labels every room.
     int min_objects = 1;
     // Our segmenter's mpcat40 labels that name the same thing as a COCO class the classifier was trained on (sofa
     // = couch, tv_monitor = tv, table = dining_table, COCO's only table) take that class's row of the word table,
@@ -142,9 +142,7 @@ class RoomClassifier {
     double lr_weight = -1.0;
     // A room with no object the classifier reads is labelled by the LR head alone (its box; the neural tree has
     // never seen an empty room), min_objects not applied, min_probability still. Off: such a room stays
-    // "unknown" (min_objects 1). On earned its keep on held-out data (labels_eval, bench/results/room_labels.md):
-    // calibration buildings right - wrong 195 -> 220; reported buildings with clutter 155 -> 167; Stanford CV
-    // unchanged (1537 -> 1538 with clutter, 430 -> 430 with the segmentation labels only).
+    // "unknown" (min_objects 1). On earned its keep on held-out data (labels_eval, bench/results/room_labels.md).
     bool empty_rooms_from_box = true;
     void print(std::FILE* out) const;
   };

@@ -96,21 +96,21 @@ struct Config {
   double index_cell_m = 2.0;
   // Mesh-vertex references (mesh connections) an object keeps at most: a uniform sample of its surface (reservoir
   // sampling over every vertex it was given), not all of it. A revisited surface under drifting odometry lands on
-  // new vertices every pass, so each object reaches the cap: the key store (the budget's vertex_keys, 131,072 on
-  // xavier_nx) then holds vertex_keys / max_keys_per_object objects at the cap, 256 at 512 (an 8-hour mission
-  // under drift: 46-58 objects; at 2048 they filled the store after 2.7 h). Vertices past the cap still shape the
-  // object (centroid, box).
+  // new vertices every pass, so each object reaches the cap: the key store (the budget's vertex_keys) then holds
+  // vertex_keys / max_keys_per_object objects at the cap (an 8-hour mission under drift with 2048 filled it;
+  // bench/results/odometry.md). Vertices past the cap still shape the object (centroid, box).
   std::uint32_t max_keys_per_object = 512;
   std::string check() const;      // empty when usable, else the bad field and why
   void print(std::FILE* out) const;
 };
 
+// Sizes of the layer's stores: the budget table's "objects" arena (capacities_from_budget()), or a test's own.
 struct Capacities {
-  std::size_t cluster_vertices = 65536;   // new (not yet tracked) vertices clustered in one update
-  std::size_t tracked_vertices = 131072;  // object vertices in the active window
-  std::size_t vertex_keys = 262144;       // mesh-vertex keys kept by all objects (their mesh connections)
-  std::size_t tracked_blocks = 2048;      // active-window blocks holding object vertices
-  std::size_t objects = 4096;
+  std::size_t cluster_vertices = 0;  // new (not yet tracked) vertices clustered in one update
+  std::size_t tracked_vertices = 0;  // object vertices in the active window
+  std::size_t vertex_keys = 0;       // mesh-vertex keys kept by all objects (their mesh connections)
+  std::size_t tracked_blocks = 0;    // active-window blocks holding object vertices
+  std::size_t objects = 0;
   std::string check() const;
   void print(std::FILE* out) const;
 };

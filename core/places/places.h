@@ -68,9 +68,8 @@ struct Config {
   bool unobserved_is_obstacle = true;
   // ... up to this height above the robot (the camera). A quadruped's camera sees the floor around it but rarely
   // the ceiling above it: bounding by the unseen space above keeps places off the sheets that the unseen ceiling
-  // would end (extruded plans: 0.15 m from the true GVD instead of 0.25), but it also removes every place in a
-  // room's middle, whose clearance the rooms layer needs (the main job: 1 room of 12 instead of 9). Hence 0 by
-  // default (the floor side only); a large value bounds everywhere.
+  // would end, but it also removes every place in a room's middle, whose clearance the rooms layer needs
+  // (bench/results/places.md). Hence 0 by default (the floor side only); a large value bounds everywhere.
   double unobserved_obstacle_above_m = 0.0;
   // A voxel at the window's vertical rim (the block above or below it is outside the window: the spherical window
   // drops the floor's and the ceiling's blocks before those at the robot's height) takes its distance from the
@@ -82,8 +81,8 @@ struct Config {
   // counted in Counters::voxels_orphaned) and the GVD around them keeps its state, as at the vertical rim, until
   // a real wavefront reaches them again (the robot comes back) or their block leaves too. Off (the FIESTA rule for
   // a vanished obstacle), they are raised and refilled from the obstacles still inside, e.g. the floor alone
-  // beside a wall that just left: corridor places went inactive with 1.3-1.5 m clearance where the walls were
-  // 0.4-0.55 m away, which merged rooms through their doors (rooms_eval, IPA plans).
+  // beside a wall that just left: corridor places went inactive with far more clearance than the walls beside
+  // them allowed, which merged rooms through their doors (bench/results/places.md).
   bool keep_distances_at_rim = true;
   // The paper: each GVD voxel's distance "defines a sphere of free-space"; the union of the spheres is the free
   // space and carries its connectivity. Places of neighbouring hash cells whose spheres overlap are joined by a
@@ -97,8 +96,8 @@ struct Config {
   // ESDF certifies the segment between them), as for a revival: the removed place's sphere may overlap the new
   // one's while the inactive place lies on the other side of a floor slab whose underside the camera never saw
   // (the new place's clearance then reaches through it). A refused relink waits for another replacement and is
-  // dropped with the others when the removed place leaves the window. Off (places_eval, three two-floor
-  // buildings): 51 edges joining free spaces apart instead of 43.
+  // dropped with the others when the removed place leaves the window. Off: more edges join free spaces apart
+  // (bench/results/places.md).
   bool relink_in_same_free_space = true;
   // A place that left the window stays in the graph, inactive, and a new place in the same hash cell later brings
   // that node back to life with its edges to other inactive places (a revisit). A 1 m cell can also hold free space
@@ -106,20 +105,18 @@ struct Config {
   // ground floor and the bottom of the upper one), where those edges would cross the wall or the slab. On, the node
   // is brought back only if the new place is in the same free space as where the node left: their spheres of free
   // space (position, clearance) overlap, or the ESDF certifies the segment between them; otherwise the new place
-  // gets a node of its own and the old one stays where it was. Off: any new place of the cell revives it (ten
-  // generated two-floor buildings: 3.5-5.7 % of their place edges then ran through the slab). The cost: a revisit the
+  // gets a node of its own and the old one stays where it was. Off: any new place of the cell revives it, and
+  // place edges run through the slab of two-floor buildings (bench/results/places.md). The cost: a revisit the
   // ESDF cannot certify (space near an unseen ceiling, not carved again) is refused too, and an inactive region
-  // that hung on that node alone stays apart (places_eval, one of three one-floor buildings: 22 places, until
-  // keep_edges_at_rim_m kept the edges it had lost at the rim). Refusing only on known obstacles (occupied, surface,
-  // frontier seed) avoided that but let more through the slab.
+  // that hung on that node alone stays apart (until keep_edges_at_rim_m kept the edges it had lost at the rim).
+  // Refusing only on known obstacles (occupied, surface, frontier seed) avoided that but let more through the slab.
   bool revive_in_same_free_space = true;
   // Within this distance of the window's sphere (window_radius_m around the robot), a place's GVD piece is cut
   // short as the ESDF blocks beyond the rim leave, so two places there stop touching although the free space
   // between them is as it was: the edge between them, certified while both were inside, is kept until both are
   // farther in again (or for good once one leaves). Without it, a region whose last edges to the rest went this
-  // way left the window as a component of its own (places_eval, one of three one-floor buildings: 22 places).
-  // The slab's top and bottom are not counted: there a kept edge often ran from one floor to the next (two-floor
-  // buildings: 10 more edges joining free spaces apart at 0.5 m). 0: edges follow the GVD up to the rim; must be
+  // way left the window as a component of its own (bench/results/places.md). The slab's top and bottom are not
+  // counted: there a kept edge often ran from one floor to the next. 0: edges follow the GVD up to the rim; must be
   // below window_radius_m.
   double keep_edges_at_rim_m = 0.5;
   // The paper's reconciliation of revisited places ("we merge nodes within a distance threshold, 0.4 m"): after
@@ -136,7 +133,7 @@ struct Config {
   // (one TSDF voxel by default: every GVD voxel it crosses is observed free space, none holds a surface; a whole
   // GVD voxel would refuse the 0.4 m gaps between furniture where such fragments sit).
   bool bridge_fragments = true;
-  int bridge_max_fragment_places = 16;  // 4 left 43- and 19-place groups of a furnished plan apart (Freiburg52)
+  int bridge_max_fragment_places = 16;  // 4 left two groups of a furnished plan apart (bench/results/places.md)
   double bridge_max_length_m = 3.0;
   double bridge_min_clearance_m = 0.1;
   // When no straight segment is certified, a breadth-first search through free ESDF voxels (distance >=
@@ -161,15 +158,17 @@ struct Config {
   void print(std::FILE* out) const;
 };
 
+// Sizes of the layer's stores: the budget table's "places" arena (capacities_from_budget()), or a test's own. No
+// defaults: a number lives only in budgets/<board>.json.
 struct Capacities {
-  std::size_t max_blocks = 512;      // ESDF blocks of kBlockVoxels voxels (the window's free space and surfaces)
-  std::size_t place_nodes = 32768;   // clusters = place nodes alive in the window, plus those awaiting sync()
+  std::size_t max_blocks = 0;        // ESDF blocks of kBlockVoxels voxels (the window's free space and surfaces)
+  std::size_t place_nodes = 0;       // clusters = place nodes alive in the window, plus those awaiting sync()
   // Inactive places remembered by hash cell for revisits (revival and merging): cells, and places over all cells.
-  std::size_t inactive_cells = 32768;
+  std::size_t inactive_cells = 0;
   // TSDF blocks whose free space observe() remembers until the next cycle (each cycle holds one such set while
   // observe() fills the other); a frame touches a few hundred blocks, a cycle of 5 keyframes ~1000.
-  std::size_t observed_blocks = 4096;
-  std::size_t pending_relinks = 512;   // inactive-place edges waiting for a live place to move to
+  std::size_t observed_blocks = 0;
+  std::size_t pending_relinks = 0;     // inactive-place edges waiting for a live place to move to
   void print(std::FILE* out) const;
 };
 Capacities capacities_from_budget();

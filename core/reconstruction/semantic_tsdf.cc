@@ -389,12 +389,12 @@ bool SemanticTsdf::evict_farthest(const Eigen::Vector3d& robot_m) {
   return true;
 }
 
-bool SemanticTsdf::integrate(const drivers::RgbdFrame& frame, const Eigen::Isometry3d& world_T_camera) {
+bool SemanticTsdf::integrate(const messages::RgbdFrame& frame, const Eigen::Isometry3d& world_T_camera) {
   if (!ready_ || !frame.intrinsics.valid() || !world_T_camera.matrix().allFinite()) return false;
   ++frame_stamp_;
   ++counters_.frames;
   touched_.clear();
-  const drivers::CameraIntrinsics& in = frame.intrinsics;
+  const messages::CameraIntrinsics& in = frame.intrinsics;
   const float min_m = static_cast<float>(config_.min_range_m), max_m = static_cast<float>(config_.max_range_m);
   const float trunc = static_cast<float>(config_.voxel_size_m * config_.truncation_voxels);
   const double block_m = config_.voxel_size_m * kBlockSide;
@@ -466,7 +466,7 @@ bool SemanticTsdf::integrate(const drivers::RgbdFrame& frame, const Eigen::Isome
     // bits as on one thread. Jobs of 4 blocks keep the shared counter cold.
     struct Context {
       SemanticTsdf* self;
-      const drivers::RgbdFrame* frame;
+      const messages::RgbdFrame* frame;
       const Eigen::Isometry3d* camera_T_world;
       std::uint32_t count;
     } context{this, &frame, &camera_T_world, count};
@@ -483,14 +483,14 @@ bool SemanticTsdf::integrate(const drivers::RgbdFrame& frame, const Eigen::Isome
   return true;
 }
 
-void SemanticTsdf::integrate_range(const drivers::RgbdFrame& frame, const Eigen::Isometry3d& camera_T_world,
+void SemanticTsdf::integrate_range(const messages::RgbdFrame& frame, const Eigen::Isometry3d& camera_T_world,
                                    std::uint32_t begin, std::uint32_t end) {
   for (std::uint32_t i = begin; i < end; ++i) integrate_block(blocks_[touched_[i]], frame, camera_T_world);
 }
 
-void SemanticTsdf::integrate_block(Block& block, const drivers::RgbdFrame& frame,
+void SemanticTsdf::integrate_block(Block& block, const messages::RgbdFrame& frame,
                                    const Eigen::Isometry3d& camera_T_world) {
-  const drivers::CameraIntrinsics& in = frame.intrinsics;
+  const messages::CameraIntrinsics& in = frame.intrinsics;
   const float voxel = static_cast<float>(config_.voxel_size_m);
   const float trunc = voxel * static_cast<float>(config_.truncation_voxels);
   const float min_m = static_cast<float>(config_.min_range_m), max_m = static_cast<float>(config_.max_range_m);
@@ -955,7 +955,7 @@ void SemanticTsdf::update_window(const Eigen::Vector3d& robot_m) {
     if (blocks_.live(h) && (block_center(blocks_[h].index) - robot_m).squaredNorm() > r2) archive_block(h);
 }
 
-bool SemanticTsdf::process(const drivers::RgbdFrame& frame, const Eigen::Isometry3d& world_T_camera) {
+bool SemanticTsdf::process(const messages::RgbdFrame& frame, const Eigen::Isometry3d& world_T_camera) {
   if (!integrate(frame, world_T_camera)) return false;
   update_mesh();
   update_window(world_T_camera.translation());

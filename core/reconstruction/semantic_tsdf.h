@@ -14,7 +14,7 @@
 #include "core/memory/fixed_vector.h"
 #include "core/memory/pool.h"
 #include "core/semantics/labels.h"
-#include "drivers/sensor_types.h"
+#include "core/messages/sensor_types.h"
 
 namespace qsg::reconstruction {
 
@@ -79,12 +79,13 @@ struct Config {
   void print(std::FILE* out) const;
 };
 
+// Sizes of the layer's stores: the budget table's "reconstruction" arena (capacities_from_budget()), or a test's own.
 struct Capacities {
-  std::size_t max_blocks = 1408;
-  std::size_t mesh_vertices = 524288;    // active-window mesh, all blocks together
-  std::size_t mesh_triangles = 1048576;
-  std::size_t archive_vertices = 1048576;
-  std::size_t archive_triangles = 2097152;
+  std::size_t max_blocks = 0;
+  std::size_t mesh_vertices = 0;       // active-window mesh, all blocks together
+  std::size_t mesh_triangles = 0;
+  std::size_t archive_vertices = 0;
+  std::size_t archive_triangles = 0;
 };
 Capacities capacities_from_budget();
 
@@ -118,13 +119,13 @@ class SemanticTsdf {
 
   // Integrates one frame seen from world_T_camera (optical frame: x right, y down, z forward). Labels are used
   // when frame.has_labels. Marks the touched blocks dirty. False (nothing integrated) for a bad frame.
-  bool integrate(const drivers::RgbdFrame& frame, const Eigen::Isometry3d& world_T_camera);
+  bool integrate(const messages::RgbdFrame& frame, const Eigen::Isometry3d& world_T_camera);
   // Re-runs marching cubes over the blocks changed since the last call (and the neighbours that read them).
   void update_mesh();
   // Archives (mesh into the global mesh) and frees every block farther than the window radius from robot_m.
   void update_window(const Eigen::Vector3d& robot_m);
   // integrate + update_mesh + update_window around the camera: the per-frame call.
-  bool process(const drivers::RgbdFrame& frame, const Eigen::Isometry3d& world_T_camera);
+  bool process(const messages::RgbdFrame& frame, const Eigen::Isometry3d& world_T_camera);
 
   // The active window's mesh, welded across blocks (one vertex per voxel edge), only referenced vertices.
   void extract_active_mesh(Mesh* out);
@@ -208,7 +209,7 @@ class SemanticTsdf {
  private:
   std::uint32_t allocate_block(const memory::Index3& index, const Eigen::Vector3d& robot_m);
   bool evict_farthest(const Eigen::Vector3d& robot_m);
-  void integrate_block(Block& block, const drivers::RgbdFrame& frame, const Eigen::Isometry3d& camera_T_world);
+  void integrate_block(Block& block, const messages::RgbdFrame& frame, const Eigen::Isometry3d& camera_T_world);
   void mesh_block(std::uint32_t handle);
   void release_mesh(Block& block);
   void archive_block(std::uint32_t handle);
@@ -218,7 +219,7 @@ class SemanticTsdf {
   bool make_archive_room(bool need_chunk);
   void compact_archive(double resolution_m);
   bool covered_by_block(const Block& block, const MeshVertex* const* corners) const;
-  void integrate_range(const drivers::RgbdFrame& frame, const Eigen::Isometry3d& camera_T_world,
+  void integrate_range(const messages::RgbdFrame& frame, const Eigen::Isometry3d& camera_T_world,
                        std::uint32_t begin, std::uint32_t end);
   template <typename Fn>
   void for_each_block_triangle(const Block& block, Fn&& fn) const;

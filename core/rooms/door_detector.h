@@ -90,7 +90,7 @@ struct DoorConfig {
   // thickened area over its diagonal) exceeds sight_furniture_min_width_m is furniture too (a ring of tables, a row
   // of desks standing free in a hall; a wall, even thickened, is about 0.4-0.6 m wide, and a building's connected
   // walls span far more). 0 for sight_furniture_max_m: off. Measured on the IPA furnished plans with the local
-  // sight test below (RoomFinder::Config::visible_local_radius_m); see room_finder.h.
+  // sight test (RoomFinder::Config::visible_local_radius_m; bench/results/rooms.md).
   double sight_furniture_max_m = 8.0;
   double sight_furniture_min_width_m = 1.0;
   // ... and the place edges that cross such structure are closed too (cut_edges_through_walls), by the callers of

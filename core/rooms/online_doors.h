@@ -33,14 +33,14 @@
 
 namespace qsg::rooms {
 
-// Resources (the budget table's "doors" arena).
+// Resources: the budget table's "doors" arena (from_budget()), or a test's own.
 struct OnlineDoorCapacities {
-  std::size_t wall_tiles = 4096;  // WallMap tiles (4 KB each, 1.6 m x 1.6 m x 1.6 m): a storey takes two per column
-  std::size_t window_side = 384;  // cells; the window is window_side x cell_m wide (19.2 m at 0.05 m)
-  std::size_t places = 8192;      // places in one window
-  std::size_t doors = 1024;       // doors kept (the DoorSet)
-  std::size_t candidates = 4096;  // critical cells in one window
-  std::size_t place_edges = 32768;  // place edges in one window (the bypass search's graph)
+  std::size_t wall_tiles = 0;   // WallMap tiles (4 KB each, 1.6 m x 1.6 m x 1.6 m): a storey takes two per column
+  std::size_t window_side = 0;  // cells; the window is window_side x cell_m wide (384: 19.2 m at 0.05 m)
+  std::size_t places = 0;       // places in one window
+  std::size_t doors = 0;        // doors kept (the DoorSet)
+  std::size_t candidates = 0;   // critical cells in one window
+  std::size_t place_edges = 0;  // place edges in one window (the bypass search's graph)
   std::string check() const;
   static OnlineDoorCapacities from_budget();  // the active board's "doors" arena capacities
 };

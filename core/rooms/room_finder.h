@@ -53,8 +53,8 @@ struct Config {
   double dilation_step_m = 0.01; // the Betti curve is sampled every step over [d-, d+]
   // Places; smaller components are not counted (and seed no room). The paper uses 15 with its sparser places;
   // ours are denser, about 3.3-3.9 per m^2 of floor (up to three 1 m cells between floor and ceiling). 6 since the
-  // places' seeds come from zero crossings (fewer spurious sheets near floors): 8 then lost small rooms (main job
-  // 7 of 12 rooms; 6: 10), and the IPA plans scored 0.895/0.903 (mean P/R) against 0.890/0.908.
+  // places' seeds come from zero crossings (fewer spurious sheets near floors): 8 then lost small rooms
+  // (bench/results/rooms.md, "min_component_size").
   std::uint32_t min_component_size = 6;
   // The paper's alpha: only flat intervals longer than alpha x the longest one are candidates; among them the one
   // with the most components wins. 0 over-segments, 1 picks the most persistent interval.
@@ -67,12 +67,9 @@ struct Config {
   // walls inside the saturated sheet. Each room is then seeded again on the extended clearance over
   // [split_min_extent_m, split_max_extent_m] with the persistence rule (split_min_persistence_m,
   // split_min_component_size) through its own edges only; a room with two or more seeds is split and its other
-  // places flood-filled among them, again through its own edges. Rooms are never merged by it.
-  // rooms_eval on the IPA plans (mean P / mean R / area P / area R), off -> on: plain 0.892 / 0.910 / 0.799 / 0.867
-  // -> 0.900 / 0.897 / 0.858 / 0.802, furnished 0.920 / 0.775 / 0.798 / 0.690 -> 0.912 / 0.765 / 0.824 / 0.641;
-  // generated buildings unchanged (their rooms are small). On by default: it trades recall (long corridors of
-  // varying width are cut too) for far fewer rooms merged with their corridor, and a merged room is the costlier
-  // error downstream (one label for two rooms).
+  // places flood-filled among them, again through its own edges. Rooms are never merged by it. On by default: it
+  // trades recall (long corridors of varying width are cut too) for far fewer rooms merged with their corridor, and
+  // a merged room is the costlier error downstream (one label for two rooms); bench/results/rooms.md.
   bool split_by_extent = true;
   // Closed passages: a place-place edge of weight 0 or less is a passage a door stage closed (rooms::cut_place_edges,
   // doors found on the robot's surface). The filtration never crosses it (its clearance is 0, below d-), and with
@@ -85,12 +82,8 @@ struct Config {
   // Two adjacent rooms that both touch at least corridor_min_neighbours other rooms (through any place edge, open
   // or closed by a door stage) and meet through at least corridor_min_open_edges open place edges (a wide
   // opening, not a door) are one room; pairs are merged most open edges first, the neighbour counts taken again
-  // after each merge. A room off a corridor touches one or two rooms, so it is left alone.
-  // rooms_eval on the IPA plans (mean P / mean R / area P), off -> on: plain 0.962 / 0.938 / 0.961 -> 0.961 /
-  // 0.955 / 0.947 (area R 0.839 -> 0.927; a second exploration of the same plans: 0.961 / 0.938 / 0.960 -> 0.960 /
-  // 0.951 / 0.947), furnished 0.952 / 0.771 / 0.912 -> 0.953 / 0.789 / 0.892; ten generated two-floor buildings
-  // unchanged (no piece of theirs qualifies). Chosen on those plans from 3-5 neighbours and 5-20 edges: 4
-  // neighbours give plain R 0.949-0.950, 3 with 5-10 edges plain P 0.941-0.951.
+  // after each merge. A room off a corridor touches one or two rooms, so it is left alone. It raises the IPA
+  // plans' recall at the same precision; the settings were chosen there (bench/results/rooms.md).
   bool merge_corridors = true;
   std::uint32_t corridor_min_neighbours = 3;
   std::uint32_t corridor_min_open_edges = 20;
@@ -106,18 +99,11 @@ struct Config {
   // paired with as many of the other's; the pair is merged when at least visible_min_share of those sight lines are
   // clear. Pairs merge clearest first, each room once a round, for at most visible_max_rounds rounds (rooms and
   // their samples taken again each round). A door between two rooms is in a wall, so few of their sight lines are
-  // clear.
-  // rooms_eval, final stage, with the edges through walls closed (DoorConfig::sight_cut_edges), mean P / mean R /
-  // area P, both off -> both on: IPA plain 0.961 / 0.953 / 0.943 -> 0.967 / 0.954 / 0.942, furnished 0.953 / 0.822 /
-  // 0.883 -> 0.956 / 0.860 / 0.892, ten generated buildings 0.956 / 0.938 / 0.949 -> 0.960 / 0.948 / 0.957 (the
-  // merge alone: furnished 0.946 / 0.871 / 0.882, its P below 0.95; the cut alone: 0.966 / 0.804 / 0.896). Chosen
-  // there from shares 0.7-0.9, 12 or 16 samples and walls of 2.5-4 m: 4 m walls or a 0.1 m thickening merge more
-  // (furnished R 0.874-0.879) at furnished P 0.949-0.950 and plain area P 0.930-0.934.
+  // clear. Together with the closing of edges through walls (DoorConfig::sight_cut_edges) it raises recall on the
+  // furnished plans without losing precision; either alone does not (bench/results/rooms.md, "merge_visible").
   bool merge_visible = true;
   // ... also with a window's sight lines (the online door window's, during a run). Off: during a run the merge
-  // lowered precision (rooms_eval --doors online, the closing of edges through walls on, merge off -> on: plain
-  // 0.963 / 0.947 / 0.937 -> 0.950 / 0.947 / 0.917, furnished 0.960 / 0.802 / 0.900 -> 0.957 / 0.814 / 0.897, two
-  // generated buildings 0.950 / 0.907 / 0.933 -> 0.937 / 0.926 / 0.912); edges through walls are still closed there.
+  // lowered precision (bench/results/rooms.md); edges through walls are still closed there.
   bool merge_visible_in_window = false;
   double visible_min_share = 0.8;
   std::uint32_t visible_samples = 12;  // at most kMaxVisibleSamples
@@ -127,12 +113,8 @@ struct Config {
   // wall and hides one end from the other), by their sight lines near the boundary: each room's places within
   // visible_local_radius_m (in plan) of the other room's ends of the place edges between them, sampled as above;
   // at least visible_local_min_places on each side, and at least visible_local_min_share of those lines clear.
-  // Such pairs merge after the pairs that qualify as whole rooms. 0: off. rooms_eval, final stage, the same graphs
-  // as above, mean P / mean R / area P, with DoorConfig's thick islands as furniture too (8 m, 1 m): off -> 2.25 m:
-  // IPA plain 0.967 / 0.954 / 0.942 -> 0.958 / 0.956 / 0.934, furnished 0.954 / 0.872 / 0.887 -> 0.958 / 0.896 /
-  // 0.867, ten generated buildings 0.960 / 0.948 / 0.957 -> 0.953 / 0.949 / 0.944 (furnished with the islands as
-  // walls and this off: 0.956 / 0.860 / 0.892, as above). Other radii, furnished: 1.5 m 0.930 / 0.902 (P below
-  // 0.95), 2 m 0.950 / 0.894, 2.5 m 0.959 / 0.884, 3 m 0.956 / 0.881; a share of 0.85 at 2 m: 0.949 / 0.889.
+  // Such pairs merge after the pairs that qualify as whole rooms. 0: off. 2.25 m raises the furnished plans'
+  // recall most while their precision stays above 0.95 (bench/results/rooms.md, "visible_local_radius_m").
   double visible_local_radius_m = 2.25;
   double visible_local_min_share = 0.8;
   std::uint32_t visible_local_min_places = 3;
@@ -141,14 +123,12 @@ struct Config {
   // with no place edge between them: the places graph follows the free space's skeleton, so two pieces of one room
   // on either side of a desk, or round a cabinet, can share open floor with no edge. Such pairs are found once per
   // update (at most Capacities::places of them; more are counted in UpdateResult::visible_touching_dropped) and
-  // count as the boundary's ends for the test near it too. rooms_eval, final stage, the same graphs as above, mean
-  // P / mean R / area P, off -> on: IPA plain 0.958 / 0.956 / 0.934 -> 0.961 / 0.956 / 0.938 (118 -> 119 rooms of
-  // 122), furnished 0.958 / 0.896 / 0.867 -> 0.959 / 0.901 / 0.866 (142 -> 136), ten generated buildings unchanged
-  // (0.953 / 0.949 / 0.944). A fixed plan radius instead of touching spheres (a trial flag, since removed), 0.5 to
-  // 1.5 m: furnished 0.953-0.958 / 0.898-0.901, not monotonic in the radius; the sphere test has no such parameter.
+  // count as the boundary's ends for the test near it too. A small gain on the IPA plans, none lost elsewhere; a
+  // fixed plan radius instead was not monotonic in the radius, the sphere test has no such parameter
+  // (bench/results/rooms.md, "visible_touching").
   bool visible_touching = true;
   // ... a sphere counting at most this radius there (it sizes the search's cells: one huge clearance must not make
-  // the search quadratic in the places). 1.5, 2, 4 and 8 m give the same rooms on the graphs above.
+  // the search quadratic in the places). 1.5 to 8 m give the same rooms on the benchmark's graphs.
   double visible_touch_max_clearance_m = 4.0;
   double extent_saturation_m = 1.0;
   double split_min_extent_m = 1.0;
@@ -167,11 +147,11 @@ struct Config {
   void print(std::FILE* out) const;
 };
 
-// Fixed sizes of the finder's stores; from the scene graph's capacities by default.
+// Fixed sizes of the finder's stores: the scene graph's capacities (from_scene_graph), or a test's own.
 struct Capacities {
-  std::size_t places = 32768;       // place nodes read per update (more are ignored and counted)
-  std::size_t place_edges = 262144; // place-place edges read per update (more are ignored and counted)
-  std::size_t rooms = 512;          // rooms per update (more seeds are dropped, smallest first, and counted)
+  std::size_t places = 0;       // place nodes read per update (more are ignored and counted)
+  std::size_t place_edges = 0;  // place-place edges read per update (more are ignored and counted)
+  std::size_t rooms = 0;        // rooms per update (more seeds are dropped, smallest first, and counted)
   static Capacities from_scene_graph(const scene_graph::Capacities& graph);
   std::string check() const;
   void print(std::FILE* out) const;

@@ -65,7 +65,7 @@ bool LogitsDecoder::init(const LabelMap& map, int num_classes, int logits_width_
   return true;
 }
 
-bool LogitsDecoder::decode(const float* logits, drivers::RgbdFrame& frame) {
+bool LogitsDecoder::decode(const float* logits, messages::RgbdFrame& frame) {
   if (num_classes_ == 0 || !frame.intrinsics.valid()) return false;
   const std::size_t pixels = max_logit_.size();
   float* max_logit = max_logit_.data();

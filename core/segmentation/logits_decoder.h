@@ -10,7 +10,7 @@
 
 #include "core/segmentation/label_map.h"
 #include "core/semantics/labels.h"
-#include "drivers/sensor_types.h"
+#include "core/messages/sensor_types.h"
 
 namespace qsg::segmentation {
 
@@ -27,7 +27,7 @@ class LogitsDecoder {
   // `logits`: num_classes planes of logits_width_px * logits_height_px floats (NCHW, N = 1). Writes the first
   // width x height entries of frame.labels and sets has_labels. False (frame untouched) when not initialised or
   // the frame's intrinsics are invalid.
-  bool decode(const float* logits, drivers::RgbdFrame& frame);
+  bool decode(const float* logits, messages::RgbdFrame& frame);
 
   // Labels at network resolution of the last decode (row-major logits_width_px x logits_height_px).
   const std::vector<semantics::Label>& network_labels() const { return net_labels_; }
@@ -49,7 +49,7 @@ class LogitsDecoder {
   std::vector<std::int32_t> best_class_;  // int32 like the floats, so the argmax loop vectorises
   std::vector<std::int32_t> has_nan_;
   std::vector<semantics::Label> net_labels_;
-  std::array<int, drivers::kMaxFrameWidth> column_of_x_{};  // logits column sampled by each frame column
+  std::array<int, messages::kMaxFrameWidth> column_of_x_{};  // logits column sampled by each frame column
   std::uint64_t last_low_confidence_pixels_ = 0;
 };
 

@@ -134,7 +134,7 @@ bool Segmenter::init(const Config& config, const LabelMap& label_map, std::strin
   return true;
 }
 
-const float* Segmenter::preprocess(const drivers::RgbdFrame& frame) {
+const float* Segmenter::preprocess(const messages::RgbdFrame& frame) {
   if (!ready_ || !frame.intrinsics.valid()) return nullptr;
   float* blob = impl_->blob.ptr<float>();
   preprocessor_.run(frame.rgb.data(), frame.width(), frame.height(), blob);
@@ -166,7 +166,7 @@ const float* Segmenter::forward(std::string* error) {
 
 const float* Segmenter::last_logits() const { return ready_ ? impl_->output.ptr<float>() : nullptr; }
 
-bool Segmenter::segment(drivers::RgbdFrame& frame, std::string* error) {
+bool Segmenter::segment(messages::RgbdFrame& frame, std::string* error) {
   if (!ready_) {
     ++counters_.bad_frames;
     return fail(error, "segmentation: not initialised");

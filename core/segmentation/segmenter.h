@@ -15,7 +15,7 @@
 #include "core/segmentation/logits_decoder.h"
 #include "core/segmentation/preprocess.h"
 #include "core/semantics/labels.h"
-#include "drivers/sensor_types.h"
+#include "core/messages/sensor_types.h"
 
 namespace qsg::segmentation {
 
@@ -63,10 +63,10 @@ class Segmenter {
 
   // Labels frame.rgb (frame.width() x frame.height()) into frame.labels and sets has_labels. False (has_labels
   // untouched) when not ready, the frame's intrinsics are invalid or OpenCV fails; *error (optional) says why.
-  bool segment(drivers::RgbdFrame& frame, std::string* error = nullptr);
+  bool segment(messages::RgbdFrame& frame, std::string* error = nullptr);
 
   // The stages of segment(), exposed for tests and benchmarks.
-  const float* preprocess(const drivers::RgbdFrame& frame);  // the network input blob (NCHW floats)
+  const float* preprocess(const messages::RgbdFrame& frame);  // the network input blob (NCHW floats)
   const float* forward(std::string* error);                   // logits (NCHW floats) of the current blob
   const float* last_logits() const;                           // logits of the last forward(), or nullptr
   LogitsDecoder& decoder() { return decoder_; }

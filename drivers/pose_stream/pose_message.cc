@@ -78,7 +78,7 @@ std::uint32_t crc32(const std::uint8_t* data, std::size_t size) {
   return c ^ 0xFFFFFFFFu;
 }
 
-bool encode_pose_message(const drivers::OdometrySample& sample, const char* frame_id, std::uint8_t* out,
+bool encode_pose_message(const messages::OdometrySample& sample, const char* frame_id, std::uint8_t* out,
                          std::uint32_t message_flags) {
   const std::size_t id_length = frame_id == nullptr ? 0 : strnlen(frame_id, kFrameIdBytes);
   if (id_length >= kFrameIdBytes) return false;
@@ -102,7 +102,7 @@ bool encode_pose_message(const drivers::OdometrySample& sample, const char* fram
   return true;
 }
 
-DecodeStatus decode_pose_message(const std::uint8_t* data, std::size_t size, drivers::OdometrySample* out,
+DecodeStatus decode_pose_message(const std::uint8_t* data, std::size_t size, messages::OdometrySample* out,
                                  char frame_id[kFrameIdBytes], std::uint32_t* message_flags) {
   // Magic and version first, so a datagram of a later version is reported as such rather than as a wrong size.
   if (size < kPoseMessageHeaderBytes) return DecodeStatus::kWrongSize;

@@ -5,7 +5,7 @@
 #include <cstddef>
 #include <cstdint>
 
-#include "drivers/sensor_types.h"
+#include "core/messages/sensor_types.h"
 
 namespace qsg::pose_stream {
 
@@ -59,14 +59,14 @@ std::uint32_t crc32(const std::uint8_t* data, std::size_t size);
 // sender keeps it symmetric), `frame_id` and `message_flags` (PoseMessageFlag bits). The sample's own flags and
 // publish time are receiver-side and not sent. Returns false, writing nothing, when frame_id has more than 15
 // characters.
-bool encode_pose_message(const drivers::OdometrySample& sample, const char* frame_id, std::uint8_t* out,
+bool encode_pose_message(const messages::OdometrySample& sample, const char* frame_id, std::uint8_t* out,
                          std::uint32_t message_flags = 0);
 
 // Checks and reads one datagram. On kOk fills the sample's sequence, sample time, pose and covariance (flags and
 // publish time are left for the receiver), the NUL-terminated frame id and, when given, the message flags; on any
 // other status leaves the outputs untouched. A quaternion within 1e-9 of unit length passes bit for bit; one
 // within kQuaternionNormTolerance is normalised. Reads only `size` bytes, whatever they hold; never allocates.
-DecodeStatus decode_pose_message(const std::uint8_t* data, std::size_t size, drivers::OdometrySample* out,
+DecodeStatus decode_pose_message(const std::uint8_t* data, std::size_t size, messages::OdometrySample* out,
                                  char frame_id[kFrameIdBytes], std::uint32_t* message_flags = nullptr);
 
 }  // namespace qsg::pose_stream

@@ -180,7 +180,7 @@ void PoseStreamSource::log_bad_frame(const char* reason, std::size_t size) {
   unlogged_bad_frames_ = 0;
 }
 
-drivers::ReadStatus PoseStreamSource::read(drivers::OdometrySample& sample, std::int64_t timeout_ns) {
+drivers::ReadStatus PoseStreamSource::read(messages::OdometrySample& sample, std::int64_t timeout_ns) {
   if (fd_ < 0) return drivers::ReadStatus::kDisconnected;
   // Waiting is real time whatever clock stamps the samples: the datagrams arrive in real time.
   const std::int64_t deadline_ns = timeout_ns >= 0 ? monotonic_ns() + timeout_ns : 0;
@@ -204,7 +204,7 @@ drivers::ReadStatus PoseStreamSource::read(drivers::OdometrySample& sample, std:
     if (received < 0 && (errno == EAGAIN || errno == EWOULDBLOCK || errno == EINTR)) continue;
     if (received < 0) return socket_failed("recv", errno);
     ++stream_counters_.datagrams;
-    const std::uint32_t after_error = in_error_ ? drivers::kFrameAfterReconnect : 0u;
+    const std::uint32_t after_error = in_error_ ? messages::kFrameAfterReconnect : 0u;
     if (in_error_) {
       in_error_ = false;
       ++counters_.reconnects;
@@ -238,20 +238,20 @@ drivers::ReadStatus PoseStreamSource::read(drivers::OdometrySample& sample, std:
         const std::uint64_t missing = scratch_.sequence - last_sequence_ - 1;
         if (missing > 0) {
           counters_.dropped += missing;
-          flags |= drivers::kFrameSequenceGap;
+          flags |= messages::kFrameSequenceGap;
         }
       } else {
         ++stream_counters_.sequence_restarts;
-        flags |= drivers::kFrameAfterReconnect;
+        flags |= messages::kFrameAfterReconnect;
       }
       if (scratch_.sample_time_ns <= last_sample_time_ns_) {
         ++counters_.timestamps_backwards;
-        flags |= drivers::kFrameTimestampBackwards;
+        flags |= messages::kFrameTimestampBackwards;
       }
     }
     if (message_flags & kPoseMessageEstimatorReset) {
       ++stream_counters_.estimator_resets;
-      flags |= drivers::kFrameAfterReconnect;
+      flags |= messages::kFrameAfterReconnect;
     }
     have_last_ = true;
     last_sequence_ = scratch_.sequence;
@@ -261,7 +261,7 @@ drivers::ReadStatus PoseStreamSource::read(drivers::OdometrySample& sample, std:
     scratch_.publish_time_ns = now_ns();
     if (config_.late_after_ns > 0 && scratch_.publish_time_ns - scratch_.sample_time_ns > config_.late_after_ns) {
       ++counters_.late;
-      flags |= drivers::kFrameLate;
+      flags |= messages::kFrameLate;
     }
     scratch_.flags = flags;
     sample = scratch_;

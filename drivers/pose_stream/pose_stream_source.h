@@ -68,7 +68,7 @@ class PoseStreamSource : public drivers::OdometrySource {
   // Waits up to timeout_ns of real time (negative: without limit) for a datagram and decodes it. kOk: a sample;
   // kTimeout: nothing came (a stall); kBadFrame: a malformed datagram was discarded (counted, logged rate-limited);
   // kDisconnected: the socket failed or is closed. A duplicate is discarded and the wait goes on. Never allocates.
-  drivers::ReadStatus read(drivers::OdometrySample& sample, std::int64_t timeout_ns) override;
+  drivers::ReadStatus read(messages::OdometrySample& sample, std::int64_t timeout_ns) override;
   const drivers::DriverCounters& counters() const override { return counters_; }
   const PoseStreamCounters& stream_counters() const { return stream_counters_; }
   // Frame id of the last delivered sample ("" before the first).
@@ -87,7 +87,7 @@ class PoseStreamSource : public drivers::OdometrySource {
   // Larger than a message so an oversized datagram is seen as one, not cut to a valid-looking prefix.
   std::array<std::uint8_t, 2 * kPoseMessageSize> buffer_{};
   char last_frame_id_[kFrameIdBytes] = {};
-  drivers::OdometrySample scratch_;  // decoded here, copied out only when delivered
+  messages::OdometrySample scratch_;  // decoded here, copied out only when delivered
   bool have_last_ = false;
   std::uint64_t last_sequence_ = 0;
   std::int64_t last_sample_time_ns_ = 0;

@@ -163,7 +163,7 @@ int main(int argc, char** argv) {
     return 1;
   }
 
-  drivers::OdometrySample sample;
+  messages::OdometrySample sample;
   sample.covariance.setZero();
   sample.covariance.diagonal() << Eigen::Vector3d::Constant(o.sigma_t_m * o.sigma_t_m),
       Eigen::Vector3d::Constant(o.sigma_r_rad * o.sigma_r_rad);

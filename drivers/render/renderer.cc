@@ -48,11 +48,11 @@ void Renderer::Config::print(std::FILE* out) const {
   noise.print(out);
 }
 
-std::string check_intrinsics(const drivers::CameraIntrinsics& k) {
-  if (k.width <= 0 || k.width > drivers::kMaxFrameWidth)
-    return format("intrinsics.width must be in 1..%d (got %d)", drivers::kMaxFrameWidth, k.width);
-  if (k.height <= 0 || k.height > drivers::kMaxFrameHeight)
-    return format("intrinsics.height must be in 1..%d (got %d)", drivers::kMaxFrameHeight, k.height);
+std::string check_intrinsics(const messages::CameraIntrinsics& k) {
+  if (k.width <= 0 || k.width > messages::kMaxFrameWidth)
+    return format("intrinsics.width must be in 1..%d (got %d)", messages::kMaxFrameWidth, k.width);
+  if (k.height <= 0 || k.height > messages::kMaxFrameHeight)
+    return format("intrinsics.height must be in 1..%d (got %d)", messages::kMaxFrameHeight, k.height);
   if (!(std::isfinite(k.fx) && k.fx > 0.0)) return format("intrinsics.fx must be positive and finite (got %g)", k.fx);
   if (!(std::isfinite(k.fy) && k.fy > 0.0)) return format("intrinsics.fy must be positive and finite (got %g)", k.fy);
   if (!std::isfinite(k.cx)) return format("intrinsics.cx must be finite (got %g)", k.cx);
@@ -75,8 +75,8 @@ bool Renderer::init(const Config& config, const world::World& world, std::string
   return true;
 }
 
-bool Renderer::render(const Eigen::Isometry3d& world_T_camera, const drivers::CameraIntrinsics& k,
-                      std::uint64_t sequence, drivers::RgbdFrame& frame, std::string* error) {
+bool Renderer::render(const Eigen::Isometry3d& world_T_camera, const messages::CameraIntrinsics& k,
+                      std::uint64_t sequence, messages::RgbdFrame& frame, std::string* error) {
   if (!ready_) {
     if (error) *error = "renderer: render() before a successful init()";
     ++counters_.rejected_frames;

@@ -10,7 +10,7 @@
 
 #include "drivers/render/depth_noise.h"
 #include "drivers/render/ray_scene.h"
-#include "drivers/sensor_types.h"
+#include "core/messages/sensor_types.h"
 #include "drivers/world/world.h"
 
 namespace qsg::render {
@@ -46,8 +46,8 @@ class Renderer {
   // quantisation) to the caller. Returns false with a reason, and leaves the frame untouched, for bad
   // intrinsics (size above 640x480, non-positive or non-finite focal length, non-finite centre), a non-finite or
   // non-rigid pose, or an uninitialised renderer.
-  bool render(const Eigen::Isometry3d& world_T_camera, const drivers::CameraIntrinsics& intrinsics,
-              std::uint64_t sequence, drivers::RgbdFrame& frame, std::string* error);
+  bool render(const Eigen::Isometry3d& world_T_camera, const messages::CameraIntrinsics& intrinsics,
+              std::uint64_t sequence, messages::RgbdFrame& frame, std::string* error);
 
   const Config& config() const { return config_; }
   const RayScene& scene() const { return scene_; }
@@ -62,6 +62,6 @@ class Renderer {
 };
 
 // Empty when the intrinsics are usable for rendering, else the first bad field and why.
-std::string check_intrinsics(const drivers::CameraIntrinsics& intrinsics);
+std::string check_intrinsics(const messages::CameraIntrinsics& intrinsics);
 
 }  // namespace qsg::render

@@ -36,12 +36,12 @@ bool known_key(const std::string& key) {
 
 }  // namespace
 
-std::string check_intrinsics(const drivers::CameraIntrinsics& k) {
+std::string check_intrinsics(const messages::CameraIntrinsics& k) {
   const std::string size = std::to_string(k.width) + "x" + std::to_string(k.height);
   if (k.width <= 0 || k.height <= 0) return "image size " + size + " must be positive";
-  if (k.width > drivers::kMaxFrameWidth || k.height > drivers::kMaxFrameHeight) {
-    return "image size " + size + " is larger than the frame buffers (" + std::to_string(drivers::kMaxFrameWidth) +
-           "x" + std::to_string(drivers::kMaxFrameHeight) + ")";
+  if (k.width > messages::kMaxFrameWidth || k.height > messages::kMaxFrameHeight) {
+    return "image size " + size + " is larger than the frame buffers (" + std::to_string(messages::kMaxFrameWidth) +
+           "x" + std::to_string(messages::kMaxFrameHeight) + ")";
   }
   // Written so that NaN fails every test.
   if (!(k.fx >= 1.0 && k.fx <= 1e5)) return "fx " + number_text(k.fx) + " is outside [1, 1e5] pixels";
@@ -101,7 +101,7 @@ bool read_camera_calibration(const std::string& path, CameraCalibration* calibra
   };
 
   CameraCalibration c;
-  drivers::CameraIntrinsics& k = c.intrinsics;
+  messages::CameraIntrinsics& k = c.intrinsics;
   if (!integer_field("width", &k.width) || !integer_field("height", &k.height)) return false;
   const bool has_matrix = cam->contains("intrinsic_matrix");
   const bool has_fields = cam->contains("fx") || cam->contains("fy") || cam->contains("cx") || cam->contains("cy");
@@ -170,7 +170,7 @@ bool read_camera_calibration(const std::string& path, CameraCalibration* calibra
 }
 
 bool write_camera_calibration(const std::string& path, const CameraCalibration& calibration, std::string* error) {
-  const drivers::CameraIntrinsics& k = calibration.intrinsics;
+  const messages::CameraIntrinsics& k = calibration.intrinsics;
   if (const std::string bad = check_intrinsics(k); !bad.empty()) {
     if (error) *error = path + ": not written: " + bad;
     return false;

@@ -4,7 +4,7 @@
 
 #include <string>
 
-#include "drivers/sensor_types.h"
+#include "core/messages/sensor_types.h"
 
 namespace qsg::replay {
 
@@ -23,13 +23,13 @@ inline constexpr const char* kCalibrationFileName = "calibration.json";
 // "class_name", "version_*" and "extrinsic" keys, and a "comment" string, are ignored. Any other key is an error,
 // so a misspelt depth scale is not silently replaced by a default.
 struct CameraCalibration {
-  drivers::CameraIntrinsics intrinsics;
+  messages::CameraIntrinsics intrinsics;
   float depth_scale_m = 0.0f;  // 0: the file gives no depth scale (the dataset format's default applies)
 };
 
 // What is wrong with a camera, or "" when it is plausible: the size within the frame buffers, fx in [1, 1e5],
 // |fy| in [1, 1e5] (either sign), the principal point inside the image, all finite.
-std::string check_intrinsics(const drivers::CameraIntrinsics& intrinsics);
+std::string check_intrinsics(const messages::CameraIntrinsics& intrinsics);
 // Depth scales a 16-bit depth image can sensibly carry: 1 um .. 1 m per unit.
 inline constexpr double kMinDepthScaleM = 1e-6;
 inline constexpr double kMaxDepthScaleM = 1.0;

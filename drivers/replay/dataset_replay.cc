@@ -39,8 +39,8 @@ std::string parent_folder(const std::string& folder) {
 }
 
 // All three formats' documented default camera is the PrimeSense / Kinect one TUM's ROS driver assumed.
-drivers::CameraIntrinsics default_intrinsics() {
-  return drivers::CameraIntrinsics{640, 480, 525.0, 525.0, 319.5, 239.5};
+messages::CameraIntrinsics default_intrinsics() {
+  return messages::CameraIntrinsics{640, 480, 525.0, 525.0, 319.5, 239.5};
 }
 
 float default_depth_scale_m(DatasetFormat format) {
@@ -105,10 +105,10 @@ std::string DatasetReplayConfig::check() const {
   if (!(fx == 0.0 || (fx >= 1.0 && fx <= 1e5))) return "fx must be 0 (from the dataset) or in [1, 1e5] pixels";
   if (!(fy == 0.0 || (std::abs(fy) >= 1.0 && std::abs(fy) <= 1e5)))
     return "fy must be 0 (from the dataset) or in [1, 1e5] pixels, either sign";
-  if (!(cx == 0.0 || (cx > 0.0 && cx <= drivers::kMaxFrameWidth)))
-    return "cx must be 0 (from the dataset) or in (0, " + std::to_string(drivers::kMaxFrameWidth) + "] pixels";
-  if (!(cy == 0.0 || (cy > 0.0 && cy <= drivers::kMaxFrameHeight)))
-    return "cy must be 0 (from the dataset) or in (0, " + std::to_string(drivers::kMaxFrameHeight) + "] pixels";
+  if (!(cx == 0.0 || (cx > 0.0 && cx <= messages::kMaxFrameWidth)))
+    return "cx must be 0 (from the dataset) or in (0, " + std::to_string(messages::kMaxFrameWidth) + "] pixels";
+  if (!(cy == 0.0 || (cy > 0.0 && cy <= messages::kMaxFrameHeight)))
+    return "cy must be 0 (from the dataset) or in (0, " + std::to_string(messages::kMaxFrameHeight) + "] pixels";
   if (!(depth_scale_m == 0.0 || (depth_scale_m >= kMinDepthScaleM && depth_scale_m <= kMaxDepthScaleM)))
     return "depth_scale_m must be 0 (from the dataset) or in [1e-6, 1] metres per unit";
   if (!(frame_period_s >= 1e-3 && frame_period_s <= 10.0)) return "frame_period_s must be in [0.001, 10]";
@@ -151,8 +151,8 @@ std::size_t DatasetReplay::size() const { return active_ != nullptr ? active_->s
 
 std::size_t DatasetReplay::position() const { return active_ != nullptr ? active_->position() : 0; }
 
-drivers::CameraIntrinsics DatasetReplay::intrinsics() const {
-  return active_ != nullptr ? active_->intrinsics() : drivers::CameraIntrinsics{};
+messages::CameraIntrinsics DatasetReplay::intrinsics() const {
+  return active_ != nullptr ? active_->intrinsics() : messages::CameraIntrinsics{};
 }
 
 bool DatasetReplay::open(const DatasetReplayConfig& config, std::string* error) {
@@ -176,7 +176,7 @@ bool DatasetReplay::open(const DatasetReplayConfig& config, std::string* error) 
   }
 
   // The camera: the calibration file, else the format's default; then the config keys over either.
-  drivers::CameraIntrinsics k = default_intrinsics();
+  messages::CameraIntrinsics k = default_intrinsics();
   float scale = default_depth_scale_m(format_);
   std::string calibration_path = config.calibration;
   std::vector<std::string> looked_for;
@@ -295,7 +295,7 @@ void DatasetReplay::print(std::FILE* out) const {
     std::fprintf(out, "replay: not open\n");
     return;
   }
-  const drivers::CameraIntrinsics k = active_->intrinsics();
+  const messages::CameraIntrinsics k = active_->intrinsics();
   std::fprintf(out, "replay: %s dataset in %s: %zu frames, %zu ground-truth poses\n", format_name(),
                frames_folder_.c_str(), size(), ground_truth_.size());
   std::fprintf(out, "replay: camera %dx%d fx=%g fy=%g cx=%g cy=%g depth_scale_m=%g (%s)\n", k.width, k.height, k.fx,

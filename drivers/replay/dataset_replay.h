@@ -68,7 +68,7 @@ class DatasetReplay {
   DatasetFormat format() const { return format_; }
   const std::string& frames_folder() const { return frames_folder_; }
 
-  drivers::CameraIntrinsics intrinsics() const;
+  messages::CameraIntrinsics intrinsics() const;
   float depth_scale_m() const { return depth_scale_m_; }
   // Where the camera came from, e.g. "calibration /data/x/calibration.json, fx from config" or
   // "the TUM default camera".

@@ -64,11 +64,11 @@ bool ImageListReplay::install(const char* name, std::vector<FrameFiles> frames, 
       if (!file_exists(f.depth_path)) continue;
       const cv::Mat depth = read_image(f.depth_path, cv::IMREAD_UNCHANGED);
       if (depth.empty()) continue;
-      if (depth.cols > drivers::kMaxFrameWidth || depth.rows > drivers::kMaxFrameHeight) {
+      if (depth.cols > messages::kMaxFrameWidth || depth.rows > messages::kMaxFrameHeight) {
         if (error) {
           *error = listed_at(settings.depth_list_name, f.depth_line) + "'" + f.depth_path + "' is " +
                    std::to_string(depth.cols) + "x" + std::to_string(depth.rows) + ", larger than the " +
-                   std::to_string(drivers::kMaxFrameWidth) + "x" + std::to_string(drivers::kMaxFrameHeight) +
+                   std::to_string(messages::kMaxFrameWidth) + "x" + std::to_string(messages::kMaxFrameHeight) +
                    " frame buffers";
         }
         return false;
@@ -134,7 +134,7 @@ ImageListReplay::Outcome ImageListReplay::wrong_size(const char* what, const std
   return Outcome::kCorrupt;
 }
 
-ImageListReplay::Outcome ImageListReplay::decode(const FrameFiles& files, drivers::RgbdFrame& frame) {
+ImageListReplay::Outcome ImageListReplay::decode(const FrameFiles& files, messages::RgbdFrame& frame) {
   const int w = intrinsics_.width;
   const int h = intrinsics_.height;
   // Depth.
@@ -195,7 +195,7 @@ ImageListReplay::Outcome ImageListReplay::decode(const FrameFiles& files, driver
   return Outcome::kOk;
 }
 
-drivers::ReadStatus ImageListReplay::read(drivers::RgbdFrame& frame, std::int64_t /*timeout_ns*/) {
+drivers::ReadStatus ImageListReplay::read(messages::RgbdFrame& frame, std::int64_t /*timeout_ns*/) {
   while (next_ < frames_.size()) {
     const std::size_t index = next_++;
     const FrameFiles& files = frames_[index];
@@ -215,9 +215,9 @@ drivers::ReadStatus ImageListReplay::read(drivers::RgbdFrame& frame, std::int64_
     frame.intrinsics = intrinsics_;
     frame.depth_scale_m = depth_scale_m_;
     frame.flags = 0;
-    if (gap_pending_ || (have_last_ && index != last_sequence_ + 1)) frame.flags |= drivers::kFrameSequenceGap;
+    if (gap_pending_ || (have_last_ && index != last_sequence_ + 1)) frame.flags |= messages::kFrameSequenceGap;
     if (have_last_ && files.sample_time_ns <= last_sample_time_ns_) {
-      frame.flags |= drivers::kFrameTimestampBackwards;
+      frame.flags |= messages::kFrameTimestampBackwards;
       ++counters_.timestamps_backwards;
     }
     gap_pending_ = false;

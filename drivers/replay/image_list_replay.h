@@ -33,13 +33,13 @@ class ImageListReplay : public drivers::RgbdSource {
   ImageListReplay& operator=(const ImageListReplay&) = delete;
 
   const char* name() const override { return name_; }
-  drivers::CameraIntrinsics intrinsics() const override { return intrinsics_; }
+  messages::CameraIntrinsics intrinsics() const override { return intrinsics_; }
   // Decodes the next listed frame into `frame` (sequence = its index in the list). Never waits: the timeout is
   // ignored. Missing files count in missing_files, undecodable ones (corrupt, wrong size or pixel type) in
   // bad_frames; both are skipped and the next delivered frame carries kFrameSequenceGap. A sample time not
   // after the previous delivered one is flagged kFrameTimestampBackwards and counted. After the last frame,
   // kEndOfStream forever.
-  drivers::ReadStatus read(drivers::RgbdFrame& frame, std::int64_t timeout_ns) override;
+  drivers::ReadStatus read(messages::RgbdFrame& frame, std::int64_t timeout_ns) override;
   const drivers::DriverCounters& counters() const override { return counters_; }
 
   std::size_t size() const { return frames_.size(); }
@@ -55,7 +55,7 @@ class ImageListReplay : public drivers::RgbdSource {
 
  protected:
   struct ListSettings {
-    drivers::CameraIntrinsics intrinsics;
+    messages::CameraIntrinsics intrinsics;
     bool size_from_first_frame = true;  // width/height from the first readable depth image, not the config
     float depth_scale_m = 0.001f;
     std::int64_t publish_latency_ns = 0;
@@ -71,14 +71,14 @@ class ImageListReplay : public drivers::RgbdSource {
 
  private:
   enum class Outcome { kOk, kMissing, kCorrupt };
-  Outcome decode(const FrameFiles& files, drivers::RgbdFrame& frame);
+  Outcome decode(const FrameFiles& files, messages::RgbdFrame& frame);
   Outcome fail(Outcome outcome, const char* what, const std::string& path);
   Outcome wrong_size(const char* what, const std::string& path, int width, int height);
 
   const char* name_ = "replay";
   std::string intrinsics_source_;
   std::vector<FrameFiles> frames_;
-  drivers::CameraIntrinsics intrinsics_;
+  messages::CameraIntrinsics intrinsics_;
   float depth_scale_m_ = 0.001f;
   std::int64_t publish_latency_ns_ = 0;
   std::size_t next_ = 0;

@@ -15,7 +15,7 @@ namespace qsg::replay {
 class PoseListReplay : public ImageListReplay {
  public:
   struct Config {
-    drivers::CameraIntrinsics intrinsics;  // fy may be negative (ICL-NUIM's convention)
+    messages::CameraIntrinsics intrinsics;  // fy may be negative (ICL-NUIM's convention)
     float depth_scale_m = 1.0f / 5000.0f;
     std::string color_dir = "color";
     std::string color_ext = ".png";

@@ -34,7 +34,7 @@ std::vector<std::string> list_images(const std::string& folder, const std::strin
 
 }  // namespace
 
-bool read_camera_intrinsics_json(const std::string& path, drivers::CameraIntrinsics* intrinsics,
+bool read_camera_intrinsics_json(const std::string& path, messages::CameraIntrinsics* intrinsics,
                                  std::string* error) {
   CameraCalibration calibration;
   if (!read_camera_calibration(path, &calibration, error)) return false;

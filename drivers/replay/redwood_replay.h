@@ -15,12 +15,12 @@ namespace qsg::replay {
 // Open3D camera JSON: {"width": w, "height": h, "intrinsic_matrix": [9 numbers, column-major]} (also accepted
 // nested under "intrinsic", as in Open3D's PinholeCameraTrajectory files). Errors name the file and field.
 // The intrinsics of read_camera_calibration (camera_calibration.h), without the depth scale.
-bool read_camera_intrinsics_json(const std::string& path, drivers::CameraIntrinsics* intrinsics, std::string* error);
+bool read_camera_intrinsics_json(const std::string& path, messages::CameraIntrinsics* intrinsics, std::string* error);
 
 class RedwoodReplay : public ImageListReplay {
  public:
   struct Config {
-    drivers::CameraIntrinsics intrinsics;  // default: PrimeSense (fx = fy = 525, cx = 319.5, cy = 239.5)
+    messages::CameraIntrinsics intrinsics;  // default: PrimeSense (fx = fy = 525, cx = 319.5, cy = 239.5)
     std::string camera_json;               // if set (relative to the folder or absolute): intrinsics from it
     std::string trajectory_log = "trajectory.log";  // relative to the folder; empty: no trajectory
     std::string match_list = "rgbd.match";          // `depth/x.png color/x.jpg` lines; if absent, folders sorted

@@ -274,7 +274,7 @@ void TrajectoryOdometry::rewind() {
   have_last_time_ = false;
 }
 
-drivers::ReadStatus TrajectoryOdometry::read(drivers::OdometrySample& sample, std::int64_t /*timeout_ns*/) {
+drivers::ReadStatus TrajectoryOdometry::read(messages::OdometrySample& sample, std::int64_t /*timeout_ns*/) {
   if (next_ >= trajectory_.size()) return drivers::ReadStatus::kEndOfStream;
   const StampedPose& pose = trajectory_[next_];
   sample.sequence = next_;
@@ -288,7 +288,7 @@ drivers::ReadStatus TrajectoryOdometry::read(drivers::OdometrySample& sample, st
   sample.covariance.diagonal() << vt, vt, vt, vr, vr, vr;
   sample.flags = 0;
   if (have_last_time_ && pose.time_ns <= last_time_ns_) {
-    sample.flags |= drivers::kFrameTimestampBackwards;
+    sample.flags |= messages::kFrameTimestampBackwards;
     ++counters_.timestamps_backwards;
   }
   have_last_time_ = true;

@@ -85,7 +85,7 @@ class TrajectoryOdometry : public drivers::OdometrySource {
   void rewind();
 
   const char* name() const override { return name_; }
-  drivers::ReadStatus read(drivers::OdometrySample& sample, std::int64_t timeout_ns) override;
+  drivers::ReadStatus read(messages::OdometrySample& sample, std::int64_t timeout_ns) override;
   const drivers::DriverCounters& counters() const override { return counters_; }
 
   const Trajectory& trajectory() const { return trajectory_; }

@@ -32,7 +32,7 @@ bool read_tum_list(const std::string& folder, const std::string& list_name, std:
 class TumReplay : public ImageListReplay {
  public:
   struct Config {
-    drivers::CameraIntrinsics intrinsics;  // default: TUM's ROS default (fx = fy = 525, cx = 319.5, cy = 239.5)
+    messages::CameraIntrinsics intrinsics;  // default: TUM's ROS default (fx = fy = 525, cx = 319.5, cy = 239.5)
     bool size_from_first_frame = true;     // width/height from the first depth image instead of `intrinsics`
     float depth_scale_m = 1.0f / 5000.0f;  // TUM depth PNGs hold 5000 units per metre
     double max_time_difference_s = 0.02;   // association window, as the TUM associate tool
@@ -94,7 +94,7 @@ class TumWriter {
 
   // Creates the folder (and rgb/, depth/, labels/) and the list files, replacing existing lists.
   bool open(const std::string& folder, const Config& config, std::string* error);
-  bool write_frame(const drivers::RgbdFrame& frame, std::string* error);
+  bool write_frame(const messages::RgbdFrame& frame, std::string* error);
   bool write_pose(const StampedPose& pose, std::string* error);
   bool close(std::string* error);
   const Stats& stats() const { return stats_; }
@@ -111,7 +111,7 @@ class TumWriter {
   bool have_last_time_ = false;
   std::int64_t last_time_ns_ = 0;
   bool have_camera_ = false;
-  drivers::CameraIntrinsics camera_;
+  messages::CameraIntrinsics camera_;
   Stats stats_;
 };
 

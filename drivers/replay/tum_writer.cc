@@ -74,14 +74,14 @@ bool TumWriter::open(const std::string& folder, const Config& config, std::strin
   return true;
 }
 
-bool TumWriter::write_frame(const drivers::RgbdFrame& frame, std::string* error) {
+bool TumWriter::write_frame(const messages::RgbdFrame& frame, std::string* error) {
   if (rgb_list_ == nullptr) return fail("TumWriter: write_frame before open", error);
   const int w = frame.width();
   const int h = frame.height();
   if (!frame.intrinsics.valid()) return fail("TumWriter: frame has invalid intrinsics", error);
   // The first frame's camera goes into calibration.json, so the folder replays with the camera that took it; a TUM
   // folder has one camera, so a frame from another is refused.
-  const drivers::CameraIntrinsics& k = frame.intrinsics;
+  const messages::CameraIntrinsics& k = frame.intrinsics;
   if (!have_camera_) {
     CameraCalibration calibration;
     calibration.intrinsics = k;

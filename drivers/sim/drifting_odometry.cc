@@ -63,7 +63,7 @@ double DriftingOdometry::gaussian() {
   return r * std::cos(theta);
 }
 
-drivers::ReadStatus DriftingOdometry::read(drivers::OdometrySample& sample, std::int64_t /*timeout_ns*/) {
+drivers::ReadStatus DriftingOdometry::read(messages::OdometrySample& sample, std::int64_t /*timeout_ns*/) {
   if (next_ >= ground_truth_.size()) return drivers::ReadStatus::kEndOfStream;
   const std::size_t i = next_++;
   const replay::StampedPose& truth = ground_truth_[i];
@@ -105,7 +105,7 @@ drivers::ReadStatus DriftingOdometry::read(drivers::OdometrySample& sample, std:
   sample.publish_time_ns = truth.time_ns + config_.publish_latency_ns;
   sample.flags = 0;
   if (have_last_time_ && truth.time_ns <= last_time_ns_) {
-    sample.flags |= drivers::kFrameTimestampBackwards;
+    sample.flags |= messages::kFrameTimestampBackwards;
     ++counters_.timestamps_backwards;
   }
   have_last_time_ = true;
@@ -127,7 +127,7 @@ replay::Trajectory drifted_trajectory(const replay::Trajectory& truth, const Dri
   DriftingOdometry odometry(truth, config);
   replay::Trajectory estimate;
   estimate.reserve(truth.size());
-  drivers::OdometrySample sample;
+  messages::OdometrySample sample;
   while (odometry.read(sample, 0) == drivers::ReadStatus::kOk) {
     replay::StampedPose p;
     p.time_ns = sample.sample_time_ns;

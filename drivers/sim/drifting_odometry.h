@@ -40,7 +40,7 @@ class DriftingOdometry : public drivers::OdometrySource {
 
   const char* name() const override { return "drifting_odometry"; }
   // One sample per ground-truth pose (sequence = index), then kEndOfStream. Never waits; never allocates.
-  drivers::ReadStatus read(drivers::OdometrySample& sample, std::int64_t timeout_ns) override;
+  drivers::ReadStatus read(messages::OdometrySample& sample, std::int64_t timeout_ns) override;
   const drivers::DriverCounters& counters() const override { return counters_; }
 
   // Starts over; the same seed gives the same samples.

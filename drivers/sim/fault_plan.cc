@@ -602,8 +602,8 @@ struct DepthShape {
   int width;
   int height;
 };
-DepthShape depth_shape(const drivers::RgbdFrame& f) { return {true, f.width(), f.height()}; }
-DepthShape depth_shape(const drivers::OdometrySample&) { return {false, 0, 0}; }
+DepthShape depth_shape(const messages::RgbdFrame& f) { return {true, f.width(), f.height()}; }
+DepthShape depth_shape(const messages::OdometrySample&) { return {false, 0, 0}; }
 
 template <typename Source, typename Message, typename Extra>
 drivers::ReadStatus FaultInjector::read(Source& inner, Message& message, std::int64_t timeout_ns, Extra&& apply_extra) {
@@ -632,19 +632,21 @@ drivers::ReadStatus FaultInjector::read(Source& inner, Message& message, std::in
     }
     if (faults.late_ns > 0) {
       message.publish_time_ns += faults.late_ns;
-      message.flags |= drivers::kFrameLate;
+      message.flags |= messages::kFrameLate;
       ++own_.late;
     }
     if (faults.back_ns > 0) {
       const std::int64_t reference = have_last_ ? last_sample_time_ns_ : message.sample_time_ns;
       message.sample_time_ns = std::min(message.sample_time_ns, reference - faults.back_ns);
-      message.flags |= drivers::kFrameTimestampBackwards;
+      message.flags |= messages::kFrameTimestampBackwards;
       ++own_.timestamps_backwards;
     }
     apply_extra(message, faults, own_);
-    if (gap_pending_ || (have_last_ && message.sequence != last_sequence_ + 1)) message.flags |= drivers::kFrameSequenceGap;
+    if (gap_pending_ || (have_last_ && message.sequence != last_sequence_ + 1)) {
+      message.flags |= messages::kFrameSequenceGap;
+    }
     if (scheduler_.take_reconnect()) {
-      message.flags |= drivers::kFrameAfterReconnect;
+      message.flags |= messages::kFrameAfterReconnect;
       ++own_.reconnects;
     }
     if (!faults.any() && fault_open_) {
@@ -668,16 +670,17 @@ FaultInjectingRgbdSource::FaultInjectingRgbdSource(drivers::RgbdSource& inner, c
   injector_.refresh(inner_.counters());
 }
 
-drivers::ReadStatus FaultInjectingRgbdSource::read(drivers::RgbdFrame& frame, std::int64_t timeout_ns) {
+drivers::ReadStatus FaultInjectingRgbdSource::read(messages::RgbdFrame& frame, std::int64_t timeout_ns) {
   return injector_.read(inner_, frame, timeout_ns,
-                        [](drivers::RgbdFrame& f, const FaultScheduler::FrameFaults& faults, drivers::DriverCounters& own) {
+                        [](messages::RgbdFrame& f, const FaultScheduler::FrameFaults& faults,
+                           drivers::DriverCounters& own) {
                           if (!faults.depth) return;
                           const float value = faults.depth_kind == FaultKind::kDepthNan
                                                   ? std::numeric_limits<float>::quiet_NaN()
                                               : faults.depth_kind == FaultKind::kDepthZero ? 0.0f
                                                                                            : 65535.0f * f.depth_scale_m;
                           fill_depth(f.depth_m.data(), f.width(), f.height(), faults.rect, value);
-                          f.flags |= drivers::kFrameInvalidDepthRegion;
+                          f.flags |= messages::kFrameInvalidDepthRegion;
                           ++own.invalid_depth_frames;
                         });
 }
@@ -687,9 +690,10 @@ FaultInjectingOdometrySource::FaultInjectingOdometrySource(drivers::OdometrySour
   injector_.refresh(inner_.counters());
 }
 
-drivers::ReadStatus FaultInjectingOdometrySource::read(drivers::OdometrySample& sample, std::int64_t timeout_ns) {
+drivers::ReadStatus FaultInjectingOdometrySource::read(messages::OdometrySample& sample, std::int64_t timeout_ns) {
   return injector_.read(inner_, sample, timeout_ns,
-                        [](drivers::OdometrySample& s, const FaultScheduler::FrameFaults& faults, drivers::DriverCounters&) {
+                        [](messages::OdometrySample& s, const FaultScheduler::FrameFaults& faults,
+                           drivers::DriverCounters&) {
                           if (faults.jump) s.world_t_body_m += Eigen::Vector3d(faults.jump_m[0], faults.jump_m[1], faults.jump_m[2]);
                         });
 }

@@ -205,8 +205,8 @@ class FaultInjectingRgbdSource : public drivers::RgbdSource {
  public:
   FaultInjectingRgbdSource(drivers::RgbdSource& inner, const FaultPlan& plan);
   const char* name() const override { return "fault_injecting_rgbd"; }
-  drivers::CameraIntrinsics intrinsics() const override { return inner_.intrinsics(); }
-  drivers::ReadStatus read(drivers::RgbdFrame& frame, std::int64_t timeout_ns) override;
+  messages::CameraIntrinsics intrinsics() const override { return inner_.intrinsics(); }
+  drivers::ReadStatus read(messages::RgbdFrame& frame, std::int64_t timeout_ns) override;
   const drivers::DriverCounters& counters() const override { return injector_.counters(); }
   const FaultTally& injected() const { return injector_.tally(); }
   const FaultInjector& injector() const { return injector_; }
@@ -221,7 +221,7 @@ class FaultInjectingOdometrySource : public drivers::OdometrySource {
  public:
   FaultInjectingOdometrySource(drivers::OdometrySource& inner, const FaultPlan& plan);
   const char* name() const override { return "fault_injecting_odometry"; }
-  drivers::ReadStatus read(drivers::OdometrySample& sample, std::int64_t timeout_ns) override;
+  drivers::ReadStatus read(messages::OdometrySample& sample, std::int64_t timeout_ns) override;
   const drivers::DriverCounters& counters() const override { return injector_.counters(); }
   const FaultTally& injected() const { return injector_.tally(); }
   const FaultInjector& injector() const { return injector_; }

@@ -232,7 +232,7 @@ int main(int argc, char** argv) {
     }
     replay::TumWriter writer;
     if (!writer.open(o.out, replay::TumWriter::Config{}, &error)) return fail(error);
-    auto frame = std::make_unique<drivers::RgbdFrame>();
+    auto frame = std::make_unique<messages::RgbdFrame>();
     long frames = 0;
     double render_s = 0.0;
     while (o.max_frames < 0 || frames < o.max_frames) {

@@ -61,7 +61,7 @@ bool SimCamera::camera_pose(std::uint64_t sequence, Eigen::Isometry3d* world_T_c
   return true;
 }
 
-drivers::ReadStatus SimCamera::read(drivers::RgbdFrame& frame, std::int64_t /*timeout_ns*/) {
+drivers::ReadStatus SimCamera::read(messages::RgbdFrame& frame, std::int64_t /*timeout_ns*/) {
   Eigen::Isometry3d world_T_camera;
   std::int64_t t = 0;
   if (!camera_pose(next_, &world_T_camera, &t)) return drivers::ReadStatus::kEndOfStream;

@@ -16,7 +16,7 @@ namespace qsg::sim {
 class SimCamera : public drivers::RgbdSource {
  public:
   struct Config {
-    drivers::CameraIntrinsics intrinsics{320, 240, 262.5, 262.5, 159.5, 119.5};
+    messages::CameraIntrinsics intrinsics{320, 240, 262.5, 262.5, 159.5, 119.5};
     double rate_hz = 10.0;
     std::int64_t latency_ns = 15'000'000;  // publish time = sample time + latency
     float depth_scale_m = 0.001f;          // a RealSense-style Z16 device
@@ -30,9 +30,9 @@ class SimCamera : public drivers::RgbdSource {
             replay::Trajectory trajectory, std::string* error);
 
   const char* name() const override { return "sim_camera"; }
-  drivers::CameraIntrinsics intrinsics() const override { return config_.intrinsics; }
+  messages::CameraIntrinsics intrinsics() const override { return config_.intrinsics; }
   // Renders frame `sequence` = number of frames read so far; kEndOfStream past the trajectory's end.
-  drivers::ReadStatus read(drivers::RgbdFrame& frame, std::int64_t timeout_ns) override;
+  drivers::ReadStatus read(messages::RgbdFrame& frame, std::int64_t timeout_ns) override;
   const drivers::DriverCounters& counters() const override { return counters_; }
 
   std::size_t num_frames() const { return num_frames_; }

@@ -450,10 +450,10 @@ drivers::ReadStatus V4l2Capture::next(CapturedFrame* frame, std::int64_t timeout
   last_sample_time_ns_ = sample_ns;
 
   std::uint32_t flags = 0;
-  if (have_delivered_ && sequence != last_delivered_sequence_ + 1) flags |= drivers::kFrameSequenceGap;
-  if (after_reconnect_) flags |= drivers::kFrameAfterReconnect;
+  if (have_delivered_ && sequence != last_delivered_sequence_ + 1) flags |= messages::kFrameSequenceGap;
+  if (after_reconnect_) flags |= messages::kFrameAfterReconnect;
   if (now_ns - sample_ns > config_.max_latency_ns) {
-    flags |= drivers::kFrameLate;
+    flags |= messages::kFrameLate;
     ++counters_.driver.late;
   }
   after_reconnect_ = false;

@@ -50,7 +50,7 @@ struct CapturedFrame {
   std::int64_t sample_time_ns = 0;    // CLOCK_MONOTONIC time the driver stamped the buffer with
   std::int64_t dequeue_time_ns = 0;   // CLOCK_MONOTONIC time it was dequeued (the publish time)
   std::uint64_t dropped_before = 0;   // frames the driver lost between the previous dequeued buffer and this one
-  std::uint32_t flags = 0;            // drivers::FrameFlag bits: sequence gap, late, after reconnect
+  std::uint32_t flags = 0;            // messages::FrameFlag bits: sequence gap, late, after reconnect
 };
 
 struct CaptureCounters {

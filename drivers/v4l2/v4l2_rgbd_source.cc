@@ -138,7 +138,7 @@ drivers::ReadStatus V4l2RgbdSource::fetch(V4l2Capture& capture, CapturedFrame* f
   return s;
 }
 
-void V4l2RgbdSource::assemble(drivers::RgbdFrame& frame) {
+void V4l2RgbdSource::assemble(messages::RgbdFrame& frame) {
   const CaptureFormat& df = depth_.format();
   const CaptureFormat& cf = colour_.format();
   const int w = config_.intrinsics.width;
@@ -153,13 +153,13 @@ void V4l2RgbdSource::assemble(drivers::RgbdFrame& frame) {
   } else {
     rgb24_to_rgb(colour_frame_.data, cf.bytes_per_line, w, h, frame.rgb.data());
   }
-  std::uint32_t flags = (depth_frame_.flags | colour_frame_.flags) & drivers::kFrameAfterReconnect;
-  if (after_reconnect_) flags |= drivers::kFrameAfterReconnect;
+  std::uint32_t flags = (depth_frame_.flags | colour_frame_.flags) & messages::kFrameAfterReconnect;
+  if (after_reconnect_) flags |= messages::kFrameAfterReconnect;
   after_reconnect_ = false;
 
   frame.sequence = depth_frame_.sequence;
   if (have_delivered_ && frame.sequence != last_sequence_ + 1) {
-    flags |= drivers::kFrameSequenceGap;
+    flags |= messages::kFrameSequenceGap;
     counters_.dropped += frame.sequence - last_sequence_ - 1;
   }
   have_delivered_ = true;
@@ -168,18 +168,18 @@ void V4l2RgbdSource::assemble(drivers::RgbdFrame& frame) {
   const std::int64_t now_ns = clock_.monotonic_ns();
   frame.publish_time_ns = now_ns > frame.sample_time_ns ? now_ns : frame.sample_time_ns;
   if (frame.publish_time_ns - frame.sample_time_ns > config_.max_latency_ns) {
-    flags |= drivers::kFrameLate;
+    flags |= messages::kFrameLate;
     ++counters_.late;
   }
   if (static_cast<double>(invalid) > config_.invalid_depth_fraction * static_cast<double>(w * h)) {
-    flags |= drivers::kFrameInvalidDepthRegion;
+    flags |= messages::kFrameInvalidDepthRegion;
     ++counters_.invalid_depth_frames;
   }
   frame.flags = flags;
   ++counters_.delivered;
 }
 
-drivers::ReadStatus V4l2RgbdSource::read(drivers::RgbdFrame& frame, std::int64_t timeout_ns) {
+drivers::ReadStatus V4l2RgbdSource::read(messages::RgbdFrame& frame, std::int64_t timeout_ns) {
   if (!initialised_) {
     last_error_ = "read() before a successful init()";
     return drivers::ReadStatus::kDisconnected;

@@ -17,7 +17,7 @@ class V4l2RgbdSource : public drivers::RgbdSource {
   struct Config {
     V4l2Capture::Config depth = default_depth();    // pixel_format must be Z16
     V4l2Capture::Config colour = default_colour();  // YUYV or RGB3, same size as depth
-    drivers::CameraIntrinsics intrinsics;           // of the aligned pair; width/height must match both nodes
+    messages::CameraIntrinsics intrinsics;           // of the aligned pair; width/height must match both nodes
     float depth_scale_m = 0.001f;                   // metres per Z16 unit (RealSense D4xx default)
     std::int64_t pair_tolerance_ns = 10'000'000;    // depth and colour sample times further apart do not pair
     std::int64_t max_latency_ns = 100'000'000;      // publish - sample above this: kFrameLate
@@ -43,9 +43,9 @@ class V4l2RgbdSource : public drivers::RgbdSource {
   bool init(const Config& config, std::string* error);
 
   const char* name() const override { return "v4l2_rgbd"; }
-  drivers::CameraIntrinsics intrinsics() const override { return config_.intrinsics; }
+  messages::CameraIntrinsics intrinsics() const override { return config_.intrinsics; }
   // Never allocates while the devices behave; a reconnect attempt (at most one per reconnect_interval_ns) does.
-  drivers::ReadStatus read(drivers::RgbdFrame& frame, std::int64_t timeout_ns) override;
+  drivers::ReadStatus read(messages::RgbdFrame& frame, std::int64_t timeout_ns) override;
   const drivers::DriverCounters& counters() const override { return counters_; }
 
   const PairCounters& pair_counters() const { return pair_counters_; }
@@ -60,7 +60,7 @@ class V4l2RgbdSource : public drivers::RgbdSource {
   drivers::ReadStatus on_disconnect(const V4l2Capture& capture);
   bool try_reconnect();
   void release_held();
-  void assemble(drivers::RgbdFrame& frame);
+  void assemble(messages::RgbdFrame& frame);
   void update_counters();
 
   V4l2Syscalls& clock_;

@@ -131,7 +131,7 @@ PoseSampleResult PoseBuffer::count(PoseSampleResult r) {
   return r;
 }
 
-PoseSampleResult PoseBuffer::validate(const drivers::OdometrySample& s, BufferedPose* out) {
+PoseSampleResult PoseBuffer::validate(const messages::OdometrySample& s, BufferedPose* out) {
   const Eigen::Vector4d q = s.world_R_body.coeffs();
   if (!s.world_t_body_m.allFinite() || !q.allFinite() || !s.covariance.allFinite()) return PoseSampleResult::kNonFinite;
   if (std::abs(q.norm() - 1.0) > config_.unit_quaternion_tolerance) return PoseSampleResult::kBadQuaternion;
@@ -172,7 +172,7 @@ void PoseBuffer::append(const BufferedPose& pose) {
   ++counters_.accepted;
 }
 
-PoseSampleResult PoseBuffer::push(const drivers::OdometrySample& sample) {
+PoseSampleResult PoseBuffer::push(const messages::OdometrySample& sample) {
   BufferedPose pose;
   const PoseSampleResult valid = validate(sample, &pose);
   if (valid != PoseSampleResult::kAccepted) return count(valid);

@@ -11,7 +11,7 @@
 #include <string>
 
 #include "core/memory/resource_stats.h"
-#include "drivers/sensor_types.h"
+#include "core/messages/sensor_types.h"
 
 namespace qsg::runtime {
 
@@ -86,7 +86,7 @@ class PoseBuffer {
  public:
   bool init(std::uint32_t capacity, const PoseBufferConfig& config, std::string* error);
 
-  PoseSampleResult push(const drivers::OdometrySample& sample);
+  PoseSampleResult push(const messages::OdometrySample& sample);
   // world_T_body at time_ns (and the interpolated covariance diagonal when `variance` is given).
   PoseLookup lookup(std::int64_t time_ns, Eigen::Isometry3d* world_T_body,
                     Eigen::Matrix<double, 6, 1>* variance = nullptr) const;
@@ -103,7 +103,7 @@ class PoseBuffer {
 
  private:
   const BufferedPose& at(std::uint32_t i) const { return ring_[(head_ + i) % capacity_]; }
-  PoseSampleResult validate(const drivers::OdometrySample& sample, BufferedPose* out);
+  PoseSampleResult validate(const messages::OdometrySample& sample, BufferedPose* out);
   PoseSampleResult check_against_newest(const BufferedPose& pose) const;
   void append(const BufferedPose& pose);
   PoseSampleResult count(PoseSampleResult r);

@@ -43,20 +43,20 @@ inline std::string rgbd_contract_case_name(const ::testing::TestParamInfo<RgbdCo
 
 class RgbdSourceContract : public ::testing::TestWithParam<RgbdContractCase> {
  protected:
-  static constexpr std::uint32_t kKnownFlags = drivers::kFrameLate | drivers::kFrameTimestampBackwards |
-                                               drivers::kFrameInvalidDepthRegion | drivers::kFrameSequenceGap |
-                                               drivers::kFrameAfterReconnect;
+  static constexpr std::uint32_t kKnownFlags = messages::kFrameLate | messages::kFrameTimestampBackwards |
+                                               messages::kFrameInvalidDepthRegion | messages::kFrameSequenceGap |
+                                               messages::kFrameAfterReconnect;
 
   void SetUp() override {
     std::string reason;
     source_ = GetParam().make(&reason);
     if (!source_) GTEST_SKIP() << "backend '" << GetParam().name << "' unavailable: " << reason;
-    frame_ = std::make_unique<drivers::RgbdFrame>();
+    frame_ = std::make_unique<messages::RgbdFrame>();
   }
 
   // Checks one delivered frame against the source and the previous frame; returns sequence numbers skipped.
-  std::uint64_t check_frame(const drivers::RgbdFrame& f, bool* have_prev, std::uint64_t* prev_sequence) {
-    const drivers::CameraIntrinsics k = source_->intrinsics();
+  std::uint64_t check_frame(const messages::RgbdFrame& f, bool* have_prev, std::uint64_t* prev_sequence) {
+    const messages::CameraIntrinsics k = source_->intrinsics();
     EXPECT_TRUE(f.intrinsics.valid());
     EXPECT_EQ(f.width(), k.width);
     EXPECT_EQ(f.height(), k.height);
@@ -73,7 +73,7 @@ class RgbdSourceContract : public ::testing::TestWithParam<RgbdContractCase> {
       EXPECT_GT(f.sequence, *prev_sequence) << "sequence numbers must strictly increase";
       if (f.sequence > *prev_sequence + 1) {
         skipped = f.sequence - *prev_sequence - 1;
-        EXPECT_TRUE(f.flags & drivers::kFrameSequenceGap)
+        EXPECT_TRUE(f.flags & messages::kFrameSequenceGap)
             << "sequence jumped from " << *prev_sequence << " to " << f.sequence << " without kFrameSequenceGap";
       }
     }
@@ -83,7 +83,7 @@ class RgbdSourceContract : public ::testing::TestWithParam<RgbdContractCase> {
   }
 
   std::shared_ptr<drivers::RgbdSource> source_;
-  std::unique_ptr<drivers::RgbdFrame> frame_;
+  std::unique_ptr<messages::RgbdFrame> frame_;
 };
 
 TEST_P(RgbdSourceContract, IntrinsicsAreValid) {

@@ -343,7 +343,7 @@ TEST(PipelineTest, RunsOnAV4l2DepthAndColourPair) {
 struct ReplaySample {
   const char* name;
   const char* calibration;  // shipped in drivers/replay/calibration/, or "" (the dataset's own file)
-  drivers::CameraIntrinsics intrinsics;
+  messages::CameraIntrinsics intrinsics;
   float depth_scale_m;
 };
 
@@ -368,7 +368,7 @@ void run_replay_sample(const ReplaySample& sample) {
   Pipeline p;
   std::string error;
   ASSERT_TRUE(p.init(c, &clock, &error)) << error;
-  const drivers::CameraIntrinsics k = p.camera()->intrinsics();
+  const messages::CameraIntrinsics k = p.camera()->intrinsics();
   EXPECT_EQ(k.width, sample.intrinsics.width);
   EXPECT_EQ(k.height, sample.intrinsics.height);
   EXPECT_EQ(k.fx, sample.intrinsics.fx);
@@ -391,7 +391,7 @@ void run_replay_sample(const ReplaySample& sample) {
   rc.path = c.replay_path;
   ASSERT_TRUE(dataset.open(rc, &error)) << error;
   EXPECT_EQ(dataset.depth_scale_m(), sample.depth_scale_m);
-  auto frame = std::make_unique<drivers::RgbdFrame>();
+  auto frame = std::make_unique<messages::RgbdFrame>();
   ASSERT_EQ(dataset.camera().read(*frame, 0), drivers::ReadStatus::kOk);
   const Eigen::Isometry3d world_T_camera = dataset.ground_truth().front().world_T_body();
   const double voxel_m = c.reconstruction.voxel_size_m;
@@ -444,7 +444,7 @@ void write_simulated_tum(const std::string& dir, int frames) {
   ASSERT_TRUE(camera.init(cc, render::Renderer::Config{}, world, tour.trajectory, &error)) << error;
   replay::TumWriter writer;
   ASSERT_TRUE(writer.open(dir, replay::TumWriter::Config{}, &error)) << error;
-  auto frame = std::make_unique<drivers::RgbdFrame>();
+  auto frame = std::make_unique<messages::RgbdFrame>();
   for (int i = 0; i < frames && camera.read(*frame, 0) == drivers::ReadStatus::kOk; ++i) {
     Eigen::Isometry3d world_T_camera;
     ASSERT_TRUE(camera.camera_pose(frame->sequence, &world_T_camera, nullptr));

@@ -14,9 +14,9 @@ namespace {
 
 constexpr std::int64_t kMs = 1'000'000;
 
-drivers::OdometrySample sample(std::uint64_t seq, std::int64_t t_ns, const Eigen::Vector3d& p,
+messages::OdometrySample sample(std::uint64_t seq, std::int64_t t_ns, const Eigen::Vector3d& p,
                                double yaw_rad = 0.0) {
-  drivers::OdometrySample s;
+  messages::OdometrySample s;
   s.sequence = seq;
   s.sample_time_ns = t_ns;
   s.world_t_body_m = p;
@@ -76,7 +76,7 @@ TEST(PoseBufferTest, LookupSaysWhyThereIsNoPose) {
 TEST(PoseBufferTest, RejectsAndCountsEveryKindOfBadSample) {
   PoseBuffer b = make();
   ASSERT_EQ(b.push(sample(10, 100 * kMs, {0, 0, 0})), PoseSampleResult::kAccepted);
-  drivers::OdometrySample s = sample(11, 110 * kMs, {std::numeric_limits<double>::quiet_NaN(), 0, 0});
+  messages::OdometrySample s = sample(11, 110 * kMs, {std::numeric_limits<double>::quiet_NaN(), 0, 0});
   EXPECT_EQ(b.push(s), PoseSampleResult::kNonFinite);
   s = sample(11, 110 * kMs, {0, 0, 0});
   s.covariance(2, 2) = std::numeric_limits<double>::infinity();

@@ -34,7 +34,7 @@ world::World furnished_world() {
 struct Rig {
   std::unique_ptr<render::Renderer> renderer = std::make_unique<render::Renderer>();
   std::unique_ptr<reconstruction::SemanticTsdf> tsdf = std::make_unique<reconstruction::SemanticTsdf>();
-  std::unique_ptr<drivers::RgbdFrame> frame = std::make_unique<drivers::RgbdFrame>();
+  std::unique_ptr<messages::RgbdFrame> frame = std::make_unique<messages::RgbdFrame>();
   std::unique_ptr<scene_graph::SceneGraph> graph = std::make_unique<scene_graph::SceneGraph>();
   std::unique_ptr<Frontend> frontend = std::make_unique<Frontend>();
   std::uint64_t seq = 0;
@@ -49,7 +49,7 @@ struct Rig {
   }
   // A spin at a viewpoint: each frame a keyframe (agent node); the frontend runs after the spin.
   void spin(const Eigen::Vector3d& p) {
-    const drivers::CameraIntrinsics camera{160, 120, 100.0, 100.0, 79.5, 59.5};
+    const messages::CameraIntrinsics camera{160, 120, 100.0, 100.0, 79.5, 59.5};
     std::string error;
     for (double pitch : {-0.6, 0.0})
       for (int k = 0; k < 8; ++k) {

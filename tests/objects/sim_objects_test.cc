@@ -40,7 +40,7 @@ TEST(SimObjectsTest, ObjectsOfARenderedBuildingMatchGroundTruth) {
 
   sim::SimCamera camera;
   sim::SimCamera::Config cc;
-  cc.intrinsics = drivers::CameraIntrinsics{160, 120, 131.25, 131.25, 79.5, 59.5};
+  cc.intrinsics = messages::CameraIntrinsics{160, 120, 131.25, 131.25, 79.5, 59.5};
   cc.rate_hz = ec.speed_m_s / 0.5;  // a keyframe every 0.5 m (and during spins, every 0.7 rad)
   ASSERT_TRUE(camera.init(cc, render::Renderer::Config{}, w, tour.trajectory, &error)) << error;
 
@@ -66,7 +66,7 @@ TEST(SimObjectsTest, ObjectsOfARenderedBuildingMatchGroundTruth) {
   gc.mesh_connections = 1 << 18;
   auto graph = scene_graph::testing::make_graph(gc);
 
-  auto frame = std::make_unique<drivers::RgbdFrame>();
+  auto frame = std::make_unique<messages::RgbdFrame>();
   int frames = 0;
   for (;;) {
     const drivers::ReadStatus status = camera.read(*frame, 0);

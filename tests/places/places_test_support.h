@@ -21,6 +21,8 @@ inline Capacities small_capacities() {
   c.max_blocks = 160;
   c.place_nodes = 1024;
   c.inactive_cells = 1024;
+  c.observed_blocks = 4096;
+  c.pending_relinks = 512;
   return c;
 }
 

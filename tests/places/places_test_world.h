@@ -93,7 +93,7 @@ class Scanner {
     const reconstruction::Capacities caps = small_tsdf_capacities();
     tsdf_ = std::make_unique<reconstruction::SemanticTsdf>();
     if (!tsdf_->init(config, caps, reconstruction::SemanticTsdf::plan(caps).total_bytes(), error)) return false;
-    frame_ = std::make_unique<drivers::RgbdFrame>();
+    frame_ = std::make_unique<messages::RgbdFrame>();
     frame_->depth_scale_m = 0.0f;
     return true;
   }
@@ -111,7 +111,7 @@ class Scanner {
   // ceiling above it).
   bool spin_at_pitches(const Eigen::Vector3d& position_m, int yaws, const std::vector<double>& pitches,
                        const Hook& after_frame = Hook()) {
-    const drivers::CameraIntrinsics camera{160, 120, 100.0, 100.0, 79.5, 59.5};
+    const messages::CameraIntrinsics camera{160, 120, 100.0, 100.0, 79.5, 59.5};
     std::string error;
     for (double pitch : pitches)
       for (int k = 0; k < yaws; ++k) {
@@ -127,13 +127,13 @@ class Scanner {
   // Frames are rendered at the true pose and integrated at the true pose plus this offset (an odometry error).
   void set_pose_error(const Eigen::Vector3d& error_m) { pose_error_m_ = error_m; }
   reconstruction::SemanticTsdf& tsdf() { return *tsdf_; }
-  drivers::RgbdFrame& frame() { return *frame_; }
+  messages::RgbdFrame& frame() { return *frame_; }
 
  private:
   render::Renderer::Config render_config_;
   std::unique_ptr<render::Renderer> renderer_;
   std::unique_ptr<reconstruction::SemanticTsdf> tsdf_;
-  std::unique_ptr<drivers::RgbdFrame> frame_;
+  std::unique_ptr<messages::RgbdFrame> frame_;
   std::uint64_t seq_ = 0;
   Eigen::Vector3d pose_error_m_ = Eigen::Vector3d::Zero();
 };

@@ -103,7 +103,7 @@ TEST(RedwoodMeshTest, MeshOfFiveRealFramesLiesOnTheMeasuredDepth) {
   ASSERT_TRUE(tsdf.init(config, caps, SemanticTsdf::plan(caps).total_bytes(), &error)) << error;
 
   const auto start = std::chrono::steady_clock::now();
-  auto frame = std::make_unique<drivers::RgbdFrame>();
+  auto frame = std::make_unique<messages::RgbdFrame>();
   std::vector<Eigen::Vector3f> depth_points;  // every 2nd pixel of every frame, in the world frame
   int frames = 0;
   while (replay.read(*frame, 0) == drivers::ReadStatus::kOk) {
@@ -116,7 +116,7 @@ TEST(RedwoodMeshTest, MeshOfFiveRealFramesLiesOnTheMeasuredDepth) {
     ASSERT_TRUE(tsdf.integrate(*frame, world_T_camera)) << "frame " << frame->sequence;
     ++frames;
 
-    const drivers::CameraIntrinsics& k = frame->intrinsics;
+    const messages::CameraIntrinsics& k = frame->intrinsics;
     for (int v = 0; v < k.height; v += 2)
       for (int u = 0; u < k.width; u += 2) {
         const float d = frame->depth_m[static_cast<std::size_t>(v * k.width + u)];

@@ -18,11 +18,11 @@
 namespace qsg::reconstruction {
 namespace {
 
-constexpr drivers::CameraIntrinsics kCamera{160, 120, 131.25, 131.25, 79.5, 59.5};
+constexpr messages::CameraIntrinsics kCamera{160, 120, 131.25, 131.25, 79.5, 59.5};
 
 // A fronto-parallel wall at depth_m filling the image (camera optical frame = world frame at identity).
-std::unique_ptr<drivers::RgbdFrame> wall_frame(float depth_m, semantics::Label label = semantics::kWall) {
-  auto f = std::make_unique<drivers::RgbdFrame>();
+std::unique_ptr<messages::RgbdFrame> wall_frame(float depth_m, semantics::Label label = semantics::kWall) {
+  auto f = std::make_unique<messages::RgbdFrame>();
   f->intrinsics = kCamera;
   f->has_labels = true;
   for (int i = 0; i < f->pixels(); ++i) {

@@ -84,7 +84,7 @@ TEST(ReconstructionAccuracyTest, RenderedRoomMeshIsAccurateLabelledAndComplete) 
   render::Renderer renderer;
   std::string error;
   ASSERT_TRUE(renderer.init(render::Renderer::Config{}, w, &error)) << error;
-  const drivers::CameraIntrinsics camera{160, 120, 131.25, 131.25, 79.5, 59.5};
+  const messages::CameraIntrinsics camera{160, 120, 131.25, 131.25, 79.5, 59.5};
 
   Config config;
   Capacities caps;
@@ -96,7 +96,7 @@ TEST(ReconstructionAccuracyTest, RenderedRoomMeshIsAccurateLabelledAndComplete) 
   SemanticTsdf tsdf;
   ASSERT_TRUE(tsdf.init(config, caps, SemanticTsdf::plan(caps).total_bytes(), &error)) << error;
 
-  auto frame = std::make_unique<drivers::RgbdFrame>();
+  auto frame = std::make_unique<messages::RgbdFrame>();
   frame->depth_scale_m = 0.0f;
   std::vector<Eigen::Vector3d> observed;  // true surface points seen within range
   const Eigen::Vector3d positions[2] = {{1.2, 1.6, 1.3}, {3.2, 2.2, 1.0}};

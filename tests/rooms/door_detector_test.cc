@@ -14,7 +14,7 @@
 #include <string>
 #include <vector>
 
-#include "drivers/world/floor_plan_rooms.h"
+#include "bench/rooms/floor_plan_rooms.h"
 #include "tests/rooms/door_scene.h"
 #include "tests/scene_graph/test_graph.h"
 #include "tests/support/test_data.h"
@@ -346,10 +346,10 @@ TEST(DoorDetector, BadInputGivesClearErrors) {
 TEST(DoorDetector, DoorsOfARealPlanLieOnItsRoomBoundaries) {
   QSG_REQUIRE_SHARED_DATA(occupancy, "floorplans/ipa/Freiburg52_scan.png");
   QSG_REQUIRE_SHARED_DATA(gt, "floorplans/ipa/Freiburg52_scan_gt_segmentation.png");
-  world::PlanRaster plan;
+  bench::PlanRaster plan;
   std::string why;
   const world::FloorPlanConfig fc;
-  ASSERT_TRUE(world::read_plan_raster(occupancy, gt, fc, &plan, &why)) << why;
+  ASSERT_TRUE(bench::read_plan_raster(occupancy, gt, fc, &plan, &why)) << why;
   const double res = fc.resolution_m_per_px;
   const auto free_at = [&](int c, int r) {
     return c >= 0 && r >= 0 && c < plan.cols && r < plan.rows && plan.free[static_cast<std::size_t>(r) * plan.cols + c];

@@ -1197,20 +1197,21 @@ TEST(RoomFinderTest, BadInputGivesACountedOutcome) {
   std::string error;
   Config c;
   c.max_dilation_m = 0.1;
-  EXPECT_FALSE(RoomFinder().init(c, Capacities{}, 0, &error));
+  EXPECT_FALSE(RoomFinder().init(c, Capacities::from_scene_graph(small_graph_capacities()), 0, &error));
   EXPECT_NE(error.find("max_dilation_m"), std::string::npos) << error;
   c = Config{};
   c.plateau_alpha = 1.5;
-  EXPECT_FALSE(RoomFinder().init(c, Capacities{}, 0, &error));
+  EXPECT_FALSE(RoomFinder().init(c, Capacities::from_scene_graph(small_graph_capacities()), 0, &error));
   EXPECT_NE(error.find("plateau_alpha"), std::string::npos) << error;
-  Capacities caps;
+  Capacities caps = Capacities::from_scene_graph(small_graph_capacities());
   caps.rooms = 0;
   EXPECT_FALSE(RoomFinder().init(Config{}, caps, 0, &error));
   EXPECT_NE(error.find("rooms"), std::string::npos) << error;
   caps.rooms = std::size_t{1} << 24;  // the corridor merge packs two room slots of 24 bits into one key
   EXPECT_FALSE(RoomFinder().init(Config{}, caps, 0, &error));
   EXPECT_NE(error.find("capacities.rooms"), std::string::npos) << error;
-  EXPECT_FALSE(RoomFinder().init(Config{}, Capacities{}, 1024, &error)) << "a budget below the plan";
+  EXPECT_FALSE(RoomFinder().init(Config{}, Capacities::from_scene_graph(small_graph_capacities()), 1024, &error))
+      << "a budget below the plan";
 }
 
 TEST(RoomFinderTest, FullStoresAreCountedRefusalsNotCrashes) {

@@ -23,7 +23,7 @@ TEST(RoomsPipelineTest, TwoRenderedRoomsBecomeTwoRoomNodes) {
   const world::World w = places::testing::rooms_world({4.0, 4.0}, 4.0, /*doors=*/true);
   auto renderer = std::make_unique<render::Renderer>();
   auto tsdf = std::make_unique<reconstruction::SemanticTsdf>();
-  auto frame = std::make_unique<drivers::RgbdFrame>();
+  auto frame = std::make_unique<messages::RgbdFrame>();
   auto graph = std::make_unique<sg::SceneGraph>();
   auto frontend = std::make_unique<frontend::Frontend>();
   auto finder = std::make_unique<RoomFinder>();
@@ -36,7 +36,7 @@ TEST(RoomsPipelineTest, TwoRenderedRoomsBecomeTwoRoomNodes) {
   ASSERT_TRUE(frontend->init(frontend::Config{}, &error)) << error;
   ASSERT_TRUE(finder->init(Config{}, Capacities::from_scene_graph(graph->capacities()), 0, &error)) << error;
 
-  const drivers::CameraIntrinsics camera{160, 120, 100.0, 100.0, 79.5, 59.5};
+  const messages::CameraIntrinsics camera{160, 120, 100.0, 100.0, 79.5, 59.5};
   std::uint64_t seq = 0, time_ns = 0;
   for (const Eigen::Vector3d& p : {Eigen::Vector3d(2.0, 2.0, 1.0), Eigen::Vector3d(6.1, 2.0, 1.0)}) {
     for (double pitch : {-0.6, 0.0, 0.6})

@@ -30,8 +30,8 @@ LabelMap three_class_map() {
   return map;
 }
 
-std::unique_ptr<drivers::RgbdFrame> frame_of(int w, int h) {
-  auto frame = std::make_unique<drivers::RgbdFrame>();
+std::unique_ptr<messages::RgbdFrame> frame_of(int w, int h) {
+  auto frame = std::make_unique<messages::RgbdFrame>();
   frame->intrinsics.width = w;
   frame->intrinsics.height = h;
   frame->has_labels = false;
@@ -165,7 +165,7 @@ TEST(LogitsDecoder, RefusesBadSetupAndBadFrames) {
   auto frame = frame_of(8, 4);
   EXPECT_FALSE(decoder.decode(logits.data(), *frame));  // never initialised successfully
   ASSERT_TRUE(decoder.init(map, 3, 4, 2, 0.0f, kUnlabeled, &error)) << error;
-  frame->intrinsics.width = drivers::kMaxFrameWidth + 1;
+  frame->intrinsics.width = messages::kMaxFrameWidth + 1;
   EXPECT_FALSE(decoder.decode(logits.data(), *frame));
   EXPECT_FALSE(frame->has_labels);
 }

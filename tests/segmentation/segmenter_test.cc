@@ -44,7 +44,7 @@ TEST(Segmenter, MissingModelFileIsAClearError) {
   EXPECT_NE(error.find("/nonexistent/models/espnet.onnx"), std::string::npos) << error;
   EXPECT_NE(error.find("cannot open"), std::string::npos) << error;
 
-  auto frame = std::make_unique<drivers::RgbdFrame>();
+  auto frame = std::make_unique<messages::RgbdFrame>();
   frame->has_labels = false;
   EXPECT_FALSE(seg.segment(*frame, &error));
   EXPECT_NE(error.find("not initialised"), std::string::npos) << error;
@@ -137,9 +137,9 @@ class RealModel : public ::testing::Test {
   }
 
   // Loads the TUM desk frame (640 x 480) as RGB into a frame.
-  static bool load_tum(drivers::RgbdFrame& frame, const std::string& path) {
+  static bool load_tum(messages::RgbdFrame& frame, const std::string& path) {
     const cv::Mat bgr = cv::imread(path, cv::IMREAD_COLOR);
-    if (bgr.empty() || bgr.cols > drivers::kMaxFrameWidth || bgr.rows > drivers::kMaxFrameHeight) return false;
+    if (bgr.empty() || bgr.cols > messages::kMaxFrameWidth || bgr.rows > messages::kMaxFrameHeight) return false;
     frame.intrinsics.width = bgr.cols;
     frame.intrinsics.height = bgr.rows;
     cv::Mat rgb(bgr.rows, bgr.cols, CV_8UC3, frame.rgb.data());
@@ -165,7 +165,7 @@ TEST_F(RealModel, LoadsWith21ClassesAtInputResolution) {
 
 TEST_F(RealModel, LabelsTheTumDeskFrameWithChairsAndATable) {
   QSG_REQUIRE_SHARED_DATA(color, kTumColor);
-  auto frame = std::make_unique<drivers::RgbdFrame>();
+  auto frame = std::make_unique<messages::RgbdFrame>();
   ASSERT_TRUE(load_tum(*frame, color)) << color;
   std::string error;
   ASSERT_TRUE(seg_->segment(*frame, &error)) << error;
@@ -220,7 +220,7 @@ TEST_F(RealModel, LabelsTheTumDeskFrameWithChairsAndATable) {
 
 TEST_F(RealModel, OurStagesDoNotAllocateAfterWarmUp) {
   QSG_REQUIRE_SHARED_DATA(color, kTumColor);
-  auto frame = std::make_unique<drivers::RgbdFrame>();
+  auto frame = std::make_unique<messages::RgbdFrame>();
   ASSERT_TRUE(load_tum(*frame, color)) << color;
 
   // The stages of segment() one by one (init's warm-up pass was the first frame); operator new counted per stage.

@@ -15,8 +15,8 @@ namespace {
 
 using Bytes = std::vector<std::uint8_t>;
 
-drivers::OdometrySample make_sample() {
-  drivers::OdometrySample s;
+messages::OdometrySample make_sample() {
+  messages::OdometrySample s;
   s.sequence = 0x0102030405060708ull;
   s.sample_time_ns = 1'700'000'000'123'456'789;
   s.world_t_body_m = Eigen::Vector3d(1.25, -3.0e-7, 12345.678901234);
@@ -29,7 +29,7 @@ drivers::OdometrySample make_sample() {
   return s;
 }
 
-Bytes encode(const drivers::OdometrySample& s, const char* frame_id = "odom", std::uint32_t flags = 0) {
+Bytes encode(const messages::OdometrySample& s, const char* frame_id = "odom", std::uint32_t flags = 0) {
   Bytes b(kPoseMessageSize);
   EXPECT_TRUE(encode_pose_message(s, frame_id, b.data(), flags));
   return b;
@@ -48,7 +48,7 @@ void put_double(Bytes& b, std::size_t offset, double v) {
 }
 
 DecodeStatus decode(const Bytes& b) {
-  drivers::OdometrySample s;
+  messages::OdometrySample s;
   char frame_id[kFrameIdBytes];
   return decode_pose_message(b.data(), b.size(), &s, frame_id);
 }
@@ -64,7 +64,7 @@ TEST(PoseMessageTest, Crc32MatchesTheStandardCheckValue) {
 TEST(PoseMessageTest, LayoutIsLittleEndianAtTheDocumentedOffsets) {
   static_assert(kPoseMessageSize == 392);
   static_assert(kOffsetCovariance + 36 * 8 == kOffsetFlags && kOffsetFlags + 4 == kOffsetCrc);
-  drivers::OdometrySample s = make_sample();
+  messages::OdometrySample s = make_sample();
   s.world_t_body_m.x() = 1.0;  // 0x3FF0000000000000
   const Bytes b = encode(s, "odom", 0xA1B2C3D4u);
   EXPECT_EQ(std::memcmp(b.data(), "QSGP", 4), 0);
@@ -85,9 +85,9 @@ TEST(PoseMessageTest, LayoutIsLittleEndianAtTheDocumentedOffsets) {
 }
 
 TEST(PoseMessageTest, RoundTripIsBitExact) {
-  const drivers::OdometrySample in = make_sample();
+  const messages::OdometrySample in = make_sample();
   const Bytes b = encode(in, "vio_camera_0", kPoseMessageEstimatorReset);
-  drivers::OdometrySample out;
+  messages::OdometrySample out;
   out.flags = 77;
   out.publish_time_ns = 99;
   char frame_id[kFrameIdBytes];
@@ -104,7 +104,7 @@ TEST(PoseMessageTest, RoundTripIsBitExact) {
   EXPECT_EQ(out.publish_time_ns, 99);
 
   // Negative times and the extremes of the integer fields survive too.
-  drivers::OdometrySample edge = in;
+  messages::OdometrySample edge = in;
   edge.sequence = std::numeric_limits<std::uint64_t>::max();
   edge.sample_time_ns = std::numeric_limits<std::int64_t>::min();
   ASSERT_EQ(decode_pose_message(encode(edge).data(), kPoseMessageSize, &out, frame_id), DecodeStatus::kOk);
@@ -195,7 +195,7 @@ TEST(PoseMessageTest, NonFiniteNumbersAreRejected) {
 }
 
 TEST(PoseMessageTest, QuaternionMustBeUnitWithinTolerance) {
-  drivers::OdometrySample s = make_sample();
+  messages::OdometrySample s = make_sample();
   s.world_R_body.coeffs() *= 1.002;
   EXPECT_EQ(decode(encode(s)), DecodeStatus::kNonUnitQuaternion);
   s.world_R_body.coeffs() *= 0.0;
@@ -204,7 +204,7 @@ TEST(PoseMessageTest, QuaternionMustBeUnitWithinTolerance) {
   // Within the tolerance (a float32 source, say): accepted and normalised.
   s = make_sample();
   s.world_R_body.coeffs() *= 1.0005;
-  drivers::OdometrySample out;
+  messages::OdometrySample out;
   char frame_id[kFrameIdBytes];
   ASSERT_EQ(decode_pose_message(encode(s).data(), kPoseMessageSize, &out, frame_id), DecodeStatus::kOk);
   EXPECT_NEAR(out.world_R_body.norm(), 1.0, 1e-15);
@@ -223,7 +223,7 @@ TEST(PoseMessageTest, CovarianceMustBeFiniteWithNonNegativeDiagonal) {
   EXPECT_EQ(decode(negative), DecodeStatus::kBadCovariance);
 
   // Off the diagonal a negative correlation is fine; a zero diagonal (an exact axis) too.
-  drivers::OdometrySample s = make_sample();
+  messages::OdometrySample s = make_sample();
   s.covariance(0, 1) = s.covariance(1, 0) = -1e-5;
   s.covariance(2, 2) = 0.0;
   EXPECT_EQ(decode(encode(s)), DecodeStatus::kOk);
@@ -232,7 +232,7 @@ TEST(PoseMessageTest, CovarianceMustBeFiniteWithNonNegativeDiagonal) {
 TEST(PoseMessageTest, FailedDecodeLeavesTheOutputsAlone) {
   Bytes b = encode(make_sample());
   b[100] ^= 1;
-  drivers::OdometrySample out;
+  messages::OdometrySample out;
   out.sequence = 42;
   char frame_id[kFrameIdBytes] = "keep";
   std::uint32_t flags = 5;
@@ -251,7 +251,7 @@ TEST(PoseMessageTest, StatusesHaveNames) {
 TEST(PoseMessageTest, FuzzNeverCrashesNorAcceptsCorruption) {
   std::mt19937_64 rng(20240611);
   std::uniform_int_distribution<int> byte(0, 255);
-  drivers::OdometrySample out;
+  messages::OdometrySample out;
   char frame_id[kFrameIdBytes];
 
   // Random strings, some of them starting like a message so the later checks are reached.

@@ -70,7 +70,7 @@ int wait_exit_code(pid_t pid) {
 
 // Reads until `expected` poses arrived (or a read fails) and compares each with the file's.
 void expect_trajectory(PoseStreamSource& source, const replay::Trajectory& expected, const char* frame_id) {
-  drivers::OdometrySample s;
+  messages::OdometrySample s;
   for (std::size_t i = 0; i < expected.size(); ++i) {
     ASSERT_EQ(source.read(s, kReadTimeoutNs), ReadStatus::kOk) << "pose " << i;
     EXPECT_EQ(s.sequence, i);
@@ -106,7 +106,7 @@ TEST(PoseSendTest, StreamsATumFileOverAUnixSocket) {
   ASSERT_GT(pid, 0);
   expect_trajectory(source, expected, "legs");
   EXPECT_EQ(wait_exit_code(pid), 0);
-  drivers::OdometrySample s;
+  messages::OdometrySample s;
   EXPECT_EQ(source.read(s, 0), ReadStatus::kTimeout);
   EXPECT_EQ(source.counters().delivered, expected.size());
   EXPECT_EQ(source.counters().dropped, 0u);

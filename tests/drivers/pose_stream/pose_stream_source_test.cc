@@ -60,7 +60,7 @@ class Sender {
   }
   void send_pose(std::uint64_t sequence, std::int64_t time_ns, const char* frame_id = "odom",
                  std::uint32_t message_flags = 0) {
-    drivers::OdometrySample s;
+    messages::OdometrySample s;
     s.sequence = sequence;
     s.sample_time_ns = time_ns;
     s.world_t_body_m = Eigen::Vector3d(0.5 * static_cast<double>(sequence), -1.0, 0.25);
@@ -101,7 +101,7 @@ void run_counting_script(PoseStreamSource& source, Sender& sender) {
   sender.send_pose(5, 4'500);  // sample time went backwards
   sender.send_pose(6, 6'000);
 
-  drivers::OdometrySample s;
+  messages::OdometrySample s;
   ASSERT_EQ(source.read(s, kArrivalTimeoutNs), ReadStatus::kOk);
   EXPECT_EQ(s.sequence, 0u);
   EXPECT_EQ(s.sample_time_ns, 1'000);
@@ -113,12 +113,12 @@ void run_counting_script(PoseStreamSource& source, Sender& sender) {
   EXPECT_EQ(s.flags, 0u);
   ASSERT_EQ(source.read(s, kArrivalTimeoutNs), ReadStatus::kOk);
   EXPECT_EQ(s.sequence, 4u);
-  EXPECT_EQ(s.flags, static_cast<std::uint32_t>(drivers::kFrameSequenceGap));
+  EXPECT_EQ(s.flags, static_cast<std::uint32_t>(messages::kFrameSequenceGap));
   EXPECT_EQ(s.world_t_body_m.x(), 2.0);
   EXPECT_EQ(source.read(s, kArrivalTimeoutNs), ReadStatus::kBadFrame);
   ASSERT_EQ(source.read(s, kArrivalTimeoutNs), ReadStatus::kOk);  // the malformed one lost nothing after it
   EXPECT_EQ(s.sequence, 5u);
-  EXPECT_EQ(s.flags, static_cast<std::uint32_t>(drivers::kFrameTimestampBackwards));
+  EXPECT_EQ(s.flags, static_cast<std::uint32_t>(messages::kFrameTimestampBackwards));
   ASSERT_EQ(source.read(s, kArrivalTimeoutNs), ReadStatus::kOk);
   EXPECT_EQ(s.sequence, 6u);
   EXPECT_EQ(s.flags, 0u);
@@ -192,7 +192,7 @@ TEST(PoseStreamSourceTest, UnixSocketDeliversAndCountsAndCleansUp) {
   run_counting_script(source, sender);
   source.close();
   EXPECT_FALSE(std::filesystem::exists(config.unix_path));
-  drivers::OdometrySample s;
+  messages::OdometrySample s;
   EXPECT_EQ(source.read(s, 0), ReadStatus::kDisconnected);
 }
 
@@ -206,13 +206,13 @@ TEST(PoseStreamSourceTest, PublishTimeComesFromTheInjectedClock) {
   Sender sender(source.port());
   sender.send_pose(0, clock.now_ns);                // published 1 ms after: on time
   sender.send_pose(1, clock.now_ns - 10'000'000);   // 10 ms old: late
-  drivers::OdometrySample s;
+  messages::OdometrySample s;
   ASSERT_EQ(source.read(s, kArrivalTimeoutNs), ReadStatus::kOk);
   EXPECT_EQ(s.publish_time_ns, 5'001'000'000);
   EXPECT_EQ(s.flags, 0u);
   ASSERT_EQ(source.read(s, kArrivalTimeoutNs), ReadStatus::kOk);
   EXPECT_EQ(s.publish_time_ns, 5'002'000'000);
-  EXPECT_EQ(s.flags, static_cast<std::uint32_t>(drivers::kFrameLate | drivers::kFrameTimestampBackwards));
+  EXPECT_EQ(s.flags, static_cast<std::uint32_t>(messages::kFrameLate | messages::kFrameTimestampBackwards));
   EXPECT_EQ(source.counters().late, 1u);
 }
 
@@ -229,17 +229,17 @@ TEST(PoseStreamSourceTest, RestartsResetsAndFrameIdsAreReported) {
   sender.send_pose(1, 3'000, "odom", kPoseMessageEstimatorReset);  // its estimator reset
   sender.send_pose(2, 4'000, "map");                                // another frame: refused
   sender.send_pose(3, 5'000);
-  drivers::OdometrySample s;
+  messages::OdometrySample s;
   ASSERT_EQ(source.read(s, kArrivalTimeoutNs), ReadStatus::kOk);
   ASSERT_EQ(source.read(s, kArrivalTimeoutNs), ReadStatus::kOk);
   EXPECT_EQ(s.sequence, 0u);
-  EXPECT_EQ(s.flags, static_cast<std::uint32_t>(drivers::kFrameAfterReconnect));
+  EXPECT_EQ(s.flags, static_cast<std::uint32_t>(messages::kFrameAfterReconnect));
   ASSERT_EQ(source.read(s, kArrivalTimeoutNs), ReadStatus::kOk);
-  EXPECT_EQ(s.flags, static_cast<std::uint32_t>(drivers::kFrameAfterReconnect));
+  EXPECT_EQ(s.flags, static_cast<std::uint32_t>(messages::kFrameAfterReconnect));
   EXPECT_EQ(source.read(s, kArrivalTimeoutNs), ReadStatus::kBadFrame);
   ASSERT_EQ(source.read(s, kArrivalTimeoutNs), ReadStatus::kOk);
   EXPECT_EQ(s.sequence, 3u);
-  EXPECT_EQ(s.flags, static_cast<std::uint32_t>(drivers::kFrameSequenceGap));  // 2 never delivered
+  EXPECT_EQ(s.flags, static_cast<std::uint32_t>(messages::kFrameSequenceGap));  // 2 never delivered
   EXPECT_EQ(source.stream_counters().sequence_restarts, 1u);
   EXPECT_EQ(source.stream_counters().estimator_resets, 1u);
   EXPECT_EQ(source.stream_counters().wrong_frame_id, 1u);
@@ -254,7 +254,7 @@ TEST(PoseStreamSourceTest, EveryMalformedDatagramIsCountedByReason) {
   ASSERT_TRUE(source.open(udp_config(&clock), &error)) << error;
   Sender sender(source.port());
 
-  drivers::OdometrySample good;
+  messages::OdometrySample good;
   std::uint8_t b[2 * kPoseMessageSize] = {};
   ASSERT_TRUE(encode_pose_message(good, "odom", b));
   sender.send(b, kPoseMessageSize + 8);  // a valid message with bytes after it: not cut to the valid prefix
@@ -270,7 +270,7 @@ TEST(PoseStreamSourceTest, EveryMalformedDatagramIsCountedByReason) {
   b[200] ^= 0x10;
   sender.send(b, kPoseMessageSize);  // intact again
 
-  drivers::OdometrySample s;
+  messages::OdometrySample s;
   for (int i = 0; i < 5; ++i) EXPECT_EQ(source.read(s, kArrivalTimeoutNs), ReadStatus::kBadFrame) << i;
   EXPECT_EQ(source.read(s, kArrivalTimeoutNs), ReadStatus::kOk);
   const PoseStreamCounters& p = source.stream_counters();
@@ -293,7 +293,7 @@ TEST(PoseStreamSourceTest, ReadsDoNotAllocate) {
   sender.send(garbage, sizeof garbage);
   sender.send(garbage, sizeof garbage);
 
-  drivers::OdometrySample s;
+  messages::OdometrySample s;
   int ok = 0, bad = 0;
   EXPECT_NO_ALLOCATIONS({
     for (int i = 0; i < 45; ++i) {

@@ -143,7 +143,7 @@ ReferenceHit reference_raycast(const world::World& world, const Eigen::Vector3d&
   return hit;
 }
 
-Eigen::Vector3d pixel_direction(const Eigen::Isometry3d& world_T_camera, const drivers::CameraIntrinsics& k, int u,
+Eigen::Vector3d pixel_direction(const Eigen::Isometry3d& world_T_camera, const messages::CameraIntrinsics& k, int u,
                                 int v) {
   const Eigen::Vector3d d_camera((u - k.cx) / k.fx, (v - k.cy) / k.fy, 1.0);
   return world_T_camera.linear() * d_camera;
@@ -162,8 +162,8 @@ Eigen::Isometry3d look_at(const Eigen::Vector3d& position_m, const Eigen::Vector
   return T;
 }
 
-drivers::CameraIntrinsics make_intrinsics(int width, int height, double fov_x_deg) {
-  drivers::CameraIntrinsics k;
+messages::CameraIntrinsics make_intrinsics(int width, int height, double fov_x_deg) {
+  messages::CameraIntrinsics k;
   k.width = width;
   k.height = height;
   k.fx = k.fy = 0.5 * width / std::tan(0.5 * fov_x_deg * 3.14159265358979323846 / 180.0);

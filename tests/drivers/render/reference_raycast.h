@@ -8,7 +8,7 @@
 #include <cstdint>
 #include <limits>
 
-#include "drivers/sensor_types.h"
+#include "core/messages/sensor_types.h"
 #include "drivers/world/world.h"
 
 namespace qsg::render::testing {
@@ -28,13 +28,13 @@ double reference_shape_t(const world::World& world, std::size_t shape, const Eig
                          const Eigen::Vector3d& direction, double t_min);
 
 // Direction of pixel (u, v) in the world with unit optical-axis component (so t is the z-depth).
-Eigen::Vector3d pixel_direction(const Eigen::Isometry3d& world_T_camera, const drivers::CameraIntrinsics& k, int u,
+Eigen::Vector3d pixel_direction(const Eigen::Isometry3d& world_T_camera, const messages::CameraIntrinsics& k, int u,
                                 int v);
 
 // Camera at `position_m` looking along `forward` (not vertical unless up_hint says otherwise), optical frame.
 Eigen::Isometry3d look_at(const Eigen::Vector3d& position_m, const Eigen::Vector3d& target_m,
                           const Eigen::Vector3d& up_hint = Eigen::Vector3d::UnitZ());
 
-drivers::CameraIntrinsics make_intrinsics(int width, int height, double fov_x_deg = 70.0);
+messages::CameraIntrinsics make_intrinsics(int width, int height, double fov_x_deg = 70.0);
 
 }  // namespace qsg::render::testing

@@ -15,8 +15,8 @@
 namespace qsg::render {
 namespace {
 
-using drivers::CameraIntrinsics;
-using drivers::RgbdFrame;
+using messages::CameraIntrinsics;
+using messages::RgbdFrame;
 using testing::look_at;
 using testing::make_intrinsics;
 using testing::pixel_direction;
@@ -576,7 +576,7 @@ TEST(Renderer, RendersEverySizeUpTo640x480) {
       valid += frame->depth_m[i] > 0.0f;
     }
     EXPECT_GT(valid, 0) << size[0] << "x" << size[1];
-    if (n < drivers::kMaxFramePixels) {
+    if (n < messages::kMaxFramePixels) {
       EXPECT_EQ(frame->depth_m[n], -7.0f) << "wrote past the frame";
     }
     // The centre pixel always sees the box front at x = 2.6 (or its top, from this height): depth below 3.

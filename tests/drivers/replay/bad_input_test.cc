@@ -25,7 +25,7 @@ bool contains(const std::string& text, const std::string& part) { return text.fi
 // A valid 3-frame TUM folder at 16x8, frames at 1.0, 1.1, 1.2 s.
 std::string make_tum(const std::string& name) {
   const std::string dir = fresh_dir(name);
-  auto frame = std::make_unique<drivers::RgbdFrame>();
+  auto frame = std::make_unique<messages::RgbdFrame>();
   TumWriter writer;
   std::string error;
   EXPECT_TRUE(writer.open(dir, TumWriter::Config{}, &error)) << error;
@@ -96,10 +96,10 @@ TEST(TumBadInput, MissingAndCorruptFramesAreCountedAndSkipped) {
   // Damage the files after open, as a disk or a copy would.
   std::remove((dir + "/depth/1.000000.png").c_str());
   write_file(dir + "/rgb/1.100000.png", "not a png at all");
-  auto frame = std::make_unique<drivers::RgbdFrame>();
+  auto frame = std::make_unique<messages::RgbdFrame>();
   ASSERT_EQ(replay.read(*frame, 0), ReadStatus::kOk);
   EXPECT_EQ(frame->sequence, 2u);
-  EXPECT_TRUE(frame->flags & drivers::kFrameSequenceGap);
+  EXPECT_TRUE(frame->flags & messages::kFrameSequenceGap);
   EXPECT_EQ(replay.read(*frame, 0), ReadStatus::kEndOfStream);
   EXPECT_EQ(replay.counters().missing_files, 1u);
   EXPECT_EQ(replay.counters().bad_frames, 1u);
@@ -112,7 +112,7 @@ TEST(TumBadInput, WrongSizeOrTypeFramesAreBadFrames) {
   const std::string dir = make_tum("tum_wrong_size");
   {
     // Frame 1's depth replaced by a 32x8 image, frame 2's by an 8-bit one.
-    auto big = std::make_unique<drivers::RgbdFrame>();
+    auto big = std::make_unique<messages::RgbdFrame>();
     testing::fill_synthetic_frame(*big, 32, 8, 0, 0, false);
     TumWriter writer;
     std::string error;
@@ -128,7 +128,7 @@ TEST(TumBadInput, WrongSizeOrTypeFramesAreBadFrames) {
   config.check_files_at_open = false;
   ASSERT_TRUE(replay.open(dir, config, &error)) << error;
   EXPECT_EQ(replay.intrinsics().width, 16);  // from the first frame
-  auto frame = std::make_unique<drivers::RgbdFrame>();
+  auto frame = std::make_unique<messages::RgbdFrame>();
   EXPECT_EQ(replay.read(*frame, 0), ReadStatus::kEndOfStream);  // frame 0 lost its colour image above
   EXPECT_EQ(replay.counters().bad_frames, 2u);
   EXPECT_EQ(replay.counters().missing_files, 1u);
@@ -143,7 +143,7 @@ TEST(TumBadInput, EmptyListsGiveAnEmptyReplay) {
   TumReplay replay;
   std::string error;
   ASSERT_TRUE(replay.open(dir, TumReplay::Config{}, &error)) << error;
-  auto frame = std::make_unique<drivers::RgbdFrame>();
+  auto frame = std::make_unique<messages::RgbdFrame>();
   EXPECT_EQ(replay.read(*frame, 0), ReadStatus::kEndOfStream);
 }
 
@@ -151,7 +151,7 @@ TEST(TumBadInput, FramesLargerThanTheBuffersAreRefusedAtOpen) {
   const std::string dir = fresh_dir("tum_too_big");
   write_file(dir + "/rgb.txt", "1.0 big.png\n");
   write_file(dir + "/depth.txt", "# depth\n1.0 big.png\n");
-  ASSERT_TRUE(cv::imwrite(dir + "/big.png", cv::Mat(4, drivers::kMaxFrameWidth + 1, CV_16UC1, cv::Scalar(7))));
+  ASSERT_TRUE(cv::imwrite(dir + "/big.png", cv::Mat(4, messages::kMaxFrameWidth + 1, CV_16UC1, cv::Scalar(7))));
   const std::string error = open_error(dir);
   EXPECT_TRUE(contains(error, dir + "/depth.txt:2: '" + dir + "/big.png' is 641x4, larger than the 640x480 frame buffers"))
       << error;
@@ -207,7 +207,7 @@ TEST(RedwoodBadInput, CameraJsonErrorsNameTheField) {
   const std::string dir = fresh_dir("camera_json_bad");
   const auto error_for = [&](const std::string& text) {
     write_file(dir + "/c.json", text);
-    drivers::CameraIntrinsics k;
+    messages::CameraIntrinsics k;
     std::string error;
     EXPECT_FALSE(read_camera_intrinsics_json(dir + "/c.json", &k, &error)) << text;
     return error;
@@ -233,7 +233,7 @@ TEST(RedwoodBadInput, MissingAndCorruptFramesAreCountedAndSkipped) {
   ASSERT_TRUE(replay.open(dir, config, &error)) << error;
   std::remove((dir + "/color/00001.jpg").c_str());
   write_file(dir + "/depth/00003.png", std::string("\x89PNG\r\n\x1a\n truncated"));
-  auto frame = std::make_unique<drivers::RgbdFrame>();
+  auto frame = std::make_unique<messages::RgbdFrame>();
   std::vector<std::uint64_t> sequences;
   std::vector<std::uint32_t> flags;
   while (replay.read(*frame, 0) == ReadStatus::kOk) {
@@ -241,7 +241,7 @@ TEST(RedwoodBadInput, MissingAndCorruptFramesAreCountedAndSkipped) {
     flags.push_back(frame->flags);
   }
   EXPECT_EQ(sequences, (std::vector<std::uint64_t>{0, 2, 4}));
-  EXPECT_EQ(flags, (std::vector<std::uint32_t>{0, drivers::kFrameSequenceGap, drivers::kFrameSequenceGap}));
+  EXPECT_EQ(flags, (std::vector<std::uint32_t>{0, messages::kFrameSequenceGap, messages::kFrameSequenceGap}));
   EXPECT_EQ(replay.counters().missing_files, 1u);
   EXPECT_EQ(replay.counters().bad_frames, 1u);
   // With the check at open, the missing file is an open error naming the match list line.

@@ -43,7 +43,7 @@ std::string printed(const DatasetReplay& replay) {
 // A TUM folder as qsg_simulate writes it (TumWriter), `frames` frames of width x height 0.1 s apart, with poses.
 std::string write_tum(const std::string& name, int width, int height, int frames, double fx) {
   const std::string dir = fresh_dir(name);
-  auto frame = std::make_unique<drivers::RgbdFrame>();
+  auto frame = std::make_unique<messages::RgbdFrame>();
   TumWriter writer;
   std::string error;
   EXPECT_TRUE(writer.open(dir, TumWriter::Config{}, &error)) << error;
@@ -160,7 +160,7 @@ TEST(DatasetReplay, SimulatorStyleTumFolderReplaysWithItsOwnCamera) {
   ASSERT_TRUE(replay.open(config, &error)) << error;
   EXPECT_STREQ(replay.format_name(), "tum");
   EXPECT_EQ(replay.size(), 3u);
-  const drivers::CameraIntrinsics k = replay.intrinsics();
+  const messages::CameraIntrinsics k = replay.intrinsics();
   EXPECT_EQ(k.width, 320);
   EXPECT_EQ(k.height, 240);
   EXPECT_EQ(k.fx, fx);
@@ -174,8 +174,8 @@ TEST(DatasetReplay, SimulatorStyleTumFolderReplaysWithItsOwnCamera) {
   ASSERT_EQ(replay.ground_truth().size(), 3u);
   EXPECT_EQ(replay.ground_truth()[2].world_t_body_m, Eigen::Vector3d(0.2, 0.0, 0.0));
 
-  auto frame = std::make_unique<drivers::RgbdFrame>();
-  auto expected = std::make_unique<drivers::RgbdFrame>();
+  auto frame = std::make_unique<messages::RgbdFrame>();
+  auto expected = std::make_unique<messages::RgbdFrame>();
   for (int i = 0; i < 3; ++i) {
     ASSERT_EQ(replay.camera().read(*frame, 0), ReadStatus::kOk);
     testing::fill_synthetic_frame(*expected, 320, 240, i, 0, false);
@@ -200,7 +200,7 @@ TEST(DatasetReplay, WithoutCalibrationTheDefaultCameraIsUsedWithANotice) {
   config.path = dir;
   std::string error;
   ASSERT_TRUE(replay.open(config, &error)) << error;
-  const drivers::CameraIntrinsics k = replay.intrinsics();
+  const messages::CameraIntrinsics k = replay.intrinsics();
   EXPECT_EQ(k.fx, 525.0);
   EXPECT_EQ(k.fy, 525.0);
   EXPECT_EQ(k.cx, 319.5);
@@ -280,7 +280,7 @@ TEST(DatasetReplay, FramesOfAnotherSizeAreRefusedNamingBothSizes) {
   EXPECT_EQ(replay.depth_scale_m(), 1.0f / 5000.0f) << "pose lists default to 5000 units per metre";
   EXPECT_TRUE(replay.used_default_camera()) << "no depth scale given";
   EXPECT_TRUE(contains(printed(replay), "NOTICE: no depth scale")) << printed(replay);
-  auto frame = std::make_unique<drivers::RgbdFrame>();
+  auto frame = std::make_unique<messages::RgbdFrame>();
   ASSERT_EQ(replay.camera().read(*frame, 0), ReadStatus::kOk);
   EXPECT_EQ(frame->depth_m[0], 1.0f);
   EXPECT_EQ(frame->intrinsics.fy, -10.0);
@@ -294,19 +294,19 @@ std::string sample_dir(const std::string& marker, const std::string& name) {
 }
 
 struct SampleFrames {
-  std::vector<std::unique_ptr<drivers::RgbdFrame>> frames;
+  std::vector<std::unique_ptr<messages::RgbdFrame>> frames;
 };
 
 void read_all(DatasetReplay& replay, SampleFrames* out) {
   for (;;) {
-    auto frame = std::make_unique<drivers::RgbdFrame>();
+    auto frame = std::make_unique<messages::RgbdFrame>();
     if (replay.camera().read(*frame, 0) != ReadStatus::kOk) break;
     out->frames.push_back(std::move(frame));
   }
 }
 
 // Median valid depth of a frame, and the share of pixels with a return.
-void depth_stats(const drivers::RgbdFrame& f, double* median_m, double* valid_share) {
+void depth_stats(const messages::RgbdFrame& f, double* median_m, double* valid_share) {
   std::vector<float> d;
   for (int i = 0; i < f.pixels(); ++i)
     if (f.depth_m[i] > 0.0f) d.push_back(f.depth_m[i]);
@@ -330,7 +330,7 @@ TEST(DatasetReplaySamples, RedwoodOpensWithOpen3dsPrimeSenseFile) {
   EXPECT_EQ(replay.ground_truth().size(), 5u);
   // camera_primesense.json (525), not the folder's camera.json (415.7, the synthetic depth image's camera).
   EXPECT_EQ(replay.camera_source(), "calibration " + dir + "/camera_primesense.json");
-  const drivers::CameraIntrinsics k = replay.intrinsics();
+  const messages::CameraIntrinsics k = replay.intrinsics();
   EXPECT_EQ(k.fx, 525.0);
   EXPECT_EQ(k.fy, 525.0);
   EXPECT_EQ(k.cx, 319.5);
@@ -367,7 +367,7 @@ TEST(DatasetReplaySamples, IclNuimOpensWithTheShippedCalibrationAndNegativeFy) {
   EXPECT_EQ(replay.size(), 5u);
   EXPECT_EQ(replay.ground_truth().size(), 5u);
   EXPECT_FALSE(replay.used_default_camera());
-  const drivers::CameraIntrinsics k = replay.intrinsics();
+  const messages::CameraIntrinsics k = replay.intrinsics();
   EXPECT_EQ(k.fx, 481.2);
   EXPECT_EQ(k.fy, -480.0);
   EXPECT_EQ(k.cx, 319.5);
@@ -415,7 +415,7 @@ TEST(DatasetReplaySamples, Kinect5OpensWithPgmDepthInMillimetres) {
   ASSERT_TRUE(replay.open(config, &error)) << error;
   EXPECT_STREQ(replay.format_name(), "pose_list");
   EXPECT_EQ(replay.size(), 5u);
-  const drivers::CameraIntrinsics k = replay.intrinsics();
+  const messages::CameraIntrinsics k = replay.intrinsics();
   EXPECT_EQ(k.fx, 518.0);
   EXPECT_EQ(k.fy, 519.0);
   EXPECT_EQ(k.cx, 325.5);

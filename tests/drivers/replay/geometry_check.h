@@ -7,7 +7,7 @@
 #include <cmath>
 #include <vector>
 
-#include "drivers/sensor_types.h"
+#include "core/messages/sensor_types.h"
 
 namespace qsg::testing {
 
@@ -18,10 +18,10 @@ struct ReprojectionStats {
 
 // Samples every `stride` pixels of `from`, transforms them with world_T_to^-1 * world_T_from, and compares the
 // predicted depth with `to`'s depth at the projected pixel (skipping no-return pixels and depth edges).
-inline ReprojectionStats reprojection_error(const drivers::RgbdFrame& from, const Eigen::Isometry3d& world_T_from,
-                                            const drivers::RgbdFrame& to, const Eigen::Isometry3d& world_T_to,
+inline ReprojectionStats reprojection_error(const messages::RgbdFrame& from, const Eigen::Isometry3d& world_T_from,
+                                            const messages::RgbdFrame& to, const Eigen::Isometry3d& world_T_to,
                                             int stride) {
-  const drivers::CameraIntrinsics& k = from.intrinsics;
+  const messages::CameraIntrinsics& k = from.intrinsics;
   const Eigen::Isometry3d to_T_from = world_T_to.inverse() * world_T_from;
   std::vector<double> errors;
   for (int v = 0; v < from.height(); v += stride) {

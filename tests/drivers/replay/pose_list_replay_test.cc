@@ -54,9 +54,9 @@ TEST(PoseListReplay, IclNuimFramesAndPoses) {
   const Eigen::Quaterniond q0(0.999999, -0.00101358, 0.00052453, -0.000231475);
   EXPECT_LT(replay.trajectory()[0].world_R_body.angularDistance(q0.normalized()), 1e-12);
 
-  std::vector<std::unique_ptr<drivers::RgbdFrame>> frames;
+  std::vector<std::unique_ptr<messages::RgbdFrame>> frames;
   for (int i = 0; i < 5; ++i) {
-    frames.push_back(std::make_unique<drivers::RgbdFrame>());
+    frames.push_back(std::make_unique<messages::RgbdFrame>());
     ASSERT_EQ(replay.read(*frames.back(), 0), ReadStatus::kOk) << replay.last_error();
   }
   EXPECT_EQ(replay.read(*frames[0], 0), ReadStatus::kEndOfStream);
@@ -113,7 +113,7 @@ TEST(PoseListReplay, KinectPgmDepthMatchesTheFileBytes) {
   ASSERT_EQ(replay.size(), 5u);
   // Last line has no newline at the end of the file: -1.55819 -0.301094 1.6215 -0.02707 -0.250946 -0.0412848 0.966741
   EXPECT_EQ(replay.trajectory()[4].world_t_body_m, Eigen::Vector3d(-1.55819, -0.301094, 1.6215));
-  auto frame = std::make_unique<drivers::RgbdFrame>();
+  auto frame = std::make_unique<messages::RgbdFrame>();
   ASSERT_EQ(replay.read(*frame, 0), ReadStatus::kOk) << replay.last_error();
   int w = 0, h = 0;
   std::vector<std::uint16_t> raw;

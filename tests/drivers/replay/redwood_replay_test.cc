@@ -25,7 +25,7 @@ RedwoodReplay::Config redwood_config() {
 }
 
 TEST(CameraJson, ReadsOpen3dIntrinsicsColumnMajor) {
-  drivers::CameraIntrinsics k;
+  messages::CameraIntrinsics k;
   std::string error;
   ASSERT_TRUE(read_camera_intrinsics_json(testing::repo_test_data("rgbd/redwood/camera_primesense.json"), &k, &error))
       << error;
@@ -78,7 +78,7 @@ TEST(RedwoodReplay, ReadsTheRealFramesWithTheirStoredValues) {
   ASSERT_EQ(replay.size(), 5u);
   EXPECT_EQ(replay.intrinsics().fx, 525.0);
   EXPECT_EQ(replay.intrinsics().width, 640);
-  auto frame = std::make_unique<drivers::RgbdFrame>();
+  auto frame = std::make_unique<messages::RgbdFrame>();
   for (int i = 0; i < 5; ++i) {
     ASSERT_EQ(replay.read(*frame, 0), ReadStatus::kOk) << replay.last_error();
     EXPECT_EQ(frame->sequence, static_cast<std::uint64_t>(i));
@@ -124,7 +124,7 @@ TEST(RedwoodReplay, TrajectoryPosesEqualTheLogMatrices) {
   std::string error;
   ASSERT_TRUE(replay.open(redwood_dir(), redwood_config(), &error)) << error;
   ASSERT_EQ(replay.trajectory().size(), 5u);
-  drivers::OdometrySample s;
+  messages::OdometrySample s;
   for (int i = 0; i < 5; ++i) {
     const Eigen::Matrix4d file = replay.log()[i].world_T_camera;
     EXPECT_LT((replay.trajectory()[i].world_T_body().matrix() - file).cwiseAbs().maxCoeff(), 1e-12) << i;
@@ -139,8 +139,8 @@ TEST(RedwoodReplay, FramesAgreeThroughTheirPoses) {
   RedwoodReplay replay;
   std::string error;
   ASSERT_TRUE(replay.open(redwood_dir(), redwood_config(), &error)) << error;
-  auto first = std::make_unique<drivers::RgbdFrame>();
-  auto last = std::make_unique<drivers::RgbdFrame>();
+  auto first = std::make_unique<messages::RgbdFrame>();
+  auto last = std::make_unique<messages::RgbdFrame>();
   ASSERT_EQ(replay.read(*first, 0), ReadStatus::kOk);
   for (int i = 1; i < 5; ++i) ASSERT_EQ(replay.read(*last, 0), ReadStatus::kOk);
   const testing::ReprojectionStats good = testing::reprojection_error(

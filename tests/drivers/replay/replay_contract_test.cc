@@ -17,7 +17,7 @@ namespace {
 const std::string& tum_dataset() {
   static const std::string dir = [] {
     const std::string d = fresh_dir("contract_tum");
-    auto frame = std::make_unique<drivers::RgbdFrame>();
+    auto frame = std::make_unique<messages::RgbdFrame>();
     replay::TumWriter writer;
     std::string error;
     writer.open(d, replay::TumWriter::Config{}, &error);

@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-#include "drivers/sensor_types.h"
+#include "core/messages/sensor_types.h"
 
 namespace qsg::testing {
 
@@ -48,7 +48,7 @@ inline void write_file(const std::string& path, const std::string& text) {
 
 // A frame whose every pixel is a known function of (u, v, sequence). Depth values are multiples of
 // 1/5000 m (so TUM quantisation keeps them), with a few no-return pixels (0, NaN) and one beyond the 16-bit range.
-inline void fill_synthetic_frame(drivers::RgbdFrame& f, int width, int height, std::uint64_t sequence,
+inline void fill_synthetic_frame(messages::RgbdFrame& f, int width, int height, std::uint64_t sequence,
                                  std::int64_t time_ns, bool labels) {
   f.intrinsics.width = width;
   f.intrinsics.height = height;

@@ -111,7 +111,7 @@ TEST(TrajectoryOdometry, PlaysPosesBackExactlyThenEnds) {
   TrajectoryOdometry::Config config;
   config.publish_latency_ns = 5'000'000;
   TrajectoryOdometry odom(t, config, "gt");
-  drivers::OdometrySample s;
+  messages::OdometrySample s;
   std::size_t n = 0;
   EXPECT_NO_ALLOCATIONS(while (odom.read(s, 0) == drivers::ReadStatus::kOk) {
     EXPECT_EQ(s.sequence, n);
@@ -132,9 +132,9 @@ TEST(TrajectoryOdometry, FlagsTimeGoingBackwards) {
   Trajectory t = sample_trajectory();
   t[3].time_ns = t[1].time_ns;
   TrajectoryOdometry odom(t);
-  drivers::OdometrySample s;
+  messages::OdometrySample s;
   for (int i = 0; i < 4; ++i) ASSERT_EQ(odom.read(s, 0), drivers::ReadStatus::kOk);
-  EXPECT_TRUE(s.flags & drivers::kFrameTimestampBackwards);
+  EXPECT_TRUE(s.flags & messages::kFrameTimestampBackwards);
   EXPECT_EQ(odom.counters().timestamps_backwards, 1u);
   ASSERT_EQ(odom.read(s, 0), drivers::ReadStatus::kOk);
   EXPECT_EQ(s.flags, 0u);

@@ -23,8 +23,8 @@ constexpr int kH = 120;
 
 TEST(TumWriter, FramesReplayExactly) {
   const std::string dir = fresh_dir("tum_round_trip");
-  auto written = std::make_unique<drivers::RgbdFrame>();
-  auto read = std::make_unique<drivers::RgbdFrame>();
+  auto written = std::make_unique<messages::RgbdFrame>();
+  auto read = std::make_unique<messages::RgbdFrame>();
   TumWriter writer;
   std::string error;
   ASSERT_TRUE(writer.open(dir, TumWriter::Config{}, &error)) << error;
@@ -86,7 +86,7 @@ TEST(TumWriter, FramesReplayExactly) {
 
   // Ground truth, as a trajectory and as an odometry source.
   ASSERT_EQ(replay.ground_truth().size(), 4u);
-  drivers::OdometrySample s;
+  messages::OdometrySample s;
   for (int i = 0; i < 4; ++i) {
     ASSERT_EQ(replay.ground_truth_odometry().read(s, 0), ReadStatus::kOk);
     EXPECT_EQ(s.sample_time_ns, t0 + i * 33'334'000LL);
@@ -100,7 +100,7 @@ TEST(TumWriter, FramesReplayExactly) {
 
 TEST(TumWriter, ListsAreInTheTumLayout) {
   const std::string dir = fresh_dir("tum_layout");
-  auto frame = std::make_unique<drivers::RgbdFrame>();
+  auto frame = std::make_unique<messages::RgbdFrame>();
   testing::fill_synthetic_frame(*frame, 16, 8, 0, 1'305'031'102'175'304'000LL, true);
   TumWriter writer;
   std::string error;
@@ -144,7 +144,7 @@ TEST(TumAssociation, MatchesTheTumAssociateTool) {
 
 TEST(TumReplay, AssociatesColourAndDepthWithinTheWindow) {
   const std::string dir = fresh_dir("tum_associate");
-  auto frame = std::make_unique<drivers::RgbdFrame>();
+  auto frame = std::make_unique<messages::RgbdFrame>();
   testing::fill_synthetic_frame(*frame, 16, 8, 0, 0, false);
   TumWriter writer;
   std::string error;
@@ -167,7 +167,7 @@ TEST(TumReplay, AssociatesColourAndDepthWithinTheWindow) {
 
 TEST(TumReplay, FlagsAndCountsTimestampsGoingBackwards) {
   const std::string dir = fresh_dir("tum_backwards");
-  auto frame = std::make_unique<drivers::RgbdFrame>();
+  auto frame = std::make_unique<messages::RgbdFrame>();
   testing::fill_synthetic_frame(*frame, 16, 8, 0, 0, false);
   TumWriter writer;
   std::string error;
@@ -183,7 +183,7 @@ TEST(TumReplay, FlagsAndCountsTimestampsGoingBackwards) {
   std::vector<std::uint32_t> flags;
   while (replay.read(*frame, 0) == ReadStatus::kOk) flags.push_back(frame->flags);
   ASSERT_EQ(flags.size(), 4u);  // flagged, not dropped
-  EXPECT_EQ(flags[2], static_cast<std::uint32_t>(drivers::kFrameTimestampBackwards));
+  EXPECT_EQ(flags[2], static_cast<std::uint32_t>(messages::kFrameTimestampBackwards));
   EXPECT_EQ(flags[3], 0u);
   EXPECT_EQ(replay.counters().timestamps_backwards, 1u);
 }
@@ -197,7 +197,7 @@ TEST(TumReplay, DecodesARealTumFrameToItsStoredValues) {
   TumReplay replay;
   std::string error;
   ASSERT_TRUE(replay.open(dir, TumReplay::Config{}, &error)) << error;
-  auto frame = std::make_unique<drivers::RgbdFrame>();
+  auto frame = std::make_unique<messages::RgbdFrame>();
   ASSERT_EQ(replay.read(*frame, 0), ReadStatus::kOk) << replay.last_error();
   EXPECT_EQ(frame->width(), 640);
   EXPECT_EQ(frame->height(), 480);

@@ -48,7 +48,7 @@ Trajectory wavy_path(int steps) {
   return t;
 }
 
-Eigen::Isometry3d pose_of(const drivers::OdometrySample& s) {
+Eigen::Isometry3d pose_of(const messages::OdometrySample& s) {
   Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
   t.linear() = s.world_R_body.toRotationMatrix();
   t.translation() = s.world_t_body_m;
@@ -57,7 +57,7 @@ Eigen::Isometry3d pose_of(const drivers::OdometrySample& s) {
 
 // Runs to the end; returns the final position error and yaw error.
 void run_to_end(DriftingOdometry& odom, Eigen::Vector3d* position_error, double* yaw_error) {
-  drivers::OdometrySample s;
+  messages::OdometrySample s;
   while (odom.read(s, 0) == ReadStatus::kOk) {
   }
   *position_error = odom.position_error_m();
@@ -67,7 +67,7 @@ void run_to_end(DriftingOdometry& odom, Eigen::Vector3d* position_error, double*
 TEST(DriftingOdometry, ZeroNoiseReproducesGroundTruthExactly) {
   const Trajectory truth = wavy_path(200);
   DriftingOdometry odom(truth, DriftingOdometry::Config{});
-  drivers::OdometrySample s;
+  messages::OdometrySample s;
   std::size_t n = 0;
   Eigen::Isometry3d previous = Eigen::Isometry3d::Identity();
   while (odom.read(s, 0) == ReadStatus::kOk) {
@@ -95,7 +95,7 @@ TEST(DriftingOdometry, TranslationNoiseLeavesOrientationExact) {
   DriftingOdometry::Config config;
   config.translation_sigma_m_per_sqrt_m = 0.05;
   DriftingOdometry odom(truth, config);
-  drivers::OdometrySample s;
+  messages::OdometrySample s;
   std::size_t n = 0;
   double max_error = 0.0;
   while (odom.read(s, 0) == ReadStatus::kOk) {
@@ -168,7 +168,7 @@ TEST(DriftingOdometry, ReportedCovarianceMatchesTheActualError) {
   for (int k = 0; k < seeds; ++k) {
     config.seed = 5000 + k;
     DriftingOdometry odom(truth, config);
-    drivers::OdometrySample s;
+    messages::OdometrySample s;
     double previous_trace = 0.0;
     while (odom.read(s, 0) == ReadStatus::kOk) {
       const double trace = s.covariance.trace();
@@ -202,7 +202,7 @@ TEST(DriftingOdometry, DeterministicForASeed) {
   DriftingOdometry b(truth, config);
   config.seed = 100;
   DriftingOdometry c(truth, config);
-  drivers::OdometrySample sa, sb, sc;
+  messages::OdometrySample sa, sb, sc;
   std::vector<Eigen::Vector3d> first_run;
   bool any_different = false;
   while (a.read(sa, 0) == ReadStatus::kOk) {
@@ -248,7 +248,7 @@ TEST(DriftingOdometry, EndOfStreamIsStickyAndReadsDoNotAllocate) {
   config.translation_sigma_m_per_sqrt_m = 0.05;
   config.yaw_sigma_rad_per_sqrt_m = 0.02;
   DriftingOdometry odom(wavy_path(30), config);
-  drivers::OdometrySample s;
+  messages::OdometrySample s;
   int ok = 0;
   EXPECT_NO_ALLOCATIONS(for (int i = 0; i < 40; ++i) ok += odom.read(s, 0) == ReadStatus::kOk ? 1 : 0);
   EXPECT_EQ(ok, 31);
@@ -260,9 +260,9 @@ TEST(DriftingOdometry, FlagsTimestampsGoingBackwards) {
   Trajectory truth = straight_line(1.0, 0.1);
   truth[4].time_ns = truth[2].time_ns;
   DriftingOdometry odom(truth, DriftingOdometry::Config{});
-  drivers::OdometrySample s;
+  messages::OdometrySample s;
   for (int i = 0; i < 5; ++i) ASSERT_EQ(odom.read(s, 0), ReadStatus::kOk);
-  EXPECT_TRUE(s.flags & drivers::kFrameTimestampBackwards);
+  EXPECT_TRUE(s.flags & messages::kFrameTimestampBackwards);
   EXPECT_EQ(odom.counters().timestamps_backwards, 1u);
 }
 

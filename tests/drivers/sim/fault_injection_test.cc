@@ -28,11 +28,11 @@ FaultPlan plan_from(const char* text) {
 
 struct Rig {
   explicit Rig(const char* plan_text, std::uint64_t frames = 20)
-      : inner(32, 24, frames), source(inner, plan_from(plan_text)), frame(std::make_unique<drivers::RgbdFrame>()) {}
+      : inner(32, 24, frames), source(inner, plan_from(plan_text)), frame(std::make_unique<messages::RgbdFrame>()) {}
   ReadStatus read() { return source.read(*frame, 0); }
   MemoryRgbdSource inner;
   FaultInjectingRgbdSource source;
-  std::unique_ptr<drivers::RgbdFrame> frame;
+  std::unique_ptr<messages::RgbdFrame> frame;
 };
 
 TEST(FaultInjection, NoPlanPassesFramesThroughUntouched) {
@@ -54,7 +54,7 @@ TEST(FaultInjection, DropSkipsTheFrameAndFlagsTheGap) {
   for (std::uint64_t expected : {0, 1, 2, 4, 5}) {
     ASSERT_EQ(rig.read(), ReadStatus::kOk);
     EXPECT_EQ(rig.frame->sequence, expected);
-    EXPECT_EQ((rig.frame->flags & drivers::kFrameSequenceGap) != 0, expected == 4) << expected;
+    EXPECT_EQ((rig.frame->flags & messages::kFrameSequenceGap) != 0, expected == 4) << expected;
   }
   EXPECT_EQ(rig.source.counters().dropped, 1u);
   EXPECT_EQ(rig.source.injected()[static_cast<int>(FaultKind::kDrop)], 1u);
@@ -76,7 +76,7 @@ TEST(FaultInjection, LateDelaysThePublishTime) {
   ASSERT_EQ(rig.read(), ReadStatus::kOk);
   EXPECT_EQ(rig.frame->sequence, 1u);
   EXPECT_EQ(rig.frame->publish_time_ns - rig.frame->sample_time_ns, 1'000'000 + 80'000'000);
-  EXPECT_TRUE(rig.frame->flags & drivers::kFrameLate);
+  EXPECT_TRUE(rig.frame->flags & messages::kFrameLate);
   ASSERT_EQ(rig.read(), ReadStatus::kOk);
   EXPECT_EQ(rig.frame->flags, 0u);
   EXPECT_EQ(rig.source.counters().late, 1u);
@@ -90,14 +90,14 @@ TEST(FaultInjection, BackwardsMovesTheSampleTimeBeforeThePreviousFrame) {
   ASSERT_EQ(rig.read(), ReadStatus::kOk);
   EXPECT_EQ(rig.frame->sample_time_ns, previous - 5'000'000);
   EXPECT_LE(rig.frame->sample_time_ns, rig.frame->publish_time_ns);
-  EXPECT_TRUE(rig.frame->flags & drivers::kFrameTimestampBackwards);
+  EXPECT_TRUE(rig.frame->flags & messages::kFrameTimestampBackwards);
   EXPECT_EQ(rig.source.counters().timestamps_backwards, 1u);
 }
 
 TEST(FaultInjection, DepthRegionsAreFilledInsideTheRectOnly) {
   Rig rig("at 0 depth_nan rect=2,3,4,5\nat 1 depth_zero rect=30,20,10,10\nat 2 depth_saturated rect=0,0,1,1");
   ASSERT_EQ(rig.read(), ReadStatus::kOk);
-  const drivers::RgbdFrame& f = *rig.frame;
+  const messages::RgbdFrame& f = *rig.frame;
   int nan = 0;
   for (int v = 0; v < 24; ++v) {
     for (int u = 0; u < 32; ++u) {
@@ -112,7 +112,7 @@ TEST(FaultInjection, DepthRegionsAreFilledInsideTheRectOnly) {
     }
   }
   EXPECT_EQ(nan, 20);
-  EXPECT_TRUE(f.flags & drivers::kFrameInvalidDepthRegion);
+  EXPECT_TRUE(f.flags & messages::kFrameInvalidDepthRegion);
   ASSERT_EQ(rig.read(), ReadStatus::kOk);  // rect clipped at the frame's corner: 2 x 4 pixels
   int zero = 0;
   for (int i = 0; i < f.pixels(); ++i) zero += f.depth_m[i] == 0.0f ? 1 : 0;
@@ -131,7 +131,7 @@ TEST(FaultInjection, WrongSizeIsABadFrameAndTheNextFrameShowsTheGap) {
   EXPECT_EQ(rig.read(), ReadStatus::kBadFrame);
   ASSERT_EQ(rig.read(), ReadStatus::kOk);
   EXPECT_EQ(rig.frame->sequence, 3u);
-  EXPECT_TRUE(rig.frame->flags & drivers::kFrameSequenceGap);
+  EXPECT_TRUE(rig.frame->flags & messages::kFrameSequenceGap);
   EXPECT_EQ(rig.source.counters().bad_frames, 1u);
 }
 
@@ -144,7 +144,7 @@ TEST(FaultInjection, UnplugDisconnectsForNReadsThenFlagsTheReconnect) {
   EXPECT_EQ(rig.source.counters().reconnects, 0u);
   ASSERT_EQ(rig.read(), ReadStatus::kOk);
   EXPECT_EQ(rig.frame->sequence, 2u);
-  EXPECT_EQ(rig.frame->flags, static_cast<std::uint32_t>(drivers::kFrameAfterReconnect));
+  EXPECT_EQ(rig.frame->flags, static_cast<std::uint32_t>(messages::kFrameAfterReconnect));
   ASSERT_EQ(rig.read(), ReadStatus::kOk);
   EXPECT_EQ(rig.frame->flags, 0u);
   EXPECT_EQ(rig.source.counters().reconnects, 1u);
@@ -155,7 +155,7 @@ TEST(FaultInjection, SeveralFaultsOnOneFrameCombine) {
   EXPECT_EQ(rig.read(), ReadStatus::kOk);
   EXPECT_EQ(rig.read(), ReadStatus::kTimeout);
   ASSERT_EQ(rig.read(), ReadStatus::kOk);
-  EXPECT_EQ(rig.frame->flags, static_cast<std::uint32_t>(drivers::kFrameLate | drivers::kFrameInvalidDepthRegion));
+  EXPECT_EQ(rig.frame->flags, static_cast<std::uint32_t>(messages::kFrameLate | messages::kFrameInvalidDepthRegion));
 }
 
 TEST(FaultInjection, InnerCountersAreFoldedIn) {
@@ -174,7 +174,7 @@ TEST(FaultInjection, FaultsOnADroppedFrameAreLostWithIt) {
   for (std::uint64_t expected : {0, 1, 3, 4}) {
     ASSERT_EQ(rig.read(), ReadStatus::kOk);
     EXPECT_EQ(rig.frame->sequence, expected);
-    EXPECT_EQ(rig.frame->flags & drivers::kFrameLate, 0u);
+    EXPECT_EQ(rig.frame->flags & messages::kFrameLate, 0u);
   }
   EXPECT_EQ(rig.source.counters().late, 0u);
   EXPECT_EQ(rig.source.injected()[static_cast<int>(FaultKind::kLate)], 1u);  // fired, without effect
@@ -186,14 +186,14 @@ TEST(FaultInjection, EventsForSequencesTheInnerSkippedHitTheNextFrame) {
   MemoryRgbdSource memory(32, 24, 20);
   FaultInjectingRgbdSource inner(memory, plan_from("at 5 drop\nat 6 drop"));
   FaultInjectingRgbdSource outer(inner, plan_from("at 5 late delay_ms=2\nat 6 stall reads=1"));
-  auto frame = std::make_unique<drivers::RgbdFrame>();
+  auto frame = std::make_unique<messages::RgbdFrame>();
   for (std::uint64_t expected : {0, 1, 2, 3, 4}) {
     ASSERT_EQ(outer.read(*frame, 0), ReadStatus::kOk);
     EXPECT_EQ(frame->sequence, expected);
   }
   ASSERT_EQ(outer.read(*frame, 0), ReadStatus::kOk);  // 5 and 6 dropped inside: frame 7 takes the late event
   EXPECT_EQ(frame->sequence, 7u);
-  EXPECT_EQ(frame->flags, static_cast<std::uint32_t>(drivers::kFrameLate | drivers::kFrameSequenceGap));
+  EXPECT_EQ(frame->flags, static_cast<std::uint32_t>(messages::kFrameLate | messages::kFrameSequenceGap));
   EXPECT_EQ(outer.read(*frame, 0), ReadStatus::kTimeout);  // the stall for 6 fires before the next frame
   ASSERT_EQ(outer.read(*frame, 0), ReadStatus::kOk);
   EXPECT_EQ(frame->sequence, 8u);
@@ -261,7 +261,7 @@ TEST(FaultInjection, DropoutLosesConsecutiveFramesAndTheFaultEndsAtTheNextCleanO
   while (rig.read() == ReadStatus::kOk) {
     sequences.push_back(rig.frame->sequence);
     if (rig.frame->sequence == 7) {
-      EXPECT_TRUE((rig.frame->flags & drivers::kFrameSequenceGap) != 0);
+      EXPECT_TRUE((rig.frame->flags & messages::kFrameSequenceGap) != 0);
       EXPECT_EQ(rig.source.injector().faults_ended(), 1u);
       EXPECT_EQ(rig.source.injector().last_fault_end_ns(), rig.frame->sample_time_ns);
     } else if (rig.frame->sequence < 4) {
@@ -294,7 +294,7 @@ TEST(FaultInjection, RandomFaultsFireOnlyInsideTheirWindow) {
 TEST(OdometryFaultInjection, PoseJumpShiftsItsSamplesOnlyAndIsIgnoredOnFrames) {
   MemoryOdometrySource inner(10);
   FaultInjectingOdometrySource source(inner, plan_from("at 3 pose_jump offset_m=5,-1,0.5 samples=2"));
-  drivers::OdometrySample s;
+  messages::OdometrySample s;
   for (std::uint64_t i = 0; i < 10; ++i) {
     ASSERT_EQ(source.read(s, 0), ReadStatus::kOk);
     const bool jumped = i == 3 || i == 4;
@@ -317,7 +317,7 @@ TEST(OdometryFaultInjection, SameFaultsOnSamplesAndDepthFaultsIgnored) {
   FaultInjectingOdometrySource source(
       inner, plan_from("at 1 drop\nat 2 late delay_ms=3\nat 3 depth_nan rect=0,0,1,1\nat 4 unplug reads=2\n"
                        "at 5 wrong_size\nat 7 backwards back_ms=1"));
-  drivers::OdometrySample s;
+  messages::OdometrySample s;
   std::vector<ReadStatus> statuses;
   std::vector<std::uint64_t> sequences;
   std::vector<std::uint32_t> flags;
@@ -338,11 +338,11 @@ TEST(OdometryFaultInjection, SameFaultsOnSamplesAndDepthFaultsIgnored) {
                                             ReadStatus::kOk, ReadStatus::kOk, ReadStatus::kOk};
   EXPECT_EQ(statuses, expected);
   EXPECT_EQ(sequences, (std::vector<std::uint64_t>{0, 2, 3, 4, 6, 7, 8, 9, 10}));
-  EXPECT_EQ(flags[1], static_cast<std::uint32_t>(drivers::kFrameSequenceGap | drivers::kFrameLate));
+  EXPECT_EQ(flags[1], static_cast<std::uint32_t>(messages::kFrameSequenceGap | messages::kFrameLate));
   EXPECT_EQ(flags[2], 0u);  // depth fault ignored on odometry
-  EXPECT_EQ(flags[3], static_cast<std::uint32_t>(drivers::kFrameAfterReconnect));
-  EXPECT_EQ(flags[4], static_cast<std::uint32_t>(drivers::kFrameSequenceGap));
-  EXPECT_EQ(flags[5], static_cast<std::uint32_t>(drivers::kFrameTimestampBackwards));
+  EXPECT_EQ(flags[3], static_cast<std::uint32_t>(messages::kFrameAfterReconnect));
+  EXPECT_EQ(flags[4], static_cast<std::uint32_t>(messages::kFrameSequenceGap));
+  EXPECT_EQ(flags[5], static_cast<std::uint32_t>(messages::kFrameTimestampBackwards));
   const drivers::DriverCounters& c = source.counters();
   EXPECT_EQ(c.dropped, 1u);
   EXPECT_EQ(c.late, 1u);

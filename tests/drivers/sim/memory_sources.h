@@ -19,8 +19,8 @@ class MemoryRgbdSource : public drivers::RgbdSource {
     intrinsics_.cy = (height - 1) / 2.0;
   }
   const char* name() const override { return "memory_rgbd"; }
-  drivers::CameraIntrinsics intrinsics() const override { return intrinsics_; }
-  drivers::ReadStatus read(drivers::RgbdFrame& frame, std::int64_t /*timeout_ns*/) override {
+  messages::CameraIntrinsics intrinsics() const override { return intrinsics_; }
+  drivers::ReadStatus read(messages::RgbdFrame& frame, std::int64_t /*timeout_ns*/) override {
     if (next_ >= count_) return drivers::ReadStatus::kEndOfStream;
     const std::uint64_t seq = next_++;
     frame.sequence = seq;
@@ -40,7 +40,7 @@ class MemoryRgbdSource : public drivers::RgbdSource {
   drivers::DriverCounters& mutable_counters() { return counters_; }
 
  private:
-  drivers::CameraIntrinsics intrinsics_;
+  messages::CameraIntrinsics intrinsics_;
   std::uint64_t count_;
   std::int64_t period_ns_;
   std::int64_t latency_ns_;
@@ -54,7 +54,7 @@ class MemoryOdometrySource : public drivers::OdometrySource {
   explicit MemoryOdometrySource(std::uint64_t count, std::int64_t period_ns = 10'000'000)
       : count_(count), period_ns_(period_ns) {}
   const char* name() const override { return "memory_odometry"; }
-  drivers::ReadStatus read(drivers::OdometrySample& sample, std::int64_t /*timeout_ns*/) override {
+  drivers::ReadStatus read(messages::OdometrySample& sample, std::int64_t /*timeout_ns*/) override {
     if (next_ >= count_) return drivers::ReadStatus::kEndOfStream;
     const std::uint64_t seq = next_++;
     sample.sequence = seq;

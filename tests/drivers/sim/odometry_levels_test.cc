@@ -77,7 +77,7 @@ TEST(OdometryLevels, GroundTruthHandsOverTheTruePosesBitForBit) {
   }
   // Its drift configuration is all zero: the drifting odometry then plays the truth back exactly.
   DriftingOdometry odometry(truth, drift_config(OdometryLevel::kGroundTruth, 3));
-  drivers::OdometrySample s;
+  messages::OdometrySample s;
   for (const StampedPose& p : truth) {
     ASSERT_EQ(odometry.read(s, 0), drivers::ReadStatus::kOk);
     EXPECT_EQ(s.world_t_body_m, p.world_t_body_m);

@@ -348,7 +348,7 @@ TEST(SimCameraTest, RendersTheWallAheadAtItsDistance) {
   config.rate_hz = 5;
   std::string error;
   ASSERT_TRUE(camera.init(config, render::Renderer::Config{}, w, r.trajectory, &error)) << error;
-  auto frame = std::make_unique<drivers::RgbdFrame>();
+  auto frame = std::make_unique<messages::RgbdFrame>();
   std::size_t frames = 0;
   while (camera.read(*frame, 0) == drivers::ReadStatus::kOk) {
     Eigen::Isometry3d pose;
@@ -377,8 +377,8 @@ TEST(SimCameraTest, IsDeterministicAndDoesNotAllocatePerFrame) {
   std::string error;
   ASSERT_TRUE(a.init(config, render::Renderer::Config{}, w, r.trajectory, &error)) << error;
   ASSERT_TRUE(b.init(config, render::Renderer::Config{}, w, r.trajectory, &error)) << error;
-  auto fa = std::make_unique<drivers::RgbdFrame>();
-  auto fb = std::make_unique<drivers::RgbdFrame>();
+  auto fa = std::make_unique<messages::RgbdFrame>();
+  auto fb = std::make_unique<messages::RgbdFrame>();
   ASSERT_EQ(a.read(*fa, 0), drivers::ReadStatus::kOk);  // warm-up
   EXPECT_NO_ALLOCATIONS({
     for (int k = 0; k < 5; ++k) a.read(*fa, 0);
@@ -405,9 +405,9 @@ TEST(SimCameraTest, TumReplayOfARenderedSequenceReproducesItsFrames) {
   replay::TumWriter writer;
   ASSERT_TRUE(writer.open(dir, replay::TumWriter::Config{}, &error)) << error;
   constexpr int kFrames = 6;
-  std::vector<std::unique_ptr<drivers::RgbdFrame>> rendered;
+  std::vector<std::unique_ptr<messages::RgbdFrame>> rendered;
   for (int k = 0; k < kFrames; ++k) {
-    rendered.push_back(std::make_unique<drivers::RgbdFrame>());
+    rendered.push_back(std::make_unique<messages::RgbdFrame>());
     ASSERT_EQ(camera.read(*rendered.back(), 0), drivers::ReadStatus::kOk);
     Eigen::Isometry3d pose;
     ASSERT_TRUE(camera.camera_pose(rendered.back()->sequence, &pose, nullptr));
@@ -420,10 +420,10 @@ TEST(SimCameraTest, TumReplayOfARenderedSequenceReproducesItsFrames) {
   replay::TumReplay::Config rc;
   rc.intrinsics = config.intrinsics;
   ASSERT_TRUE(replay.open(dir, rc, &error)) << error;
-  auto back = std::make_unique<drivers::RgbdFrame>();
+  auto back = std::make_unique<messages::RgbdFrame>();
   for (int k = 0; k < kFrames; ++k) {
     ASSERT_EQ(replay.read(*back, 0), drivers::ReadStatus::kOk) << "frame " << k;
-    const drivers::RgbdFrame& f = *rendered[static_cast<std::size_t>(k)];
+    const messages::RgbdFrame& f = *rendered[static_cast<std::size_t>(k)];
     EXPECT_EQ(back->sample_time_ns, f.sample_time_ns);
     ASSERT_EQ(back->pixels(), f.pixels());
     const std::size_t n = static_cast<std::size_t>(f.pixels());
@@ -456,7 +456,7 @@ TEST(SimCameraTest, FaultPlanOnTheSimulatedCameraAndOdometry) {
                                     &error))
       << error;
   FaultInjectingRgbdSource faulty(camera, plan);
-  auto frame = std::make_unique<drivers::RgbdFrame>();
+  auto frame = std::make_unique<messages::RgbdFrame>();
   int delivered = 0, disconnected = 0;
   bool saw_nan_frame = false, saw_reconnect = false;
   for (int k = 0; k < 40; ++k) {
@@ -466,11 +466,11 @@ TEST(SimCameraTest, FaultPlanOnTheSimulatedCameraAndOdometry) {
     if (s != drivers::ReadStatus::kOk) continue;
     ++delivered;
     EXPECT_NE(frame->sequence, 2u) << "frame 2 was to be dropped";
-    if (frame->flags & drivers::kFrameInvalidDepthRegion) {
+    if (frame->flags & messages::kFrameInvalidDepthRegion) {
       saw_nan_frame = true;
       EXPECT_TRUE(std::isnan(frame->depth_m[static_cast<std::size_t>(15 * 80 + 15)]));
     }
-    if (frame->flags & drivers::kFrameAfterReconnect) saw_reconnect = true;
+    if (frame->flags & messages::kFrameAfterReconnect) saw_reconnect = true;
   }
   EXPECT_TRUE(saw_nan_frame);
   EXPECT_TRUE(saw_reconnect);
@@ -483,9 +483,11 @@ TEST(SimCameraTest, FaultPlanOnTheSimulatedCameraAndOdometry) {
   FaultPlan odo_plan;
   ASSERT_TRUE(parse_fault_plan_text("at 3 backwards back_ms=5\n", "odo", &odo_plan, &error)) << error;
   FaultInjectingOdometrySource faulty_odometry(odometry, odo_plan);
-  drivers::OdometrySample sample;
+  messages::OdometrySample sample;
   bool flagged = false;
-  while (faulty_odometry.read(sample, 0) == drivers::ReadStatus::kOk) flagged |= (sample.flags & drivers::kFrameTimestampBackwards) != 0;
+  while (faulty_odometry.read(sample, 0) == drivers::ReadStatus::kOk) {
+    flagged |= (sample.flags & messages::kFrameTimestampBackwards) != 0;
+  }
   EXPECT_TRUE(flagged);
   EXPECT_EQ(faulty_odometry.counters().timestamps_backwards, 1u);
 }

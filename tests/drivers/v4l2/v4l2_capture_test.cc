@@ -229,7 +229,7 @@ TEST(V4l2Capture, EnodevMidStreamIsCountedAndKeepsReturnedFramesIntact) {
   EXPECT_EQ(cap.counters().driver.reconnects, 1u);
   EXPECT_EQ(fake.live_mappings(), 4) << "old mappings released, new ones made";
   ASSERT_EQ(cap.next(&f, kTimeoutNs), ReadStatus::kOk) << cap.last_error();
-  EXPECT_TRUE(f.flags & drivers::kFrameAfterReconnect);
+  EXPECT_TRUE(f.flags & messages::kFrameAfterReconnect);
   EXPECT_EQ(f.sequence, 3u) << "sequence continues across the reconnect although the driver restarted at 0";
   EXPECT_EQ(f.driver_sequence, 0u);
   cap.release(f);
@@ -254,7 +254,7 @@ TEST(V4l2Capture, SequenceGapsAreCountedAsDropped) {
   ASSERT_EQ(cap.next(&f, kTimeoutNs), ReadStatus::kOk);
   EXPECT_EQ(f.sequence, 5u);
   EXPECT_EQ(f.dropped_before, 3u);
-  EXPECT_TRUE(f.flags & drivers::kFrameSequenceGap);
+  EXPECT_TRUE(f.flags & messages::kFrameSequenceGap);
   EXPECT_EQ(cap.counters().driver.dropped, 3u);
 }
 
@@ -279,7 +279,7 @@ TEST(V4l2Capture, BackwardTimestampsAreRejectedAndCounted) {
   ASSERT_EQ(cap.next(&f, kTimeoutNs), ReadStatus::kOk);
   EXPECT_GT(f.sample_time_ns, last_ns);
   EXPECT_EQ(f.sequence, 3u);
-  EXPECT_TRUE(f.flags & drivers::kFrameSequenceGap) << "frame 2 was never delivered";
+  EXPECT_TRUE(f.flags & messages::kFrameSequenceGap) << "frame 2 was never delivered";
   EXPECT_EQ(cap.counters().driver.timestamps_backwards, 1u);
   EXPECT_EQ(cap.counters().driver.bad_frames, 1u);
   EXPECT_EQ(cap.counters().driver.dropped, 0u) << "the driver lost nothing";
@@ -328,7 +328,7 @@ TEST(V4l2Capture, LateAndUnknownClockFramesAreHandled) {
   ASSERT_TRUE(cap.open(small_capture(), &error) && cap.start(&error)) << error;
   CapturedFrame f;
   ASSERT_EQ(cap.next(&f, kTimeoutNs), ReadStatus::kOk);
-  EXPECT_TRUE(f.flags & drivers::kFrameLate);
+  EXPECT_TRUE(f.flags & messages::kFrameLate);
   EXPECT_EQ(cap.counters().driver.late, 1u);
 
   fc = small_colour_node();

@@ -137,7 +137,7 @@ TEST(V4l2Hardware, CloseAndReopenStreamsAgain) {
   ASSERT_TRUE(cap.reopen(&error)) << error;
   ASSERT_EQ(cap.next(&f, 2'000'000'000), ReadStatus::kOk) << cap.last_error();
   EXPECT_GT(f.sequence, before);
-  EXPECT_TRUE(f.flags & drivers::kFrameAfterReconnect);
+  EXPECT_TRUE(f.flags & messages::kFrameAfterReconnect);
 }
 
 }  // namespace

@@ -55,7 +55,7 @@ struct FakeRgbdCamera {
     if (colour_format == FakeV4l2Device::kYuyv) colour.set_painter(paint_colour);
     config.depth = small_capture(v4l2::kPixelFormatZ16, "/dev/video1");
     config.colour = small_capture(colour_format, "/dev/video0");
-    config.intrinsics = drivers::CameraIntrinsics{kTestWidth, kTestHeight, 131.25, 131.25, 79.5, 59.5};
+    config.intrinsics = messages::CameraIntrinsics{kTestWidth, kTestHeight, 131.25, 131.25, 79.5, 59.5};
   }
   static FakeV4l2Device::Config depth_config(bool endless) {
     FakeV4l2Device::Config c = small_depth_node();
@@ -81,7 +81,7 @@ std::shared_ptr<drivers::RgbdSource> make_pair(std::uint32_t colour_format, bool
 
 class V4l2RgbdSourceTest : public ::testing::Test {
  protected:
-  std::unique_ptr<drivers::RgbdFrame> frame_ = std::make_unique<drivers::RgbdFrame>();
+  std::unique_ptr<messages::RgbdFrame> frame_ = std::make_unique<messages::RgbdFrame>();
 };
 
 TEST_F(V4l2RgbdSourceTest, PairsFramesByTimestampAndConvertsThem) {
@@ -125,7 +125,7 @@ TEST_F(V4l2RgbdSourceTest, DropsADepthFrameWhoseColourWasLost) {
   EXPECT_EQ(frame_->sequence, 0u);
   ASSERT_EQ(cam.source.read(*frame_, 100'000'000), ReadStatus::kOk);
   EXPECT_EQ(frame_->sequence, 2u) << "depth frame 1 has no partner";
-  EXPECT_TRUE(frame_->flags & drivers::kFrameSequenceGap);
+  EXPECT_TRUE(frame_->flags & messages::kFrameSequenceGap);
   EXPECT_NEAR(frame_->rgb[0], 1.164 * 2.0, 1.0) << "paired with colour frame 2";
   EXPECT_EQ(cam.source.pair_counters().unpaired_depth, 1u);
   EXPECT_EQ(cam.source.counters().dropped, 1u);
@@ -150,7 +150,7 @@ TEST_F(V4l2RgbdSourceTest, RgbColourAndDepthHolesAreHandled) {
   ASSERT_EQ(cam.source.read(*frame_, 100'000'000), ReadStatus::kOk) << cam.source.last_error();
   EXPECT_EQ(frame_->depth_m[0], 0.0f) << "raw 0 = no return = 0 m";
   EXPECT_FLOAT_EQ(frame_->depth_m[frame_->pixels() - 1], 1.0f);
-  EXPECT_TRUE(frame_->flags & drivers::kFrameInvalidDepthRegion) << "3/4 of the pixels have no return";
+  EXPECT_TRUE(frame_->flags & messages::kFrameInvalidDepthRegion) << "3/4 of the pixels have no return";
   EXPECT_EQ(cam.source.counters().invalid_depth_frames, 1u);
   EXPECT_EQ(frame_->rgb[0], 0u) << "the default painter fills RGB24 frame 0 with zeros";
 }
@@ -177,7 +177,7 @@ TEST_F(V4l2RgbdSourceTest, DisconnectIsStickyUntilTheDeviceIsBack) {
   ReadStatus s = ReadStatus::kTimeout;
   for (int i = 0; i < 5 && s != ReadStatus::kOk; ++i) s = cam.source.read(*frame_, 100'000'000);
   ASSERT_EQ(s, ReadStatus::kOk) << cam.source.last_error();
-  EXPECT_TRUE(frame_->flags & drivers::kFrameAfterReconnect);
+  EXPECT_TRUE(frame_->flags & messages::kFrameAfterReconnect);
   EXPECT_EQ(frame_->sequence, 2u);
   EXPECT_EQ(cam.source.counters().reconnects, 1u);
   EXPECT_EQ(cam.source.pair_counters().reconnect_attempts, 2u);

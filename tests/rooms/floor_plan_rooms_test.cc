@@ -1,6 +1,6 @@
 // Tests of the 2D room benchmark tools: the max-overlap score, the classical distance-transform and morphological
 // segmentations (the peers of rooms_eval) on a synthetic two-room plan, bad input, and two real benchmark plans.
-#include "drivers/world/floor_plan_rooms.h"
+#include "bench/rooms/floor_plan_rooms.h"
 
 #include <gtest/gtest.h>
 
@@ -9,7 +9,7 @@
 
 #include "tests/support/test_data.h"
 
-namespace qsg::world {
+namespace qsg::bench {
 namespace {
 
 // 0.05 m cells, 300 x 160 (15 x 8 m): two 7.4 x 7.4 m rooms (55 m^2 each, more than the morphological method's
@@ -198,8 +198,8 @@ TEST(FloorPlanRooms, BadInputGivesClearErrors) {
 
   PlanRaster raster;
   std::string why;
-  EXPECT_FALSE(read_plan_raster("/nonexistent/plan.png", "/nonexistent/plan_gt_segmentation.png", FloorPlanConfig{},
-                                &raster, &why));
+  EXPECT_FALSE(read_plan_raster("/nonexistent/plan.png", "/nonexistent/plan_gt_segmentation.png",
+                                world::FloorPlanConfig{}, &raster, &why));
   EXPECT_NE(why.find("cannot read"), std::string::npos) << why;
 }
 
@@ -218,7 +218,7 @@ TEST(FloorPlanRooms, PeersSegmentRealBenchmarkPlans) {
     QSG_REQUIRE_SHARED_DATA(gt, base + "_gt_segmentation.png");
     PlanRaster raster;
     std::string why;
-    ASSERT_TRUE(read_plan_raster(occupancy, gt, FloorPlanConfig{}, &raster, &why)) << why;
+    ASSERT_TRUE(read_plan_raster(occupancy, gt, world::FloorPlanConfig{}, &raster, &why)) << why;
     std::set<std::int32_t> rooms(raster.truth.begin(), raster.truth.end());
     rooms.erase(0);
     EXPECT_EQ(rooms.size(), c.map == std::string("office_e") ? 32u : 10u);
@@ -242,4 +242,4 @@ TEST(FloorPlanRooms, PeersSegmentRealBenchmarkPlans) {
 }
 
 }  // namespace
-}  // namespace qsg::world
+}  // namespace qsg::bench

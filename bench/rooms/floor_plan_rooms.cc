@@ -1,4 +1,4 @@
-#include "drivers/world/floor_plan_rooms.h"
+#include "bench/rooms/floor_plan_rooms.h"
 
 #include "core/rooms/room_finder.h"
 
@@ -10,14 +10,14 @@
 #include <opencv2/imgproc.hpp>
 #include <utility>
 
-namespace qsg::world {
+namespace qsg::bench {
 
-bool read_plan_raster(const std::string& occupancy_path, const std::string& gt_path, const FloorPlanConfig& config,
-                      PlanRaster* out, std::string* error) {
+bool read_plan_raster(const std::string& occupancy_path, const std::string& gt_path,
+                      const world::FloorPlanConfig& config, PlanRaster* out, std::string* error) {
   cv::Mat occ, gt;
   std::string why;
-  if (!read_floor_plan_image(occupancy_path, "occupancy", config, &occ, &why) ||
-      !read_floor_plan_image(gt_path, "ground-truth", config, &gt, &why)) {
+  if (!world::read_floor_plan_image(occupancy_path, "occupancy", config, &occ, &why) ||
+      !world::read_floor_plan_image(gt_path, "ground-truth", config, &gt, &why)) {
     if (error != nullptr) *error = why;
     return false;
   }
@@ -267,4 +267,4 @@ bool segment_by_erosion(const std::vector<std::uint8_t>& free, int cols, int row
   return true;
 }
 
-}  // namespace qsg::world
+}  // namespace qsg::bench

@@ -12,7 +12,7 @@
 
 #include "drivers/world/floor_plan_import.h"
 
-namespace qsg::world {
+namespace qsg::bench {
 
 // A benchmark plan as the score sees it: free cells of the occupancy image (>= config.free_threshold), and each
 // cell's ground-truth room: the 8-connected white regions (> config.gt_room_threshold) of the ground-truth image
@@ -24,8 +24,8 @@ struct PlanRaster {
 };
 
 // False with *error set when an image cannot be read or their sizes differ.
-bool read_plan_raster(const std::string& occupancy_path, const std::string& gt_path, const FloorPlanConfig& config,
-                      PlanRaster* out, std::string* error);
+bool read_plan_raster(const std::string& occupancy_path, const std::string& gt_path,
+                      const world::FloorPlanConfig& config, PlanRaster* out, std::string* error);
 
 // The benchmark's score of an estimated segmentation against the ground truth, over the cells that are free and
 // inside a ground-truth room. An estimated room's precision is its largest overlap with one ground-truth room over
@@ -96,4 +96,4 @@ struct MorphologicalSegmentationConfig {
 bool segment_by_erosion(const std::vector<std::uint8_t>& free, int cols, int rows,
                         const MorphologicalSegmentationConfig& config, PlanSegmentation* out, const char** error);
 
-}  // namespace qsg::world
+}  // namespace qsg::bench

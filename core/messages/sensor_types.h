@@ -1,5 +1,6 @@
-// Messages the drivers publish: RGB-D frames in fixed buffers and odometry samples, each with a sample time
-// (when the sensor measured) and a publish time (when the driver handed it over), as PX4 messages carry.
+// Messages between the sensors and the core: RGB-D frames in fixed buffers, the camera's intrinsics and odometry
+// samples, each with a sample time (when the sensor measured) and a publish time (when the driver handed it over), as
+// PX4 messages carry. The drivers publish them; core/ consumes them without knowing any driver.
 #pragma once
 
 #include <Eigen/Core>
@@ -7,7 +8,7 @@
 #include <array>
 #include <cstdint>
 
-namespace qsg::drivers {
+namespace qsg::messages {
 
 inline constexpr int kMaxFrameWidth = 640;
 inline constexpr int kMaxFrameHeight = 480;
@@ -63,4 +64,4 @@ struct OdometrySample {
   std::uint32_t flags = 0;  // FrameFlag bits that apply (late, backwards, gap, after reconnect)
 };
 
-}  // namespace qsg::drivers
+}  // namespace qsg::messages
