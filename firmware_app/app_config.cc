@@ -308,6 +308,7 @@ bool AppConfig::load(const std::string& path, std::string* error) {
                             {"ratio", number(&lc.detector.ratio)},
                             {"noise_bound_m", number(&lc.detector.registration.noise_bound_m)},
                             {"min_inliers", number(&min_inliers)},
+                            {"propose_unrefined_objects", boolean(&lc.detector.propose_unrefined_objects)},
                             {"sigma_position_m", number(&lc.deformation.sigma_position_m)}},
                            why))
            return false;

@@ -40,14 +40,16 @@ void DetectorCounters::print(std::FILE* out) const {
   std::fprintf(out,
                "loop closures: %llu queries (%llu without enough objects), %llu places candidates, %llu objects "
                "candidates, %llu ratio rejections, %llu appearance checks of which %llu registered, %llu verified by "
-               "objects of which %llu failed registration (%llu refined by ICP, %llu not), %llu proposed; "
+               "objects of which %llu failed registration (%llu refined by ICP, %llu not, %llu of those dropped), "
+               "%llu proposed; "
                "%llu agents refused, %llu folds, %llu tree rebuilds\n",
                static_cast<unsigned long long>(queries), static_cast<unsigned long long>(queries_without_objects),
                static_cast<unsigned long long>(places_candidates), static_cast<unsigned long long>(objects_candidates),
                static_cast<unsigned long long>(ratio_rejections), static_cast<unsigned long long>(appearance_checks),
                static_cast<unsigned long long>(appearance_accepted), static_cast<unsigned long long>(verifications),
                static_cast<unsigned long long>(registration_failures), static_cast<unsigned long long>(icp_refined),
-               static_cast<unsigned long long>(icp_refused), static_cast<unsigned long long>(proposed),
+               static_cast<unsigned long long>(icp_refused), static_cast<unsigned long long>(objects_unrefined),
+               static_cast<unsigned long long>(proposed),
                static_cast<unsigned long long>(refused), static_cast<unsigned long long>(folds),
                static_cast<unsigned long long>(tree_rebuilds));
 }
@@ -271,6 +273,10 @@ bool LoopClosureDetector::add_and_detect(const AgentEntry& query, LoopClosure* o
       out->refined = false;
       const AgentEntry* matched = &match;
       if (config_.icp.enabled && query.cloud.count > 0) matched = refine_with_neighbours(query, candidates_[k].entry, out);
+      if (!out->refined && !config_.propose_unrefined_objects) {
+        ++counters_.objects_unrefined;
+        continue;
+      }
       propose(candidates_[k], *matched);
     }
   }

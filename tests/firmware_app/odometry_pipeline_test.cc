@@ -44,6 +44,9 @@ TEST(OdometryPipelineTest, TheSimulatedRobotMapsFromDriftingOdometryByDefault) {
   std::string error;
   AppConfig config = small_config("drift");
   config.loop_closure.enabled = true;
+  // One short tour: its revisits register by objects, rarely refined by ICP; this test is about the wiring, so
+  // coarse closures are proposed too (lc_eval measures the default on longer tours).
+  config.loop_closure.detector.propose_unrefined_objects = true;
   ASSERT_TRUE(p.init(config, &clock, &error)) << error;
   EXPECT_EQ(p.odometry().kind(), OdometrySourceKind::kSimDrift);
   run_to_end(p);

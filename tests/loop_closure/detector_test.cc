@@ -74,7 +74,10 @@ class DetectorTest : public ::testing::Test {
     graph_ = scene_graph::testing::make_graph();
     std::string error;
     ASSERT_TRUE(builder_.init(DescriptorConfig{}, &error)) << error;
-    ASSERT_TRUE(detector_.init(64, DetectorConfig{}, &error)) << error;
+    // These agents carry no depth (nothing for ICP): object registrations are proposed unrefined.
+    DetectorConfig config;
+    config.propose_unrefined_objects = true;
+    ASSERT_TRUE(detector_.init(64, config, &error)) << error;
   }
   std::unique_ptr<scene_graph::SceneGraph> graph_;
   std::uint64_t places_ = 0, objects_ = 0;
@@ -116,6 +119,22 @@ TEST_F(DetectorTest, ARevisitWithDriftIsDetectedWithTheTrueRelativePose) {
   EXPECT_LT((lc.match_T_query.translation() - truth.translation()).norm(), 0.02);
   EXPECT_LT(Eigen::AngleAxisd(lc.match_T_query.linear().transpose() * truth.linear()).angle(), 0.01);
   EXPECT_EQ(detector_.counters().proposed, 1u);
+}
+
+// By default an object registration ICP could not refine (here: no depth at all) is verified, counted and kept out.
+TEST_F(DetectorTest, AnUnrefinedObjectRegistrationIsNotProposedByDefault) {
+  LoopClosureDetector detector;
+  std::string error;
+  ASSERT_TRUE(detector.init(64, DetectorConfig{}, &error)) << error;
+  const NodeId a = draw_room(graph_.get(), &places_, &objects_, pose(0, 0, 0), kLiving);
+  const NodeId c = draw_room(graph_.get(), &places_, &objects_, pose(0.6, -0.4, 0.07), kLiving);
+  LoopClosure lc;
+  EXPECT_FALSE(detector.add_and_detect(describe(&builder_, *graph_, a, 0, 0, 0, pose(2, 2, 0.1)), &lc));
+  EXPECT_FALSE(detector.add_and_detect(describe(&builder_, *graph_, c, 1, 120, 50, pose(2.5, 1.5, 2.0)), &lc));
+  EXPECT_EQ(detector.counters().verifications, 1u);
+  EXPECT_EQ(detector.counters().registration_failures, 0u);
+  EXPECT_EQ(detector.counters().objects_unrefined, 1u);
+  EXPECT_EQ(detector.counters().proposed, 0u);
 }
 
 TEST_F(DetectorTest, TheRecentPastIsNotACandidate) {
