@@ -80,6 +80,8 @@ struct AppConfig {
     std::string target = "cpu";              // cpu | cuda | cuda_fp16
     bool fallback_to_cpu = false;            // cuda unavailable: false = start-up error, true = CPU, counted
     int opencv_threads = 1;                  // cv::setNumThreads (process-wide); 0 = OpenCV's default (every core)
+    // Benchmarks (not read from JSON): in lockstep, the worker is busy for its measured CPU time in data time.
+    bool lockstep_busy_from_cost = false;
   } segmentation;
 
   // Room labels (the neural tree). Empty: the weights in the source tree (core/neural_tree/weights); an installed

@@ -325,6 +325,7 @@ bool Pipeline::init_segmentation(std::string* error) {
   wc.max_age_s = sc.deadline_s;
   wc.threaded = !config_.lockstep;  // lockstep: deterministic, segmented after the keyframe's tasks
   wc.budget_us = t->budget_us;
+  wc.lockstep_busy_from_cost = sc.lockstep_busy_from_cost;
   return segmentation_.init(std::move(segmenter), std::max<std::uint32_t>(2, q->depth), wc, error);
 }
 
@@ -486,6 +487,7 @@ void Pipeline::timed_backend_update(const BackendUpdate& u) {
   std::lock_guard<std::mutex> lock(backend_stats_mutex_);
   backend_wall_.record(wall, backend_budget_us_);
   backend_cpu_.record(cpu, backend_budget_us_);
+  if (backend_observer_ != nullptr) backend_observer_(backend_observer_user_, cpu, wall);
 }
 
 runtime::TaskStats Pipeline::backend_wall_stats() const {

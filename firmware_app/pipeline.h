@@ -138,6 +138,13 @@ class Pipeline {
   runtime::TaskStats backend_wall_stats() const;
   runtime::TaskStats backend_cpu_stats() const;
   runtime::TelemetryWriterStats telemetry_stats() const { return telemetry_.stats(); }
+  // Benchmarks: every backend update's and every segmentation run's CPU and wall microseconds. Before init().
+  void set_thread_observers(SegmentationWorker::RunObserver backend, SegmentationWorker::RunObserver segmenter,
+                            void* user) {
+    backend_observer_ = backend;
+    backend_observer_user_ = user;
+    segmentation_.set_run_observer(segmenter, user);
+  }
   runtime::QueueStats backend_queue_stats() const { return backend_queue_.stats(); }
   const rooms::RoomFinder& room_finder() const { return rooms_; }
   const rooms::OnlineDoors& online_doors() const { return online_doors_; }
@@ -342,6 +349,8 @@ class Pipeline {
   runtime::TaskStats backend_wall_;
   runtime::TaskStats backend_cpu_;
   std::uint32_t backend_budget_us_ = 0;
+  SegmentationWorker::RunObserver backend_observer_ = nullptr;
+  void* backend_observer_user_ = nullptr;
   // Telemetry lines go through a bounded queue to a writer thread: the loop never blocks on its output.
   runtime::TelemetryWriter telemetry_;
   std::thread backend_thread_;

@@ -70,6 +70,7 @@ bool SegmentationWorker::offer(const drivers::RgbdFrame& frame, const Eigen::Iso
     used += s != kFree ? 1 : 0;
     if (s == kFree && free_slot == slots_.size()) free_slot = i;
   }
+  busy = busy || (config_.lockstep_busy_from_cost && frame.sample_time_ns < busy_until_ns_);
   const bool too_soon = have_taken_ && static_cast<double>(frame.sample_time_ns - last_taken_ns_) * 1e-9 <
                                            config_.min_interval_s;
   {
@@ -117,6 +118,8 @@ void SegmentationWorker::segment_slot(std::size_t i) {
   std::string error;
   const bool ok = segmenter_->segment(f, &error);
   const std::int64_t cpu = thread_cpu_us() - c0, wall = wall_us() - w0;
+  if (config_.lockstep_busy_from_cost && !config_.threaded) busy_until_ns_ = f.sample_time_ns + cpu * 1000;
+  if (observer_ != nullptr) observer_(observer_user_, cpu, wall);
   std::lock_guard<std::mutex> lock(mutex_);
   wall_.record(wall, config_.budget_us);
   cpu_.record(cpu, config_.budget_us);

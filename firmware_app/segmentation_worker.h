@@ -39,6 +39,10 @@ struct SegmentationWorkerConfig {
   double max_age_s = 2.0;       // labels coming back later than this after their frame's sample time are dropped
   bool threaded = true;         // false (lockstep): run_pending() segments on the caller's thread
   std::uint32_t budget_us = 0;  // per frame, from the board's thread budget (0: none)
+  // Lockstep only (benchmarks): after segmenting a frame the worker counts as busy until that frame's time plus
+  // the run's CPU time, in data time, as a worker on a core of its own would be; so the share of keyframes labelled
+  // in a lockstep run is what the measured cost allows. Off: lockstep takes every frame offered (deterministic).
+  bool lockstep_busy_from_cost = false;
 };
 
 struct SegmentationWorkerCounters {
@@ -90,6 +94,12 @@ class SegmentationWorker {
   std::uint32_t slots() const { return static_cast<std::uint32_t>(slots_.size()); }
   std::uint32_t slots_high_water() const { return slots_high_water_.load(); }
   const segmentation::Segmenter& segmenter() const { return *segmenter_; }
+  // Called after every run with its CPU and wall microseconds (from the thread that ran it). Before init().
+  using RunObserver = void (*)(void* user, std::int64_t cpu_us, std::int64_t wall_us);
+  void set_run_observer(RunObserver observer, void* user) {
+    observer_ = observer;
+    observer_user_ = user;
+  }
 
  private:
   enum State : int { kFree = 0, kQueued = 1, kWorking = 2, kLabelled = 3 };
@@ -103,6 +113,9 @@ class SegmentationWorker {
   std::uint64_t next_order_ = 0;          // loop thread only
   std::int64_t last_taken_ns_ = 0;        // data time of the last frame taken (loop thread only)
   bool have_taken_ = false;
+  std::int64_t busy_until_ns_ = 0;        // lockstep_busy_from_cost: data time the modelled run ends
+  RunObserver observer_ = nullptr;
+  void* observer_user_ = nullptr;
   std::atomic<std::uint32_t> slots_high_water_{0};
 
   mutable std::mutex mutex_;  // guards counters_, the stats and the wake-up

@@ -4,7 +4,6 @@
 #include <cstdio>
 #include <exception>
 #include <fstream>
-#include <stdexcept>
 #include <opencv2/core.hpp>
 #include <opencv2/dnn.hpp>
 #include <vector>
@@ -102,10 +101,6 @@ struct Segmenter::Impl {
   cv::Mat blob;    // 1 x 3 x H x W input, written in place by the preprocessor every frame
   cv::Mat output;  // header onto OpenCV's output blob of the last forward()
   std::string output_name;
-  // forward() into a kept vector of one Mat under a kept name list: OpenCV reuses the Mat's buffer when the
-  // shape is unchanged, where forward(name) returns a new header (and vectors) each call.
-  std::vector<cv::Mat> outputs;
-  std::vector<cv::String> output_names;
 };
 
 Segmenter::Segmenter() = default;
@@ -162,10 +157,7 @@ bool Segmenter::init(const Config& config, const LabelMap& label_map, std::strin
     impl->blob.setTo(cv::Scalar(0.0));
     // Warm-up: checks the output shape and makes OpenCV allocate its layer buffers before the first frame.
     impl->net.setInput(impl->blob);
-    impl->output_names.assign(1, impl->output_name);
-    impl->net.forward(impl->outputs, impl->output_names);
-    if (impl->outputs.size() != 1) throw std::runtime_error("forward returned no output");
-    impl->output = impl->outputs[0];
+    impl->output = impl->net.forward(impl->output_name);
   } catch (const cv::Exception& e) {
     return fail(error, "model file '" + path + "': forward pass on a 1x3x" + std::to_string(config.input_height_px) +
                            "x" + std::to_string(config.input_width_px) + " input failed: " + e.what());
@@ -208,10 +200,10 @@ const float* Segmenter::forward(std::string* error) {
     return nullptr;
   }
   try {
+    // OpenCV allocates inside forward() (about 3,500 blocks a frame for ESPNetv2, mostly per-layer temporaries:
+    // bench/results/segmentation.md); forwarding into a kept output vector instead of by name changed nothing.
     impl_->net.setInput(impl_->blob);
-    impl_->net.forward(impl_->outputs, impl_->output_names);
-    if (impl_->outputs.size() != 1) throw cv::Exception(cv::Error::StsError, "no output", "forward", __FILE__, __LINE__);
-    impl_->output = impl_->outputs[0];
+    impl_->output = impl_->net.forward(impl_->output_name);
   } catch (const cv::Exception& e) {
     ++counters_.forward_errors;
     fail(error, "model file '" + config_.model_path + "': forward failed: " + e.what());

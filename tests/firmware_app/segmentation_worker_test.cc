@@ -3,9 +3,12 @@
 // frame, late labels are dropped and counted, and taking a frame allocates nothing.
 #include "firmware_app/segmentation_worker.h"
 
+#include "firmware_app/pipeline.h"
+
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <fstream>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <thread>
@@ -135,6 +138,116 @@ TEST_F(SegmentationWorkerTest, ThreadedWorkerLabelsBesideTheCaller) {
   w.stop();
   EXPECT_EQ(w.counters().collected, 1u);
   EXPECT_EQ(w.cpu_stats().runs, 1u);
+}
+
+// The app with the network on (lockstep, ground-truth labels off): every keyframe is integrated at once, the worker
+// labels the keyframes it takes, and their votes reach the map; with min_interval_s only some are taken, and the
+// others are counted as unlabelled. The config's backend reaches the segmenter.
+AppConfig segmenting_config(const std::string& name, const std::string& model) {
+  AppConfig c;
+  c.output_dir = ::testing::TempDir() + "/qsg_segmentation_" + name;
+  c.building.num_rooms = 4;
+  c.building.seed = 3;
+  c.camera.intrinsics = {160, 120, 131.25, 131.25, 79.5, 59.5};
+  c.snapshot_interval_s = 1e6;
+  c.telemetry_interval_s = 1e6;
+  c.ground_truth_labels = false;
+  c.segmentation.model_path = model;
+  c.segmentation.label_map_path = std::string(QSG_SOURCE_DIR) + "/firmware_app/config/segmentation_pascal_voc.json";
+  return c;
+}
+
+TEST_F(SegmentationWorkerTest, PipelineVotesTheLabelsOfTheKeyframesTheWorkerTook) {
+  for (const double interval_s : {0.0, 0.6}) {
+    SCOPED_TRACE(interval_s);
+    runtime::SteppedClock clock;
+    Pipeline p;
+    std::string error;
+    AppConfig config = segmenting_config("rate", model_);
+    config.segmentation.min_interval_s = interval_s;
+    ASSERT_TRUE(p.init(config, &clock, &error)) << error;
+    ASSERT_TRUE(p.segmentation().initialized());
+    while (p.counters().keyframes_integrated < 8 && p.step()) {
+    }
+    p.request_stop();
+    p.step();
+    ASSERT_TRUE(p.finish(&error)) << error;
+    const PipelineCounters& c = p.counters();
+    const SegmentationWorkerCounters w = p.segmentation().counters();
+    ASSERT_GE(c.keyframes_integrated, 8u);
+    EXPECT_EQ(w.offered, c.keyframes_integrated) << "every integrated keyframe is offered";
+    EXPECT_EQ(w.failed, 0u);
+    EXPECT_EQ(w.stale, 0u);
+    EXPECT_EQ(c.keyframes_segmented, w.collected);
+    EXPECT_EQ(p.reconstruction().counters().label_frames, c.keyframes_segmented);
+    EXPECT_EQ(c.keyframes_segmented + c.keyframes_unlabelled, c.keyframes_integrated);
+    if (interval_s == 0.0) {
+      // Lockstep: the worker is idle at every keyframe and the last one's labels are cast at the finish.
+      EXPECT_EQ(c.keyframes_segmented, c.keyframes_integrated);
+    } else {
+      EXPECT_GT(c.keyframes_segmented, 0u);
+      EXPECT_LT(c.keyframes_segmented, c.keyframes_integrated);
+      EXPECT_EQ(w.too_soon, c.keyframes_unlabelled);
+    }
+    EXPECT_EQ(p.segmentation().cpu_stats().runs, w.labelled);
+    EXPECT_EQ(p.segmentation_queue_stats().dropped, w.busy + w.too_soon + w.stale);
+  }
+}
+
+TEST_F(SegmentationWorkerTest, TheConfigsCudaBackendReachesTheSegmenter) {
+  runtime::SteppedClock clock;
+  std::string error;
+  AppConfig config = segmenting_config("cuda", model_);
+  config.segmentation.backend = "cuda";
+  config.segmentation.target = "cuda_fp16";
+  ASSERT_EQ(config.check(), "");
+  const bool cuda = segmentation::dnn_available(segmentation::DnnBackend::kCuda, segmentation::DnnTarget::kCudaFp16);
+  {
+    Pipeline p;
+    const bool ok = p.init(config, &clock, &error);
+    EXPECT_EQ(ok, cuda) << error;
+    if (cuda) {
+      EXPECT_EQ(p.segmentation().segmenter().active_backend(), segmentation::DnnBackend::kCuda);
+      EXPECT_EQ(p.segmentation().segmenter().active_target(), segmentation::DnnTarget::kCudaFp16);
+    } else {
+      EXPECT_NE(error.find("backend cuda target cuda_fp16 is not available"), std::string::npos) << error;
+    }
+  }
+  config.segmentation.fallback_to_cpu = true;
+  Pipeline p;
+  ASSERT_TRUE(p.init(config, &clock, &error)) << error;
+  EXPECT_EQ(p.segmentation().segmenter().counters().backend_fallbacks, cuda ? 0u : 1u);
+  EXPECT_EQ(p.segmentation().segmenter().active_backend(),
+            cuda ? segmentation::DnnBackend::kCuda : segmentation::DnnBackend::kOpenCv);
+  // A backend that does not go with its target is a config error naming both.
+  config.segmentation.target = "cpu";
+  EXPECT_NE(config.check().find("does not go with backend cuda"), std::string::npos) << config.check();
+  config.segmentation.backend = "tensorrt";
+  EXPECT_NE(config.check().find("segmentation.backend: expected opencv or cuda, got 'tensorrt'"), std::string::npos);
+}
+
+TEST(SegmentationConfigTest, JsonKeysReachTheConfig) {
+  const std::string path = ::testing::TempDir() + "/qsg_segmentation_keys.json";
+  std::ofstream(path) << R"({"segmentation": {"backend": "cuda", "target": "cuda_fp16", "fallback_to_cpu": true,
+                                              "min_interval_s": 0.5, "deadline_s": 3.0, "opencv_threads": 2}})";
+  AppConfig c;
+  std::string error;
+  ASSERT_TRUE(c.load(path, &error)) << error;
+  EXPECT_EQ(c.segmentation.backend, "cuda");
+  EXPECT_EQ(c.segmentation.target, "cuda_fp16");
+  EXPECT_TRUE(c.segmentation.fallback_to_cpu);
+  EXPECT_EQ(c.segmentation.min_interval_s, 0.5);
+  EXPECT_EQ(c.segmentation.deadline_s, 3.0);
+  EXPECT_EQ(c.segmentation.opencv_threads, 2);
+  segmentation::DnnBackend b = segmentation::DnnBackend::kOpenCv;
+  segmentation::DnnTarget t = segmentation::DnnTarget::kCpu;
+  ASSERT_TRUE(segmentation::dnn_backend_from_string(c.segmentation.backend, &b));
+  ASSERT_TRUE(segmentation::dnn_target_from_string(c.segmentation.target, &t));
+  EXPECT_EQ(b, segmentation::DnnBackend::kCuda);
+  EXPECT_EQ(t, segmentation::DnnTarget::kCudaFp16);
+  std::ofstream(path) << R"({"segmentation": {"target": "gpu"}})";
+  EXPECT_FALSE(c.load(path, &error));
+  EXPECT_NE(error.find("segmentation.target: expected cpu, cuda or cuda_fp16, got 'gpu'"), std::string::npos) << error;
 }
 
 TEST(SegmentationWorkerSetupTest, RefusesAMissingSegmenterOrTooFewSlots) {
