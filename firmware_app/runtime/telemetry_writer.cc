@@ -1,6 +1,10 @@
 // TelemetryWriter: a fixed ring of line slots drained by one writer thread.
 #include "firmware_app/runtime/telemetry_writer.h"
 
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+
 #include <algorithm>
 #include <cstring>
 
@@ -63,6 +67,8 @@ void TelemetryWriter::commit() {
 }
 
 void TelemetryWriter::writer_main() {
+  // Below the loop: woken by commit(), the writer should not preempt the loop that woke it (Linux: per-thread nice).
+  ::setpriority(PRIO_PROCESS, static_cast<id_t>(::syscall(SYS_gettid)), 10);
   std::unique_lock<std::mutex> lock(mutex_);
   for (;;) {
     wake_.wait(lock, [&] { return stop_ || count_ > 0; });
