@@ -1,6 +1,7 @@
 // Telemetry without blocking the loop: the loop prints a line into a fixed staging buffer (a FILE* opened once on
-// it with fmemopen), commit() copies it into one of a fixed number of line slots, and a writer thread drains the
-// slots to the output (a pipe, a terminal, a file) and flushes. When every slot is full (the output is slower than
+// it with fmemopen), commit() copies it into one of a fixed number of line slots, and a writer thread (nice +10,
+// polling every kPollMs so that the loop never wakes it) drains the slots to the output (a pipe, a terminal, a
+// file) and flushes. When every slot is full (the output is slower than
 // the lines: a stalled pipe) the new line is dropped and counted; a line longer than the staging buffer is cut and
 // counted. After init() nothing allocates. Reports capacity, use, high-water mark and failures like every queue.
 #pragma once
@@ -30,6 +31,7 @@ struct TelemetryWriterStats {
 class TelemetryWriter {
  public:
   static constexpr std::size_t kLineBytes = 4096;
+  static constexpr int kPollMs = 100;  // the writer looks for lines this often (commit() does not wake it)
 
   TelemetryWriter() = default;
   ~TelemetryWriter();
