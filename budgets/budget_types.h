@@ -52,6 +52,15 @@ struct QueueBudget {
   std::uint32_t max_wait_us;  // how long a consumer may wait for an element (0: it does not wait)
 };
 
+// A long-lived worker thread outside the tick loop (segmentation, backend): each run (one frame, one update) is
+// timed on the thread's CPU clock against budget_us; every_n_keyframes > 0 asks for at least one run per that many
+// keyframes (segmentation: labels for at least every Nth keyframe).
+struct ThreadBudget {
+  const char* name;
+  std::uint32_t budget_us;
+  std::uint32_t every_n_keyframes;  // 0: no rate asked
+};
+
 struct BoardTable {
   const char* board;
   const char* description;
@@ -63,10 +72,17 @@ struct BoardTable {
   std::size_t num_tasks;
   const QueueBudget* queues;
   std::size_t num_queues;
+  const ThreadBudget* threads;
+  std::size_t num_threads;
 
   const TaskBudget* find_task(const char* name) const {
     for (std::size_t i = 0; i < num_tasks; ++i)
       if (std::strcmp(tasks[i].name, name) == 0) return &tasks[i];
+    return nullptr;
+  }
+  const ThreadBudget* find_thread(const char* name) const {
+    for (std::size_t i = 0; i < num_threads; ++i)
+      if (std::strcmp(threads[i].name, name) == 0) return &threads[i];
     return nullptr;
   }
   const ArenaBudget* find_arena(const char* name) const {

@@ -187,6 +187,27 @@ foreach(file IN LISTS TABLES)
   endforeach()
   string(APPEND ns "}  // namespace queues\n")
 
+  # Worker threads outside the tick loop: a per-run CPU budget, and optionally a rate in keyframes.
+  set(thread_rows "")
+  string(APPEND ns "namespace threads {\n")
+  json_keys(threads "${file}" "${json}" threads)
+  if(NOT threads)
+    message(FATAL_ERROR "${file}: 'threads' must list the worker threads (segmentation, backend)")
+  endif()
+  foreach(thread IN LISTS threads)
+    check_identifier("${file}" "thread" "${thread}")
+    json_get(tbudget "${file}" "${json}" uint threads ${thread} budget_us)
+    json_has(has_every "${json}" threads ${thread} every_n_keyframes)
+    set(every 0)
+    if(has_every)
+      json_get(every "${file}" "${json}" uint threads ${thread} every_n_keyframes)
+    endif()
+    string(APPEND ns "namespace ${thread} {\ninline constexpr std::uint32_t kBudgetUs = ${tbudget};\n"
+      "inline constexpr std::uint32_t kEveryNKeyframes = ${every};\n}  // namespace ${thread}\n")
+    string(APPEND thread_rows "    {\"${thread}\", ${tbudget}, ${every}},\n")
+  endforeach()
+  string(APPEND ns "}  // namespace threads\n")
+
   string(APPEND body
     "// ---- ${board}: generated from ${file}\n"
     "namespace qsg::budgets::${board} {\n"
@@ -196,8 +217,9 @@ foreach(file IN LISTS TABLES)
     "inline constexpr CapacityBudget kCapacities[] = {\n${cap_rows}};\n"
     "inline constexpr TaskBudget kTasks[] = {\n${task_rows}};\n"
     "inline constexpr QueueBudget kQueues[] = {\n${queue_rows}};\n"
+    "inline constexpr ThreadBudget kThreads[] = {\n${thread_rows}};\n"
     "inline constexpr BoardTable kTable = {kBoard, \"${description}\", kArenas, std::size(kArenas), kCapacities,\n"
-    "    std::size(kCapacities), kTasks, std::size(kTasks), kQueues, std::size(kQueues)};\n"
+    "    std::size(kCapacities), kTasks, std::size(kTasks), kQueues, std::size(kQueues), kThreads, std::size(kThreads)};\n"
     "}  // namespace qsg::budgets::${board}\n\n")
 endforeach()
 

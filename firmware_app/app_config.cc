@@ -416,7 +416,12 @@ bool AppConfig::load(const std::string& path, std::string* error) {
                              {{"model_path", text(&segmentation.model_path)},
                               {"label_map_path", text(&segmentation.label_map_path)},
                               {"deadline_s", number(&segmentation.deadline_s)},
-                              {"min_confidence", number(&segmentation.min_confidence)}},
+                              {"min_interval_s", number(&segmentation.min_interval_s)},
+                              {"min_confidence", number(&segmentation.min_confidence)},
+                              {"backend", text(&segmentation.backend)},
+                              {"target", text(&segmentation.target)},
+                              {"fallback_to_cpu", boolean(&segmentation.fallback_to_cpu)},
+                              {"opencv_threads", number(&segmentation.opencv_threads)}},
                              why);
        }},
       {"room_labels", [&](const Json& v, std::string* why) {
@@ -482,6 +487,17 @@ std::string AppConfig::check() const {
   if (!segmentation.model_path.empty() && segmentation.label_map_path.empty())
     return "segmentation.label_map_path must be set with a model";
   if (!(segmentation.deadline_s > 0.0 && segmentation.deadline_s <= 60.0)) return "segmentation.deadline_s must be in (0, 60]";
+  if (!(segmentation.min_interval_s >= 0.0 && segmentation.min_interval_s <= 60.0))
+    return "segmentation.min_interval_s must be in [0, 60]";
+  if (segmentation.backend != "opencv" && segmentation.backend != "cuda")
+    return "segmentation.backend: expected opencv or cuda, got '" + segmentation.backend + "'";
+  if (segmentation.target != "cpu" && segmentation.target != "cuda" && segmentation.target != "cuda_fp16")
+    return "segmentation.target: expected cpu, cuda or cuda_fp16, got '" + segmentation.target + "'";
+  if ((segmentation.backend == "cuda") != (segmentation.target != "cpu"))
+    return "segmentation.target " + segmentation.target + " does not go with backend " + segmentation.backend +
+           " (opencv runs cpu; cuda runs cuda or cuda_fp16)";
+  if (segmentation.opencv_threads < 0 || segmentation.opencv_threads > 64)
+    return "segmentation.opencv_threads must be in [0, 64]";
   if (!(segmentation.min_confidence >= 0.0f && segmentation.min_confidence <= 1.0f))
     return "segmentation.min_confidence must be in [0, 1]";
   if (gpio.chip.empty()) return "gpio.chip must not be empty (\"sim\" for the simulated chip)";
@@ -580,11 +596,13 @@ void AppConfig::print(std::FILE* out) const {
     exploration.print(out);
     camera.print(out);
   }
-  std::fprintf(out, "segmentation: %s%s%s deadline_s=%.2f min_confidence=%.2f\n",
+  std::fprintf(out, "segmentation: %s%s%s deadline_s=%.2f min_interval_s=%.2f min_confidence=%.2f backend=%s "
+               "target=%s fallback_to_cpu=%d opencv_threads=%d\n",
                segmentation.model_path.empty() ? "off (no model_path)" : segmentation.model_path.c_str(),
                segmentation.model_path.empty() ? "" : " label_map=",
                segmentation.model_path.empty() ? "" : segmentation.label_map_path.c_str(), segmentation.deadline_s,
-               segmentation.min_confidence);
+               segmentation.min_interval_s, segmentation.min_confidence, segmentation.backend.c_str(),
+               segmentation.target.c_str(), segmentation.fallback_to_cpu ? 1 : 0, segmentation.opencv_threads);
   std::fprintf(out,
                "doors: %s%s%s, slice %.2f m above the robot on each storey, widths %.2f .. %.2f m, rise %.2f m "
                "within %.2f m, dropped where the places go round within %.2f m (steps <= %.2f m, line + %.2f m); "

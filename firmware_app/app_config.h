@@ -73,8 +73,18 @@ struct AppConfig {
   struct Segmentation {
     std::string model_path;                  // e.g. ../shared/data/models/espnetv2_s2_pascal384.onnx
     std::string label_map_path = "firmware_app/config/segmentation_pascal_voc.json";
-    double deadline_s = 0.5;                 // a keyframe not started by the worker within this is integrated unlabelled
+    // Keyframes never wait for labels (firmware_app/segmentation_worker.h): the worker takes the newest keyframe
+    // whenever it is idle and at least min_interval_s has passed; its labels are voted into the map from that
+    // frame's own depth and pose when they come back, or dropped (counted) when later than deadline_s.
+    double deadline_s = 2.0;
+    double min_interval_s = 0.0;
     float min_confidence = 0.5f;
+    std::string backend = "opencv";          // opencv | cuda (an OpenCV built with CUDA: JetPack on the Xavier)
+    std::string target = "cpu";              // cpu | cuda | cuda_fp16
+    bool fallback_to_cpu = false;            // cuda unavailable: false = start-up error, true = CPU, counted
+    int opencv_threads = 1;                  // cv::setNumThreads (process-wide); 0 = OpenCV's default (every core)
+    // Benchmarks (not read from JSON): in lockstep, the worker is busy for its measured CPU time in data time.
+    bool lockstep_busy_from_cost = false;
   } segmentation;
 
   // Room labels (the neural tree). Empty: the weights in the source tree (core/neural_tree/weights); an installed

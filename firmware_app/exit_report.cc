@@ -207,6 +207,19 @@ ReportGroup tasks_group(const Pipeline& p) {
     g.add(n + ".skips", U(s.task(i).stats.skips));
     g.add(n + ".deferrals", U(s.task(i).stats.deferrals));
   }
+  // The worker threads outside the tick loop: runs, CPU time per run and overruns of their thread budgets.
+  const auto thread = [&](const std::string& n, const runtime::TaskStats& cpu) {
+    g.add(n + ".runs", U(cpu.runs));
+    g.add(n + ".cpu_mean_us", cpu.mean_us());
+    g.add(n + ".cpu_max_us", static_cast<double>(cpu.max_us));
+    g.add(n + ".overruns", U(cpu.overruns));
+  };
+  thread("backend_thread", p.backend_cpu_stats());
+  if (p.segmentation().initialized()) thread("segmentation_thread", p.segmentation().cpu_stats());
+  const runtime::TelemetryWriterStats t = p.telemetry_stats();
+  g.add("telemetry_lines.dropped", U(t.dropped));
+  g.add("telemetry_lines.high_water", U(t.high_water));
+  g.add("telemetry_lines.write_failures", U(t.write_failures));
   return g;
 }
 

@@ -15,6 +15,7 @@
 #include <cmath>
 #include <algorithm>
 #include <cstring>
+#include <ctime>
 #include <filesystem>
 
 #include "budgets/budget_table.h"
@@ -40,6 +41,17 @@ const budgets::QueueBudget* find_queue(const budgets::BoardTable& table, const c
   for (std::size_t i = 0; i < table.num_queues; ++i)
     if (std::strcmp(table.queues[i].name, name) == 0) return &table.queues[i];
   return nullptr;
+}
+
+std::int64_t thread_cpu_us() {
+  timespec t{};
+  ::clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+  return static_cast<std::int64_t>(t.tv_sec) * 1000000 + t.tv_nsec / 1000;
+}
+
+std::int64_t steady_us() {
+  return std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::steady_clock::now().time_since_epoch())
+      .count();
 }
 
 double peak_rss_mb() {
@@ -129,9 +141,8 @@ Pipeline::~Pipeline() {
   backend_stop_.store(true);
   backend_queue_.close();
   if (backend_thread_.joinable()) backend_thread_.join();
-  segmentation_stop_.store(true);
-  segmentation_queue_.close();
-  if (segmentation_thread_.joinable()) segmentation_thread_.join();
+  segmentation_.stop();
+  telemetry_.stop();
   keyframe_queue_.close();
   free_frames_.close();
 }
@@ -230,11 +241,8 @@ bool Pipeline::init(const AppConfig& config, runtime::Clock* clock, std::string*
   // Frame buffers and the keyframe queue, with the depth and drop policy the board declares.
   const budgets::QueueBudget* frames_budget = find_queue(table, "frames");
   if (frames_budget == nullptr) return fail(std::string("budget table ") + table.board + ": no 'frames' queue");
-  // + the pending frame, the keyframe in work, and the keyframes segmentation may hold (queued, in the worker,
-  // labelled and not yet collected).
-  const budgets::QueueBudget* segmentation_budget = find_queue(table, "segmentation");
-  const int pool = static_cast<int>(frames_budget->depth) + 2 +
-                   (segmentation_budget != nullptr ? static_cast<int>(segmentation_budget->depth) + 2 : 0);
+  // + the pending frame and the keyframe in work (the segmentation worker copies what it takes into its own slots).
+  const int pool = static_cast<int>(frames_budget->depth) + 2;
   frames_ = std::make_unique<messages::RgbdFrame[]>(static_cast<std::size_t>(pool));
   frame_poses_ = std::make_unique<Eigen::Isometry3d[]>(static_cast<std::size_t>(pool));
   frame_variances_ = std::make_unique<Eigen::Matrix<double, 6, 1>[]>(static_cast<std::size_t>(pool));
@@ -248,6 +256,9 @@ bool Pipeline::init(const AppConfig& config, runtime::Clock* clock, std::string*
   if (!init_odometry(error) || !init_gpio(error) || !init_segmentation(error) || !init_backend(error) ||
       !init_loop_closure(error))
     return false;
+  const budgets::QueueBudget* telemetry_budget = find_queue(table, "telemetry");
+  if (telemetry_budget == nullptr) return fail(std::string("budget table ") + table.board + ": no 'telemetry' queue");
+  if (!telemetry_.init(stdout, telemetry_budget->depth, error)) return false;
 
   // The task table.
   if (!scheduler_.init(config.scheduler, table, clock_, error)) return false;
@@ -294,29 +305,35 @@ bool Pipeline::init_odometry(std::string* error) {
 bool Pipeline::init_segmentation(std::string* error) {
   const AppConfig::Segmentation& sc = config_.segmentation;
   if (sc.model_path.empty()) return true;
+  const budgets::BoardTable& table = budgets::active::kTable;
+  const budgets::QueueBudget* q = find_queue(table, "segmentation");
+  if (q == nullptr) return *error = std::string("budget table ") + table.board + ": no 'segmentation' queue", false;
+  const budgets::ThreadBudget* t = table.find_thread("segmentation");
+  if (t == nullptr) return *error = std::string("budget table ") + table.board + ": no 'segmentation' thread", false;
   segmentation::LabelMap map;
   if (!map.load(sc.label_map_path, error)) return false;
   segmentation::Config c;
   c.model_path = sc.model_path;
   c.min_confidence = sc.min_confidence;
-  segmenter_ = std::make_unique<segmentation::Segmenter>();
-  if (!segmenter_->init(c, map, error)) return false;
-  const budgets::QueueBudget* q = find_queue(budgets::active::kTable, "segmentation");
-  if (q == nullptr) return *error = std::string("budget table ") + budgets::active::kTable.board + ": no 'segmentation' queue", false;
-  const std::uint32_t pool = static_cast<std::uint32_t>(free_frames_.stats().depth);
-  if (!segmentation_queue_.init(q->depth, q->policy, nullptr, error) ||
-      !labelled_queue_.init(pool, budgets::DropPolicy::kDropNewest, nullptr, error))
-    return false;
-  segmentation_queue_.set_on_drop(
-      [](void* self, int&& index) {
-        Pipeline& p = *static_cast<Pipeline*>(self);
-        --p.segmentation_in_flight_;
-        p.free_frames_.push(int{index});
-      },
-      this);
-  // Lockstep runs segment inline (deterministic); otherwise a long-lived worker does.
-  if (!config_.lockstep) segmentation_thread_ = std::thread([this] { segmentation_worker(); });
-  return true;
+  c.fallback_to_cpu = sc.fallback_to_cpu;
+  c.opencv_threads = sc.opencv_threads;
+  if (!segmentation::dnn_backend_from_string(sc.backend, &c.backend) ||
+      !segmentation::dnn_target_from_string(sc.target, &c.target))
+    return *error = "segmentation: backend '" + sc.backend + "' / target '" + sc.target + "' unknown", false;
+  auto segmenter = std::make_unique<segmentation::Segmenter>();
+  if (!segmenter->init(c, map, error)) return false;
+  std::printf("segmentation: %s on %s/%s%s, its own thread%s, labels dropped after %.1f s\n", sc.model_path.c_str(),
+              segmentation::dnn_backend_name(segmenter->active_backend()),
+              segmentation::dnn_target_name(segmenter->active_target()),
+              segmenter->counters().backend_fallbacks > 0 ? " (CUDA unavailable: CPU fallback)" : "",
+              config_.lockstep ? " (lockstep: on the loop's, after the keyframe's tasks)" : "", sc.deadline_s);
+  SegmentationWorkerConfig wc;
+  wc.min_interval_s = sc.min_interval_s;
+  wc.max_age_s = sc.deadline_s;
+  wc.threaded = !config_.lockstep;  // lockstep: deterministic, segmented after the keyframe's tasks
+  wc.budget_us = t->budget_us;
+  wc.lockstep_busy_from_cost = sc.lockstep_busy_from_cost;
+  return segmentation_.init(std::move(segmenter), std::max<std::uint32_t>(2, q->depth), wc, error);
 }
 
 bool Pipeline::init_backend(std::string* error) {
@@ -332,6 +349,10 @@ bool Pipeline::init_backend(std::string* error) {
     queued.robot_m = incoming.robot_m;
   };
   if (!backend_queue_.init(q->depth, q->policy, collate, error)) return false;
+  const budgets::ThreadBudget* thread_budget = budgets::active::kTable.find_thread("backend");
+  if (thread_budget == nullptr)
+    return *error = std::string("budget table ") + budgets::active::kTable.board + ": no 'backend' thread", false;
+  backend_budget_us_ = thread_budget->budget_us;
   // A missing or corrupt weight file is reported and the rooms keep the label "unknown": the run goes on.
   neural_tree::RoomClassifier::Config cc;
   if (!config_.room_weights_path.empty()) cc.weights_path = config_.room_weights_path;
@@ -472,45 +493,51 @@ void Pipeline::label_rooms() {
 void Pipeline::backend_worker() {
   BackendUpdate u;
   while (!backend_stop_.load())
-    if (backend_queue_.pop_wait(&u, 100000000)) run_backend_update(u);
+    if (backend_queue_.pop_wait(&u, 100000000)) timed_backend_update(u);
 }
 
-bool Pipeline::segment_frame(int index) {
-  messages::RgbdFrame& frame = frames_[static_cast<std::size_t>(index)];
-  if (segmenter_->segment(frame)) return true;
-  frame.has_labels = false;
-  segmentation_failures_.fetch_add(1);
-  return false;
+void Pipeline::timed_backend_update(const BackendUpdate& u) {
+  const std::int64_t c0 = thread_cpu_us(), w0 = steady_us();
+  run_backend_update(u);
+  const std::int64_t cpu = thread_cpu_us() - c0, wall = steady_us() - w0;
+  std::lock_guard<std::mutex> lock(backend_stats_mutex_);
+  backend_wall_.record(wall, backend_budget_us_);
+  backend_cpu_.record(cpu, backend_budget_us_);
+  if (backend_observer_ != nullptr) backend_observer_(backend_observer_user_, cpu, wall);
 }
 
-void Pipeline::segmentation_worker() {
-  int index = -1;
-  while (!segmentation_stop_.load()) {
-    if (!segmentation_queue_.pop_wait(&index, 100000000)) continue;
-    segment_frame(index);
-    labelled_queue_.push(int{index});
-  }
+runtime::TaskStats Pipeline::backend_wall_stats() const {
+  std::lock_guard<std::mutex> lock(backend_stats_mutex_);
+  return backend_wall_;
 }
 
-// Labelled keyframes go on to reconstruction; keyframes the worker has not started within the deadline go
-// unlabelled (the worker never touches them again, so there is no race on their buffers).
-void Pipeline::collect_segmented() {
-  int index = -1;
-  while (labelled_queue_.try_pop(&index)) {
-    --segmentation_in_flight_;
-    if (frames_[static_cast<std::size_t>(index)].has_labels) ++counters_.keyframes_segmented;
-    else ++counters_.keyframes_unlabelled;
-    keyframe_queue_.push(int{index});
-  }
-  const std::int64_t now = clock_->now_ns();
-  const std::int64_t deadline_ns = static_cast<std::int64_t>(config_.segmentation.deadline_s * 1e9);
-  while (segmentation_queue_.try_pop_if(
-      [&](const int& i) { return now - data_to_loop_ns(frames_[static_cast<std::size_t>(i)].sample_time_ns) > deadline_ns; },
-      &index)) {
-    --segmentation_in_flight_;
-    frames_[static_cast<std::size_t>(index)].has_labels = false;
-    ++counters_.keyframes_unlabelled;
-    keyframe_queue_.push(int{index});
+runtime::TaskStats Pipeline::backend_cpu_stats() const {
+  std::lock_guard<std::mutex> lock(backend_stats_mutex_);
+  return backend_cpu_;
+}
+
+runtime::QueueStats Pipeline::segmentation_queue_stats() const {
+  runtime::QueueStats q;
+  q.name = "segmentation";
+  if (!segmentation_.initialized()) return q;
+  const SegmentationWorkerCounters c = segmentation_.counters();
+  q.depth = segmentation_.slots();
+  q.high_water = segmentation_.slots_high_water();
+  q.pushed = c.taken;
+  q.popped = c.collected;
+  q.dropped = c.busy + c.too_soon + c.stale;
+  q.policy = budgets::DropPolicy::kDropNewest;
+  return q;
+}
+
+// Labelled frames that came back: their votes from their own depth and pose (loop thread, reconstruction task).
+void Pipeline::cast_label_votes() {
+  const std::int64_t now_data_ns =
+      current_keyframe_ >= 0 ? frames_[static_cast<std::size_t>(current_keyframe_)].sample_time_ns
+                             : static_cast<std::int64_t>(latest_keyframe_ns_);
+  while (const SegmentationWorker::Slot* slot = segmentation_.labelled(now_data_ns)) {
+    if (tsdf_.integrate_label_votes(*slot->frame, slot->world_T_camera)) ++counters_.keyframes_segmented;
+    segmentation_.release(slot);
   }
 }
 
@@ -561,7 +588,7 @@ bool Pipeline::step() {
   const bool duration_over =
       config_.duration_s > 0.0 && have_offset_ && tick_start - start_ns_ > static_cast<std::int64_t>(config_.duration_s * 1e9);
   if (stop_requested_.load() || duration_over ||
-      (source_ended_ && pending_frame_ < 0 && keyframe_queue_.stats().size == 0 && segmentation_in_flight_ == 0)) {
+      (source_ended_ && pending_frame_ < 0 && keyframe_queue_.stats().size == 0)) {
     done_ = true;
     faults_.settle();  // a fault that ended after the last keyframe is one the run did not recover from
     return false;
@@ -576,15 +603,19 @@ bool Pipeline::step() {
     poll_camera();
   }
   scheduler_.tick();
-  if (segmenter_ != nullptr && !config_.lockstep) collect_segmented();
   if (keyframe_queue_.try_pop(&current_keyframe_)) {
     scheduler_.keyframe(keyframe_index_++);
     free_frames_.push(int{current_keyframe_});
     current_keyframe_ = -1;
   }
   if (config_.lockstep) {
+    segmentation_.run_pending();  // the frame the reconstruction task offered, after the keyframe's tasks
     BackendUpdate u;
-    if (backend_queue_.try_pop(&u)) run_backend_update(u);
+    if (backend_queue_.try_pop(&u)) timed_backend_update(u);
+  }
+  if (segmentation_.initialized()) {
+    const SegmentationWorkerCounters sc = segmentation_.counters();
+    counters_.keyframes_unlabelled = sc.offered - std::min(sc.offered, counters_.keyframes_segmented);
   }
   counters_.backend_updates = backend_updates_.load();
   counters_.rooms = rooms_count_.load();
@@ -656,12 +687,7 @@ void Pipeline::poll_camera() {
   }
   if (keyframes_.offer(frame.sample_time_ns, frame_poses_[static_cast<std::size_t>(index)])) {
     ++counters_.keyframes;
-    if (segmenter_ != nullptr && !config_.lockstep && !frame.has_labels) {
-      ++segmentation_in_flight_;
-      segmentation_queue_.push(int{index});
-    } else {
-      keyframe_queue_.push(int{index});  // a full queue hands its oldest keyframe back to the free list
-    }
+    keyframe_queue_.push(int{index});  // a full queue hands its oldest keyframe back to the free list
   } else {
     free_frames_.push(int{index});
   }
@@ -707,19 +733,21 @@ void Pipeline::telemetry_task(void* self, const runtime::TaskContext&) {
   // The loop clock, like last_telemetry_ns_ (the task's context carries the cost clock: the wall in lockstep).
   if (p.clock_->now_ns() - p.last_telemetry_ns_ < static_cast<std::int64_t>(p.config_.telemetry_interval_s * 1e9) - 1000000)
     return;
-  p.print_telemetry(stdout);
+  if (!p.telemetry_.initialized()) return p.print_telemetry(stdout);
+  p.print_telemetry(p.telemetry_.begin());  // into the staging buffer; the writer thread does the output
+  p.telemetry_.commit();
 }
 
 void Pipeline::integrate_keyframe(const runtime::TaskContext& c) {
   if (current_keyframe_ < 0) return;
   const messages::RgbdFrame& frame = frames_[static_cast<std::size_t>(current_keyframe_)];
   const Eigen::Isometry3d& world_T_camera = frame_poses_[static_cast<std::size_t>(current_keyframe_)];
-  if (segmenter_ != nullptr && config_.lockstep && !frame.has_labels)
-    ++(segment_frame(current_keyframe_) ? counters_.keyframes_segmented : counters_.keyframes_unlabelled);
+  cast_label_votes();  // labels that came back since the last keyframe; their blocks re-mesh in process()
   if (!tsdf_.process(frame, world_T_camera)) {
     ++counters_.keyframes_refused;
     return;
   }
+  if (!frame.has_labels) segmentation_.offer(frame, world_T_camera);  // no-op without a model
   ++counters_.keyframes_integrated;
   faults_.on_keyframe_integrated(frame.sample_time_ns, clock_->now_ns(), data_to_loop_ns(frame.sample_time_ns));
   paint_walls();
@@ -897,6 +925,16 @@ bool Pipeline::finish(std::string* error) {
   backend_stop_.store(true);
   backend_queue_.close();
   if (backend_thread_.joinable()) backend_thread_.join();
+  // The frame segmentation was working on is finished and its votes cast, like every labelled frame's.
+  segmentation_.stop();
+  segmentation_.run_pending();
+  if (segmentation_.initialized()) {
+    cast_label_votes();
+    tsdf_.update_mesh();
+    const SegmentationWorkerCounters sc = segmentation_.counters();
+    counters_.keyframes_unlabelled = sc.offered - std::min(sc.offered, counters_.keyframes_segmented);
+  }
+  telemetry_.stop();  // every queued line is out before the final report
   reconstruction::Mesh mesh;
   tsdf_.extract_full_mesh(&mesh);
   reconstruction::clean_mesh(&mesh).print(stdout);

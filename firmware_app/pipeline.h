@@ -35,6 +35,8 @@
 #include "firmware_app/app_config.h"
 #include "firmware_app/fault_injection.h"
 #include "firmware_app/odometry_input.h"
+#include "firmware_app/segmentation_worker.h"
+#include "firmware_app/runtime/telemetry_writer.h"
 #include "firmware_app/runtime/bounded_queue.h"
 #include "firmware_app/runtime/clock.h"
 #include "firmware_app/runtime/keyframe_selector.h"
@@ -81,8 +83,8 @@ struct PipelineCounters {
   std::uint64_t door_pass_max_us = 0;     // the longest pass (backend thread; wall time)
   std::uint64_t blocks_painted = 0;       // re-meshed blocks painted into the wall map
   std::uint64_t wall_paint_deferred = 0;  // keyframes whose painting waited for the next (a pass held the map)
-  std::uint64_t keyframes_segmented = 0;
-  std::uint64_t keyframes_unlabelled = 0; // waited past the segmentation deadline (or segmentation failed)
+  std::uint64_t keyframes_segmented = 0;  // keyframes whose labels came back and were voted into the map
+  std::uint64_t keyframes_unlabelled = 0; // keyframes with no labels of their own (segmentation busy, failed, late)
   std::uint64_t telemetry_lines = 0;
   // Loop closure (AppConfig::loop_closure).
   std::uint64_t agents_described = 0;      // agents given a descriptor (the detector's queries)
@@ -130,7 +132,21 @@ class Pipeline {
   gpio::GpioChip* gpio_chip() { return gpio_chip_.get(); }
   bool paused() const { return pause_ != nullptr && pause_->paused(); }
   runtime::QueueStats frame_queue_stats() const { return keyframe_queue_.stats(); }
-  runtime::QueueStats segmentation_queue_stats() const { return segmentation_queue_.stats(); }
+  // The segmentation worker's slots as a queue: depth = slots, dropped = keyframes it could not take (busy or too
+  // soon) plus labels that came back too late.
+  runtime::QueueStats segmentation_queue_stats() const;
+  const SegmentationWorker& segmentation() const { return segmentation_; }
+  // The backend thread's runs (room updates): wall time and the thread's CPU time against its thread budget.
+  runtime::TaskStats backend_wall_stats() const;
+  runtime::TaskStats backend_cpu_stats() const;
+  runtime::TelemetryWriterStats telemetry_stats() const { return telemetry_.stats(); }
+  // Benchmarks: every backend update's and every segmentation run's CPU and wall microseconds. Before init().
+  void set_thread_observers(SegmentationWorker::RunObserver backend, SegmentationWorker::RunObserver segmenter,
+                            void* user) {
+    backend_observer_ = backend;
+    backend_observer_user_ = user;
+    segmentation_.set_run_observer(segmenter, user);
+  }
   runtime::QueueStats backend_queue_stats() const { return backend_queue_.stats(); }
   const rooms::RoomFinder& room_finder() const { return rooms_; }
   const rooms::OnlineDoors& online_doors() const { return online_doors_; }
@@ -184,14 +200,11 @@ class Pipeline {
   static void telemetry_task(void* self, const runtime::TaskContext& c);
   void poll_camera();
   bool init_segmentation(std::string* error);
-  void segmentation_worker();
-  void collect_segmented();
   bool init_backend(std::string* error);
   void backend_worker();
   struct BackendUpdate;
   void run_backend_update(const BackendUpdate& u, bool door_pass = true);
   void close_doors(const reconstruction::Mesh& mesh);
-  bool segment_frame(int index);
   bool init_gpio(std::string* error);
   void integrate_keyframe(const runtime::TaskContext& c);
   void update_frontend(const runtime::TaskContext& c);
@@ -232,15 +245,10 @@ class Pipeline {
   bool have_offset_ = false;
   bool source_ended_ = false;
 
-  // Segmentation: keyframes wait in `segmentation_queue_` for the worker thread (lockstep: inline, in the
-  // reconstruction task), labelled ones come back through `labelled_queue_`.
-  std::unique_ptr<segmentation::Segmenter> segmenter_;
-  runtime::BoundedQueue<int> segmentation_queue_{"segmentation"};
-  runtime::BoundedQueue<int> labelled_queue_{"labelled"};
-  std::thread segmentation_thread_;
-  std::atomic<bool> segmentation_stop_{false};
-  std::atomic<std::uint64_t> segmentation_failures_{0};
-  int segmentation_in_flight_ = 0;  // keyframes handed to segmentation and not back yet (loop thread only)
+  // Segmentation at its own rate (segmentation_worker.h): keyframes are integrated at once and offered to the
+  // worker; labelled frames come back and their votes are cast at the start of the next reconstruction task.
+  SegmentationWorker segmentation_;
+  void cast_label_votes();  // the labelled frames that came back: votes into the TSDF (loop thread)
 
   // Backend: the frontend hands over a (collated) update after each completed places cycle; the backend thread
   // (lockstep: the loop, after the keyframe's tasks) finds rooms and the building. The graph is shared under
@@ -340,6 +348,15 @@ class Pipeline {
   std::string classifier_error_;  // the latest failure (backend thread only)
   void label_rooms();
   runtime::BoundedQueue<BackendUpdate> backend_queue_{"frontend_to_backend"};
+  void timed_backend_update(const BackendUpdate& u);  // run_backend_update, timed into backend_wall_/cpu_
+  mutable std::mutex backend_stats_mutex_;
+  runtime::TaskStats backend_wall_;
+  runtime::TaskStats backend_cpu_;
+  std::uint32_t backend_budget_us_ = 0;
+  SegmentationWorker::RunObserver backend_observer_ = nullptr;
+  void* backend_observer_user_ = nullptr;
+  // Telemetry lines go through a bounded queue to a writer thread: the loop never blocks on its output.
+  runtime::TelemetryWriter telemetry_;
   std::thread backend_thread_;
   std::atomic<bool> backend_stop_{false};
   std::atomic<std::uint64_t> backend_updates_{0};

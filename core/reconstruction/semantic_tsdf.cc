@@ -47,6 +47,7 @@ struct SemanticTsdf::Block {
   memory::Index3 index;
   std::uint32_t frame_stamp = 0;
   std::uint32_t mesh_stamp = 0;
+  std::uint32_t label_stamp = 0;  // the last label_votes() pass that touched the block
   std::uint32_t vertex_head = memory::kInvalidHandle;
   std::uint32_t triangle_head = memory::kInvalidHandle;
   std::uint16_t num_vertices = 0;
@@ -177,13 +178,14 @@ void Counters::print(std::FILE* out) const {
   std::fprintf(out,
                "reconstruction: frames=%llu pixels valid=%llu invalid=%llu blocks allocated=%llu archived=%llu "
                "evicted=%llu refused=%llu meshed=%llu mesh_overflow=%llu archive_overflow=%llu archive_replaced=%llu "
-               "archive_compactions=%llu archive_coarsenings=%llu\n",
+               "archive_compactions=%llu archive_coarsenings=%llu label_frames=%llu label_samples_missed=%llu\n",
                (unsigned long long)frames, (unsigned long long)pixels_valid, (unsigned long long)pixels_invalid,
                (unsigned long long)blocks_allocated, (unsigned long long)blocks_archived,
                (unsigned long long)blocks_evicted, (unsigned long long)blocks_refused,
                (unsigned long long)blocks_meshed, (unsigned long long)mesh_overflow,
                (unsigned long long)archive_overflow, (unsigned long long)archive_replaced,
-               (unsigned long long)archive_compactions, (unsigned long long)archive_coarsenings);
+               (unsigned long long)archive_compactions, (unsigned long long)archive_coarsenings,
+               (unsigned long long)label_frames, (unsigned long long)label_samples_missed);
 }
 
 Capacities capacities_from_budget() {
@@ -483,6 +485,122 @@ bool SemanticTsdf::integrate(const messages::RgbdFrame& frame, const Eigen::Isom
   return true;
 }
 
+namespace {
+
+// One label observation of weight w into the voxel's two (label, weight) pairs (see LabelVote: Misra-Gries).
+void add_label_vote(Voxel& vx, semantics::Label l, float w) {
+  const std::uint16_t wq = static_cast<std::uint16_t>(std::max(1L, std::lround(w * kWeightScale)));
+  LabelVote* votes = vx.votes;
+  LabelVote* hit = nullptr;
+  for (int k = 0; k < kLabelPairs; ++k)
+    if (votes[k].weight_q > 0 && votes[k].label == l) hit = &votes[k];
+  if (hit == nullptr)
+    for (int k = 0; k < kLabelPairs && hit == nullptr; ++k)
+      if (votes[k].weight_q == 0) {
+        hit = &votes[k];
+        hit->label = l;
+      }
+  if (hit != nullptr) {
+    hit->weight_q = static_cast<std::uint16_t>(std::min<int>(65535, hit->weight_q + wq));
+  } else {
+    LabelVote* weakest = votes[0].weight_q <= votes[1].weight_q ? &votes[0] : &votes[1];
+    if (weakest->weight_q > wq) {
+      weakest->weight_q = static_cast<std::uint16_t>(weakest->weight_q - wq);
+    } else {
+      weakest->weight_q = static_cast<std::uint16_t>(std::max(1, wq - weakest->weight_q));
+      weakest->label = l;
+    }
+  }
+}
+
+}  // namespace
+
+// Label votes of a frame whose geometry is already in the map (segmentation finished after its keyframe was
+// integrated): the same pixel-voxel correspondences and weights as integrate()'s label votes, from the frame's own
+// depth and pose, into the active blocks only (nothing is allocated; samples whose block left the window or was
+// never allocated are counted). Blocks whose most likely label changed in some voxel are marked dirty.
+bool SemanticTsdf::integrate_label_votes(const messages::RgbdFrame& frame, const Eigen::Isometry3d& world_T_camera) {
+  if (!ready_ || !frame.has_labels || !frame.intrinsics.valid() || !world_T_camera.matrix().allFinite()) return false;
+  ++label_stamp_;
+  ++counters_.label_frames;
+  touched_.clear();
+  const messages::CameraIntrinsics& in = frame.intrinsics;
+  const float min_m = static_cast<float>(config_.min_range_m), max_m = static_cast<float>(config_.max_range_m);
+  const float trunc = static_cast<float>(config_.voxel_size_m * config_.truncation_voxels);
+  const double block_m = config_.voxel_size_m * kBlockSide;
+  const Eigen::Vector3d robot_m = world_T_camera.translation();
+  const int stride =
+      std::max(1, static_cast<int>(config_.voxel_size_m * std::min(in.fx, std::abs(in.fy)) / config_.max_range_m));
+  const Eigen::Matrix3d R = world_T_camera.linear();
+  for (int v = 0; v < in.height; v += stride) {
+    for (int u = 0; u < in.width; u += stride) {
+      const float d = frame.depth_m[static_cast<std::size_t>(v * in.width + u)];
+      if (!valid_depth(d, min_m, max_m)) continue;
+      const Eigen::Vector3d dir = R * Eigen::Vector3d((u - in.cx) / in.fx, (v - in.cy) / in.fy, 1.0);
+      for (int k = -1; k <= 1; ++k) {
+        const Eigen::Vector3d p = robot_m + dir * (d + k * trunc);
+        const memory::Index3 bi{static_cast<std::int32_t>(std::floor(p.x() / block_m)),
+                                static_cast<std::int32_t>(std::floor(p.y() / block_m)),
+                                static_cast<std::int32_t>(std::floor(p.z() / block_m))};
+        const std::uint32_t* h = block_index_.find(bi);
+        if (h == nullptr) {
+          ++counters_.label_samples_missed;
+          continue;
+        }
+        Block& b = blocks_[*h];
+        if (b.label_stamp != label_stamp_) {
+          b.label_stamp = label_stamp_;
+          touched_.push_back(*h);
+        }
+      }
+    }
+  }
+  const Eigen::Isometry3d camera_T_world = world_T_camera.inverse();
+  for (std::uint32_t h : touched_)
+    if (vote_block(blocks_[h], frame, camera_T_world)) blocks_[h].dirty = true;
+  return true;
+}
+
+bool SemanticTsdf::vote_block(Block& block, const messages::RgbdFrame& frame, const Eigen::Isometry3d& camera_T_world) {
+  const messages::CameraIntrinsics& in = frame.intrinsics;
+  const float voxel = static_cast<float>(config_.voxel_size_m);
+  const float trunc = voxel * static_cast<float>(config_.truncation_voxels);
+  const float min_m = static_cast<float>(config_.min_range_m), max_m = static_cast<float>(config_.max_range_m);
+  const float fx = static_cast<float>(in.fx), fy = static_cast<float>(in.fy);
+  const float cx = static_cast<float>(in.cx), cy = static_cast<float>(in.cy);
+  const Eigen::Vector3d origin((block.index.x * kBlockSide + 0.5) * config_.voxel_size_m,
+                               (block.index.y * kBlockSide + 0.5) * config_.voxel_size_m,
+                               (block.index.z * kBlockSide + 0.5) * config_.voxel_size_m);
+  const Eigen::Vector3f p0 = (camera_T_world * origin).cast<float>();
+  const Eigen::Matrix3f step = (camera_T_world.linear() * config_.voxel_size_m).cast<float>();
+  bool changed = false;
+  int i = 0;
+  for (int z = 0; z < kBlockSide; ++z) {
+    for (int y = 0; y < kBlockSide; ++y) {
+      Eigen::Vector3f p = p0 + step.col(1) * static_cast<float>(y) + step.col(2) * static_cast<float>(z);
+      for (int x = 0; x < kBlockSide; ++x, ++i, p += step.col(0)) {
+        if (p.z() < min_m || p.z() > max_m + trunc) continue;
+        const float inv_z = 1.0f / p.z();
+        const int u = static_cast<int>(std::lround(fx * p.x() * inv_z + cx));
+        const int v = static_cast<int>(std::lround(fy * p.y() * inv_z + cy));
+        if (u < 0 || v < 0 || u >= in.width || v >= in.height) continue;
+        const std::size_t pix = static_cast<std::size_t>(v * in.width + u);
+        const float d = frame.depth_m[pix];
+        if (!valid_depth(d, min_m, max_m)) continue;
+        const float sdf = d - p.z();
+        if (sdf < -trunc) continue;
+        const float w = sdf >= -voxel ? 1.0f : (trunc + sdf) / (trunc - voxel);
+        if (w <= 0.0f) continue;
+        Voxel& vx = block.voxels[i];
+        const semantics::Label before = best_label(vx);
+        add_label_vote(vx, frame.labels[pix], w);
+        changed |= best_label(vx) != before;
+      }
+    }
+  }
+  return changed;
+}
+
 void SemanticTsdf::integrate_range(const messages::RgbdFrame& frame, const Eigen::Isometry3d& camera_T_world,
                                    std::uint32_t begin, std::uint32_t end) {
   for (std::uint32_t i = begin; i < end; ++i) integrate_block(blocks_[touched_[i]], frame, camera_T_world);
@@ -534,31 +652,7 @@ void SemanticTsdf::integrate_block(Block& block, const messages::RgbdFrame& fram
         const std::uint8_t* c = &frame.rgb[3 * pix];
         for (int k = 0; k < 3; ++k)
           vx.rgb[k] = static_cast<std::uint8_t>(std::lround((vx.rgb[k] * w_old + c[k] * w) / w_sum));
-        if (labels) {
-          const semantics::Label l = frame.labels[pix];
-          const std::uint16_t wq = static_cast<std::uint16_t>(std::max(1L, std::lround(w * kWeightScale)));
-          LabelVote* votes = vx.votes;
-          LabelVote* hit = nullptr;
-          for (int k = 0; k < kLabelPairs; ++k)
-            if (votes[k].weight_q > 0 && votes[k].label == l) hit = &votes[k];
-          if (hit == nullptr)
-            for (int k = 0; k < kLabelPairs && hit == nullptr; ++k)
-              if (votes[k].weight_q == 0) {
-                hit = &votes[k];
-                hit->label = l;
-              }
-          if (hit != nullptr) {
-            hit->weight_q = static_cast<std::uint16_t>(std::min<int>(65535, hit->weight_q + wq));
-          } else {
-            LabelVote* weakest = votes[0].weight_q <= votes[1].weight_q ? &votes[0] : &votes[1];
-            if (weakest->weight_q > wq) {
-              weakest->weight_q = static_cast<std::uint16_t>(weakest->weight_q - wq);
-            } else {
-              weakest->weight_q = static_cast<std::uint16_t>(std::max(1, wq - weakest->weight_q));
-              weakest->label = l;
-            }
-          }
-        }
+        if (labels) add_label_vote(vx, frame.labels[pix], w);
       }
     }
   }

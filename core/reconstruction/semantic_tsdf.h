@@ -103,6 +103,8 @@ struct Counters {
   std::uint64_t archive_replaced = 0;      // archived triangles replaced by a revisit's re-observation
   std::uint64_t archive_compactions = 0;   // archive full: unreferenced vertices dropped
   std::uint64_t archive_coarsenings = 0;   // archive full: merge cell doubled
+  std::uint64_t label_frames = 0;          // integrate_label_votes() passes (late labels of an integrated frame)
+  std::uint64_t label_samples_missed = 0;  // their block samples whose block was not active (left the window)
   void print(std::FILE* out) const;
 };
 
@@ -120,6 +122,11 @@ class SemanticTsdf {
   // Integrates one frame seen from world_T_camera (optical frame: x right, y down, z forward). Labels are used
   // when frame.has_labels. Marks the touched blocks dirty. False (nothing integrated) for a bad frame.
   bool integrate(const messages::RgbdFrame& frame, const Eigen::Isometry3d& world_T_camera);
+  // The label votes alone of a frame whose depth was integrated earlier (its segmentation came later): the same
+  // voxels and weights integrate() would have voted with, from the frame's own depth and pose, into active blocks
+  // only; never allocates a block. Blocks where a voxel's most likely label changed are marked dirty, so
+  // update_mesh() gives their vertices the new labels. False (nothing done) without labels or for a bad frame.
+  bool integrate_label_votes(const messages::RgbdFrame& frame, const Eigen::Isometry3d& world_T_camera);
   // Re-runs marching cubes over the blocks changed since the last call (and the neighbours that read them).
   void update_mesh();
   // Archives (mesh into the global mesh) and frees every block farther than the window radius from robot_m.
@@ -209,6 +216,7 @@ class SemanticTsdf {
  private:
   std::uint32_t allocate_block(const memory::Index3& index, const Eigen::Vector3d& robot_m);
   bool evict_farthest(const Eigen::Vector3d& robot_m);
+  bool vote_block(Block& block, const messages::RgbdFrame& frame, const Eigen::Isometry3d& camera_T_world);
   void integrate_block(Block& block, const messages::RgbdFrame& frame, const Eigen::Isometry3d& camera_T_world);
   void mesh_block(std::uint32_t handle);
   void release_mesh(Block& block);
@@ -249,6 +257,7 @@ class SemanticTsdf {
   Scratch* scratch_ = nullptr;  // marching-cubes working set of one block (carved, reused)
   float sdf_scale_ = 0.0f;   // metres per sdf_q unit
   std::uint32_t frame_stamp_ = 0;
+  std::uint32_t label_stamp_ = 0;  // integrate_label_votes() passes (Block::label_stamp)
   std::uint32_t mesh_stamp_ = 0;
   bool logged_eviction_ = false;
   bool ready_ = false;

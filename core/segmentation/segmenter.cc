@@ -1,6 +1,7 @@
 // Segmenter: ONNX loading and inference through OpenCV DNN around the allocation-free pre/post-processing.
 #include "core/segmentation/segmenter.h"
 
+#include <cstdio>
 #include <exception>
 #include <fstream>
 #include <opencv2/core.hpp>
@@ -15,18 +16,6 @@ bool fail(std::string* error, const std::string& message) {
   return false;
 }
 
-int to_cv(DnnBackend backend) {
-  return backend == DnnBackend::kCuda ? cv::dnn::DNN_BACKEND_CUDA : cv::dnn::DNN_BACKEND_OPENCV;
-}
-
-int to_cv(DnnTarget target) {
-  switch (target) {
-    case DnnTarget::kCuda: return cv::dnn::DNN_TARGET_CUDA;
-    case DnnTarget::kCudaFp16: return cv::dnn::DNN_TARGET_CUDA_FP16;
-    case DnnTarget::kCpu: break;
-  }
-  return cv::dnn::DNN_TARGET_CPU;
-}
 
 std::string shape_string(const cv::Mat& m) {
   std::string s = "[";
@@ -35,6 +24,43 @@ std::string shape_string(const cv::Mat& m) {
 }
 
 }  // namespace
+
+int opencv_backend_id(DnnBackend backend) {
+  return backend == DnnBackend::kCuda ? cv::dnn::DNN_BACKEND_CUDA : cv::dnn::DNN_BACKEND_OPENCV;
+}
+
+int opencv_target_id(DnnTarget target) {
+  switch (target) {
+    case DnnTarget::kCuda: return cv::dnn::DNN_TARGET_CUDA;
+    case DnnTarget::kCudaFp16: return cv::dnn::DNN_TARGET_CUDA_FP16;
+    case DnnTarget::kCpu: break;
+  }
+  return cv::dnn::DNN_TARGET_CPU;
+}
+
+bool dnn_available(DnnBackend backend, DnnTarget target) {
+  const auto wanted = static_cast<cv::dnn::Target>(opencv_target_id(target));
+  const std::vector<cv::dnn::Target> targets =
+      cv::dnn::getAvailableTargets(static_cast<cv::dnn::Backend>(opencv_backend_id(backend)));
+  for (cv::dnn::Target t : targets)
+    if (t == wanted) return true;
+  return false;
+}
+
+bool dnn_backend_from_string(const std::string& name, DnnBackend* out) {
+  if (name == "opencv") *out = DnnBackend::kOpenCv;
+  else if (name == "cuda") *out = DnnBackend::kCuda;
+  else return false;
+  return true;
+}
+
+bool dnn_target_from_string(const std::string& name, DnnTarget* out) {
+  if (name == "cpu") *out = DnnTarget::kCpu;
+  else if (name == "cuda") *out = DnnTarget::kCuda;
+  else if (name == "cuda_fp16") *out = DnnTarget::kCudaFp16;
+  else return false;
+  return true;
+}
 
 const char* dnn_backend_name(DnnBackend backend) { return backend == DnnBackend::kCuda ? "cuda" : "opencv"; }
 const char* dnn_target_name(DnnTarget target) {
@@ -55,15 +81,19 @@ std::string Config::check() const {
     return "num_classes must be in 1.." + std::to_string(kMaxNetworkClasses);
   if (!(min_confidence >= 0.0f && min_confidence < 1.0f)) return "min_confidence must be in [0, 1)";
   if (low_confidence_label >= semantics::kNumObjectLabels) return "low_confidence_label is not an mpcat40 label";
+  if (opencv_threads < 0 || opencv_threads > 64) return "opencv_threads must be in 0..64";
+  if ((backend == DnnBackend::kCuda) != (target != DnnTarget::kCpu))
+    return std::string("backend ") + dnn_backend_name(backend) + " cannot run target " + dnn_target_name(target) +
+           " (opencv runs cpu; cuda runs cuda or cuda_fp16)";
   return {};
 }
 
 void Config::print(std::FILE* out) const {
   std::fprintf(out, "segmentation: model=%s input=%dx%d px ", model_path.c_str(), input_width_px, input_height_px);
   normalization.print(out);
-  std::fprintf(out, " classes=%d min_confidence=%.3f low_confidence_label=%s backend=%s target=%s\n", num_classes,
-               min_confidence, semantics::object_label(low_confidence_label).name, dnn_backend_name(backend),
-               dnn_target_name(target));
+  std::fprintf(out, " classes=%d min_confidence=%.3f low_confidence_label=%s backend=%s target=%s%s\n",
+               num_classes, min_confidence, semantics::object_label(low_confidence_label).name,
+               dnn_backend_name(backend), dnn_target_name(target), fallback_to_cpu ? " (cpu fallback allowed)" : "");
 }
 
 struct Segmenter::Impl {
@@ -85,6 +115,26 @@ bool Segmenter::init(const Config& config, const LabelMap& label_map, std::strin
   const std::string& path = config.model_path;
   if (!std::ifstream(path, std::ios::binary)) return fail(error, "model file '" + path + "': cannot open");
 
+  // A CUDA config on an OpenCV without CUDA would make OpenCV warn and quietly run on the CPU: refuse it, or fall
+  // back openly when the config allows it.
+  DnnBackend backend = config.backend;
+  DnnTarget target = config.target;
+  std::uint64_t fallbacks = 0;
+  if (!dnn_available(backend, target)) {
+    const std::string why = std::string("segmentation: backend ") + dnn_backend_name(backend) + " target " +
+                            dnn_target_name(target) + " is not available in this OpenCV (" + CV_VERSION +
+                            (cv::dnn::getAvailableTargets(cv::dnn::DNN_BACKEND_CUDA).empty()
+                                 ? ", built without CUDA"
+                                 : ", its CUDA backend lacks this target") +
+                            "); on a Jetson use JetPack's OpenCV built with CUDA (segmentation/README.md), or set "
+                            "backend opencv / target cpu";
+    if (!config.fallback_to_cpu) return fail(error, why);
+    std::fprintf(stderr, "%s: running on the CPU (fallback_to_cpu)\n", why.c_str());
+    backend = DnnBackend::kOpenCv;
+    target = DnnTarget::kCpu;
+    fallbacks = 1;
+  }
+  if (config.opencv_threads > 0) cv::setNumThreads(config.opencv_threads);
   auto impl = std::make_unique<Impl>();
   try {
     impl->net = cv::dnn::readNetFromONNX(path);
@@ -97,8 +147,8 @@ bool Segmenter::init(const Config& config, const LabelMap& label_map, std::strin
 
   const int shape[4] = {1, 3, config.input_height_px, config.input_width_px};
   try {
-    impl->net.setPreferableBackend(to_cv(config.backend));
-    impl->net.setPreferableTarget(to_cv(config.target));
+    impl->net.setPreferableBackend(opencv_backend_id(backend));
+    impl->net.setPreferableTarget(opencv_target_id(target));
     const std::vector<std::string> outputs = impl->net.getUnconnectedOutLayersNames();
     if (outputs.size() != 1)
       return fail(error, "model file '" + path + "': expected one output, found " + std::to_string(outputs.size()));
@@ -130,6 +180,9 @@ bool Segmenter::init(const Config& config, const LabelMap& label_map, std::strin
   config_ = config;
   impl_ = std::move(impl);
   counters_ = Counters{};
+  counters_.backend_fallbacks = fallbacks;
+  active_backend_ = backend;
+  active_target_ = target;
   ready_ = true;
   return true;
 }
@@ -147,6 +200,8 @@ const float* Segmenter::forward(std::string* error) {
     return nullptr;
   }
   try {
+    // OpenCV allocates inside forward() (about 3,500 blocks a frame for ESPNetv2, mostly per-layer temporaries:
+    // bench/results/segmentation.md); forwarding into a kept output vector instead of by name changed nothing.
     impl_->net.setInput(impl_->blob);
     impl_->output = impl_->net.forward(impl_->output_name);
   } catch (const cv::Exception& e) {

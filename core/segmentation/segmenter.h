@@ -19,11 +19,20 @@
 
 namespace qsg::segmentation {
 
-// OpenCV DNN backend and target; CUDA only works with an OpenCV built with it (Jetson), else OpenCV falls back.
+// OpenCV DNN backend and target. CUDA needs an OpenCV built with it (JetPack's on the Xavier): init() checks
+// cv::dnn::getAvailableTargets(DNN_BACKEND_CUDA) and refuses a CUDA config this OpenCV cannot run, naming it, or,
+// with Config::fallback_to_cpu, runs on the CPU and counts the fallback (Counters::backend_fallbacks).
 enum class DnnBackend { kOpenCv, kCuda };
 enum class DnnTarget { kCpu, kCuda, kCudaFp16 };
-const char* dnn_backend_name(DnnBackend backend);
-const char* dnn_target_name(DnnTarget target);
+const char* dnn_backend_name(DnnBackend backend);  // "opencv", "cuda": the config's spelling
+const char* dnn_target_name(DnnTarget target);     // "cpu", "cuda", "cuda_fp16"
+bool dnn_backend_from_string(const std::string& name, DnnBackend* out);  // false for an unknown name
+bool dnn_target_from_string(const std::string& name, DnnTarget* out);
+// The cv::dnn::Backend / cv::dnn::Target values passed to setPreferableBackend / setPreferableTarget.
+int opencv_backend_id(DnnBackend backend);
+int opencv_target_id(DnnTarget target);
+// Whether this process's OpenCV can run the pair (the CPU always; CUDA only when OpenCV was built with it).
+bool dnn_available(DnnBackend backend, DnnTarget target);
 
 struct Config {
   std::string model_path;        // ONNX file
@@ -38,6 +47,10 @@ struct Config {
   semantics::Label low_confidence_label = semantics::kUnlabeled;
   DnnBackend backend = DnnBackend::kOpenCv;
   DnnTarget target = DnnTarget::kCpu;
+  // A CUDA backend this OpenCV cannot run: false = init() fails naming it; true = run on the CPU, counted.
+  bool fallback_to_cpu = false;
+  // > 0: init() calls cv::setNumThreads(opencv_threads) (process-wide: OpenCV has one pool); 0 leaves OpenCV's.
+  int opencv_threads = 0;
   std::string check() const;  // empty when usable, else the bad field and why
   void print(std::FILE* out) const;
 };
@@ -47,6 +60,7 @@ struct Counters {
   std::uint64_t bad_frames = 0;          // refused: invalid intrinsics or not initialised
   std::uint64_t forward_errors = 0;      // OpenCV threw or returned an unexpected output
   std::uint64_t low_confidence_pixels = 0;  // at network resolution, summed over frames
+  std::uint64_t backend_fallbacks = 0;   // init() ran a CUDA config on the CPU (Config::fallback_to_cpu)
 };
 
 class Segmenter {
@@ -72,6 +86,9 @@ class Segmenter {
   LogitsDecoder& decoder() { return decoder_; }
 
   const Config& config() const { return config_; }
+  // What runs: the config's backend and target, or OpenCV/CPU after a counted fallback.
+  DnnBackend active_backend() const { return active_backend_; }
+  DnnTarget active_target() const { return active_target_; }
   const Counters& counters() const { return counters_; }
   // Output shape found at init: classes, height, width.
   int output_classes() const { return decoder_.num_classes(); }
@@ -85,6 +102,8 @@ class Segmenter {
   Preprocessor preprocessor_;
   LogitsDecoder decoder_;
   Counters counters_;
+  DnnBackend active_backend_ = DnnBackend::kOpenCv;
+  DnnTarget active_target_ = DnnTarget::kCpu;
   bool ready_ = false;
 };
 

@@ -4,6 +4,7 @@
 
 #include <chrono>
 #include <cstdint>
+#include <ctime>
 
 namespace qsg::runtime {
 
@@ -23,6 +24,19 @@ class WallClock final : public Clock {
         .count();
   }
   void sleep_until_ns(std::int64_t t_ns) override;
+  bool stepped() const override { return false; }
+};
+
+// The calling thread's CPU time: a cost clock only (Pipeline::set_cost_clock), for measuring what a stage costs
+// without the time other processes took the core (a loaded developer machine). Never slept on.
+class ThreadCpuClock final : public Clock {
+ public:
+  std::int64_t now_ns() const override {
+    timespec t{};
+    ::clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+    return static_cast<std::int64_t>(t.tv_sec) * 1000000000 + t.tv_nsec;
+  }
+  void sleep_until_ns(std::int64_t) override {}
   bool stepped() const override { return false; }
 };
 

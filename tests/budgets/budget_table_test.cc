@@ -203,6 +203,26 @@ TEST(BudgetTableTest, BoardsDeclareTheSameTasksArenasAndQueues) {
   }
 }
 
+// The worker threads outside the tick loop have budgets too, on every board, and the segmentation worker has the
+// slots it needs (one frame in work, one labelled waiting for the loop).
+TEST(BudgetTableTest, EveryBoardBudgetsTheWorkerThreads) {
+  for (const BoardTable* t : kAllBoards) {
+    for (const char* name : {"segmentation", "backend"}) {
+      const ThreadBudget* b = t->find_thread(name);
+      ASSERT_NE(b, nullptr) << t->board << ": no thread budget '" << name << "'";
+      EXPECT_GT(b->budget_us, 0u) << t->board << "." << name;
+    }
+    EXPECT_GE(t->find_thread("segmentation")->every_n_keyframes, 1u) << t->board;
+    EXPECT_LE(t->find_thread("segmentation")->every_n_keyframes, 5u) << t->board << ": the paper's 1 Hz at 5 Hz keyframes";
+    const QueueBudget* slots = nullptr;
+    for (std::size_t i = 0; i < t->num_queues; ++i)
+      if (std::string(t->queues[i].name) == "segmentation") slots = &t->queues[i];
+    ASSERT_NE(slots, nullptr) << t->board;
+    EXPECT_GE(slots->depth, 2u) << t->board;
+    EXPECT_EQ(t->find_thread("no_such_thread"), nullptr);
+  }
+}
+
 TEST(BudgetTableTest, ActiveBoardIsTheConfiguredOne) {
   EXPECT_GT(active::scene_graph::kArenaBytes, 0u);
   EXPECT_GE(active::tasks::frontend::kEveryNKeyframes, 1u);

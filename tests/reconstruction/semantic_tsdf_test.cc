@@ -145,6 +145,60 @@ TEST(SemanticTsdfTest, LabelVotesFollowTheMajorityWithTwoPairs) {
   EXPECT_EQ(SemanticTsdf::best_label(*v), semantics::kDoor) << "the new majority wins";
 }
 
+// Late labels (segmentation finished after the keyframe was integrated): the label pass over the frame's own depth
+// and pose gives every voxel the votes the labelled frame would have given in one pass, allocates nothing, and
+// re-meshes the blocks whose labels changed; samples whose block is not active are counted, not allocated.
+TEST(SemanticTsdfTest, LateLabelVotesEqualVotesGivenWithTheGeometry) {
+  auto together = make_tsdf();
+  auto late = make_tsdf();
+  auto chair = wall_frame(2.03f, semantics::kChair);
+  auto wall = wall_frame(2.03f, semantics::kWall);
+  const Eigen::Isometry3d pose = at(0.1, -0.05, 0.02);
+  ASSERT_TRUE(together->process(*wall, pose));
+  ASSERT_TRUE(late->process(*wall, pose));
+  for (int k = 0; k < 2; ++k) ASSERT_TRUE(together->process(*chair, pose));
+  chair->has_labels = false;
+  for (int k = 0; k < 2; ++k) ASSERT_TRUE(late->process(*chair, pose));  // geometry only
+  chair->has_labels = true;
+  const std::size_t blocks = late->active_blocks();
+  EXPECT_NO_ALLOCATIONS(for (int k = 0; k < 2; ++k) ASSERT_TRUE(late->integrate_label_votes(*chair, pose)));
+  EXPECT_EQ(late->active_blocks(), blocks);
+  EXPECT_EQ(late->counters().label_frames, 2u);
+  EXPECT_EQ(late->counters().label_samples_missed, 0u);
+  std::size_t compared = 0;
+  together->for_each_block([&](std::uint32_t, const SemanticTsdf::BlockView& a) {
+    const std::uint32_t h = late->find_block(a.index);
+    ASSERT_NE(h, memory::kInvalidHandle);
+    SemanticTsdf::BlockView b;
+    ASSERT_TRUE(late->block_view(h, &b));
+    for (int i = 0; i < kBlockVoxels; ++i) {
+      const Voxel& x = a.voxels[i];
+      const Voxel& y = b.voxels[i];
+      ASSERT_EQ(x.weight_q, y.weight_q);
+      ASSERT_EQ(x.sdf_q, y.sdf_q);
+      for (int k = 0; k < kLabelPairs; ++k) {
+        ASSERT_EQ(x.votes[k].label, y.votes[k].label) << "voxel " << i;
+        ASSERT_EQ(x.votes[k].weight_q, y.votes[k].weight_q) << "voxel " << i;
+      }
+      compared += x.weight_q > 0 ? 1 : 0;
+    }
+  });
+  EXPECT_GT(compared, 1000u);
+  // The blocks whose labels changed were marked dirty: the next meshing gives the surface the new label.
+  late->update_mesh();
+  Mesh mesh;
+  late->extract_active_mesh(&mesh);
+  ASSERT_GT(mesh.vertices.size(), 100u);
+  for (const MeshVertex& v : mesh.vertices) EXPECT_EQ(v.label, semantics::kChair);
+  // A frame seen from where no block is active: nothing allocated, every sample counted as missed.
+  EXPECT_TRUE(late->integrate_label_votes(*chair, at(40.0, 0.0, 0.0)));
+  EXPECT_EQ(late->active_blocks(), blocks);
+  EXPECT_GT(late->counters().label_samples_missed, 0u);
+  // Without labels there is nothing to vote.
+  wall->has_labels = false;
+  EXPECT_FALSE(late->integrate_label_votes(*wall, pose));
+}
+
 TEST(SemanticTsdfTest, WindowArchivesFarBlocksAndPoolEvictionKeepsMemoryFixed) {
   Capacities c = small_capacities();
   c.max_blocks = 48;

@@ -7,6 +7,7 @@
 #include <array>
 #include <cstdio>
 #include <memory>
+#include <opencv2/dnn.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -107,6 +108,43 @@ TEST(Segmenter, ConfigPrintsEveryField) {
   for (const char* key : {"model=m.onnx", "input=384x384", "mean=", "stddev=", "order=rgb", "classes=21",
                           "min_confidence=", "low_confidence_label=unlabeled", "backend=opencv", "target=cpu"})
     EXPECT_NE(text.find(key), std::string::npos) << key << " in " << text;
+}
+
+// The config's names map to the cv::dnn ids init() passes to setPreferableBackend / setPreferableTarget.
+TEST(Segmenter, BackendAndTargetNamesMapToOpenCvIds) {
+  DnnBackend b = DnnBackend::kOpenCv;
+  DnnTarget t = DnnTarget::kCpu;
+  ASSERT_TRUE(dnn_backend_from_string("cuda", &b));
+  EXPECT_EQ(b, DnnBackend::kCuda);
+  EXPECT_EQ(opencv_backend_id(b), cv::dnn::DNN_BACKEND_CUDA);
+  ASSERT_TRUE(dnn_backend_from_string("opencv", &b));
+  EXPECT_EQ(opencv_backend_id(b), cv::dnn::DNN_BACKEND_OPENCV);
+  ASSERT_TRUE(dnn_target_from_string("cuda_fp16", &t));
+  EXPECT_EQ(opencv_target_id(t), cv::dnn::DNN_TARGET_CUDA_FP16);
+  ASSERT_TRUE(dnn_target_from_string("cuda", &t));
+  EXPECT_EQ(opencv_target_id(t), cv::dnn::DNN_TARGET_CUDA);
+  ASSERT_TRUE(dnn_target_from_string("cpu", &t));
+  EXPECT_EQ(opencv_target_id(t), cv::dnn::DNN_TARGET_CPU);
+  EXPECT_FALSE(dnn_backend_from_string("tensorrt", &b));
+  EXPECT_FALSE(dnn_target_from_string("gpu", &t));
+  for (DnnBackend x : {DnnBackend::kOpenCv, DnnBackend::kCuda}) {
+    ASSERT_TRUE(dnn_backend_from_string(dnn_backend_name(x), &b));
+    EXPECT_EQ(b, x);
+  }
+  for (DnnTarget x : {DnnTarget::kCpu, DnnTarget::kCuda, DnnTarget::kCudaFp16}) {
+    ASSERT_TRUE(dnn_target_from_string(dnn_target_name(x), &t));
+    EXPECT_EQ(t, x);
+  }
+  EXPECT_TRUE(dnn_available(DnnBackend::kOpenCv, DnnTarget::kCpu));
+  // A backend with a target it cannot run is a config error naming both.
+  Config config;
+  config.model_path = "m.onnx";
+  config.target = DnnTarget::kCudaFp16;
+  EXPECT_NE(config.check().find("backend opencv cannot run target cuda_fp16"), std::string::npos) << config.check();
+  config.backend = DnnBackend::kCuda;
+  EXPECT_EQ(config.check(), "");
+  config.target = DnnTarget::kCpu;
+  EXPECT_NE(config.check().find("cuda"), std::string::npos);
 }
 
 // The real network, loaded once for the suite (load + warm-up pass is the expensive part).
@@ -273,5 +311,57 @@ TEST(RealModelInit, NetworkClassCountDifferentFromConfigIsRefused) {
   EXPECT_NE(error.find("20"), std::string::npos) << error;
 }
 
+}  // namespace
+}  // namespace qsg::segmentation
+
+// CUDA selected by config: with an OpenCV built with CUDA (JetPack) init() selects it; with Debian's (no CUDA) it
+// is a clear error naming the backend, or, with fallback_to_cpu, a counted fallback that labels as the CPU does.
+namespace qsg::segmentation {
+namespace {
+TEST(RealModelInit, CudaConfigSelectsCudaOrFailsClearlyOrFallsBackCounted) {
+  QSG_REQUIRE_SHARED_DATA(model, kModel);
+  if (slow_tests_disabled()) GTEST_SKIP() << "QSG_SKIP_SLOW_TESTS set or running under qemu-user: skipping the real network";
+  Config config;
+  config.model_path = model;
+  config.backend = DnnBackend::kCuda;
+  config.target = DnnTarget::kCudaFp16;
+  Segmenter seg;
+  std::string error;
+  if (dnn_available(DnnBackend::kCuda, DnnTarget::kCudaFp16)) {
+    ASSERT_TRUE(seg.init(config, pascal_map(), &error)) << error;
+    EXPECT_EQ(seg.active_backend(), DnnBackend::kCuda);
+    EXPECT_EQ(seg.active_target(), DnnTarget::kCudaFp16);
+    EXPECT_EQ(seg.counters().backend_fallbacks, 0u);
+    return;
+  }
+  EXPECT_FALSE(seg.init(config, pascal_map(), &error));
+  EXPECT_FALSE(seg.ready());
+  EXPECT_NE(error.find("backend cuda target cuda_fp16 is not available"), std::string::npos) << error;
+  EXPECT_NE(error.find("without CUDA"), std::string::npos) << error;
+
+  config.fallback_to_cpu = true;
+  ASSERT_TRUE(seg.init(config, pascal_map(), &error)) << error;
+  EXPECT_EQ(seg.counters().backend_fallbacks, 1u);
+  EXPECT_EQ(seg.active_backend(), DnnBackend::kOpenCv);
+  EXPECT_EQ(seg.active_target(), DnnTarget::kCpu);
+  // The fallback labels a frame exactly as a CPU config does.
+  QSG_REQUIRE_SHARED_DATA(color, kTumColor);
+  const cv::Mat bgr = cv::imread(color, cv::IMREAD_COLOR);
+  ASSERT_FALSE(bgr.empty());
+  auto a = std::make_unique<messages::RgbdFrame>();
+  a->intrinsics.width = bgr.cols;
+  a->intrinsics.height = bgr.rows;
+  cv::Mat rgb(bgr.rows, bgr.cols, CV_8UC3, a->rgb.data());
+  cv::cvtColor(bgr, rgb, cv::COLOR_BGR2RGB);
+  auto b = std::make_unique<messages::RgbdFrame>(*a);
+  ASSERT_TRUE(seg.segment(*a, &error)) << error;
+  Config cpu;
+  cpu.model_path = model;
+  Segmenter reference;
+  ASSERT_TRUE(reference.init(cpu, pascal_map(), &error)) << error;
+  EXPECT_EQ(reference.counters().backend_fallbacks, 0u);
+  ASSERT_TRUE(reference.segment(*b, &error)) << error;
+  EXPECT_TRUE(std::equal(a->labels.begin(), a->labels.begin() + a->pixels(), b->labels.begin()));
+}
 }  // namespace
 }  // namespace qsg::segmentation
