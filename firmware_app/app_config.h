@@ -143,8 +143,7 @@ struct AppConfig {
   // describe_every_m of path), loop closures detected and verified over the scene graph, and the deformation graph
   // solved after each new one. Its stores are the budget table's "loop_closure" arena.
   struct LoopClosure {
-    // Off by default until its closures beat the odometry (bench/results/loop_closure.md): on one tour they are
-    // no more precise than it, and on long missions the solve grows too slow.
+    // Off by default until it meets its target on the main job (bench/results/loop_closure.md).
     bool enabled = false;
     double horizon_s = 15.0;
     double describe_every_m = 1.0;
