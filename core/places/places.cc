@@ -2134,6 +2134,7 @@ SyncResult Places::sync(scene_graph::SceneGraph* graph) {
     }
     // Checked here so a full graph is a counted refusal in every build (the store's own policy may abort).
     if (graph->num_nodes(scene_graph::NodeKind::kPlace) >= gc.place_nodes || graph->num_nodes() >= gc.nodes()) {
+      graph->count_refused_node(scene_graph::NodeKind::kPlace);  // shown under the store's own name
       refuse("place node");
       continue;
     }
@@ -2189,6 +2190,7 @@ SyncResult Places::sync(scene_graph::SceneGraph* graph) {
         continue;
       }
       if (graph->num_edges() >= gc.edges) {
+        graph->count_refused_edge();
         refuse("edge");
         complete = false;
         continue;
@@ -2345,6 +2347,7 @@ void Places::resolve_relinks(scene_graph::SceneGraph* graph, SyncResult* r) {
                                 static_cast<double>(xc.clearance_m)});
         if (graph->num_edges() >= graph->capacities().edges ||
             graph->add_edge(l.inactive, xc.node, info) != scene_graph::Status::kOk) {
+          if (graph->num_edges() >= graph->capacities().edges) graph->count_refused_edge();
           ++r->refused;
           ++counters_.graph_refused;
           r->status = scene_graph::Status::kFull;
@@ -2437,6 +2440,7 @@ void Places::contract_around(scene_graph::SceneGraph* graph, scene_graph::NodeId
     info.weight = std::min(weight[i], weight[best]);
     if (graph->num_edges() >= graph->capacities().edges ||
         graph->add_edge(nbr[i], nbr[best], info) != scene_graph::Status::kOk) {
+      if (graph->num_edges() >= graph->capacities().edges) graph->count_refused_edge();
       ++r->refused;
       ++counters_.graph_refused;
       r->status = scene_graph::Status::kFull;
