@@ -126,6 +126,7 @@ void add_stage_groups(const Pipeline& p, std::vector<ReportGroup>* out) {
   places.add("clusters_refused", U(pl.clusters_refused));
   places.add("edges_refused", U(pl.edges_refused));
   places.add("graph_refused", U(pl.graph_refused));
+  places.add("graph_errors", U(pl.graph_errors));
   places.add("revivals_refused", U(pl.revivals_refused));
   places.add("revisits_merged", U(pl.revisits_merged));
   out->push_back(places);
@@ -311,7 +312,8 @@ void print_telemetry_counters(const Pipeline& p, std::FILE* out) {
                "queues.frames.dropped=%llu queues.segmentation.dropped=%llu queues.frontend_to_backend.dropped=%llu "
                "reconstruction.blocks_refused=%llu reconstruction.mesh_overflow=%llu "
                "reconstruction.archive_overflow=%llu places.blocks_refused=%llu places.clusters_refused=%llu "
-               "places.edges_refused=%llu places.graph_refused=%llu objects.candidate_overflow=%llu "
+               "places.edges_refused=%llu places.graph_refused=%llu places.graph_errors=%llu "
+               "objects.candidate_overflow=%llu "
                "objects.tracked_overflow=%llu objects.key_overflow=%llu objects.block_overflow=%llu "
                "objects.object_overflow=%llu objects.graph_node_failures=%llu objects.graph_connection_failures=%llu "
                "frontend.interlayer_failed=%llu frontend.graph_refused=%llu agents.rejected_time=%llu "
@@ -329,7 +331,7 @@ void print_telemetry_counters(const Pipeline& p, std::FILE* out) {
                u(c.door_failures), u(c.online_bypass_refused), u(p.frame_queue_stats().dropped),
                u(p.segmentation_queue_stats().dropped), u(p.backend_queue_stats().dropped), u(r.blocks_refused),
                u(r.mesh_overflow), u(r.archive_overflow), u(pl.blocks_refused), u(pl.clusters_refused),
-               u(pl.edges_refused), u(pl.graph_refused), u(ob.candidate_overflow), u(ob.tracked_overflow),
+               u(pl.edges_refused), u(pl.graph_refused), u(pl.graph_errors), u(ob.candidate_overflow), u(ob.tracked_overflow),
                u(ob.key_overflow), u(ob.block_overflow), u(ob.object_overflow), u(ob.graph_node_failures),
                u(ob.graph_connection_failures), u(fr.interlayer_failed), u(fr.graph_refused), u(ag.rejected_time),
                u(ag.rejected_full), u(ag.rejected_pose), u(c.frontend_deadline_stops), u(c.wall_paint_deferred),

@@ -834,6 +834,7 @@ void Pipeline::print_telemetry(std::FILE* out) {
   }
   print_telemetry_faults(*this, out);  // the rest of the fault counters, and the line's end
   if (config_.telemetry_stores) print_telemetry_stores(out, t_s);
+  std::fflush(out);  // into a log file or a pipe too, each interval's lines arrive whole as they are printed
   ++counters_.telemetry_lines;
 }
 
