@@ -132,6 +132,8 @@ bool AppConfig::load(const std::string& path, std::string* error) {
       {"lockstep", boolean(&lockstep)},
       {"snapshot_interval_s", number(&snapshot_interval_s)},
       {"telemetry_interval_s", number(&telemetry_interval_s)},
+      {"telemetry_stores", boolean(&telemetry_stores)},
+      {"lock_memory", boolean(&lock_memory)},
       {"ground_truth_labels", boolean(&ground_truth_labels)},
       {"fault_plan", text(&fault_plan)},
       {"world_path", text(&world_path)},
@@ -563,10 +565,11 @@ std::string AppConfig::check_odometry() const {
 void AppConfig::print(std::FILE* out) const {
   std::fprintf(out,
                "app: driver=%s%s%s output_dir=%s duration_s=%.1f lockstep=%d snapshot_interval_s=%.1f "
-               "telemetry_interval_s=%.1f ground_truth_labels=%d%s%s\n",
+               "telemetry_interval_s=%.1f telemetry_stores=%d lock_memory=%d ground_truth_labels=%d%s%s\n",
                to_string(driver), driver == Driver::kReplay ? " replay_path=" : "",
                driver == Driver::kReplay ? replay_path.c_str() : "", output_dir.c_str(), duration_s, lockstep ? 1 : 0,
-               snapshot_interval_s, telemetry_interval_s, ground_truth_labels ? 1 : 0,
+               snapshot_interval_s, telemetry_interval_s, telemetry_stores ? 1 : 0, lock_memory ? 1 : 0,
+               ground_truth_labels ? 1 : 0,
                fault_plan.empty() ? "" : " fault_plan=", fault_plan.c_str());
   if (driver == Driver::kReplay) {
     replay::DatasetReplayConfig r = replay;

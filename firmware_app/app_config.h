@@ -47,6 +47,14 @@ struct AppConfig {
   bool lockstep = true;                 // stepped clock, one thread; false = wall clock and worker threads
   double snapshot_interval_s = 10.0;    // scene-graph snapshots by atomic replace (loop time)
   double telemetry_interval_s = 1.0;
+  // After each telemetry line, one more: the resident set (VmRSS, VmHWM), page faults, and every store's
+  // use / high water / capacity / refused and the fault counters, in key=value form (the soak reads it).
+  bool telemetry_stores = false;
+  // mlockall(MCL_CURRENT | MCL_FUTURE) once the stores are carved (and pre-faulted): no page of the process is paged
+  // out or faulted in later. For the robot (needs CAP_IPC_LOCK or an RLIMIT_MEMLOCK above the process's size,
+  // e.g. systemd's LimitMEMLOCK=infinity); off on the host. A failure is logged with the limit and the run goes on
+  // unlocked (counted: the exit report's memory.lock_failures). Flag: --mlockall.
+  bool lock_memory = false;
   bool ground_truth_labels = true;      // sim: the renderer's labels bypass segmentation
   // A fault plan (firmware_app/FAULT_PLAN.md) wrapping the camera and odometry sources; "" = none.
   std::string fault_plan;

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <nlohmann/json.hpp>
 
+#include "firmware_app/memory_lock.h"
 #include "firmware_app/pipeline.h"
 
 namespace qsg::app {
@@ -127,6 +128,7 @@ void add_stage_groups(const Pipeline& p, std::vector<ReportGroup>* out) {
   places.add("clusters_refused", U(pl.clusters_refused));
   places.add("edges_refused", U(pl.edges_refused));
   places.add("graph_refused", U(pl.graph_refused));
+  places.add("graph_errors", U(pl.graph_errors));
   places.add("revivals_refused", U(pl.revivals_refused));
   places.add("revisits_merged", U(pl.revisits_merged));
   out->push_back(places);
@@ -178,13 +180,22 @@ ReportGroup stores_group(const Pipeline& p) {
     g.add(n + ".capacity", U(s.capacity));
     refused += s.failed;
   };
-  p.graph().for_each_resource(add);
-  p.frontend().for_each_resource(add);
-  add(p.frontend().agents().chain_stats());
-  p.room_finder().for_each_resource(add);
-  if (p.online_doors().initialized()) p.online_doors().for_each_resource(add);
-  p.for_each_loop_closure_resource(add);
+  p.for_each_store(add);
   g.values.insert(g.values.begin(), {"refused_total", U(refused)});
+  return g;
+}
+
+// The process's memory at the end: resident set and its peak, page faults, and whether it was locked.
+ReportGroup memory_group(const Pipeline& p) {
+  ReportGroup g{"memory", "", {}};
+  const ProcessMemory m = read_process_memory();
+  g.add("vm_rss_kb", U(m.vm_rss_kb));
+  g.add("vm_hwm_kb", U(m.vm_hwm_kb));
+  g.add("vm_lck_kb", U(m.vm_lck_kb));
+  g.add("minor_faults", U(m.minor_faults));
+  g.add("major_faults", U(m.major_faults));
+  g.add("locked", U(p.counters().memory_locked));
+  g.add("lock_failures", U(p.counters().memory_lock_failures));
   return g;
 }
 
@@ -259,6 +270,7 @@ std::vector<ReportGroup> collect_exit_report(const Pipeline& p) {
   out.push_back(graph_group(p));
   out.push_back(stores_group(p));
   out.push_back(tasks_group(p));
+  out.push_back(memory_group(p));
   if (p.faults().active()) out.push_back(faults_group(p.faults()));
   return out;
 }
@@ -283,6 +295,64 @@ void print_telemetry_faults(const Pipeline& p, std::FILE* out) {
                u(p.frontend().places().counters().graph_refused + p.frontend().places().counters().clusters_refused),
                u(p.frontend().objects().counters().graph_node_failures), u(p.frontend().counters().interlayer_failed),
                open ? " | FAULT (open or not recovered yet)" : "");
+}
+
+void print_telemetry_counters(const Pipeline& p, std::FILE* out) {
+  const auto u = [](std::uint64_t v) { return static_cast<unsigned long long>(v); };
+  const drivers::DriverCounters& d = p.camera()->counters();
+  const drivers::DriverCounters* od = p.odometry().driver_counters();
+  const OdometryCounters& o = p.odometry().counters();
+  const runtime::PoseBufferCounters& b = p.odometry().buffer().counters();
+  const PipelineCounters& c = p.counters();
+  const reconstruction::Counters& r = p.reconstruction().counters();
+  const auto& pl = p.frontend().places().counters();
+  const auto& ob = p.frontend().objects().counters();
+  const auto& fr = p.frontend().counters();
+  const auto& ag = p.frontend().agents().counters();
+  std::uint64_t overruns = 0, slips = 0, skips = 0;
+  for (std::size_t i = 0; i < p.scheduler().num_tasks(); ++i) {
+    overruns += p.scheduler().task(i).stats.overruns;
+    slips += p.scheduler().task(i).stats.slips;
+    skips += p.scheduler().task(i).stats.skips;
+  }
+  std::fprintf(out,
+               " | counters camera.dropped=%llu camera.stalls=%llu camera.late=%llu camera.timestamps_backwards=%llu "
+               "camera.invalid_depth_frames=%llu camera.bad_frames=%llu camera.disconnects=%llu camera.missing_files=%llu "
+               "odometry_driver.dropped=%llu odometry_driver.stalls=%llu odometry.source_bad=%llu "
+               "odometry.frames_no_pose=%llu odometry.frames_pose_too_old=%llu odometry.frames_in_gap=%llu "
+               "odometry.silences=%llu odometry.rejected=%llu odometry.gaps=%llu "
+               "pipeline.frames_bad=%llu pipeline.frames_without_pose=%llu pipeline.keyframes_refused=%llu "
+               "pipeline.keyframes_unlabelled=%llu pipeline.agent_refused=%llu pipeline.snapshot_failures=%llu "
+               "pipeline.gpio_failures=%llu pipeline.door_failures=%llu pipeline.online_bypass_refused=%llu "
+               "queues.frames.dropped=%llu queues.segmentation.dropped=%llu queues.frontend_to_backend.dropped=%llu "
+               "reconstruction.blocks_refused=%llu reconstruction.mesh_overflow=%llu "
+               "reconstruction.archive_overflow=%llu places.blocks_refused=%llu places.clusters_refused=%llu "
+               "places.edges_refused=%llu places.graph_refused=%llu places.graph_errors=%llu "
+               "objects.candidate_overflow=%llu "
+               "objects.tracked_overflow=%llu objects.key_overflow=%llu objects.block_overflow=%llu "
+               "objects.object_overflow=%llu objects.graph_node_failures=%llu objects.graph_connection_failures=%llu "
+               "frontend.interlayer_failed=%llu frontend.graph_refused=%llu agents.rejected_time=%llu "
+               "agents.rejected_full=%llu agents.rejected_pose=%llu "
+               "| load pipeline.frontend_deadline_stops=%llu pipeline.wall_paint_deferred=%llu tasks.overruns=%llu "
+               "tasks.slips=%llu tasks.skips=%llu | traffic pipeline.keyframes_integrated=%llu agents.folded=%llu "
+               "odometry.overwritten=%llu places.revisits_merged=%llu reconstruction.blocks_evicted=%llu "
+               "reconstruction.archive_compactions=%llu reconstruction.archive_coarsenings=%llu "
+               "pipeline.snapshots_written=%llu\n",
+               u(d.dropped), u(d.stalls), u(d.late), u(d.timestamps_backwards), u(d.invalid_depth_frames),
+               u(d.bad_frames), u(d.disconnects), u(d.missing_files), u(od ? od->dropped : 0), u(od ? od->stalls : 0),
+               u(o.source_bad), u(o.frames_no_pose), u(o.frames_pose_too_old), u(o.frames_in_gap), u(o.silences),
+               u(b.rejected()), u(b.gaps), u(c.frames_bad), u(c.frames_without_pose), u(c.keyframes_refused),
+               u(c.keyframes_unlabelled), u(c.agent_refused), u(c.snapshot_failures), u(c.gpio_failures),
+               u(c.door_failures), u(c.online_bypass_refused), u(p.frame_queue_stats().dropped),
+               u(p.segmentation_queue_stats().dropped), u(p.backend_queue_stats().dropped), u(r.blocks_refused),
+               u(r.mesh_overflow), u(r.archive_overflow), u(pl.blocks_refused), u(pl.clusters_refused),
+               u(pl.edges_refused), u(pl.graph_refused), u(pl.graph_errors), u(ob.candidate_overflow), u(ob.tracked_overflow),
+               u(ob.key_overflow), u(ob.block_overflow), u(ob.object_overflow), u(ob.graph_node_failures),
+               u(ob.graph_connection_failures), u(fr.interlayer_failed), u(fr.graph_refused), u(ag.rejected_time),
+               u(ag.rejected_full), u(ag.rejected_pose), u(c.frontend_deadline_stops), u(c.wall_paint_deferred),
+               u(overruns), u(slips), u(skips), u(c.keyframes_integrated), u(ag.folded), u(b.overwritten),
+               u(pl.revisits_merged), u(r.blocks_evicted), u(r.archive_compactions), u(r.archive_coarsenings),
+               u(c.snapshots_written));
 }
 
 void print_exit_report(const std::vector<ReportGroup>& report, std::FILE* out) {

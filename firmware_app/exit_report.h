@@ -2,7 +2,7 @@
 // ("camera sim_camera: delivered=... dropped=...") and as JSON ({"camera": {"delivered": ...}, ...}) for tools
 // (the fault suite reads it). Groups: pipeline, camera, odometry, odometry_driver, queues, reconstruction, places,
 // objects, frontend, agents, rooms, stores (refused, high water and capacity of every store), tasks (overruns,
-// slips, skips, deferrals) and faults (injected per kind, recovery), the last only with a fault plan.
+// slips, skips, deferrals), memory (resident set, page faults, mlockall) and faults (injected per kind, recovery), the last only with a fault plan.
 // Built after the run, off the real-time path (it allocates).
 #pragma once
 
@@ -26,6 +26,10 @@ std::vector<ReportGroup> collect_exit_report(const Pipeline& pipeline);
 // The telemetry line's fault segment and its end (" | faults late=... \n"): the counters the line's first part
 // leaves out. Called on the loop thread; allocation-free.
 void print_telemetry_faults(const Pipeline& pipeline, std::FILE* out);
+// AppConfig::telemetry_stores' line's end: " | counters <group>.<key>=N ... (every fault counter, exit-report
+// names; none grows on a healthy run) | load ... (budget misses on the wall clock) | traffic ... (counts a healthy
+// run grows)\n". Allocation-free.
+void print_telemetry_counters(const Pipeline& pipeline, std::FILE* out);
 // One line per group.
 void print_exit_report(const std::vector<ReportGroup>& report, std::FILE* out);
 // {"<group>": {"source": "<label>", "<key>": value, ...}, ..., "exit_status": exit_status}, written atomically.

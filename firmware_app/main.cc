@@ -32,6 +32,7 @@ void usage() {
       "               [--quiet]\n"
       "               [--odometry auto|sim_drift|ground_truth|tum|stream|static] [--odometry-tum FILE]\n"
       "               [--pose-stream udp:ADDRESS:PORT | unix:PATH] [--fault-plan FILE] [--report-json FILE]\n"
+      "               [--mlockall]\n"
       "       qsg_app --convert SPARK_DSG_JSON OUT_JSON [--mesh MESH.ply]   (validate a scene graph and write it in the\n"
       "               Spark-DSG 1.1.3 layout, canonically; --mesh embeds the mesh as Spark-DSG does)\n"
       "  Defaults: the simulated quadruped explores a generated 12-room building in lockstep on the board's\n"
@@ -41,7 +42,8 @@ void usage() {
       "  Exit status: 0 done; 1 start-up failed or an output could not be written; 2 bad arguments or config;\n"
       "  3 nothing was mapped (an empty or all-rejected input; the outputs are written all the same).\n"
       "  --fault-plan: faults injected into the camera and odometry (firmware_app/FAULT_PLAN.md); --report-json:\n"
-      "  the exit report (every counter) as JSON.\n",
+      "  the exit report (every counter) as JSON. --mlockall: lock the process in RAM after start-up (the robot;\n"
+      "  needs CAP_IPC_LOCK or LimitMEMLOCK=infinity; a failure is logged and the run goes on unlocked).\n",
       budgets::active::kBoard);
 }
 
@@ -162,6 +164,8 @@ int main(int argc, char** argv) {
       config.fault_plan = argv[++i];
     } else if (a == "--report-json" && has_value) {
       report_json = argv[++i];
+    } else if (a == "--mlockall") {
+      config.lock_memory = true;
     } else if (a == "--quiet") {
       quiet = true;
     } else if (a == "--help" || a == "-h") {

@@ -31,6 +31,7 @@
 #include "firmware_app/graph_outputs.h"
 #include "firmware_app/graph_picture.h"
 #include "drivers/world/world_file.h"
+#include "firmware_app/memory_lock.h"
 #include "drivers/world/world_query.h"
 
 namespace qsg::app {
@@ -174,7 +175,9 @@ bool Pipeline::init(const AppConfig& config, runtime::Clock* clock, std::string*
                   budgets::active::reconstruction::kArenaBytes, error))
     return false;
   if (!frontend_.init(config.frontend, error)) return false;
-  trajectory_m_.reserve(graph_.capacities().agent_nodes);
+  // Reserved and written once, so its pages are resident before the loop pushes into them (no page fault there).
+  trajectory_m_.resize(graph_.capacities().agent_nodes);
+  trajectory_m_.clear();
 
   // The source.
   switch (config.driver) {
@@ -274,6 +277,18 @@ bool Pipeline::init(const AppConfig& config, runtime::Clock* clock, std::string*
   start_ns_ = clock_->now_ns();
   next_snapshot_ns_ = start_ns_ + static_cast<std::int64_t>(config.snapshot_interval_s * 1e9);
   last_telemetry_ns_ = start_ns_;
+  // Every store is carved (and its arena pre-faulted): lock it all in RAM if asked (the robot). A failure is a
+  // logged, counted degradation, never a failed start-up.
+  if (config.lock_memory) {
+    std::string why;
+    if (lock_process_memory(&why)) {
+      counters_.memory_locked = 1;
+      std::printf("memory: locked (mlockall MCL_CURRENT | MCL_FUTURE)\n");
+    } else {
+      ++counters_.memory_lock_failures;
+      std::fprintf(stderr, "qsg_app: warning: %s\n", why.c_str());
+    }
+  }
   return true;
 }
 
@@ -830,14 +845,9 @@ void Pipeline::print_telemetry(std::FILE* out) {
     if (fill > fullest_fill) fullest_fill = fill, fullest = r;
   };
   {
-    std::lock_guard<std::mutex> lock(graph_mutex_);
+    std::lock_guard<std::mutex> lock(graph_mutex_);  // the backend's stores change under it
     graph_nodes = graph_.num_nodes();
-    graph_.for_each_resource(watch);
-  }
-  frontend_.for_each_resource(watch);
-  if (online_doors_.initialized()) {  // the loop's own: the arena and the wall map (the door set is the backend's)
-    watch(online_doors_.arena().stats());
-    watch(online_doors_.wall_map().tile_stats());
+    for_each_store(watch, /*from_loop=*/true);
   }
   std::fprintf(out,
                "[t=%7.1fs] kf/s=%.1f keyframes=%llu | max_us recon=%lld frontend=%lld overruns=%zu | blocks=%zu/%zu "
@@ -856,8 +866,53 @@ void Pipeline::print_telemetry(std::FILE* out) {
                (unsigned long long)counters_.frames_without_pose, frontend_.agents().chain_size(),
                frontend_.agents().chain_stats().capacity, (unsigned long long)frontend_.agents().counters().folded,
                rss_mb(), peak_rss_mb());
+  {
+    // Refusals under each store's own name ("none" on a healthy run).
+    std::lock_guard<std::mutex> lock(graph_mutex_);
+    std::fprintf(out, " | refused by store:%s", refused == 0 ? " none" : "");
+    for_each_store(
+        [&](const memory::ResourceStats& r) {
+          if (r.failed > 0) std::fprintf(out, " %s=%llu", r.name, static_cast<unsigned long long>(r.failed));
+        },
+        /*from_loop=*/true);
+  }
   print_telemetry_faults(*this, out);  // the rest of the fault counters, and the line's end
+  if (config_.telemetry_stores) print_telemetry_stores(out, t_s);
+  std::fflush(out);  // into a log file or a pipe too, each interval's lines arrive whole as they are printed
   ++counters_.telemetry_lines;
+}
+
+void Pipeline::print_telemetry_stores(std::FILE* out, double t_s) {
+  const ProcessMemory m = read_process_memory();
+  std::unique_lock<std::mutex> lock(graph_mutex_);  // the backend's stores change under it
+  std::uint64_t arena_bytes = tsdf_.arena_bytes();
+  const auto is_arena = [](const memory::ResourceStats& r) { return std::strcmp(r.unit, "bytes") == 0; };
+  for_each_store([&](const memory::ResourceStats& r) { arena_bytes += is_arena(r) ? r.capacity : 0; }, true);
+  std::fprintf(out, "[t=%7.1fs] stores rss_kb=%llu hwm_kb=%llu locked_kb=%llu minflt=%llu majflt=%llu arenas_kb=%llu "
+               "| arenas reconstruction=%zu",
+               t_s, static_cast<unsigned long long>(m.vm_rss_kb), static_cast<unsigned long long>(m.vm_hwm_kb),
+               static_cast<unsigned long long>(m.vm_lck_kb), static_cast<unsigned long long>(m.minor_faults),
+               static_cast<unsigned long long>(m.major_faults), static_cast<unsigned long long>(arena_bytes / 1024),
+               tsdf_.arena_bytes());
+  // Arenas are carved whole at start-up: their bytes are what they hold; the stores carved from them say how full.
+  for_each_store([&](const memory::ResourceStats& r) { if (is_arena(r)) std::fprintf(out, " %s=%zu", r.name, r.capacity); },
+                 true);
+  // Stores: use/high_water/capacity/refused. The TSDF's active blocks (a window: no high-water mark kept) and its
+  // mesh archive, then every store of the graph, frontend, agents, rooms, doors and loop closure.
+  std::fprintf(out, " | reconstruction.blocks=%zu/%zu/%zu/%llu reconstruction.archive_triangles=%zu/%zu/%zu/%llu",
+               tsdf_.active_blocks(), tsdf_.active_blocks(), tsdf_.capacities().max_blocks,
+               static_cast<unsigned long long>(tsdf_.counters().blocks_refused), tsdf_.archive_triangles(),
+               tsdf_.archive_triangles(), tsdf_.capacities().archive_triangles,
+               static_cast<unsigned long long>(tsdf_.counters().archive_overflow));
+  for_each_store(
+      [&](const memory::ResourceStats& r) {
+        if (!is_arena(r))
+          std::fprintf(out, " %s=%zu/%zu/%zu/%llu", r.name, r.in_use, r.high_water, r.capacity,
+                       static_cast<unsigned long long>(r.failed));
+      },
+      true);
+  lock.unlock();
+  print_telemetry_counters(*this, out);  // " | counters ... | load ... | traffic ...\n"
 }
 
 std::string Pipeline::nothing_mapped_reason() const {

@@ -86,6 +86,8 @@ struct PipelineCounters {
   std::uint64_t keyframes_segmented = 0;  // keyframes whose labels came back and were voted into the map
   std::uint64_t keyframes_unlabelled = 0; // keyframes with no labels of their own (segmentation busy, failed, late)
   std::uint64_t telemetry_lines = 0;
+  std::uint64_t memory_locked = 0;         // 1: mlockall succeeded at start-up (AppConfig::lock_memory)
+  std::uint64_t memory_lock_failures = 0;  // mlockall failed (logged with the limit; the run went on unlocked)
   // Loop closure (AppConfig::loop_closure).
   std::uint64_t agents_described = 0;      // agents given a descriptor (the detector's queries)
   std::uint64_t loop_closures = 0;         // proposed: detected and verified
@@ -188,7 +190,31 @@ class Pipeline {
     fn(s);
   }
 
+  // Every store of the run: the scene graph's, the frontend's (places, objects), the agent chain, the room finder's,
+  // the online doors' and loop closure's; fn(const memory::ResourceStats&). Telemetry and the exit report list each
+  // under its own name. from_loop: while the backend runs (call under graph_mutex_, as telemetry does), the online
+  // doors' door set, which a pass writes without that lock, is left out (its arena and wall map are the loop's).
+  template <typename Fn>
+  void for_each_store(Fn&& fn, bool from_loop = false) const {
+    graph_.for_each_resource(fn);
+    frontend_.for_each_resource(fn);
+    fn(frontend_.agents().chain_stats());
+    rooms_.for_each_resource(fn);
+    if (online_doors_.initialized()) {
+      if (from_loop && !config_.lockstep) {
+        fn(online_doors_.arena().stats());
+        fn(online_doors_.wall_map().tile_stats());
+      } else {
+        online_doors_.for_each_resource(fn);
+      }
+    }
+    for_each_loop_closure_resource(fn);
+  }
+
   void print_telemetry(std::FILE* out);
+  // AppConfig::telemetry_stores' line: "[t=...s] stores rss_kb=... hwm_kb=... minflt=... majflt=... | <store>=
+  // in_use/high_water/capacity/refused ... | counters <group>.<key>=... ..." (exit-report names). Allocation-free.
+  void print_telemetry_stores(std::FILE* out, double t_s);
   bool write_snapshot(std::string* error);
 
  private:

@@ -210,12 +210,14 @@ ConnectStats connect_to_nearest_places(scene_graph::SceneGraph* graph, const Nea
     // Room for the new edge (the removed one frees its slot only after it is gone; check without counting it).
     const scene_graph::Capacities& gc = graph->capacities();
     if (parent == scene_graph::kNoNode && (graph->num_edges() >= gc.edges || free_adjacency_chunks(*graph) < 2)) {
+      graph->count_refused_edge();  // shown under the store's own name
       ++stats.failed;
       continue;
     }
     if (parent != scene_graph::kNoNode) graph->remove_edge(id, parent);
     if (graph->num_edges() >= gc.edges || free_adjacency_chunks(*graph) < 2 ||
         graph->add_edge(id, nearest.id) != scene_graph::Status::kOk) {
+      if (graph->num_edges() >= gc.edges || free_adjacency_chunks(*graph) < 2) graph->count_refused_edge();
       ++stats.failed;
       continue;
     }

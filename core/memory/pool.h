@@ -75,6 +75,8 @@ class Pool {
 
   // Records a request the caller refused on the pool's behalf (e.g. a multi-slot operation that would not fit).
   bool refuse(std::size_t requested = 1) { return counter_.refuse(requested); }
+  // Counts a request the caller did not make because it saw the pool full (UsageCounter::count_refused).
+  void count_refused(std::uint64_t n = 1) { counter_.count_refused(n); }
 
   bool live(std::uint32_t h) const { return h < capacity() && live_[h] != 0; }
   T& operator[](std::uint32_t h) { return get(h); }

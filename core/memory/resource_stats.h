@@ -53,6 +53,10 @@ class UsageCounter {
   // Records a refused request of `requested` units. Aborts under kAbort; otherwise counts, logs the
   // 1st, 2nd, 4th, 8th, ... failure (no allocation, bounded output) and returns false for the caller.
   bool refuse(std::size_t requested);
+  // Records `n` requests a caller refused on the resource's behalf because it saw the resource full before asking
+  // (a stage that checks for room first, so that a full store is a counted degradation in every build): counted in
+  // `failed` like refuse(), so the store's own name shows it, but never aborts and never logs (the caller logs).
+  void count_refused(std::uint64_t n = 1) { failed_ += n; }
 
   ResourceStats stats() const { return {name_, unit_, capacity_, in_use_, high_water_, failed_}; }
   OverflowPolicy policy() const { return policy_; }

@@ -1463,6 +1463,7 @@ bool ObjectLayer::sync(scene_graph::SceneGraph* graph) {
     scene_graph::ObjectAttributes fresh;
     if (a == nullptr) {
       if (graph->num_nodes(scene_graph::NodeKind::kObject) >= gc.object_nodes || graph->num_nodes() >= gc.nodes()) {
+        graph->count_refused_node(scene_graph::NodeKind::kObject);  // shown under the store's own name
         ++counters_.graph_node_failures;
         log_graph_failure("object store", counters_.graph_node_failures);
         ok = false;

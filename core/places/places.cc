@@ -2018,6 +2018,15 @@ UpdateResult Places::update(const reconstruction::SemanticTsdf& tsdf, const Eige
 // ---------------------------------------------------------------------------------------------------------
 // Scene graph mirror
 
+namespace {
+// A graph write refused for another reason than a full store: counted in graph_errors, logged 1st, 2nd, 4th, ...
+void log_graph_error(const char* what, scene_graph::Status status, std::uint64_t n) {
+  if ((n & (n - 1)) == 0)
+    std::fprintf(stderr, "places: the scene graph refused %s (%s), not for want of room; %llu so far\n", what,
+                 scene_graph::to_string(status), static_cast<unsigned long long>(n));
+}
+}  // namespace
+
 SyncResult Places::sync(scene_graph::SceneGraph* graph) {
   SyncResult r;
   if (!ready_ || graph == nullptr || !graph->initialized()) {
@@ -2134,6 +2143,7 @@ SyncResult Places::sync(scene_graph::SceneGraph* graph) {
     }
     // Checked here so a full graph is a counted refusal in every build (the store's own policy may abort).
     if (graph->num_nodes(scene_graph::NodeKind::kPlace) >= gc.place_nodes || graph->num_nodes() >= gc.nodes()) {
+      graph->count_refused_node(scene_graph::NodeKind::kPlace);  // shown under the store's own name
       refuse("place node");
       continue;
     }
@@ -2142,8 +2152,10 @@ SyncResult Places::sync(scene_graph::SceneGraph* graph) {
       ++r.nodes_added;
       c.synced = 1;
       c.merge_check = 1;
-    } else {
+    } else if (st == scene_graph::Status::kFull) {
       refuse("place node");
+    } else {
+      log_graph_error("a place node", st, ++counters_.graph_errors);
     }
   }
   for (std::uint32_t h = 0; h < clusters_.capacity(); ++h) {
@@ -2189,6 +2201,7 @@ SyncResult Places::sync(scene_graph::SceneGraph* graph) {
         continue;
       }
       if (graph->num_edges() >= gc.edges) {
+        graph->count_refused_edge();
         refuse("edge");
         complete = false;
         continue;
@@ -2196,9 +2209,12 @@ SyncResult Places::sync(scene_graph::SceneGraph* graph) {
       scene_graph::EdgeAttributes info;
       info.weight = w;
       info.weighted = true;
-      if (graph->add_edge(c.node, o.node, info) == scene_graph::Status::kOk) ++r.edges_added;
-      else {
-        refuse("edge");
+      const scene_graph::Status st = graph->add_edge(c.node, o.node, info);
+      if (st == scene_graph::Status::kOk) {
+        ++r.edges_added;
+      } else {
+        if (st == scene_graph::Status::kFull) refuse("edge");  // the full store counted it itself
+        else log_graph_error("a place edge", st, ++counters_.graph_errors);
         complete = false;
       }
     }
@@ -2343,11 +2359,17 @@ void Places::resolve_relinks(scene_graph::SceneGraph* graph, SyncResult* r) {
         info.weighted = true;
         info.weight = std::min({static_cast<double>(l.weight_m), static_cast<double>(l.clearance_m),
                                 static_cast<double>(xc.clearance_m)});
-        if (graph->num_edges() >= graph->capacities().edges ||
-            graph->add_edge(l.inactive, xc.node, info) != scene_graph::Status::kOk) {
-          ++r->refused;
-          ++counters_.graph_refused;
-          r->status = scene_graph::Status::kFull;
+        const bool full = graph->num_edges() >= graph->capacities().edges;
+        const scene_graph::Status st = full ? scene_graph::Status::kFull : graph->add_edge(l.inactive, xc.node, info);
+        if (st != scene_graph::Status::kOk) {
+          if (st == scene_graph::Status::kFull) {
+            if (full) graph->count_refused_edge();  // else the store counted it itself
+            ++r->refused;
+            ++counters_.graph_refused;
+            r->status = scene_graph::Status::kFull;
+          } else {
+            log_graph_error("a relink edge", st, ++counters_.graph_errors);
+          }
           relinks_[kept++] = l;  // retried on the next sync
           continue;
         }
@@ -2435,11 +2457,17 @@ void Places::contract_around(scene_graph::SceneGraph* graph, scene_graph::NodeId
     scene_graph::EdgeAttributes info;
     info.weighted = true;
     info.weight = std::min(weight[i], weight[best]);
-    if (graph->num_edges() >= graph->capacities().edges ||
-        graph->add_edge(nbr[i], nbr[best], info) != scene_graph::Status::kOk) {
-      ++r->refused;
-      ++counters_.graph_refused;
-      r->status = scene_graph::Status::kFull;
+    const bool full = graph->num_edges() >= graph->capacities().edges;
+    const scene_graph::Status st = full ? scene_graph::Status::kFull : graph->add_edge(nbr[i], nbr[best], info);
+    if (st != scene_graph::Status::kOk) {
+      if (st == scene_graph::Status::kFull) {
+        if (full) graph->count_refused_edge();  // else the store counted it itself
+        ++r->refused;
+        ++counters_.graph_refused;
+        r->status = scene_graph::Status::kFull;
+      } else {
+        log_graph_error("a contraction edge", st, ++counters_.graph_errors);
+      }
       continue;
     }
     ++r->edges_added;

@@ -214,6 +214,8 @@ struct Counters {
   std::uint64_t clusters_refused = 0;  // cluster pool full: a GVD voxel stayed without a place
   std::uint64_t edges_refused = 0;     // a place had kMaxClusterEdges neighbours already
   std::uint64_t graph_refused = 0;     // sync(): the scene graph's place or edge store was full
+  std::uint64_t graph_errors = 0;      // sync(): the graph refused a request for another reason (a node not in it
+                                       // yet, or gone): not a full store; relinks retry on the next sync
   std::uint64_t reactivated = 0;       // places re-created in a cell an inactive node had left: the node is reused
   std::uint64_t revivals_refused = 0;  // ... not reused: not the same free space (Config::revive_in_same_free_space)
   std::uint64_t revisits_merged = 0;   // inactive places merged into a live one (Config::merge_revisited_within_m)

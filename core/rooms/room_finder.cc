@@ -1300,6 +1300,7 @@ bool RoomFinder::edge_fits(sg::SceneGraph* graph, sg::NodeId a, sg::NodeId b) {
 bool RoomFinder::add_edge(sg::SceneGraph* graph, sg::NodeId a, sg::NodeId b, UpdateResult* r) {
   // Checked here so a full graph is a counted refusal in every build (the stores' own policy may abort).
   if (!edge_fits(graph, a, b)) {
+    if (graph->node(a) != nullptr && graph->node(b) != nullptr) graph->count_refused_edge();  // the store's own name
     ++r->refused;
     return false;
   }
@@ -1382,6 +1383,8 @@ void RoomFinder::write_rooms(sg::SceneGraph* graph, std::size_t num_rooms, std::
     }
     if (graph->num_nodes(sg::NodeKind::kRoom) >= gc.room_nodes || graph->num_nodes() >= gc.nodes() ||
                graph->add_room(room_ids_[s], attrs) != sg::Status::kOk) {
+      if (graph->num_nodes(sg::NodeKind::kRoom) >= gc.room_nodes || graph->num_nodes() >= gc.nodes())
+        graph->count_refused_node(sg::NodeKind::kRoom);  // shown under the store's own name
       ++r->refused;
       room_ids_[s] = sg::kNoNode;
       continue;
@@ -1410,6 +1413,8 @@ void RoomFinder::write_rooms(sg::SceneGraph* graph, std::size_t num_rooms, std::
                graph->num_nodes() < gc.nodes() && graph->add_building(building_id_, b) == sg::Status::kOk) {
       have_building = true;
     } else {
+      if (graph->num_nodes(sg::NodeKind::kBuilding) >= gc.building_nodes || graph->num_nodes() >= gc.nodes())
+        graph->count_refused_node(sg::NodeKind::kBuilding);  // shown under the store's own name
       ++r->refused;
     }
   } else if (building_written_ && graph->building(building_id_) != nullptr) {

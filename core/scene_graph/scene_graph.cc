@@ -165,6 +165,25 @@ Status SceneGraph::add_agent(NodeId id, char prefix, const AgentAttributes& attr
   return add_node(id, NodeKind::kAgent, layer_of(NodeKind::kAgent, prefix), agents_, attributes);
 }
 
+void SceneGraph::count_refused_node(NodeKind kind, std::uint64_t n) {
+  const auto count = [&](auto& pool) {
+    if (!pool.full() && nodes_.full()) nodes_.count_refused(n);
+    else pool.count_refused(n);
+  };
+  switch (kind) {
+    case NodeKind::kObject: count(objects_); break;
+    case NodeKind::kAgent: count(agents_); break;
+    case NodeKind::kPlace: count(places_); break;
+    case NodeKind::kRoom: count(rooms_); break;
+    case NodeKind::kBuilding: count(buildings_); break;
+  }
+}
+
+void SceneGraph::count_refused_edge(std::uint64_t n) {
+  if (edges_.full()) edges_.count_refused(n);
+  else adjacency_.count_refused(n);  // the edge table has room; its ends' adjacency chunks do not
+}
+
 const NodeRecord* SceneGraph::node(NodeId id) const {
   const std::uint32_t* h = node_index_.find(id);
   return h == nullptr ? nullptr : &nodes_[*h];

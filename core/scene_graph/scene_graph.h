@@ -114,6 +114,12 @@ class SceneGraph {
     std::size_t refused = 0;
   };
   MergeResult merge_into(NodeId into, NodeId from);
+  // A node or edge a stage did not ask for because it saw the graph full (stages check for room first, so a full
+  // graph is a counted degradation in every build rather than an abort under QSG_OVERFLOW_ABORT): counted as a
+  // refusal of the store that is full (the node kind's pool, else the node table; the edge pool, else the adjacency
+  // chunks), so the stores' `refused` in telemetry and the exit report shows it under that store's own name.
+  void count_refused_node(NodeKind kind, std::uint64_t n = 1);
+  void count_refused_edge(std::uint64_t n = 1);
   // The rule add_edge() applies to two layers (also used to validate imports before touching the graph).
   static Status check_layers(const LayerKey& a, const LayerKey& b);
 

@@ -207,6 +207,68 @@ TEST(AppFaultInjection, StoreCapsReachTheGraph) {
   EXPECT_EQ(p.faults().odometry(), nullptr);
 }
 
+// A full place store shows under the store's own name: the places stage checks for room before asking (so the
+// test build, which aborts on overflow, counts rather than aborts), and counts the request on the store it found
+// full, so the stores line of the exit report and the telemetry line name it, not only the stage's counter.
+TEST(AppFaultInjection, AFullStoreShowsUnderItsOwnName) {
+  const std::string dir = temp_dir("full_places");
+  AppConfig config = small_config(dir);
+  config.fault_plan = write(dir + "/plan.json", R"({"stores": {"place_nodes": 12}})");
+  runtime::SteppedClock clock;
+  Pipeline p;
+  std::string error;
+  ASSERT_TRUE(p.init(config, &clock, &error)) << error;
+  for (int k = 0; k < 3000 && p.step(); ++k) {
+  }
+  EXPECT_EQ(p.graph().num_nodes(scene_graph::NodeKind::kPlace), 12u);
+  const std::vector<ReportGroup> report = collect_exit_report(p);
+  const double stage = value(report, "places", "graph_refused");
+  const double store = value(report, "stores", "scene_graph.places.refused");
+  EXPECT_GT(store, 0.0) << "the place store's own refusals";
+  EXPECT_LE(store, stage) << "the stage counts its refused edges too";
+  EXPECT_GE(value(report, "stores", "refused_total"), store);
+  EXPECT_EQ(value(report, "stores", "scene_graph.places.high_water"), 12.0);
+
+  char buffer[1 << 16] = {};
+  std::FILE* out = fmemopen(buffer, sizeof(buffer) - 1, "w");
+  ASSERT_NE(out, nullptr);
+  p.print_telemetry(out);
+  p.print_telemetry_stores(out, 1.0);
+  std::fclose(out);
+  const std::string printed(buffer);
+  const std::string named = "refused by store: scene_graph.places=" + std::to_string(static_cast<long long>(store));
+  EXPECT_NE(printed.find(named), std::string::npos) << printed;
+  EXPECT_NE(printed.find(" scene_graph.places=12/12/12/" + std::to_string(static_cast<long long>(store))),
+            std::string::npos)
+      << printed;
+}
+
+// Without a full store the telemetry line says so, and the stores line carries the memory figures the soak reads.
+TEST(AppFaultInjection, TelemetryNamesNoStoreOnAHealthyRun) {
+  const std::string dir = temp_dir("healthy");
+  AppConfig config = small_config(dir);
+  runtime::SteppedClock clock;
+  Pipeline p;
+  std::string error;
+  ASSERT_TRUE(p.init(config, &clock, &error)) << error;
+  for (int k = 0; k < 600 && p.step(); ++k) {
+  }
+  char buffer[1 << 16] = {};
+  std::FILE* out = fmemopen(buffer, sizeof(buffer) - 1, "w");
+  ASSERT_NE(out, nullptr);
+  p.print_telemetry(out);
+  p.print_telemetry_stores(out, 3.0);
+  std::fclose(out);
+  const std::string printed(buffer);
+  EXPECT_NE(printed.find("refused by store: none"), std::string::npos) << printed;
+  EXPECT_NE(printed.find("[t=    3.0s] stores rss_kb="), std::string::npos) << printed;
+  EXPECT_EQ(printed.find("rss_kb=0 "), std::string::npos) << "the resident set is read from /proc: " << printed;
+  EXPECT_NE(printed.find(" | arenas reconstruction="), std::string::npos) << printed;
+  EXPECT_NE(printed.find(" scene_graph.places="), std::string::npos) << printed;
+  EXPECT_NE(printed.find(" | counters camera.dropped=0 "), std::string::npos) << printed;
+  EXPECT_NE(printed.find(" | traffic pipeline.keyframes_integrated="), std::string::npos) << printed;
+}
+
 TEST(AppFaultInjection, SteadyStateTicksWithFaultsFiringDoNotAllocate) {
   const std::string dir = temp_dir("alloc");
   AppConfig config = small_config(dir);

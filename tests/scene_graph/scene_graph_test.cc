@@ -210,6 +210,26 @@ TEST(SceneGraphTest, FullStoreAbortsOrRefusesPerBuildPolicy) {
   }
 }
 
+// A stage that sees a store full before asking (so that a full graph is a counted degradation in every build)
+// counts the request on that store: its own `failed`, never an abort, whatever the build's overflow policy.
+TEST(SceneGraphTest, RefusalsCountedByACallerLandOnTheFullStore) {
+  Capacities c = testing::small_capacities();
+  c.place_nodes = 1;
+  auto g = make_graph(c);
+  ASSERT_EQ(g->add_place(make_node_id('p', 0), place_at(0, 0, 1.0)), Status::kOk);
+  g->count_refused_node(NodeKind::kPlace);
+  g->count_refused_node(NodeKind::kPlace, 2);
+  g->count_refused_edge();
+  std::map<std::string, std::uint64_t> failed;
+  g->for_each_resource([&](const memory::ResourceStats& s) { failed[s.name] = s.failed; });
+  EXPECT_EQ(failed["scene_graph.places"], 3u);
+  EXPECT_EQ(failed["scene_graph.nodes"], 0u);
+  // The edge table has room here, so the refusal is its ends' adjacency chunks'.
+  EXPECT_EQ(failed["scene_graph.adjacency_chunks"], 1u);
+  EXPECT_EQ(failed["scene_graph.edges"], 0u);
+  EXPECT_TRUE(g->has_node(make_node_id('p', 0)));
+}
+
 TEST(SceneGraphTest, SteadyStateUpdatesDoNotAllocate) {
   auto g = make_graph();
   // Warm-up is not needed: every store was carved at init().
