@@ -135,7 +135,8 @@ Registration ObjectRegistration::register_sets(const LabelledPoint* source, std:
   }
 
   // Truncated least squares on the clique by graduated non-convexity (Yang et al., RA-L 2020).
-  Eigen::Vector3d ps[kMaxCorrespondences], pd[kMaxCorrespondences];
+  Eigen::Vector3d* ps = clique_source_;
+  Eigen::Vector3d* pd = clique_target_;
   double w[kMaxCorrespondences] = {}, r2[kMaxCorrespondences] = {};
   const std::uint32_t m = best_size_;
   for (std::uint32_t k = 0; k < m; ++k) {

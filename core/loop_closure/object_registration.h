@@ -78,6 +78,9 @@ class ObjectRegistration {
   Eigen::Isometry3d align(const Eigen::Vector3d* src, const Eigen::Vector3d* dst, const double* w, std::size_t n) const;
 
   RegistrationConfig config_;
+  // The clique's points (source, target) for the estimate: members, not 12 KB of stack per registration.
+  Eigen::Vector3d clique_source_[kMaxCorrespondences];
+  Eigen::Vector3d clique_target_[kMaxCorrespondences];
   std::uint32_t src_[kMaxCorrespondences];
   std::uint32_t dst_[kMaxCorrespondences];
   Row adjacency_[kMaxCorrespondences];
