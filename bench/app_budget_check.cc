@@ -99,6 +99,10 @@ int main(int argc, char** argv) {
     else {
       std::printf("usage: app_budget_check [--duration S (120; 0 = whole tour)] [--rooms N] [--seed N] [--size WxH] "
                   "[--output DIR] [--json FILE] [--model ONNX | --no-segmentation] [--cost-clock wall|cpu]\n"
+                  "  The app's pipeline on the simulated robot, cadence in lockstep: each task's and thread's median /\n"
+                  "  p99 / max against the board's budget (exit 1 on a violation; CI runs it and reports) and the\n"
+                  "  end-to-end per-keyframe latency with the keyframe rate it sustains. --size 640x480 --duration 0 for\n"
+                  "  the whole tour. JSON: app_budget.*\n"
                   "  --cost-clock: tasks timed on the wall clock (default; includes time other processes took the\n"
                   "  core) or on the loop thread's CPU clock (what the task itself costs); threads always on CPU time\n");
       return a == "--help" ? 0 : 2;
