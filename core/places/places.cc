@@ -2352,6 +2352,10 @@ void Places::resolve_relinks(scene_graph::SceneGraph* graph, SyncResult* r) {
       ++counters_.relinks_apart;  // waits for another replacement, or is dropped as below
       x = kNoCluster;
     }
+    if (x != kNoCluster && clusters_[x].node == l.inactive) {
+      ++counters_.relinked;  // the place is its own replacement (it came back as the cluster): nothing to join
+      continue;
+    }
     if (x != kNoCluster) {
       const Cluster& xc = clusters_[x];
       if (graph->edge_info(l.inactive, xc.node) == nullptr) {
