@@ -135,6 +135,12 @@ void SegmentationWorker::segment_slot(std::size_t i) {
     }
   }
   state_[i].store(kLabelled, std::memory_order_release);
+  finished_.notify_all();
+}
+
+bool SegmentationWorker::wait_until_idle(std::chrono::milliseconds timeout) const {
+  std::unique_lock<std::mutex> lock(mutex_);
+  return finished_.wait_for(lock, timeout, [&] { return idle(); });
 }
 
 void SegmentationWorker::run_pending() {

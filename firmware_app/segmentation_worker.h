@@ -20,6 +20,7 @@
 
 #include <Eigen/Geometry>
 #include <atomic>
+#include <chrono>
 #include <condition_variable>
 #include <cstdint>
 #include <memory>
@@ -85,6 +86,8 @@ class SegmentationWorker {
   void release(const Slot* slot);
   // True when no frame is queued or in work (lockstep: always after run_pending()).
   bool idle() const;
+  // Blocks until idle() or the timeout (false then): for shutdown and tests, never on the loop.
+  bool wait_until_idle(std::chrono::milliseconds timeout) const;
 
   SegmentationWorkerCounters counters() const;
   // Per-frame cost of the worker: wall time and the thread's CPU time (the same TaskStats as the tick tasks).
@@ -120,6 +123,7 @@ class SegmentationWorker {
 
   mutable std::mutex mutex_;  // guards counters_, the stats and the wake-up
   std::condition_variable wake_;
+  mutable std::condition_variable finished_;  // a frame's run ended (wait_until_idle)
   SegmentationWorkerCounters counters_;
   runtime::TaskStats wall_;
   runtime::TaskStats cpu_;
