@@ -891,12 +891,36 @@ bool Pipeline::finish(std::string* error) {
   reconstruction::Mesh mesh;
   tsdf_.extract_full_mesh(&mesh);
   reconstruction::clean_mesh(&mesh).print(stdout);
+  // The persistent scene graph first: the last loop closures, the final solve and every layer corrected and
+  // reconciled, so that the final doors, rooms and labels are found on the corrected map.
+  reconstruction::Mesh odometric;  // the mesh as mapped, when a correction moves the written one
+  scene_graph::ObjectMeshIndices indices;
+  {
+    std::unique_lock<std::mutex> lock(graph_mutex_);
+    if (backend_.loop_closure_enabled()) {
+      extract_captured_frames();
+      backend_.detect_loop_closures(graph_, frontend_.agents(), latest_keyframe_ns_);
+    }
+    correct_outputs(&mesh, &odometric);
+    std::size_t unmatched = 0;
+    indices = object_mesh_indices(frontend_.objects(), tsdf_, odometric.vertices.empty() ? mesh : odometric, &unmatched);
+    if (unmatched != 0) std::printf("objects: %zu kept mesh-vertex keys have no vertex in the written mesh\n", unmatched);
+    if (backend_.solved()) {
+      const backend::BackendStage::Reconciliation r = backend_.reconcile(mesh, &indices, &graph_);
+      counters_.places_merged_after_correction = r.places_merged;
+      counters_.objects_merged_after_correction = r.objects_merged;
+      std::printf("reconciliation: %zu objects re-boxed from the corrected mesh, %zu merged; %zu places merged "
+                  "(%zu edges refused)\n",
+                  r.objects_from_mesh, r.objects_merged, r.places_merged, r.edges_refused);
+    }
+  }
   if (config_.doors_at_finish) close_doors(mesh);
-  run_backend_update(BackendUpdate{latest_keyframe_ns_, 0, robot_m_}, false);
+  {
+    std::lock_guard<std::mutex> lock(graph_mutex_);
+    backend_.update_rooms(&graph_, latest_keyframe_ns_);
+  }
   copy_backend_counters();
   std::lock_guard<std::mutex> lock(graph_mutex_);
-  reconstruction::Mesh odometric;  // the mesh as mapped, when a correction moves the written one
-  correct_outputs(&mesh, &odometric);
   const std::string dir = config_.output_dir;
   // Every output is attempted whatever became of the others (the picture last: it is the least of them); each
   // replaces its file atomically, so a failure or a kill leaves the previous file or none, never half of one.
@@ -906,8 +930,7 @@ bool Pipeline::finish(std::string* error) {
   };
   std::string why;
   bool viewer = false;  // scene_graph.json and, where three.js is installed, scene_graph.html
-  write_final_graph(graph_, frontend_.objects(), tsdf_, mesh, odometric.vertices.empty() ? mesh : odometric, dir,
-                    &failures, &viewer);
+  write_final_graph(graph_, indices, mesh, dir, &failures, &viewer);
   const std::string mesh_path = dir + "/mesh.ply", mesh_tmp = temporary_path_for(mesh_path);
   why.clear();
   const bool mesh_ok = reconstruction::write_ply(mesh_tmp, mesh, &why) && commit_file_atomically(mesh_tmp, mesh_path, &why);

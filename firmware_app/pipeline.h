@@ -99,6 +99,8 @@ struct PipelineCounters {
   std::uint64_t loop_closures_dropped = 0; // beyond the "loop_closures" capacity (counted, not optimized)
   std::uint64_t agent_frames_dropped = 0;  // agents to describe whose keyframe found no free slot (no appearance)
   std::uint64_t loop_closures_by_appearance = 0;
+  std::uint64_t places_merged_after_correction = 0;   // reconciliation at the finish (BackendStage::reconcile)
+  std::uint64_t objects_merged_after_correction = 0;
   std::uint64_t graph_optimizations = 0;
   std::uint64_t graph_optimization_failures = 0;
   std::uint64_t graph_optimization_max_us = 0;  // the longest solve (backend thread; wall time)
@@ -130,6 +132,7 @@ class Pipeline {
   const reconstruction::SemanticTsdf& reconstruction() const { return tsdf_; }
   const frontend::Frontend& frontend() const { return frontend_; }
   const scene_graph::SceneGraph& graph() const { return graph_; }
+  const world::World& world() const { return world_; }  // sim: the world explored (empty for other drivers)
   const runtime::KeyframeSelector& keyframe_selector() const { return keyframes_; }
   // The GPIO chip (the simulated one unless the config names a libgpiod chip), for tests and telemetry.
   gpio::GpioChip* gpio_chip() { return gpio_chip_.get(); }

@@ -3,6 +3,8 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
+#include <limits>
 
 #include "budgets/budget_table.h"
 
@@ -40,6 +42,7 @@ std::string LoopClosureConfig::check() const {
   if (!(solve_interval_s >= 0.0 && solve_interval_s <= 3600.0)) return "solve_interval_s must be in [0, 3600] s";
   if (const std::string d = descriptor.check(); !d.empty()) return d;
   if (const std::string d = detector.check(); !d.empty()) return d;
+  if (!(merge_places_within_m >= 0.0 && merge_places_within_m <= 5.0)) return "merge_places_within_m must be in [0, 5] m";
   return deformation.check();
 }
 
@@ -393,6 +396,143 @@ void BackendStage::correct_mesh(reconstruction::Mesh* mesh) const {
     v.y = static_cast<float>(p.y());
     v.z = static_cast<float>(p.z());
   }
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// Reconciliation
+
+namespace {
+
+// The box and centre of a set of mesh vertices; false when there is none.
+bool box_of(const reconstruction::Mesh& mesh, const std::vector<std::uint32_t>& indices, Eigen::Vector3d* centre,
+            Eigen::Vector3d* lo, Eigen::Vector3d* hi) {
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  std::size_t n = 0;
+  *lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
+  *hi = -*lo;
+  for (std::uint32_t i : indices) {
+    if (i >= mesh.vertices.size()) continue;
+    const reconstruction::MeshVertex& v = mesh.vertices[i];
+    const Eigen::Vector3d p(v.x, v.y, v.z);
+    if (!p.allFinite()) continue;
+    sum += p;
+    *lo = lo->cwiseMin(p);
+    *hi = hi->cwiseMax(p);
+    ++n;
+  }
+  if (n == 0) return false;
+  *centre = sum / static_cast<double>(n);
+  return true;
+}
+
+std::uint64_t cell_key(const Eigen::Vector3d& p, double cell_m) {
+  const auto c = [&](double v) { return static_cast<std::uint64_t>(static_cast<std::int64_t>(std::floor(v / cell_m)) & 0x1FFFFF); };
+  return c(p.x()) | (c(p.y()) << 21) | (c(p.z()) << 42);
+}
+
+}  // namespace
+
+BackendStage::Reconciliation BackendStage::reconcile(
+    const reconstruction::Mesh& mesh, std::unordered_map<scene_graph::NodeId, std::vector<std::uint32_t>>* indices,
+    scene_graph::SceneGraph* graph) const {
+  Reconciliation out;
+  const LoopClosureConfig& c = config_.loop_closure;
+  // Objects: centre and box from their vertices in the corrected mesh.
+  std::vector<scene_graph::NodeId> objects;
+  graph->for_each_node([&](const scene_graph::NodeRecord& n) {
+    if (n.kind == scene_graph::NodeKind::kObject) objects.push_back(n.id);
+  });
+  for (scene_graph::NodeId id : objects) {
+    const auto it = indices->find(id);
+    Eigen::Vector3d centre, lo, hi;
+    if (it == indices->end() || !box_of(mesh, it->second, &centre, &lo, &hi)) continue;
+    scene_graph::ObjectAttributes* o = graph->object(id);
+    o->position_m = centre;
+    o->bounding_box = scene_graph::BoundingBox::aabb(lo, hi);
+    ++out.objects_from_mesh;
+  }
+  // Objects of one label, either's centre in the other's box: the smaller (fewer vertices) merges into the larger.
+  if (c.merge_objects) {
+    std::vector<bool> gone(objects.size(), false);
+    const auto size_of = [&](scene_graph::NodeId id) {
+      const auto it = indices->find(id);
+      return it == indices->end() ? std::size_t{0} : it->second.size();
+    };
+    for (std::size_t a = 0; a < objects.size(); ++a) {
+      for (std::size_t b = a + 1; b < objects.size() && !gone[a]; ++b) {
+        if (gone[b]) continue;
+        scene_graph::ObjectAttributes* oa = graph->object(objects[a]);
+        scene_graph::ObjectAttributes* ob = graph->object(objects[b]);
+        if (oa->semantic_label != ob->semantic_label) continue;
+        if (!oa->bounding_box.contains(ob->position_m) && !ob->bounding_box.contains(oa->position_m)) continue;
+        const bool keep_a = size_of(objects[a]) >= size_of(objects[b]);
+        const scene_graph::NodeId into = keep_a ? objects[a] : objects[b], from = keep_a ? objects[b] : objects[a];
+        scene_graph::ObjectAttributes* keep = graph->object(into);
+        const scene_graph::ObjectAttributes* drop = graph->object(from);
+        Eigen::Vector3d lo = keep->bounding_box.min_m.cwiseMin(drop->bounding_box.min_m);
+        Eigen::Vector3d hi = keep->bounding_box.max_m.cwiseMax(drop->bounding_box.max_m);
+        std::vector<std::uint32_t>& joined = (*indices)[into];
+        if (const auto it = indices->find(from); it != indices->end()) {
+          joined.insert(joined.end(), it->second.begin(), it->second.end());
+          std::sort(joined.begin(), joined.end());
+          joined.erase(std::unique(joined.begin(), joined.end()), joined.end());
+          indices->erase(from);
+        }
+        Eigen::Vector3d centre = 0.5 * (keep->position_m + drop->position_m);
+        Eigen::Vector3d vlo, vhi;
+        if (box_of(mesh, (*indices)[into], &centre, &vlo, &vhi)) lo = vlo, hi = vhi;
+        keep->position_m = centre;
+        keep->bounding_box = scene_graph::BoundingBox::aabb(lo, hi);
+        const scene_graph::SceneGraph::MergeResult m = graph->merge_into(into, from);
+        if (m.status != scene_graph::Status::kOk) continue;
+        out.edges_refused += m.refused;
+        ++out.objects_merged;
+        gone[keep_a ? b : a] = true;
+      }
+    }
+  }
+  // Places: a revisit mapped a second place where the correction now puts the first; the older one stays.
+  if (c.merge_places_within_m > 0.0) {
+    const double d = c.merge_places_within_m;
+    std::unordered_map<std::uint64_t, std::vector<scene_graph::NodeId>> cells;
+    std::vector<scene_graph::NodeId> places;
+    graph->for_each_node([&](const scene_graph::NodeRecord& n) {
+      if (n.kind == scene_graph::NodeKind::kPlace) places.push_back(n.id);
+    });
+    std::sort(places.begin(), places.end());
+    for (scene_graph::NodeId id : places) {
+      const scene_graph::PlaceAttributes* p = graph->place(id);
+      const Eigen::Vector3d at = p->position_m;
+      scene_graph::NodeId into = scene_graph::kNoNode;
+      for (int dx = -1; dx <= 1 && into == scene_graph::kNoNode; ++dx)
+        for (int dy = -1; dy <= 1 && into == scene_graph::kNoNode; ++dy)
+          for (int dz = -1; dz <= 1 && into == scene_graph::kNoNode; ++dz) {
+            const auto it = cells.find(cell_key(at + d * Eigen::Vector3d(dx, dy, dz), d));
+            if (it == cells.end()) continue;
+            for (scene_graph::NodeId other : it->second) {
+              const scene_graph::PlaceAttributes* q = graph->place(other);
+              const double gap = (q->position_m - at).norm();
+              // Within the distance, and each inside the other's free space (the same space, not across a wall).
+              if (gap <= d && gap < std::min(p->distance_m, q->distance_m)) {
+                into = other;
+                break;
+              }
+            }
+          }
+      if (into == scene_graph::kNoNode) {
+        cells[cell_key(at, d)].push_back(id);
+        continue;
+      }
+      const scene_graph::SceneGraph::MergeResult m = graph->merge_into(into, id);
+      if (m.status != scene_graph::Status::kOk) {
+        cells[cell_key(at, d)].push_back(id);
+        continue;
+      }
+      out.edges_refused += m.refused;
+      ++out.places_merged;
+    }
+  }
+  return out;
 }
 
 }  // namespace qsg::backend

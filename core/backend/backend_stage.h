@@ -12,6 +12,7 @@
 #include <cstdio>
 #include <memory>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 #include "core/agents/agent_layer.h"
@@ -40,6 +41,11 @@ struct LoopClosureConfig {
   loop_closure::DescriptorConfig descriptor;
   loop_closure::DetectorConfig detector;
   DeformationConfig deformation;
+  // Reconciliation after the correction (paper: merging revisited places and objects). Places closer than this
+  // whose free-space spheres hold each other merge (0: none); objects of one label merge when either's centre lies
+  // in the other's box.
+  double merge_places_within_m = 0.4;
+  bool merge_objects = true;
   std::string check() const;
 };
 
@@ -140,8 +146,19 @@ class BackendStage {
   // Graph lock held: agents and places to their optimized poses, objects, rooms and the building moved by the
   // deformation around them (nothing when no solve has succeeded).
   void correct_graph(const agents::AgentLayer& agents, scene_graph::SceneGraph* graph) const;
-  // The mesh and a polyline (the trajectory) moved by the deformation.
+  // The mesh moved by the deformation (embedded deformation: each vertex by its nearest nodes).
   void correct_mesh(reconstruction::Mesh* mesh) const;
+  // After correct_graph and correct_mesh (graph lock held; off the real-time path: it allocates): the paper's
+  // reconciliation. Each object's centre and box from its mesh vertices in the corrected mesh (indices: the
+  // object's vertices in it; an object without any keeps its moved box); revisited places within
+  // merge_places_within_m merged; objects of one label merged when either's centre lies in the other's box (their
+  // vertices joined in *indices). Rooms and labels are the caller's next update_rooms().
+  struct Reconciliation {
+    std::size_t objects_from_mesh = 0, objects_merged = 0, places_merged = 0, edges_refused = 0;
+  };
+  Reconciliation reconcile(const reconstruction::Mesh& corrected_mesh,
+                           std::unordered_map<scene_graph::NodeId, std::vector<std::uint32_t>>* indices,
+                           scene_graph::SceneGraph* graph) const;
   Eigen::Vector3d deform(const Eigen::Vector3d& p_m) const { return deformation_.deform(p_m); }
   bool solved() const { return deformation_.solved(); }
   // world_T_camera of chain node k after the latest optimization (nodes after the solved chain follow the
