@@ -45,6 +45,7 @@ ReportGroup pipeline_group(const PipelineCounters& c) {
   g.add("agent_sparsified", U(c.agent_sparsified));
   g.add("snapshots_written", U(c.snapshots_written));
   g.add("snapshot_failures", U(c.snapshot_failures));
+  g.add("snapshots_deferred", U(c.snapshots_deferred));
   g.add("gpio_failures", U(c.gpio_failures));
   g.add("backend_updates", U(c.backend_updates));
   g.add("rooms", U(c.rooms));

@@ -537,11 +537,13 @@ bool Pipeline::step() {
   copy_backend_counters();
   if (tick_start >= next_snapshot_ns_) {
     std::string error;
-    if (!write_snapshot(&error)) {
+    bool deferred = false;
+    if (!write_snapshot(&error, &deferred)) {
       ++counters_.snapshot_failures;
       std::fprintf(stderr, "qsg_app: snapshot failed (%s); the run goes on\n", error.c_str());
     }
-    next_snapshot_ns_ += static_cast<std::int64_t>(config_.snapshot_interval_s * 1e9);
+    if (deferred) ++counters_.snapshots_deferred;  // tried again next tick
+    else next_snapshot_ns_ += static_cast<std::int64_t>(config_.snapshot_interval_s * 1e9);
   }
   clock_->sleep_until_ns(tick_start + scheduler_.tick_period_ns());
   return true;
@@ -819,12 +821,24 @@ std::string Pipeline::nothing_mapped_reason() const {
   return text;
 }
 
-bool Pipeline::write_snapshot(std::string* error) {
+bool Pipeline::write_snapshot(std::string* error, bool* deferred) {
+  // With loop closure, the snapshot shows the graph as the latest solve corrects it (the graph itself stays in the
+  // odometry frame the frontend maps in). While the backend thread is solving, the snapshot waits for a later tick.
+  std::unique_lock<std::mutex> solving(deformation_mutex_, std::try_to_lock);
+  if (!solving.owns_lock()) {
+    if (deferred != nullptr) *deferred = true;
+    return true;
+  }
+  scene_graph::JsonExportOptions options = snapshot_graph_options();
+  if (backend_.solved())
+    options.correct_position = [this](scene_graph::NodeId id, scene_graph::NodeKind kind, const Eigen::Vector3d& p,
+                                      std::uint64_t t) { return backend_.corrected_position(id, kind, p, t); };
   std::string text;
   {
     std::lock_guard<std::mutex> lock(graph_mutex_);
-    text = scene_graph::write_spark_dsg_json(graph_, snapshot_graph_options());
+    text = scene_graph::write_spark_dsg_json(graph_, options);
   }
+  solving.unlock();
   const bool ok = write_file_atomically(config_.output_dir + "/scene_graph_snapshot.json", text, error);
   if (ok) ++counters_.snapshots_written;
   text = std::string();

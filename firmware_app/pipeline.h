@@ -60,6 +60,7 @@ struct PipelineCounters {
   std::uint64_t agent_sparsified = 0;     // keyframes folded into the next agent node's edge (agents::Config)
   std::uint64_t snapshots_written = 0;
   std::uint64_t snapshot_failures = 0;
+  std::uint64_t snapshots_deferred = 0;  // ticks a snapshot waited for a running deformation solve
   std::uint64_t heartbeat_toggles = 0;
   std::uint64_t gpio_failures = 0;        // heartbeat, trigger or pause line calls that failed (counted, run goes on)
   std::uint64_t triggers = 0;
@@ -196,7 +197,9 @@ class Pipeline {
   // AppConfig::telemetry_stores' line: "[t=...s] stores rss_kb=... hwm_kb=... minflt=... majflt=... | <store>=
   // in_use/high_water/capacity/refused ... | counters <group>.<key>=... ..." (exit-report names). Allocation-free.
   void print_telemetry_stores(std::FILE* out, double t_s);
-  bool write_snapshot(std::string* error);
+  // The graph to scene_graph_snapshot.json (atomically), as the latest loop-closure solve corrects it. *deferred:
+  // a solve was running, nothing written (the caller tries again).
+  bool write_snapshot(std::string* error, bool* deferred = nullptr);
 
  private:
   static void camera_poll_task(void* self, const runtime::TaskContext& c);
@@ -272,6 +275,7 @@ class Pipeline {
   // closure under graph_mutex_ (the door detection and the deformation solve without it).
   backend::BackendStage backend_;
   std::mutex wall_mutex_;
+  std::mutex deformation_mutex_;  // the backend thread's deformation solve against a snapshot reading its solution
   void paint_walls();
   void run_door_pass(const Eigen::Vector3d& robot_m);
   // Loop closure: keyframes of agents to be described (one per describe_every_m of path) are copied by the loop

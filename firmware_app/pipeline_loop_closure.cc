@@ -88,6 +88,7 @@ void Pipeline::run_loop_closure(std::uint64_t time_ns, std::unique_lock<std::mut
   if (!backend_.solve_due(time_ns)) return;
   backend::DeformationProblem problem = build_deformation();
   graph_lock->unlock();
+  std::lock_guard<std::mutex> solving(deformation_mutex_);  // a snapshot reads the solution meanwhile: it waits
   const auto start = std::chrono::steady_clock::now();
   std::string why;
   if (!backend_.solve_deformation(std::move(problem), &why))

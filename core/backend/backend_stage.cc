@@ -387,6 +387,14 @@ void BackendStage::correct_graph(const agents::AgentLayer& agents, scene_graph::
   });
 }
 
+Eigen::Vector3d BackendStage::corrected_position(scene_graph::NodeId id, scene_graph::NodeKind kind,
+                                                 const Eigen::Vector3d& p_m, std::uint64_t time_ns) const {
+  if (!deformation_.solved()) return p_m;
+  Eigen::Vector3d moved;
+  if (kind == scene_graph::NodeKind::kPlace && deformation_.place_position(id, &moved)) return moved;
+  return deformation_.deform(p_m, time_ns);
+}
+
 // Vertices carry no time, so each moves with its nearest nodes of any time.
 void BackendStage::correct_mesh(reconstruction::Mesh* mesh) const {
   if (!deformation_.solved()) return;

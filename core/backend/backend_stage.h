@@ -160,6 +160,10 @@ class BackendStage {
                            std::unordered_map<scene_graph::NodeId, std::vector<std::uint32_t>>* indices,
                            scene_graph::SceneGraph* graph) const;
   Eigen::Vector3d deform(const Eigen::Vector3d& p_m) const { return deformation_.deform(p_m); }
+  // Where the latest solve puts a node mapped at p_m (seen last at time_ns): a place of the solved graph at its
+  // optimized position, any other node moved by the deformation around it; p_m before any solve.
+  Eigen::Vector3d corrected_position(scene_graph::NodeId id, scene_graph::NodeKind kind, const Eigen::Vector3d& p_m,
+                                     std::uint64_t time_ns) const;
   bool solved() const { return deformation_.solved(); }
   // world_T_camera of chain node k after the latest optimization (nodes after the solved chain follow the
   // correction of the last solved one); the odometric pose before any.

@@ -16,6 +16,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <string>
 #include <unordered_map>
@@ -84,6 +85,10 @@ struct JsonExportOptions {
   const ObjectMeshIndices* object_mesh_indices = nullptr;
   bool write_stored_mesh_connections = true;
   const EmbeddedMesh* mesh = nullptr;  // written as the file's "mesh" when set
+  // When set, each node is written at correct_position(id, kind, position, last_update_time_ns) instead of its
+  // stored position, its box moved with it: a snapshot of a graph mapped in the odometry frame, written as the
+  // latest loop-closure correction puts it (the graph itself is not changed).
+  std::function<Eigen::Vector3d(NodeId, NodeKind, const Eigen::Vector3d&, std::uint64_t)> correct_position = nullptr;
 };
 
 // Spark-DSG 1.1.3 layout (see the top of this file).

@@ -201,6 +201,22 @@ std::string write_spark_dsg_json(const SceneGraph& graph, const JsonExportOption
       }
       case NodeKind::kAgent: node["attributes"] = agent_attributes(*graph.agent(n.id)); break;
     }
+    if (options.correct_position) {
+      json& a = node["attributes"];
+      const json& at = a["position"];
+      const Eigen::Vector3d p(at[0].get<double>(), at[1].get<double>(), at[2].get<double>());
+      const Eigen::Vector3d q = options.correct_position(n.id, n.kind, p, a["last_update_time_ns"].get<std::uint64_t>());
+      a["position"] = vec3(q);
+      if (a.contains("bounding_box")) {
+        json& b = a["bounding_box"];
+        const Eigen::Vector3d shift = q - p;
+        for (const char* key : {"world_P_center", "min", "max"}) {
+          if (!b.contains(key)) continue;
+          const json& v = b[key];
+          b[key] = vec3(Eigen::Vector3d(v[0].get<double>(), v[1].get<double>(), v[2].get<double>()) + shift);
+        }
+      }
+    }
     nodes.push_back(std::move(node));
   }
   std::vector<const EdgeRecord*> edge_records;

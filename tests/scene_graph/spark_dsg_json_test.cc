@@ -179,6 +179,40 @@ TEST(SparkDsgJsonTest, BuiltGraphRoundTrips) {
   EXPECT_EQ(back->parent(make_node_id('R', 0)), make_node_id('B', 0));
 }
 
+// A snapshot written as a loop-closure correction puts the graph: positions through the callback, boxes moved with
+// their node, the graph itself unchanged.
+TEST(SparkDsgJsonTest, CorrectedPositionsMoveNodesAndTheirBoxes) {
+  auto g = testing::make_graph();
+  build_sample(*g);
+  const std::string plain = write_spark_dsg_json(*g);
+  JsonExportOptions options;
+  std::size_t calls = 0;
+  options.correct_position = [&](NodeId, NodeKind kind, const Eigen::Vector3d& p, std::uint64_t) {
+    ++calls;
+    return kind == NodeKind::kAgent ? p : Eigen::Vector3d(p + Eigen::Vector3d(1.0, -2.0, 0.5));
+  };
+  const nlohmann::json before = nlohmann::json::parse(plain), after = nlohmann::json::parse(write_spark_dsg_json(*g, options));
+  EXPECT_EQ(calls, g->num_nodes());
+  ASSERT_EQ(before["nodes"].size(), after["nodes"].size());
+  std::size_t boxes = 0;
+  for (std::size_t i = 0; i < before["nodes"].size(); ++i) {
+    const nlohmann::json& a = before["nodes"][i]["attributes"];
+    const nlohmann::json& b = after["nodes"][i]["attributes"];
+    const bool agent = a.value("type", "") == "AgentNodeAttributes";
+    const double dx = agent ? 0.0 : 1.0;
+    EXPECT_NEAR(b["position"][0].get<double>() - a["position"][0].get<double>(), dx, 1e-9);
+    EXPECT_NEAR(b["position"][1].get<double>() - a["position"][1].get<double>(), agent ? 0.0 : -2.0, 1e-9);
+    if (!a.contains("bounding_box") || !a["bounding_box"].contains("min")) continue;
+    ++boxes;
+    EXPECT_NEAR(b["bounding_box"]["min"][0].get<double>() - a["bounding_box"]["min"][0].get<double>(), dx, 1e-9);
+    EXPECT_NEAR(b["bounding_box"]["max"][2].get<double>() - a["bounding_box"]["max"][2].get<double>(), 0.5, 1e-9);
+    EXPECT_NEAR(b["bounding_box"]["world_P_center"][1].get<double>() -
+                    a["bounding_box"]["world_P_center"][1].get<double>(), -2.0, 1e-9);
+  }
+  EXPECT_GT(boxes, 0u) << "the sample graph has boxed nodes";
+  EXPECT_EQ(write_spark_dsg_json(*g), plain) << "the graph itself is unchanged";
+}
+
 class MalformedJsonTest : public ::testing::Test {
  protected:
   void SetUp() override {
