@@ -371,10 +371,24 @@ bool Pipeline::init_backend(std::string* error) {
   // A missing or corrupt weight file is reported and the rooms keep the label "unknown": the run goes on.
   neural_tree::RoomClassifier::Config cc;
   if (!config_.room_weights_path.empty()) cc.weights_path = config_.room_weights_path;
+  // The labels the objects can carry, so that the classifier uses the head trained for them
+  // (RoomClassifier::Config::perceived_labels): the segmentation network's map when it is the only source of labels
+  // (init_segmentation has validated it), else every mpcat40 label (ground-truth labels).
+  if (!config_.segmentation.model_path.empty() && !config_.ground_truth_labels) {
+    segmentation::LabelMap map;
+    std::string map_error;
+    if (map.load(config_.segmentation.label_map_path, &map_error))
+      for (int k = 0; k < map.num_classes(); ++k) cc.perceived_labels.push_back(map.label(k));
+  } else {
+    for (semantics::Label l = 0; l < semantics::kNumObjectLabels; ++l) cc.perceived_labels.push_back(l);
+  }
   classifier_ = std::make_unique<neural_tree::RoomClassifier>(cc);
   std::string why;
   if (!classifier_->init(&why))
     std::fprintf(stderr, "qsg_app: room labels off: %s (rooms stay \"unknown\")\n", why.c_str());
+  else
+    std::printf("room labels: LR head %s\n",
+                classifier_->view().empty() ? "the file's (no view head for these labels)" : classifier_->view().c_str());
   // The classifier's input holds every room, object and building node the graph can (room-room edges at most one
   // per pair of rooms), so labelling never grows it.
   const scene_graph::Capacities& gc = graph_.capacities();
