@@ -254,13 +254,12 @@ bool parse_weights(const json& doc, NeuralTreeWeights* w, std::string* error) {
   int version = 0;
   if (!read_int(*header, "version", "header.version", 0, 1 << 30, &version, error)) return false;
   if (version != NeuralTreeWeights::kFormatVersion) {
-    // Version 1 held the neural tree alone, version 2 an LR head without furniture footprints: either would give
-    // other labels than the ones the CV measured.
+    // Version 1 held the neural tree alone, version 2 an LR head without furniture footprints, version 3 no view
+    // heads: each would give other labels than the ones the CV and labels_eval measured.
     *error = "header.version: " + std::to_string(version) + " unsupported (this build reads version " +
              std::to_string(NeuralTreeWeights::kFormatVersion) +
              ", the neural tree with its logistic-regression head on counts, box and footprints and the view heads; "
-             "write it with "
-             "bench/neural_tree/train_neural_tree.py train)";
+             "write it with bench/neural_tree/train_neural_tree.py train)";
     return false;
   }
   int num_layers = 0, num_types = 0;

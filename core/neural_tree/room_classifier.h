@@ -147,7 +147,8 @@ class RoomClassifier {
     // the neural tree (as a zero word vector) nor count towards the room's objects, min_objects or the LR head's
     // coverage, so unfamiliar labels cannot outvote the familiar ones. Off: they enter with a zero word vector.
     bool drop_unread_objects = true;
-    // The LR head's weight in the blend; negative: the weights file's (lr_head.blend.lr_weight).
+    // The weight in the blend of the LR head in use (the file's or the view head perceived_labels chose); negative:
+    // that head's own from the weights file (its blend.lr_weight).
     double lr_weight = -1.0;
     // A room with no object the classifier reads is labelled by the LR head alone (its box; the neural tree has
     // never seen an empty room), min_objects not applied, min_probability still. Off: such a room stays
