@@ -613,7 +613,7 @@ void AppConfig::print(std::FILE* out) const {
                doors.sight_furniture_max_m, doors.sight_furniture_min_width_m,
                doors.sight_cut_edges ? ", place edges through them closed" : "");
   std::fprintf(out, "room_labels: weights_path=%s\n",
-               room_weights_path.empty() ? "(built-in: core/neural_tree/weights/room_classifier_v3.json)"
+               room_weights_path.empty() ? "(built-in: core/neural_tree/weights/room_classifier_v4.json)"
                                          : room_weights_path.c_str());
   std::fprintf(out, "gpio: chip=%s heartbeat_line=%d trigger_line=%d pause_line=%d trigger_width_s=%.4f pause_debounce_s=%.3f\n",
                gpio.chip.c_str(), gpio.heartbeat_line, gpio.trigger_line, gpio.pause_line, gpio.trigger_width_s,

@@ -97,7 +97,7 @@ struct AppConfig {
   } segmentation;
 
   // Room labels (the neural tree). Empty: the weights in the source tree (core/neural_tree/weights); an installed
-  // app uses share/qsg/room_classifier_v3.json. Missing or corrupt weights: rooms stay "unknown", the run goes on.
+  // app uses share/qsg/room_classifier_v4.json. Missing or corrupt weights: rooms stay "unknown", the run goes on.
   std::string room_weights_path;
 
   // GPIO: "sim" (an in-memory chip) or a libgpiod chip ("gpiochip0", "/dev/gpiochip0", a label). Lines by

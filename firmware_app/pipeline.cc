@@ -372,12 +372,27 @@ bool Pipeline::init_backend(std::string* error) {
   bc.doors_online_every_n = config_.doors_online_every_n;
   bc.room_weights_path = config_.room_weights_path;
   bc.loop_closure = config_.loop_closure;
+  // The labels the objects can carry, so that the classifier uses the head trained for them
+  // (RoomClassifier::Config::perceived_labels): the segmentation network's map when it is the only source of labels
+  // (init_segmentation has validated it), else every mpcat40 label (ground-truth labels).
+  if (!config_.segmentation.model_path.empty() && !config_.ground_truth_labels) {
+    segmentation::LabelMap map;
+    std::string map_error;
+    if (map.load(config_.segmentation.label_map_path, &map_error))
+      for (int k = 0; k < map.num_classes(); ++k) bc.perceived_labels.push_back(map.label(k));
+  } else {
+    for (semantics::Label l = 0; l < semantics::kNumObjectLabels; ++l) bc.perceived_labels.push_back(l);
+  }
   // The keyframes handed to the loop-closure stage are the app's, in the same arena.
   const std::size_t frame_bytes = lc_frames_.size() * messages::kMaxFramePixels * (1 + sizeof(float));
   std::string warning;
   if (!backend_.init(bc, graph_.capacities(), tsdf_.block_slots(), frame_bytes, error, &warning)) return false;
   // A missing or corrupt weight file is reported and the rooms keep the label "unknown": the run goes on.
   if (!warning.empty()) std::fprintf(stderr, "qsg_app: %s\n", warning.c_str());
+  else
+    std::printf("room labels: LR head %s\n", backend_.classifier_view().empty()
+                                                  ? "the file's (no view head for these labels)"
+                                                  : backend_.classifier_view().c_str());
   if (!config_.lockstep) backend_thread_ = std::thread([this] { backend_worker(); });
   return true;
 }

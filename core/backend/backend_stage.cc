@@ -54,6 +54,7 @@ bool BackendStage::init(const Config& config, const scene_graph::Capacities& gc,
     return false;
   neural_tree::RoomClassifier::Config cc;
   if (!config_.room_weights_path.empty()) cc.weights_path = config_.room_weights_path;
+  cc.perceived_labels = config_.perceived_labels;
   classifier_ = std::make_unique<neural_tree::RoomClassifier>(cc);
   std::string why;
   if (!classifier_->init(&why) && warning != nullptr) *warning = "room labels off: " + why + " (rooms stay \"unknown\")";

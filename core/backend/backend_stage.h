@@ -57,6 +57,9 @@ class BackendStage {
     bool doors_online = true;                // an online door pass every doors_online_every_n-th update
     std::uint32_t doors_online_every_n = 4;
     std::string room_weights_path;           // empty: the classifier's default weights
+    // The object labels the app can perceive (RoomClassifier::Config::perceived_labels): the classifier then uses
+    // the head trained on rooms as that perception shows them. Empty: the file's own head.
+    std::vector<semantics::Label> perceived_labels;
     LoopClosureConfig loop_closure;
   };
 
@@ -201,6 +204,8 @@ class BackendStage {
   const rooms::OnlineDoors& online_doors() const { return online_doors_; }
   const rooms::RoomFinder& room_finder() const { return rooms_; }
   const std::string& classifier_error() const { return classifier_error_; }
+  // The classifier's view head in use (empty: the file's own head, or no classifier).
+  std::string classifier_view() const { return classifier_ != nullptr ? classifier_->view() : std::string(); }
 
  private:
   bool init_loop_closure(std::size_t frame_bytes, std::string* error);

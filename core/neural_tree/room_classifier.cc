@@ -134,32 +134,35 @@ bool read_names(const json& list, const std::string& field, const std::vector<st
   return true;
 }
 
-// The LR head (version 3): its feature definition must be exactly the one this build computes.
-bool parse_lr_head(const json& doc, NeuralTreeWeights* w, std::string* error) {
+// An LR head (the file's lr_head, or a view head's): its feature definition must be exactly the one this build
+// computes. `prefix` names it in errors.
+bool parse_lr_head(const json& doc, const std::string& key, const std::string& prefix, const NeuralTreeWeights& weights,
+                   NeuralTreeWeights::LrHead* out, std::string* error) {
+  const NeuralTreeWeights* w = &weights;
   static constexpr const char* kBoxFeatures[NeuralTreeWeights::kNumLrBoxFeatures] = {
       "log_size_x", "log_size_y", "log_size_z", "log_size_max_xy", "log_size_min_xy", "log_area_xy"};
-  const auto head = doc.find("lr_head");
+  const auto head = doc.find(key);
   if (head == doc.end() || !head->is_object()) {
-    *error = "lr_head: missing or not an object (a version 3 file carries the logistic-regression head)";
+    *error = prefix + ": missing or not an object (a version 4 file carries the logistic-regression heads)";
     return false;
   }
-  NeuralTreeWeights::LrHead& lr = w->lr;
+  NeuralTreeWeights::LrHead& lr = *out;
   const auto features = head->find("features");
   if (features == head->end() || !features->is_object()) {
-    *error = "lr_head.features: missing";
+    *error = prefix + ".features: missing";
     return false;
   }
   const auto counts = features->find("object_counts");
   if (counts == features->end() || !counts->is_object() || counts->value("transform", std::string()) != "log1p") {
-    *error = "lr_head.features.object_counts: missing, or its transform is not \"log1p\"";
+    *error = prefix + ".features.object_counts: missing, or its transform is not \"log1p\"";
     return false;
   }
   const auto vocabulary = counts->find("vocabulary");
   if (vocabulary == counts->end() || !vocabulary->is_array() || vocabulary->empty() || vocabulary->size() > 4096) {
-    *error = "lr_head.features.object_counts.vocabulary: expected an array of 1 to 4096 object names";
+    *error = prefix + ".features.object_counts.vocabulary: expected an array of 1 to 4096 object names";
     return false;
   }
-  if (!read_names(*vocabulary, "lr_head.features.object_counts.vocabulary", w->word_names, "has no row in words",
+  if (!read_names(*vocabulary, prefix + ".features.object_counts.vocabulary", w->word_names, "has no row in words",
                   &lr.vocabulary, error))
     return false;
   const auto box = features->find("room_box");
@@ -167,13 +170,13 @@ bool parse_lr_head(const json& doc, NeuralTreeWeights* w, std::string* error) {
   for (int i = 0; box_ok && i < NeuralTreeWeights::kNumLrBoxFeatures; ++i)
     box_ok = (*box)[i].is_string() && (*box)[i].get<std::string>() == kBoxFeatures[i];
   if (!box_ok) {
-    *error = "lr_head.features.room_box: expected [log_size_x, log_size_y, log_size_z, log_size_max_xy, "
+    *error = prefix + ".features.room_box: expected [log_size_x, log_size_y, log_size_z, log_size_max_xy, "
              "log_size_min_xy, log_area_xy]";
     return false;
   }
   const auto ms = features->find("min_size_m");
   if (ms == features->end() || !ms->is_number() || !(ms->get<double>() > 0.0)) {
-    *error = "lr_head.features.min_size_m: missing or not a positive number";
+    *error = prefix + ".features.min_size_m: missing or not a positive number";
     return false;
   }
   lr.min_size_m = ms->get<float>();
@@ -181,31 +184,31 @@ bool parse_lr_head(const json& doc, NeuralTreeWeights* w, std::string* error) {
   const auto footprint = features->find("largest_footprint");
   if (footprint == features->end() || !footprint->is_object() ||
       footprint->value("transform", std::string()) != "log1p") {
-    *error = "lr_head.features.largest_footprint: missing, or its transform is not \"log1p\"";
+    *error = prefix + ".features.largest_footprint: missing, or its transform is not \"log1p\"";
     return false;
   }
   const auto footprint_classes = footprint->find("classes");
   if (footprint_classes == footprint->end() || !footprint_classes->is_array() || footprint_classes->size() > 256) {
-    *error = "lr_head.features.largest_footprint.classes: expected an array of at most 256 object names";
+    *error = prefix + ".features.largest_footprint.classes: expected an array of at most 256 object names";
     return false;
   }
-  if (!read_names(*footprint_classes, "lr_head.features.largest_footprint.classes", lr.vocabulary,
+  if (!read_names(*footprint_classes, prefix + ".features.largest_footprint.classes", lr.vocabulary,
                   "is not in object_counts.vocabulary", &lr.footprint_classes, error))
     return false;
   const int f = lr.num_features();
   int num_features = 0, num_classes = 0;
-  if (!read_int(*head, "num_features", "lr_head.num_features", f, f, &num_features, error) ||
-      !read_int(*head, "num_classes", "lr_head.num_classes", w->num_classes, w->num_classes, &num_classes, error))
+  if (!read_int(*head, "num_features", prefix + ".num_features", f, f, &num_features, error) ||
+      !read_int(*head, "num_classes", prefix + ".num_classes", w->num_classes, w->num_classes, &num_classes, error))
     return false;
   RowMatrixXf mean, std, bias;
-  if (!read_matrix(*head, "mean", "lr_head", 1, f, &mean, error) ||
-      !read_matrix(*head, "std", "lr_head", 1, f, &std, error) ||
-      !read_matrix(*head, "w", "lr_head", num_classes, f, &lr.w, error) ||
-      !read_matrix(*head, "b", "lr_head", 1, num_classes, &bias, error))
+  if (!read_matrix(*head, "mean", prefix, 1, f, &mean, error) ||
+      !read_matrix(*head, "std", prefix, 1, f, &std, error) ||
+      !read_matrix(*head, "w", prefix, num_classes, f, &lr.w, error) ||
+      !read_matrix(*head, "b", prefix, 1, num_classes, &bias, error))
     return false;
   for (int i = 0; i < f; ++i) {
     if (!(std(0, i) > 0.0f)) {
-      *error = "lr_head.std[" + std::to_string(i) + "]: not positive";
+      *error = prefix + ".std[" + std::to_string(i) + "]: not positive";
       return false;
     }
   }
@@ -214,24 +217,24 @@ bool parse_lr_head(const json& doc, NeuralTreeWeights* w, std::string* error) {
   lr.b = bias.row(0).transpose();
   const auto blend = head->find("blend");
   if (blend == head->end() || !blend->is_object()) {
-    *error = "lr_head.blend: missing";
+    *error = prefix + ".blend: missing";
     return false;
   }
   const json weight = blend->value("lr_weight", json());
   if (!weight.is_number() || !(weight.get<double>() >= 0.0) || !(weight.get<double>() <= 1.0)) {
-    *error = "lr_head.blend.lr_weight: missing or not a number in [0, 1]";
+    *error = prefix + ".blend.lr_weight: missing or not a number in [0, 1]";
     return false;
   }
   lr.lr_weight = weight.get<double>();
   const std::string pool = blend->value("pool", std::string());
   if (pool != "linear" && pool != "log") {
-    *error = "lr_head.blend.pool: expected \"linear\" or \"log\"";
+    *error = prefix + ".blend.pool: expected \"linear\" or \"log\"";
     return false;
   }
   lr.log_pool = pool == "log";
   const auto by_coverage = blend->find("weight_by_coverage");
   if (by_coverage == blend->end() || !by_coverage->is_boolean()) {
-    *error = "lr_head.blend.weight_by_coverage: missing or not true/false";
+    *error = prefix + ".blend.weight_by_coverage: missing or not true/false";
     return false;
   }
   lr.weight_by_coverage = by_coverage->get<bool>();
@@ -251,12 +254,12 @@ bool parse_weights(const json& doc, NeuralTreeWeights* w, std::string* error) {
   int version = 0;
   if (!read_int(*header, "version", "header.version", 0, 1 << 30, &version, error)) return false;
   if (version != NeuralTreeWeights::kFormatVersion) {
-    // Version 1 held the neural tree alone, version 2 an LR head without furniture footprints: either would give
-    // other labels than the ones the CV measured.
+    // Version 1 held the neural tree alone, version 2 an LR head without furniture footprints, version 3 no view
+    // heads: each would give other labels than the ones the CV and labels_eval measured.
     *error = "header.version: " + std::to_string(version) + " unsupported (this build reads version " +
              std::to_string(NeuralTreeWeights::kFormatVersion) +
-             ", the neural tree with its logistic-regression head on counts, box and footprints; write it with "
-             "bench/neural_tree/train_neural_tree.py train)";
+             ", the neural tree with its logistic-regression head on counts, box and footprints and the view heads; "
+             "write it with bench/neural_tree/train_neural_tree.py train)";
     return false;
   }
   int num_layers = 0, num_types = 0;
@@ -390,7 +393,32 @@ bool parse_weights(const json& doc, NeuralTreeWeights* w, std::string* error) {
     member.head_b = hb.row(0).transpose();
     w->members.push_back(std::move(member));
   }
-  return parse_lr_head(doc, w, error);
+  if (!parse_lr_head(doc, "lr_head", "lr_head", *w, &w->lr, error)) return false;
+  // Version 4: the view heads (LR heads trained on the training rooms as one perception's label set shows them).
+  const auto views = doc.find("view_heads");
+  if (views == doc.end() || !views->is_array() || views->size() > 64) {
+    *error = "view_heads: missing or not an array of at most 64 heads";
+    return false;
+  }
+  w->views.clear();
+  for (std::size_t i = 0; i < views->size(); ++i) {
+    const json& v = (*views)[i];
+    const std::string prefix = "view_heads[" + std::to_string(i) + "]";
+    NeuralTreeWeights::ViewHead view;
+    view.name = v.is_object() ? v.value("name", std::string()) : std::string();
+    if (view.name.empty()) {
+      *error = prefix + ".name: missing or empty";
+      return false;
+    }
+    for (const NeuralTreeWeights::ViewHead& other : w->views)
+      if (other.name == view.name) {
+        *error = prefix + ".name: \"" + view.name + "\" listed twice";
+        return false;
+      }
+    if (!parse_lr_head(v, "lr_head", prefix + ".lr_head", *w, &view.lr, error)) return false;
+    w->views.push_back(std::move(view));
+  }
+  return true;
 }
 
 }  // namespace
@@ -477,10 +505,11 @@ void RoomClassifier::Config::print(std::FILE* out) const {
   std::fprintf(out,
                "RoomClassifier::Config: weights_path=%s max_rooms=%d min_probability=%.3f min_objects=%d "
                "mpcat40_aliases=%s read_through_label_map=%s drop_unread_objects=%s empty_rooms_from_box=%s "
-               "lr_weight=%.3f\n",
+               "lr_weight=%.3f perceived_labels=%zu\n",
                weights_path.c_str(), max_rooms, static_cast<double>(min_probability), min_objects,
                alias_mpcat40_to_training_classes ? "on" : "off", read_through_label_map ? "on" : "off",
-               drop_unread_objects ? "on" : "off", empty_rooms_from_box ? "on" : "off", lr_weight);
+               drop_unread_objects ? "on" : "off", empty_rooms_from_box ? "on" : "off", lr_weight,
+               perceived_labels.size());
   h_tree.print(out);
 }
 
@@ -534,6 +563,31 @@ bool RoomClassifier::init(std::string* error) {
     for (const auto& [label, coco] : kAliases)
       if (const int row = word_index(coco); row >= 0) mpcat40_word_[label] = row;
   }
+  // The LR head: the file's, or the view head trained for exactly the training classes the perceived labels are
+  // read as (Config::perceived_labels).
+  view_index_ = -1;
+  if (!config_.perceived_labels.empty() && config_.read_through_label_map) {
+    std::vector<std::string> visible;
+    const auto add = [&visible](const std::string& name) {
+      if (!name.empty() && std::find(visible.begin(), visible.end(), name) == visible.end()) visible.push_back(name);
+    };
+    for (const semantics::Label l : config_.perceived_labels) {
+      const char* reads = label_reading(l).reads_as;
+      if (std::strcmp(reads, "appliances") == 0) {
+        for (const char* a : {"refrigerator", "oven", "microwave"}) add(a);
+      } else {
+        add(reads);
+      }
+    }
+    for (std::size_t i = 0; i < w.views.size(); ++i) {
+      const std::vector<std::string>& reads = w.views[i].lr.vocabulary;
+      const bool same = reads.size() == visible.size() &&
+                        std::all_of(reads.begin(), reads.end(), [&visible](const std::string& n) {
+                          return std::find(visible.begin(), visible.end(), n) != visible.end();
+                        });
+      if (same) view_index_ = static_cast<int>(i);
+    }
+  }
   const auto nodes = static_cast<Eigen::Index>(config_.h_tree.max_htree_nodes);
   const auto graph_nodes = static_cast<std::size_t>(config_.h_tree.max_graph_nodes);
   layered_.layers.reserve(graph_nodes);
@@ -560,15 +614,16 @@ bool RoomClassifier::init(std::string* error) {
   log_probabilities_.resize(config_.max_rooms, w.num_classes);
   nt_probabilities_.resize(config_.max_rooms, w.num_classes);
   // LR head: each word-table row counts under its name's feature (so mpcat40 aliases count as their COCO class).
+  const NeuralTreeWeights::LrHead& lr = lr_head();
   lr_column_of_word_.assign(w.word_names.size(), -1);
-  for (std::size_t v = 0; v < w.lr.vocabulary.size(); ++v)
-    lr_column_of_word_[static_cast<std::size_t>(word_index(w.lr.vocabulary[v]))] = static_cast<int>(v);
+  for (std::size_t v = 0; v < lr.vocabulary.size(); ++v)
+    lr_column_of_word_[static_cast<std::size_t>(word_index(lr.vocabulary[v]))] = static_cast<int>(v);
   lr_footprint_of_word_.assign(w.word_names.size(), -1);
-  for (std::size_t v = 0; v < w.lr.footprint_classes.size(); ++v)
-    lr_footprint_of_word_[static_cast<std::size_t>(word_index(w.lr.footprint_classes[v]))] = static_cast<int>(v);
-  lr_w_ = w.lr.w.transpose().cast<double>();
-  lr_b_ = w.lr.b.transpose().cast<double>();
-  lr_features_.resize(config_.max_rooms, w.lr.num_features());
+  for (std::size_t v = 0; v < lr.footprint_classes.size(); ++v)
+    lr_footprint_of_word_[static_cast<std::size_t>(word_index(lr.footprint_classes[v]))] = static_cast<int>(v);
+  lr_w_ = lr.w.transpose().cast<double>();
+  lr_b_ = lr.b.transpose().cast<double>();
+  lr_features_.resize(config_.max_rooms, lr.num_features());
   lr_probabilities_.resize(config_.max_rooms, w.num_classes);
   lr_coverage_.resize(config_.max_rooms);
   // Size the H-tree storage now rather than on the first classify().
@@ -818,7 +873,7 @@ void RoomClassifier::run_member(std::size_t m) {
 }
 
 void RoomClassifier::run_lr(const ObjectRoomGraph& graph) {
-  const NeuralTreeWeights::LrHead& lr = weights_.lr;
+  const NeuralTreeWeights::LrHead& lr = lr_head();
   const int vocabulary = static_cast<int>(lr.vocabulary.size());
   auto x = lr_features_.topRows(num_rooms_);
   x.setZero();
@@ -926,12 +981,12 @@ bool RoomClassifier::classify(const ObjectRoomGraph& input, std::string* error) 
   for (int r = 0; r < num_rooms_; ++r) {
     RoomPrediction& p = predictions_[r];
     const bool from_box = config_.empty_rooms_from_box && object_count_[p.node] == 0;
-    const double a = from_box ? 1.0 : lr_weight() * (weights_.lr.weight_by_coverage ? lr_coverage_[r] : 1.0);
+    const double a = from_box ? 1.0 : lr_weight() * (lr_head().weight_by_coverage ? lr_coverage_[r] : 1.0);
     // The blend: (1 - a) p_nt + a p_lr, or with log pooling p_nt^(1 - a) p_lr^a normalised.
     double sum = 0.0;
     for (int c = 0; c < weights_.num_classes; ++c) {
       const double nt = nt_probabilities_(r, c), lr = lr_probabilities_(r, c);
-      const double q = weights_.lr.log_pool
+      const double q = lr_head().log_pool
                            ? std::exp((1.0 - a) * std::log(std::max(nt, 1e-30)) + a * std::log(std::max(lr, 1e-30)))
                            : (1.0 - a) * nt + a * lr;
       probabilities_(r, c) = static_cast<float>(q);

@@ -20,9 +20,9 @@ using RowMatrixXd = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen:
 
 // A trained classifier as stored in core/neural_tree/weights/room_classifier_v<version>.json: the neural tree and
 // (from version 2) the logistic-regression head whose class probabilities are blended with it (version 3: the head
-// also reads furniture footprints).
+// also reads furniture footprints; version 4: view heads for perceptions that see only some labels).
 struct NeuralTreeWeights {
-  static constexpr int kFormatVersion = 3;
+  static constexpr int kFormatVersion = 4;
   // The LR head's box features after the count features, in this order (the trainer's LR_BOX_FEATURES): log of
   // each box side (x, y as the room stores them, z), max and min of the two horizontal ones, their sum.
   static constexpr int kNumLrBoxFeatures = 6;
@@ -74,6 +74,15 @@ struct NeuralTreeWeights {
     }
   };
   LrHead lr;
+  // Version 4: LR heads trained on the training rooms as one perception shows them (only the objects of its label
+  // set; train_neural_tree.py VIEWS): its vocabulary is the training classes that perception's labels are read as.
+  // RoomClassifier uses one in place of `lr` (with its own blend weight) when Config::perceived_labels is read as
+  // exactly its vocabulary.
+  struct ViewHead {
+    std::string name;  // e.g. "segmentation_pascal_voc"
+    LrHead lr;
+  };
+  std::vector<ViewHead> views;
 };
 
 // A relative position without the room's orientation (the scene's z is up): horizontal distance, height
@@ -138,12 +147,19 @@ class RoomClassifier {
     // the neural tree (as a zero word vector) nor count towards the room's objects, min_objects or the LR head's
     // coverage, so unfamiliar labels cannot outvote the familiar ones. Off: they enter with a zero word vector.
     bool drop_unread_objects = true;
-    // The LR head's weight in the blend; negative: the weights file's (lr_head.blend.lr_weight).
+    // The weight in the blend of the LR head in use (the file's or the view head perceived_labels chose); negative:
+    // that head's own from the weights file (its blend.lr_weight).
     double lr_weight = -1.0;
     // A room with no object the classifier reads is labelled by the LR head alone (its box; the neural tree has
     // never seen an empty room), min_objects not applied, min_probability still. Off: such a room stays
     // "unknown" (min_objects 1). On earned its keep on held-out data (labels_eval, bench/results/room_labels.md).
     bool empty_rooms_from_box = true;
+    // The mpcat40 labels the app's perception can give an object (e.g. its segmentation network's label map);
+    // empty: every label (ground-truth labels). When they are read (through the label map) as exactly the
+    // vocabulary of one of the weights file's view heads, that head replaces the LR head, with its own blend
+    // weight: it was trained on the training rooms with every other object removed, so a toilet or bed the
+    // perception cannot see is not taken for a toilet or bed that is not there. Otherwise the file's LR head.
+    std::vector<semantics::Label> perceived_labels;
     void print(std::FILE* out) const;
   };
   struct Stats {
@@ -167,7 +183,17 @@ class RoomClassifier {
   // With the object's box (x, y horizontal, z up, m): appliances split by label_map.h's appliance_class().
   int word_index(semantics::Label mpcat40_label, const Eigen::Vector3d& size_m) const;
   // The LR head's weight in the blend in use (Config::lr_weight or the file's).
-  double lr_weight() const { return config_.lr_weight >= 0.0 ? config_.lr_weight : weights_.lr.lr_weight; }
+  double lr_weight() const {
+    return config_.lr_weight >= 0.0 ? config_.lr_weight : lr_head().lr_weight;
+  }
+  // The LR head in use (after init): the file's, or the view head Config::perceived_labels chose; its name ("" =
+  // the file's LR head).
+  const NeuralTreeWeights::LrHead& lr_head() const {
+    return view_index_ >= 0 ? weights_.views[static_cast<std::size_t>(view_index_)].lr : weights_.lr;
+  }
+  std::string view() const {
+    return view_index_ >= 0 ? weights_.views[static_cast<std::size_t>(view_index_)].name : std::string();
+  }
 
   // Labels every room of `graph`. Returns false with a reason (no weights, bad graph, capacity) and then every
   // prediction is "unknown". Does not allocate once init() has run, while the graph stays within Config.
@@ -207,6 +233,7 @@ class RoomClassifier {
   Config config_;
   bool ready_ = false;
   NeuralTreeWeights weights_;
+  int view_index_ = -1;  // the view head in use (weights_.views), -1: the file's LR head
   std::vector<int> mpcat40_word_;
   int refrigerator_word_ = -1, oven_word_ = -1, microwave_word_ = -1;  // appliance_class() rows
   ObjectRoomGraph filtered_;  // the input with unread objects left out (drop_unread_objects)

@@ -92,6 +92,32 @@ TEST(RoomLabelMap, SegmentationNetworkClassesReachOnlyTrainingClasses) {
                                          "sofa->couch", "tvmonitor->tv"}));
 }
 
+// The shipped weights carry a view head trained for exactly what the network's label map lets the classifier read,
+// and a classifier given the map's labels (as qsg_app does when it runs that network) uses it.
+TEST(RoomLabelMap, SegmentationNetworkHasItsViewHead) {
+  const std::string path = std::string(QSG_SOURCE_DIR) + "/firmware_app/config/segmentation_pascal_voc.json";
+  std::ifstream in(path);
+  ASSERT_TRUE(in) << path;
+  const nlohmann::json doc = nlohmann::json::parse(in, nullptr, false);
+  ASSERT_FALSE(doc.is_discarded());
+  RoomClassifier::Config config;
+  std::set<std::string> read;
+  for (const auto& c : doc["classes"]) {
+    const Label l = object_label_from_name(c["label"].get<std::string>().c_str());
+    ASSERT_NE(l, kInvalidLabel) << c.dump();
+    config.perceived_labels.push_back(l);
+    if (const std::string reads = label_reading(l).reads_as; !reads.empty()) read.insert(reads);
+  }
+  RoomClassifier classifier(config);
+  std::string error;
+  ASSERT_TRUE(classifier.init(&error)) << error;
+  EXPECT_EQ(classifier.view(), doc["network"].get<std::string>() == "espnetv2_s2_pascal384" ? "segmentation_pascal_voc"
+                                                                                              : "?");
+  const std::vector<std::string>& vocabulary = classifier.lr_head().vocabulary;
+  EXPECT_EQ(std::set<std::string>(vocabulary.begin(), vocabulary.end()), read);
+  EXPECT_EQ(classifier.lr_weight(), classifier.weights().views[0].lr.lr_weight);
+}
+
 TEST(RoomLabelMap, ApplianceSplitRecoversStanfordAppliancesFromTheirBoxes) {
   EXPECT_STREQ(appliance_class({0.7, 0.7, 1.8}), "refrigerator");
   EXPECT_STREQ(appliance_class({0.6, 0.6, 0.9}), "oven");

@@ -178,6 +178,119 @@ TEST(RoomClassifier, ParityWithPyTorch) {
               "LR head %.3g\n", cases, max_dp, max_dp_nt, max_dp_lr);
 }
 
+// The same inputs with each view head (weights version 4): the classifier told the labels a perception gives (the
+// PASCAL VOC network's map; every mpcat40 label) uses the view head trained for them, whose features,
+// probabilities and blend match PyTorch's.
+std::vector<semantics::Label> perceived_labels_of(const std::string& view) {
+  if (view == "segmentation_pascal_voc")
+    return {semantics::kChair, semantics::kTable, semantics::kSofa, semantics::kPlant, semantics::kTvMonitor,
+            semantics::kObjects, semantics::kUnlabeled};
+  std::vector<semantics::Label> every;
+  if (view == "mpcat40")
+    for (semantics::Label l = 0; l < semantics::kNumObjectLabels; ++l) every.push_back(l);
+  return every;
+}
+
+TEST(RoomClassifier, ParityWithPyTorchViewHeads) {
+  std::ifstream in(fixture_path());
+  ASSERT_TRUE(in) << fixture_path();
+  const nlohmann::json doc = nlohmann::json::parse(in, nullptr, false);
+  ASSERT_FALSE(doc.is_discarded());
+  const std::size_t views = doc["cases"][0]["views"].size();
+  ASSERT_EQ(views, 2u) << "the fixture's view heads: segmentation_pascal_voc and mpcat40";
+  for (std::size_t vi = 0; vi < views; ++vi) {
+    const std::string name = doc["cases"][0]["views"][vi]["name"].get<std::string>();
+    RoomClassifier::Config config;
+    config.weights_path = std::string(QSG_SOURCE_DIR) + "/" + doc["header"]["weights"].get<std::string>();
+    config.perceived_labels = perceived_labels_of(name);
+    ASSERT_FALSE(config.perceived_labels.empty()) << "no perceived labels for view " << name;
+    RoomClassifier classifier(config);
+    std::string error;
+    ASSERT_TRUE(classifier.init(&error)) << error;
+    EXPECT_EQ(classifier.view(), name);
+    int cases = 0;
+    double max_dp = 0.0;
+    for (const auto& c : doc["cases"]) {
+      const auto& v = c["views"][vi];
+      ASSERT_EQ(v["name"].get<std::string>(), name);
+      const ObjectRoomGraph g = graph_from_case(c, classifier);
+      ASSERT_TRUE(classifier.classify(g, &error)) << error;
+      const auto log_p = classifier.room_log_probabilities();
+      const auto lr_p = classifier.room_lr_probabilities();
+      const auto lr_x = classifier.room_lr_features();
+      for (std::size_t r = 0; r < c["rooms"].size(); ++r) {
+        const auto row = static_cast<Eigen::Index>(r);
+        EXPECT_NEAR(classifier.room_lr_coverage()[row], v["lr_coverage"][r].get<double>(), 1e-12) << "case " << cases;
+        ASSERT_EQ(lr_x.cols(), static_cast<Eigen::Index>(v["lr_features"][r].size()));
+        for (Eigen::Index f = 0; f < lr_x.cols(); ++f)
+          EXPECT_NEAR(lr_x(row, f), v["lr_features"][r][f].get<double>(), 1e-9)
+              << name << " case " << cases << " feature " << f;
+        for (int k = 0; k < log_p.cols(); ++k) {
+          max_dp = std::max(max_dp, std::fabs(std::exp(static_cast<double>(log_p(row, k))) -
+                                              v["probabilities"][r][k].get<double>()));
+          EXPECT_NEAR(std::exp(log_p(row, k)), v["probabilities"][r][k].get<float>(), 1e-4)
+              << name << " case " << cases << " room " << r << " class " << k;
+          EXPECT_NEAR(lr_p(row, k), v["lr_probabilities"][r][k].get<double>(), 1e-4)
+              << name << " case " << cases << " room " << r << " class " << k;
+        }
+      }
+      ++cases;
+    }
+    EXPECT_EQ(cases, 5);
+    std::printf("view head %s: parity with PyTorch over %d cases, max |probability difference| %.3g\n", name.c_str(),
+                cases, max_dp);
+  }
+}
+
+// Which LR head the classifier uses: the file's without perceived labels and with a label set no view head was
+// trained for; the view head for exactly its label set (every mpcat40 label; the PASCAL VOC map's, in any order,
+// with the structure labels a label map also produces; appliances count as the three appliance classes).
+TEST(RoomClassifier, ViewHeadChosenByPerceivedLabels) {
+  RoomClassifier full;
+  std::string error;
+  ASSERT_TRUE(full.init(&error)) << error;
+  ASSERT_FALSE(full.weights().views.empty());
+  EXPECT_EQ(full.view(), "");
+  EXPECT_EQ(full.lr_head().vocabulary, full.weights().lr.vocabulary);
+  const auto view_of = [&error](std::vector<semantics::Label> labels) {
+    RoomClassifier::Config config;
+    config.perceived_labels = std::move(labels);
+    RoomClassifier c(config);
+    EXPECT_TRUE(c.init(&error)) << error;
+    return std::make_pair(c.view(), c.lr_head().vocabulary.size());
+  };
+  std::vector<semantics::Label> every;
+  for (semantics::Label l = 0; l < semantics::kNumObjectLabels; ++l) every.push_back(l);
+  EXPECT_EQ(view_of(every).first, "mpcat40");
+  EXPECT_EQ(view_of(every).second, 12u);
+  every.erase(std::find(every.begin(), every.end(), semantics::kAppliances));
+  EXPECT_EQ(view_of(every).first, "") << "without appliances: not the label set the mpcat40 head was trained for";
+  const auto pascal = view_of({semantics::kObjects, semantics::kTvMonitor, semantics::kSofa, semantics::kPlant,
+                               semantics::kTable, semantics::kChair, semantics::kUnlabeled});
+  EXPECT_EQ(pascal.first, "segmentation_pascal_voc");
+  EXPECT_EQ(pascal.second, 5u);
+  EXPECT_EQ(view_of({semantics::kChair, semantics::kTable, semantics::kSofa, semantics::kPlant}).first, "")
+      << "no tv_monitor: not the label set the view head was trained for";
+  EXPECT_EQ(view_of({semantics::kChair, semantics::kTable, semantics::kSofa, semantics::kPlant, semantics::kTvMonitor,
+                     semantics::kAppliances})
+                .first,
+            "")
+      << "appliances too: more than the view head can read";
+  // The view changes the answer where it matters: a bathroom-sized room with nothing the network can see is not
+  // labelled by the full LR head's reading of "no toilet, no sink".
+  RoomClassifier::Config seg_config;
+  seg_config.perceived_labels = {semantics::kChair, semantics::kTable, semantics::kSofa, semantics::kPlant,
+                                 semantics::kTvMonitor};
+  seg_config.min_probability = 0.0f;
+  RoomClassifier seg(seg_config);
+  ASSERT_TRUE(seg.init(&error)) << error;
+  ObjectRoomGraph g;
+  g.add_room(Eigen::Vector3d(0, 0, 1.2), Eigen::Vector3d(2.0, 1.8, 2.4));
+  ASSERT_TRUE(seg.classify(g, &error)) << error;
+  EXPECT_EQ(seg.predictions()[0].label, semantics::kBathroom)
+      << semantics::room_label_name(seg.predictions()[0].label);
+}
+
 // The LR head counts an object under its word-table row's name: an mpcat40 sofa (aliased to COCO's couch) counts as
 // a couch; a label outside the LR vocabulary, or no word, is not counted. The box features follow lr_features,
 // then the footprint of the room's largest object of each footprint class (aliases included), 0 without one.
@@ -267,11 +380,11 @@ TEST(RoomClassifier, LrFeaturesCountAliasedLabelsTheBoxAndFootprints) {
 
 TEST(RoomClassifier, MissingWeightsLeaveRoomsUnknown) {
   RoomClassifier::Config config;
-  config.weights_path = "/nonexistent/room_classifier_v3.json";
+  config.weights_path = "/nonexistent/room_classifier_v4.json";
   RoomClassifier classifier(config);
   std::string error;
   EXPECT_FALSE(classifier.init(&error));
-  EXPECT_NE(error.find("/nonexistent/room_classifier_v3.json"), std::string::npos) << error;
+  EXPECT_NE(error.find("/nonexistent/room_classifier_v4.json"), std::string::npos) << error;
   ObjectRoomGraph g;
   make_synthetic_building(3, 4, 1, classifier, &g);
   EXPECT_FALSE(classifier.classify(g, &error));
@@ -314,6 +427,9 @@ TEST(RoomClassifier, CorruptWeightsNameFileAndField) {
   nlohmann::json v2 = doc;  // an LR head without furniture footprints: refused, naming the version
   v2["header"]["version"] = 2;
   v2["lr_head"]["features"].erase("largest_footprint");
+  nlohmann::json v3 = doc;  // without view heads: refused, naming the version
+  v3["header"]["version"] = 3;
+  v3.erase("view_heads");
   nlohmann::json bad_label = doc;
   bad_label["class_room_labels"][3] = "dungeon";
   nlohmann::json nan_head = doc;
@@ -324,8 +440,9 @@ TEST(RoomClassifier, CorruptWeightsNameFileAndField) {
       {"truncated.json", good.substr(0, good.size() / 2), "not valid JSON"},
       {"short_layer.json", short_layer.dump(), short_message.c_str()},
       {"new_version.json", new_version.dump(), new_version_message.c_str()},
-      {"v1.json", v1.dump(), "header.version: 1 unsupported (this build reads version 3"},
-      {"v2.json", v2.dump(), "header.version: 2 unsupported (this build reads version 3"},
+      {"v1.json", v1.dump(), "header.version: 1 unsupported (this build reads version 4"},
+      {"v2.json", v2.dump(), "header.version: 2 unsupported (this build reads version 4"},
+      {"v3.json", v3.dump(), "header.version: 3 unsupported (this build reads version 4"},
       {"bad_label.json", bad_label.dump(), "class_room_labels[3]: \"dungeon\" is not a room label"},
       {"nan_head.json", nan_head.dump(), "members[0].head.b (1 x 15)[0]: not a finite number"},
       {"short_b64.json", short_b64.dump(), short_b64_message.c_str()},
@@ -336,7 +453,7 @@ TEST(RoomClassifier, CorruptWeightsNameFileAndField) {
   for (const Case& c : cases) expect_weights_refused(c.name, c.text, c.expect);
 }
 
-// A version 3 file whose LR head is missing, corrupt or of the wrong shape is refused (the field named), and the
+// A file whose LR head or a view head is missing, corrupt or of the wrong shape is refused (the field named), and the
 // classifier then leaves every room "unknown", as for any bad file.
 TEST(RoomClassifier, CorruptLrHeadIsAnError) {
   const nlohmann::json doc = nlohmann::json::parse(read_text(RoomClassifier::Config().weights_path));
@@ -427,6 +544,27 @@ TEST(RoomClassifier, CorruptLrHeadIsAnError) {
        [](nlohmann::json& h, nlohmann::json&) { h["blend"].erase("weight_by_coverage"); });
   edit("lr_blend_coverage_number.json", "lr_head.blend.weight_by_coverage: missing or not true/false",
        [](nlohmann::json& h, nlohmann::json&) { h["blend"]["weight_by_coverage"] = 1; });
+  // Version 4's view heads: the same checks, named by their place in view_heads.
+  ASSERT_TRUE(doc.contains("view_heads") && !doc["view_heads"].empty());
+  edit("views_missing.json", "view_heads: missing or not an array",
+       [](nlohmann::json&, nlohmann::json& d) { d.erase("view_heads"); });
+  edit("views_not_array.json", "view_heads: missing or not an array",
+       [](nlohmann::json&, nlohmann::json& d) { d["view_heads"] = "pascal"; });
+  edit("view_no_name.json", "view_heads[0].name: missing or empty",
+       [](nlohmann::json&, nlohmann::json& d) { d["view_heads"][0].erase("name"); });
+  edit("view_twice.json",
+       "view_heads[" + std::to_string(doc["view_heads"].size()) + "].name: \"" +
+           doc["view_heads"][0]["name"].get<std::string>() + "\" listed twice",
+       [](nlohmann::json&, nlohmann::json& d) { d["view_heads"].push_back(d["view_heads"][0]); });
+  edit("view_lr_missing.json", "view_heads[0].lr_head: missing",
+       [](nlohmann::json&, nlohmann::json& d) { d["view_heads"][0].erase("lr_head"); });
+  edit("view_vocab_unknown.json", "view_heads[0].lr_head.features.object_counts.vocabulary[0]: \"spaceship\" has no row",
+       [](nlohmann::json&, nlohmann::json& d) {
+         d["view_heads"][0]["lr_head"]["features"]["object_counts"]["vocabulary"][0] = "spaceship";
+       });
+  edit("view_w_bad_b64.json", "view_heads[0].lr_head.w (", [](nlohmann::json&, nlohmann::json& d) {
+    d["view_heads"][0]["lr_head"]["w"] = "@@@@";
+  });
   for (const Case& c : cases) expect_weights_refused(c.name, c.doc.dump(), c.expect);
 }
 
