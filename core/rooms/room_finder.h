@@ -59,7 +59,7 @@ struct UpdateResult {
   std::size_t seeds_dropped = 0;     // seed components beyond the room capacity
   std::size_t rooms_split = 0;       // split_by_extent: rooms split in two or more
   std::size_t split_rooms_added = 0; // split_by_extent: rooms those splits added (beyond capacity: not added)
-  std::size_t closed_edges = 0;      // place edges read as closed (weight <= 0, or a DoorSet door)
+  std::size_t closed_edges = 0;      // place edges read as closed (weight <= 0, or closed by `doors`)
   std::size_t closed_region_rooms = 0;  // seed_closed_regions: rooms seeded by a closed-off region
   std::size_t corridor_merges = 0;   // merge_corridors: rooms merged into an adjacent corridor piece
   std::size_t visible_merges = 0;    // merge_visible: rooms merged into an adjacent room they see
