@@ -529,15 +529,6 @@ std::string AppConfig::check() const {
   return {};
 }
 
-std::string AppConfig::LoopClosure::check() const {
-  if (!(horizon_s >= 0.0 && horizon_s <= 3600.0)) return "horizon_s must be in [0, 3600] s";
-  if (!(describe_every_m > 0.0 && describe_every_m <= 100.0)) return "describe_every_m must be in (0, 100] m";
-  if (!(solve_interval_s >= 0.0 && solve_interval_s <= 3600.0)) return "solve_interval_s must be in [0, 3600] s";
-  if (const std::string d = descriptor.check(); !d.empty()) return d;
-  if (const std::string d = detector.check(); !d.empty()) return d;
-  return deformation.check();
-}
-
 std::string AppConfig::check_odometry() const {
   const Odometry& o = odometry;
   if (o.source == OdometrySourceKind::kSimDrift && driver != Driver::kSim) return "source sim_drift needs driver sim";
