@@ -230,7 +230,6 @@ bool AppConfig::load(const std::string& path, std::string* error) {
                                        {"corridor_min_open_edges", number(&corridor_edges)},
                                        {"merge_visible", boolean(&rooms.merge_visible)},
                                        {"close_edges_through_walls", boolean(&rooms.close_edges_through_walls)},
-                                       {"merge_visible_in_window", boolean(&rooms.merge_visible_in_window)},
                                        {"visible_min_share", number(&rooms.visible_min_share)},
                                        {"visible_samples", number(&visible_samples)},
                                        {"visible_local_radius_m", number(&rooms.visible_local_radius_m)},

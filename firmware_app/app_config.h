@@ -11,7 +11,7 @@
 #include "core/backend/backend_stage.h"
 #include "core/loop_closure/detector.h"
 #include "core/reconstruction/semantic_tsdf.h"
-#include "core/rooms/door_detector.h"
+#include "core/doors/door_detector.h"
 #include "core/rooms/room_finder.h"
 #include "drivers/replay/dataset_replay.h"
 #include "drivers/sim/exploration.h"

@@ -22,7 +22,7 @@
 #include "core/metrics/trajectory_error.h"
 #include "core/reconstruction/semantic_tsdf.h"
 #include "core/neural_tree/room_classifier.h"
-#include "core/rooms/online_doors.h"
+#include "core/doors/online_doors.h"
 #include "core/rooms/room_finder.h"
 #include "core/segmentation/segmenter.h"
 #include "core/scene_graph/scene_graph.h"

@@ -24,9 +24,9 @@
 #include <vector>
 
 #include "budgets/budget_table.h"
-#include "core/rooms/online_doors.h"
+#include "core/doors/online_doors.h"
 #include "core/rooms/room_finder.h"
-#include "core/rooms/wall_sight.h"
+#include "core/doors/wall_sight.h"
 #include "core/scene_graph/scene_graph.h"
 #include "tests/rooms/synthetic_places.h"
 

@@ -47,8 +47,8 @@
 #include "core/frontend/frontend.h"
 #include "core/neural_tree/room_classifier.h"
 #include "core/reconstruction/semantic_tsdf.h"
-#include "core/rooms/door_detector.h"
-#include "core/rooms/online_doors.h"
+#include "core/doors/door_detector.h"
+#include "core/doors/online_doors.h"
 #include "core/rooms/room_finder.h"
 #include "core/scene_graph/scene_graph.h"
 #include "core/scene_graph/spark_dsg_json.h"
@@ -179,7 +179,6 @@ bool parse(int argc, char** argv, Options* o) {
     else if (a == "--sight-min-wall-m") number = &o->door.sight_min_wall_m;
     else if (a == "--sight-wall-dilation-m") number = &o->door.sight_wall_dilation_m;
     else if (a == "--merge-visible") o->rooms.merge_visible = std::atoi(v.c_str()) != 0;
-    else if (a == "--merge-visible-in-window") o->rooms.merge_visible_in_window = std::atoi(v.c_str()) != 0;
     else if (a == "--sight-cut-edges") {  // the final stage's written closures and the room finder's read ones
       o->door.sight_cut_edges = std::atoi(v.c_str()) != 0;
       o->rooms.close_edges_through_walls = o->door.sight_cut_edges;
@@ -1153,8 +1152,8 @@ Doors (rooms::DoorConfig): by default the door stage runs as the app's does when
   --doors online runs the app's online stage instead: the exploration paints each re-meshed block into the wall map
   and every --online-every N-th frontend update (4, as the app) runs a window pass around the robot
   (--online-misses N and --online-match-m M: DoorConfig::online_misses_to_drop and online_match_m, 2 and 0.5 m as
-  the app); the room finder reads the final door set and the last pass's sight lines (cached as .sight), and merges
-  by visibility only with --merge-visible-in-window 1, as in the app. It writes .online_doors_*,
+  the app); the room finder reads the final door set and the last pass's sight lines (cached as .sight) and, as in
+  the app, does not merge by visibility there (a window's sight lines; it lowered precision). It writes .online_doors_*,
   online_doors_{added,dropped}_per_pass, online_door_pass_ms_{median,p99,max} and online_wall_tiles_max, and
   caches the doors as .online_doors.every<N>.misses<M>.match<X>.f64 (a cache explored with other online settings is
   refused; change the --door-* detector flags in a new cache dir).
@@ -1184,7 +1183,7 @@ int main(int argc, char** argv) {
                  "[--door-slice-above-robot-m H] [--door-min-width-m W] [--door-max-width-m W] [--door-min-rise-m R] "
                  "[--door-rise-reach-m R] [--door-max-off-centre F] [--door-slice-half-band-m B] [--door-min-wall-height-m H] "
                  "[--door-mapped-radius-m R] [--door-extension-m E] [--door-bypass-max-m D] [--door-bypass-extension-m E] "
-                 "[--door-bypass-max-edge-m L] [--merge-visible 0|1] [--merge-visible-in-window 0|1] [--visible-min-share S] [--visible-samples N] "
+                 "[--door-bypass-max-edge-m L] [--merge-visible 0|1] [--visible-min-share S] [--visible-samples N] "
                  "[--visible-local-radius-m R] [--visible-local-min-share S] [--visible-touching 0|1] "
                  "[--visible-touch-max-clearance-m C] "
                  "[--sight-min-wall-m W] "
@@ -1259,16 +1258,15 @@ int main(int argc, char** argv) {
                   opt.rooms.corridor_min_open_edges);
   else
     std::snprintf(cond + std::strlen(cond), sizeof(cond) - std::strlen(cond), ", no corridor merge");
-  if (opt.rooms.merge_visible && (opt.doors || (opt.online_doors && opt.rooms.merge_visible_in_window)))
+  if (opt.rooms.merge_visible && opt.doors)
     std::snprintf(cond + std::strlen(cond), sizeof(cond) - std::strlen(cond),
                   ", visibility merge >= %.2f of %u x %u sight lines (near the boundary: %.2f m, >= %.2f; rooms "
                   "whose places' spheres touch in sight adjacent: %s) past walls >= %.1f m (dilated %.2f m; islands "
-                  "< %.1f m wider than %.2f m are furniture)%s",
+                  "< %.1f m wider than %.2f m are furniture)",
                   opt.rooms.visible_min_share, opt.rooms.visible_samples, opt.rooms.visible_samples,
                   opt.rooms.visible_local_radius_m, opt.rooms.visible_local_min_share,
                   opt.rooms.visible_touching ? "yes" : "no", opt.door.sight_min_wall_m, opt.door.sight_wall_dilation_m,
-                  opt.door.sight_furniture_max_m, opt.door.sight_furniture_min_width_m,
-                  opt.online_doors ? " in the last online window" : "");
+                  opt.door.sight_furniture_max_m, opt.door.sight_furniture_min_width_m);
   else
     std::snprintf(cond + std::strlen(cond), sizeof(cond) - std::strlen(cond), ", no visibility merge");
   if (opt.rooms.close_edges_through_walls && opt.online_doors)

@@ -20,8 +20,8 @@
 #include "core/loop_closure/detector.h"
 #include "core/neural_tree/room_classifier.h"
 #include "core/reconstruction/semantic_tsdf.h"
-#include "core/rooms/door_detector.h"
-#include "core/rooms/online_doors.h"
+#include "core/doors/door_detector.h"
+#include "core/doors/online_doors.h"
 #include "core/rooms/room_finder.h"
 #include "core/scene_graph/scene_graph.h"
 

@@ -9,7 +9,7 @@
 #include "budgets/budget_table.h"
 #include "core/reconstruction/semantic_tsdf.h"
 #include "core/places/places.h"
-#include "core/rooms/online_doors.h"
+#include "core/doors/online_doors.h"
 #include "core/rooms/room_finder.h"
 #include "core/scene_graph/scene_graph.h"
 

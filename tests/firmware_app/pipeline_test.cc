@@ -829,7 +829,6 @@ TEST(AppConfigTest, LoadsKnownKeysAndNamesBadOnes) {
                                              "\"sight_furniture_max_m\": 6.0, \"sight_furniture_min_width_m\": 1.2, "
                                              "\"sight_cut_edges\": false}, \"rooms\": {\"merge_visible\": false, "
                                              "\"close_edges_through_walls\": false, "
-                                             "\"merge_visible_in_window\": true, "
                                              "\"visible_min_share\": 0.7, \"visible_samples\": 16, "
                                              "\"visible_local_radius_m\": 3.0, \"visible_local_min_share\": 0.9, "
                                              "\"visible_local_min_places\": 5, \"visible_max_rounds\": 4, "
@@ -842,7 +841,6 @@ TEST(AppConfigTest, LoadsKnownKeysAndNamesBadOnes) {
   EXPECT_FALSE(sight.doors.sight_cut_edges);
   EXPECT_FALSE(sight.rooms.merge_visible);
   EXPECT_FALSE(sight.rooms.close_edges_through_walls);
-  EXPECT_TRUE(sight.rooms.merge_visible_in_window);
   EXPECT_EQ(sight.rooms.visible_min_share, 0.7);
   EXPECT_EQ(sight.rooms.visible_samples, 16u);
   EXPECT_EQ(sight.rooms.visible_max_rounds, 4u);
@@ -933,7 +931,6 @@ TEST(AppConfigTest, LoadsKnownKeysAndNamesBadOnes) {
   EXPECT_EQ(sr.corridor_min_open_edges, dr.corridor_min_open_edges);
   EXPECT_EQ(sr.merge_visible, dr.merge_visible);
   EXPECT_EQ(sr.close_edges_through_walls, dr.close_edges_through_walls);
-  EXPECT_EQ(sr.merge_visible_in_window, dr.merge_visible_in_window);
   EXPECT_EQ(sr.visible_min_share, dr.visible_min_share);
   EXPECT_EQ(sr.visible_samples, dr.visible_samples);
   EXPECT_EQ(sr.visible_max_rounds, dr.visible_max_rounds);

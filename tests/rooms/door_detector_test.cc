@@ -2,8 +2,8 @@
 // between two rooms, a wide opening, a corridor and an opening too wide to be a door, storeys from the robot's
 // heights, closing the place edges through a door, dropping the doors the places go round, bad input; and on a real benchmark plan extruded into a surface,
 // where the doors found must lie on the ground truth's room boundaries.
-#include "core/rooms/door_detector.h"
-#include "core/rooms/wall_sight.h"
+#include "core/doors/door_detector.h"
+#include "core/doors/wall_sight.h"
 
 #include <gtest/gtest.h>
 

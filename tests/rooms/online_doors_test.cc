@@ -2,7 +2,7 @@
 // room finder's test agrees with cut_place_edges' on random edges), and a window pass that finds the door the final
 // stage finds, without allocating, and replaces only the doors of its window's interior; a found door that the
 // window's places graph goes round is not kept.
-#include "core/rooms/online_doors.h"
+#include "core/doors/online_doors.h"
 
 #include <gtest/gtest.h>
 

@@ -14,6 +14,8 @@
 #include <set>
 #include <vector>
 
+#include "core/doors/door_detector.h"
+#include "core/doors/wall_sight.h"
 #include "tests/rooms/synthetic_places.h"
 #include "tests/support/allocation_counter.h"
 
@@ -745,7 +747,7 @@ TEST(RoomFinderTest, RoomsThatSeeEachOtherAreMerged) {
     ASSERT_TRUE(s.write(g2.get()));
     EXPECT_EQ(make_finder(c)->update(g2.get(), 0, nullptr, &hall_sight).rooms, 1u) << share << " " << samples;
   }
-  // A window's sight lines (an online door pass's) close edges through walls but do not merge, unless asked to.
+  // A window's sight lines (an online door pass's) close edges through walls but do not merge.
   WallSight window;
   std::string error;
   ASSERT_TRUE(window.add_structure(hall_sight.raster(0), hall_sight.structure(0), hall_sight.slice_z(0), DoorConfig{},
@@ -756,11 +758,6 @@ TEST(RoomFinderTest, RoomsThatSeeEachOtherAreMerged) {
     auto gw = make_graph();
     ASSERT_TRUE(s.write(gw.get()));
     EXPECT_EQ(make_finder()->update(gw.get(), 0, nullptr, &window).rooms, 2u);
-    Config in_window;
-    in_window.merge_visible_in_window = true;
-    auto gw2 = make_graph();
-    ASSERT_TRUE(s.write(gw2.get()));
-    EXPECT_EQ(make_finder(in_window)->update(gw2.get(), 0, nullptr, &window).rooms, 1u);
   }
   // Off: two rooms.
   Config off;

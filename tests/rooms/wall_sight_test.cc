@@ -1,7 +1,7 @@
 // WallSight: which slice walls are structure (long pieces) and which are furniture (short ones, thick islands),
 // sight lines past them, slices per storey, bad input, and the place edges through walls that
 // cut_edges_through_walls closes.
-#include "core/rooms/wall_sight.h"
+#include "core/doors/wall_sight.h"
 
 #include <gtest/gtest.h>
 

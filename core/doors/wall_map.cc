@@ -1,4 +1,4 @@
-#include "core/rooms/wall_map.h"
+#include "core/doors/wall_map.h"
 
 #include <algorithm>
 #include <cmath>

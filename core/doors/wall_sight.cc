@@ -1,5 +1,5 @@
 // Sight lines across the structural walls of the final door stage's slices.
-#include "core/rooms/wall_sight.h"
+#include "core/doors/wall_sight.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,5 +1,5 @@
-#include "core/rooms/door_detector.h"
-#include "core/rooms/wall_sight.h"
+#include "core/doors/door_detector.h"
+#include "core/doors/wall_sight.h"
 
 #include "core/memory/fixed_hash_map.h"
 

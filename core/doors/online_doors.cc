@@ -1,4 +1,4 @@
-#include "core/rooms/online_doors.h"
+#include "core/doors/online_doors.h"
 
 #include <cmath>
 

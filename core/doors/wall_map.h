@@ -16,7 +16,7 @@
 #include "core/memory/arena.h"
 #include "core/memory/fixed_hash_map.h"
 #include "core/memory/resource_stats.h"
-#include "core/rooms/door_detector.h"
+#include "core/doors/door_detector.h"
 
 namespace qsg::rooms {
 

@@ -26,9 +26,9 @@
 #include <string>
 
 #include "core/memory/arena.h"
-#include "core/rooms/door_detector.h"
-#include "core/rooms/wall_map.h"
-#include "core/rooms/wall_sight.h"
+#include "core/doors/door_detector.h"
+#include "core/doors/wall_map.h"
+#include "core/doors/wall_sight.h"
 #include "core/scene_graph/scene_graph.h"
 
 namespace qsg::rooms {

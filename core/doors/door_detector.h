@@ -18,7 +18,7 @@
 // runs every slice.
 //
 // Two ways to run it. Offline (find_doors, detect_doors): heap buffers sized by the slice, on the final surface (the
-// app when a run finishes; bench/rooms/rooms_eval once per explored plan). Online (core/rooms/online_doors.h): the
+// app when a run finishes; bench/rooms/rooms_eval once per explored plan). Online (core/doors/online_doors.h): the
 // same detection (detect_doors_in_raster) on a fixed window around the robot, in buffers carved at start-up, so a
 // backend update can see doors without allocating. A DoorSet holds doors for the room finder, which reads an edge
 // that crosses one as closed, exactly as cut_place_edges marks it.
@@ -35,11 +35,12 @@
 
 #include "core/memory/arena.h"
 #include "core/memory/resource_stats.h"
+#include "core/rooms/door_cues.h"
 #include "core/scene_graph/scene_graph.h"
 
 namespace qsg::rooms {
 
-class WallSight;  // core/rooms/wall_sight.h
+class WallSight;  // core/doors/wall_sight.h
 
 struct DoorConfig {
   double cell_m = 0.05;               // raster resolution
@@ -200,7 +201,8 @@ bool door_closes_edge(const Door& door, const DoorConfig& config, const Eigen::V
 
 // Doors for the room finder (RoomFinder::update): a fixed store with a grid index on the doors' midpoints, so an
 // edge is tested against the doors near it only. Full: add() refuses and counts.
-class DoorSet {
+// The doors handed to the room finder: it reads a place edge that crosses one as closed (ClosedPassages).
+class DoorSet : public ClosedPassages {
  public:
   DoorSet() = default;
   DoorSet(const DoorSet&) = delete;
@@ -231,7 +233,7 @@ class DoorSet {
   std::size_t remove_if(Pred&& pred) {
     return compact([&](std::size_t i) { return pred(doors_[i]); });
   }
-  bool closes(const Eigen::Vector3d& a, const Eigen::Vector3d& b) const;
+  bool closes(const Eigen::Vector3d& a, const Eigen::Vector3d& b) const override;
   std::size_t size() const { return size_; }
   const Door& operator[](std::size_t i) const { return doors_[i]; }
   memory::ResourceStats stats() const { return counter_.stats(); }

@@ -24,12 +24,14 @@
 #include <vector>
 
 #include "core/memory/arena.h"
-#include "core/rooms/door_detector.h"
+#include "core/doors/door_detector.h"
+#include "core/rooms/door_cues.h"
 #include "core/scene_graph/scene_graph.h"
 
 namespace qsg::rooms {
 
-class WallSight {
+// The sight lines handed to the room finder (SightLines).
+class WallSight : public SightLines {
  public:
   WallSight() = default;
 
@@ -56,10 +58,10 @@ class WallSight {
   bool set_window_slice(const DoorRaster& raster, const std::uint8_t* wall, double slice_z_m,
                         const DoorConfig& config);
 
-  std::size_t slices() const { return carved_ ? (window_set_ ? 1u : 0u) : slices_.size(); }
+  std::size_t slices() const override { return carved_ ? (window_set_ ? 1u : 0u) : slices_.size(); }
   // Whether the sight lines cover a window around the robot only (set_window_slice, or a copy of such a slice),
   // not the whole map of every storey.
-  bool window() const { return carved_ || copied_window_; }
+  bool window() const override { return carved_ || copied_window_; }
   double slice_z(std::size_t i) const { return slice(i).z_m; }
   std::size_t structure_cells(std::size_t i) const { return slice(i).structure_cells; }
   std::size_t components(std::size_t i) const { return slice(i).components; }
@@ -72,10 +74,10 @@ class WallSight {
   // Whether the segment a-b, in plan, crosses no structure cell of the slice both ends belong to. False when the
   // ends belong to different slices or to none, lie outside the slice's raster (not mapped: unknown), or are not
   // finite.
-  bool sees(const Eigen::Vector3d& a, const Eigen::Vector3d& b) const;
+  bool sees(const Eigen::Vector3d& a, const Eigen::Vector3d& b) const override;
   // Whether the segment a-b, in plan, crosses a structure cell of the slice both ends belong to. False when they do
   // not belong to one slice (an edge between storeys is not judged) or an end lies outside its raster.
-  bool crosses_structure(const Eigen::Vector3d& a, const Eigen::Vector3d& b) const;
+  bool crosses_structure(const Eigen::Vector3d& a, const Eigen::Vector3d& b) const override;
   const DoorRaster& raster(std::size_t i) const { return slice(i).raster; }
   const std::uint8_t* structure(std::size_t i) const { return slice(i).structure(); }
 
