@@ -70,6 +70,11 @@ inline int chebyshev(const memory::Index3& a, const memory::Index3& b) {
   return std::max(std::abs(a.x - b.x), std::max(std::abs(a.y - b.y), std::abs(a.z - b.z)));
 }
 inline std::uint32_t make_ref(std::uint32_t handle, int local) { return handle * kBlockVoxels + static_cast<std::uint32_t>(local); }
+// The neighbour limit's order of edges (kMaxClusterEdges): a GVD edge before a free-space edge before a bridge
+// (kEdgeGvd < kEdgeFree < kEdgeBridge), then the nearer place (squared distance between the places).
+inline bool edge_better(std::uint8_t kind_a, double d2_a, std::uint8_t kind_b, double d2_b) {
+  return kind_a < kind_b || (kind_a == kind_b && d2_a < d2_b);
+}
 }  // namespace
 
 struct Places::Voxel {
@@ -221,7 +226,7 @@ void Counters::print(std::FILE* out) const {
                "relinks_dropped=%llu relinks_refused=%llu views=%llu views_merged=%llu observed_refused=%llu "
                "rays=%llu bridges=%llu bridges_added=%llu bridge_paths=%llu bridge_searches_cut=%llu bridges_missing=%llu "
                "contracted=%llu enclosed_held=%llu reactivated=%llu revivals_refused=%llu edges_kept_at_rim=%llu "
-               "relinks_apart=%llu\n",
+               "relinks_apart=%llu edges_pruned=%llu\n",
                (unsigned long long)updates, (unsigned long long)cycles, (unsigned long long)tsdf_blocks_read,
                (unsigned long long)voxels_updated, (unsigned long long)voxels_raised,
                (unsigned long long)voxels_orphaned, (unsigned long long)frontier_seeds, (unsigned long long)occupied_seeds,
@@ -237,7 +242,7 @@ void Counters::print(std::FILE* out) const {
                (unsigned long long)bridge_searches_cut, (unsigned long long)bridges_missing,
                (unsigned long long)contracted, (unsigned long long)enclosed_held, (unsigned long long)reactivated,
                (unsigned long long)revivals_refused, (unsigned long long)edges_kept_at_rim,
-               (unsigned long long)relinks_apart);
+               (unsigned long long)relinks_apart, (unsigned long long)edges_pruned);
 }
 
 void MemoryUse::print(std::FILE* out) const {
@@ -1546,6 +1551,32 @@ void Places::recompute_edges(std::uint32_t cluster) {
   float weight[kMaxClusterEdges];
   std::uint8_t free_edge[kMaxClusterEdges];
   int n = 0;
+  // The neighbour limit: a candidate past kMaxClusterEdges replaces the worst one held if it is better (edge_better),
+  // else it is pruned; either way one candidate is not kept (Counters::edges_pruned).
+  const auto offer = [&](std::uint32_t x, float w, std::uint8_t kind) {
+    const double d2 = (clusters_[x].position_m - c.position_m).squaredNorm();
+    if (n < kMaxClusterEdges) {
+      to[n] = x;
+      weight[n] = w;
+      free_edge[n] = kind;
+      ++n;
+      return;
+    }
+    ++counters_.edges_pruned;
+    int worst = 0;
+    double worst_d2 = (clusters_[to[0]].position_m - c.position_m).squaredNorm();
+    for (int k = 1; k < n; ++k) {
+      const double dk = (clusters_[to[k]].position_m - c.position_m).squaredNorm();
+      if (edge_better(free_edge[worst], worst_d2, free_edge[k], dk)) {
+        worst = k;
+        worst_d2 = dk;
+      }
+    }
+    if (!edge_better(kind, d2, free_edge[worst], worst_d2)) return;
+    to[worst] = x;
+    weight[worst] = w;
+    free_edge[worst] = kind;
+  };
   for (std::uint32_t r = c.head; r != kNoRef; r = vox(r).cluster_next) {
     const Voxel& v = vox(r);
     for (const Offset& o : kOffsets.o) {
@@ -1558,13 +1589,8 @@ void Places::recompute_edges(std::uint32_t cluster) {
       while (k < n && to[k] != nv.cluster) ++k;
       if (k < n) {
         weight[k] = std::min(weight[k], w);
-      } else if (n < kMaxClusterEdges) {
-        to[n] = nv.cluster;
-        weight[n] = w;
-        free_edge[n] = kEdgeGvd;
-        ++n;
       } else {
-        ++counters_.edges_refused;
+        offer(nv.cluster, w, kEdgeGvd);
       }
     }
   }
@@ -1590,14 +1616,7 @@ void Places::recompute_edges(std::uint32_t cluster) {
         if (near) continue;
         float w = 0.0f;
         if (!spheres_meet(cluster, x, &w)) continue;
-        if (n == kMaxClusterEdges) {
-          ++counters_.edges_refused;
-          continue;
-        }
-        to[n] = x;
-        weight[n] = w;
-        free_edge[n] = kEdgeFree;
-        ++n;
+        offer(x, w, kEdgeFree);
       }
     }
   }
@@ -1636,10 +1655,12 @@ void Places::recompute_edges(std::uint32_t cluster) {
     int k = 0;
     while (k < o.num_edges && o.edge_to[k] != cluster) ++k;
     if (k == o.num_edges) {
-      if (o.num_edges == kMaxClusterEdges) {
-        ++counters_.edges_refused;
-        continue;  // keep the edge lists symmetric
+      if (o.num_edges == kMaxClusterEdges &&
+          !make_room(to[j], free_edge[j], (o.position_m - c.position_m).squaredNorm())) {
+        ++counters_.edges_pruned;
+        continue;  // the other end holds better edges: not kept at either end (the lists stay symmetric)
       }
+      k = o.num_edges;
       o.edge_to[k] = cluster;
       ++o.num_edges;
       o.bridge_check = 1;
@@ -1657,6 +1678,27 @@ void Places::recompute_edges(std::uint32_t cluster) {
     ++kept;
   }
   c.num_edges = static_cast<std::uint8_t>(kept);
+}
+
+// The other end of a new edge is at the neighbour limit: its worst edge gives way (dropped at both of its ends) if
+// the new one is better; false when every edge it holds is at least as good.
+bool Places::make_room(std::uint32_t cluster, std::uint8_t kind, double d2) {
+  Cluster& c = clusters_[cluster];
+  int worst = -1;
+  double worst_d2 = 0.0;
+  for (int k = 0; k < c.num_edges; ++k) {
+    const double dk = (clusters_[c.edge_to[k]].position_m - c.position_m).squaredNorm();
+    if (worst < 0 || edge_better(c.edge_free[worst], worst_d2, c.edge_free[k], dk)) {
+      worst = k;
+      worst_d2 = dk;
+    }
+  }
+  if (worst < 0 || !edge_better(kind, d2, c.edge_free[worst], worst_d2)) return false;
+  const std::uint32_t other = c.edge_to[worst];
+  drop_edge(cluster, other);
+  drop_edge(other, cluster);
+  ++counters_.edges_pruned;
+  return true;
 }
 
 void Places::finalize_cluster(const reconstruction::SemanticTsdf& tsdf, std::uint32_t cluster, bool split_check) {

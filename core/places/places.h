@@ -212,7 +212,11 @@ struct Counters {
   std::uint64_t clusters_merged = 0;
   std::uint64_t clusters_split = 0;
   std::uint64_t clusters_refused = 0;  // cluster pool full: a GVD voxel stayed without a place
-  std::uint64_t edges_refused = 0;     // a place had kMaxClusterEdges neighbours already
+  std::uint64_t edges_refused = 0;     // a bridge found no free slot at one of its ends (kMaxClusterEdges)
+  // Edge candidates not kept under the neighbour limit (kMaxClusterEdges): a place keeps its best edges, GVD before
+  // free-space before bridge, nearer before farther; a better candidate replaces its worst, a worse one is pruned.
+  // Policy, not a fault: it grows with every edge recomputation among crowded places (traffic).
+  std::uint64_t edges_pruned = 0;
   std::uint64_t graph_refused = 0;     // sync(): the scene graph's place or edge store was full
   std::uint64_t graph_errors = 0;      // sync(): the graph refused a request for another reason (a node not in it
                                        // yet, or gone): not a full store; relinks retry on the next sync
@@ -428,6 +432,7 @@ class Places {
   void split_cluster(const reconstruction::SemanticTsdf& tsdf, std::uint32_t cluster);
   void pick_representative(std::uint32_t cluster);
   void recompute_edges(std::uint32_t cluster);
+  bool make_room(std::uint32_t cluster, std::uint8_t kind, double d2);
   void compute_mesh_connections(const reconstruction::SemanticTsdf& tsdf, std::uint32_t cluster);
   bool same_free_space(const Eigen::Vector3d& pa, double ra, const Eigen::Vector3d& pb, double rb) const;
   bool segment_clearance(Eigen::Vector3d a_m, Eigen::Vector3d b_m, float* min_distance_m) const;
