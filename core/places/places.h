@@ -395,6 +395,7 @@ class Places {
 
   // ESDF.
   void begin_cycle(const reconstruction::SemanticTsdf& tsdf, const Eigen::Vector3d& robot_m);
+  void finish_cycle();
   std::uint32_t allocate_block(const reconstruction::SemanticTsdf& tsdf, const memory::Index3& index, bool read_tsdf);
   void evict_block_voxels(std::uint32_t handle);
   void release_block(std::uint32_t handle);
@@ -419,6 +420,7 @@ class Places {
   // GVD.
   int evaluate_gvd(std::uint32_t ref, std::uint32_t* basis_parents, int max_parents) const;
   void gvd_step(std::uint32_t ref);
+  void expand_affected(std::uint32_t ref);
 
   // Places.
   void sparsify_step(std::uint32_t ref);
@@ -442,6 +444,14 @@ class Places {
   std::uint32_t replacement_for(const Eigen::Vector3d& position_m, double clearance_m,
                                 const memory::Index3& cell) const;
   void resolve_relinks(scene_graph::SceneGraph* graph, SyncResult* r);
+  void park_relinks(scene_graph::SceneGraph* graph, const Cluster& removed);
+  // sync(), in order.
+  void sync_retired(scene_graph::SceneGraph* graph, SyncResult* r);
+  void sync_nodes(scene_graph::SceneGraph* graph, SyncResult* r);
+  void sync_edges(scene_graph::SceneGraph* graph, SyncResult* r);
+  void refuse_graph_write(SyncResult* r, const char* what);
+  bool add_repair_edge(scene_graph::SceneGraph* graph, scene_graph::NodeId a, scene_graph::NodeId b, double weight_m,
+                       const char* what, SyncResult* r);
   // The inactive-place index: nodes parked by hash cell (a cell holds any number, chained in a fixed array).
   void park_inactive(const memory::Index3& cell, scene_graph::NodeId node);
   scene_graph::NodeId take_inactive(const memory::Index3& cell);
