@@ -179,4 +179,29 @@ void Places::set_held(std::uint32_t cluster, bool held) {
     if (clusters_[c.edge_to[k]].held) clusters_[c.edge_to[k]].bridge_check = 1;
 }
 
+// recompute_edges(): a place's bridges, offered last (they have the lowest priority at the neighbour limit).
+void Places::kept_bridge_candidates(std::uint32_t cluster, EdgeCandidates* e) {
+  const Cluster& c = clusters_[cluster];
+  // Bridges stay while their segment is still certified free (the bridge pass adds them; a fragment that has
+  // since joined the rest keeps its bridge as one more free-space edge).
+  for (int k = 0; k < c.num_edges; ++k) {
+    if (c.edge_free[k] != kEdgeBridge) continue;
+    const std::uint32_t x = c.edge_to[k];
+    int j = 0;
+    while (j < e->n && e->to[j] != x) ++j;
+    if (j < e->n || e->n == kMaxClusterEdges) continue;
+    const Cluster& xc = clusters_[x];
+    float w = 0.0f;
+    if (xc.state != kLive || xc.rep == kNoRef ||
+        (xc.position_m - c.position_m).norm() > config_.bridge_max_length_m ||
+        !segment_clearance(c.position_m, xc.position_m, &w) ||
+        static_cast<double>(w) < config_.bridge_min_clearance_m)
+      continue;
+    e->to[e->n] = x;
+    e->weight[e->n] = w;
+    e->kind[e->n] = kEdgeBridge;
+    ++e->n;
+  }
+}
+
 }  // namespace qsg::places

@@ -35,4 +35,33 @@ bool Places::spheres_meet(std::uint32_t a, std::uint32_t b, float* weight_m) con
                : segment_clearance(center_m(coords(vb)), clusters_[a].position_m, weight_m);
 }
 
+// recompute_edges(): the free-space candidates of a place, offered after its GVD edges.
+void Places::free_space_edge_candidates(std::uint32_t cluster, EdgeCandidates* e) {
+  const Cluster& c = clusters_[cluster];
+  // Free-space edges (after the GVD's, which keep priority for the slots): places of the 27 cells around this
+  // one whose spheres of free space overlap, certified by the ESDF along the segment between them.
+  for (int oi = 0; oi <= 26; ++oi) {  // the 26 neighbour cells, then the cell itself
+    const memory::Index3 cell = oi < 26 ? add(c.cell, kOffsets.o[oi].dx, kOffsets.o[oi].dy, kOffsets.o[oi].dz) : c.cell;
+    const std::uint32_t* head = cells_.find(cell);
+    for (std::uint32_t x = head != nullptr ? *head : kNoCluster; x != kNoCluster; x = clusters_[x].cell_next) {
+      const Cluster& xc = clusters_[x];
+      if (x == cluster || xc.state != kLive || xc.rep == kNoRef) continue;
+      int k = 0;
+      while (k < e->n && e->to[k] != x) ++k;
+      if (k < e->n) continue;
+      // Already two GVD hops away (through a GVD neighbour of this cluster): the GVD joins them.
+      bool near = false;
+      for (int j = 0; j < e->n && !near; ++j) {
+        if (e->kind[j]) continue;
+        const Cluster& g = clusters_[e->to[j]];
+        for (int q = 0; q < g.num_edges && !near; ++q) near = g.edge_to[q] == x && !g.edge_free[q];
+      }
+      if (near) continue;
+      float w = 0.0f;
+      if (!spheres_meet(cluster, x, &w)) continue;
+      offer_edge(c, e, x, w, kEdgeFree);
+    }
+  }
+}
+
 }  // namespace qsg::places

@@ -171,13 +171,13 @@ UpdateResult Places::update(const reconstruction::SemanticTsdf& tsdf, const Eige
   };
   for (;;) {
     switch (phase_) {
-      case kIdle:
+      case kIdle:  // the TSDF blocks integrated since their last read, the window around the robot (esdf.cc)
         begin_cycle(tsdf, robot_m);
         ++units_;
         cursor_ = 0;
         phase_ = kSeedPhase;
         break;
-      case kSeedPhase:
+      case kSeedPhase:  // ESDF seeds from the TSDF's zero crossings, free space carved by rays (esdf.cc)
         if (!run_list(kDirtyList, [&](std::uint32_t e) {
               constexpr std::uint32_t kSubs = kMaxVoxelFactor * kMaxVoxelFactor * kMaxVoxelFactor;
               seed_sub_block(tsdf, e / kSubs, static_cast<int>(e % kSubs), true);
@@ -185,11 +185,11 @@ UpdateResult Places::update(const reconstruction::SemanticTsdf& tsdf, const Eige
           return {false, units_};
         phase_ = kRaisePhase;
         break;
-      case kRaisePhase:
+      case kRaisePhase:  // the brushfire's raise wave: distances whose source is gone (esdf.cc)
         if (!run_list(kRaiseList, [&](std::uint32_t r) { raise_step(r); })) return {false, units_};
         phase_ = kLowerPhase;
         break;
-      case kLowerPhase:
+      case kLowerPhase:  // ... and its lower wave: new and shorter distances (esdf.cc)
         while (lower_size_ > 0) {
           if (expired()) return {false, units_};
           const std::uint32_t r = lower_ring_[lower_head_];
@@ -201,19 +201,19 @@ UpdateResult Places::update(const reconstruction::SemanticTsdf& tsdf, const Eige
         lower_head_ = 0;
         phase_ = kGvdExpand;
         break;
-      case kGvdExpand:
+      case kGvdExpand:  // GVD: the voxels around every changed distance are re-tested (gvd.cc)
         if (!run_list(kAffectedList, [&](std::uint32_t r) { expand_affected(r); })) return {false, units_};
         phase_ = kGvdEval;
         break;
-      case kGvdEval:
+      case kGvdEval:  // ... where wavefronts meet, theta-SMA and clearance filters (gvd.cc)
         if (!run_list(kEvalList, [&](std::uint32_t r) { gvd_step(r); })) return {false, units_};
         phase_ = kSparsify;
         break;
-      case kSparsify:
+      case kSparsify:  // Algorithm 1: changed GVD voxels clustered per hash cell (sparsify.cc)
         if (!run_list(kChangedList, [&](std::uint32_t r) { sparsify_step(r); })) return {false, units_};
         phase_ = kFinalize;
         break;
-      case kFinalize:
+      case kFinalize:  // node attributes and edges of every changed place; free-space edges (sparsify.cc, pass_*)
         while (cursor_ < clusters_.capacity()) {
           if (expired()) return {false, units_};
           const std::uint32_t h = static_cast<std::uint32_t>(cursor_++);
@@ -228,7 +228,7 @@ UpdateResult Places::update(const reconstruction::SemanticTsdf& tsdf, const Eige
         counters_.bridges_missing = 0;
         phase_ = kBridge;
         break;
-      case kBridge:
+      case kBridge:  // repair pass: small fragments bridged, pockets and islands held back (pass_bridges.cc)
         while (config_.bridge_fragments && cursor_ < clusters_.capacity()) {
           if (expired()) return {false, units_};
           const std::uint32_t h = static_cast<std::uint32_t>(cursor_++);

@@ -374,6 +374,7 @@ class Places {
   struct Block;
   struct Cluster;
   struct List;
+  struct EdgeCandidates;
 
  private:
   memory::ResourceStats lower_queue_stats() const;
@@ -434,6 +435,11 @@ class Places {
   void split_cluster(const reconstruction::SemanticTsdf& tsdf, std::uint32_t cluster);
   void pick_representative(std::uint32_t cluster);
   void recompute_edges(std::uint32_t cluster);
+  void offer_edge(const Cluster& c, EdgeCandidates* e, std::uint32_t x, float w, std::uint8_t kind);
+  void gvd_edge_candidates(std::uint32_t cluster, EdgeCandidates* e);
+  void free_space_edge_candidates(std::uint32_t cluster, EdgeCandidates* e);  // pass_free_space_edges.cc
+  void kept_bridge_candidates(std::uint32_t cluster, EdgeCandidates* e);      // pass_bridges.cc
+  void write_edges(std::uint32_t cluster, const EdgeCandidates& candidates);
   bool make_room(std::uint32_t cluster, std::uint8_t kind, double d2);
   void compute_mesh_connections(const reconstruction::SemanticTsdf& tsdf, std::uint32_t cluster);
   bool same_free_space(const Eigen::Vector3d& pa, double ra, const Eigen::Vector3d& pb, double rb) const;

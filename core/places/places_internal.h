@@ -161,6 +161,14 @@ struct Places::List {
   void clear() { size = 0; }
 };
 
+// recompute_edges(): a place's candidate edges, in the order offered (GVD, free-space, bridges), at most the limit.
+struct Places::EdgeCandidates {
+  std::uint32_t to[kMaxClusterEdges];
+  float weight[kMaxClusterEdges];
+  std::uint8_t kind[kMaxClusterEdges];  // kEdgeGvd, kEdgeFree or kEdgeBridge
+  int n = 0;
+};
+
 // A graph write refused for another reason than a full store: counted in graph_errors, logged 1st, 2nd, 4th, ...
 void log_graph_error(const char* what, scene_graph::Status status, std::uint64_t n);
 

@@ -407,39 +407,46 @@ bool Places::segment_clearance(Eigen::Vector3d pa, Eigen::Vector3d pb, float* mi
 // Edges
 
 // Edges from the GVD adjacency: cluster A joins cluster B when a voxel of A touches a voxel of B; the weight is
-// the smallest clearance among the voxels through which the GVD passes from A to B (the touching pairs).
+// the smallest clearance among the voxels through which the GVD passes from A to B (the touching pairs). Then the
+// repair passes' candidates (free-space edges, kept bridges), and the edges written into both ends.
 void Places::recompute_edges(std::uint32_t cluster) {
-  Cluster& c = clusters_[cluster];
-  std::uint32_t to[kMaxClusterEdges];
-  float weight[kMaxClusterEdges];
-  std::uint8_t free_edge[kMaxClusterEdges];
-  int n = 0;
-  // The neighbour limit: a candidate past kMaxClusterEdges replaces the worst one held if it is better (edge_better),
-  // else it is pruned; either way one candidate is not kept (Counters::edges_pruned).
-  const auto offer = [&](std::uint32_t x, float w, std::uint8_t kind) {
-    const double d2 = (clusters_[x].position_m - c.position_m).squaredNorm();
-    if (n < kMaxClusterEdges) {
-      to[n] = x;
-      weight[n] = w;
-      free_edge[n] = kind;
-      ++n;
-      return;
+  const Cluster& c = clusters_[cluster];
+  EdgeCandidates candidates;
+  gvd_edge_candidates(cluster, &candidates);
+  if (config_.free_space_edges && c.rep != kNoRef) free_space_edge_candidates(cluster, &candidates);
+  if (config_.bridge_fragments && c.rep != kNoRef) kept_bridge_candidates(cluster, &candidates);
+  write_edges(cluster, candidates);
+}
+
+// The neighbour limit: a candidate past kMaxClusterEdges replaces the worst one held if it is better (edge_better),
+// else it is pruned; either way one candidate is not kept (Counters::edges_pruned).
+void Places::offer_edge(const Cluster& c, EdgeCandidates* e, std::uint32_t x, float w, std::uint8_t kind) {
+  const double d2 = (clusters_[x].position_m - c.position_m).squaredNorm();
+  if (e->n < kMaxClusterEdges) {
+    e->to[e->n] = x;
+    e->weight[e->n] = w;
+    e->kind[e->n] = kind;
+    ++e->n;
+    return;
+  }
+  ++counters_.edges_pruned;
+  int worst = 0;
+  double worst_d2 = (clusters_[e->to[0]].position_m - c.position_m).squaredNorm();
+  for (int k = 1; k < e->n; ++k) {
+    const double dk = (clusters_[e->to[k]].position_m - c.position_m).squaredNorm();
+    if (edge_better(e->kind[worst], worst_d2, e->kind[k], dk)) {
+      worst = k;
+      worst_d2 = dk;
     }
-    ++counters_.edges_pruned;
-    int worst = 0;
-    double worst_d2 = (clusters_[to[0]].position_m - c.position_m).squaredNorm();
-    for (int k = 1; k < n; ++k) {
-      const double dk = (clusters_[to[k]].position_m - c.position_m).squaredNorm();
-      if (edge_better(free_edge[worst], worst_d2, free_edge[k], dk)) {
-        worst = k;
-        worst_d2 = dk;
-      }
-    }
-    if (!edge_better(kind, d2, free_edge[worst], worst_d2)) return;
-    to[worst] = x;
-    weight[worst] = w;
-    free_edge[worst] = kind;
-  };
+  }
+  if (!edge_better(kind, d2, e->kind[worst], worst_d2)) return;
+  e->to[worst] = x;
+  e->weight[worst] = w;
+  e->kind[worst] = kind;
+}
+
+void Places::gvd_edge_candidates(std::uint32_t cluster, EdgeCandidates* e) {
+  const Cluster& c = clusters_[cluster];
   for (std::uint32_t r = c.head; r != kNoRef; r = vox(r).cluster_next) {
     const Voxel& v = vox(r);
     for (const Offset& o : kOffsets.o) {
@@ -449,77 +456,36 @@ void Places::recompute_edges(std::uint32_t cluster) {
       if ((nv.flags & kGvd) == 0 || nv.cluster >= kSplitPending || nv.cluster == cluster) continue;
       const float w = std::min(v.distance_m, nv.distance_m);
       int k = 0;
-      while (k < n && to[k] != nv.cluster) ++k;
-      if (k < n) {
-        weight[k] = std::min(weight[k], w);
+      while (k < e->n && e->to[k] != nv.cluster) ++k;
+      if (k < e->n) {
+        e->weight[k] = std::min(e->weight[k], w);
       } else {
-        offer(nv.cluster, w, kEdgeGvd);
+        offer_edge(c, e, nv.cluster, w, kEdgeGvd);
       }
     }
   }
-  // Free-space edges (after the GVD's, which keep priority for the slots): places of the 27 cells around this
-  // one whose spheres of free space overlap, certified by the ESDF along the segment between them.
-  if (config_.free_space_edges && c.rep != kNoRef) {
-    for (int oi = 0; oi <= 26; ++oi) {  // the 26 neighbour cells, then the cell itself
-      const memory::Index3 cell = oi < 26 ? add(c.cell, kOffsets.o[oi].dx, kOffsets.o[oi].dy, kOffsets.o[oi].dz) : c.cell;
-      const std::uint32_t* head = cells_.find(cell);
-      for (std::uint32_t x = head != nullptr ? *head : kNoCluster; x != kNoCluster; x = clusters_[x].cell_next) {
-        const Cluster& xc = clusters_[x];
-        if (x == cluster || xc.state != kLive || xc.rep == kNoRef) continue;
-        int k = 0;
-        while (k < n && to[k] != x) ++k;
-        if (k < n) continue;
-        // Already two GVD hops away (through a GVD neighbour of this cluster): the GVD joins them.
-        bool near = false;
-        for (int j = 0; j < n && !near; ++j) {
-          if (free_edge[j]) continue;
-          const Cluster& g = clusters_[to[j]];
-          for (int e = 0; e < g.num_edges && !near; ++e) near = g.edge_to[e] == x && !g.edge_free[e];
-        }
-        if (near) continue;
-        float w = 0.0f;
-        if (!spheres_meet(cluster, x, &w)) continue;
-        offer(x, w, kEdgeFree);
-      }
-    }
-  }
-  // Bridges stay while their segment is still certified free (the bridge pass adds them; a fragment that has
-  // since joined the rest keeps its bridge as one more free-space edge).
-  if (config_.bridge_fragments && c.rep != kNoRef) {
-    for (int k = 0; k < c.num_edges; ++k) {
-      if (c.edge_free[k] != kEdgeBridge) continue;
-      const std::uint32_t x = c.edge_to[k];
-      int j = 0;
-      while (j < n && to[j] != x) ++j;
-      if (j < n || n == kMaxClusterEdges) continue;
-      const Cluster& xc = clusters_[x];
-      float w = 0.0f;
-      if (xc.state != kLive || xc.rep == kNoRef ||
-          (xc.position_m - c.position_m).norm() > config_.bridge_max_length_m ||
-          !segment_clearance(c.position_m, xc.position_m, &w) ||
-          static_cast<double>(w) < config_.bridge_min_clearance_m)
-        continue;
-      to[n] = x;
-      weight[n] = w;
-      free_edge[n] = kEdgeBridge;
-      ++n;
-    }
-  }
+}
+
+// Drops the edges that are gone (from both ends), then writes the candidates into both ends; the other end at its
+// limit makes room for a better edge (make_room) or the candidate is pruned at both ends.
+void Places::write_edges(std::uint32_t cluster, const EdgeCandidates& candidates) {
+  Cluster& c = clusters_[cluster];
+  const EdgeCandidates* e = &candidates;
   // Drop the edges that are gone (from both ends), then write the others into both ends.
   for (int k = c.num_edges - 1; k >= 0; --k) {
     const std::uint32_t other = c.edge_to[k];
     bool kept = false;
-    for (int j = 0; j < n && !kept; ++j) kept = to[j] == other;
+    for (int j = 0; j < e->n && !kept; ++j) kept = e->to[j] == other;
     if (!kept) drop_edge(other, cluster);
   }
   int kept = 0;
-  for (int j = 0; j < n; ++j) {
-    Cluster& o = clusters_[to[j]];
+  for (int j = 0; j < e->n; ++j) {
+    Cluster& o = clusters_[e->to[j]];
     int k = 0;
     while (k < o.num_edges && o.edge_to[k] != cluster) ++k;
     if (k == o.num_edges) {
       if (o.num_edges == kMaxClusterEdges &&
-          !make_room(to[j], free_edge[j], (o.position_m - c.position_m).squaredNorm())) {
+          !make_room(e->to[j], e->kind[j], (o.position_m - c.position_m).squaredNorm())) {
         ++counters_.edges_pruned;
         continue;  // the other end holds better edges: not kept at either end (the lists stay symmetric)
       }
@@ -527,17 +493,17 @@ void Places::recompute_edges(std::uint32_t cluster) {
       o.edge_to[k] = cluster;
       ++o.num_edges;
       o.bridge_check = 1;
-      o.edge_weight[k] = weight[j];
-      o.edge_free[k] = free_edge[j];
+      o.edge_weight[k] = e->weight[j];
+      o.edge_free[k] = e->kind[j];
       o.sync_dirty = 1;
-    } else if (o.edge_weight[k] != weight[j] || o.edge_free[k] != free_edge[j]) {
-      o.edge_weight[k] = weight[j];
-      o.edge_free[k] = free_edge[j];
+    } else if (o.edge_weight[k] != e->weight[j] || o.edge_free[k] != e->kind[j]) {
+      o.edge_weight[k] = e->weight[j];
+      o.edge_free[k] = e->kind[j];
       o.sync_dirty = 1;
     }
-    c.edge_to[kept] = to[j];
-    c.edge_weight[kept] = weight[j];
-    c.edge_free[kept] = free_edge[j];
+    c.edge_to[kept] = e->to[j];
+    c.edge_weight[kept] = e->weight[j];
+    c.edge_free[kept] = e->kind[j];
     ++kept;
   }
   c.num_edges = static_cast<std::uint8_t>(kept);
