@@ -130,6 +130,7 @@ void add_stage_groups(const Pipeline& p, std::vector<ReportGroup>* out) {
   places.add("blocks_refused", U(pl.blocks_refused));
   places.add("clusters_refused", U(pl.clusters_refused));
   places.add("edges_refused", U(pl.edges_refused));
+  places.add("edges_pruned", U(pl.edges_pruned));
   places.add("graph_refused", U(pl.graph_refused));
   places.add("graph_errors", U(pl.graph_errors));
   places.add("revivals_refused", U(pl.revivals_refused));
@@ -338,7 +339,7 @@ void print_telemetry_counters(const Pipeline& p, std::FILE* out) {
                "agents.rejected_full=%llu agents.rejected_pose=%llu "
                "| load pipeline.frontend_deadline_stops=%llu pipeline.wall_paint_deferred=%llu tasks.overruns=%llu "
                "tasks.slips=%llu tasks.skips=%llu | traffic pipeline.keyframes_integrated=%llu agents.folded=%llu "
-               "odometry.overwritten=%llu places.revisits_merged=%llu reconstruction.blocks_evicted=%llu "
+               "odometry.overwritten=%llu places.revisits_merged=%llu places.edges_pruned=%llu reconstruction.blocks_evicted=%llu "
                "reconstruction.archive_compactions=%llu reconstruction.archive_coarsenings=%llu "
                "pipeline.snapshots_written=%llu\n",
                u(d.dropped), u(d.stalls), u(d.late), u(d.timestamps_backwards), u(d.invalid_depth_frames),
@@ -354,7 +355,7 @@ void print_telemetry_counters(const Pipeline& p, std::FILE* out) {
                u(ob.graph_connection_failures), u(fr.interlayer_failed), u(fr.graph_refused), u(ag.rejected_time),
                u(ag.rejected_full), u(ag.rejected_pose), u(c.frontend_deadline_stops), u(c.wall_paint_deferred),
                u(overruns), u(slips), u(skips), u(c.keyframes_integrated), u(ag.folded), u(b.overwritten),
-               u(pl.revisits_merged), u(r.blocks_evicted), u(r.archive_compactions), u(r.archive_coarsenings),
+               u(pl.revisits_merged), u(pl.edges_pruned), u(r.blocks_evicted), u(r.archive_compactions), u(r.archive_coarsenings),
                u(c.snapshots_written));
 }
 

@@ -212,7 +212,11 @@ struct Counters {
   std::uint64_t clusters_merged = 0;
   std::uint64_t clusters_split = 0;
   std::uint64_t clusters_refused = 0;  // cluster pool full: a GVD voxel stayed without a place
-  std::uint64_t edges_refused = 0;     // a place had kMaxClusterEdges neighbours already
+  std::uint64_t edges_refused = 0;     // a bridge found no free slot at one of its ends (kMaxClusterEdges)
+  // Edge candidates not kept under the neighbour limit (kMaxClusterEdges): a place keeps its best edges, GVD before
+  // free-space before bridge, nearer before farther; a better candidate replaces its worst, a worse one is pruned.
+  // Policy, not a fault: it grows with every edge recomputation among crowded places (traffic).
+  std::uint64_t edges_pruned = 0;
   std::uint64_t graph_refused = 0;     // sync(): the scene graph's place or edge store was full
   std::uint64_t graph_errors = 0;      // sync(): the graph refused a request for another reason (a node not in it
                                        // yet, or gone): not a full store; relinks retry on the next sync
@@ -370,6 +374,7 @@ class Places {
   struct Block;
   struct Cluster;
   struct List;
+  struct EdgeCandidates;
 
  private:
   memory::ResourceStats lower_queue_stats() const;
@@ -391,6 +396,7 @@ class Places {
 
   // ESDF.
   void begin_cycle(const reconstruction::SemanticTsdf& tsdf, const Eigen::Vector3d& robot_m);
+  void finish_cycle();
   std::uint32_t allocate_block(const reconstruction::SemanticTsdf& tsdf, const memory::Index3& index, bool read_tsdf);
   void evict_block_voxels(std::uint32_t handle);
   void release_block(std::uint32_t handle);
@@ -415,6 +421,7 @@ class Places {
   // GVD.
   int evaluate_gvd(std::uint32_t ref, std::uint32_t* basis_parents, int max_parents) const;
   void gvd_step(std::uint32_t ref);
+  void expand_affected(std::uint32_t ref);
 
   // Places.
   void sparsify_step(std::uint32_t ref);
@@ -428,6 +435,12 @@ class Places {
   void split_cluster(const reconstruction::SemanticTsdf& tsdf, std::uint32_t cluster);
   void pick_representative(std::uint32_t cluster);
   void recompute_edges(std::uint32_t cluster);
+  void offer_edge(const Cluster& c, EdgeCandidates* e, std::uint32_t x, float w, std::uint8_t kind);
+  void gvd_edge_candidates(std::uint32_t cluster, EdgeCandidates* e);
+  void free_space_edge_candidates(std::uint32_t cluster, EdgeCandidates* e);  // pass_free_space_edges.cc
+  void kept_bridge_candidates(std::uint32_t cluster, EdgeCandidates* e);      // pass_bridges.cc
+  void write_edges(std::uint32_t cluster, const EdgeCandidates& candidates);
+  bool make_room(std::uint32_t cluster, std::uint8_t kind, double d2);
   void compute_mesh_connections(const reconstruction::SemanticTsdf& tsdf, std::uint32_t cluster);
   bool same_free_space(const Eigen::Vector3d& pa, double ra, const Eigen::Vector3d& pb, double rb) const;
   bool segment_clearance(Eigen::Vector3d a_m, Eigen::Vector3d b_m, float* min_distance_m) const;
@@ -437,6 +450,14 @@ class Places {
   std::uint32_t replacement_for(const Eigen::Vector3d& position_m, double clearance_m,
                                 const memory::Index3& cell) const;
   void resolve_relinks(scene_graph::SceneGraph* graph, SyncResult* r);
+  void park_relinks(scene_graph::SceneGraph* graph, const Cluster& removed);
+  // sync(), in order.
+  void sync_retired(scene_graph::SceneGraph* graph, SyncResult* r);
+  void sync_nodes(scene_graph::SceneGraph* graph, SyncResult* r);
+  void sync_edges(scene_graph::SceneGraph* graph, SyncResult* r);
+  void refuse_graph_write(SyncResult* r, const char* what);
+  bool add_repair_edge(scene_graph::SceneGraph* graph, scene_graph::NodeId a, scene_graph::NodeId b, double weight_m,
+                       const char* what, SyncResult* r);
   // The inactive-place index: nodes parked by hash cell (a cell holds any number, chained in a fixed array).
   void park_inactive(const memory::Index3& cell, scene_graph::NodeId node);
   scene_graph::NodeId take_inactive(const memory::Index3& cell);

@@ -40,9 +40,9 @@ struct Config {
   int input_height_px = 384;
   Normalization normalization;   // defaults: RGB, 1/255, ImageNet mean/std (MODELS.md for ESPNetv2 PASCAL)
   int num_classes = 21;          // the network's output channels (PASCAL VOC: 20 classes + background)
-  // Softmax probability of the winning class below which a pixel is low_confidence_label (0: argmax only, saves
-  // ~3 ms). 0.5 = the winner must outweigh all others together; on the TUM desk frame it drops 3.6 % of pixels,
-  // mostly object borders (0.8 would drop 32 %: this network's outputs are not peaked).
+  // Softmax probability of the winning class below which a pixel is low_confidence_label (0: argmax only, which
+  // skips the softmax). 0.5 = the winner must outweigh all others together; what it drops and costs on the TUM
+  // desk frame: bench/results/segmentation.md ("min_confidence").
   float min_confidence = 0.5f;
   semantics::Label low_confidence_label = semantics::kUnlabeled;
   DnnBackend backend = DnnBackend::kOpenCv;

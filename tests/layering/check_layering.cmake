@@ -2,6 +2,8 @@
 # may not include a header from the folders listed after it. budgets/ is the bottom (the tables and their types),
 # core/ pure libraries, drivers/ devices and simulators over core's messages, firmware_app/ the shell; bench/, tests/
 # and fuzz/ sit on top and may include anything. Fails (exit status 1) naming every offending file and include.
+# It also checks the size limits on core/ (check_sizes.cmake: files of at most 1,000 lines, functions of 150).
+cmake_minimum_required(VERSION 3.16)  # the policies of the project (check_sizes.cmake keeps empty lines)
 if(NOT SOURCE_DIR)
   message(FATAL_ERROR "check_layering.cmake: set -DSOURCE_DIR=<source tree>")
 endif()
@@ -32,9 +34,15 @@ foreach(layer budgets core drivers firmware_app)
   endforeach()
 endforeach()
 
+# The size limits on core/ (issue 32): no file over 1,000 lines, no function over 150 (check_sizes.cmake).
+include(${CMAKE_CURRENT_LIST_DIR}/check_sizes.cmake)
+
 if(_scanned EQUAL 0)
   message(FATAL_ERROR "layering: no source file under ${SOURCE_DIR}/{budgets,core,drivers,firmware_app}")
 endif()
 if(_violations GREATER 0)
   message(FATAL_ERROR "layering: ${_violations} include(s) against the layering in ${SOURCE_DIR} (tests/layering)")
+endif()
+if(_size_violations GREATER 0)
+  message(FATAL_ERROR "size: ${_size_violations} file(s) or function(s) in ${SOURCE_DIR}/core over the limits (tests/layering)")
 endif()

@@ -1,0 +1,52 @@
+# The size check (check_sizes.cmake, run by check_layering.cmake) on a generated tree: a core/ file of 1,001 lines
+# and a function of 151 lines must each be named and fail the check; a function of exactly 150 lines, a 200-line
+# initializer, a multi-line signature and a 1,000-line file must pass.
+set(_check ${CMAKE_CURRENT_LIST_DIR}/check_layering.cmake)
+set(_tree ${CMAKE_CURRENT_BINARY_DIR}/size_check_tree)
+file(REMOVE_RECURSE ${_tree})
+
+# A function of `lines` lines in all (signature and closing brace included), its signature over two lines.
+function(_function name lines out)
+  math(EXPR _body "${lines} - 3")
+  set(_text "int ${name}(int a,\n         int b) {\n")
+  foreach(i RANGE 1 ${_body})
+    string(APPEND _text "  a += b; // ${i}\n")
+  endforeach()
+  string(APPEND _text "}\n")
+  set(${out} "${_text}" PARENT_SCOPE)
+endfunction()
+
+_function(at_limit 150 _ok_fn)
+set(_table "const int kTable[] = {\n")
+foreach(i RANGE 1 200)
+  string(APPEND _table "    ${i},\n")
+endforeach()
+string(APPEND _table "};\n")
+file(WRITE ${_tree}/core/ok/ok.cc "// fine\n${_ok_fn}\n${_table}")
+_function(too_long 151 _long_fn)
+file(WRITE ${_tree}/core/bad/long_function.cc "// one function too long\nnamespace x {\n\n${_long_fn}\n}  // namespace x\n")
+set(_lines "")
+foreach(i RANGE 1 999)
+  string(APPEND _lines "// line ${i}\n")
+endforeach()
+file(WRITE ${_tree}/core/ok/at_limit.h "${_lines}// line 1000\n")
+file(WRITE ${_tree}/core/bad/long_file.h "${_lines}// line 1000\n// line 1001\n")
+
+execute_process(COMMAND ${CMAKE_COMMAND} -DSOURCE_DIR=${_tree} -P ${_check}
+                RESULT_VARIABLE _result OUTPUT_VARIABLE _out ERROR_VARIABLE _err)
+if(_result EQUAL 0)
+  message(FATAL_ERROR "the size check passed a tree with a 1,001-line file and a 151-line function:\n${_out}${_err}")
+endif()
+foreach(expected "size: core/bad/long_file.h has 1001 lines" "size: core/bad/long_function.cc:4 has a function of 151 lines"
+                 "size: 2 file(s) or function(s)")
+  string(FIND "${_err}" "${expected}" _at)
+  if(_at EQUAL -1)
+    message(FATAL_ERROR "the size check did not say '${expected}':\n${_err}")
+  endif()
+endforeach()
+string(FIND "${_err}" "core/ok/" _at)
+if(NOT _at EQUAL -1)
+  message(FATAL_ERROR "the size check named a file within the limits:\n${_err}")
+endif()
+file(REMOVE_RECURSE ${_tree})
+message(STATUS "size check: a 1,001-line file and a 151-line function are refused, the limits themselves pass")
