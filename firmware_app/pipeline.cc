@@ -920,33 +920,45 @@ bool Pipeline::finish(std::string* error) {
   reconstruction::Mesh mesh;
   tsdf_.extract_full_mesh(&mesh);
   reconstruction::clean_mesh(&mesh).print(stdout);
-  // The persistent scene graph first: the last loop closures, the final solve and every layer corrected and
-  // reconciled, so that the final doors, rooms and labels are found on the corrected map.
+  // The persistent scene graph: the last loop closures, then the final solve and every layer corrected. With
+  // loop_closure.reconcile the layers are corrected and reconciled first, and the final doors, rooms and labels are
+  // found on the corrected map; without it (the default: bench/results/loop_closure.md) they are found on the map as
+  // mapped and moved with it.
   reconstruction::Mesh odometric;  // the mesh as mapped, when a correction moves the written one
   scene_graph::ObjectMeshIndices indices;
+  const bool reconcile = backend_.loop_closure_enabled() && config_.loop_closure.reconcile;
+  const auto match_object_keys = [&] {
+    std::size_t unmatched = 0;
+    indices = object_mesh_indices(frontend_.objects(), tsdf_, odometric.vertices.empty() ? mesh : odometric, &unmatched);
+    if (unmatched != 0) std::printf("objects: %zu kept mesh-vertex keys have no vertex in the written mesh\n", unmatched);
+  };
   {
     std::unique_lock<std::mutex> lock(graph_mutex_);
     if (backend_.loop_closure_enabled()) {
       extract_captured_frames();
       backend_.detect_loop_closures(graph_, frontend_.agents(), latest_keyframe_ns_);
     }
-    correct_outputs(&mesh, &odometric);
-    std::size_t unmatched = 0;
-    indices = object_mesh_indices(frontend_.objects(), tsdf_, odometric.vertices.empty() ? mesh : odometric, &unmatched);
-    if (unmatched != 0) std::printf("objects: %zu kept mesh-vertex keys have no vertex in the written mesh\n", unmatched);
-    if (backend_.solved()) {
-      const backend::BackendStage::Reconciliation r = backend_.reconcile(mesh, &indices, &graph_);
-      counters_.places_merged_after_correction = r.places_merged;
-      counters_.objects_merged_after_correction = r.objects_merged;
-      std::printf("reconciliation: %zu objects re-boxed from the corrected mesh, %zu merged; %zu places merged "
-                  "(%zu edges refused)\n",
-                  r.objects_from_mesh, r.objects_merged, r.places_merged, r.edges_refused);
+    if (reconcile) {
+      correct_outputs(&mesh, &odometric);
+      match_object_keys();
+      if (backend_.solved()) {
+        const backend::BackendStage::Reconciliation r = backend_.reconcile(mesh, &indices, &graph_);
+        counters_.places_merged_after_correction = r.places_merged;
+        counters_.objects_merged_after_correction = r.objects_merged;
+        std::printf("reconciliation: %zu objects re-boxed from the corrected mesh, %zu merged; %zu places merged "
+                    "(%zu edges refused)\n",
+                    r.objects_from_mesh, r.objects_merged, r.places_merged, r.edges_refused);
+      }
     }
   }
   if (config_.doors_at_finish) close_doors(mesh);
   {
     std::lock_guard<std::mutex> lock(graph_mutex_);
     backend_.update_rooms(&graph_, latest_keyframe_ns_);
+    if (!reconcile) {
+      correct_outputs(&mesh, &odometric);
+      match_object_keys();
+    }
   }
   copy_backend_counters();
   std::lock_guard<std::mutex> lock(graph_mutex_);

@@ -41,9 +41,13 @@ struct LoopClosureConfig {
   loop_closure::DescriptorConfig descriptor;
   loop_closure::DetectorConfig detector;
   DeformationConfig deformation;
-  // Reconciliation after the correction (paper: merging revisited places and objects). Places closer than this
-  // whose free-space spheres hold each other merge (0: none); objects of one label merge when either's centre lies
-  // in the other's box.
+  // Reconciliation after the final correction (paper: interpolation and merging; BackendStage::reconcile): objects
+  // re-boxed from the corrected mesh, revisited places and objects merged, and the final doors, rooms and labels
+  // found on the corrected map. Off: they are found on the map as mapped and moved with the correction, which
+  // scored better on the generated buildings (bench/results/loop_closure.md).
+  bool reconcile = false;
+  // Places closer than this whose free-space spheres hold each other merge (0: none); objects of one label merge
+  // when either's centre lies in the other's box.
   double merge_places_within_m = 0.4;
   bool merge_objects = true;
   std::string check() const;
