@@ -108,12 +108,6 @@ std::string AppConfig::check() const {
   return {};
 }
 
-std::string AppConfig::LoopClosure::check() const {
-  if (const std::string d = descriptor.check(); !d.empty()) return d;
-  if (const std::string d = detector.check(); !d.empty()) return d;
-  return deformation.check();
-}
-
 std::string AppConfig::check_odometry() const {
   const Odometry& o = odometry;
   if (o.source == OdometrySourceKind::kSimDrift && driver != Driver::kSim) return "source sim_drift needs driver sim";

@@ -10,6 +10,7 @@
 
 #include "core/backend/deformation_graph.h"
 #include "core/frontend/frontend.h"
+#include "core/backend/backend_stage.h"
 #include "core/loop_closure/detector.h"
 #include "core/reconstruction/semantic_tsdf.h"
 #include "core/rooms/door_detector.h"
@@ -153,19 +154,8 @@ struct AppConfig {
   // The persistent scene graph (backend thread): agents described once the robot is horizon_s past them (one per
   // describe_every_m of path), loop closures detected and verified over the scene graph, and the deformation graph
   // solved after each new one. Its stores are the budget table's "loop_closure" arena.
-  struct LoopClosure {
-    // Off by default until it meets its target on the main job (bench/results/loop_closure.md).
-    bool enabled = false;
-    double horizon_s = 15.0;
-    double describe_every_m = 1.0;
-    // The deformation graph is re-solved after a new loop closure at most once per this much mission time; closures
-    // found meanwhile wait for the next solve (and the finish solves whatever is pending).
-    double solve_interval_s = 10.0;
-    loop_closure::DescriptorConfig descriptor;
-    loop_closure::DetectorConfig detector;
-    backend::DeformationConfig deformation;
-    std::string check() const;
-  } loop_closure;
+  using LoopClosure = backend::LoopClosureConfig;  // core/backend/backend_stage.h
+  LoopClosure loop_closure;
   runtime::KeyframeConfig keyframes;
   runtime::SchedulerConfig scheduler;
 

@@ -129,6 +129,10 @@ params::Table<AppConfig::LoopClosure> loop_closure_table() {
   deformation.add("sigma_position_m", &backend::DeformationConfig::sigma_position_m, "m", any(), project,
                   "the deformation graph's relative-position edges");
   t.include(deformation, [](C& c) -> backend::DeformationConfig& { return c.deformation; });
+  t.add("merge_places_within_m", &C::merge_places_within_m, "m", in(0, 5), paper,
+        "after a correction, places closer than this whose free-space spheres hold each other merge (0: none)");
+  t.flag("merge_objects", &C::merge_objects, paper,
+         "after a correction, objects of one label merge when either's centre lies in the other's box");
   return t;
 }
 

@@ -93,14 +93,10 @@ scene_graph::JsonExportOptions snapshot_graph_options() {
   return options;
 }
 
-void write_final_graph(const scene_graph::SceneGraph& graph, const objects::ObjectLayer& objects,
-                       const reconstruction::SemanticTsdf& tsdf, const reconstruction::Mesh& mesh,
-                       const reconstruction::Mesh& key_mesh, const std::string& dir,
-                       std::string* failures, bool* viewer_written) {
+void write_final_graph(const scene_graph::SceneGraph& graph, const scene_graph::ObjectMeshIndices& indices,
+                       const reconstruction::Mesh& mesh, const std::string& dir, std::string* failures,
+                       bool* viewer_written) {
   const auto failed = [&](const std::string& why) { *failures += (failures->empty() ? "" : "; ") + why; };
-  std::size_t unmatched = 0;
-  const scene_graph::ObjectMeshIndices indices = object_mesh_indices(objects, tsdf, key_mesh, &unmatched);
-  if (unmatched != 0) std::printf("objects: %zu kept mesh-vertex keys have no vertex in the written mesh\n", unmatched);
   scene_graph::JsonExportOptions options;
   options.labelspaces = &app_label_spaces();
   options.object_mesh_indices = &indices;

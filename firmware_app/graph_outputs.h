@@ -27,14 +27,12 @@ scene_graph::EmbeddedMesh embedded_mesh(const reconstruction::Mesh& mesh);
 // A snapshot's export options: the label names, and no object mesh connections (no mesh goes with a snapshot).
 scene_graph::JsonExportOptions snapshot_graph_options();
 
-// The final scene_graph.json (label names; objects' mesh connections into `mesh`, the mesh as written) and, where
-// three.js is installed, scene_graph.html (graph_viewer.h), each replaced atomically in dir. A failure is appended
-// to *failures ("; " between); *viewer_written says whether the page was written (its absence is no failure).
-// `key_mesh`: the mesh as mapped, vertex for vertex the written one before a loop-closure correction moved it (the
-// objects' vertex keys are matched by position there); the written mesh itself when nothing moved.
-void write_final_graph(const scene_graph::SceneGraph& graph, const objects::ObjectLayer& objects,
-                       const reconstruction::SemanticTsdf& tsdf, const reconstruction::Mesh& mesh,
-                       const reconstruction::Mesh& key_mesh, const std::string& dir,
-                       std::string* failures, bool* viewer_written);
+// The final scene_graph.json (label names; objects' mesh connections: `indices`, into `mesh`, the mesh as written,
+// from object_mesh_indices() and any reconciliation after a loop-closure correction) and, where three.js is
+// installed, scene_graph.html (graph_viewer.h), each replaced atomically in dir. A failure is appended to
+// *failures ("; " between); *viewer_written says whether the page was written (its absence is no failure).
+void write_final_graph(const scene_graph::SceneGraph& graph, const scene_graph::ObjectMeshIndices& indices,
+                       const reconstruction::Mesh& mesh, const std::string& dir, std::string* failures,
+                       bool* viewer_written);
 
 }  // namespace qsg::app

@@ -34,7 +34,7 @@ void usage() {
       "               [--quiet]\n"
       "               [--odometry auto|sim_drift|ground_truth|tum|stream|static] [--odometry-tum FILE]\n"
       "               [--pose-stream udp:ADDRESS:PORT | unix:PATH] [--fault-plan FILE] [--report-json FILE]\n"
-      "               [--mlockall] [--set SECTION.KEY=VALUE ...] [--dump-config]\n"
+      "               [--mlockall] [--deterministic] [--set SECTION.KEY=VALUE ...] [--dump-config]\n"
       "       qsg_app --convert SPARK_DSG_JSON OUT_JSON [--mesh MESH.ply]   (validate a scene graph and write it in the\n"
       "               Spark-DSG 1.1.3 layout, canonically; --mesh embeds the mesh as Spark-DSG does)\n"
       "  Defaults: the simulated quadruped explores a generated 12-room building in lockstep on the board's\n"
@@ -46,6 +46,8 @@ void usage() {
       "  --fault-plan: faults injected into the camera and odometry (firmware_app/FAULT_PLAN.md); --report-json:\n"
       "  the exit report (every counter) as JSON. --mlockall: lock the process in RAM after start-up (the robot;\n"
       "  needs CAP_IPC_LOCK or LimitMEMLOCK=infinity; a failure is logged and the run goes on unlocked).\n"
+      "  --deterministic: in lockstep, measure task costs on the stepped clock too, so no deadline binds and two\n"
+      "  runs (of one build or of two) write identical outputs: for regression comparisons, not for budgets.\n"
       "  --set SECTION.KEY=VALUE: one config key (e.g. rooms.visible_min_share=0.7), after --config.\n"
       "  --dump-config: print the effective configuration as a config file, every key with its doc, unit,\n"
       "  range and origin, and exit (with no other argument: the defaults, firmware_app/config/default.json).\n",
@@ -92,6 +94,7 @@ int main(int argc, char** argv) {
   app::AppConfig config;
   bool quiet = false;
   bool dump_config = false;
+  bool deterministic = false;  // --deterministic: lockstep costs on the stepped clock (regression comparisons)
   std::string error, report_json;
   // The config file first, so the flags override it wherever they appear.
   for (int i = 1; i + 1 < argc; ++i)
@@ -172,6 +175,8 @@ int main(int argc, char** argv) {
       report_json = argv[++i];
     } else if (a == "--mlockall") {
       config.lock_memory = true;
+    } else if (a == "--deterministic") {
+      deterministic = true;
     } else if (a == "--quiet") {
       quiet = true;
     } else if (a == "--set" && has_value) {
@@ -210,7 +215,9 @@ int main(int argc, char** argv) {
   runtime::WallClock wall;
   runtime::Clock* clock = config.lockstep ? static_cast<runtime::Clock*>(&stepped) : &wall;
   app::Pipeline pipeline;
-  pipeline.set_cost_clock(&wall);  // lockstep steps the cadence; costs are still measured for real
+  // Lockstep steps the cadence; costs are still measured for real, unless --deterministic measures them on the
+  // stepped clock too (no deadline binds: two runs of one build, or of two builds, write the same outputs).
+  pipeline.set_cost_clock(deterministic && config.lockstep ? static_cast<runtime::Clock*>(&stepped) : &wall);
   if (!pipeline.init(config, clock, &error)) {
     std::fprintf(stderr, "qsg_app: start-up failed: %s\n", error.c_str());
     return 1;

@@ -256,8 +256,7 @@ bool Pipeline::init(const AppConfig& config, runtime::Clock* clock, std::string*
   keyframe_queue_.set_on_drop([](void* self, int&& index) { static_cast<Pipeline*>(self)->free_frames_.push(int{index}); },
                               this);
 
-  if (!init_odometry(error) || !init_gpio(error) || !init_segmentation(error) || !init_backend(error) ||
-      !init_loop_closure(error))
+  if (!init_odometry(error) || !init_gpio(error) || !init_segmentation(error) || !init_backend(error))
     return false;
   const budgets::QueueBudget* telemetry_budget = find_queue(table, "telemetry");
   if (telemetry_budget == nullptr) return fail(std::string("budget table ") + table.board + ": no 'telemetry' queue");
@@ -352,9 +351,6 @@ bool Pipeline::init_segmentation(std::string* error) {
 }
 
 bool Pipeline::init_backend(std::string* error) {
-  if (!rooms_.init(config_.rooms, rooms::Capacities::from_scene_graph(graph_.capacities()),
-                   budgets::active::rooms::kArenaBytes, error))
-    return false;
   const budgets::QueueBudget* q = find_queue(budgets::active::kTable, "frontend_to_backend");
   if (q == nullptr)
     return *error = std::string("budget table ") + budgets::active::kTable.board + ": no 'frontend_to_backend' queue", false;
@@ -368,25 +364,20 @@ bool Pipeline::init_backend(std::string* error) {
   if (thread_budget == nullptr)
     return *error = std::string("budget table ") + budgets::active::kTable.board + ": no 'backend' thread", false;
   backend_budget_us_ = thread_budget->budget_us;
+  if (!init_loop_closure(error)) return false;
+  backend::BackendStage::Config bc;
+  bc.rooms = config_.rooms;
+  bc.doors = config_.doors;
+  bc.doors_online = config_.doors_online;
+  bc.doors_online_every_n = config_.doors_online_every_n;
+  bc.room_weights_path = config_.room_weights_path;
+  bc.loop_closure = config_.loop_closure;
+  // The keyframes handed to the loop-closure stage are the app's, in the same arena.
+  const std::size_t frame_bytes = lc_frames_.size() * messages::kMaxFramePixels * (1 + sizeof(float));
+  std::string warning;
+  if (!backend_.init(bc, graph_.capacities(), tsdf_.block_slots(), frame_bytes, error, &warning)) return false;
   // A missing or corrupt weight file is reported and the rooms keep the label "unknown": the run goes on.
-  neural_tree::RoomClassifier::Config cc;
-  if (!config_.room_weights_path.empty()) cc.weights_path = config_.room_weights_path;
-  classifier_ = std::make_unique<neural_tree::RoomClassifier>(cc);
-  std::string why;
-  if (!classifier_->init(&why))
-    std::fprintf(stderr, "qsg_app: room labels off: %s (rooms stay \"unknown\")\n", why.c_str());
-  // The classifier's input holds every room, object and building node the graph can (room-room edges at most one
-  // per pair of rooms), so labelling never grows it.
-  const scene_graph::Capacities& gc = graph_.capacities();
-  room_graph_.reserve(static_cast<int>(gc.room_nodes + gc.object_nodes + gc.building_nodes),
-                      static_cast<int>(std::min(gc.edges, gc.room_nodes * (gc.room_nodes - 1) / 2)));
-  if (config_.doors_online) {
-    if (!online_doors_.init(config_.doors, rooms::OnlineDoorCapacities::from_budget(),
-                            budgets::active::doors::kArenaBytes, error))
-      return false;
-    painted_stamp_.assign(tsdf_.block_slots(), 0u);
-    painted_block_.assign(tsdf_.block_slots(), memory::Index3{});
-  }
+  if (!warning.empty()) std::fprintf(stderr, "qsg_app: %s\n", warning.c_str());
   if (!config_.lockstep) backend_thread_ = std::thread([this] { backend_worker(); });
   return true;
 }
@@ -395,114 +386,25 @@ bool Pipeline::init_backend(std::string* error) {
 // the detection under neither.
 void Pipeline::run_door_pass(const Eigen::Vector3d& robot_m) {
   const auto start = std::chrono::steady_clock::now();
-  online_doors_.begin_pass(robot_m);
+  backend_.begin_door_pass(robot_m);
   {
     std::lock_guard<std::mutex> lock(graph_mutex_);
-    online_doors_.add_places(graph_);
+    backend_.add_door_places(graph_);
   }
   {
     std::lock_guard<std::mutex> lock(wall_mutex_);
-    online_doors_.rasterize();
+    backend_.rasterize_walls();
   }
-  const rooms::PassResult r = online_doors_.detect();
-  const auto us = static_cast<std::uint64_t>(
-      std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::steady_clock::now() - start).count());
-  if (r.climbing) door_passes_climbing_.fetch_add(1);
-  if (!r.ran) return;
-  door_passes_.fetch_add(1);
-  online_doors_count_.store(online_doors_.doors().size());
-  online_doors_kept_missed_.fetch_add(r.missed);
-  online_doors_dropped_.fetch_add(r.removed);
-  online_doors_bypassed_.fetch_add(r.bypassed);
-  online_bypass_refused_.fetch_add(r.bypass_refused);
-  if (us > door_pass_max_us_.load()) door_pass_max_us_.store(us);
+  if (!backend_.detect_doors().ran) return;
+  backend_.note_door_pass_us(static_cast<std::uint64_t>(
+      std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::steady_clock::now() - start).count()));
 }
 
 void Pipeline::run_backend_update(const BackendUpdate& u, bool door_pass) {
-  const bool online = config_.doors_online && online_doors_.initialized();
-  if (online && door_pass && backend_passes_due_++ % config_.doors_online_every_n == 0) run_door_pass(u.robot_m);
-  const std::uint64_t time_ns = u.time_ns;
+  if (door_pass && backend_.door_pass_due()) run_door_pass(u.robot_m);
   std::unique_lock<std::mutex> lock(graph_mutex_);
-  // Sight lines: the final door stage's (close_doors, at the finish) for the last update; during the run, the last
-  // online door pass's window. The online stage's buffers are only written by a pass, on this thread.
-  const rooms::WallSight* sight = final_sight_.slices() > 0 ? &final_sight_
-                                  : online                   ? &online_doors_.sight()
-                                                             : nullptr;
-  const rooms::UpdateResult r =
-      rooms_.update(&graph_, time_ns, online ? &online_doors_.doors() : nullptr, sight);
-  rooms_merged_visible_.store(r.visible_merges);
-  backend_updates_.fetch_add(1);
-  rooms_count_.store(r.rooms);
-  if (r.rooms > 0 && classifier_ != nullptr && classifier_->ready()) label_rooms();
-  if (run_loop_closure(time_ns)) lc_solve_pending_ = true;
-  const auto interval_ns = static_cast<std::uint64_t>(config_.loop_closure.solve_interval_s * 1e9);
-  if (!lc_solve_pending_ || (lc_last_solve_ns_ > 0 && time_ns < lc_last_solve_ns_ + interval_ns)) return;
-  lc_solve_pending_ = false;
-  lc_last_solve_ns_ = time_ns;
-  // New loop closures: the deformation graph is built under the lock, solved without it (the loop keeps mapping
-  // meanwhile).
-  backend::DeformationProblem problem = build_deformation();
-  lock.unlock();
-  solve_deformation(std::move(problem));
-}
-
-// The classifier's input from the scene graph (caller holds graph_mutex_): rooms with their box, each object in
-// the room of the place it hangs from, room-room edges, the building.
-void Pipeline::label_rooms() {
-  room_graph_.clear();
-  constexpr int kRooms = static_cast<int>(budgets::active::scene_graph::kRoomNodes);
-  std::int32_t room_index[kRooms];
-  scene_graph::NodeId room_ids[kRooms];
-  int rooms = 0;
-  const auto index_of = [&](scene_graph::NodeId id) {
-    for (int i = 0; i < rooms; ++i)
-      if (room_ids[i] == id) return room_index[i];
-    return -1;
-  };
-  graph_.for_each_node([&](const scene_graph::NodeRecord& n) {
-    if (n.kind != scene_graph::NodeKind::kRoom || rooms >= kRooms) return;
-    const scene_graph::RoomAttributes* a = graph_.room(n.id);
-    const Eigen::Vector3d size = a->bounding_box.type == scene_graph::BoundingBox::Type::kInvalid
-                                     ? Eigen::Vector3d::Zero()
-                                     : Eigen::Vector3d(a->bounding_box.max_m - a->bounding_box.min_m);
-    room_ids[rooms] = n.id;
-    room_index[rooms++] = room_graph_.add_room(a->position_m, size);
-  });
-  graph_.for_each_node([&](const scene_graph::NodeRecord& n) {
-    if (n.kind != scene_graph::NodeKind::kObject || n.parent == scene_graph::kNoNode) return;
-    const int room = index_of(graph_.parent(n.parent));  // object -> place -> room
-    if (room < 0) return;
-    const scene_graph::ObjectAttributes* o = graph_.object(n.id);
-    const Eigen::Vector3d size = o->bounding_box.max_m - o->bounding_box.min_m;
-    // Through the classifier's label map: appliances split by their box, unread labels left out (label_map.h).
-    room_graph_.add_object(room, classifier_->word_index(static_cast<semantics::Label>(o->semantic_label), size),
-                           o->position_m, size);
-  });
-  graph_.for_each_edge([&](const scene_graph::EdgeRecord& e) {
-    const int a = index_of(e.source), b = index_of(e.target);
-    if (a >= 0 && b >= 0) room_graph_.add_edge(a, b);
-  });
-  if (!classifier_->classify(room_graph_, &classifier_error_)) return;
-  std::uint64_t labelled = 0;
-  for (const neural_tree::RoomPrediction& p : classifier_->predictions()) {
-    for (int i = 0; i < rooms; ++i) {
-      if (room_index[i] != p.node) continue;
-      scene_graph::RoomAttributes* a = graph_.room(room_ids[i]);
-      a->semantic_label = p.label;
-      a->class_probabilities.clear();
-      // The most likely labels first, as many as the attribute holds.
-      std::array<std::uint32_t, semantics::kNumRoomLabels> order{};
-      for (std::uint32_t k = 0; k < order.size(); ++k) order[k] = k;
-      std::sort(order.begin(), order.end(),
-                [&](std::uint32_t x, std::uint32_t y) { return p.label_probabilities[x] > p.label_probabilities[y]; });
-      for (std::uint32_t k : order) {
-        if (a->class_probabilities.size() == scene_graph::kMaxRoomClasses || p.label_probabilities[k] <= 0.0f) break;
-        a->class_probabilities.push_back(scene_graph::LabelProbability{k, p.label_probabilities[k]});
-      }
-      labelled += p.label != semantics::kRoomUnknown ? 1 : 0;
-    }
-  }
-  rooms_labelled_.store(labelled);
+  backend_.update_rooms(&graph_, u.time_ns);
+  run_loop_closure(u.time_ns, &lock);
 }
 
 void Pipeline::backend_worker() {
@@ -632,18 +534,7 @@ bool Pipeline::step() {
     const SegmentationWorkerCounters sc = segmentation_.counters();
     counters_.keyframes_unlabelled = sc.offered - std::min(sc.offered, counters_.keyframes_segmented);
   }
-  counters_.backend_updates = backend_updates_.load();
-  counters_.rooms = rooms_count_.load();
-  counters_.rooms_labelled = rooms_labelled_.load();
-  counters_.rooms_merged_visible = rooms_merged_visible_.load();
-  counters_.door_passes = door_passes_.load();
-  counters_.door_passes_climbing = door_passes_climbing_.load();
-  counters_.online_doors = online_doors_count_.load();
-  counters_.online_doors_kept_missed = online_doors_kept_missed_.load();
-  counters_.online_doors_dropped = online_doors_dropped_.load();
-  counters_.online_doors_bypassed = online_doors_bypassed_.load();
-  counters_.online_bypass_refused = online_bypass_refused_.load();
-  counters_.door_pass_max_us = door_pass_max_us_.load();
+  copy_backend_counters();
   if (tick_start >= next_snapshot_ns_) {
     std::string error;
     if (!write_snapshot(&error)) {
@@ -789,14 +680,13 @@ void Pipeline::integrate_keyframe(const runtime::TaskContext& c) {
 // volume is cleared and their vertices painted. Allocation-free; skipped (and counted) while a door pass reads the
 // map, in which case the next keyframe paints them.
 void Pipeline::paint_walls() {
-  if (!online_doors_.initialized()) return;
+  if (!backend_.online_doors_enabled()) return;
   std::unique_lock<std::mutex> lock(wall_mutex_, std::try_to_lock);
   if (!lock.owns_lock()) {
     ++counters_.wall_paint_deferred;
     return;
   }
-  counters_.blocks_painted += online_doors_.wall_map().repaint(tsdf_, painted_stamp_.data(), painted_block_.data(),
-                                                                painted_stamp_.size());
+  counters_.blocks_painted += backend_.paint_walls(tsdf_);
 }
 
 void Pipeline::update_frontend(const runtime::TaskContext& c) {
@@ -809,7 +699,7 @@ void Pipeline::update_frontend(const runtime::TaskContext& c) {
   {
     std::lock_guard<std::mutex> lock(graph_mutex_);
     s = frontend_.update(tsdf_, robot_m_, latest_keyframe_ns_, &graph_, deadline);
-    offer_control_points();
+    backend_.offer_control_points(tsdf_, latest_keyframe_ns_);
   }
   ++counters_.frontend_updates;
   if (!s.places_complete) ++counters_.frontend_deadline_stops;
@@ -857,7 +747,7 @@ void Pipeline::print_telemetry(std::FILE* out) {
                "(peak %.0f)",
                t_s, kf_per_s, (unsigned long long)counters_.keyframes, (long long)(recon ? recon->max_us : 0),
                (long long)(front ? front->max_us : 0), overruns, tsdf_.active_blocks(), tsdf_.capacities().max_blocks,
-               tsdf_.archive_triangles(), graph_nodes, (unsigned long long)rooms_count_.load(), q.high_water, (unsigned long long)q.dropped,
+               tsdf_.archive_triangles(), graph_nodes, (unsigned long long)backend_.counters().rooms.load(), q.high_water, (unsigned long long)q.dropped,
                (unsigned long long)d.dropped, (unsigned long long)d.stalls, (unsigned long long)d.bad_frames,
                (unsigned long long)d.missing_files, (unsigned long long)counters_.gpio_failures, paused() ? " PAUSED" : "", fullest.name, fullest.high_water,
                fullest.capacity, (unsigned long long)refused, odometry_.source_name(),
@@ -949,30 +839,38 @@ bool Pipeline::write_snapshot(std::string* error) {
 // Doors on the final surface close the place edges through them (see AppConfig::doors_at_finish). A failure is
 // logged and counted; the rooms then stay as the run found them.
 void Pipeline::close_doors(const reconstruction::Mesh& mesh) {
-  std::vector<Eigen::Vector3f> surface;
-  surface.reserve(mesh.vertices.size());
-  for (const reconstruction::MeshVertex& v : mesh.vertices) surface.emplace_back(v.x, v.y, v.z);
   std::lock_guard<std::mutex> lock(graph_mutex_);
-  std::vector<rooms::Door> doors;
-  rooms::DoorStats stats;
-  std::string why;
-  if (!rooms::find_doors(surface, graph_, config_.doors, &doors, &stats, &why, &final_sight_)) {
-    final_sight_.clear();
+  const backend::BackendStage::FinalDoors d = backend_.close_doors(mesh, &graph_);
+  if (!d.ok) {
     ++counters_.door_failures;
-    std::fprintf(stderr, "doors: %s; the rooms stay as the run found them\n", why.c_str());
+    std::fprintf(stderr, "doors: %s; the rooms stay as the run found them\n", d.error.c_str());
     return;
   }
-  counters_.doors = doors.size();
-  counters_.doors_bypassed = stats.bypassed;
-  counters_.door_edges_closed = rooms::cut_place_edges(doors, config_.doors, &graph_);
-  if (config_.doors.sight_cut_edges)
-    counters_.edges_through_walls = rooms::cut_edges_through_walls(final_sight_, &graph_);
-  online_doors_.clear_doors();  // the final doors, every storey on the whole mesh, replace the online ones
+  counters_.doors = d.doors;
+  counters_.doors_bypassed = d.bypassed;
+  counters_.door_edges_closed = d.edges_closed;
+  counters_.edges_through_walls = d.edges_through_walls;
   std::printf("doors: %zu in %zu storey slice(s) of the final surface (%zu more dropped: the places go round them; "
               "%zu kept unchecked), %llu place edges closed, %llu more through walls\n",
-              doors.size(), stats.slices, stats.bypassed, stats.bypass_unchecked,
-              static_cast<unsigned long long>(counters_.door_edges_closed),
-              static_cast<unsigned long long>(counters_.edges_through_walls));
+              d.doors, d.slices, d.bypassed, d.bypass_unchecked, static_cast<unsigned long long>(d.edges_closed),
+              static_cast<unsigned long long>(d.edges_through_walls));
+}
+
+// The backend stage's totals into the run's counters (loop thread; the stage's counters are atomics).
+void Pipeline::copy_backend_counters() {
+  const backend::BackendStage::Counters& b = backend_.counters();
+  counters_.backend_updates = b.updates.load();
+  counters_.rooms = b.rooms.load();
+  counters_.rooms_labelled = b.rooms_labelled.load();
+  counters_.rooms_merged_visible = b.rooms_merged_visible.load();
+  counters_.door_passes = b.door_passes.load();
+  counters_.door_passes_climbing = b.door_passes_climbing.load();
+  counters_.online_doors = b.online_doors.load();
+  counters_.online_doors_kept_missed = b.online_doors_kept_missed.load();
+  counters_.online_doors_dropped = b.online_doors_dropped.load();
+  counters_.online_doors_bypassed = b.online_doors_bypassed.load();
+  counters_.online_bypass_refused = b.online_bypass_refused.load();
+  counters_.door_pass_max_us = b.door_pass_max_us.load();
 }
 
 bool Pipeline::finish(std::string* error) {
@@ -993,15 +891,36 @@ bool Pipeline::finish(std::string* error) {
   reconstruction::Mesh mesh;
   tsdf_.extract_full_mesh(&mesh);
   reconstruction::clean_mesh(&mesh).print(stdout);
-  if (config_.doors_at_finish) close_doors(mesh);
-  run_backend_update(BackendUpdate{latest_keyframe_ns_, 0, robot_m_}, false);
-  counters_.backend_updates = backend_updates_.load();
-  counters_.rooms = rooms_count_.load();
-  counters_.rooms_labelled = rooms_labelled_.load();
-  counters_.rooms_merged_visible = rooms_merged_visible_.load();
-  std::lock_guard<std::mutex> lock(graph_mutex_);
+  // The persistent scene graph first: the last loop closures, the final solve and every layer corrected and
+  // reconciled, so that the final doors, rooms and labels are found on the corrected map.
   reconstruction::Mesh odometric;  // the mesh as mapped, when a correction moves the written one
-  correct_outputs(&mesh, &odometric);
+  scene_graph::ObjectMeshIndices indices;
+  {
+    std::unique_lock<std::mutex> lock(graph_mutex_);
+    if (backend_.loop_closure_enabled()) {
+      extract_captured_frames();
+      backend_.detect_loop_closures(graph_, frontend_.agents(), latest_keyframe_ns_);
+    }
+    correct_outputs(&mesh, &odometric);
+    std::size_t unmatched = 0;
+    indices = object_mesh_indices(frontend_.objects(), tsdf_, odometric.vertices.empty() ? mesh : odometric, &unmatched);
+    if (unmatched != 0) std::printf("objects: %zu kept mesh-vertex keys have no vertex in the written mesh\n", unmatched);
+    if (backend_.solved()) {
+      const backend::BackendStage::Reconciliation r = backend_.reconcile(mesh, &indices, &graph_);
+      counters_.places_merged_after_correction = r.places_merged;
+      counters_.objects_merged_after_correction = r.objects_merged;
+      std::printf("reconciliation: %zu objects re-boxed from the corrected mesh, %zu merged; %zu places merged "
+                  "(%zu edges refused)\n",
+                  r.objects_from_mesh, r.objects_merged, r.places_merged, r.edges_refused);
+    }
+  }
+  if (config_.doors_at_finish) close_doors(mesh);
+  {
+    std::lock_guard<std::mutex> lock(graph_mutex_);
+    backend_.update_rooms(&graph_, latest_keyframe_ns_);
+  }
+  copy_backend_counters();
+  std::lock_guard<std::mutex> lock(graph_mutex_);
   const std::string dir = config_.output_dir;
   // Every output is attempted whatever became of the others (the picture last: it is the least of them); each
   // replaces its file atomically, so a failure or a kill leaves the previous file or none, never half of one.
@@ -1011,8 +930,7 @@ bool Pipeline::finish(std::string* error) {
   };
   std::string why;
   bool viewer = false;  // scene_graph.json and, where three.js is installed, scene_graph.html
-  write_final_graph(graph_, frontend_.objects(), tsdf_, mesh, odometric.vertices.empty() ? mesh : odometric, dir,
-                    &failures, &viewer);
+  write_final_graph(graph_, indices, mesh, dir, &failures, &viewer);
   const std::string mesh_path = dir + "/mesh.ply", mesh_tmp = temporary_path_for(mesh_path);
   why.clear();
   const bool mesh_ok = reconstruction::write_ply(mesh_tmp, mesh, &why) && commit_file_atomically(mesh_tmp, mesh_path, &why);
@@ -1047,7 +965,7 @@ bool Pipeline::finish_trajectory(std::string* error) {
   for (std::size_t k = 0; k < agents.chain_size(); ++k) {
     const agents::ChainNode& n = agents.chain(k);
     const auto t_ns = static_cast<std::int64_t>(n.time_ns);
-    const Eigen::Isometry3d corrected = corrected_pose(k);  // the odometric pose without loop closures
+    const Eigen::Isometry3d corrected = backend_.corrected_pose(agents, k);  // odometric without loop closures
     estimate.push_back(replay::StampedPose::from_isometry(t_ns, corrected));
     replay::StampedPose p;
     p.time_ns = t_ns;
@@ -1070,7 +988,7 @@ bool Pipeline::finish_trajectory(std::string* error) {
     return false;
   };
   if (!write_atomically(dir + "/trajectory_estimate.txt", estimate)) return false;
-  if (deformation_.solved() && !write_atomically(dir + "/trajectory_odometry.txt", odometric)) return false;
+  if (backend_.solved() && !write_atomically(dir + "/trajectory_odometry.txt", odometric)) return false;
   if (truth.empty()) return true;
   if (!write_atomically(dir + "/trajectory_ground_truth.txt", truth)) return false;
   // The map is built in the odometry frame from the true start: the error without alignment is what the map shows.
@@ -1079,7 +997,7 @@ bool Pipeline::finish_trajectory(std::string* error) {
   tc.alignment = metrics::Alignment::kNone;
   ate_unaligned_ = metrics::evaluate_trajectory(ref, est, tc);
   ate_odometry_ = metrics::evaluate_trajectory(ref, odo, tc);
-  if (deformation_.solved() && ate_odometry_.ok && ate_unaligned_.ok)
+  if (backend_.solved() && ate_odometry_.ok && ate_unaligned_.ok)
     std::printf("loop closure: %llu proposed, %llu kept; ATE RMSE %.3f m with odometry alone, %.3f m optimized "
                 "(%.1f %%)\n",
                 static_cast<unsigned long long>(counters_.loop_closures),

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "core/backend/agent_pose_graph.h"
+#include "core/backend/backend_stage.h"
 #include "core/backend/deformation_graph.h"
 #include "core/loop_closure/detector.h"
 #include "core/frontend/frontend.h"
@@ -98,6 +99,8 @@ struct PipelineCounters {
   std::uint64_t loop_closures_dropped = 0; // beyond the "loop_closures" capacity (counted, not optimized)
   std::uint64_t agent_frames_dropped = 0;  // agents to describe whose keyframe found no free slot (no appearance)
   std::uint64_t loop_closures_by_appearance = 0;
+  std::uint64_t places_merged_after_correction = 0;   // reconciliation at the finish (BackendStage::reconcile)
+  std::uint64_t objects_merged_after_correction = 0;
   std::uint64_t graph_optimizations = 0;
   std::uint64_t graph_optimization_failures = 0;
   std::uint64_t graph_optimization_max_us = 0;  // the longest solve (backend thread; wall time)
@@ -129,6 +132,7 @@ class Pipeline {
   const reconstruction::SemanticTsdf& reconstruction() const { return tsdf_; }
   const frontend::Frontend& frontend() const { return frontend_; }
   const scene_graph::SceneGraph& graph() const { return graph_; }
+  const world::World& world() const { return world_; }  // sim: the world explored (empty for other drivers)
   const runtime::KeyframeSelector& keyframe_selector() const { return keyframes_; }
   // The GPIO chip (the simulated one unless the config names a libgpiod chip), for tests and telemetry.
   gpio::GpioChip* gpio_chip() { return gpio_chip_.get(); }
@@ -150,8 +154,9 @@ class Pipeline {
     segmentation_.set_run_observer(segmenter, user);
   }
   runtime::QueueStats backend_queue_stats() const { return backend_queue_.stats(); }
-  const rooms::RoomFinder& room_finder() const { return rooms_; }
-  const rooms::OnlineDoors& online_doors() const { return online_doors_; }
+  const rooms::RoomFinder& room_finder() const { return backend_.room_finder(); }
+  const rooms::OnlineDoors& online_doors() const { return backend_.online_doors(); }
+  const backend::BackendStage& backend_stage() const { return backend_; }
   // Fraction of the source consumed, when the source knows its length (else a negative number).
   double progress() const;
   // Wall-clock view of a stage's cost: the scheduler measures with this clock (the loop clock unless set).
@@ -175,40 +180,16 @@ class Pipeline {
     scheduler_.set_run_observer(observer, user);
   }
 
-  // The loop-closure stores (the "loop_closure" arena): described agents, control points, loop closures.
-  template <typename Fn>
-  void for_each_loop_closure_resource(Fn&& fn) const {
-    if (!config_.loop_closure.enabled) return;
-    fn(lc_detector_.stats());
-    fn(control_points_.stats());
-    memory::ResourceStats s;
-    s.name = "loop_closure.closures";
-    s.unit = "closures";
-    s.capacity = loop_closures_.capacity();
-    s.in_use = s.high_water = loop_closures_.size();
-    s.failed = loop_closures_dropped_.load();
-    fn(s);
-  }
-
-  // Every store of the run: the scene graph's, the frontend's (places, objects), the agent chain, the room finder's,
-  // the online doors' and loop closure's; fn(const memory::ResourceStats&). Telemetry and the exit report list each
-  // under its own name. from_loop: while the backend runs (call under graph_mutex_, as telemetry does), the online
-  // doors' door set, which a pass writes without that lock, is left out (its arena and wall map are the loop's).
+  // Every store of the run: the scene graph's, the frontend's (places, objects), the agent chain, and the backend
+  // stage's (rooms, online doors, loop closure); fn(const memory::ResourceStats&). Telemetry and the exit report
+  // list each under its own name. from_loop: while the backend runs (call under graph_mutex_, as telemetry does),
+  // the online doors' door set, which a pass writes without that lock, is left out.
   template <typename Fn>
   void for_each_store(Fn&& fn, bool from_loop = false) const {
     graph_.for_each_resource(fn);
     frontend_.for_each_resource(fn);
     fn(frontend_.agents().chain_stats());
-    rooms_.for_each_resource(fn);
-    if (online_doors_.initialized()) {
-      if (from_loop && !config_.lockstep) {
-        fn(online_doors_.arena().stats());
-        fn(online_doors_.wall_map().tile_stats());
-      } else {
-        online_doors_.for_each_resource(fn);
-      }
-    }
-    for_each_loop_closure_resource(fn);
+    backend_.for_each_resource(fn, !(from_loop && !config_.lockstep));
   }
 
   void print_telemetry(std::FILE* out);
@@ -231,6 +212,7 @@ class Pipeline {
   struct BackendUpdate;
   void run_backend_update(const BackendUpdate& u, bool door_pass = true);
   void close_doors(const reconstruction::Mesh& mesh);
+  void copy_backend_counters();
   bool init_gpio(std::string* error);
   void integrate_keyframe(const runtime::TaskContext& c);
   void update_frontend(const runtime::TaskContext& c);
@@ -284,50 +266,26 @@ class Pipeline {
     std::uint32_t frontend_cycles = 0;
     Eigen::Vector3d robot_m = Eigen::Vector3d::Zero();  // the camera at time_ns: the online door window's centre
   };
-  rooms::RoomFinder rooms_;
-  // Online doors: the loop paints re-meshed blocks into the wall map under wall_mutex_ (try-lock: a keyframe never
-  // waits; what it skips is painted with the next one), the backend slices it around the robot.
-  rooms::OnlineDoors online_doors_;
-  rooms::WallSight final_sight_;  // the final door stage's sight lines (close_doors); before it, the online window's
+  // The backend stage (core/backend/backend_stage.h): doors, rooms, labels, loop closure and the deformation graph.
+  // The app wires it: the loop paints walls under wall_mutex_ (try-lock: a keyframe never waits; what it skips is
+  // painted with the next one) and offers control points; the backend thread runs door passes, rooms and loop
+  // closure under graph_mutex_ (the door detection and the deformation solve without it).
+  backend::BackendStage backend_;
   std::mutex wall_mutex_;
-  std::vector<std::uint32_t> painted_stamp_;    // per TSDF block slot: the meshed_stamp last painted
-  std::vector<memory::Index3> painted_block_;   // ... and the block it was
-  std::uint64_t backend_passes_due_ = 0;        // backend thread only
-  std::atomic<std::uint64_t> door_passes_{0};
-  std::atomic<std::uint64_t> door_passes_climbing_{0};
-  std::atomic<std::uint64_t> online_doors_count_{0};
-  std::atomic<std::uint64_t> online_doors_kept_missed_{0};
-  std::atomic<std::uint64_t> online_doors_dropped_{0};
-  std::atomic<std::uint64_t> online_doors_bypassed_{0};
-  std::atomic<std::uint64_t> online_bypass_refused_{0};
-  std::atomic<std::uint64_t> door_pass_max_us_{0};
   void paint_walls();
   void run_door_pass(const Eigen::Vector3d& robot_m);
-  // Room labels: the neural tree over objects, rooms and the building. Without weights rooms stay "unknown".
-  std::unique_ptr<neural_tree::RoomClassifier> classifier_;
-  neural_tree::ObjectRoomGraph room_graph_;
-  std::atomic<std::uint64_t> rooms_labelled_{0};
-  std::atomic<std::uint64_t> rooms_merged_visible_{0};
-  // Loop closure and the deformation graph. Control points are offered by the loop thread after each frontend
-  // update, the rest runs on the backend thread; all of it under graph_mutex_.
+  // Loop closure: keyframes of agents to be described (one per describe_every_m of path) are copied by the loop
+  // into a free slot (none free: dropped, counted); the backend hands their appearance to the stage.
   bool init_loop_closure(std::string* error);
-  void offer_control_points();
-  bool run_loop_closure(std::uint64_t time_ns);  // true when a new loop closure was verified
-  backend::DeformationProblem build_deformation();  // graph_mutex_ held
-  bool solve_deformation(backend::DeformationProblem problem);  // without it (backend thread) or at the finish
-  bool optimize_graph() { return solve_deformation(build_deformation()); }
+  void capture_agent_frame(const messages::RgbdFrame& frame, scene_graph::NodeId agent, std::uint64_t time_ns);
+  void extract_captured_frames();
+  void run_loop_closure(std::uint64_t time_ns, std::unique_lock<std::mutex>* graph_lock);
+  bool optimize_graph();  // the final solve (graph_mutex_ held)
+  backend::DeformationProblem build_deformation();  // graph_mutex_ held; dumps it for QSG_DUMP_DEFORMATION
   // At the finish (graph_mutex_ held): the final solve over every loop closure, then agents and places to their
   // optimized poses, objects, rooms and the mesh moved by the deformation graph; the counters and a summary line.
   void correct_outputs(reconstruction::Mesh* mesh, reconstruction::Mesh* odometric);
   void score_loop_closures();
-  // world_T_camera of chain node k after the latest optimization (nodes after the solved chain follow the
-  // correction of the last solved one); the odometric pose before any.
-  Eigen::Isometry3d corrected_pose(std::size_t k) const;
-  // Keyframes of agents to be described (one per describe_every_m of path): the loop copies grey and depth into a
-  // free slot (none free: dropped, counted); the backend extracts their appearance and keeps it until the agent is
-  // described.
-  void capture_agent_frame(const messages::RgbdFrame& frame, scene_graph::NodeId agent, std::uint64_t time_ns);
-  void extract_captured_frames();
   struct AgentFrame {
     scene_graph::NodeId agent = scene_graph::kNoNode;
     std::uint64_t time_ns = 0;
@@ -335,44 +293,13 @@ class Pipeline {
     std::vector<std::uint8_t> grey;  // sized for the largest frame at init
     std::vector<float> depth_m;
   };
-  struct PendingAppearance {
-    scene_graph::NodeId agent = scene_graph::kNoNode;
-    std::uint64_t time_ns = 0;
-    loop_closure::AppearanceFeatures features;
-    loop_closure::DepthCloud cloud;
-  };
   std::vector<AgentFrame> lc_frames_;
   runtime::BoundedQueue<int> lc_free_frames_{"loop_closure.free_frames"};
   runtime::BoundedQueue<int> lc_ready_frames_{"loop_closure.frames"};
-  std::vector<PendingAppearance> lc_pending_;  // captured, waiting for their description (time order)
-  loop_closure::AppearanceExtractor lc_appearance_;
   Eigen::Vector3d lc_captured_m_ = Eigen::Vector3d::Zero();
   bool lc_have_captured_ = false;
-  std::uint64_t lc_frames_dropped_ = 0;     // loop thread: no free slot
-  std::atomic<std::uint64_t> lc_pending_dropped_{0};
-  loop_closure::DescriptorBuilder lc_descriptors_;
-  loop_closure::LoopClosureDetector lc_detector_;
-  backend::ControlPoints control_points_;
-  backend::DeformationGraph deformation_;
-  backend::DeformationResult deformation_result_;
-  std::vector<loop_closure::LoopClosure> loop_closures_;  // capacity: the budget's loop_closure.loop_closures
-  bool lc_solve_pending_ = false;             // a loop closure not yet in a solve (backend thread)
-  std::uint64_t lc_last_solve_ns_ = 0;       // mission time of the last solve
-  std::uint64_t lc_described_until_ns_ = 0;  // chain nodes up to this time are described (or skipped)
-  double lc_path_m_ = 0.0;                   // path along the chain to the last node looked at
-  Eigen::Vector3d lc_last_m_ = Eigen::Vector3d::Zero();
-  bool lc_have_last_ = false;
-  std::uint32_t cp_mesh_stamp_ = 0;         // blocks meshed after this stamp are offered as control points
-  std::atomic<std::uint64_t> agents_described_{0};
-  std::atomic<std::uint64_t> loop_closures_count_{0};
-  std::atomic<std::uint64_t> loop_closures_kept_{0};
-  std::atomic<std::uint64_t> loop_closures_dropped_{0};
-  std::atomic<std::uint64_t> loop_closures_by_appearance_{0};
-  std::atomic<std::uint64_t> graph_optimizations_{0};
-  std::atomic<std::uint64_t> graph_optimization_failures_{0};
+  std::uint64_t lc_frames_dropped_ = 0;  // loop thread: no free slot
   std::atomic<std::uint64_t> graph_optimization_max_us_{0};
-  std::string classifier_error_;  // the latest failure (backend thread only)
-  void label_rooms();
   runtime::BoundedQueue<BackendUpdate> backend_queue_{"frontend_to_backend"};
   void timed_backend_update(const BackendUpdate& u);  // run_backend_update, timed into backend_wall_/cpu_
   mutable std::mutex backend_stats_mutex_;
@@ -385,8 +312,6 @@ class Pipeline {
   runtime::TelemetryWriter telemetry_;
   std::thread backend_thread_;
   std::atomic<bool> backend_stop_{false};
-  std::atomic<std::uint64_t> backend_updates_{0};
-  std::atomic<std::uint64_t> rooms_count_{0};
   std::mutex graph_mutex_;
 
   reconstruction::SemanticTsdf tsdf_;

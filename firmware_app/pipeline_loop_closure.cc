@@ -1,6 +1,7 @@
-// The pipeline's persistent scene graph: mesh control points (loop thread, after each frontend update), agent
-// descriptors, loop-closure detection and verification, and the deformation graph (backend thread), and the
-// correction of the outputs when the run finishes. All of it under graph_mutex_.
+// The app's wiring of the persistent scene graph (the algorithms are core/backend/backend_stage.h): keyframes of
+// agents captured by the loop thread into preallocated slots and handed to the backend thread, loop-closure
+// detection and the deformation solve scheduled on the backend thread (the solve without the graph's lock), the
+// correction of the outputs when the run finishes, and the closures scored against the truth where it is known.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -12,43 +13,13 @@
 
 namespace qsg::app {
 
-namespace {
-
-// The chain node with the time closest to t (the chain is ordered in time; folding may have removed the exact one).
-std::size_t chain_index_at(const agents::AgentLayer& agents, std::uint64_t t) {
-  std::size_t lo = 0, hi = agents.chain_size();
-  while (hi - lo > 1) {
-    const std::size_t mid = (lo + hi) / 2;
-    (agents.chain(mid).time_ns <= t ? lo : hi) = mid;
-  }
-  if (lo + 1 < agents.chain_size() && agents.chain(lo + 1).time_ns - t < t - agents.chain(lo).time_ns) ++lo;
-  return lo;
-}
-
-Eigen::Isometry3d isometry(const Eigen::Vector3d& t, const Eigen::Quaterniond& q) {
-  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  T.linear() = q.normalized().toRotationMatrix();
-  T.translation() = t;
-  return T;
-}
-
-}  // namespace
-
 bool Pipeline::init_loop_closure(std::string* error) {
   if (config_.loop_closure.enabled && odometry_.kind() == OdometrySourceKind::kGroundTruth) {
     std::printf("loop closure: off for this run (ground-truth poses need no correction)\n");
     config_.loop_closure.enabled = false;
   }
   if (!config_.loop_closure.enabled) return true;
-  namespace lc = budgets::active::loop_closure;
-  if (!lc_descriptors_.init(config_.loop_closure.descriptor, error)) return false;
-  if (!lc_detector_.init(lc::kAgents, config_.loop_closure.detector, error)) return false;
-  if (!control_points_.init(lc::kControlPoints, config_.loop_closure.deformation.control_point_spacing_m, error))
-    return false;
-  control_points_.set_horizon_ns(static_cast<std::uint64_t>(config_.loop_closure.deformation.time_horizon_s * 1e9));
-  deformation_ = backend::DeformationGraph(config_.loop_closure.deformation);
-  if (!lc_appearance_.init(config_.loop_closure.detector.appearance, error)) return false;
-  const auto slots = static_cast<std::uint32_t>(lc::kAppearanceFrames);
+  const auto slots = static_cast<std::uint32_t>(budgets::active::loop_closure::kAppearanceFrames);
   lc_frames_.resize(slots);
   for (AgentFrame& f : lc_frames_) {
     f.grey.assign(messages::kMaxFramePixels, 0);
@@ -58,15 +29,6 @@ bool Pipeline::init_loop_closure(std::string* error) {
       !lc_ready_frames_.init(slots, budgets::DropPolicy::kDropNewest, nullptr, error))
     return false;
   for (std::uint32_t i = 0; i < slots; ++i) lc_free_frames_.push(static_cast<int>(i));
-  lc_pending_.reserve(2 * slots);
-  loop_closures_.reserve(lc::kLoopClosures);
-  const std::size_t bytes = lc_detector_.bytes() + lc::kControlPoints * (sizeof(Eigen::Vector3d) + 8 + 16) +
-                            slots * messages::kMaxFramePixels * (1 + sizeof(float)) +
-                            lc_pending_.capacity() * sizeof(PendingAppearance);
-  if (bytes > lc::kArenaBytes)
-    return *error = "budget: loop_closure stores need " + std::to_string(bytes) + " bytes, the arena has " +
-                    std::to_string(lc::kArenaBytes),
-           false;
   return true;
 }
 
@@ -98,18 +60,11 @@ void Pipeline::capture_agent_frame(const messages::RgbdFrame& frame, scene_graph
   lc_ready_frames_.push(int{slot});
 }
 
-// Backend thread: the appearance of the captured keyframes, kept until their agents are described.
+// Backend thread: the captured keyframes' appearance into the stage, their slots back to the loop.
 void Pipeline::extract_captured_frames() {
   int slot = -1;
   while (lc_ready_frames_.try_pop(&slot)) {
     const AgentFrame& f = lc_frames_[static_cast<std::size_t>(slot)];
-    if (lc_pending_.size() == lc_pending_.capacity()) {
-      lc_pending_.erase(lc_pending_.begin());  // the oldest waits no longer (no reallocation: erase keeps capacity)
-      lc_pending_dropped_.fetch_add(1);
-    }
-    PendingAppearance& p = lc_pending_.emplace_back();
-    p.agent = f.agent;
-    p.time_ns = f.time_ns;
     loop_closure::GreyDepthView v;
     v.grey = f.grey.data();
     v.depth_m = f.depth_m.data();
@@ -119,101 +74,34 @@ void Pipeline::extract_captured_frames() {
     v.fy = f.intrinsics.fy;
     v.cx = f.intrinsics.cx;
     v.cy = f.intrinsics.cy;
-    lc_appearance_.extract(v, &p.features);
-    loop_closure::make_depth_cloud(v, config_.loop_closure.detector.icp.max_depth_m, &p.cloud);
+    backend_.add_appearance(f.agent, f.time_ns, v);
     lc_free_frames_.push(int{slot});
   }
 }
 
-// Loop thread, graph_mutex_ held: one control point per newly meshed block's first vertex (its cell permitting).
-void Pipeline::offer_control_points() {
-  if (!config_.loop_closure.enabled) return;
-  tsdf_.for_each_block([&](std::uint32_t handle, const reconstruction::SemanticTsdf::BlockView& view) {
-    if (view.meshed_stamp <= cp_mesh_stamp_ || view.num_vertices == 0) return;
-    reconstruction::SemanticTsdf::VertexCursor cursor;
-    reconstruction::MeshVertex v;
-    std::uint64_t key = 0;
-    if (tsdf_.next_block_vertex(handle, &cursor, &v, &key))
-      control_points_.offer(Eigen::Vector3d(v.x, v.y, v.z), latest_keyframe_ns_);
-  });
-  cp_mesh_stamp_ = tsdf_.mesh_stamp();
+// Backend thread, graph_mutex_ held by *graph_lock: new loop closures, and the deformation graph re-solved when one
+// waits and solve_interval_s has passed; built under the lock, solved without it (the loop keeps mapping meanwhile).
+void Pipeline::run_loop_closure(std::uint64_t time_ns, std::unique_lock<std::mutex>* graph_lock) {
+  if (!backend_.loop_closure_enabled()) return;
+  if (time_ns >= static_cast<std::uint64_t>(config_.loop_closure.horizon_s * 1e9)) extract_captured_frames();
+  backend_.detect_loop_closures(graph_, frontend_.agents(), time_ns);
+  if (!backend_.solve_due(time_ns)) return;
+  backend::DeformationProblem problem = build_deformation();
+  graph_lock->unlock();
+  const auto start = std::chrono::steady_clock::now();
+  std::string why;
+  if (!backend_.solve_deformation(std::move(problem), &why))
+    std::fprintf(stderr, "loop closure: optimization failed (kept the previous solution): %s\n", why.c_str());
+  const auto us = static_cast<std::uint64_t>(
+      std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::steady_clock::now() - start).count());
+  if (us > graph_optimization_max_us_.load()) graph_optimization_max_us_.store(us);
 }
 
-// Backend thread, graph_mutex_ held: describes the chain nodes the robot left horizon_s ago (one per
-// describe_every_m of path), looks each up among the earlier ones, and re-solves the deformation graph when a new
-// loop closure was verified.
-bool Pipeline::run_loop_closure(std::uint64_t time_ns) {
-  const AppConfig::LoopClosure& c = config_.loop_closure;
-  if (!c.enabled) return false;
-  const auto horizon_ns = static_cast<std::uint64_t>(c.horizon_s * 1e9);
-  if (time_ns < horizon_ns) return false;
-  extract_captured_frames();
-  const agents::AgentLayer& agents = frontend_.agents();
-  std::size_t k = 0;
-  while (k < agents.chain_size() && agents.chain(k).time_ns <= lc_described_until_ns_ && lc_have_last_) ++k;
-  bool found = false;
-  for (; k < agents.chain_size() && agents.chain(k).time_ns + horizon_ns <= time_ns; ++k) {
-    const agents::ChainNode& n = agents.chain(k);
-    if (lc_have_last_) lc_path_m_ += (n.t_m - lc_last_m_).norm();
-    lc_last_m_ = n.t_m;
-    lc_have_last_ = true;
-    lc_described_until_ns_ = n.time_ns;
-    // Described: the agents whose keyframe was captured (one per describe_every_m of path).
-    while (!lc_pending_.empty() && lc_pending_.front().time_ns < n.time_ns) lc_pending_.erase(lc_pending_.begin());
-    if (lc_pending_.empty() || lc_pending_.front().agent != n.id) continue;
-    scene_graph::NodeId place = scene_graph::kNoNode;
-    graph_.for_each_neighbor(n.id, [&](scene_graph::NodeId other, const scene_graph::EdgeRecord&) {
-      if (place == scene_graph::kNoNode && graph_.place(other) != nullptr) place = other;
-    });
-    loop_closure::AgentEntry e;
-    if (place == scene_graph::kNoNode || !lc_descriptors_.describe(graph_, place, n.t_m, &e.descriptor)) continue;
-    e.agent = n.id;
-    e.time_ns = n.time_ns;
-    e.path_m = lc_path_m_;
-    e.world_T_agent = isometry(n.t_m, n.q);
-    e.appearance = lc_pending_.front().features;
-    e.cloud = lc_pending_.front().cloud;
-    lc_pending_.erase(lc_pending_.begin());
-    agents_described_.fetch_add(1);
-    loop_closure::LoopClosure closure;
-    if (!lc_detector_.add_and_detect(e, &closure)) continue;
-    loop_closures_count_.fetch_add(1);
-    if (loop_closures_.size() == loop_closures_.capacity()) {
-      loop_closures_dropped_.fetch_add(1);
-      continue;
-    }
-    loop_closures_.push_back(closure);
-    if (closure.source == loop_closure::ClosureSource::kAppearance) loop_closures_by_appearance_.fetch_add(1);
-    found = true;
-  }
-  return found;
-}
-
-// Backend thread (or the finish), graph_mutex_ held: the deformation graph over the chain, every loop closure so far,
-// the control points and the places; solve_deformation() solves it without the lock.
+// graph_mutex_ held: the stage's deformation problem; QSG_DUMP_DEFORMATION=FILE also writes it (with each agent's
+// true camera position where known) for bench/loop_closure/dg_solve to reproduce the solve offline.
 backend::DeformationProblem Pipeline::build_deformation() {
   const agents::AgentLayer& agents = frontend_.agents();
-  std::vector<backend::ChainLoopClosure> closures;
-  closures.reserve(loop_closures_.size());
-  for (const loop_closure::LoopClosure& lc : loop_closures_) {
-    backend::ChainLoopClosure cc;
-    cc.a = static_cast<std::uint32_t>(chain_index_at(agents, lc.match_time_ns));
-    cc.b = static_cast<std::uint32_t>(chain_index_at(agents, lc.query_time_ns));
-    if (cc.a >= cc.b) continue;
-    cc.a_T_b = backend::Pose3{lc.match_T_query.translation(), Eigen::Quaterniond(lc.match_T_query.linear())};
-    // Appearance: depth-precise; objects: centroids of partial views, a decimetre and a degree or so.
-    // ICP-refined: depth-precise too (its gate is a few centimetres).
-    const bool precise = lc.source == loop_closure::ClosureSource::kAppearance || lc.refined;
-    const double rmse = lc.refined                                            ? lc.icp.rmse_m
-                        : lc.source == loop_closure::ClosureSource::kAppearance ? lc.appearance.inlier_rmse_m
-                                                                                : lc.registration.inlier_rmse_m;
-    cc.sigma_t_m = Eigen::Vector3d::Constant(precise ? std::max(0.02, rmse) : std::max(0.15, rmse));
-    cc.sigma_rot_rad = Eigen::Vector3d::Constant(precise ? 0.005 : 0.03);
-    closures.push_back(cc);
-  }
-  backend::DeformationProblem problem = deformation_.build(agents, closures, control_points_, graph_);
-  // Debugging and bench/loop_closure/dg_solve: the problem (and each agent's true camera position where known) to a
-  // file, to reproduce this solve offline.
+  backend::DeformationProblem problem = backend_.build_deformation(agents, graph_);
   if (const char* path = std::getenv("QSG_DUMP_DEFORMATION"); path != nullptr && *path != '\0') {
     std::vector<Eigen::Vector3d> truth;
     const Eigen::Isometry3d mount =
@@ -233,122 +121,57 @@ backend::DeformationProblem Pipeline::build_deformation() {
   return problem;
 }
 
-bool Pipeline::solve_deformation(backend::DeformationProblem problem) {
+bool Pipeline::optimize_graph() {
   const auto start = std::chrono::steady_clock::now();
-  deformation_result_ = deformation_.solve(std::move(problem));
+  std::string why;
+  const bool ok = backend_.solve_deformation(build_deformation(), &why);
+  if (!ok) std::fprintf(stderr, "loop closure: optimization failed (kept the previous solution): %s\n", why.c_str());
   const auto us = static_cast<std::uint64_t>(
       std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::steady_clock::now() - start).count());
-  graph_optimizations_.fetch_add(1);
   if (us > graph_optimization_max_us_.load()) graph_optimization_max_us_.store(us);
-  if (!deformation_result_.solve.poses_updated()) {
-    graph_optimization_failures_.fetch_add(1);
-    std::fprintf(stderr, "loop closure: optimization failed (kept the previous solution): %s\n",
-                 deformation_result_.solve.message.c_str());
-    return false;
-  }
-  loop_closures_kept_.store(deformation_result_.loop_closures_kept);
-  return true;
+  return ok;
 }
-
-Eigen::Isometry3d Pipeline::corrected_pose(std::size_t k) const {
-  const agents::AgentLayer& agents = frontend_.agents();
-  const Eigen::Isometry3d odom = isometry(agents.chain(k).t_m, agents.chain(k).q);
-  if (!deformation_.solved() || deformation_.num_agent_poses() == 0) return odom;
-  if (k < deformation_.num_agent_poses()) {
-    const backend::Pose3 p = deformation_.agent_pose(k);
-    return isometry(p.t_m, p.q);
-  }
-  const std::size_t last = deformation_.num_agent_poses() - 1;
-  const backend::Pose3 p = deformation_.agent_pose(last);
-  return isometry(p.t_m, p.q) * isometry(agents.chain(last).t_m, agents.chain(last).q).inverse() * odom;
-}
-
-}  // namespace qsg::app
-
-namespace qsg::app {
 
 void Pipeline::correct_outputs(reconstruction::Mesh* mesh, reconstruction::Mesh* odometric) {
-  counters_.agents_described = agents_described_.load();
-  if (config_.loop_closure.enabled && !loop_closures_.empty() && !optimize_graph())
+  const backend::BackendStage::Counters& b = backend_.counters();
+  counters_.agents_described = b.agents_described.load();
+  if (backend_.loop_closure_enabled() && !backend_.loop_closures().empty() && !optimize_graph())
     std::fprintf(stderr, "loop closure: the final optimization failed; outputs keep the last solution\n");
-  counters_.loop_closures = loop_closures_count_.load();
-  counters_.loop_closures_kept = loop_closures_kept_.load();
-  counters_.loop_closures_dropped = loop_closures_dropped_.load();
-  counters_.loop_closures_by_appearance = loop_closures_by_appearance_.load();
-  counters_.agent_frames_dropped = lc_frames_dropped_ + lc_pending_dropped_.load();
-  counters_.graph_optimizations = graph_optimizations_.load();
-  counters_.graph_optimization_failures = graph_optimization_failures_.load();
+  counters_.loop_closures = b.loop_closures.load();
+  counters_.loop_closures_kept = b.loop_closures_kept.load();
+  counters_.loop_closures_dropped = b.loop_closures_dropped.load();
+  counters_.loop_closures_by_appearance = b.loop_closures_by_appearance.load();
+  counters_.agent_frames_dropped = lc_frames_dropped_ + b.appearances_dropped.load();
+  counters_.graph_optimizations = b.graph_optimizations.load();
+  counters_.graph_optimization_failures = b.graph_optimization_failures.load();
   counters_.graph_optimization_max_us = graph_optimization_max_us_.load();
-  if (!config_.loop_closure.enabled) return;
-  lc_detector_.counters().print(stdout);
+  if (!backend_.loop_closure_enabled()) return;
+  backend_.detector().counters().print(stdout);
   std::printf("loop closure: %zu control points (%llu refused), %zu loop closures in the graph\n",
-              control_points_.size(), static_cast<unsigned long long>(control_points_.stats().failed),
-              loop_closures_.size());
+              backend_.control_points().size(),
+              static_cast<unsigned long long>(backend_.control_points().stats().failed),
+              backend_.loop_closures().size());
   score_loop_closures();
-  if (!deformation_.solved()) return;
-  deformation_result_.print(stdout);
-  // Agents to their optimized poses; places to theirs; objects and rooms moved with the deformation around them.
-  const agents::AgentLayer& agents = frontend_.agents();
-  for (std::size_t k = 0; k < agents.chain_size(); ++k) {
-    scene_graph::AgentAttributes* a = graph_.agent(agents.chain(k).id);
-    if (a == nullptr) continue;
-    const Eigen::Isometry3d T = corrected_pose(k);
-    a->position_m = T.translation();
-    a->world_R_body = Eigen::Quaterniond(T.linear());
-  }
-  graph_.for_each_node([&](const scene_graph::NodeRecord& n) {
-    scene_graph::SemanticAttributes* s = nullptr;
-    std::uint64_t t = 0;
-    Eigen::Vector3d moved;
-    if (n.kind == scene_graph::NodeKind::kPlace) {
-      scene_graph::PlaceAttributes* p = graph_.place(n.id);
-      if (deformation_.place_position(n.id, &moved)) {
-        p->position_m = moved;
-        return;
-      }
-      s = p;
-    } else if (n.kind == scene_graph::NodeKind::kObject) {
-      s = graph_.object(n.id);
-    } else if (n.kind == scene_graph::NodeKind::kRoom) {
-      s = graph_.room(n.id);
-    } else if (n.kind == scene_graph::NodeKind::kBuilding) {
-      s = graph_.building(n.id);
-    }
-    if (s == nullptr) return;
-    t = s->last_update_time_ns;
-    moved = deformation_.deform(s->position_m, t);
-    const Eigen::Vector3d shift = moved - s->position_m;
-    s->position_m = moved;
-    if (s->bounding_box.type != scene_graph::BoundingBox::Type::kInvalid) {  // the box moves with its centre
-      s->bounding_box.min_m += shift;
-      s->bounding_box.max_m += shift;
-      s->bounding_box.world_P_center_m += shift;
-    }
-  });
-  // The mesh: vertices carry no time, so each moves with its nearest nodes of any time. The mesh as mapped is kept
-  // for the objects' vertex keys, which name positions there.
+  if (!backend_.solved()) return;
+  backend_.deformation_result().print(stdout);
+  // Agents and places to their optimized poses; objects, rooms and the building moved with the deformation around
+  // them; the mesh too. The mesh as mapped is kept for the objects' vertex keys, which name positions there.
+  backend_.correct_graph(frontend_.agents(), &graph_);
   *odometric = *mesh;
-  for (reconstruction::MeshVertex& v : mesh->vertices) {
-    const Eigen::Vector3d p = deformation_.deform(Eigen::Vector3d(v.x, v.y, v.z));
-    v.x = static_cast<float>(p.x());
-    v.y = static_cast<float>(p.y());
-    v.z = static_cast<float>(p.z());
-  }
-  for (std::size_t i = 0; i < trajectory_m_.size(); ++i) trajectory_m_[i] = deformation_.deform(trajectory_m_[i]);
+  backend_.correct_mesh(mesh);
+  for (Eigen::Vector3d& p : trajectory_m_) p = backend_.deform(p);
 }
-
-}  // namespace qsg::app
-
-namespace qsg::app {
 
 // Where the truth is known (sim, replay with poses): each loop closure's relative pose against the true one.
 void Pipeline::score_loop_closures() {
-  if (ground_truth_.empty() || loop_closures_.empty()) return;
+  const std::vector<loop_closure::LoopClosure>& closures = backend_.loop_closures();
+  if (ground_truth_.empty() || closures.empty()) return;
+  const std::vector<double>& weight = backend_.deformation_result().loop_closure_weight;
   const Eigen::Isometry3d mount = sim_camera_ != nullptr ? sim_camera_->body_T_camera() : Eigen::Isometry3d::Identity();
   std::size_t scored = 0, within = 0, kept_within = 0, wrong = 0, wrong_kept = 0;
   std::vector<double> errors_m;
-  for (std::size_t i = 0; i < loop_closures_.size(); ++i) {
-    const loop_closure::LoopClosure& lc = loop_closures_[i];
+  for (std::size_t i = 0; i < closures.size(); ++i) {
+    const loop_closure::LoopClosure& lc = closures[i];
     replay::StampedPose a, b;
     if (!replay::interpolate_pose(ground_truth_, static_cast<std::int64_t>(lc.match_time_ns), INT64_MAX, &a) ||
         !replay::interpolate_pose(ground_truth_, static_cast<std::int64_t>(lc.query_time_ns), INT64_MAX, &b))
@@ -361,16 +184,18 @@ void Pipeline::score_loop_closures() {
     errors_m.push_back(e_m);
     const bool good = e_m <= 0.10 && e_rad <= M_PI / 180.0;
     within += good ? 1 : 0;
-    const bool kept = i < deformation_result_.loop_closure_weight.size() && deformation_result_.loop_closure_weight[i] > 0.5;
+    const bool kept = i < weight.size() && weight[i] > 0.5;
     kept_within += good && kept ? 1 : 0;
     const bool false_closure = e_m > 0.5 || e_rad > 5.0 * M_PI / 180.0;
     wrong += false_closure ? 1 : 0;
     wrong_kept += false_closure && kept ? 1 : 0;
     if (std::getenv("QSG_DEBUG_LOOP_CLOSURES") != nullptr)
-      std::printf("  closure %zu (%s%s, icp overlap %.2f): %.1f s -> %.1f s, error %.3f m %.2f deg, %u inliers, kept %d\n", i,
-                  loop_closure::to_string(lc.source), lc.refined ? "+icp" : "", lc.icp.overlap, lc.match_time_ns * 1e-9, lc.query_time_ns * 1e-9, e_m,
-                  e_rad * 180.0 / M_PI,
-                  lc.source == loop_closure::ClosureSource::kAppearance ? lc.appearance.inliers : lc.registration.inliers,
+      std::printf("  closure %zu (%s%s, icp overlap %.2f): %.1f s -> %.1f s, error %.3f m %.2f deg, %u inliers, "
+                  "kept %d\n",
+                  i, loop_closure::to_string(lc.source), lc.refined ? "+icp" : "", lc.icp.overlap,
+                  lc.match_time_ns * 1e-9, lc.query_time_ns * 1e-9, e_m, e_rad * 180.0 / M_PI,
+                  lc.source == loop_closure::ClosureSource::kAppearance ? lc.appearance.inliers
+                                                                        : lc.registration.inliers,
                   kept ? 1 : 0);
   }
   if (scored == 0) return;

@@ -5,7 +5,11 @@
 //   - ATE RMSE (no alignment: the map is built in the odometry's frame from the true start) of the odometric chain
 //     and of the optimized one, and their ratio (target <= 0.30);
 //   - loop closures proposed, kept by the optimizer (GNC), and proposed within 10 cm / 1 degree of the truth;
-//   - agents described, the longest deformation-graph solve.
+//   - agents described, the longest deformation-graph solve;
+//   - with --layers, every layer of the final graph as drift_baseline scores it, for three runs side by side: the
+//     ground-truth poses, the odometry alone (loop closure off) and loop closure on (corrected and reconciled):
+//     objects found / correct (bench/objects/object_match.h), the places' mean distance to the true GVD
+//     (bench/places/place_score.h), rooms precision / recall (bench/rooms/room_score.h, generated buildings only).
 // Every figure also goes to --json (bench/figures.h).
 #include <cstdio>
 #include <cstdlib>
@@ -13,7 +17,12 @@
 #include <vector>
 
 #include "bench/figures.h"
+#include "bench/objects/object_match.h"
+#include "bench/places/place_score.h"
+#include "bench/rooms/room_score.h"
 #include "budgets/budget_table.h"
+#include "drivers/sim/ground_truth.h"
+#include "drivers/world/world_query.h"
 #include "firmware_app/pipeline.h"
 
 namespace {
@@ -29,7 +38,9 @@ int usage(int status) {
               "  and kept, agents described, the longest deformation-graph solve. JSON: <level>_seed<N>.*; results in\n"
               "  bench/results/loop_closure.md.\n"
               "  --world: explore a world file instead of generated buildings (the seeds then vary the odometry only),\n"
-              "  e.g. bench/loop_closure/worlds/identical_rooms_4.json, where every false closure counts\n");
+              "  e.g. bench/loop_closure/worlds/identical_rooms_4.json, where every false closure counts\n"
+              "  --layers: also score objects, places and rooms of the final graph against the truth, beside a run on\n"
+              "  ground-truth poses and one on the odometry alone (JSON: <level>_seed<N>.{gt,odometry,corrected}.*)\n");
   return status;
 }
 
@@ -45,6 +56,91 @@ std::vector<std::string> split(const std::string& s) {
   return out;
 }
 
+struct Layers {
+  bool ok = false;
+  std::size_t objects_truth = 0, objects_found = 0, objects_estimated = 0, objects_correct = 0, places = 0;
+  double places_gvd_mean_m = 0.0;
+  bool rooms_scored = false;
+  double rooms_precision = 0.0, rooms_recall = 0.0;
+  std::size_t rooms = 0;
+};
+
+// The final graph's layers against the world's truth, as drift_baseline scores them.
+Layers score_layers(const app::Pipeline& p, const app::AppConfig& c) {
+  Layers out;
+  const world::World& w = p.world();
+  const world::FreeSpaceIndex free_space(w);
+  sim::GroundTruth truth;
+  std::string error;
+  if (!sim::compute_ground_truth(w, free_space, sim::GroundTruthConfig{}, &truth, &error)) {
+    std::fprintf(stderr, "lc_eval: ground truth: %s\n", error.c_str());
+    return out;
+  }
+  const scene_graph::SceneGraph& g = p.graph();
+  std::vector<bench::EstimatedObject> objects;
+  g.for_each_node([&](const scene_graph::NodeRecord& n) {
+    if (n.kind != scene_graph::NodeKind::kObject) return;
+    const scene_graph::ObjectAttributes* o = g.object(n.id);
+    objects.push_back({static_cast<semantics::Label>(o->semantic_label), o->position_m});
+  });
+  const bench::ObjectMatch match = bench::match_objects(w, objects);
+  out.objects_truth = w.objects.size();
+  out.objects_found = match.num_found;
+  out.objects_estimated = objects.size();
+  out.objects_correct = match.num_correct;
+  const std::vector<double> gvd = bench::place_distances_to_gvd(g, truth);
+  out.places = gvd.size();
+  out.places_gvd_mean_m = bench::mean(gvd);
+  g.for_each_node([&](const scene_graph::NodeRecord& n) { out.rooms += n.kind == scene_graph::NodeKind::kRoom; });
+  if (c.world_path.empty()) {
+    std::vector<bench::FloorRaster> floors = bench::generated_floor_rasters(w, c.building);
+    const bench::RoomSegmentationScore r = bench::score_generated_rooms(g, &floors, 3.0);
+    out.rooms_scored = true;
+    out.rooms_precision = r.precision_mean;
+    out.rooms_recall = r.recall_mean;
+  }
+  out.ok = true;
+  return out;
+}
+
+double pct(std::size_t a, std::size_t b) { return b == 0 ? 0.0 : 100.0 * static_cast<double>(a) / static_cast<double>(b); }
+
+void report_layers(const std::string& prefix, const char* run, const Layers& l, bench::Figures* figures) {
+  std::printf("  %-9s objects found %5.1f %% correct %5.1f %% (%zu of %zu truth) | places %4zu, %.3f m to the true GVD "
+              "| rooms %zu",
+              run, pct(l.objects_found, l.objects_truth), pct(l.objects_correct, l.objects_estimated),
+              l.objects_estimated, l.objects_truth, l.places, l.places_gvd_mean_m, l.rooms);
+  if (l.rooms_scored) std::printf(", P %.3f R %.3f", l.rooms_precision, l.rooms_recall);
+  std::printf("\n");
+  const std::string p = prefix + run + ".";
+  figures->add(p + "objects_found", pct(l.objects_found, l.objects_truth), "%");
+  figures->add(p + "objects_correct", pct(l.objects_correct, l.objects_estimated), "%");
+  figures->add(p + "places", static_cast<double>(l.places), "count");
+  figures->add(p + "places_gvd_mean", l.places_gvd_mean_m, "m");
+  figures->add(p + "rooms", static_cast<double>(l.rooms), "count");
+  if (l.rooms_scored) {
+    figures->add(p + "rooms_precision", l.rooms_precision, "ratio");
+    figures->add(p + "rooms_recall", l.rooms_recall, "ratio");
+  }
+}
+
+// One lockstep run of the whole tour; false (with the reason printed) when it could not start or finish.
+bool run(const app::AppConfig& c, app::Pipeline* p) {
+  runtime::SteppedClock clock;
+  std::string error;
+  if (!p->init(c, &clock, &error)) {
+    std::fprintf(stderr, "lc_eval: %s\n", error.c_str());
+    return false;
+  }
+  while (p->step()) {
+  }
+  if (!p->finish(&error)) {
+    std::fprintf(stderr, "lc_eval: %s\n", error.c_str());
+    return false;
+  }
+  return true;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -53,6 +149,7 @@ int main(int argc, char** argv) {
   int rooms = 8, tours = 1;
   double duration_s = 0.0;
   std::string output = "/tmp/lc_eval", json, world;
+  bool layers = false;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     const bool has = i + 1 < argc;
@@ -64,6 +161,7 @@ int main(int argc, char** argv) {
     else if (a == "--output" && has) output = argv[++i];
     else if (a == "--json" && has) json = argv[++i];
     else if (a == "--world" && has) world = argv[++i];
+    else if (a == "--layers") layers = true;
     else return usage(a == "--help" ? 0 : 2);
   }
   if (rooms < 2 || rooms > 64 || tours < 1 || tours > 1000 || duration_s < 0.0) return usage(2);
@@ -99,19 +197,8 @@ int main(int argc, char** argv) {
       c.output_dir = output + "/" + level_name + "_seed" + seed;
       c.snapshot_interval_s = 1e6;
       c.telemetry_interval_s = 1e6;
-      runtime::SteppedClock clock;
       app::Pipeline p;
-      std::string error;
-      if (!p.init(c, &clock, &error)) {
-        std::fprintf(stderr, "lc_eval: %s\n", error.c_str());
-        return 1;
-      }
-      while (p.step()) {
-      }
-      if (!p.finish(&error)) {
-        std::fprintf(stderr, "lc_eval: %s\n", error.c_str());
-        return 1;
-      }
+      if (!run(c, &p)) return 1;
       const metrics::TrajectoryError& odo = p.odometry_trajectory_error();
       const metrics::TrajectoryError& opt = p.trajectory_error();
       const app::PipelineCounters& k = p.counters();
@@ -135,6 +222,19 @@ int main(int argc, char** argv) {
       figures.add(prefix + "agents_described", static_cast<double>(k.agents_described), "count");
       figures.add(prefix + "solve_max", k.graph_optimization_max_us / 1000.0, "ms");
       figures.add(prefix + "path_length", odo.path_length_m, "m");
+      if (!layers) continue;
+      // The same building and tour on the true poses, and on the odometry alone, beside the corrected run.
+      const Layers corrected = score_layers(p, c);
+      app::AppConfig gt = c, odometry_only = c;
+      gt.loop_closure.enabled = odometry_only.loop_closure.enabled = false;
+      gt.odometry.source = app::OdometrySourceKind::kGroundTruth;
+      gt.output_dir += "_gt";
+      odometry_only.output_dir += "_odometry";
+      app::Pipeline pg, po;
+      if (!run(gt, &pg) || !run(odometry_only, &po)) return 1;
+      report_layers(prefix, "gt", score_layers(pg, gt), &figures);
+      report_layers(prefix, "odometry", score_layers(po, odometry_only), &figures);
+      report_layers(prefix, "corrected", corrected, &figures);
     }
   }
   if (!json.empty() && !figures.write(json)) return 1;

@@ -74,6 +74,7 @@ TEST(MemoryLock, ReadsTheResidentSetWithoutAllocating) {
 
 TEST(MemoryLock, ARefusedLockIsAMessageNamingTheLimit) {
   if (qsg::testing::running_emulated()) GTEST_SKIP() << "qemu-user does not emulate mlockall's limits";
+  if (qsg::testing::address_sanitizer()) GTEST_SKIP() << "AddressSanitizer replaces mlockall with a no-op";
   std::string text;
   const int status = in_child(
       [](std::string* message) {
@@ -90,6 +91,7 @@ TEST(MemoryLock, ARefusedLockIsAMessageNamingTheLimit) {
 
 TEST(MemoryLock, ALockThatSucceedsHoldsTheProcessResident) {
   if (qsg::testing::running_emulated()) GTEST_SKIP() << "qemu-user does not emulate mlockall";
+  if (qsg::testing::address_sanitizer()) GTEST_SKIP() << "AddressSanitizer replaces mlockall with a no-op";
   std::string text;
   const int status = in_child(
       [](std::string* message) {

@@ -20,4 +20,19 @@ inline bool running_emulated() {
 #endif
 }
 
+// Whether AddressSanitizer is compiled in: it replaces mlock/mlockall with no-ops that report success.
+inline constexpr bool address_sanitizer() {
+#if defined(__SANITIZE_ADDRESS__)
+  return true;
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+  return true;
+#else
+  return false;
+#endif
+#else
+  return false;
+#endif
+}
+
 }  // namespace qsg::testing

@@ -1,0 +1,538 @@
+// The backend stage: doors, rooms, labels and the persistent scene graph (backend_stage.h).
+#include "core/backend/backend_stage.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+
+#include "budgets/budget_table.h"
+
+namespace qsg::backend {
+
+namespace {
+
+// The chain node with the time closest to t (the chain is ordered in time; folding may have removed the exact one).
+std::size_t chain_index_at(const agents::AgentLayer& agents, std::uint64_t t) {
+  std::size_t lo = 0, hi = agents.chain_size();
+  while (hi - lo > 1) {
+    const std::size_t mid = (lo + hi) / 2;
+    (agents.chain(mid).time_ns <= t ? lo : hi) = mid;
+  }
+  if (lo + 1 < agents.chain_size() && agents.chain(lo + 1).time_ns - t < t - agents.chain(lo).time_ns) ++lo;
+  return lo;
+}
+
+Eigen::Isometry3d isometry(const Eigen::Vector3d& t, const Eigen::Quaterniond& q) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = q.normalized().toRotationMatrix();
+  T.translation() = t;
+  return T;
+}
+
+void store_max(std::atomic<std::uint64_t>& m, std::uint64_t v) {
+  if (v > m.load()) m.store(v);
+}
+
+}  // namespace
+
+std::string LoopClosureConfig::check() const {
+  if (!(horizon_s >= 0.0 && horizon_s <= 3600.0)) return "horizon_s must be in [0, 3600] s";
+  if (!(describe_every_m > 0.0 && describe_every_m <= 100.0)) return "describe_every_m must be in (0, 100] m";
+  if (!(solve_interval_s >= 0.0 && solve_interval_s <= 3600.0)) return "solve_interval_s must be in [0, 3600] s";
+  if (const std::string d = descriptor.check(); !d.empty()) return d;
+  if (const std::string d = detector.check(); !d.empty()) return d;
+  if (!(merge_places_within_m >= 0.0 && merge_places_within_m <= 5.0)) return "merge_places_within_m must be in [0, 5] m";
+  return deformation.check();
+}
+
+bool BackendStage::init(const Config& config, const scene_graph::Capacities& gc, std::size_t tsdf_block_slots,
+                        std::size_t frame_bytes, std::string* error, std::string* warning) {
+  config_ = config;
+  if (!rooms_.init(config_.rooms, rooms::Capacities::from_scene_graph(gc), budgets::active::rooms::kArenaBytes,
+                   error))
+    return false;
+  neural_tree::RoomClassifier::Config cc;
+  if (!config_.room_weights_path.empty()) cc.weights_path = config_.room_weights_path;
+  classifier_ = std::make_unique<neural_tree::RoomClassifier>(cc);
+  std::string why;
+  if (!classifier_->init(&why) && warning != nullptr) *warning = "room labels off: " + why + " (rooms stay \"unknown\")";
+  // The classifier's input holds every room, object and building node the graph can (room-room edges at most one
+  // per pair of rooms), so labelling never grows it.
+  room_graph_.reserve(static_cast<int>(gc.room_nodes + gc.object_nodes + gc.building_nodes),
+                      static_cast<int>(std::min(gc.edges, gc.room_nodes * (gc.room_nodes - 1) / 2)));
+  if (config_.doors_online) {
+    if (!online_doors_.init(config_.doors, rooms::OnlineDoorCapacities::from_budget(),
+                            budgets::active::doors::kArenaBytes, error))
+      return false;
+    painted_stamp_.assign(tsdf_block_slots, 0u);
+    painted_block_.assign(tsdf_block_slots, memory::Index3{});
+  }
+  return init_loop_closure(frame_bytes, error);
+}
+
+bool BackendStage::init_loop_closure(std::size_t frame_bytes, std::string* error) {
+  if (!config_.loop_closure.enabled) return true;
+  const LoopClosureConfig& c = config_.loop_closure;
+  namespace lc = budgets::active::loop_closure;
+  if (!descriptors_.init(c.descriptor, error)) return false;
+  if (!detector_.init(lc::kAgents, c.detector, error)) return false;
+  if (!control_points_.init(lc::kControlPoints, c.deformation.control_point_spacing_m, error)) return false;
+  control_points_.set_horizon_ns(static_cast<std::uint64_t>(c.deformation.time_horizon_s * 1e9));
+  deformation_ = DeformationGraph(c.deformation);
+  if (!appearance_.init(c.detector.appearance, error)) return false;
+  pending_.reserve(2 * lc::kAppearanceFrames);
+  loop_closures_.reserve(lc::kLoopClosures);
+  const std::size_t bytes = detector_.bytes() + lc::kControlPoints * (sizeof(Eigen::Vector3d) + 8 + 16) + frame_bytes +
+                            pending_.capacity() * sizeof(PendingAppearance);
+  if (bytes > lc::kArenaBytes)
+    return *error = "budget: loop_closure stores need " + std::to_string(bytes) + " bytes, the arena has " +
+                    std::to_string(lc::kArenaBytes),
+           false;
+  return true;
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// Doors
+
+std::uint64_t BackendStage::paint_walls(const reconstruction::SemanticTsdf& tsdf) {
+  if (!online_doors_.initialized()) return 0;
+  return online_doors_.wall_map().repaint(tsdf, painted_stamp_.data(), painted_block_.data(), painted_stamp_.size());
+}
+
+bool BackendStage::door_pass_due() {
+  return online_doors_.initialized() && updates_due_++ % config_.doors_online_every_n == 0;
+}
+
+rooms::PassResult BackendStage::detect_doors() {
+  const rooms::PassResult r = online_doors_.detect();
+  if (r.climbing) counters_.door_passes_climbing.fetch_add(1);
+  if (!r.ran) return r;
+  counters_.door_passes.fetch_add(1);
+  counters_.online_doors.store(online_doors_.doors().size());
+  counters_.online_doors_kept_missed.fetch_add(r.missed);
+  counters_.online_doors_dropped.fetch_add(r.removed);
+  counters_.online_doors_bypassed.fetch_add(r.bypassed);
+  counters_.online_bypass_refused.fetch_add(r.bypass_refused);
+  return r;
+}
+
+void BackendStage::note_door_pass_us(std::uint64_t us) { store_max(counters_.door_pass_max_us, us); }
+
+BackendStage::FinalDoors BackendStage::close_doors(const reconstruction::Mesh& mesh, scene_graph::SceneGraph* graph) {
+  FinalDoors out;
+  std::vector<Eigen::Vector3f> surface;
+  surface.reserve(mesh.vertices.size());
+  for (const reconstruction::MeshVertex& v : mesh.vertices) surface.emplace_back(v.x, v.y, v.z);
+  std::vector<rooms::Door> doors;
+  rooms::DoorStats stats;
+  if (!rooms::find_doors(surface, *graph, config_.doors, &doors, &stats, &out.error, &final_sight_)) {
+    final_sight_.clear();
+    return out;
+  }
+  out.ok = true;
+  out.doors = doors.size();
+  out.slices = stats.slices;
+  out.bypassed = stats.bypassed;
+  out.bypass_unchecked = stats.bypass_unchecked;
+  out.edges_closed = rooms::cut_place_edges(doors, config_.doors, graph);
+  if (config_.doors.sight_cut_edges) out.edges_through_walls = rooms::cut_edges_through_walls(final_sight_, graph);
+  online_doors_.clear_doors();  // the final doors, every storey on the whole mesh, replace the online ones
+  return out;
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// Rooms and labels
+
+rooms::UpdateResult BackendStage::update_rooms(scene_graph::SceneGraph* graph, std::uint64_t time_ns) {
+  const bool online = online_doors_.initialized();
+  // Sight lines: the final door stage's once it ran; during the run, the last online door pass's window.
+  const rooms::WallSight* sight = final_sight_.slices() > 0 ? &final_sight_
+                                  : online                   ? &online_doors_.sight()
+                                                             : nullptr;
+  const rooms::UpdateResult r = rooms_.update(graph, time_ns, online ? &online_doors_.doors() : nullptr, sight);
+  counters_.rooms_merged_visible.store(r.visible_merges);
+  counters_.updates.fetch_add(1);
+  counters_.rooms.store(r.rooms);
+  if (r.rooms > 0 && classifier_ != nullptr && classifier_->ready()) label_rooms(graph);
+  return r;
+}
+
+// The classifier's input from the scene graph: rooms with their box, each object in the room of the place it hangs
+// from, room-room edges, the building.
+void BackendStage::label_rooms(scene_graph::SceneGraph* graph) {
+  room_graph_.clear();
+  constexpr int kRooms = static_cast<int>(budgets::active::scene_graph::kRoomNodes);
+  std::int32_t room_index[kRooms];
+  scene_graph::NodeId room_ids[kRooms];
+  int rooms = 0;
+  const auto index_of = [&](scene_graph::NodeId id) {
+    for (int i = 0; i < rooms; ++i)
+      if (room_ids[i] == id) return room_index[i];
+    return -1;
+  };
+  graph->for_each_node([&](const scene_graph::NodeRecord& n) {
+    if (n.kind != scene_graph::NodeKind::kRoom || rooms >= kRooms) return;
+    const scene_graph::RoomAttributes* a = graph->room(n.id);
+    const Eigen::Vector3d size = a->bounding_box.type == scene_graph::BoundingBox::Type::kInvalid
+                                     ? Eigen::Vector3d::Zero()
+                                     : Eigen::Vector3d(a->bounding_box.max_m - a->bounding_box.min_m);
+    room_ids[rooms] = n.id;
+    room_index[rooms++] = room_graph_.add_room(a->position_m, size);
+  });
+  graph->for_each_node([&](const scene_graph::NodeRecord& n) {
+    if (n.kind != scene_graph::NodeKind::kObject || n.parent == scene_graph::kNoNode) return;
+    const int room = index_of(graph->parent(n.parent));  // object -> place -> room
+    if (room < 0) return;
+    const scene_graph::ObjectAttributes* o = graph->object(n.id);
+    const Eigen::Vector3d size = o->bounding_box.max_m - o->bounding_box.min_m;
+    // Through the classifier's label map: appliances split by their box, unread labels left out (label_map.h).
+    room_graph_.add_object(room, classifier_->word_index(static_cast<semantics::Label>(o->semantic_label), size),
+                           o->position_m, size);
+  });
+  graph->for_each_edge([&](const scene_graph::EdgeRecord& e) {
+    const int a = index_of(e.source), b = index_of(e.target);
+    if (a >= 0 && b >= 0) room_graph_.add_edge(a, b);
+  });
+  if (!classifier_->classify(room_graph_, &classifier_error_)) return;
+  std::uint64_t labelled = 0;
+  for (const neural_tree::RoomPrediction& p : classifier_->predictions()) {
+    for (int i = 0; i < rooms; ++i) {
+      if (room_index[i] != p.node) continue;
+      scene_graph::RoomAttributes* a = graph->room(room_ids[i]);
+      a->semantic_label = p.label;
+      a->class_probabilities.clear();
+      // The most likely labels first, as many as the attribute holds.
+      std::array<std::uint32_t, semantics::kNumRoomLabels> order{};
+      for (std::uint32_t k = 0; k < order.size(); ++k) order[k] = k;
+      std::sort(order.begin(), order.end(),
+                [&](std::uint32_t x, std::uint32_t y) { return p.label_probabilities[x] > p.label_probabilities[y]; });
+      for (std::uint32_t k : order) {
+        if (a->class_probabilities.size() == scene_graph::kMaxRoomClasses || p.label_probabilities[k] <= 0.0f) break;
+        a->class_probabilities.push_back(scene_graph::LabelProbability{k, p.label_probabilities[k]});
+      }
+      labelled += p.label != semantics::kRoomUnknown ? 1 : 0;
+    }
+  }
+  counters_.rooms_labelled.store(labelled);
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// The persistent scene graph
+
+void BackendStage::offer_control_points(const reconstruction::SemanticTsdf& tsdf, std::uint64_t time_ns) {
+  if (!config_.loop_closure.enabled) return;
+  tsdf.for_each_block([&](std::uint32_t handle, const reconstruction::SemanticTsdf::BlockView& view) {
+    if (view.meshed_stamp <= cp_mesh_stamp_ || view.num_vertices == 0) return;
+    reconstruction::SemanticTsdf::VertexCursor cursor;
+    reconstruction::MeshVertex v;
+    std::uint64_t key = 0;
+    if (tsdf.next_block_vertex(handle, &cursor, &v, &key)) control_points_.offer(Eigen::Vector3d(v.x, v.y, v.z), time_ns);
+  });
+  cp_mesh_stamp_ = tsdf.mesh_stamp();
+}
+
+void BackendStage::add_appearance(scene_graph::NodeId agent, std::uint64_t time_ns,
+                                  const loop_closure::GreyDepthView& view) {
+  if (!config_.loop_closure.enabled) return;
+  if (pending_.size() == pending_.capacity()) {
+    pending_.erase(pending_.begin());  // the oldest waits no longer (no reallocation: erase keeps capacity)
+    counters_.appearances_dropped.fetch_add(1);
+  }
+  PendingAppearance& p = pending_.emplace_back();
+  p.agent = agent;
+  p.time_ns = time_ns;
+  appearance_.extract(view, &p.features);
+  loop_closure::make_depth_cloud(view, config_.loop_closure.detector.icp.max_depth_m, &p.cloud);
+}
+
+bool BackendStage::detect_loop_closures(const scene_graph::SceneGraph& graph, const agents::AgentLayer& agents,
+                                        std::uint64_t time_ns) {
+  const LoopClosureConfig& c = config_.loop_closure;
+  if (!c.enabled) return false;
+  const auto horizon_ns = static_cast<std::uint64_t>(c.horizon_s * 1e9);
+  if (time_ns < horizon_ns) return false;
+  std::size_t k = 0;
+  while (k < agents.chain_size() && agents.chain(k).time_ns <= described_until_ns_ && have_last_) ++k;
+  bool found = false;
+  for (; k < agents.chain_size() && agents.chain(k).time_ns + horizon_ns <= time_ns; ++k) {
+    const agents::ChainNode& n = agents.chain(k);
+    if (have_last_) path_m_ += (n.t_m - last_m_).norm();
+    last_m_ = n.t_m;
+    have_last_ = true;
+    described_until_ns_ = n.time_ns;
+    // Described: the agents whose keyframe was captured (one per describe_every_m of path).
+    while (!pending_.empty() && pending_.front().time_ns < n.time_ns) pending_.erase(pending_.begin());
+    if (pending_.empty() || pending_.front().agent != n.id) continue;
+    scene_graph::NodeId place = scene_graph::kNoNode;
+    graph.for_each_neighbor(n.id, [&](scene_graph::NodeId other, const scene_graph::EdgeRecord&) {
+      if (place == scene_graph::kNoNode && graph.place(other) != nullptr) place = other;
+    });
+    loop_closure::AgentEntry e;
+    if (place == scene_graph::kNoNode || !descriptors_.describe(graph, place, n.t_m, &e.descriptor)) continue;
+    e.agent = n.id;
+    e.time_ns = n.time_ns;
+    e.path_m = path_m_;
+    e.world_T_agent = isometry(n.t_m, n.q);
+    e.appearance = pending_.front().features;
+    e.cloud = pending_.front().cloud;
+    pending_.erase(pending_.begin());
+    counters_.agents_described.fetch_add(1);
+    loop_closure::LoopClosure closure;
+    if (!detector_.add_and_detect(e, &closure)) continue;
+    counters_.loop_closures.fetch_add(1);
+    if (loop_closures_.size() == loop_closures_.capacity()) {
+      counters_.loop_closures_dropped.fetch_add(1);
+      continue;
+    }
+    loop_closures_.push_back(closure);
+    if (closure.source == loop_closure::ClosureSource::kAppearance) counters_.loop_closures_by_appearance.fetch_add(1);
+    found = true;
+  }
+  if (found) solve_pending_ = true;
+  return found;
+}
+
+bool BackendStage::solve_due(std::uint64_t time_ns) {
+  const auto interval_ns = static_cast<std::uint64_t>(config_.loop_closure.solve_interval_s * 1e9);
+  if (!solve_pending_ || (last_solve_ns_ > 0 && time_ns < last_solve_ns_ + interval_ns)) return false;
+  solve_pending_ = false;
+  last_solve_ns_ = time_ns;
+  return true;
+}
+
+DeformationProblem BackendStage::build_deformation(const agents::AgentLayer& agents,
+                                                   const scene_graph::SceneGraph& graph) const {
+  std::vector<ChainLoopClosure> closures;
+  closures.reserve(loop_closures_.size());
+  for (const loop_closure::LoopClosure& lc : loop_closures_) {
+    ChainLoopClosure cc;
+    cc.a = static_cast<std::uint32_t>(chain_index_at(agents, lc.match_time_ns));
+    cc.b = static_cast<std::uint32_t>(chain_index_at(agents, lc.query_time_ns));
+    if (cc.a >= cc.b) continue;
+    cc.a_T_b = Pose3{lc.match_T_query.translation(), Eigen::Quaterniond(lc.match_T_query.linear())};
+    // Appearance: depth-precise; objects: centroids of partial views, a decimetre and a degree or so.
+    // ICP-refined: depth-precise too (its gate is a few centimetres).
+    const bool precise = lc.source == loop_closure::ClosureSource::kAppearance || lc.refined;
+    const double rmse = lc.refined                                              ? lc.icp.rmse_m
+                        : lc.source == loop_closure::ClosureSource::kAppearance ? lc.appearance.inlier_rmse_m
+                                                                                : lc.registration.inlier_rmse_m;
+    cc.sigma_t_m = Eigen::Vector3d::Constant(precise ? std::max(0.02, rmse) : std::max(0.15, rmse));
+    cc.sigma_rot_rad = Eigen::Vector3d::Constant(precise ? 0.005 : 0.03);
+    closures.push_back(cc);
+  }
+  return deformation_.build(agents, closures, control_points_, graph);
+}
+
+bool BackendStage::solve_deformation(DeformationProblem problem, std::string* error) {
+  DeformationResult result = deformation_.solve(std::move(problem));
+  counters_.graph_optimizations.fetch_add(1);
+  if (!result.solve.poses_updated()) {
+    counters_.graph_optimization_failures.fetch_add(1);
+    if (error != nullptr) *error = result.solve.message;
+    return false;
+  }
+  deformation_result_ = std::move(result);
+  counters_.loop_closures_kept.store(deformation_result_.loop_closures_kept);
+  return true;
+}
+
+Eigen::Isometry3d BackendStage::corrected_pose(const agents::AgentLayer& agents, std::size_t k) const {
+  const Eigen::Isometry3d odom = isometry(agents.chain(k).t_m, agents.chain(k).q);
+  if (!deformation_.solved() || deformation_.num_agent_poses() == 0) return odom;
+  if (k < deformation_.num_agent_poses()) {
+    const Pose3 p = deformation_.agent_pose(k);
+    return isometry(p.t_m, p.q);
+  }
+  const std::size_t last = deformation_.num_agent_poses() - 1;
+  const Pose3 p = deformation_.agent_pose(last);
+  return isometry(p.t_m, p.q) * isometry(agents.chain(last).t_m, agents.chain(last).q).inverse() * odom;
+}
+
+void BackendStage::correct_graph(const agents::AgentLayer& agents, scene_graph::SceneGraph* graph) const {
+  if (!deformation_.solved()) return;
+  for (std::size_t k = 0; k < agents.chain_size(); ++k) {
+    scene_graph::AgentAttributes* a = graph->agent(agents.chain(k).id);
+    if (a == nullptr) continue;
+    const Eigen::Isometry3d T = corrected_pose(agents, k);
+    a->position_m = T.translation();
+    a->world_R_body = Eigen::Quaterniond(T.linear());
+  }
+  graph->for_each_node([&](const scene_graph::NodeRecord& n) {
+    scene_graph::SemanticAttributes* s = nullptr;
+    Eigen::Vector3d moved;
+    if (n.kind == scene_graph::NodeKind::kPlace) {
+      scene_graph::PlaceAttributes* p = graph->place(n.id);
+      if (deformation_.place_position(n.id, &moved)) {
+        p->position_m = moved;
+        return;
+      }
+      s = p;
+    } else if (n.kind == scene_graph::NodeKind::kObject) {
+      s = graph->object(n.id);
+    } else if (n.kind == scene_graph::NodeKind::kRoom) {
+      s = graph->room(n.id);
+    } else if (n.kind == scene_graph::NodeKind::kBuilding) {
+      s = graph->building(n.id);
+    }
+    if (s == nullptr) return;
+    moved = deformation_.deform(s->position_m, s->last_update_time_ns);
+    const Eigen::Vector3d shift = moved - s->position_m;
+    s->position_m = moved;
+    if (s->bounding_box.type != scene_graph::BoundingBox::Type::kInvalid) {  // the box moves with its centre
+      s->bounding_box.min_m += shift;
+      s->bounding_box.max_m += shift;
+      s->bounding_box.world_P_center_m += shift;
+    }
+  });
+}
+
+// Vertices carry no time, so each moves with its nearest nodes of any time.
+void BackendStage::correct_mesh(reconstruction::Mesh* mesh) const {
+  if (!deformation_.solved()) return;
+  for (reconstruction::MeshVertex& v : mesh->vertices) {
+    const Eigen::Vector3d p = deformation_.deform(Eigen::Vector3d(v.x, v.y, v.z));
+    v.x = static_cast<float>(p.x());
+    v.y = static_cast<float>(p.y());
+    v.z = static_cast<float>(p.z());
+  }
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// Reconciliation
+
+namespace {
+
+// The box and centre of a set of mesh vertices; false when there is none.
+bool box_of(const reconstruction::Mesh& mesh, const std::vector<std::uint32_t>& indices, Eigen::Vector3d* centre,
+            Eigen::Vector3d* lo, Eigen::Vector3d* hi) {
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  std::size_t n = 0;
+  *lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
+  *hi = -*lo;
+  for (std::uint32_t i : indices) {
+    if (i >= mesh.vertices.size()) continue;
+    const reconstruction::MeshVertex& v = mesh.vertices[i];
+    const Eigen::Vector3d p(v.x, v.y, v.z);
+    if (!p.allFinite()) continue;
+    sum += p;
+    *lo = lo->cwiseMin(p);
+    *hi = hi->cwiseMax(p);
+    ++n;
+  }
+  if (n == 0) return false;
+  *centre = sum / static_cast<double>(n);
+  return true;
+}
+
+std::uint64_t cell_key(const Eigen::Vector3d& p, double cell_m) {
+  const auto c = [&](double v) { return static_cast<std::uint64_t>(static_cast<std::int64_t>(std::floor(v / cell_m)) & 0x1FFFFF); };
+  return c(p.x()) | (c(p.y()) << 21) | (c(p.z()) << 42);
+}
+
+}  // namespace
+
+BackendStage::Reconciliation BackendStage::reconcile(
+    const reconstruction::Mesh& mesh, std::unordered_map<scene_graph::NodeId, std::vector<std::uint32_t>>* indices,
+    scene_graph::SceneGraph* graph) const {
+  Reconciliation out;
+  const LoopClosureConfig& c = config_.loop_closure;
+  // Objects: centre and box from their vertices in the corrected mesh.
+  std::vector<scene_graph::NodeId> objects;
+  graph->for_each_node([&](const scene_graph::NodeRecord& n) {
+    if (n.kind == scene_graph::NodeKind::kObject) objects.push_back(n.id);
+  });
+  for (scene_graph::NodeId id : objects) {
+    const auto it = indices->find(id);
+    Eigen::Vector3d centre, lo, hi;
+    if (it == indices->end() || !box_of(mesh, it->second, &centre, &lo, &hi)) continue;
+    scene_graph::ObjectAttributes* o = graph->object(id);
+    o->position_m = centre;
+    o->bounding_box = scene_graph::BoundingBox::aabb(lo, hi);
+    ++out.objects_from_mesh;
+  }
+  // Objects of one label, either's centre in the other's box: the smaller (fewer vertices) merges into the larger.
+  if (c.merge_objects) {
+    std::vector<bool> gone(objects.size(), false);
+    const auto size_of = [&](scene_graph::NodeId id) {
+      const auto it = indices->find(id);
+      return it == indices->end() ? std::size_t{0} : it->second.size();
+    };
+    for (std::size_t a = 0; a < objects.size(); ++a) {
+      for (std::size_t b = a + 1; b < objects.size() && !gone[a]; ++b) {
+        if (gone[b]) continue;
+        scene_graph::ObjectAttributes* oa = graph->object(objects[a]);
+        scene_graph::ObjectAttributes* ob = graph->object(objects[b]);
+        if (oa->semantic_label != ob->semantic_label) continue;
+        if (!oa->bounding_box.contains(ob->position_m) && !ob->bounding_box.contains(oa->position_m)) continue;
+        const bool keep_a = size_of(objects[a]) >= size_of(objects[b]);
+        const scene_graph::NodeId into = keep_a ? objects[a] : objects[b], from = keep_a ? objects[b] : objects[a];
+        scene_graph::ObjectAttributes* keep = graph->object(into);
+        const scene_graph::ObjectAttributes* drop = graph->object(from);
+        Eigen::Vector3d lo = keep->bounding_box.min_m.cwiseMin(drop->bounding_box.min_m);
+        Eigen::Vector3d hi = keep->bounding_box.max_m.cwiseMax(drop->bounding_box.max_m);
+        std::vector<std::uint32_t>& joined = (*indices)[into];
+        if (const auto it = indices->find(from); it != indices->end()) {
+          joined.insert(joined.end(), it->second.begin(), it->second.end());
+          std::sort(joined.begin(), joined.end());
+          joined.erase(std::unique(joined.begin(), joined.end()), joined.end());
+          indices->erase(from);
+        }
+        Eigen::Vector3d centre = 0.5 * (keep->position_m + drop->position_m);
+        Eigen::Vector3d vlo, vhi;
+        if (box_of(mesh, (*indices)[into], &centre, &vlo, &vhi)) lo = vlo, hi = vhi;
+        keep->position_m = centre;
+        keep->bounding_box = scene_graph::BoundingBox::aabb(lo, hi);
+        const scene_graph::SceneGraph::MergeResult m = graph->merge_into(into, from);
+        if (m.status != scene_graph::Status::kOk) continue;
+        out.edges_refused += m.refused;
+        ++out.objects_merged;
+        gone[keep_a ? b : a] = true;
+      }
+    }
+  }
+  // Places: a revisit mapped a second place where the correction now puts the first; the older one stays.
+  if (c.merge_places_within_m > 0.0) {
+    const double d = c.merge_places_within_m;
+    std::unordered_map<std::uint64_t, std::vector<scene_graph::NodeId>> cells;
+    std::vector<scene_graph::NodeId> places;
+    graph->for_each_node([&](const scene_graph::NodeRecord& n) {
+      if (n.kind == scene_graph::NodeKind::kPlace) places.push_back(n.id);
+    });
+    std::sort(places.begin(), places.end());
+    for (scene_graph::NodeId id : places) {
+      const scene_graph::PlaceAttributes* p = graph->place(id);
+      const Eigen::Vector3d at = p->position_m;
+      scene_graph::NodeId into = scene_graph::kNoNode;
+      for (int dx = -1; dx <= 1 && into == scene_graph::kNoNode; ++dx)
+        for (int dy = -1; dy <= 1 && into == scene_graph::kNoNode; ++dy)
+          for (int dz = -1; dz <= 1 && into == scene_graph::kNoNode; ++dz) {
+            const auto it = cells.find(cell_key(at + d * Eigen::Vector3d(dx, dy, dz), d));
+            if (it == cells.end()) continue;
+            for (scene_graph::NodeId other : it->second) {
+              const scene_graph::PlaceAttributes* q = graph->place(other);
+              const double gap = (q->position_m - at).norm();
+              // Within the distance, and each inside the other's free space (the same space, not across a wall).
+              if (gap <= d && gap < std::min(p->distance_m, q->distance_m)) {
+                into = other;
+                break;
+              }
+            }
+          }
+      if (into == scene_graph::kNoNode) {
+        cells[cell_key(at, d)].push_back(id);
+        continue;
+      }
+      const scene_graph::SceneGraph::MergeResult m = graph->merge_into(into, id);
+      if (m.status != scene_graph::Status::kOk) {
+        cells[cell_key(at, d)].push_back(id);
+        continue;
+      }
+      out.edges_refused += m.refused;
+      ++out.places_merged;
+    }
+  }
+  return out;
+}
+
+}  // namespace qsg::backend

@@ -1,0 +1,240 @@
+// The backend stage: what the paper's backend does with the frontend's places, objects and agents — doors (online in
+// a window around the robot, and once more on the final surface), rooms and the building, room labels, and the
+// persistent scene graph (agent descriptors, loop-closure detection and verification, the deformation graph and the
+// correction of every layer). Pure: no threads, no locks, no clock; each method says which shared state its caller
+// must hold (the app: firmware_app/pipeline.cc; the evaluations drive it the same way). Its stores are the budget
+// table's "rooms", "doors" and "loop_closure" arenas; its counters are atomics, readable from any thread.
+#pragma once
+
+#include <Eigen/Geometry>
+#include <atomic>
+#include <cstdint>
+#include <cstdio>
+#include <memory>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include "core/agents/agent_layer.h"
+#include "core/backend/deformation_graph.h"
+#include "core/loop_closure/detector.h"
+#include "core/neural_tree/room_classifier.h"
+#include "core/reconstruction/semantic_tsdf.h"
+#include "core/rooms/door_detector.h"
+#include "core/rooms/online_doors.h"
+#include "core/rooms/room_finder.h"
+#include "core/scene_graph/scene_graph.h"
+
+namespace qsg::backend {
+
+// The persistent scene graph (paper: "Persistent Representations"): agents described once the robot is horizon_s
+// past them (one per describe_every_m of path), loop closures detected top-down and verified bottom-up over the
+// scene graph, and the deformation graph re-solved after new ones.
+struct LoopClosureConfig {
+  // Off by default until it meets its target on the main job (bench/results/loop_closure.md).
+  bool enabled = false;
+  double horizon_s = 15.0;
+  double describe_every_m = 1.0;
+  // The deformation graph is re-solved after a new loop closure at most once per this much mission time; closures
+  // found meanwhile wait for the next solve (and the finish solves whatever is pending).
+  double solve_interval_s = 10.0;
+  loop_closure::DescriptorConfig descriptor;
+  loop_closure::DetectorConfig detector;
+  DeformationConfig deformation;
+  // Reconciliation after the correction (paper: merging revisited places and objects). Places closer than this
+  // whose free-space spheres hold each other merge (0: none); objects of one label merge when either's centre lies
+  // in the other's box.
+  double merge_places_within_m = 0.4;
+  bool merge_objects = true;
+  std::string check() const;
+};
+
+class BackendStage {
+ public:
+  struct Config {
+    rooms::Config rooms;
+    rooms::DoorConfig doors;
+    bool doors_online = true;                // an online door pass every doors_online_every_n-th update
+    std::uint32_t doors_online_every_n = 4;
+    std::string room_weights_path;           // empty: the classifier's default weights
+    LoopClosureConfig loop_closure;
+  };
+
+  // Totals, written by the stage and readable from any thread.
+  struct Counters {
+    std::atomic<std::uint64_t> updates{0};
+    std::atomic<std::uint64_t> rooms{0};
+    std::atomic<std::uint64_t> rooms_labelled{0};
+    std::atomic<std::uint64_t> rooms_merged_visible{0};
+    std::atomic<std::uint64_t> door_passes{0};
+    std::atomic<std::uint64_t> door_passes_climbing{0};
+    std::atomic<std::uint64_t> online_doors{0};
+    std::atomic<std::uint64_t> online_doors_kept_missed{0};
+    std::atomic<std::uint64_t> online_doors_dropped{0};
+    std::atomic<std::uint64_t> online_doors_bypassed{0};
+    std::atomic<std::uint64_t> online_bypass_refused{0};
+    std::atomic<std::uint64_t> door_pass_max_us{0};
+    std::atomic<std::uint64_t> agents_described{0};
+    std::atomic<std::uint64_t> loop_closures{0};
+    std::atomic<std::uint64_t> loop_closures_kept{0};
+    std::atomic<std::uint64_t> loop_closures_dropped{0};
+    std::atomic<std::uint64_t> loop_closures_by_appearance{0};
+    std::atomic<std::uint64_t> appearances_dropped{0};  // described too late: the oldest waiting appearance went
+    std::atomic<std::uint64_t> graph_optimizations{0};
+    std::atomic<std::uint64_t> graph_optimization_failures{0};
+  };
+
+  // What the final door stage found (close_doors).
+  struct FinalDoors {
+    bool ok = false;
+    std::string error;
+    std::size_t doors = 0, slices = 0, bypassed = 0, bypass_unchecked = 0;
+    std::uint64_t edges_closed = 0, edges_through_walls = 0;
+  };
+
+  BackendStage() = default;
+  BackendStage(const BackendStage&) = delete;
+  BackendStage& operator=(const BackendStage&) = delete;
+
+  // Carves every store. graph_capacities size the rooms' and the classifier's inputs; tsdf_block_slots the online
+  // doors' paint bookkeeping; frame_bytes is what the caller holds of the "loop_closure" arena for the keyframes
+  // it hands over (add_appearance), checked with the stage's own stores against the arena. A missing or corrupt
+  // classifier weight file is not an error: it is reported in *warning and the rooms stay "unknown".
+  bool init(const Config& config, const scene_graph::Capacities& graph_capacities, std::size_t tsdf_block_slots,
+            std::size_t frame_bytes, std::string* error, std::string* warning);
+  const Config& config() const { return config_; }
+  const Counters& counters() const { return counters_; }
+
+  // ---- Doors during the run (loop thread paints, backend thread detects) ----
+  bool online_doors_enabled() const { return online_doors_.initialized(); }
+  // Loop thread, holding the wall lock: re-meshed blocks into the wall map. Returns the blocks painted.
+  std::uint64_t paint_walls(const reconstruction::SemanticTsdf& tsdf);
+  // True when this update is one that runs a door pass (every doors_online_every_n-th); counts the updates.
+  bool door_pass_due();
+  // One pass in three steps, so the caller can hold the right lock for each: the places (graph lock), the wall
+  // raster (wall lock), the detection (neither).
+  void begin_door_pass(const Eigen::Vector3d& robot_m) { online_doors_.begin_pass(robot_m); }
+  void add_door_places(const scene_graph::SceneGraph& graph) { online_doors_.add_places(graph); }
+  void rasterize_walls() { online_doors_.rasterize(); }
+  rooms::PassResult detect_doors();
+  void note_door_pass_us(std::uint64_t us);  // the caller's timing of the whole pass (door_pass_max_us)
+
+  // ---- Rooms, building and labels (graph lock held) ----
+  rooms::UpdateResult update_rooms(scene_graph::SceneGraph* graph, std::uint64_t time_ns);
+  // Doors on the final surface (graph lock held): they close the place edges through them and replace the online
+  // ones; the sight lines they leave are the finder's from then on. On failure the rooms stay as the run found them.
+  FinalDoors close_doors(const reconstruction::Mesh& mesh, scene_graph::SceneGraph* graph);
+
+  // ---- The persistent scene graph ----
+  bool loop_closure_enabled() const { return config_.loop_closure.enabled; }
+  void disable_loop_closure() { config_.loop_closure.enabled = false; }
+  // Loop thread, graph lock held: one control point per newly meshed block.
+  void offer_control_points(const reconstruction::SemanticTsdf& tsdf, std::uint64_t time_ns);
+  // Backend thread: the appearance (features and depth cloud) of an agent's keyframe, kept until it is described.
+  void add_appearance(scene_graph::NodeId agent, std::uint64_t time_ns, const loop_closure::GreyDepthView& view);
+  // Backend thread, graph lock held: describes the chain nodes the robot left horizon_s ago and looks each up among
+  // the earlier ones. True when a new loop closure was verified.
+  bool detect_loop_closures(const scene_graph::SceneGraph& graph, const agents::AgentLayer& agents,
+                            std::uint64_t time_ns);
+  // True when a closure waits for a solve and solve_interval_s has passed since the last (marks it started).
+  bool solve_due(std::uint64_t time_ns);
+  bool solve_pending() const { return solve_pending_; }
+  // Graph lock held: the deformation graph over the chain, every loop closure so far, control points and places.
+  DeformationProblem build_deformation(const agents::AgentLayer& agents, const scene_graph::SceneGraph& graph) const;
+  // Without the lock: solves it. False (and counted, the previous solution kept) when the solve failed.
+  bool solve_deformation(DeformationProblem problem, std::string* error);
+  // Graph lock held: agents and places to their optimized poses, objects, rooms and the building moved by the
+  // deformation around them (nothing when no solve has succeeded).
+  void correct_graph(const agents::AgentLayer& agents, scene_graph::SceneGraph* graph) const;
+  // The mesh moved by the deformation (embedded deformation: each vertex by its nearest nodes).
+  void correct_mesh(reconstruction::Mesh* mesh) const;
+  // After correct_graph and correct_mesh (graph lock held; off the real-time path: it allocates): the paper's
+  // reconciliation. Each object's centre and box from its mesh vertices in the corrected mesh (indices: the
+  // object's vertices in it; an object without any keeps its moved box); revisited places within
+  // merge_places_within_m merged; objects of one label merged when either's centre lies in the other's box (their
+  // vertices joined in *indices). Rooms and labels are the caller's next update_rooms().
+  struct Reconciliation {
+    std::size_t objects_from_mesh = 0, objects_merged = 0, places_merged = 0, edges_refused = 0;
+  };
+  Reconciliation reconcile(const reconstruction::Mesh& corrected_mesh,
+                           std::unordered_map<scene_graph::NodeId, std::vector<std::uint32_t>>* indices,
+                           scene_graph::SceneGraph* graph) const;
+  Eigen::Vector3d deform(const Eigen::Vector3d& p_m) const { return deformation_.deform(p_m); }
+  bool solved() const { return deformation_.solved(); }
+  // world_T_camera of chain node k after the latest optimization (nodes after the solved chain follow the
+  // correction of the last solved one); the odometric pose before any.
+  Eigen::Isometry3d corrected_pose(const agents::AgentLayer& agents, std::size_t k) const;
+  const std::vector<loop_closure::LoopClosure>& loop_closures() const { return loop_closures_; }
+  const DeformationResult& deformation_result() const { return deformation_result_; }
+  const loop_closure::LoopClosureDetector& detector() const { return detector_; }
+  const ControlPoints& control_points() const { return control_points_; }
+
+  // Every store, as memory::ResourceStats (capacity, use, high-water mark, failures). with_door_set false: the
+  // online doors' door set, which a door pass writes without the graph lock, is left out (their arena and wall
+  // map are read as usual) — for a reader on another thread than the stage's.
+  template <typename Fn>
+  void for_each_resource(Fn&& fn, bool with_door_set = true) const {
+    rooms_.for_each_resource(fn);
+    if (online_doors_.initialized()) {
+      if (with_door_set) {
+        online_doors_.for_each_resource(fn);
+      } else {
+        fn(online_doors_.arena().stats());
+        fn(online_doors_.wall_map().tile_stats());
+      }
+    }
+    if (!config_.loop_closure.enabled) return;
+    fn(detector_.stats());
+    fn(control_points_.stats());
+    memory::ResourceStats s;
+    s.name = "loop_closure.closures";
+    s.unit = "closures";
+    s.capacity = loop_closures_.capacity();
+    s.in_use = s.high_water = loop_closures_.size();
+    s.failed = counters_.loop_closures_dropped.load();
+    fn(s);
+  }
+  const rooms::OnlineDoors& online_doors() const { return online_doors_; }
+  const rooms::RoomFinder& room_finder() const { return rooms_; }
+  const std::string& classifier_error() const { return classifier_error_; }
+
+ private:
+  bool init_loop_closure(std::size_t frame_bytes, std::string* error);
+  void label_rooms(scene_graph::SceneGraph* graph);
+
+  Config config_;
+  Counters counters_;
+  rooms::RoomFinder rooms_;
+  rooms::OnlineDoors online_doors_;
+  rooms::WallSight final_sight_;  // the final door stage's sight lines; before it, the online window's
+  std::vector<std::uint32_t> painted_stamp_;   // per TSDF block slot: the meshed_stamp last painted
+  std::vector<memory::Index3> painted_block_;  // ... and the block it was
+  std::uint64_t updates_due_ = 0;
+  std::unique_ptr<neural_tree::RoomClassifier> classifier_;
+  neural_tree::ObjectRoomGraph room_graph_;
+  std::string classifier_error_;  // the latest failure
+
+  struct PendingAppearance {
+    scene_graph::NodeId agent = scene_graph::kNoNode;
+    std::uint64_t time_ns = 0;
+    loop_closure::AppearanceFeatures features;
+    loop_closure::DepthCloud cloud;
+  };
+  std::vector<PendingAppearance> pending_;  // waiting for their description (time order)
+  loop_closure::AppearanceExtractor appearance_;
+  loop_closure::DescriptorBuilder descriptors_;
+  loop_closure::LoopClosureDetector detector_;
+  ControlPoints control_points_;
+  DeformationGraph deformation_;
+  DeformationResult deformation_result_;
+  std::vector<loop_closure::LoopClosure> loop_closures_;  // capacity: the budget's loop_closure.loop_closures
+  bool solve_pending_ = false;
+  std::uint64_t last_solve_ns_ = 0;
+  std::uint64_t described_until_ns_ = 0;  // chain nodes up to this time are described (or skipped)
+  double path_m_ = 0.0;                   // path along the chain to the last node looked at
+  Eigen::Vector3d last_m_ = Eigen::Vector3d::Zero();
+  bool have_last_ = false;
+  std::uint32_t cp_mesh_stamp_ = 0;  // blocks meshed after this stamp are offered as control points
+};
+
+}  // namespace qsg::backend

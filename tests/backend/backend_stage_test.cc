@@ -1,0 +1,222 @@
+// The backend stage driven on its own, as the app and the evaluations drive it: rooms and labels in one call, its
+// stores and counters, loop closure off and on, and a clear error when its stores exceed their arena.
+#include "core/backend/backend_stage.h"
+
+#include <gtest/gtest.h>
+
+#include <memory>
+#include <set>
+#include <string>
+
+#include "budgets/budget_table.h"
+#include "tests/rooms/synthetic_places.h"
+
+namespace qsg::backend {
+namespace {
+
+namespace sg = scene_graph;
+
+sg::Capacities graph_capacities() {
+  sg::Capacities c;
+  c.object_nodes = 16;
+  c.agent_nodes = 16;
+  c.place_nodes = 4096;
+  c.room_nodes = 64;
+  c.building_nodes = 2;
+  c.edges = 32768;
+  c.adjacency_chunks = 16384;
+  c.mesh_connections = 16;
+  return c;
+}
+
+std::unique_ptr<sg::SceneGraph> make_graph() {
+  auto g = std::make_unique<sg::SceneGraph>();
+  std::string error;
+  EXPECT_TRUE(g->init(graph_capacities(), sg::SceneGraph::plan(graph_capacities()).total_bytes(), &error)) << error;
+  return g;
+}
+
+// Two rooms joined by a door, with an object hanging from a place of each.
+std::unique_ptr<sg::SceneGraph> two_rooms_with_objects(rooms::testing::SyntheticPlaces* s) {
+  rooms::testing::two_rooms_plan().add_to(s, 1.0);
+  auto g = make_graph();
+  EXPECT_TRUE(s->write(g.get()));
+  const sg::NodeId first = s->places.front().id, last = s->places.back().id;
+  std::uint64_t k = 0;
+  for (const auto& [place, label] : {std::pair{first, semantics::kBed}, std::pair{last, semantics::kToilet}}) {
+    sg::ObjectAttributes o;
+    o.semantic_label = label;
+    o.position_m = g->place(place)->position_m;
+    o.bounding_box = sg::BoundingBox::aabb(o.position_m - Eigen::Vector3d::Constant(0.4),
+                                           o.position_m + Eigen::Vector3d::Constant(0.4));
+    const sg::NodeId id = sg::make_node_id(sg::kObjectPrefix, k++);
+    EXPECT_EQ(g->add_object(id, o), sg::Status::kOk);
+    EXPECT_EQ(g->add_edge(place, id), sg::Status::kOk);
+  }
+  return g;
+}
+
+std::set<std::string> store_names(const BackendStage& stage, bool with_door_set = true) {
+  std::set<std::string> names;
+  stage.for_each_resource([&](const memory::ResourceStats& s) { names.insert(s.name); }, with_door_set);
+  return names;
+}
+
+TEST(BackendStageTest, RoomsAndTheirLabelsInOneUpdate) {
+  rooms::testing::SyntheticPlaces s;
+  auto g = two_rooms_with_objects(&s);
+  BackendStage stage;
+  BackendStage::Config c;
+  c.doors_online = false;
+  std::string error, warning;
+  ASSERT_TRUE(stage.init(c, graph_capacities(), 0, 0, &error, &warning)) << error;
+  EXPECT_TRUE(warning.empty()) << warning;  // the shipped weights load
+  const rooms::UpdateResult r = stage.update_rooms(g.get(), 1'000'000'000);
+  ASSERT_EQ(r.outcome, rooms::Outcome::kOk) << rooms::to_string(r.outcome);
+  EXPECT_EQ(r.rooms, 2u);
+  EXPECT_EQ(stage.counters().updates.load(), 1u);
+  EXPECT_EQ(stage.counters().rooms.load(), 2u);
+  // Each room holds one informative object: both get a label, and the stage says so.
+  std::size_t labelled = 0;
+  g->for_each_node([&](const sg::NodeRecord& n) {
+    if (n.kind != sg::NodeKind::kRoom) return;
+    const sg::RoomAttributes* a = g->room(n.id);
+    labelled += a->semantic_label != semantics::kRoomUnknown ? 1 : 0;
+    EXPECT_FALSE(a->class_probabilities.empty());
+  });
+  EXPECT_EQ(labelled, 2u);
+  EXPECT_EQ(stage.counters().rooms_labelled.load(), 2u);
+  // Loop closure off: no loop-closure store, and nothing to solve or correct.
+  const std::set<std::string> names = store_names(stage);
+  EXPECT_EQ(names.count("loop_closure.closures"), 0u);
+  EXPECT_FALSE(stage.solve_due(1'000'000'000));
+  EXPECT_FALSE(stage.solved());
+}
+
+TEST(BackendStageTest, MissingWeightsAreAWarningAndRoomsStayUnknown) {
+  rooms::testing::SyntheticPlaces s;
+  auto g = two_rooms_with_objects(&s);
+  BackendStage stage;
+  BackendStage::Config c;
+  c.doors_online = false;
+  c.room_weights_path = "/nonexistent/room_classifier.json";
+  std::string error, warning;
+  ASSERT_TRUE(stage.init(c, graph_capacities(), 0, 0, &error, &warning)) << error;
+  EXPECT_NE(warning.find("room labels off"), std::string::npos) << warning;
+  EXPECT_EQ(stage.update_rooms(g.get(), 0).rooms, 2u);
+  EXPECT_EQ(stage.counters().rooms_labelled.load(), 0u);
+}
+
+TEST(BackendStageTest, LoopClosureStoresAreCarvedAndReported) {
+  BackendStage stage;
+  BackendStage::Config c;
+  c.loop_closure.enabled = true;
+  std::string error, warning;
+  ASSERT_TRUE(stage.init(c, graph_capacities(), 64, 0, &error, &warning)) << error;
+  const std::set<std::string> names = store_names(stage);
+  EXPECT_EQ(names.count("loop_closure.closures"), 1u);
+  EXPECT_EQ(names.count(stage.control_points().stats().name), 1u);
+  // The door set is left out for a reader on another thread; the online doors' arena is still reported.
+  EXPECT_LT(store_names(stage, false).size(), names.size());
+  // No agents yet: nothing described, nothing detected, nothing to solve.
+  auto g = make_graph();
+  agents::AgentLayer agents;
+  EXPECT_FALSE(stage.detect_loop_closures(*g, agents, 100'000'000'000ull));
+  EXPECT_FALSE(stage.solve_due(100'000'000'000ull));
+  EXPECT_EQ(stage.counters().agents_described.load(), 0u);
+}
+
+TEST(BackendStageTest, StoresOverTheirArenaAreAClearError) {
+  BackendStage stage;
+  BackendStage::Config c;
+  c.loop_closure.enabled = true;
+  std::string error, warning;
+  EXPECT_FALSE(stage.init(c, graph_capacities(), 0, budgets::active::loop_closure::kArenaBytes + 1, &error, &warning));
+  EXPECT_NE(error.find("loop_closure"), std::string::npos) << error;
+}
+
+// The reconciliation after a correction: revisited places and objects merged, objects boxed from the mesh.
+TEST(BackendStageTest, ReconciliationMergesRevisitsAndBoxesObjectsFromTheMesh) {
+  auto g = make_graph();
+  const auto place = [&](std::uint64_t k, const Eigen::Vector3d& p, double clearance_m) {
+    sg::PlaceAttributes a;
+    a.position_m = p;
+    a.distance_m = clearance_m;
+    const sg::NodeId id = sg::make_node_id(sg::kPlacePrefix, k);
+    EXPECT_EQ(g->add_place(id, a), sg::Status::kOk);
+    return id;
+  };
+  // A place and its revisit 0.3 m away in the same free space (1 m clearance): one place. Two places 0.3 m apart
+  // either side of a wall (0.2 m clearance each): both stay. A place 2 m away: stays.
+  const sg::NodeId first = place(0, {0, 0, 1}, 1.0), revisit = place(1, {0.3, 0, 1}, 1.0);
+  const sg::NodeId wall_a = place(2, {5, 0, 1}, 0.2), wall_b = place(3, {5.3, 0, 1}, 0.2);
+  const sg::NodeId far = place(4, {0, 2, 1}, 1.0);
+  ASSERT_EQ(g->add_edge(revisit, far), sg::Status::kOk);
+  // Two chairs, one centred in the other's box; a table at the same spot; a chair elsewhere.
+  const auto object = [&](std::uint64_t k, semantics::Label label, const Eigen::Vector3d& c, double half_m) {
+    sg::ObjectAttributes o;
+    o.semantic_label = label;
+    o.position_m = c;
+    o.bounding_box = sg::BoundingBox::aabb(c - Eigen::Vector3d::Constant(half_m), c + Eigen::Vector3d::Constant(half_m));
+    const sg::NodeId id = sg::make_node_id(sg::kObjectPrefix, k);
+    EXPECT_EQ(g->add_object(id, o), sg::Status::kOk);
+    return id;
+  };
+  const sg::NodeId chair = object(0, semantics::kChair, {1, 1, 0.5}, 0.3);
+  const sg::NodeId chair_again = object(1, semantics::kChair, {1.2, 1, 0.5}, 0.3);
+  const sg::NodeId table = object(2, semantics::kTable, {1.1, 1, 0.5}, 0.3);
+  const sg::NodeId other_chair = object(3, semantics::kChair, {4, 4, 0.5}, 0.3);
+  // The corrected mesh: the first chair's vertices span x 0.8 .. 1.6, y 0.8 .. 1.3, z 0.3 .. 0.8; the second chair
+  // has fewer, inside that box; the table none.
+  reconstruction::Mesh mesh;
+  for (double x : {0.8, 1.0, 1.2, 1.4, 1.6}) mesh.vertices.push_back({static_cast<float>(x), 1.0f, 0.5f});
+  mesh.vertices.push_back({1.2f, 0.8f, 0.3f});
+  mesh.vertices.push_back({1.2f, 1.3f, 0.8f});
+  mesh.vertices.push_back({1.3f, 1.2f, 0.6f});
+  std::unordered_map<sg::NodeId, std::vector<std::uint32_t>> indices;
+  indices[chair] = {0, 1, 2, 3, 4, 5, 6};
+  indices[chair_again] = {7};
+
+  BackendStage stage;
+  BackendStage::Config c;
+  c.doors_online = false;
+  std::string error, warning;
+  ASSERT_TRUE(stage.init(c, graph_capacities(), 0, 0, &error, &warning)) << error;
+  const BackendStage::Reconciliation r = stage.reconcile(mesh, &indices, g.get());
+  EXPECT_EQ(r.objects_from_mesh, 2u);
+  EXPECT_EQ(r.objects_merged, 1u);
+  EXPECT_EQ(r.places_merged, 1u);
+  EXPECT_EQ(g->place(revisit), nullptr) << "the revisit merged into the older place";
+  EXPECT_TRUE(g->has_edge(first, far)) << "its edges moved with it";
+  EXPECT_NE(g->place(wall_a), nullptr);
+  EXPECT_NE(g->place(wall_b), nullptr) << "places that do not share free space stay apart";
+  EXPECT_EQ(g->object(chair_again), nullptr) << "the smaller chair merged into the larger";
+  ASSERT_NE(g->object(chair), nullptr);
+  EXPECT_NE(g->object(table), nullptr) << "another label never merges";
+  EXPECT_NE(g->object(other_chair), nullptr);
+  // The kept chair: centre and box from both chairs' vertices in the corrected mesh.
+  const sg::ObjectAttributes* kept = g->object(chair);
+  EXPECT_NEAR(kept->position_m.x(), (0.8 + 1.0 + 1.2 + 1.4 + 1.6 + 1.2 + 1.2 + 1.3) / 8.0, 1e-6);
+  EXPECT_NEAR(kept->bounding_box.min_m.x(), 0.8, 1e-6);
+  EXPECT_NEAR(kept->bounding_box.max_m.x(), 1.6, 1e-6);
+  EXPECT_NEAR(kept->bounding_box.max_m.y(), 1.3, 1e-6);
+  EXPECT_EQ(indices.count(chair_again), 0u);
+  EXPECT_EQ(indices[chair].size(), 8u);
+
+  // Merging off: nothing merges, objects are still boxed from the mesh.
+  auto g2 = make_graph();
+  g.swap(g2);
+  place(0, {0, 0, 1}, 1.0);
+  place(1, {0.3, 0, 1}, 1.0);
+  BackendStage off;
+  c.loop_closure.merge_places_within_m = 0.0;
+  c.loop_closure.merge_objects = false;
+  ASSERT_TRUE(off.init(c, graph_capacities(), 0, 0, &error, &warning)) << error;
+  std::unordered_map<sg::NodeId, std::vector<std::uint32_t>> none;
+  const BackendStage::Reconciliation r2 = off.reconcile(mesh, &none, g.get());
+  EXPECT_EQ(r2.places_merged, 0u);
+  EXPECT_EQ(r2.objects_merged, 0u);
+}
+
+}  // namespace
+}  // namespace qsg::backend
