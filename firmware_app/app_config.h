@@ -1,6 +1,8 @@
-// The app's configuration: one JSON file (firmware_app/config/default.json documents every key) over built-in
-// defaults, then command-line overrides. Behaviour lives here; resources (arena sizes, task budgets, queue
-// depths) live in the board's budget table.
+// The app's configuration: one JSON file over built-in defaults, then command-line overrides. Every key is declared
+// once, in its stage's parameter table (core/params; the app's sections in firmware_app/app_params.cc), which gives
+// the loader, the range check and the print; firmware_app/config/default.json is generated from the tables
+// (qsg_app --dump-config). Behaviour lives here; resources (arena sizes, task budgets, queue depths) live in the
+// board's budget table.
 #pragma once
 
 #include <cstdio>
@@ -92,7 +94,8 @@ struct AppConfig {
     std::string target = "cpu";              // cpu | cuda | cuda_fp16
     bool fallback_to_cpu = false;            // cuda unavailable: false = start-up error, true = CPU, counted
     int opencv_threads = 1;                  // cv::setNumThreads (process-wide); 0 = OpenCV's default (every core)
-    // Benchmarks (not read from JSON): in lockstep, the worker is busy for its measured CPU time in data time.
+    // Benchmarks (not a config key: not in the parameter table): in lockstep, the worker is busy for its measured
+    // CPU time in data time.
     bool lockstep_busy_from_cost = false;
   } segmentation;
 
@@ -157,8 +160,8 @@ struct AppConfig {
   runtime::SchedulerConfig scheduler;
 
   AppConfig();
-  // Reads the keys present in a JSON file over the current values; unknown keys and wrong types are errors
-  // naming the file and the key.
+  // Reads the keys present in a JSON file over the current values; unknown keys, duplicated keys, wrong types and
+  // values out of range are errors naming the file and the key.
   bool load(const std::string& path, std::string* error);
   std::string check() const;
   void print(std::FILE* out) const;

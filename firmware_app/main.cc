@@ -12,7 +12,9 @@
 #include "budgets/budget_table.h"
 #include "core/reconstruction/ply_writer.h"
 #include "core/scene_graph/spark_dsg_json.h"
+#include "core/params/params_json.h"
 #include "firmware_app/app_config.h"
+#include "firmware_app/app_params.h"
 #include "firmware_app/graph_outputs.h"
 #include "firmware_app/exit_report.h"
 #include "firmware_app/fault_injection.h"
@@ -32,7 +34,7 @@ void usage() {
       "               [--quiet]\n"
       "               [--odometry auto|sim_drift|ground_truth|tum|stream|static] [--odometry-tum FILE]\n"
       "               [--pose-stream udp:ADDRESS:PORT | unix:PATH] [--fault-plan FILE] [--report-json FILE]\n"
-      "               [--mlockall] [--deterministic]\n"
+      "               [--mlockall] [--deterministic] [--set SECTION.KEY=VALUE ...] [--dump-config]\n"
       "       qsg_app --convert SPARK_DSG_JSON OUT_JSON [--mesh MESH.ply]   (validate a scene graph and write it in the\n"
       "               Spark-DSG 1.1.3 layout, canonically; --mesh embeds the mesh as Spark-DSG does)\n"
       "  Defaults: the simulated quadruped explores a generated 12-room building in lockstep on the board's\n"
@@ -45,7 +47,10 @@ void usage() {
       "  the exit report (every counter) as JSON. --mlockall: lock the process in RAM after start-up (the robot;\n"
       "  needs CAP_IPC_LOCK or LimitMEMLOCK=infinity; a failure is logged and the run goes on unlocked).\n"
       "  --deterministic: in lockstep, measure task costs on the stepped clock too, so no deadline binds and two\n"
-      "  runs (of one build or of two) write identical outputs: for regression comparisons, not for budgets.\n",
+      "  runs (of one build or of two) write identical outputs: for regression comparisons, not for budgets.\n"
+      "  --set SECTION.KEY=VALUE: one config key (e.g. rooms.visible_min_share=0.7), after --config.\n"
+      "  --dump-config: print the effective configuration as a config file, every key with its doc, unit,\n"
+      "  range and origin, and exit (with no other argument: the defaults, firmware_app/config/default.json).\n",
       budgets::active::kBoard);
 }
 
@@ -88,6 +93,7 @@ int convert(const std::string& in, const std::string& out, const std::string& me
 int main(int argc, char** argv) {
   app::AppConfig config;
   bool quiet = false;
+  bool dump_config = false;
   bool deterministic = false;  // --deterministic: lockstep costs on the stepped clock (regression comparisons)
   std::string error, report_json;
   // The config file first, so the flags override it wherever they appear.
@@ -173,6 +179,13 @@ int main(int argc, char** argv) {
       deterministic = true;
     } else if (a == "--quiet") {
       quiet = true;
+    } else if (a == "--set" && has_value) {
+      if (!params::set(app::app_schema(), &config, argv[++i], &error)) {
+        std::fprintf(stderr, "qsg_app: --set %s\n", error.c_str());
+        return 2;
+      }
+    } else if (a == "--dump-config") {
+      dump_config = true;
     } else if (a == "--help" || a == "-h") {
       usage();
       return 0;
@@ -185,6 +198,10 @@ int main(int argc, char** argv) {
   if (const std::string bad = config.check(); !bad.empty()) {
     std::fprintf(stderr, "qsg_app: config: %s\n", bad.c_str());
     return 2;
+  }
+  if (dump_config) {
+    std::fputs(params::dump_json(app::app_schema(), config, app::default_config_header()).c_str(), stdout);
+    return 0;
   }
   if (app::AppFaultPlan plan; !config.fault_plan.empty() && !app::load_app_fault_plan(config.fault_plan, &plan, &error)) {
     std::fprintf(stderr, "qsg_app: %s\n", error.c_str());

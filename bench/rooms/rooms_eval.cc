@@ -45,6 +45,10 @@
 #include "bench/sim_tour.h"
 #include "budgets/budget_table.h"
 #include "core/frontend/frontend.h"
+#include "core/params/params.h"
+#include "core/places/places_params.h"
+#include "core/doors/door_params.h"
+#include "core/rooms/rooms_params.h"
 #include "core/neural_tree/room_classifier.h"
 #include "core/reconstruction/semantic_tsdf.h"
 #include "core/doors/door_detector.h"
@@ -78,7 +82,6 @@ struct Options {
   std::vector<std::string> maps{"lab_ipa", "Freiburg52_scan", "lab_c_scan", "lab_intel", "office_a", "office_e"};
   std::vector<std::string> variants{"plain", "furnished"};
   int generated = 2;          // two-floor generated buildings (seeds 1..N)
-  double merge_revisited_m = 0.4;  // --merge-revisited-m: places::Config::merge_revisited_within_m (0: off)
   int generated_rooms = 12;
   // Room labels alone on this many more generated two-floor buildings (seeds 1001..1000+N), on their ground-truth
   // rooms and objects: no exploration, so it is cheap enough to score hundreds of rooms.
@@ -95,6 +98,9 @@ struct Options {
   // --furniture-height-m H: the furnished plans' furniture (occupied there, free in the plain plan) extruded to H
   // instead of the walls' 2.5 m (the benchmark's own use: furniture as floor-to-ceiling posts). 0: the benchmark's.
   double furniture_height_m = 0.0;
+  // The stages' settings, each set by --set section.key=value from its parameter table (core/params): places
+  // (places::Config, e.g. places.merge_revisited_within_m), rooms (rooms::Config) and doors (rooms::DoorConfig).
+  places::Config places;
   rooms::Config rooms;
   std::string json_path;
   // Tuning aid: the frontend's graph of each run is saved here (Spark-DSG JSON) and read back on the next run
@@ -138,6 +144,32 @@ std::vector<std::string> split(const std::string& s) {
   return out;
 }
 
+// The stage settings --set reaches, from their parameter tables: one declaration per setting (core/params).
+const params::Schema<Options>& eval_schema() {
+  static const params::Schema<Options> schema = [] {
+    params::Schema<Options> s;
+    s.section("places", places::params_table(), [](Options& o) -> places::Config& { return o.places; });
+    s.section("rooms", rooms::params_table(), [](Options& o) -> rooms::Config& { return o.rooms; });
+    s.section("doors", rooms::door_params_table(), [](Options& o) -> rooms::DoorConfig& { return o.door; });
+    return s;
+  }();
+  return schema;
+}
+
+// The hand-written flags of plain Config fields are gone (--alpha, --door-min-width-m, ...): an unknown flag that
+// names a table key (dashes for underscores, without a "door-" prefix) gets the --set it now is.
+std::string retired_flag_hint(const std::string& flag) {
+  if (flag.rfind("--", 0) != 0) return {};
+  std::string key = flag.substr(2);
+  for (char& c : key)
+    if (c == '-') c = '_';
+  for (const std::string& candidate : {key, key.rfind("door_", 0) == 0 ? key.substr(5) : std::string()})
+    for (const params::Section& section : eval_schema().sections())
+      if (!candidate.empty() && section.find(candidate) != nullptr)
+        return " (now --set " + section.name + "." + candidate + "=VALUE)";
+  return " (stage settings: --set SECTION.KEY=VALUE, listed by --help)";
+}
+
 bool parse(int argc, char** argv, Options* o) {
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -161,36 +193,10 @@ bool parse(int argc, char** argv, Options* o) {
       o->online_doors = v == "online";
       o->doors = !o->online_doors && std::atoi(v.c_str()) != 0;
     } else if (a == "--online-every") o->online_every = std::max(1, std::atoi(v.c_str()));
-    else if (a == "--online-misses") o->door.online_misses_to_drop = std::atoi(v.c_str());
-    else if (a == "--online-match-m") number = &o->door.online_match_m;
-    else if (a == "--door-slice-above-robot-m") number = &o->door.slice_above_robot_m;
-    else if (a == "--door-extension-m") number = &o->door.cut_extension_m;
-    else if (a == "--door-min-width-m") number = &o->door.min_width_m;
-    else if (a == "--door-max-width-m") number = &o->door.max_width_m;
-    else if (a == "--door-min-rise-m") number = &o->door.min_rise_m;
-    else if (a == "--door-rise-reach-m") number = &o->door.rise_reach_m;
-    else if (a == "--door-max-off-centre") number = &o->door.max_off_centre;
-    else if (a == "--door-slice-half-band-m") number = &o->door.slice_half_band_m;
-    else if (a == "--door-min-wall-height-m") number = &o->door.min_wall_height_m;
-    else if (a == "--door-mapped-radius-m") number = &o->door.mapped_radius_m;
-    else if (a == "--door-bypass-max-m") number = &o->door.bypass_max_m;
-    else if (a == "--door-bypass-extension-m") number = &o->door.bypass_extension_m;
-    else if (a == "--door-bypass-max-edge-m") number = &o->door.bypass_max_edge_m;
-    else if (a == "--sight-min-wall-m") number = &o->door.sight_min_wall_m;
-    else if (a == "--sight-wall-dilation-m") number = &o->door.sight_wall_dilation_m;
-    else if (a == "--merge-visible") o->rooms.merge_visible = std::atoi(v.c_str()) != 0;
     else if (a == "--sight-cut-edges") {  // the final stage's written closures and the room finder's read ones
       o->door.sight_cut_edges = std::atoi(v.c_str()) != 0;
       o->rooms.close_edges_through_walls = o->door.sight_cut_edges;
     }
-    else if (a == "--visible-min-share") number = &o->rooms.visible_min_share;
-    else if (a == "--visible-samples") o->rooms.visible_samples = static_cast<std::uint32_t>(std::atoi(v.c_str()));
-    else if (a == "--visible-local-radius-m") number = &o->rooms.visible_local_radius_m;
-    else if (a == "--visible-local-min-share") number = &o->rooms.visible_local_min_share;
-    else if (a == "--visible-touching") o->rooms.visible_touching = std::atoi(v.c_str()) != 0;
-    else if (a == "--visible-touch-max-clearance-m") number = &o->rooms.visible_touch_max_clearance_m;
-    else if (a == "--sight-furniture-max-m") number = &o->door.sight_furniture_max_m;
-    else if (a == "--sight-furniture-min-width-m") number = &o->door.sight_furniture_min_width_m;
     else if (a == "--generated") o->generated = std::atoi(v.c_str());
     else if (a == "--generated-rooms") o->generated_rooms = std::atoi(v.c_str());
     else if (a == "--label-buildings") o->label_buildings = std::atoi(v.c_str());
@@ -199,37 +205,18 @@ bool parse(int argc, char** argv, Options* o) {
     } else if (a == "--hfov-deg") number = &o->hfov_deg;
     else if (a == "--rate-hz") number = &o->rate_hz;
     else if (a == "--max-reach-m") number = &o->max_reach_m;
-    else if (a == "--merge-revisited-m") number = &o->merge_revisited_m;
     else if (a == "--robot-radius-m") number = &o->robot_radius_m;
     else if (a == "--look-into-unreachable") o->look_into_unreachable = std::atoi(v.c_str()) != 0;
     else if (a == "--furniture-height-m") number = &o->furniture_height_m;
-    else if (a == "--alpha") number = &o->rooms.plateau_alpha;
-    else if (a == "--min-dilation-m") number = &o->rooms.min_dilation_m;
-    else if (a == "--max-dilation-m") number = &o->rooms.max_dilation_m;
-    else if (a == "--min-persistence-m") number = &o->rooms.min_persistence_m;
-    else if (a == "--max-door-clearance-m") number = &o->rooms.max_door_clearance_m;
-    else if (a == "--split-by-extent") o->rooms.split_by_extent = std::atoi(v.c_str()) != 0;
-    else if (a == "--extent-saturation-m") number = &o->rooms.extent_saturation_m;
-    else if (a == "--split-min-extent-m") number = &o->rooms.split_min_extent_m;
-    else if (a == "--split-max-extent-m") number = &o->rooms.split_max_extent_m;
-    else if (a == "--split-min-persistence-m") number = &o->rooms.split_min_persistence_m;
-    else if (a == "--split-min-component")
-      o->rooms.split_min_component_size = static_cast<std::uint32_t>(std::atoi(v.c_str()));
-    else if (a == "--merge-corridors") o->rooms.merge_corridors = std::atoi(v.c_str()) != 0;
-    else if (a == "--corridor-min-neighbours")
-      o->rooms.corridor_min_neighbours = static_cast<std::uint32_t>(std::atoi(v.c_str()));
-    else if (a == "--corridor-min-open-edges")
-      o->rooms.corridor_min_open_edges = static_cast<std::uint32_t>(std::atoi(v.c_str()));
-    else if (a == "--seeding") {
-      if (v == "plateau") o->rooms.seeding = rooms::Seeding::kPlateau;
-      else if (v == "persistence") o->rooms.seeding = rooms::Seeding::kPersistence;
-      else {
-        std::fprintf(stderr, "--seeding: expected plateau or persistence, got '%s'\n", v.c_str());
+    else if (a == "--set") {
+      std::string error;
+      if (!params::set(eval_schema(), o, v, &error)) {
+        std::fprintf(stderr, "--set %s\n", error.c_str());
         return false;
       }
-    } else if (a == "--min-component") o->rooms.min_component_size = static_cast<std::uint32_t>(std::atoi(v.c_str()));
+    }
     else {
-      std::fprintf(stderr, "unknown option %s\n", a.c_str());
+      std::fprintf(stderr, "unknown option %s%s\n", a.c_str(), retired_flag_hint(a).c_str());
       return false;
     }
     if (number != nullptr) {
@@ -242,7 +229,12 @@ bool parse(int argc, char** argv, Options* o) {
   }
   for (const std::string& v : o->variants)
     if (v != "plain" && v != "furnished") return false;
-  return o->width > 0 && o->height > 0 && o->rate_hz > 0 && o->rooms.check().empty();
+  if (const std::string bad = params::check(eval_schema(), *o); !bad.empty()) {
+    std::fprintf(stderr, "%s\n", bad.c_str());
+    return false;
+  }
+  return o->width > 0 && o->height > 0 && o->rate_hz > 0 && o->rooms.check().empty() &&
+         o->places.check().empty();
 }
 
 double ratio(double a, double b) { return b > 0.0 ? a / b : 0.0; }
@@ -596,7 +588,7 @@ bool run_pipeline(const Options& opt, const world::World& w, std::uint64_t world
   }
   auto fe = std::make_unique<frontend::Frontend>();
   frontend::Config fc;
-  fc.places.merge_revisited_within_m = opt.merge_revisited_m;
+  fc.places = opt.places;
   if (!fe->init(fc, &error)) {
     std::fprintf(stderr, "frontend: %s\n", error.c_str());
     return false;
@@ -1114,9 +1106,9 @@ Rooms of the app's pipeline on the IPA floor plans (extruded, plain and furnishe
 the simulator's ground truth, scored as the room-segmentation benchmark does (bench/rooms/floor_plan_rooms.h: mean
 and area precision and recall; rooms_eval.*, rooms_eval.ipa.<set>.*).
 Exploration and caches:
-  --cache-dir DIR keeps each explored graph so room parameters (--seeding, --min-component, --min-persistence-m,
-  ...) can be swept in seconds; a cache holds what that build's simulator and pipeline explored: make a new one
-  after changing them (and for each --merge-revisited-m M, places::Config::merge_revisited_within_m, 0 off). The
+  --cache-dir DIR keeps each explored graph so room parameters (--set rooms.seeding=plateau,
+  --set rooms.min_component_size=N, ...) can be swept in seconds; a cache holds what that build's simulator and
+  pipeline explored: make a new one after changing them (and for any --set places.*). The
   tour visits every room it can enter and looks into each room it cannot from the reachable spot that sees most of
   it (sim::ExplorationConfig::look_into_unreachable_rooms; --look-into-unreachable 0 turns it off; caches explored
   with it on are named <plan>.peek); each plan's line counts the unreachable rooms and those looked into, and a
@@ -1131,40 +1123,41 @@ Bounds and peers, beside every score:
   (...peer_<method>.ours_over_peer.*); on every plan and building Hydra's own room clustering
   (rooms::Config::paper(), the door stage's cuts undone) on the same explored places (peer_hydra, ours over it in
   "ALL peer Hydra"; not run with --door-oracle-m).
-The room finder (rooms::Config): --split-by-extent 0|1, --extent-saturation-m, --split-min-extent-m,
-  --split-max-extent-m, --split-min-persistence-m, --split-min-component (the extent split); --merge-corridors 0|1,
-  --corridor-min-neighbours N, --corridor-min-open-edges N (the corridor merge); --merge-visible 0|1,
-  --visible-min-share S, --visible-samples N, --visible-local-radius-m R (0: off), --visible-local-min-share S (the
-  visibility merge and its test near the rooms' boundary); --visible-touching 0|1,
-  --visible-touch-max-clearance-m C (rooms adjacent where two places' free-space spheres touch in sight with no
-  place edge between them). Each plan prints the rooms merged (and of them by the boundary test only), the pairs
+Settings: every field of places::Config, rooms::Config and rooms::DoorConfig is --set places.KEY=V,
+  rooms.KEY=V or doors.KEY=V (listed below, from their parameter tables); e.g. the room finder's extent split
+  (rooms.split_by_extent, rooms.split_min_extent_m, ...), corridor merge (rooms.merge_corridors,
+  rooms.corridor_min_neighbours, rooms.corridor_min_open_edges), visibility merge (rooms.merge_visible,
+  rooms.visible_min_share, rooms.visible_samples, rooms.visible_local_radius_m 0: off, ...) and touching spheres
+  (rooms.visible_touching, rooms.visible_touch_max_clearance_m). Each plan prints the rooms merged (and of them by the boundary test only), the pairs
   tested, the touching place pairs found and dropped, and the open place edges read as closed through walls.
 Doors (rooms::DoorConfig): by default the door stage runs as the app's does when a run finishes
   (rooms::find_doors on the robot's own mesh, cached beside each graph as .surface.f32, then cut_place_edges);
-  --doors 0 turns it off; --door-* flags set DoorConfig, among them --door-bypass-max-m D (0: off),
-  --door-bypass-extension-m E and --door-bypass-max-edge-m L (a door the places graph goes round is dropped; each
+  --doors 0 turns it off; --set doors.KEY=V sets DoorConfig, among them doors.bypass_max_m (0: off),
+  doors.bypass_extension_m and doors.bypass_max_edge_m (a door the places graph goes round is dropped; each
   plan's doors line counts them). The same slices give the room finder its sight lines (rooms::WallSight):
-  --sight-min-wall-m W, --sight-wall-dilation-m D, --sight-furniture-max-m L and --sight-furniture-min-width-m W
-  (thick islands as furniture; L 0: off) set what is structure, --sight-cut-edges 0|1 the closing of place edges
+  doors.sight_min_wall_m, doors.sight_wall_dilation_m, doors.sight_furniture_max_m and
+  doors.sight_furniture_min_width_m (thick islands as furniture; 0: off) set what is structure, --sight-cut-edges
+  0|1 (doors.sight_cut_edges and rooms.close_edges_through_walls together) the closing of place edges
   that cross it. Each door the room finder read is judged by the ground-truth rooms on its two sides (the first room
   cell 0.15 to 1 m out along its normal): between two rooms, inside one room (a false door) or unknown
   (rooms_eval.ipa.<set>.doors_{between_rooms,inside_a_room,inside_a_room_share}).
   --doors online runs the app's online stage instead: the exploration paints each re-meshed block into the wall map
   and every --online-every N-th frontend update (4, as the app) runs a window pass around the robot
-  (--online-misses N and --online-match-m M: DoorConfig::online_misses_to_drop and online_match_m, 2 and 0.5 m as
-  the app); the room finder reads the final door set and the last pass's sight lines (cached as .sight) and, as in
-  the app, does not merge by visibility there (a window's sight lines; it lowered precision). It writes .online_doors_*,
+  (doors.online_misses_to_drop and doors.online_match_m, 2 and 0.5 m as the app); the room finder reads the final
+  door set and the last pass's sight lines (cached as .sight) and, as in the app, does not merge by visibility
+  there (a window's sight lines lowered precision). It writes .online_doors_*,
   online_doors_{added,dropped}_per_pass, online_door_pass_ms_{median,p99,max} and online_wall_tiles_max, and
   caches the doors as .online_doors.every<N>.misses<M>.match<X>.f64 (a cache explored with other online settings is
-  refused; change the --door-* detector flags in a new cache dir).
+  refused; change the doors.* detector settings in a new cache dir).
   --door-oracle-m C cuts every place edge between two ground-truth rooms before the scored run on the IPA plans:
-  the bound a perfect door and opening detector gives the seeding (add --min-persistence-m 9 --min-dilation-m 0.1
-  --split-by-extent 0: one room per connected piece of the cut graph with at least --min-component places).
+  the bound a perfect door and opening detector gives the seeding (add --set rooms.min_persistence_m=9
+  --set rooms.min_dilation_m=0.1 --set rooms.split_by_extent=false: one room per connected piece of the cut graph
+  with at least rooms.min_component_size places).
 Pictures and dumps: --images DIR draws each plan (doors in red); --dump-places DIR writes each plan's (and each
   generated floor's) places and place edges with their estimated and ground-truth rooms and the doors read (D
   lines), which rooms/finder_sandbox.py DIR reads: a Python mirror of the room finder (persistence seeding,
   closed-off regions, flood fill, extent split, corridor merge; close to the C++, not exact) with a per-place proxy
-  score, to try a room-finder idea in under a second (--no-extent-split, --no-corridor-merge mirror the flags).
+  score, to try a room-finder idea in under a second (--no-extent-split, --no-corridor-merge mirror the settings).
 Labels: the neural tree's room labels are scored on the generated buildings; --label-buildings N scores them on N
   more generated buildings' own rooms and objects (no exploration), per room type.
 What each setting earned: bench/results/rooms.md.
@@ -1175,22 +1168,14 @@ int main(int argc, char** argv) {
   if (!parse(argc, argv, &opt)) {
     std::fprintf(stderr,
                  "usage: %s [--plans-dir DIR] [--maps a,b|none] [--variants plain,furnished] [--generated N] "
-                 "[--generated-rooms N] [--label-buildings N] [--size WxH] [--hfov-deg D] [--rate-hz R] [--max-reach-m M] [--merge-revisited-m M] "
-                 "[--robot-radius-m R] [--look-into-unreachable 0|1] [--furniture-height-m H] [--alpha A] "
-                 "[--min-dilation-m D] [--max-dilation-m D] [--min-component N] [--seeding plateau|persistence] "
-                 "[--min-persistence-m P] [--max-door-clearance-m D] [--split-by-extent 0|1] [--extent-saturation-m S] "
-                 "[--split-min-extent-m E] [--split-max-extent-m E] [--split-min-persistence-m P] [--split-min-component N] [--merge-corridors 0|1] [--corridor-min-neighbours N] [--corridor-min-open-edges N] [--cache-dir DIR] [--images DIR] [--dump-places DIR] [--door-oracle-m C] [--doors 0|1|online] [--online-every N] [--online-misses N] [--online-match-m M] "
-                 "[--door-slice-above-robot-m H] [--door-min-width-m W] [--door-max-width-m W] [--door-min-rise-m R] "
-                 "[--door-rise-reach-m R] [--door-max-off-centre F] [--door-slice-half-band-m B] [--door-min-wall-height-m H] "
-                 "[--door-mapped-radius-m R] [--door-extension-m E] [--door-bypass-max-m D] [--door-bypass-extension-m E] "
-                 "[--door-bypass-max-edge-m L] [--merge-visible 0|1] [--visible-min-share S] [--visible-samples N] "
-                 "[--visible-local-radius-m R] [--visible-local-min-share S] [--visible-touching 0|1] "
-                 "[--visible-touch-max-clearance-m C] "
-                 "[--sight-min-wall-m W] "
-                 "[--sight-wall-dilation-m D] [--sight-furniture-max-m L] [--sight-furniture-min-width-m W] "
-                 "[--sight-cut-edges 0|1] %s "
+                 "[--generated-rooms N] [--label-buildings N] [--size WxH] [--hfov-deg D] [--rate-hz R] [--max-reach-m M] "
+                 "[--robot-radius-m R] [--look-into-unreachable 0|1] [--furniture-height-m H] [--cache-dir DIR] "
+                 "[--images DIR] [--dump-places DIR] [--door-oracle-m C] [--doors 0|1|online] [--online-every N] "
+                 "[--sight-cut-edges 0|1] [--set SECTION.KEY=VALUE ...] %s "
                  "[--json FILE]\n%s",
                  argv[0], bench::odometry_usage(), kDetails);
+    std::fprintf(stderr, "--set SECTION.KEY=VALUE: each setting of the stages (range; origin): doc\n");
+    params::print_help(eval_schema().sections(), stderr);
     return 2;
   }
   // The output directories are made here, so a typo is one clear error at start-up rather than a missed cache.
@@ -1204,7 +1189,7 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
-  opt.rooms.print(stdout);
+  params::print(eval_schema(), opt, stdout);
   if (opt.doors) {
     std::string door_error;
     if (!opt.door.validate(&door_error)) {

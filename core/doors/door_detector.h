@@ -33,6 +33,7 @@
 #include <string>
 #include <vector>
 
+#include "budgets/budget_table.h"
 #include "core/memory/arena.h"
 #include "core/memory/resource_stats.h"
 #include "core/rooms/door_cues.h"
@@ -55,8 +56,9 @@ struct DoorConfig {
   double max_off_centre = 0.35;       // |d1 - d2| / (d1 + d2) of the jambs' distances from the axis cell
   double suppression_m = 0.4;         // of two critical cells closer than this, the narrower stays
   // The final stage's raster size limit, about 24 bytes a cell while a slice is worked on (the workspace and the
-  // surface's height range per cell): 4 Mi cells (a 100 m x 100 m storey at 0.05 m) is about 100 MB. A surface beyond it (or a stray vertex far away) is an error, not an allocation.
-  std::size_t max_cells = 4u << 20;
+  // surface's height range per cell): 4 Mi cells (a 100 m x 100 m storey at 0.05 m) is about 100 MB. A surface
+  // beyond it (or a stray vertex far away) is an error, not an allocation. A capacity: budgets/<board>.json.
+  std::size_t max_cells = budgets::active::doors::kFinalMaxCells;
   // Storeys and slices.
   double slice_above_robot_m = 0.7;   // the slice's height above the robot's (camera's) height on a storey
   double storey_bin_m = 0.1;          // robot heights are binned this finely ...
@@ -80,7 +82,8 @@ struct DoorConfig {
   double bypass_max_m = 3.0;
   double bypass_extension_m = 0.6;
   double bypass_max_edge_m = 1.2;
-  std::size_t bypass_max_places = 4096;  // places one search may settle; beyond it the door is kept (counted)
+  // Places one search may settle; beyond it the door is kept (counted). A capacity: budgets/<board>.json.
+  std::size_t bypass_max_places = budgets::active::doors::kBypassMaxPlaces;
   // Sight lines for the room finder's visibility merge (WallSight, built by find_doors from the same slices): the
   // slice's walls are thickened by sight_wall_dilation_m (bridging gaps up to twice it in a wall seen in pieces),
   // and a connected piece whose bounding box spans at least sight_min_wall_m (diagonal) is structure, which blocks

@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "budgets/budget_table.h"
+
 namespace qsg::neural_tree {
 
 // Layers of the hierarchical graph, bottom to top (the paper's V_1..V_3 of the object-room-building graph).
@@ -76,9 +78,11 @@ struct HTree {
 class HTreeBuilder {
  public:
   struct Config {
-    int max_graph_nodes = 1024;       // objects + rooms + building
-    int max_htree_nodes = 4096;       // 30 rooms with 300 objects take about 1,000
-    int max_member_entries = 32768;   // sum of bag sizes over the H-tree
+    // Capacities: the budget table's "rooms" arena (budgets/<board>.json), or a test's own.
+    int max_graph_nodes = static_cast<int>(budgets::active::rooms::kHtreeGraphNodes);  // objects + rooms + building
+    // 30 rooms with 300 objects take about 1,000
+    int max_htree_nodes = static_cast<int>(budgets::active::rooms::kHtreeNodes);
+    int max_member_entries = static_cast<int>(budgets::active::rooms::kHtreeMemberEntries);  // bag sizes summed
     void print(std::FILE* out) const;
   };
 

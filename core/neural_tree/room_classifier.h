@@ -10,6 +10,8 @@
 #include <string>
 #include <vector>
 
+#include "budgets/budget_table.h"
+
 #include "core/neural_tree/h_tree.h"
 #include "core/semantics/labels.h"
 
@@ -124,7 +126,7 @@ class RoomClassifier {
   struct Config {
     std::string weights_path = QSG_NEURAL_TREE_DEFAULT_WEIGHTS;
     HTreeBuilder::Config h_tree;
-    int max_rooms = 256;
+    int max_rooms = static_cast<int>(budgets::active::scene_graph::kRoomNodes);  // every room node the graph holds
     // A room whose best label is less likely stays "unknown" (its probabilities are still reported): weak
     // evidence says so. 0.45 maximises right minus wrong answers ("unknown" scoring 0) on held-out generated
     // buildings with clutter, as the app and as the segmentation network see them (labels_eval --calibrate,

@@ -712,9 +712,9 @@ TEST(AppConfigTest, RefusesNonsense) {
            std::tuple{"deep.json", deep.c_str(), "nested deeper than 32 levels"},
            // Sections of a driver that is not selected are checked all the same.
            std::tuple{"v4l2_unused.json", "{\"driver\": \"sim\", \"v4l2\": {\"width\": 100000}}",
-                      "v4l2: width x height must be within 16x16 .. 640x480"},
+                      "v4l2.width must be in [16, 640] px, got 100000"},
            std::tuple{"v4l2_scale.json", "{\"v4l2\": {\"depth_scale_m\": 0}}", "v4l2.depth_scale_m must be in (0, 1]"},
-           std::tuple{"v4l2_fx.json", "{\"v4l2\": {\"fx\": -5}}", "v4l2.fx and v4l2.fy must be 0"},
+           std::tuple{"v4l2_fx.json", "{\"v4l2\": {\"fx\": -5}}", "v4l2.fx must be in [0, 1e5] px, got -5"},
            // Upper bounds.
            std::tuple{"snapshot.json", "{\"snapshot_interval_s\": 1e300}", "snapshot_interval_s must be in (0, 1e9]"},
            std::tuple{"duration.json", "{\"duration_s\": 1e12}", "duration_s must be in [0, 1e9]"},
@@ -723,15 +723,15 @@ TEST(AppConfigTest, RefusesNonsense) {
                       "segmentation.min_confidence must be in [0, 1]"},
            std::tuple{"trigger.json", "{\"gpio\": {\"trigger_width_s\": 5}}", "gpio.trigger_width_s must be in (0, 1]"},
            std::tuple{"range.json", "{\"reconstruction\": {\"max_range_m\": 1e9, \"window_radius_m\": 2e9}}",
-                      "reconstruction: max_range_m must be at most 50 m"},
+                      "reconstruction.max_range_m must be in (0, 50] m, got 1e9"},
            std::tuple{"archive.json", "{\"reconstruction\": {\"archive_resolution_m\": 1e6}}",
                       "archive_resolution_m must be in (0, 1] m"},
            std::tuple{"keyframe_interval.json", "{\"keyframes\": {\"max_interval_s\": 1e12}}",
-                      "keyframes: max_interval_s must be at most 3600 s"},
+                      "keyframes.max_interval_s must be in (0, 3600] s, got 1e12"},
            std::tuple{"keyframe_rotation.json", "{\"keyframes\": {\"min_rotation_rad\": 7}}",
-                      "keyframes: min_rotation_rad must be in [0, pi]"},
+                      "keyframes.min_rotation_rad must be in [0, 3.1416] rad, got 7"},
            std::tuple{"places_window.json", "{\"places\": {\"window_radius_m\": 1e6}}",
-                      "places: window_radius_m must be in (0, 100] m"},
+                      "places.window_radius_m must be in (0, 100] m, got 1e6"},
        }) {
     AppConfig c;
     std::string error;

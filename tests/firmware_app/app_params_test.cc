@@ -1,0 +1,61 @@
+// The app's configuration comes from the parameter tables: default.json is generated from them, and every
+// committed config reads back through them.
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include "core/params/params_json.h"
+#include "firmware_app/app_config.h"
+#include "firmware_app/app_params.h"
+
+namespace qsg::app {
+namespace {
+
+std::string read(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+// firmware_app/config/default.json is exactly what `qsg_app --dump-config` writes for the built-in defaults.
+// After adding or changing a setting: build/default/firmware_app/qsg_app --dump-config > firmware_app/config/default.json
+TEST(AppParamsTest, DefaultJsonIsGeneratedFromTheTables) {
+  const std::string committed = read(std::string(QSG_SOURCE_DIR) + "/firmware_app/config/default.json");
+  ASSERT_FALSE(committed.empty());
+  const std::string generated = params::dump_json(app_schema(), AppConfig{}, default_config_header());
+  EXPECT_EQ(committed, generated) << "regenerate it: qsg_app --dump-config > firmware_app/config/default.json";
+  // ... and it reads back to the built-in defaults.
+  AppConfig loaded;
+  std::string error;
+  ASSERT_TRUE(loaded.load(std::string(QSG_SOURCE_DIR) + "/firmware_app/config/default.json", &error)) << error;
+  EXPECT_EQ(params::dump_json(app_schema(), loaded, ""), params::dump_json(app_schema(), AppConfig{}, ""));
+}
+
+TEST(AppParamsTest, EveryCommittedConfigLoads) {
+  for (const char* name : {"mission_8h.json", "replay_every_frame.json"}) {
+    AppConfig c;
+    std::string error;
+    EXPECT_TRUE(c.load(std::string(QSG_SOURCE_DIR) + "/firmware_app/config/" + name, &error)) << name << ": " << error;
+  }
+}
+
+TEST(AppParamsTest, SetReachesEveryStageAndIsRangeChecked) {
+  AppConfig c;
+  std::string error;
+  ASSERT_TRUE(params::set(app_schema(), &c, "rooms.visible_min_share=0.7", &error)) << error;
+  ASSERT_TRUE(params::set(app_schema(), &c, "places.bridge_max_length_m=2", &error)) << error;
+  ASSERT_TRUE(params::set(app_schema(), &c, "doors.online=false", &error)) << error;
+  ASSERT_TRUE(params::set(app_schema(), &c, "duration_s=12", &error)) << error;
+  EXPECT_EQ(c.rooms.visible_min_share, 0.7);
+  EXPECT_EQ(c.frontend.places.bridge_max_length_m, 2.0);
+  EXPECT_FALSE(c.doors_online);
+  EXPECT_EQ(c.duration_s, 12.0);
+  EXPECT_FALSE(params::set(app_schema(), &c, "places.voxel_factor=3", &error));
+  EXPECT_EQ(error, "places.voxel_factor: must be in [1, 2], got 3");
+}
+
+}  // namespace
+}  // namespace qsg::app
