@@ -30,7 +30,7 @@ struct TelemetryWriterStats {
 
 class TelemetryWriter {
  public:
-  static constexpr std::size_t kLineBytes = 4096;
+  static constexpr std::size_t kLineBytes = 16384;  // the stores line (telemetry_stores) names every store
   static constexpr int kPollMs = 100;  // the writer looks for lines this often (commit() does not wake it)
 
   TelemetryWriter() = default;
