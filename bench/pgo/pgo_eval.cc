@@ -3,6 +3,7 @@
 // random pairs, random relative poses, each with the information matrix of a real closure, so they look as sure),
 // the trajectory error against the outlier-free solution, for GNC-TLS (the backend's outlier rejection) and for
 // the Cauchy loss beside it. One thread; every figure also as JSON.
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -28,7 +29,10 @@ struct Options {
   std::vector<double> outliers{0.1, 0.3, 0.5};
   unsigned seed = 1;
   std::string json_path;
-  backend::PoseGraphConfig robust;  // --threshold-sigma, --gnc-inner, --gnc-mu-factor, --gnc-max-outer
+  backend::PoseGraphConfig robust;  // --threshold-sigma, --gnc-inner, --gnc-mu-factor, --gnc-max-outer, --pcm-*
+  // gnc_tls (the paper's), pcm_gnc_tls (pairwise-consistency prefilter, then GNC-TLS), cauchy (Huber warm start).
+  std::vector<std::string> solvers{"gnc_tls", "pcm_gnc_tls", "cauchy"};
+  bool diagnose = false;  // --diagnose 1
 };
 
 std::vector<std::string> split(const std::string& text) {
@@ -62,6 +66,14 @@ bool parse(int argc, char** argv, Options* o) {
       o->robust.gnc_inner_iterations = std::atoi(v.c_str());
     } else if (a == "--gnc-mu-factor") {
       o->robust.gnc_mu_factor = std::strtod(v.c_str(), nullptr);
+    } else if (a == "--pcm-threshold-sigma") {
+      o->robust.pairwise_consistency.threshold_sigma = std::strtod(v.c_str(), nullptr);
+    } else if (a == "--pcm-max-clique-nodes") {
+      o->robust.pairwise_consistency.max_clique_nodes = static_cast<std::uint32_t>(std::strtoul(v.c_str(), nullptr, 10));
+    } else if (a == "--diagnose") {
+      o->diagnose = v == "1";
+    } else if (a == "--solvers") {
+      o->solvers = split(v);
     } else if (a == "--gnc-max-outer") {
       o->robust.gnc_max_outer_iterations = std::atoi(v.c_str());
     } else if (a == "--seed") {
@@ -72,7 +84,9 @@ bool parse(int argc, char** argv, Options* o) {
       return false;
     }
   }
-  return !o->graphs.empty();
+  for (const std::string& solver : o->solvers)
+    if (solver != "gnc_tls" && solver != "pcm_gnc_tls" && solver != "cauchy") return false;
+  return !o->graphs.empty() && !o->solvers.empty();
 }
 
 double seconds_since(std::chrono::steady_clock::time_point t0) {
@@ -136,11 +150,14 @@ int main(int argc, char** argv) {
     std::fprintf(stderr,
                  "usage: %s [--data-dir DIR] [--graphs a,b,...] [--outliers 0.1,0.3,0.5] [--seed N] [--json OUT]\n"
                  "          [--threshold-sigma C] [--gnc-inner N] [--gnc-mu-factor F] [--gnc-max-outer N]\n"
+                 "          [--solvers gnc_tls,pcm_gnc_tls,cauchy] [--pcm-threshold-sigma G] [--pcm-max-clique-nodes N]\n"
+                 "          [--diagnose 1]\n"
                  "  DIR holds NAME.g2o (default ../shared/data/pose_graphs); an outlier fraction f injects\n"
                  "  f / (1 - f) x (the file's loop closures) wrong ones, so they are f of all closures.\n"
                  "  The backend's pose-graph optimizer on the public g2o benchmarks: least-squares cost, iterations\n"
                  "  and time from the file's guess (one thread), then with wrong loop closures injected: RMSE to the\n"
-                 "  outlier-free solution for GNC-TLS and Cauchy, wrong closures kept and right ones dropped.\n"
+                 "  outlier-free solution for GNC-TLS, pairwise consistency (PCM) then GNC-TLS, and Cauchy; wrong closures\n"
+                 "  kept and right ones dropped. --diagnose 1: the dropped closures' residuals, the clean graph re-solved.\n"
                  "  JSON: pgo_eval.<graph>.*; results in bench/results/pose_graph.md.\n",
                  argv[0]);
     return 2;
@@ -186,42 +203,69 @@ int main(int argc, char** argv) {
       std::vector<RelativePoseEdge> edges = g.edges;
       const std::vector<RelativePoseEdge> wrong = wrong_closures(g, count, &rng);
       edges.insert(edges.end(), wrong.begin(), wrong.end());
-      for (const backend::RobustLoss loss : {backend::RobustLoss::kGncTls, backend::RobustLoss::kCauchy}) {
+      for (const std::string& solver : opt.solvers) {
         backend::PoseGraphConfig config = opt.robust;
-        config.loop_closure_loss = loss;
+        config.loop_closure_loss = solver == "cauchy" ? backend::RobustLoss::kCauchy : backend::RobustLoss::kGncTls;
+        config.prefilter_pairwise_consistency = solver == "pcm_gnc_tls";
         config.max_iterations = 100;
         std::vector<Pose3> poses = g.poses;
         t0 = std::chrono::steady_clock::now();
         const backend::PoseGraphResult r = backend::optimize_pose_graph(config, poses, edges);
         const double s = seconds_since(t0);
         if (!r.poses_updated()) {
-          std::printf("  %2.0f %% wrong, %-7s: %s\n", 100.0 * f, backend::to_string(loss), r.message.c_str());
+          std::printf("  %2.0f %% wrong, %-11s: %s\n", 100.0 * f, solver.c_str(), r.message.c_str());
           ++failures;
           continue;
         }
         const double e = rmse_m(poses, reference);
+        if (opt.diagnose) {
+          // Are the decisions or the basin to blame? The right closures dropped and the wrong ones nearest to
+          // being kept (whitened residuals at the solution), then the outlier-free graph re-solved from here.
+          std::printf("    residuals (sigma) right dropped:");
+          for (std::size_t k = 0; k < g.edges.size(); ++k)
+            if (g.edges[k].is_loop_closure && !r.edge_weight.empty() && r.edge_weight[k] == 0.0) std::printf(" %.1f", r.edge_residual_sigma[k]);
+          std::vector<double> w;
+          for (std::size_t k = g.edges.size(); k < edges.size(); ++k) w.push_back(r.edge_residual_sigma[k]);
+          std::sort(w.begin(), w.end());
+          std::printf("\n    wrong, 10 smallest:");
+          for (std::size_t k = 0; k < w.size() && k < 10; ++k) std::printf(" %.1f", w[k]);
+          std::printf("\n");
+        }
+        if (opt.diagnose) {
+          std::vector<Pose3> again = poses;
+          const backend::PoseGraphResult c = backend::optimize_pose_graph(plain, again, g.edges);
+          std::printf("    clean graph re-solved from this solution: cost %.6g (reference %.6g), %.4f m from the reference\n",
+                      c.final_cost, ref.final_cost, rmse_m(again, reference));
+        }
         std::size_t wrong_kept = 0, right_dropped = 0;
         for (std::size_t k = 0; k < edges.size(); ++k) {
           if (!edges[k].is_loop_closure) continue;
-          const bool off = r.edge_weight.empty()
-                               ? r.edge_residual_sigma[k] > config.loop_closure_loss_scale_sigma
-                               : r.edge_weight[k] == 0.0;
+          const bool rejected = !r.pairwise.rejected.empty() && r.pairwise.rejected[k];
+          const bool off = rejected || (r.edge_weight.empty()
+                                            ? r.edge_residual_sigma[k] > config.loop_closure_loss_scale_sigma
+                                            : r.edge_weight[k] == 0.0);
           if (k >= g.edges.size() && !off) ++wrong_kept;
           if (k < g.edges.size() && off) ++right_dropped;
         }
-        std::printf("  %2.0f %% wrong (%zu), %-7s: %.4f m from the outlier-free solution (%.3f %% of its radius); "
+        std::printf("  %2.0f %% wrong (%zu), %-11s: %.4f m from the outlier-free solution (%.3f %% of its radius); "
                     "%zu wrong kept, %zu right dropped; %d iterations%s, %.2f s [%s]\n",
-                    100.0 * f, count, backend::to_string(loss), e, 100.0 * e / radius, wrong_kept, right_dropped,
+                    100.0 * f, count, solver.c_str(), e, 100.0 * e / radius, wrong_kept, right_dropped,
                     r.iterations,
                     r.gnc_outer_iterations > 0 ? (" (" + std::to_string(r.gnc_outer_iterations) + " GNC)").c_str() : "",
                     s, r.message.c_str());
         const std::string q = p + "outliers_" + std::to_string(static_cast<int>(std::lround(100.0 * f))) + "." +
-                              backend::to_string(loss) + ".";
+                              solver + ".";
         figures.add(q + "rmse_to_outlier_free", e, "m");
         figures.add(q + "rmse_to_outlier_free_share", e / radius, "fraction of the RMS radius");
         figures.add(q + "wrong_kept", static_cast<double>(wrong_kept), "edges");
         figures.add(q + "right_dropped", static_cast<double>(right_dropped), "edges");
         figures.add(q + "solve_time", s, "s");
+        if (config.prefilter_pairwise_consistency) {
+          std::printf("    ");
+          r.pairwise.print(stdout);
+          figures.add(q + "pcm_kept", r.pairwise.kept, "edges");
+          figures.add(q + "pcm_clique_truncated", r.pairwise.clique_truncated ? 1.0 : 0.0, "flag");
+        }
       }
     }
   }

@@ -98,6 +98,9 @@ std::string check_config(const PoseGraphConfig& config) {
   if (config.max_iterations < 1) return format("max_iterations is %d, must be >= 1", config.max_iterations);
   if (!(config.function_tolerance > 0.0 && config.function_tolerance < 1.0))
     return format("function_tolerance is %g, must be in (0, 1)", config.function_tolerance);
+  if (config.prefilter_pairwise_consistency) {
+    if (std::string error = check(config.pairwise_consistency); !error.empty()) return error;
+  }
   if (config.num_threads < 1) return format("num_threads is %d, must be >= 1", config.num_threads);
   if (config.loop_closure_loss != RobustLoss::kNone &&
       !(std::isfinite(config.loop_closure_loss_scale_sigma) && config.loop_closure_loss_scale_sigma > 0.0)) {
@@ -110,6 +113,7 @@ std::string check_config(const PoseGraphConfig& config) {
       return format("gnc_mu_factor is %g, must be in (1, 10]", config.gnc_mu_factor);
     if (config.gnc_inner_iterations < 1)
       return format("gnc_inner_iterations is %d, must be >= 1", config.gnc_inner_iterations);
+
   }
   return {};
 }
@@ -188,6 +192,220 @@ std::uint32_t find_root(std::vector<std::uint32_t>& parent, std::uint32_t i) {
   return i;
 }
 
+
+// One solve of optimize_pose_graph's input: the state (a copy of the poses), the Ceres problem over it, and GNC's
+// loop-closure weights, which the residuals read at every evaluation. Closures in `excluded` (rejected by the
+// pairwise-consistency prefilter) get weight 0 and no residual block.
+class GraphSolve {
+ public:
+  GraphSolve(const PoseGraphConfig& config, const std::vector<Pose3>& poses, const std::vector<RelativePoseEdge>& edges,
+             const std::vector<bool>& excluded)
+      : config_(config),
+        edges_(edges),
+        excluded_(excluded),
+        gnc_(config.loop_closure_loss == RobustLoss::kGncTls),
+        loop_closure_loss_(make_loss(config.loop_closure_loss, config.loop_closure_loss_scale_sigma),
+                           ceres::TAKE_OWNERSHIP),
+        problem_(problem_options()),
+        state_(poses.size() * kStateDim),
+        weights_(edges.size(), 1.0) {
+    for (std::size_t i = 0; i < poses.size(); ++i) {
+      Eigen::Map<Eigen::Vector3d>(t_block(i)) = poses[i].t_m;
+      Eigen::Map<Eigen::Quaterniond>(q_block(i)) = poses[i].q.normalized();
+    }
+    initial_state_ = state_;
+    for (std::size_t k = 0; k < edges.size(); ++k)
+      if (excluded_[k]) weights_[k] = 0.0;
+    add_residuals();
+  }
+
+  // Ceres' options, or an error when this Ceres has no usable linear solver.
+  bool configure(std::string* error) {
+    options_.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
+    options_.max_num_iterations = config_.max_iterations;
+    options_.function_tolerance = config_.function_tolerance;
+    options_.num_threads = config_.num_threads;
+    options_.logging_type = ceres::SILENT;
+    options_.minimizer_progress_to_stdout = false;
+    if (options_.IsValid(error)) return true;
+    // A Ceres built without any sparse library; dense QR is fine at the sizes the backend sees.
+    options_.linear_solver_type = ceres::DENSE_QR;
+    return options_.IsValid(error);
+  }
+
+  // Runs the configured strategy; the summary of the last Ceres solve.
+  ceres::Solver::Summary run(PoseGraphResult* result) {
+    // Reported under the configured loss, whatever the warm start uses, so initial and final cost compare.
+    problem_.Evaluate(ceres::Problem::EvaluateOptions(), &result->initial_cost, nullptr, nullptr, nullptr);
+    if (gnc_ && has_loop_closure_) return solve_gnc(result);
+    ceres::Solver::Summary summary;
+    if (warm_start()) {
+      // Cauchy alone discards a correct closure that starts many sigmas away on a drifted trajectory; convex Huber
+      // pulls every closure in first, then Cauchy lets go of the ones that still disagree.
+      loop_closure_loss_.Reset(make_loss(RobustLoss::kHuber, config_.loop_closure_loss_scale_sigma),
+                               ceres::TAKE_OWNERSHIP);
+      solve(options_, &summary, result);
+      loop_closure_loss_.Reset(make_loss(RobustLoss::kCauchy, config_.loop_closure_loss_scale_sigma),
+                               ceres::TAKE_OWNERSHIP);
+      if (!summary.IsSolutionUsable()) return summary;
+    }
+    solve(options_, &summary, result);
+    return summary;
+  }
+
+  bool warm_start() const {
+    return config_.huber_warm_start && config_.loop_closure_loss == RobustLoss::kCauchy && has_loop_closure_;
+  }
+  bool state_finite() const {
+    return std::all_of(state_.begin(), state_.end(), [](double v) { return std::isfinite(v); });
+  }
+
+  // Writes the solution back and fills the per-edge residuals, weights and the downweighted count.
+  void finish(std::vector<Pose3>& poses, PoseGraphResult* result) {
+    for (std::size_t i = 0; i < poses.size(); ++i) {
+      poses[i].t_m = Eigen::Map<const Eigen::Vector3d>(t_block(i));
+      poses[i].q = Eigen::Map<const Eigen::Quaterniond>(q_block(i)).normalized();
+    }
+    result->edge_residual_sigma.resize(edges_.size());
+    for (std::size_t k = 0; k < edges_.size(); ++k) {
+      const double norm = unweighted_residual(k);
+      result->edge_residual_sigma[k] = norm;
+      const bool off =
+          gnc_ || excluded_[k] ? weights_[k] == 0.0 : norm > config_.loop_closure_loss_scale_sigma;
+      if (edges_[k].is_loop_closure && config_.loop_closure_loss != RobustLoss::kNone && off)
+        ++result->num_loop_closures_downweighted;
+    }
+    if (gnc_ || config_.prefilter_pairwise_consistency) result->edge_weight = weights_;
+  }
+
+ private:
+  static ceres::Problem::Options problem_options() {
+    ceres::Problem::Options o;
+    o.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+    return o;
+  }
+  double* t_block(std::size_t i) { return &state_[i * kStateDim]; }
+  double* q_block(std::size_t i) { return &state_[i * kStateDim + kTranslationDim]; }
+
+  // One residual per edge (for reporting), a block in the problem per edge not excluded; holds each connected
+  // component's lowest-index pose when fix_first_pose (the gauge).
+  void add_residuals() {
+    const std::size_t num_poses = state_.size() / kStateDim;
+    std::vector<std::uint32_t> parent(num_poses);
+    std::iota(parent.begin(), parent.end(), 0u);
+    std::vector<bool> in_problem(num_poses, false);
+    auto add_pose = [&](std::uint32_t i) {
+      if (in_problem[i]) return;
+      in_problem[i] = true;
+      problem_.AddParameterBlock(t_block(i), kTranslationDim);
+      problem_.AddParameterBlock(q_block(i), kQuaternionDim);
+      ceres_compat::set_quaternion_manifold(problem_, q_block(i));
+    };
+    ceres::LossFunction* const rho = config_.loop_closure_loss == RobustLoss::kNone ? nullptr : &loop_closure_loss_;
+    residuals_.reserve(edges_.size());
+    for (std::size_t k = 0; k < edges_.size(); ++k) {
+      const RelativePoseEdge& edge = edges_[k];
+      Pose3 measured = edge.measured_from_T_to;
+      measured.q.normalize();
+      residuals_.emplace_back(measured, sqrt_information(edge), edge.has_information,
+                              gnc_ && edge.is_loop_closure ? &weights_[k] : nullptr);
+      if (excluded_[k]) continue;
+      has_loop_closure_ = has_loop_closure_ || edge.is_loop_closure;
+      add_pose(edge.from);
+      add_pose(edge.to);
+      using Cost = ceres::AutoDiffCostFunction<RelativePoseResidual, kResidualDim, kTranslationDim, kQuaternionDim,
+                                               kTranslationDim, kQuaternionDim>;
+      problem_.AddResidualBlock(new Cost(new RelativePoseResidual(residuals_.back())),
+                                edge.is_loop_closure ? rho : nullptr, t_block(edge.from), q_block(edge.from),
+                                t_block(edge.to), q_block(edge.to));
+      const std::uint32_t a = find_root(parent, edge.from);
+      const std::uint32_t b = find_root(parent, edge.to);
+      // The smaller index becomes the root, so each root is its component's lowest-index pose.
+      if (a != b) parent[std::max(a, b)] = std::min(a, b);
+    }
+    if (!config_.fix_first_pose) return;
+    for (std::uint32_t i = 0; i < num_poses; ++i) {
+      if (in_problem[i] && find_root(parent, i) == i) {
+        problem_.SetParameterBlockConstant(t_block(i));
+        problem_.SetParameterBlockConstant(q_block(i));
+      }
+    }
+  }
+
+  void solve(const ceres::Solver::Options& options, ceres::Solver::Summary* summary, PoseGraphResult* result) {
+    ceres::Solve(options, &problem_, summary);
+    result->iterations += summary->num_successful_steps + summary->num_unsuccessful_steps;
+  }
+
+  // Whitened residual norm of edge k at the current state, without its GNC weight.
+  double unweighted_residual(std::size_t k) {
+    const RelativePoseEdge& e = edges_[k];
+    const double w = weights_[k];
+    weights_[k] = 1.0;
+    Vector6d v;
+    residuals_[k](t_block(e.from), q_block(e.from), t_block(e.to), q_block(e.to), v.data());
+    weights_[k] = w;
+    return v.norm();
+  }
+  void loop_closure_residuals(std::vector<double>* r) {
+    r->assign(edges_.size(), 0.0);
+    for (std::size_t k = 0; k < edges_.size(); ++k)
+      if (edges_[k].is_loop_closure && !excluded_[k]) (*r)[k] = unweighted_residual(k);
+  }
+
+  // Graduated non-convexity: least squares with every closure first, then the TLS surrogate from convex (mu small)
+  // to the truncated loss, re-weighting the closures after each weighted solve; last, one solve with the weights
+  // rounded to 0 or 1.
+  ceres::Solver::Summary solve_gnc(PoseGraphResult* result) {
+    const double c = config_.loop_closure_loss_scale_sigma;
+    ceres::Solver::Summary summary;
+    solve(options_, &summary, result);
+    std::vector<double> r;
+    loop_closure_residuals(&r);
+    const double r_max = *std::max_element(r.begin(), r.end());
+    if (!summary.IsSolutionUsable() || r_max <= c) return summary;
+    double mu = c * c / std::max(2.0 * r_max * r_max - c * c, 1e-12);
+    ceres::Solver::Options inner = options_;
+    inner.max_num_iterations = config_.gnc_inner_iterations;
+    for (int outer = 0; outer < config_.gnc_max_outer_iterations; ++outer) {
+      double undecided = 0.0;
+      for (std::size_t k = 0; k < edges_.size(); ++k) {
+        if (!edges_[k].is_loop_closure || excluded_[k]) continue;
+        weights_[k] = gnc_tls_weight(r[k], c, mu);
+        undecided += weights_[k] * (1.0 - weights_[k]);
+      }
+      solve(inner, &summary, result);
+      ++result->gnc_outer_iterations;
+      if (!summary.IsSolutionUsable()) break;
+      loop_closure_residuals(&r);
+      if (undecided < 1e-6 && outer > 0) break;  // every weight 0 or 1: the surrogate is the TLS loss here
+      mu *= config_.gnc_mu_factor;
+    }
+    for (std::size_t k = 0; k < edges_.size(); ++k)
+      if (edges_[k].is_loop_closure && !excluded_[k]) weights_[k] = r[k] <= c ? 1.0 : 0.0;
+    // The inliers decided, the last solve starts again from the caller's poses: the annealing's path went through
+    // states bent by the outliers, from which least squares can settle in another basin.
+    if (!summary.IsSolutionUsable()) return summary;
+    state_ = initial_state_;
+    solve(options_, &summary, result);
+    return summary;
+  }
+
+  const PoseGraphConfig& config_;
+  const std::vector<RelativePoseEdge>& edges_;
+  const std::vector<bool>& excluded_;
+  const bool gnc_;
+  bool has_loop_closure_ = false;
+  // Shared by every loop closure, wrapped so the warm start can swap it between solves; declared before the
+  // problem, which only borrows it.
+  ceres::LossFunctionWrapper loop_closure_loss_;
+  ceres::Problem problem_;
+  ceres::Solver::Options options_;
+  std::vector<double> state_;
+  std::vector<double> initial_state_;
+  std::vector<double> weights_;
+  std::vector<RelativePoseResidual> residuals_;
+};
 }  // namespace
 
 const char* to_string(RobustLoss loss) {
@@ -222,10 +440,11 @@ void PoseGraphConfig::print(std::FILE* out) const {
   std::fprintf(out,
                "pose_graph: loop_closure_loss=%s loop_closure_loss_scale_sigma=%g huber_warm_start=%s "
                "max_iterations=%d gnc_max_outer_iterations=%d gnc_mu_factor=%g gnc_inner_iterations=%d "
-               "fix_first_pose=%s num_threads=%d\n",
+               "fix_first_pose=%s num_threads=%d prefilter_pairwise_consistency=%s\n",
                to_string(loop_closure_loss), loop_closure_loss_scale_sigma, huber_warm_start ? "true" : "false",
                max_iterations, gnc_max_outer_iterations, gnc_mu_factor, gnc_inner_iterations,
-               fix_first_pose ? "true" : "false", num_threads);
+               fix_first_pose ? "true" : "false", num_threads, prefilter_pairwise_consistency ? "true" : "false");
+  if (prefilter_pairwise_consistency) pairwise_consistency.print(out);
 }
 
 void PoseGraphResult::print(std::FILE* out) const {
@@ -249,201 +468,42 @@ PoseGraphResult optimize_pose_graph(const PoseGraphConfig& config, std::vector<P
   for (std::size_t i = 0; i < edges.size(); ++i) {
     if (std::string error = check_edge(i, edges[i], poses.size()); !error.empty()) return invalid(std::move(error));
   }
-
-  // Solve on a copy so a failed solve leaves the caller's poses as they were.
-  const std::size_t num_poses = poses.size();
-  std::vector<double> state(num_poses * kStateDim);
-  auto t_block = [&state](std::size_t i) { return &state[i * kStateDim]; };
-  auto q_block = [&state](std::size_t i) { return &state[i * kStateDim + kTranslationDim]; };
-  for (std::size_t i = 0; i < num_poses; ++i) {
-    Eigen::Map<Eigen::Vector3d>(t_block(i)) = poses[i].t_m;
-    Eigen::Map<Eigen::Quaterniond>(q_block(i)) = poses[i].q.normalized();
-  }
-
-  const std::vector<double> initial_state = state;
   PoseGraphResult result;
   if (edges.empty()) {
-    for (std::size_t i = 0; i < num_poses; ++i) poses[i].q.normalize();
+    for (Pose3& pose : poses) pose.q.normalize();
     result.status = PoseGraphStatus::kConverged;
     result.message = "no edges: nothing to optimize";
     return result;
   }
-
-  // One loss shared by every loop closure, wrapped so the warm start can swap it between solves. Declared before
-  // the problem, which only borrows it.
-  const double scale_sigma = config.loop_closure_loss_scale_sigma;
-  ceres::LossFunctionWrapper loop_closure_loss(make_loss(config.loop_closure_loss, scale_sigma),
-                                               ceres::TAKE_OWNERSHIP);
-  ceres::LossFunction* const loop_closure_rho =
-      config.loop_closure_loss == RobustLoss::kNone ? nullptr : &loop_closure_loss;
-  ceres::Problem::Options problem_options;
-  problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
-  ceres::Problem problem(problem_options);
-  std::vector<std::uint32_t> parent(num_poses);
-  std::iota(parent.begin(), parent.end(), 0u);
-  std::vector<bool> in_problem(num_poses, false);
-  auto add_pose = [&](std::uint32_t i) {
-    if (in_problem[i]) return;
-    in_problem[i] = true;
-    problem.AddParameterBlock(t_block(i), kTranslationDim);
-    problem.AddParameterBlock(q_block(i), kQuaternionDim);
-    ceres_compat::set_quaternion_manifold(problem, q_block(i));
-  };
-
-  const bool gnc = config.loop_closure_loss == RobustLoss::kGncTls;
-  // GNC's weights, read by the loop closures' residuals at every evaluation (1: plain least squares).
-  std::vector<double> weights(edges.size(), 1.0);
-  std::vector<RelativePoseResidual> residuals;
-  residuals.reserve(edges.size());
-  bool has_loop_closure = false;
-  for (const RelativePoseEdge& edge : edges) {
-    has_loop_closure = has_loop_closure || edge.is_loop_closure;
-    add_pose(edge.from);
-    add_pose(edge.to);
-    Pose3 measured = edge.measured_from_T_to;
-    measured.q.normalize();
-    residuals.emplace_back(measured, sqrt_information(edge), edge.has_information,
-                           gnc && edge.is_loop_closure ? &weights[residuals.size()] : nullptr);
-    using Cost = ceres::AutoDiffCostFunction<RelativePoseResidual, kResidualDim, kTranslationDim, kQuaternionDim,
-                                             kTranslationDim, kQuaternionDim>;
-    auto* cost = new Cost(new RelativePoseResidual(residuals.back()));
-    problem.AddResidualBlock(cost, edge.is_loop_closure ? loop_closure_rho : nullptr, t_block(edge.from),
-                             q_block(edge.from), t_block(edge.to), q_block(edge.to));
-    const std::uint32_t a = find_root(parent, edge.from);
-    const std::uint32_t b = find_root(parent, edge.to);
-    // The smaller index becomes the root, so each root is its component's lowest-index pose.
-    if (a != b) parent[std::max(a, b)] = std::min(a, b);
-  }
-  if (config.fix_first_pose) {
-    for (std::uint32_t i = 0; i < num_poses; ++i) {
-      if (in_problem[i] && find_root(parent, i) == i) {
-        problem.SetParameterBlockConstant(t_block(i));
-        problem.SetParameterBlockConstant(q_block(i));
-      }
-    }
+  std::vector<bool> excluded(edges.size(), false);
+  if (config.prefilter_pairwise_consistency) {
+    result.pairwise = select_consistent_loop_closures(config.pairwise_consistency, poses.size(), edges);
+    excluded = result.pairwise.rejected;
   }
 
-  ceres::Solver::Options options;
-  options.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
-  options.max_num_iterations = config.max_iterations;
-  options.function_tolerance = config.function_tolerance;
-  options.num_threads = config.num_threads;
-  options.logging_type = ceres::SILENT;
-  options.minimizer_progress_to_stdout = false;
+  // Solve on a copy so a failed solve leaves the caller's poses as they were.
+  GraphSolve graph(config, poses, edges, excluded);
   std::string options_error;
-  if (!options.IsValid(&options_error)) {
-    // A Ceres built without any sparse library; dense QR is fine at the sizes the backend sees.
-    options.linear_solver_type = ceres::DENSE_QR;
-    if (!options.IsValid(&options_error)) {
-      result.status = PoseGraphStatus::kSolverFailed;
-      result.message = "solver failed: options rejected: " + options_error;
-      return result;
-    }
+  if (!graph.configure(&options_error)) {
+    result.status = PoseGraphStatus::kSolverFailed;
+    result.message = "solver failed: options rejected: " + options_error;
+    return result;
   }
-
-  // Reported under the configured loss, whatever the warm start uses, so initial and final cost compare.
-  problem.Evaluate(ceres::Problem::EvaluateOptions(), &result.initial_cost, nullptr, nullptr, nullptr);
-
-  ceres::Solver::Summary summary;
-  const bool warm_start =
-      config.huber_warm_start && config.loop_closure_loss == RobustLoss::kCauchy && has_loop_closure;
-  // The loop closures' whitened residual norms at the current state (weights not applied).
-  const auto loop_closure_residuals = [&](std::vector<double>* r) {
-    r->assign(edges.size(), 0.0);
-    for (std::size_t k = 0; k < edges.size(); ++k) {
-      if (!edges[k].is_loop_closure) continue;
-      const double w = weights[k];
-      weights[k] = 1.0;
-      Vector6d v;
-      residuals[k](t_block(edges[k].from), q_block(edges[k].from), t_block(edges[k].to), q_block(edges[k].to),
-                   v.data());
-      weights[k] = w;
-      (*r)[k] = v.norm();
-    }
-  };
-  if (gnc && has_loop_closure) {
-    // Graduated non-convexity: least squares with every closure first, then the TLS surrogate from convex (mu
-    // small) to the truncated loss, re-weighting the closures after each weighted solve; last, one solve with the
-    // weights rounded to 0 or 1.
-    const double c = config.loop_closure_loss_scale_sigma;
-    ceres::Solve(options, &problem, &summary);
-    result.iterations = summary.num_successful_steps + summary.num_unsuccessful_steps;
-    std::vector<double> r;
-    loop_closure_residuals(&r);
-    const double r_max = *std::max_element(r.begin(), r.end());
-    if (summary.IsSolutionUsable() && r_max > c) {
-      double mu = c * c / std::max(2.0 * r_max * r_max - c * c, 1e-12);
-      ceres::Solver::Options inner = options;
-      inner.max_num_iterations = config.gnc_inner_iterations;
-      for (int outer = 0; outer < config.gnc_max_outer_iterations; ++outer) {
-        double undecided = 0.0;
-        for (std::size_t k = 0; k < edges.size(); ++k) {
-          if (!edges[k].is_loop_closure) continue;
-          weights[k] = gnc_tls_weight(r[k], c, mu);
-          undecided += weights[k] * (1.0 - weights[k]);
-        }
-        ceres::Solve(inner, &problem, &summary);
-        result.iterations += summary.num_successful_steps + summary.num_unsuccessful_steps;
-        ++result.gnc_outer_iterations;
-        if (!summary.IsSolutionUsable()) break;
-        loop_closure_residuals(&r);
-        if (undecided < 1e-6 && outer > 0) break;  // every weight 0 or 1: the surrogate is the TLS loss here
-        mu *= config.gnc_mu_factor;
-      }
-      for (std::size_t k = 0; k < edges.size(); ++k)
-        if (edges[k].is_loop_closure) weights[k] = r[k] <= c ? 1.0 : 0.0;
-      // The inliers decided, the last solve starts again from the caller's poses: the annealing's path went
-      // through states bent by the outliers, from which least squares can settle in another basin.
-      state = initial_state;
-      if (summary.IsSolutionUsable()) {
-        ceres::Solve(options, &problem, &summary);
-        result.iterations += summary.num_successful_steps + summary.num_unsuccessful_steps;
-      }
-    }
-  } else if (warm_start) {
-    // Cauchy alone discards a correct closure that starts many sigmas away on a drifted trajectory; convex Huber
-    // pulls every closure in first, then Cauchy lets go of the ones that still disagree.
-    loop_closure_loss.Reset(make_loss(RobustLoss::kHuber, scale_sigma), ceres::TAKE_OWNERSHIP);
-    ceres::Solve(options, &problem, &summary);
-    result.iterations = summary.num_successful_steps + summary.num_unsuccessful_steps;
-    loop_closure_loss.Reset(make_loss(RobustLoss::kCauchy, scale_sigma), ceres::TAKE_OWNERSHIP);
-  }
-  if (!(gnc && has_loop_closure) && (!warm_start || summary.IsSolutionUsable())) {
-    ceres::Solve(options, &problem, &summary);
-    result.iterations += summary.num_successful_steps + summary.num_unsuccessful_steps;
-  }
+  const ceres::Solver::Summary summary = graph.run(&result);
   result.final_cost = summary.final_cost;
-  const bool state_finite = std::all_of(state.begin(), state.end(), [](double v) { return std::isfinite(v); });
-  if (!summary.IsSolutionUsable() || !state_finite) {
+  if (!summary.IsSolutionUsable() || !graph.state_finite()) {
+    const bool gnc = config.loop_closure_loss == RobustLoss::kGncTls;
     result.status = PoseGraphStatus::kSolverFailed;
     result.message = std::string("solver failed") +
-                     (gnc ? " (a GNC weighted solve): " : warm_start ? " (Huber warm start or Cauchy solve): " : ": ") +
+                     (gnc                  ? " (a GNC weighted solve): "
+                      : graph.warm_start() ? " (Huber warm start or Cauchy solve): "
+                                           : ": ") +
                      summary.message;
     return result;
   }
   result.status = summary.termination_type == ceres::NO_CONVERGENCE ? PoseGraphStatus::kMaxIterations
                                                                      : PoseGraphStatus::kConverged;
-  for (std::size_t i = 0; i < num_poses; ++i) {
-    poses[i].t_m = Eigen::Map<const Eigen::Vector3d>(t_block(i));
-    poses[i].q = Eigen::Map<const Eigen::Quaterniond>(q_block(i)).normalized();
-  }
-  std::vector<double> unweighted;
-  loop_closure_residuals(&unweighted);
-  result.edge_residual_sigma.resize(edges.size());
-  for (std::size_t k = 0; k < edges.size(); ++k) {
-    double norm = unweighted[k];
-    if (!edges[k].is_loop_closure) {
-      Vector6d r;
-      residuals[k](t_block(edges[k].from), q_block(edges[k].from), t_block(edges[k].to), q_block(edges[k].to),
-                   r.data());
-      norm = r.norm();
-    }
-    result.edge_residual_sigma[k] = norm;
-    const bool off = gnc ? weights[k] == 0.0 : norm > config.loop_closure_loss_scale_sigma;
-    if (edges[k].is_loop_closure && config.loop_closure_loss != RobustLoss::kNone && off)
-      ++result.num_loop_closures_downweighted;
-  }
-  if (gnc) result.edge_weight = weights;
+  graph.finish(poses, &result);
   result.message = format("%s after %d iterations, cost %.6g -> %.6g: ", to_string(result.status), result.iterations,
                           result.initial_cost, result.final_cost) +
                    summary.message;

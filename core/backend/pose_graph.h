@@ -8,47 +8,15 @@
 // pose_graph.cc.
 #pragma once
 
-#include <Eigen/Core>
-#include <Eigen/Geometry>
-
 #include <cstdint>
 #include <cstdio>
 #include <string>
 #include <vector>
 
+#include "core/backend/pairwise_consistency.h"
+#include "core/backend/pose3.h"
+
 namespace qsg::backend {
-
-// Rigid transform a_T_b: maps a point from frame b into frame a, p_a = q * p_b + t_m.
-struct Pose3 {
-  Eigen::Vector3d t_m = Eigen::Vector3d::Zero();
-  Eigen::Quaterniond q = Eigen::Quaterniond::Identity();
-
-  Pose3 inverse() const {
-    const Eigen::Quaterniond q_inv = q.conjugate();
-    return {q_inv * -t_m, q_inv};
-  }
-  Pose3 operator*(const Pose3& rhs) const { return {t_m + q * rhs.t_m, q * rhs.q}; }
-  Eigen::Vector3d operator*(const Eigen::Vector3d& p) const { return t_m + q * p; }
-};
-
-// a_T_b from world_T_a and world_T_b: the quantity an edge from a to b measures.
-inline Pose3 between(const Pose3& world_T_a, const Pose3& world_T_b) { return world_T_a.inverse() * world_T_b; }
-
-// One relative-pose measurement. The translation error is expressed in the `from` frame, the rotation error
-// (2 * vec(q_measured^-1 * q_estimated), the rotation vector for small angles) in the `to` frame.
-struct RelativePoseEdge {
-  std::uint32_t from = 0;
-  std::uint32_t to = 0;
-  Pose3 measured_from_T_to;
-  Eigen::Vector3d sigma_t_m = Eigen::Vector3d::Constant(0.05);
-  Eigen::Vector3d sigma_rot_rad = Eigen::Vector3d::Constant(0.01);
-  bool is_loop_closure = false;
-  // A full information matrix (inverse covariance) of the residual [translation; rotation], used instead of the
-  // sigmas when set (e.g. from a g2o file, read_g2o_pose_graph). Then the translation error is expressed in the
-  // measurement's `to` frame, as g2o does; rotation in this residual's 2 vec(q_err) units (radians, small angles).
-  bool has_information = false;
-  Eigen::Matrix<double, 6, 6> information = Eigen::Matrix<double, 6, 6>::Identity();
-};
 
 enum class RobustLoss : std::uint8_t {
   kNone,    // plain least squares: one wrong loop closure bends the whole map
@@ -80,6 +48,10 @@ struct PoseGraphConfig {
   // Removes the gauge freedom: holds poses[0], and the lowest-index pose of any component not connected to it.
   bool fix_first_pose = true;
   int num_threads = 1;
+  // Before the robust solve, keep only the largest set of pairwise-consistent loop closures (PCM, see
+  // pairwise_consistency.h); the others get weight 0 and no residual. Off: the paper's path is GNC alone.
+  bool prefilter_pairwise_consistency = false;
+  PairwiseConsistencyConfig pairwise_consistency;
 
   void print(std::FILE* out) const;
 };
@@ -102,10 +74,12 @@ struct PoseGraphResult {
   std::vector<double> edge_residual_sigma;
   // Loop closures left beyond loop_closure_loss_scale_sigma: the ones the robust loss is treating as outliers.
   std::uint32_t num_loop_closures_downweighted = 0;
-  // kGncTls: per edge, in input order, the final weight (odometry 1; a loop closure 1 kept or 0 rejected), and the
-  // outer iterations run. Empty and 0 under the other losses.
+  // kGncTls or the pairwise prefilter: per edge, in input order, the final weight (odometry 1; a loop closure 1
+  // kept or 0 rejected); kGncTls: the outer iterations run. Otherwise empty and 0.
   std::vector<double> edge_weight;
   int gnc_outer_iterations = 0;
+  // With prefilter_pairwise_consistency: the prefilter's tallies (its rejected closures are downweighted too).
+  PairwiseConsistencyResult pairwise;
   std::string message;
 
   bool converged() const { return status == PoseGraphStatus::kConverged; }
