@@ -208,128 +208,115 @@ bool segments_cross(const Eigen::Vector2d& p, const Eigen::Vector2d& q, const Ei
   return ((d1 > 0) != (d2 > 0)) && ((d3 > 0) != (d4 > 0)) && d1 != 0 && d2 != 0 && d3 != 0 && d4 != 0;
 }
 
-}  // namespace
+// One detection's view of the workspace: its buffers and the raster's shape, and the steps of the pass.
+struct RasterPass {
+  const DoorRaster& raster;
+  const DoorConfig& config;
+  int cols = 0, rows = 0;
+  std::size_t n = 0;
+  std::uint8_t* wall = nullptr;
+  std::uint8_t* free = nullptr;
+  std::uint8_t* axis = nullptr;
+  std::uint8_t* dilated = nullptr;
+  float* clearance = nullptr;
+  std::uint32_t* stack = nullptr;
 
-bool detect_doors_in_raster(DoorWorkspace* ws, const DoorRaster& raster, std::size_t num_place_cells,
-                            double slice_z_m, const DoorConfig& config, Door* out, std::size_t out_capacity,
-                            std::size_t* num_out, DoorStats* stats) {
-  DoorStats local;
-  DoorStats& st = stats != nullptr ? *stats : local;
-  st = DoorStats{};
-  if (num_out != nullptr) *num_out = 0;
-  if (ws == nullptr || num_out == nullptr || (out == nullptr && out_capacity > 0)) return false;
-  if (!config.validate(nullptr) || !std::isfinite(slice_z_m) || std::abs(raster.cell_m - config.cell_m) > 1e-9)
-    return false;
-  const DoorWorkspace::Capacities& cap = ws->capacities_;
-  const int cols = raster.cols, rows = raster.rows;
-  if (cols < 3 || rows < 3 || raster.cells() > cap.cells || static_cast<std::size_t>(cols) > cap.max_side ||
-      static_cast<std::size_t>(rows) > cap.max_side || num_place_cells > cap.places)
-    return false;
-  st.cols = static_cast<std::size_t>(cols);
-  st.rows = static_cast<std::size_t>(rows);
-  const std::size_t n = raster.cells();
-  std::uint8_t* wall = ws->wall_;
-  std::uint8_t* free = ws->free_;
-  std::uint8_t* axis = ws->axis_;
-  float* clearance = ws->clearance_;
-  std::uint32_t* stack = ws->stack_;
-  const std::uint32_t* place_cells = ws->place_cells_;
+  std::size_t at(int c, int r) const { return static_cast<std::size_t>(r) * cols + c; }
 
   // Walls dilated by one cell (into `axis` for now), so that the free space does not leak between diagonal wall
   // cells.
-  for (int r = 0; r < rows; ++r)
-    for (int c = 0; c < cols; ++c) {
-      std::uint8_t any = 0;
-      for (int dr = -1; dr <= 1 && any == 0; ++dr) {
-        const int rr = r + dr;
-        if (rr < 0 || rr >= rows) continue;
-        for (int dc = -1; dc <= 1; ++dc) {
-          const int cc = c + dc;
-          if (cc >= 0 && cc < cols && wall[static_cast<std::size_t>(rr) * cols + cc] != 0) {
-            any = 1;
-            break;
+  void dilate_walls() {
+    for (int r = 0; r < rows; ++r)
+      for (int c = 0; c < cols; ++c) {
+        std::uint8_t any = 0;
+        for (int dr = -1; dr <= 1 && any == 0; ++dr) {
+          const int rr = r + dr;
+          if (rr < 0 || rr >= rows) continue;
+          for (int dc = -1; dc <= 1; ++dc) {
+            const int cc = c + dc;
+            if (cc >= 0 && cc < cols && wall[at(cc, rr)] != 0) {
+              any = 1;
+              break;
+            }
           }
         }
+        axis[at(c, r)] = any;
       }
-      axis[static_cast<std::size_t>(r) * cols + c] = any;
-    }
+  }
+
   // Mapped free space: the non-wall cells within mapped_radius_m of a place that a place reaches without crossing a
   // wall (not the space behind an outer wall that the radius alone would take in). A one-cell frame stays non-free,
-  // so the thinning and the distance transform see a closed border.
-  std::fill(free, free + n, std::uint8_t{0});
-  const int radius = std::max(1, static_cast<int>(std::lround(config.mapped_radius_m / config.cell_m)));
-  for (std::size_t k = 0; k < num_place_cells; ++k) {
-    if (place_cells[k] >= n) continue;
-    const int pc = static_cast<int>(place_cells[k] % static_cast<std::uint32_t>(cols));
-    const int pr = static_cast<int>(place_cells[k] / static_cast<std::uint32_t>(cols));
-    for (int dr = -radius; dr <= radius; ++dr) {
-      const int r = pr + dr;
-      if (r < 1 || r >= rows - 1) continue;
-      const int half = static_cast<int>(std::floor(std::sqrt(static_cast<double>(radius * radius - dr * dr))));
-      const int c0 = std::max(1, pc - half), c1 = std::min(cols - 2, pc + half);
-      if (c0 <= c1) std::fill(free + static_cast<std::size_t>(r) * cols + c0, free + static_cast<std::size_t>(r) * cols + c1 + 1, std::uint8_t{1});
+  // so the thinning and the distance transform see a closed border. Expects the dilated walls in `axis`; leaves
+  // them in `dilated`. Returns the free cells; the wall cells into *wall_cells.
+  std::size_t mapped_free_space(const std::uint32_t* place_cells, std::size_t num_place_cells,
+                                std::size_t* wall_cells) {
+    std::fill(free, free + n, std::uint8_t{0});
+    const int radius = std::max(1, static_cast<int>(std::lround(config.mapped_radius_m / config.cell_m)));
+    for (std::size_t k = 0; k < num_place_cells; ++k) {
+      if (place_cells[k] >= n) continue;
+      const int pc = static_cast<int>(place_cells[k] % static_cast<std::uint32_t>(cols));
+      const int pr = static_cast<int>(place_cells[k] / static_cast<std::uint32_t>(cols));
+      for (int dr = -radius; dr <= radius; ++dr) {
+        const int r = pr + dr;
+        if (r < 1 || r >= rows - 1) continue;
+        const int half = static_cast<int>(std::floor(std::sqrt(static_cast<double>(radius * radius - dr * dr))));
+        const int c0 = std::max(1, pc - half), c1 = std::min(cols - 2, pc + half);
+        if (c0 <= c1) std::fill(free + at(c0, r), free + at(c1, r) + 1, std::uint8_t{1});
+      }
+    }
+    *wall_cells = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      *wall_cells += axis[i];
+      if (axis[i] != 0) free[i] = 0;
+    }
+    std::copy(axis, axis + n, dilated);
+    // Keep what the places reach (4-connected); `axis` marks the reached cells.
+    std::fill(axis, axis + n, std::uint8_t{0});
+    std::size_t top = 0;
+    for (std::size_t k = 0; k < num_place_cells; ++k) {
+      const std::uint32_t i = place_cells[k];
+      if (i >= n || free[i] == 0 || axis[i] != 0) continue;
+      axis[i] = 1;
+      stack[top++] = i;
+      while (top > 0) {
+        const std::uint32_t j = stack[--top];
+        const std::uint32_t next[4] = {j - 1, j + 1, j - static_cast<std::uint32_t>(cols),
+                                       j + static_cast<std::uint32_t>(cols)};
+        for (const std::uint32_t q : next)  // the frame is never free, so neighbours of a free cell are inside
+          if (free[q] != 0 && axis[q] == 0) {
+            axis[q] = 1;
+            stack[top++] = q;
+          }
+      }
+    }
+    std::size_t free_cells = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      free[i] = axis[i];
+      free_cells += free[i];
+    }
+    return free_cells;
+  }
+
+  // Clearance of every free cell (metres): the exact Euclidean distance to the nearest non-free cell, columns then
+  // rows.
+  void clearance_transform(double* f, double* d, std::int32_t* v, double* z) {
+    for (int c = 0; c < cols; ++c) {
+      for (int r = 0; r < rows; ++r) f[r] = free[at(c, r)] != 0 ? kFar : 0.0;
+      distance_1d(f, rows, d, v, z);
+      for (int r = 0; r < rows; ++r) clearance[at(c, r)] = static_cast<float>(std::min(d[r], kFar));
+    }
+    for (int r = 0; r < rows; ++r) {
+      float* row = clearance + at(0, r);
+      for (int c = 0; c < cols; ++c) f[c] = row[c];
+      distance_1d(f, cols, d, v, z);
+      for (int c = 0; c < cols; ++c) row[c] = static_cast<float>(std::sqrt(d[c]) * config.cell_m);
     }
   }
-  std::size_t wall_cells = 0;
-  for (std::size_t i = 0; i < n; ++i) {
-    wall_cells += axis[i];
-    if (axis[i] != 0) free[i] = 0;
-  }
-  std::copy(axis, axis + n, ws->dilated_);
-  st.wall_cells = wall_cells;
-  // Keep what the places reach (4-connected); `axis` marks the reached cells.
-  std::fill(axis, axis + n, std::uint8_t{0});
-  std::size_t top = 0;
-  for (std::size_t k = 0; k < num_place_cells; ++k) {
-    const std::uint32_t i = place_cells[k];
-    if (i >= n || free[i] == 0 || axis[i] != 0) continue;
-    axis[i] = 1;
-    stack[top++] = i;
-    while (top > 0) {
-      const std::uint32_t j = stack[--top];
-      const std::uint32_t next[4] = {j - 1, j + 1, j - static_cast<std::uint32_t>(cols), j + static_cast<std::uint32_t>(cols)};
-      for (const std::uint32_t q : next)  // the frame is never free, so neighbours of a free cell are inside
-        if (free[q] != 0 && axis[q] == 0) {
-          axis[q] = 1;
-          stack[top++] = q;
-        }
-    }
-  }
-  std::size_t free_cells = 0;
-  for (std::size_t i = 0; i < n; ++i) {
-    free[i] = axis[i];
-    free_cells += free[i];
-  }
-  st.free_cells = free_cells;
-  if (free_cells == 0) return true;
 
-  // Clearance of every free cell (metres): the exact Euclidean distance to the nearest non-free cell, columns
-  // then rows.
-  double* f = ws->line_f_;
-  double* d = ws->line_d_;
-  for (int c = 0; c < cols; ++c) {
-    for (int r = 0; r < rows; ++r) f[r] = free[static_cast<std::size_t>(r) * cols + c] != 0 ? kFar : 0.0;
-    distance_1d(f, rows, d, ws->line_v_, ws->line_z_);
-    for (int r = 0; r < rows; ++r) clearance[static_cast<std::size_t>(r) * cols + c] = static_cast<float>(std::min(d[r], kFar));
-  }
-  for (int r = 0; r < rows; ++r) {
-    float* row = clearance + static_cast<std::size_t>(r) * cols;
-    for (int c = 0; c < cols; ++c) f[c] = row[c];
-    distance_1d(f, cols, d, ws->line_v_, ws->line_z_);
-    for (int c = 0; c < cols; ++c) row[c] = static_cast<float>(std::sqrt(d[c]) * config.cell_m);
-  }
-  std::copy(free, free + n, axis);
-  thin(axis, cols, rows, ws->list_, stack, wall);  // the wall raster is not needed any more
-  std::size_t axis_cells = 0;
-  for (std::size_t i = 0; i < n; ++i) axis_cells += axis[i];
-  st.axis_cells = axis_cells;
-
-  const auto at = [cols](int c, int r) { return static_cast<std::size_t>(r) * cols + c; };
   // The first non-free cell from p along direction u (unit), within max_m; false when none. *on_wall: that cell is
   // (dilated) wall, not the edge of the mapped space or of the raster.
-  const std::uint8_t* dilated = ws->dilated_;
-  const auto ray = [&](const Eigen::Vector2d& p, const Eigen::Vector2d& u, double max_m, Eigen::Vector2d* hit,
-                       bool* on_wall) {
+  bool ray(const Eigen::Vector2d& p, const Eigen::Vector2d& u, double max_m, Eigen::Vector2d* hit,
+           bool* on_wall) const {
     // Samples every half cell, t = k x step, walked in cell units from the raster's corner (no division per sample:
     // this loop is most of a pass).
     const double step = 0.5 * config.cell_m;
@@ -351,83 +338,83 @@ bool detect_doors_in_raster(DoorWorkspace* ws, const DoorRaster& raster, std::si
       }
     }
     return false;
-  };
-  const auto clearance_at = [&](const Eigen::Vector2d& q) {
+  }
+
+  double clearance_at(const Eigen::Vector2d& q) const {
     int c, r;
     return raster.cell_of(q.x(), q.y(), &c, &r) ? static_cast<double>(clearance[at(c, r)]) : 0.0;
-  };
-
-  DoorWorkspace::Candidate* candidates = ws->candidates_;
-  std::size_t num_candidates = 0;
-  const double min_half = 0.5 * config.min_width_m, max_half = 0.5 * config.max_width_m;
-  constexpr int kAngles = 36;
-  Eigen::Vector2d directions[kAngles];  // the line directions tried, over half a turn
-  for (int k = 0; k < kAngles; ++k) {
-    const double th = M_PI * k / kAngles;
-    directions[k] = Eigen::Vector2d(std::cos(th), std::sin(th));
   }
-  for (int r = 1; r + 1 < rows; ++r)
-    for (int c = 1; c + 1 < cols; ++c) {
-      if (axis[at(c, r)] == 0) continue;
-      const double dc = clearance[at(c, r)];
-      if (dc < min_half || dc > max_half) continue;
-      // A local minimum of clearance among its axis neighbours.
-      bool minimum = true;
-      for (int dr = -1; dr <= 1 && minimum; ++dr)
-        for (int dq = -1; dq <= 1; ++dq)
-          if ((dr != 0 || dq != 0) && axis[at(c + dq, r + dr)] != 0 && clearance[at(c + dq, r + dr)] < dc) {
-            minimum = false;
-            break;
-          }
-      if (!minimum) continue;
-      // The shortest wall-to-wall line through the cell: its ends are the jambs. A line that ends at the edge of the
-      // mapped space (space the robot has not seen yet) is no door: a half-mapped room would show one at every
-      // frontier, and the next pass, with more mapped, would take it back.
-      const Eigen::Vector2d p = raster.centre_of(c, r);
-      double best = std::numeric_limits<double>::infinity();
-      Eigen::Vector2d best_a = p, best_b = p;
-      for (int k = 0; k < kAngles; ++k) {
-        const Eigen::Vector2d& u = directions[k];
-        Eigen::Vector2d a, b;
-        bool wall_a = false, wall_b = false;
-        // A line no shorter than the best so far cannot win: each ray stops at what is left of it.
-        const double reach = std::min(config.max_width_m, best);
-        if (!ray(p, u, reach, &a, &wall_a) || !wall_a) continue;
-        if (!ray(p, -u, std::min(config.max_width_m, best - (a - p).norm()), &b, &wall_b) || !wall_b) continue;
-        const double len = (a - b).norm();
-        if (len < best) {
-          best = len;
-          best_a = a;
-          best_b = b;
-        }
+
+  // A local minimum of clearance among its axis neighbours.
+  bool clearance_minimum(int c, int r) const {
+    const double dc = clearance[at(c, r)];
+    for (int dr = -1; dr <= 1; ++dr)
+      for (int dq = -1; dq <= 1; ++dq)
+        if ((dr != 0 || dq != 0) && axis[at(c + dq, r + dr)] != 0 && clearance[at(c + dq, r + dr)] < dc)
+          return false;
+    return true;
+  }
+
+  // The shortest wall-to-wall line through p over the given directions: its ends are the jambs. A line that ends at
+  // the edge of the mapped space (space the robot has not seen yet) is no door: a half-mapped room would show one at
+  // every frontier, and the next pass, with more mapped, would take it back. Returns its length (infinite: none).
+  double shortest_jamb_line(const Eigen::Vector2d& p, const Eigen::Vector2d* directions, int num_directions,
+                            Eigen::Vector2d* best_a, Eigen::Vector2d* best_b) const {
+    double best = std::numeric_limits<double>::infinity();
+    *best_a = p;
+    *best_b = p;
+    for (int k = 0; k < num_directions; ++k) {
+      const Eigen::Vector2d& u = directions[k];
+      Eigen::Vector2d a, b;
+      bool wall_a = false, wall_b = false;
+      // A line no shorter than the best so far cannot win: each ray stops at what is left of it.
+      const double reach = std::min(config.max_width_m, best);
+      if (!ray(p, u, reach, &a, &wall_a) || !wall_a) continue;
+      if (!ray(p, -u, std::min(config.max_width_m, best - (a - p).norm()), &b, &wall_b) || !wall_b) continue;
+      const double len = (a - b).norm();
+      if (len < best) {
+        best = len;
+        *best_a = a;
+        *best_b = b;
       }
-      if (!(best >= config.min_width_m && best <= config.max_width_m + config.cell_m)) continue;
-      const double da = (best_a - p).norm(), db = (best_b - p).norm();
-      if (std::abs(da - db) > config.max_off_centre * (da + db)) continue;
-      const Eigen::Vector2d u = (best_b - best_a).normalized();
-      const Eigen::Vector2d nrm(-u.y(), u.x());
-      // The clearance rises on both sides of the jamb-to-jamb line.
-      bool opens = true;
-      for (const double side : {1.0, -1.0}) {
-        double peak = 0.0;
-        for (double t = config.cell_m; t <= config.rise_reach_m; t += config.cell_m)
-          peak = std::max(peak, clearance_at(p + side * t * nrm));
-        opens = opens && peak >= dc + config.min_rise_m;
-      }
-      if (!opens) continue;
-      if (num_candidates == ws->capacities_.candidates) {
-        ++st.candidates_dropped;
-        continue;
-      }
-      // The jambs' wall surface: the rays stopped at the walls' one-cell dilation.
-      DoorWorkspace::Candidate& cand = candidates[num_candidates++];
-      cand.door.a = best_a - u * config.cell_m;
-      cand.door.b = best_b + u * config.cell_m;
-      cand.door.z_m = slice_z_m;
-      cand.half_width = dc;
     }
-  st.candidates = num_candidates + st.candidates_dropped;
-  // Of candidates closer than suppression_m (line midpoints), the narrowest stays (ties: raster order).
+    return best;
+  }
+
+  // The door through axis cell (c, r), if it is one: a clearance minimum within the width range, a centred
+  // jamb-to-jamb line, the clearance rising on both sides of it.
+  bool door_at(int c, int r, const Eigen::Vector2d* directions, int num_directions, double slice_z_m,
+               DoorWorkspace::Candidate* cand) const {
+    if (axis[at(c, r)] == 0) return false;
+    const double dc = clearance[at(c, r)];
+    if (dc < 0.5 * config.min_width_m || dc > 0.5 * config.max_width_m || !clearance_minimum(c, r)) return false;
+    const Eigen::Vector2d p = raster.centre_of(c, r);
+    Eigen::Vector2d best_a, best_b;
+    const double best = shortest_jamb_line(p, directions, num_directions, &best_a, &best_b);
+    if (!(best >= config.min_width_m && best <= config.max_width_m + config.cell_m)) return false;
+    const double da = (best_a - p).norm(), db = (best_b - p).norm();
+    if (std::abs(da - db) > config.max_off_centre * (da + db)) return false;
+    const Eigen::Vector2d u = (best_b - best_a).normalized();
+    const Eigen::Vector2d nrm(-u.y(), u.x());
+    for (const double side : {1.0, -1.0}) {
+      double peak = 0.0;
+      for (double t = config.cell_m; t <= config.rise_reach_m; t += config.cell_m)
+        peak = std::max(peak, clearance_at(p + side * t * nrm));
+      if (peak < dc + config.min_rise_m) return false;
+    }
+    // The jambs' wall surface: the rays stopped at the walls' one-cell dilation.
+    cand->door.a = best_a - u * config.cell_m;
+    cand->door.b = best_b + u * config.cell_m;
+    cand->door.z_m = slice_z_m;
+    cand->half_width = dc;
+    return true;
+  }
+};
+
+// Of candidates closer than suppression_m (line midpoints), the narrowest stays (ties: raster order). Returns how
+// many are kept, at the front of the array.
+std::size_t suppress_neighbours(DoorWorkspace::Candidate* candidates, std::size_t num_candidates,
+                                double suppression_m) {
   std::sort(candidates, candidates + num_candidates,
             [](const DoorWorkspace::Candidate& x, const DoorWorkspace::Candidate& y) {
               return x.half_width < y.half_width;
@@ -439,9 +426,62 @@ bool detect_doors_in_raster(DoorWorkspace* ws, const DoorRaster& raster, std::si
     bool near = false;
     // Earlier (narrower) candidates that were kept sit, in order, at the front of the array.
     for (std::size_t j = 0; j < kept && !near; ++j)
-      near = (0.5 * (candidates[j].door.a + candidates[j].door.b) - mid).norm() < config.suppression_m;
+      near = (0.5 * (candidates[j].door.a + candidates[j].door.b) - mid).norm() < suppression_m;
     if (!near) candidates[kept++] = cand;
   }
+  return kept;
+}
+
+}  // namespace
+
+bool detect_doors_in_raster(DoorWorkspace* ws, const DoorRaster& raster, std::size_t num_place_cells,
+                            double slice_z_m, const DoorConfig& config, Door* out, std::size_t out_capacity,
+                            std::size_t* num_out, DoorStats* stats) {
+  DoorStats local;
+  DoorStats& st = stats != nullptr ? *stats : local;
+  st = DoorStats{};
+  if (num_out != nullptr) *num_out = 0;
+  if (ws == nullptr || num_out == nullptr || (out == nullptr && out_capacity > 0)) return false;
+  if (!config.validate(nullptr) || !std::isfinite(slice_z_m) || std::abs(raster.cell_m - config.cell_m) > 1e-9)
+    return false;
+  const DoorWorkspace::Capacities& cap = ws->capacities_;
+  const int cols = raster.cols, rows = raster.rows;
+  if (cols < 3 || rows < 3 || raster.cells() > cap.cells || static_cast<std::size_t>(cols) > cap.max_side ||
+      static_cast<std::size_t>(rows) > cap.max_side || num_place_cells > cap.places)
+    return false;
+  st.cols = static_cast<std::size_t>(cols);
+  st.rows = static_cast<std::size_t>(rows);
+  RasterPass pass{raster, config, cols, rows, raster.cells(), ws->wall_, ws->free_, ws->axis_, ws->dilated_,
+                  ws->clearance_, ws->stack_};
+  pass.dilate_walls();
+  st.free_cells = pass.mapped_free_space(ws->place_cells_, num_place_cells, &st.wall_cells);
+  if (st.free_cells == 0) return true;
+  pass.clearance_transform(ws->line_f_, ws->line_d_, ws->line_v_, ws->line_z_);
+  std::copy(pass.free, pass.free + pass.n, pass.axis);
+  thin(pass.axis, cols, rows, ws->list_, ws->stack_, ws->wall_);  // the wall raster is not needed any more
+  st.axis_cells = 0;
+  for (std::size_t i = 0; i < pass.n; ++i) st.axis_cells += pass.axis[i];
+
+  constexpr int kAngles = 36;
+  Eigen::Vector2d directions[kAngles];  // the line directions tried, over half a turn
+  for (int k = 0; k < kAngles; ++k) {
+    const double th = M_PI * k / kAngles;
+    directions[k] = Eigen::Vector2d(std::cos(th), std::sin(th));
+  }
+  DoorWorkspace::Candidate* candidates = ws->candidates_;
+  std::size_t num_candidates = 0;
+  for (int r = 1; r + 1 < rows; ++r)
+    for (int c = 1; c + 1 < cols; ++c) {
+      DoorWorkspace::Candidate cand;
+      if (!pass.door_at(c, r, directions, kAngles, slice_z_m, &cand)) continue;
+      if (num_candidates == cap.candidates) {
+        ++st.candidates_dropped;
+        continue;
+      }
+      candidates[num_candidates++] = cand;
+    }
+  st.candidates = num_candidates + st.candidates_dropped;
+  const std::size_t kept = suppress_neighbours(candidates, num_candidates, config.suppression_m);
   const std::size_t written = std::min(kept, out_capacity);
   for (std::size_t k = 0; k < written; ++k) out[k] = candidates[k].door;
   st.doors_dropped = kept - written;

@@ -7,7 +7,7 @@ set(_max_file_lines 1000)
 set(_max_function_lines 150)
 # Known offenders, owned by other work under issue 32 (the backend stage, the room classifier, core/rooms): reported,
 # not failed, until they are split. Remove a file from here when it is; a listed file within the limits is named.
-set(_size_known core/doors/door_detector.cc)
+set(_size_known)
 set(_size_known_seen)
 set(_size_violations 0)
 macro(_size_offence text)
