@@ -26,7 +26,7 @@ struct PairwiseConsistencyConfig {
   // Gate on each of the cycle's translation and rotation errors: |e|^2 <= threshold^2 x (the per-axis variance of
   // the cycle: the two closures' and the two odometry legs' variances summed, a third of their trace). First-order
   // variances; a right closure rejected here never comes back (bench/results/pose_graph.md for the choice).
-  double threshold_sigma = 3.0;
+  double threshold_sigma = 5.0;
   // Branch-and-bound nodes of the exact maximum-clique search; when they run out the best clique found so far is
   // used (counted as truncated). The greedy clique it starts from is always complete.
   std::uint32_t max_clique_nodes = 2000000;
