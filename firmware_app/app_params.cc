@@ -1,6 +1,7 @@
 #include "firmware_app/app_params.h"
 
 #include "core/frontend/frontend_params.h"
+#include "core/objects/objects_params.h"
 #include "core/places/places_params.h"
 #include "core/reconstruction/reconstruction_params.h"
 #include "core/doors/door_params.h"
@@ -272,6 +273,7 @@ const params::Schema<AppConfig>& app_schema() {
               [](AppConfig& a) -> reconstruction::Config& { return a.reconstruction; });
     s.section("keyframes", keyframes_table(), [](AppConfig& a) -> runtime::KeyframeConfig& { return a.keyframes; });
     s.section("places", places::params_table(), [](AppConfig& a) -> places::Config& { return a.frontend.places; });
+    s.section("objects", objects::params_table(), [](AppConfig& a) -> objects::Config& { return a.frontend.objects; });
     s.section("frontend", frontend::params_table(), [](AppConfig& a) -> frontend::Config& { return a.frontend; });
     s.section("loop_closure", loop_closure_table(),
               [](AppConfig& a) -> AppConfig::LoopClosure& { return a.loop_closure; });

@@ -27,6 +27,8 @@
 #include "budgets/budget_table.h"
 #include "core/agents/agent_layer.h"
 #include "core/objects/object_layer.h"
+#include "core/objects/objects_params.h"
+#include "core/params/params.h"
 #include "core/reconstruction/semantic_tsdf.h"
 #include "core/scene_graph/scene_graph.h"
 #include "drivers/world/building_generator.h"
@@ -45,15 +47,23 @@ struct Options {
   double tolerance_m = 0.0;  // > 0 overrides every label's clustering tolerance
   std::string json_path;
   bench::OdometryOption odometry;  // --odometry gt|sim|vio, --odometry-seed N
+  objects::Config objects;         // --set objects.KEY=VALUE, from its parameter table (core/objects/objects_params)
 };
+
+const std::vector<params::Section>& objects_sections() {
+  static const std::vector<params::Section> sections = params::sections_of("objects", objects::params_table());
+  return sections;
+}
 
 void usage(const char* argv0) {
   std::fprintf(stderr,
                "usage: %s [--seeds 1,2,3 | --seeds 4 5 6] [--rooms N] [--size WxH] [--spacing-m S] [--tolerance-m T] "
-               "%s [--json FILE]\n"
+               "%s [--set objects.KEY=VALUE ...] [--json FILE]\n"
                "  Objects of the app's pipeline on generated buildings against the simulator's ground truth: found,\n"
                "  correct, merges, time (objects_eval.*). --odometry gt|sim|vio: drivers/sim/odometry_levels.h.\n",
                argv0, bench::odometry_usage());
+  std::fprintf(stderr, "Settings (--set objects.KEY=VALUE):\n");
+  params::print_help(objects_sections(), stderr);
 }
 
 bool parse(int argc, char** argv, Options* o) {
@@ -101,6 +111,15 @@ bool parse(int argc, char** argv, Options* o) {
     } else if (a == "--size") {
       if (std::sscanf(v, "%dx%d", &o->width, &o->height) != 2) {
         std::fprintf(stderr, "--size: expected WxH, got '%s'\n", v);
+        return false;
+      }
+      continue;
+    } else if (a == "--set") {
+      std::string error;
+      const std::string assignment = v;
+      if (!params::set(objects_sections(), &o->objects,
+                       "objects." + assignment.substr(assignment.rfind("objects.", 0) == 0 ? 8 : 0), &error)) {
+        std::fprintf(stderr, "--set %s\n", error.c_str());
         return false;
       }
       continue;
@@ -163,7 +182,7 @@ bool run_building(std::uint64_t seed, const Options& opt, Score* score, std::vec
     return false;
   }
   objects::ObjectLayer layer;
-  objects::Config oc;
+  objects::Config oc = opt.objects;
   if (opt.tolerance_m > 0.0)
     for (objects::LabelParams& p : oc.labels) p.tolerance_m = opt.tolerance_m;
   if (!layer.init(oc, objects::capacities_from_budget(), budgets::active::objects::kArenaBytes, &error)) {

@@ -1,0 +1,27 @@
+#include "core/objects/objects_params.h"
+
+namespace qsg::objects {
+
+const params::Table<Config>& params_table() {
+  using params::in;
+  constexpr auto paper = params::Origin::kPaper;
+  constexpr auto refinement = params::Origin::kRefinement;
+  constexpr auto project = params::Origin::kProject;
+  static const params::Table<Config> table = [&] {
+    params::Table<Config> t;
+    t.flag("merge_overlapping", &Config::merge_overlapping, paper,
+           "objects of one label merge when either's centre lies in the other's box (new clusters too)");
+    t.flag("merge_intersecting", &Config::merge_intersecting, refinement,
+           "objects of one label merge when their boxes intersect (Hydra's overlap merge)");
+    t.flag("merge_by_size_prior", &Config::merge_by_size_prior, refinement,
+           "changed objects merge with neighbours of their label within the label's size prior");
+    t.add("index_cell_m", &Config::index_cell_m, "m", in(0.25, 50), project,
+          "cell of the grid indexing box centres for the merge search (speed only)");
+    t.add("max_keys_per_object", &Config::max_keys_per_object, "", in(1, 1000000), project,
+          "mesh-vertex keys an object keeps at most (a reservoir sample of its surface)");
+    return t;
+  }();
+  return table;
+}
+
+}  // namespace qsg::objects
