@@ -19,7 +19,9 @@
 #include <tuple>
 #include <vector>
 
+#include "core/params/params.h"
 #include "core/places/places.h"
+#include "core/places/places_params.h"
 #include "core/reconstruction/semantic_tsdf.h"
 #include "core/scene_graph/scene_graph.h"
 #include "bench/figures.h"
@@ -51,31 +53,16 @@ struct Options {
   bool diagnose = false;  // explain every component but the largest
   int every_n = 1;        // places update every Nth keyframe (observe() on every keyframe)
   bool observe = true;    // --no-observe: update() carves from the latest frame only (the old behaviour)
-  bool free_space_edges = true;
-  bool relink = true;
-  bool bridges = true;    // --no-bridges: no bridges and no enclosed pockets held back (the previous behaviour)
-  bool contract = true;   // --no-contract
-  bool unobserved_obstacle = true;  // --no-unobserved-obstacle: Config::unobserved_is_obstacle off
-  bool rim_guard = true;            // --no-rim-guard: Config::rim_guard off
-  bool keep_rim_distances = true;   // --no-keep-rim-distances: Config::keep_distances_at_rim off
-  bool signed_seeds = true;         // --no-signed-seeds: Config::signed_surface_seeds off
-  bool bridge_paths = true;         // --no-bridge-paths: Config::bridge_path_search off
-  bool hold_distant = true;         // --no-hold-distant: Config::hold_distant_fragments off
-  bool projective_correction = true;  // --no-projective-correction: Config::correct_projective_distance off
   std::string floorplan;   // --floorplan NAME: explore this extruded benchmark plan instead of generated buildings
   bool furnished = false;
   std::string plans_dir = std::string(QSG_SHARED_DATA_DIR) + "/floorplans/ipa";
   double window_radius_m = 0.0;  // --window-radius-m: places window (0: the Config default)
-  double keep_edges_at_rim_m = -1.0;  // --keep-edges-at-rim-m: Config::keep_edges_at_rim_m (< 0: the default)
-  double merge_revisited_m = -1.0;    // --merge-revisited-m: Config::merge_revisited_within_m (< 0: the default)
-  double slab_above_m = 0.0;     // --slab-above-m: ESDF slab above the robot (0: the Config default)
-  int bridge_max_places = 0;     // --bridge-max-places: Config::bridge_max_fragment_places (0: the default)
   std::vector<Eigen::Vector3d> trace;  // --trace X,Y,Z (repeatable): the ESDF voxel there, whenever it changes
-  double unobserved_above_m = -1.0;  // --unobserved-above-m: Config::unobserved_obstacle_above_m (< 0: the default)
   bool two_floors = false;           // --two-floors: generated buildings with a second floor over a 0.2 m slab
-  bool revive_check = true;          // --no-revive-check: Config::revive_in_same_free_space off
-  bool relink_check = true;          // --no-relink-check: Config::relink_in_same_free_space off
   bench::OdometryOption odometry;    // --odometry gt|sim|vio, --odometry-seed N (scored in the world frame)
+  // The places stage's settings, each set by --set places.KEY=VALUE from its parameter table (core/params; --help
+  // lists them). --window-radius-m stays a flag: it also sizes the TSDF window and pools around the places'.
+  places::Config places;
 };
 
 const char kDetails[] = R"(
@@ -86,25 +73,68 @@ extruded IPA plan (--floorplan NAME [--furnished]), against the simulator's grou
     the ground truth's free space does not join within 1 m around them, two free spaces the edge wrongly makes one
     rather than a wall corner its straight segment clips (edges_joining_apart); and the places whose clearance
     exceeds the true one by more than 0.25 m and 0.5 m.
-  - --no-revive-check and --no-relink-check turn places::Config::revive_in_same_free_space and
-    relink_in_same_free_space off; --keep-edges-at-rim-m M sets keep_edges_at_rim_m (0: off); --merge-revisited-m M
-    sets merge_revisited_within_m (0: revisited places are not merged); --unobserved-above-m H,
-    --no-unobserved-obstacle, --no-rim-guard, --no-keep-rim-distances, --no-projective-correction,
-    --no-signed-seeds, --no-hold-distant, --no-bridge-paths and --bridge-max-places N compare the other options.
+  - --set places.KEY=VALUE sets any field of places::Config (the table below), e.g. --set
+    places.revive_in_same_free_space=false, --set places.merge_revisited_within_m=0 (revisited places not merged),
+    --set places.bridge_fragments=false --set places.enclosed_max_voxels=0 (no bridges, no pockets held back).
   - --verbose --diagnose lists the places farthest from the true GVD with the ESDF around them and their basis
     points, and explains every extra component; --trace X,Y,Z prints the ESDF voxel there (state, distance,
     parent) at every keyframe where it changes.
 What each option earned: bench/results/places.md.
 )";
 
+const std::vector<params::Section>& places_sections() {
+  static const std::vector<params::Section> sections = params::sections_of("places", places::params_table());
+  return sections;
+}
+
+// ", places.key=value" for every setting that differs from places::Config's default (for the JSON's conditions).
+std::string settings_changed(const places::Config& config) {
+  const places::Config defaults;
+  std::string out;
+  for (const params::Field& f : places_sections().front().fields) {
+    const std::string v = f.text(f.get(&config));
+    if (v != f.text(f.get(&defaults))) out += ", places." + f.key + "=" + v;
+  }
+  return out;
+}
+
+// The hand-written flags of places::Config fields are gone: each names the --set it now is.
+std::string retired_flag_hint(const std::string& flag) {
+  static const std::pair<const char*, const char*> kRetired[] = {
+      {"--no-free-space-edges", "places.free_space_edges=false"},
+      {"--no-relink", "places.relink_inactive=false"},
+      {"--no-bridges", "places.bridge_fragments=false --set places.enclosed_max_voxels=0"},
+      {"--no-bridge-paths", "places.bridge_path_search=false"},
+      {"--no-hold-distant", "places.hold_distant_fragments=false"},
+      {"--no-projective-correction", "places.correct_projective_distance=false"},
+      {"--no-signed-seeds", "places.signed_surface_seeds=false"},
+      {"--no-rim-guard", "places.rim_guard=false"},
+      {"--no-keep-rim-distances", "places.keep_distances_at_rim=false"},
+      {"--no-unobserved-obstacle", "places.unobserved_is_obstacle=false"},
+      {"--no-relink-check", "places.relink_in_same_free_space=false"},
+      {"--no-revive-check", "places.revive_in_same_free_space=false"},
+      {"--no-contract", "places.contract_removed=false"},
+      {"--slab-above-m", "places.slab_above_m=H"},
+      {"--unobserved-above-m", "places.unobserved_obstacle_above_m=H"},
+      {"--bridge-max-places", "places.bridge_max_fragment_places=N"},
+      {"--keep-edges-at-rim-m", "places.keep_edges_at_rim_m=M"},
+      {"--merge-revisited-m", "places.merge_revisited_within_m=M"},
+  };
+  for (const auto& [old_flag, replacement] : kRetired)
+    if (flag == old_flag) return std::string(" (now --set ") + replacement + ")";
+  return " (places settings: --set places.KEY=VALUE, listed by --help)";
+}
+
 void usage(const char* argv0) {
   std::fprintf(stderr,
                "usage: %s [--seeds 1,2,3] [--rooms N] [--size WxH] [--hfov-deg D] [--rate-hz R] [--every-n N] "
-               "[--no-observe] [--no-free-space-edges] [--no-relink] [--no-bridges] [--no-contract] [--no-unobserved-obstacle] [--no-rim-guard] [--no-keep-rim-distances] [--no-signed-seeds] [--no-projective-correction] [--no-hold-distant] [--no-bridge-paths] [--no-revive-check] [--no-relink-check] [--two-floors] [--floorplan NAME [--furnished]] "
-               "[--plans-dir DIR] [--window-radius-m R] [--keep-edges-at-rim-m M] [--merge-revisited-m M] [--slab-above-m H] [--bridge-max-places N] [--unobserved-above-m H] [--trace X,Y,Z] %s [--json FILE] [--verbose] [--diagnose]\n"
+               "[--no-observe] [--set places.KEY=VALUE ...] [--two-floors] [--floorplan NAME [--furnished]] "
+               "[--plans-dir DIR] [--window-radius-m R] [--trace X,Y,Z] %s [--json FILE] [--verbose] [--diagnose]\n"
                "  NAME: a map of the plans dir (Freiburg52_scan, lab_c_scan, lab_intel, lab_ipa, office_a, office_e)\n"
                "%s",
                argv0, bench::odometry_usage(), kDetails);
+  std::fprintf(stderr, "Settings (--set places.KEY=VALUE):\n");
+  params::print_help(places_sections(), stderr);
 }
 
 bool parse(int argc, char** argv, Options* o) {
@@ -114,6 +144,10 @@ bool parse(int argc, char** argv, Options* o) {
     if (const int odometry = bench::parse_odometry_flag(argc, argv, &i, &o->odometry)) {
       if (odometry < 0) return false;
       continue;
+    }
+    if (const std::string hint = retired_flag_hint(a); hint.rfind(" (now", 0) == 0) {
+      std::fprintf(stderr, "retired option %s%s\n", a.c_str(), hint.c_str());
+      return false;
     }
     if (a == "--verbose") {
       o->verbose = true;
@@ -127,60 +161,8 @@ bool parse(int argc, char** argv, Options* o) {
       o->observe = false;
       continue;
     }
-    if (a == "--no-free-space-edges") {
-      o->free_space_edges = false;
-      continue;
-    }
-    if (a == "--no-relink") {
-      o->relink = false;
-      continue;
-    }
-    if (a == "--no-bridges") {
-      o->bridges = false;
-      continue;
-    }
-    if (a == "--no-bridge-paths") {
-      o->bridge_paths = false;
-      continue;
-    }
-    if (a == "--no-hold-distant") {
-      o->hold_distant = false;
-      continue;
-    }
-    if (a == "--no-projective-correction") {
-      o->projective_correction = false;
-      continue;
-    }
-    if (a == "--no-signed-seeds") {
-      o->signed_seeds = false;
-      continue;
-    }
-    if (a == "--no-rim-guard") {
-      o->rim_guard = false;
-      continue;
-    }
-    if (a == "--no-keep-rim-distances") {
-      o->keep_rim_distances = false;
-      continue;
-    }
-    if (a == "--no-unobserved-obstacle") {
-      o->unobserved_obstacle = false;
-      continue;
-    }
     if (a == "--two-floors") {
       o->two_floors = true;
-      continue;
-    }
-    if (a == "--no-relink-check") {
-      o->relink_check = false;
-      continue;
-    }
-    if (a == "--no-revive-check") {
-      o->revive_check = false;
-      continue;
-    }
-    if (a == "--no-contract") {
-      o->contract = false;
       continue;
     }
     if (a == "--furnished") {
@@ -225,10 +207,6 @@ bool parse(int argc, char** argv, Options* o) {
     } else if (a == "--plans-dir") {
       o->plans_dir = v;
       continue;
-    } else if (a == "--slab-above-m") {
-      o->slab_above_m = std::strtod(v.c_str(), &end);
-    } else if (a == "--unobserved-above-m") {
-      o->unobserved_above_m = std::strtod(v.c_str(), &end);
     } else if (a == "--trace") {
       Eigen::Vector3d p;
       if (std::sscanf(v.c_str(), "%lf,%lf,%lf", &p.x(), &p.y(), &p.z()) != 3) {
@@ -238,24 +216,10 @@ bool parse(int argc, char** argv, Options* o) {
       o->trace.push_back(p);
       continue;
 
-    } else if (a == "--bridge-max-places") {
-      o->bridge_max_places = static_cast<int>(std::strtol(v.c_str(), &end, 10));
     } else if (a == "--window-radius-m") {
       o->window_radius_m = std::strtod(v.c_str(), &end);
       if (end != v.c_str() && *end == '\0' && !(o->window_radius_m > 0.0 && o->window_radius_m <= 50.0)) {
         std::fprintf(stderr, "--window-radius-m: must be in (0, 50] m\n");
-        return false;
-      }
-    } else if (a == "--keep-edges-at-rim-m") {
-      o->keep_edges_at_rim_m = std::strtod(v.c_str(), &end);
-      if (end != v.c_str() && *end == '\0' && !(o->keep_edges_at_rim_m >= 0.0 && o->keep_edges_at_rim_m <= 10.0)) {
-        std::fprintf(stderr, "--keep-edges-at-rim-m: must be in [0, 10] m\n");
-        return false;
-      }
-    } else if (a == "--merge-revisited-m") {
-      o->merge_revisited_m = std::strtod(v.c_str(), &end);
-      if (end != v.c_str() && *end == '\0' && !(o->merge_revisited_m >= 0.0 && o->merge_revisited_m <= 1.0)) {
-        std::fprintf(stderr, "--merge-revisited-m: must be in [0, 1] m (0 turns the merge off)\n");
         return false;
       }
     } else if (a == "--size") {
@@ -264,8 +228,15 @@ bool parse(int argc, char** argv, Options* o) {
         return false;
       }
       continue;
+    } else if (a == "--set") {
+      std::string error;
+      if (!params::set(places_sections(), &o->places, "places." + v.substr(v.rfind("places.", 0) == 0 ? 7 : 0), &error)) {
+        std::fprintf(stderr, "--set %s\n", error.c_str());
+        return false;
+      }
+      continue;
     } else {
-      std::fprintf(stderr, "unknown option %s\n", a.c_str());
+      std::fprintf(stderr, "unknown option %s%s\n", a.c_str(), retired_flag_hint(a).c_str());
       return false;
     }
     if (end == nullptr || *end != '\0') {
@@ -275,6 +246,10 @@ bool parse(int argc, char** argv, Options* o) {
   }
   if (o->furnished && o->floorplan.empty()) {
     std::fprintf(stderr, "--furnished needs --floorplan NAME\n");
+    return false;
+  }
+  if (const std::string bad = o->places.check(); !bad.empty()) {
+    std::fprintf(stderr, "places settings: %s\n", bad.c_str());
     return false;
   }
   return !o->seeds.empty() && o->rooms >= 3 && o->width > 0 && o->height > 0 && o->hfov_deg > 10 &&
@@ -623,30 +598,11 @@ bool run_world(const Options& opt, const world::World& w, bool floor_plan, Build
   const sim::ExplorationResult& tour = sim_tour.tour;
   reconstruction::SemanticTsdf tsdf;
   reconstruction::Config tc;
-  places::Config pc;
-  pc.free_space_edges = opt.free_space_edges;
-  pc.revive_in_same_free_space = opt.revive_check;
-  pc.relink_in_same_free_space = opt.relink_check;
-  if (opt.keep_edges_at_rim_m >= 0.0) pc.keep_edges_at_rim_m = opt.keep_edges_at_rim_m;
-  if (opt.merge_revisited_m >= 0.0) pc.merge_revisited_within_m = opt.merge_revisited_m;
-  pc.relink_inactive = opt.relink;
-  pc.bridge_fragments = opt.bridges;
-  pc.enclosed_max_voxels = opt.bridges ? pc.enclosed_max_voxels : 0;
-  pc.contract_removed = opt.contract;
-  pc.unobserved_is_obstacle = opt.unobserved_obstacle;
-  pc.rim_guard = opt.rim_guard;
-  pc.keep_distances_at_rim = opt.keep_rim_distances;
-  pc.signed_surface_seeds = opt.signed_seeds;
-  pc.correct_projective_distance = opt.projective_correction;
-  pc.hold_distant_fragments = opt.hold_distant;
-  pc.bridge_path_search = opt.bridge_paths;
+  places::Config pc = opt.places;
   reconstruction::Capacities rcaps = reconstruction::capacities_from_budget();
   std::size_t tsdf_bytes = budgets::active::reconstruction::kArenaBytes;
   places::Capacities pcaps = places::capacities_from_budget();
   std::size_t places_bytes = places::arena_bytes_from_budget();
-  if (opt.slab_above_m > 0.0) pc.slab_above_m = opt.slab_above_m;
-  if (opt.bridge_max_places > 0) pc.bridge_max_fragment_places = opt.bridge_max_places;
-  if (opt.unobserved_above_m >= 0.0) pc.unobserved_obstacle_above_m = opt.unobserved_above_m;
   if (opt.window_radius_m > 0.0) {
     // Every ESDF block the places read must exist in the TSDF: its window is one ESDF block larger.
     const double esdf_block_m = places::kBlockSide * pc.voxel_factor * tc.voxel_size_m;
@@ -1142,15 +1098,10 @@ int main(int argc, char** argv) {
   if (!opt.json_path.empty()) {
     std::string seeds;
     for (std::uint64_t s : opt.seeds) seeds += (seeds.empty() ? "" : ",") + std::to_string(s);
-    char cond[448];
+    char cond[1024];
     const std::string world_desc =
         opt.floorplan.empty() ? std::to_string(opt.rooms) + "-room generated " + (opt.two_floors ? "two-floor " : "") +
-                                    "buildings seeds " + seeds + (opt.revive_check ? "" : ", no revive check") +
-                                    (opt.relink_check ? "" : ", no relink check") +
-                                    (opt.keep_edges_at_rim_m < 0.0
-                                         ? std::string()
-                                         : ", edges kept " + std::to_string(opt.keep_edges_at_rim_m).substr(0, 4) +
-                                               " m from the rim")
+                                    "buildings seeds " + seeds + settings_changed(opt.places)
                               : "extruded floor plan " + opt.floorplan + (opt.furnished ? " furnished" : " plain");
     std::snprintf(cond, sizeof(cond),
                   "%s, %dx%d %.0f deg hfov, %.1f Hz keyframes, voxel 0.10 m, GVD voxel 0.20 m, places window "
