@@ -145,13 +145,15 @@ BackendStage::FinalDoors BackendStage::close_doors(const reconstruction::Mesh& m
 // ---------------------------------------------------------------------------------------------------------
 // Rooms and labels
 
-rooms::UpdateResult BackendStage::update_rooms(scene_graph::SceneGraph* graph, std::uint64_t time_ns) {
+rooms::UpdateResult BackendStage::update_rooms(scene_graph::SceneGraph* graph, std::uint64_t time_ns, bool final) {
   const bool online = online_doors_.initialized();
   // Sight lines: the final door stage's once it ran; during the run, the last online door pass's window.
   const rooms::WallSight* sight = final_sight_.slices() > 0 ? &final_sight_
                                   : online                   ? &online_doors_.sight()
                                                              : nullptr;
-  const rooms::UpdateResult r = rooms_.update(graph, time_ns, online ? &online_doors_.doors() : nullptr, sight);
+  const bool window = !final && final_sight_.slices() == 0;
+  const rooms::UpdateResult r =
+      rooms_.update(graph, time_ns, online ? &online_doors_.doors() : nullptr, sight, window);
   counters_.rooms_merged_visible.store(r.visible_merges);
   counters_.updates.fetch_add(1);
   counters_.rooms.store(r.rooms);
