@@ -323,6 +323,17 @@ void report(const Options& o, int rooms_per_side, const Run& run, bench::Figures
       fig->add(name + ".p99", s.p99, unit);
       fig->add(name + ".max", s.max, unit);
     }
+  // Along the first pass: the room update's median and the places it read, per 25 m of tour.
+  std::printf("  first pass, per 25 m: rooms median ms (places read)");
+  for (double from = 0.0; from < std::min(end_m, 250.0); from += 25.0) {
+    const Stats r = stats_of(run.samples, from, from + 25.0, [](const Sample& x) { return x.rooms_ms; });
+    const Stats n = stats_of(run.samples, from, from + 25.0, [](const Sample& x) { return double(x.read); });
+    std::printf(" %.1f (%.0f)", r.median, n.median);
+    char bin[64];
+    std::snprintf(bin, sizeof bin, "window_costs.%s.rooms.at_%03.0f_m.median", tag.c_str(), from);
+    fig->add(bin, r.median, "ms");
+  }
+  std::printf("\n");
   std::printf("  final stage: doors %.1f ms (%zu doors), rooms %.1f ms; rooms online %zu, final %zu of %d; index "
               "refusals %llu\n",
               run.final_doors_ms, run.final_doors, run.final_rooms_ms, run.online_rooms_last, run.final_rooms,
