@@ -190,6 +190,28 @@ int main(int argc, char** argv) {
     figures.add(prefix + ".budget", static_cast<double>(budget), "us");
   };
   thread_row("backend", threads.backend_cpu, threads.backend_wall);
+  // The backend's budgeted parts: the online door passes (inside its updates: at most 1 % of them over the part's
+  // budget) and the final stage (finish(): doors on the whole surface, the last rooms and labels; its one run).
+  {
+    const budgets::ThreadBudget* b = table.find_thread("backend");
+    std::string finish_error;
+    if (!pipeline.finish(&finish_error)) std::fprintf(stderr, "app_budget_check: finish: %s\n", finish_error.c_str());
+    const auto part_row = [&](const char* name, const runtime::TaskStats& st, std::uint32_t budget) {
+      const bool ok = budget > 0 && st.overruns * 100 <= st.runs;
+      violations += ok ? 0 : 1;
+      std::printf("  %-16s %8llu %10.0f %10s %10lld %10u  %s   (mean; over budget in %llu runs)\n", name,
+                  (unsigned long long)st.runs, st.mean_us(), "-", (long long)st.max_us, budget,
+                  ok ? "yes" : "NO (violation)", (unsigned long long)st.overruns);
+      const std::string prefix = std::string("app_budget.thread.") + name;
+      figures.add(prefix + ".runs", static_cast<double>(st.runs), "runs");
+      figures.add(prefix + ".cpu_mean", st.mean_us(), "us");
+      figures.add(prefix + ".cpu_max", static_cast<double>(st.max_us), "us");
+      figures.add(prefix + ".overruns", static_cast<double>(st.overruns), "runs");
+      figures.add(prefix + ".budget", static_cast<double>(budget), "us");
+    };
+    part_row("backend.doors", pipeline.door_pass_cpu_stats(), b != nullptr ? b->part_budget_us : 0);
+    part_row("backend.final", pipeline.finish_cpu_stats(), b != nullptr ? b->finish_budget_us : 0);
+  }
   if (pipeline.segmentation().initialized()) {
     thread_row("segmentation", threads.segmentation_cpu, threads.segmentation_wall);
     const app::PipelineCounters& c = pipeline.counters();

@@ -59,6 +59,12 @@ struct ThreadBudget {
   const char* name;
   std::uint32_t budget_us;
   std::uint32_t every_n_keyframes;  // 0: no rate asked
+  // A pass that runs inside some runs (backend: the online door pass, every 4th update), timed on its own against
+  // this share of budget_us (0: none).
+  std::uint32_t part_budget_us;
+  // The thread's one run at the end of a mission (backend: the final stage, doors on the whole surface, rooms and
+  // labels once more), off the real-time path but bounded (0: none).
+  std::uint32_t finish_budget_us;
 };
 
 struct BoardTable {

@@ -202,9 +202,23 @@ foreach(file IN LISTS TABLES)
     if(has_every)
       json_get(every "${file}" "${json}" uint threads ${thread} every_n_keyframes)
     endif()
+    # Optional parts of a thread's work with their own budget (0: none): a pass that runs inside some of its runs,
+    # and the one run at the end of a mission.
+    set(part_budget 0)
+    json_has(has_part "${json}" threads ${thread} part_budget_us)
+    if(has_part)
+      json_get(part_budget "${file}" "${json}" uint threads ${thread} part_budget_us)
+    endif()
+    set(finish_budget 0)
+    json_has(has_finish "${json}" threads ${thread} finish_budget_us)
+    if(has_finish)
+      json_get(finish_budget "${file}" "${json}" uint threads ${thread} finish_budget_us)
+    endif()
     string(APPEND ns "namespace ${thread} {\ninline constexpr std::uint32_t kBudgetUs = ${tbudget};\n"
-      "inline constexpr std::uint32_t kEveryNKeyframes = ${every};\n}  // namespace ${thread}\n")
-    string(APPEND thread_rows "    {\"${thread}\", ${tbudget}, ${every}},\n")
+      "inline constexpr std::uint32_t kEveryNKeyframes = ${every};\n"
+      "inline constexpr std::uint32_t kPartBudgetUs = ${part_budget};\n"
+      "inline constexpr std::uint32_t kFinishBudgetUs = ${finish_budget};\n}  // namespace ${thread}\n")
+    string(APPEND thread_rows "    {\"${thread}\", ${tbudget}, ${every}, ${part_budget}, ${finish_budget}},\n")
   endforeach()
   string(APPEND ns "}  // namespace threads\n")
 

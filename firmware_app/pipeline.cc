@@ -345,6 +345,8 @@ bool Pipeline::init_backend(std::string* error) {
   if (thread_budget == nullptr)
     return *error = std::string("budget table ") + budgets::active::kTable.board + ": no 'backend' thread", false;
   backend_budget_us_ = thread_budget->budget_us;
+  door_pass_budget_us_ = thread_budget->part_budget_us;
+  finish_budget_us_ = thread_budget->finish_budget_us;
   if (!init_loop_closure(error)) return false;
   backend::BackendStage::Config bc;
   bc.rooms = config_.rooms;
@@ -382,6 +384,7 @@ bool Pipeline::init_backend(std::string* error) {
 // the detection under neither.
 void Pipeline::run_door_pass(const Eigen::Vector3d& robot_m) {
   const auto start = std::chrono::steady_clock::now();
+  const std::int64_t c0 = thread_cpu_us();
   backend_.begin_door_pass(robot_m);
   {
     std::lock_guard<std::mutex> lock(graph_mutex_);
@@ -391,7 +394,12 @@ void Pipeline::run_door_pass(const Eigen::Vector3d& robot_m) {
     std::lock_guard<std::mutex> lock(wall_mutex_);
     backend_.rasterize_walls();
   }
-  if (!backend_.detect_doors().ran) return;
+  const bool ran = backend_.detect_doors().ran;
+  {
+    std::lock_guard<std::mutex> lock(backend_stats_mutex_);
+    door_pass_cpu_.record(thread_cpu_us() - c0, door_pass_budget_us_);
+  }
+  if (!ran) return;
   backend_.note_door_pass_us(static_cast<std::uint64_t>(
       std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::steady_clock::now() - start).count()));
 }
@@ -427,6 +435,16 @@ runtime::TaskStats Pipeline::backend_wall_stats() const {
 runtime::TaskStats Pipeline::backend_cpu_stats() const {
   std::lock_guard<std::mutex> lock(backend_stats_mutex_);
   return backend_cpu_;
+}
+
+runtime::TaskStats Pipeline::door_pass_cpu_stats() const {
+  std::lock_guard<std::mutex> lock(backend_stats_mutex_);
+  return door_pass_cpu_;
+}
+
+runtime::TaskStats Pipeline::finish_cpu_stats() const {
+  std::lock_guard<std::mutex> lock(backend_stats_mutex_);
+  return finish_cpu_;
 }
 
 runtime::QueueStats Pipeline::segmentation_queue_stats() const {
@@ -836,10 +854,16 @@ bool Pipeline::finish(std::string* error) {
       }
     }
   }
+  // The backend's final stage (doors on the whole surface, rooms and labels once more), timed against its budget.
+  const std::int64_t finish_c0 = thread_cpu_us();
   if (config_.doors_at_finish) close_doors(mesh);
   {
     std::lock_guard<std::mutex> lock(graph_mutex_);
-    backend_.update_rooms(&graph_, latest_keyframe_ns_);
+    backend_.update_rooms(&graph_, latest_keyframe_ns_, /*final=*/true);
+    {
+      std::lock_guard<std::mutex> stats_lock(backend_stats_mutex_);
+      finish_cpu_.record(thread_cpu_us() - finish_c0, finish_budget_us_);
+    }
     if (!reconcile) {
       correct_outputs(&mesh, &odometric);
       match_object_keys();

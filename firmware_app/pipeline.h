@@ -146,6 +146,11 @@ class Pipeline {
   // The backend thread's runs (room updates): wall time and the thread's CPU time against its thread budget.
   runtime::TaskStats backend_wall_stats() const;
   runtime::TaskStats backend_cpu_stats() const;
+  // Parts of the backend's work with budgets of their own (the table's backend thread: part_budget_us,
+  // finish_budget_us), on the CPU clock of the thread that ran them: the online door passes (inside the updates),
+  // and the final stage at finish() (doors on the whole surface, the last room update and labels).
+  runtime::TaskStats door_pass_cpu_stats() const;
+  runtime::TaskStats finish_cpu_stats() const;
   runtime::TelemetryWriterStats telemetry_stats() const { return telemetry_.stats(); }
   // Benchmarks: every backend update's and every segmentation run's CPU and wall microseconds. Before init().
   void set_thread_observers(SegmentationWorker::RunObserver backend, SegmentationWorker::RunObserver segmenter,
@@ -309,7 +314,11 @@ class Pipeline {
   mutable std::mutex backend_stats_mutex_;
   runtime::TaskStats backend_wall_;
   runtime::TaskStats backend_cpu_;
+  runtime::TaskStats door_pass_cpu_;
+  runtime::TaskStats finish_cpu_;
   std::uint32_t backend_budget_us_ = 0;
+  std::uint32_t door_pass_budget_us_ = 0;
+  std::uint32_t finish_budget_us_ = 0;
   SegmentationWorker::RunObserver backend_observer_ = nullptr;
   void* backend_observer_user_ = nullptr;
   // Telemetry lines go through a bounded queue to a writer thread: the loop never blocks on its output.

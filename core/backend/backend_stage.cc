@@ -145,13 +145,15 @@ BackendStage::FinalDoors BackendStage::close_doors(const reconstruction::Mesh& m
 // ---------------------------------------------------------------------------------------------------------
 // Rooms and labels
 
-rooms::UpdateResult BackendStage::update_rooms(scene_graph::SceneGraph* graph, std::uint64_t time_ns) {
+rooms::UpdateResult BackendStage::update_rooms(scene_graph::SceneGraph* graph, std::uint64_t time_ns, bool final) {
   const bool online = online_doors_.initialized();
   // Sight lines: the final door stage's once it ran; during the run, the last online door pass's window.
   const rooms::WallSight* sight = final_sight_.slices() > 0 ? &final_sight_
                                   : online                   ? &online_doors_.sight()
                                                              : nullptr;
-  const rooms::UpdateResult r = rooms_.update(graph, time_ns, online ? &online_doors_.doors() : nullptr, sight);
+  const bool window = !final && final_sight_.slices() == 0;
+  const rooms::UpdateResult r =
+      rooms_.update(graph, time_ns, online ? &online_doors_.doors() : nullptr, sight, window);
   counters_.rooms_merged_visible.store(r.visible_merges);
   counters_.updates.fetch_add(1);
   counters_.rooms.store(r.rooms);
@@ -191,7 +193,15 @@ void BackendStage::label_rooms(scene_graph::SceneGraph* graph) {
     room_graph_.add_object(room, classifier_->word_index(static_cast<semantics::Label>(o->semantic_label), size),
                            o->position_m, size);
   });
+  // Room-room edges among every edge of the graph: when every room carries the room prefix (the room finder's do),
+  // an edge whose ends do not both carry it is skipped before the search among the rooms (same edges, same order).
+  bool prefixed = true;
+  for (int i = 0; i < rooms; ++i)
+    prefixed = prefixed && scene_graph::node_prefix(room_ids[i]) == scene_graph::kRoomPrefix;
   graph->for_each_edge([&](const scene_graph::EdgeRecord& e) {
+    if (prefixed && (scene_graph::node_prefix(e.source) != scene_graph::kRoomPrefix ||
+                     scene_graph::node_prefix(e.target) != scene_graph::kRoomPrefix))
+      return;
     const int a = index_of(e.source), b = index_of(e.target);
     if (a >= 0 && b >= 0) room_graph_.add_edge(a, b);
   });

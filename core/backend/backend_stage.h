@@ -116,6 +116,11 @@ class BackendStage {
   bool online_doors_enabled() const { return online_doors_.initialized(); }
   // Loop thread, holding the wall lock: re-meshed blocks into the wall map. Returns the blocks painted.
   std::uint64_t paint_walls(const reconstruction::SemanticTsdf& tsdf);
+  // One surface point into the wall map, for an evaluation that has a surface but no TSDF (bench/rooms/
+  // window_costs); false when the wall map refused it (full, or no online doors).
+  bool paint_wall_point(float x, float y, float z) {
+    return online_doors_.initialized() && online_doors_.wall_map().add(x, y, z);
+  }
   // True when this update is one that runs a door pass (every doors_online_every_n-th); counts the updates.
   bool door_pass_due();
   // One pass in three steps, so the caller can hold the right lock for each: the places (graph lock), the wall
@@ -127,7 +132,10 @@ class BackendStage {
   void note_door_pass_us(std::uint64_t us);  // the caller's timing of the whole pass (door_pass_max_us)
 
   // ---- Rooms, building and labels (graph lock held) ----
-  rooms::UpdateResult update_rooms(scene_graph::SceneGraph* graph, std::uint64_t time_ns);
+  // During the run (final false) the room finder reads the active window and the rooms holding it
+  // (rooms::Config::window_updates); the final update (final true, or any once the final door stage ran) the
+  // whole map.
+  rooms::UpdateResult update_rooms(scene_graph::SceneGraph* graph, std::uint64_t time_ns, bool final = false);
   // Doors on the final surface (graph lock held): they close the place edges through them and replace the online
   // ones; the sight lines they leave are the finder's from then on. On failure the rooms stay as the run found them.
   FinalDoors close_doors(const reconstruction::Mesh& mesh, scene_graph::SceneGraph* graph);

@@ -44,7 +44,7 @@ bool Frontend::init(const Config& config, std::string* error) {
   index_.set_name("frontend.active_places_index");
   all_places_index_.set_name("frontend.all_places_index");
   if (!index_.init(index_caps, NearestPlaceIndex::plan(index_caps).total_bytes(), error) ||
-      !all_places_index_.init(index_caps, NearestPlaceIndex::plan(index_caps).total_bytes(), error))
+      !all_places_index_.init(index_caps, IncrementalPlaceIndex::plan(index_caps).total_bytes(), error))
     return false;
   ready_ = true;
   return true;
@@ -97,12 +97,13 @@ void Frontend::connect_interlayer(scene_graph::SceneGraph* graph, const Eigen::V
                                   UpdateSummary* summary) {
   // Places were removed: their keyframes may have lost their place (the sweep below; connected ones only).
   if (summary->places_sync.nodes_removed > 0) orphan_checks_left_ = agents_connected_;
+  refresh_place_indices(*graph);
   // Objects out of the window among all places (also when no place is active, e.g. far from everything mapped).
   if (config_.reparent_untracked_every > 0 && ++cycles_since_reparent_ >= config_.reparent_untracked_every) {
     cycles_since_reparent_ = 0;
     reparent_untracked(graph, robot_m, summary);
   }
-  if (index_.rebuild(*graph, /*active_only=*/true) == 0) return;
+  if (index_.size() == 0) return;
   // Every object in the window (an object's nearest place changes as places appear around it), and the
   // keyframes added since the last refresh.
   connect_nodes_.clear();
@@ -133,6 +134,41 @@ void Frontend::connect_interlayer(scene_graph::SceneGraph* graph, const Eigen::V
   counters_.interlayer_failed += summary->connect.failed;
 }
 
+// Both indices from the window's published places (the places cycle bounds them, not the building): each goes
+// into the all-places index at its graph position (inserted or moved), and the active ones into the k-d tree. Places
+// that left the window stay in the all-places index where they were; those removed from the graph are skipped by
+// its queries and dropped by a bounded sweep, which also moves a place the graph moved (a loop-closure correction).
+void Frontend::refresh_place_indices(const scene_graph::SceneGraph& graph) {
+  struct Context {
+    const scene_graph::SceneGraph* graph;
+    NearestPlaceIndex* active;
+    IncrementalPlaceIndex* all;
+  } context{&graph, &index_, &all_places_index_};
+  index_.clear_points();
+  const std::uint64_t failed_before = all_places_index_.failed();
+  places_.for_each_published(
+      [](void* c, scene_graph::NodeId node, const Eigen::Vector3d&) {
+        Context& ctx = *static_cast<Context*>(c);
+        const scene_graph::PlaceAttributes* a = ctx.graph->place(node);
+        if (a == nullptr || !a->position_m.allFinite()) return;
+        ctx.all->upsert(node, a->position_m);
+        if (a->is_active) ctx.active->add_point(node, a->position_m);
+      },
+      &context);
+  index_.build_tree();
+  const auto check = [&](scene_graph::NodeId id, const Eigen::Vector3d& p, Eigen::Vector3d* to) {
+    const scene_graph::PlaceAttributes* a = graph.place(id);
+    if (a == nullptr || !a->position_m.allFinite()) return 1;
+    if (a->position_m == p) return 0;
+    *to = a->position_m;
+    return 2;
+  };
+  constexpr std::size_t kSweepPerCycle = 512;
+  all_places_index_.sweep(kSweepPerCycle, check);
+  // Full (removed places not swept yet hold slots): one whole sweep; the refused places come in next cycle.
+  if (all_places_index_.failed() != failed_before) all_places_index_.sweep(all_places_index_.capacity(), check);
+}
+
 void Frontend::reparent_untracked(scene_graph::SceneGraph* graph, const Eigen::Vector3d& robot_m,
                                   UpdateSummary* summary) {
   connect_nodes_.clear();
@@ -142,7 +178,7 @@ void Frontend::reparent_untracked(scene_graph::SceneGraph* graph, const Eigen::V
       connect_nodes_.push_back(o.node);
   });
   ++counters_.reparent_refreshes;
-  if (connect_nodes_.empty() || all_places_index_.rebuild(*graph, /*active_only=*/false) == 0) return;
+  if (connect_nodes_.empty() || all_places_index_.size() == 0) return;
   summary->reparent = connect_to_nearest_places(graph, all_places_index_, connect_nodes_.data(), connect_nodes_.size());
   counters_.objects_reparented += summary->reparent.connected;
   counters_.interlayer_failed += summary->reparent.failed;

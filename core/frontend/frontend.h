@@ -11,6 +11,7 @@
 #include <string>
 
 #include "core/agents/agent_layer.h"
+#include "core/frontend/incremental_place_index.h"
 #include "core/frontend/nearest_place_index.h"
 #include "core/memory/fixed_vector.h"
 #include "core/objects/object_layer.h"
@@ -115,8 +116,11 @@ class Frontend {
   places::Places places_;
   objects::ObjectLayer objects_;
   agents::AgentLayer agents_;
+  // The active places' k-d tree, rebuilt every cycle from the window's published places (not from a scan of the
+  // building), and every place, active or not, kept place by place (reparent_untracked).
   NearestPlaceIndex index_;
-  NearestPlaceIndex all_places_index_;  // every place, active or not (reparent_untracked)
+  IncrementalPlaceIndex all_places_index_;
+  void refresh_place_indices(const scene_graph::SceneGraph& graph);
   std::uint32_t cycles_since_reparent_ = 0;
   memory::FixedVector<scene_graph::NodeId, 8192> connect_nodes_{"frontend.connect_nodes"};
   std::size_t agents_connected_ = 0;  // keyframes [0, agents_connected_) were given their place edge

@@ -5,6 +5,7 @@
 #include <cstring>
 #include <limits>
 
+#include "core/frontend/incremental_place_index.h"
 #include "core/scene_graph/scene_graph.h"
 
 namespace qsg::frontend {
@@ -107,6 +108,26 @@ std::size_t NearestPlaceIndex::rebuild(const scene_graph::SceneGraph& graph, boo
   return size_;
 }
 
+bool NearestPlaceIndex::add_point(scene_graph::NodeId id, const Eigen::Vector3d& position) {
+  if (!position.allFinite()) return false;
+  if (size_ == capacity_) {
+    ++dropped_;
+    return false;
+  }
+  Point& p = points_[size_++];
+  p.p[0] = position.x();
+  p.p[1] = position.y();
+  p.p[2] = position.z();
+  p.id = id;
+  return true;
+}
+
+std::size_t NearestPlaceIndex::build_tree() {
+  build(0, static_cast<std::uint32_t>(size_));
+  high_water_ = std::max(high_water_, size_);
+  return size_;
+}
+
 // The k best so far, sorted by squared distance (insertion into a tiny array beats a heap at k <= 16).
 struct NearestPlaceIndex::Best {
   std::size_t k = 1;
@@ -172,8 +193,11 @@ std::size_t free_adjacency_chunks(const scene_graph::SceneGraph& graph) {
 }
 }  // namespace
 
-ConnectStats connect_to_nearest_places(scene_graph::SceneGraph* graph, const NearestPlaceIndex& index,
-                                       const scene_graph::NodeId* nodes, std::size_t count) {
+namespace {
+// find(position, k, out) -> the k nearest candidates.
+template <typename Find>
+ConnectStats connect_nodes(scene_graph::SceneGraph* graph, Find&& find, const scene_graph::NodeId* nodes,
+                           std::size_t count) {
   ConnectStats stats;
   if (graph == nullptr || nodes == nullptr) return stats;
   for (std::size_t i = 0; i < count; ++i) {
@@ -186,7 +210,7 @@ ConnectStats connect_to_nearest_places(scene_graph::SceneGraph* graph, const Nea
       continue;
     }
     PlaceNeighbor candidates[kParentCandidates];
-    const std::size_t found = index.nearest(position, kParentCandidates, candidates);
+    const std::size_t found = find(position, kParentCandidates, candidates);
     PlaceNeighbor nearest;
     double best_gap = std::numeric_limits<double>::infinity();
     for (std::size_t c = 0; c < found; ++c) {
@@ -224,6 +248,26 @@ ConnectStats connect_to_nearest_places(scene_graph::SceneGraph* graph, const Nea
     ++stats.connected;
   }
   return stats;
+}
+
+}  // namespace
+
+ConnectStats connect_to_nearest_places(scene_graph::SceneGraph* graph, const NearestPlaceIndex& index,
+                                       const scene_graph::NodeId* nodes, std::size_t count) {
+  return connect_nodes(
+      graph, [&](const Eigen::Vector3d& q, std::size_t k, PlaceNeighbor* out) { return index.nearest(q, k, out); },
+      nodes, count);
+}
+
+ConnectStats connect_to_nearest_places(scene_graph::SceneGraph* graph, const IncrementalPlaceIndex& index,
+                                       const scene_graph::NodeId* nodes, std::size_t count) {
+  if (graph == nullptr) return ConnectStats{};
+  const scene_graph::SceneGraph& g = *graph;
+  const auto in_graph = [&g](scene_graph::NodeId id) { return g.place(id) != nullptr; };
+  return connect_nodes(
+      graph,
+      [&](const Eigen::Vector3d& q, std::size_t k, PlaceNeighbor* out) { return index.nearest(q, k, out, in_graph); },
+      nodes, count);
 }
 
 }  // namespace qsg::frontend

@@ -46,6 +46,12 @@ class NearestPlaceIndex {
   // Rebuilds over given points (ids may be null: then the id of point i is i).
   std::size_t rebuild(const Eigen::Vector3d* points, const scene_graph::NodeId* ids, std::size_t n);
 
+  // A rebuild point by point (no staging copy): clear_points(), add_point() for each (false and counted under
+  // dropped when full, or refused when not finite), then build_tree(). Returns the number indexed.
+  void clear_points() { size_ = 0; }
+  bool add_point(scene_graph::NodeId id, const Eigen::Vector3d& p);
+  std::size_t build_tree();
+
   // The k (<= kMaxK) nearest points to q, nearest first; returns how many were written.
   std::size_t nearest(const Eigen::Vector3d& q, std::size_t k, PlaceNeighbor* out) const;
 
@@ -90,6 +96,11 @@ struct ConnectStats {
 // place of an object by a wall is often the one just behind the wall, in the next room.
 constexpr std::size_t kParentCandidates = 8;
 ConnectStats connect_to_nearest_places(scene_graph::SceneGraph* graph, const NearestPlaceIndex& index,
+                                       const scene_graph::NodeId* nodes, std::size_t count);
+// The same over the incremental index (incremental_place_index.h), among the places still in the graph (the index
+// may hold a removed place until its sweep drops it).
+class IncrementalPlaceIndex;
+ConnectStats connect_to_nearest_places(scene_graph::SceneGraph* graph, const IncrementalPlaceIndex& index,
                                        const scene_graph::NodeId* nodes, std::size_t count);
 
 }  // namespace qsg::frontend

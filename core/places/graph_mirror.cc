@@ -47,6 +47,15 @@ bool Places::add_repair_edge(scene_graph::SceneGraph* graph, scene_graph::NodeId
   return false;
 }
 
+void Places::for_each_published(void (*fn)(void*, scene_graph::NodeId, const Eigen::Vector3d&),
+                                void* context) const {
+  for (std::uint32_t h = 0; h < clusters_.capacity(); ++h) {
+    if (!clusters_.live(h)) continue;
+    const Cluster& c = clusters_[h];
+    if (c.state == kLive && c.synced) fn(context, c.node, c.position_m);
+  }
+}
+
 // The spine of the mirror: retired places first (inactive or removed, with the repairs a removal needs), then
 // nodes (so every edge finds both ends), then edges, then the passes on the graph: revisit merging and relinks.
 SyncResult Places::sync(scene_graph::SceneGraph* graph) {

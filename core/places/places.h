@@ -343,6 +343,10 @@ class Places {
   bool cycle_in_progress() const { return phase_ != 0; }
   double voxel_size_m() const { return voxel_m_; }
   std::size_t num_places() const { return clusters_live_; }  // live places, with those held as enclosed pockets
+  // The live places whose node is in the scene graph (the active window's, held pockets included): fn(context,
+  // node, position) for each, in cluster order. Bounded by the window's cluster store, not the building.
+  void for_each_published(void (*fn)(void* context, scene_graph::NodeId node, const Eigen::Vector3d& position_m),
+                          void* context) const;
   std::size_t num_place_edges() const;
   MemoryUse memory_use() const;
 

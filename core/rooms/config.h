@@ -77,6 +77,13 @@ struct Config {
   double split_min_persistence_m = 0.5;
   std::uint32_t split_min_component_size = 6;
   std::uint64_t building_index = 0;  // the building node is make_node_id('B', building_index)
+  // Updates during a run (RoomFinder::update with window true) read only the active window: the active places, the
+  // places of the rooms that hold one, and the places without a room. Rooms that hold no active place stay as they
+  // were (their nodes and edges untouched) until the robot comes back; the final update reads the whole map. So an
+  // update costs what the window and its rooms hold, not the building (issue 37). Room ids follow the graph's
+  // room-place edges (the room a new room shares most places with) in every update. Off: every update reads the
+  // whole graph (the paper's rooms, its footnote: "it still operates on the entire graph").
+  bool window_updates = true;
 
   static Config paper();              // the paper's method and numbers: kPlateau, 15 places, alpha 0.5, no split
   std::size_t curve_samples() const;  // samples of the Betti curve (d-, d- + step, ..., d+)

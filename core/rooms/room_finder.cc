@@ -56,6 +56,8 @@ memory::ArenaPlan RoomFinder::plan(const Config& config, const Capacities& c) {
   p.add_array<std::uint8_t>(c.rooms);
   Workspace::plan(&p, c.places, c.place_edges, c.rooms);
   refine::Refinements::plan(&p, c);
+  Map::plan(p, Map::slots_for(c.rooms));
+  p.add_array<Boundary>(c.places);
   return p;
 }
 
@@ -98,6 +100,9 @@ bool RoomFinder::init(const Config& config, const Capacities& c, std::size_t bud
        previous_ids_ && previous_taken_ && saved_ && saved_valid_;
   ok = ws_.carve(arena_, c.places, c.place_edges, c.rooms) && ok;
   ok = refine_.carve(arena_, c) && ok;
+  ok = room_slot_.carve(arena_, Map::slots_for(c.rooms), c.rooms) && ok;
+  boundary_ = arena_.carve_array<Boundary>(c.places);
+  ok = ok && boundary_ != nullptr;
   arena_.align_to_plan_boundary();
   if (!ok || !arena_.seal()) {
     if (error != nullptr) *error = "rooms: arena carve did not match its plan";
@@ -141,7 +146,7 @@ UpdateResult RoomFinder::no_rooms(sg::SceneGraph* graph, Outcome outcome, Update
 }
 
 UpdateResult RoomFinder::update(sg::SceneGraph* graph, std::uint64_t time_ns, const ClosedPassages* doors,
-                                const SightLines* sight) {
+                                const SightLines* sight, bool window) {
   UpdateResult r;
   if (!ready_) return r;
   if (graph == nullptr || !graph->initialized()) {
@@ -150,11 +155,19 @@ UpdateResult RoomFinder::update(sg::SceneGraph* graph, std::uint64_t time_ns, co
   }
   ++counters_.updates;
   if (sight != nullptr && sight->slices() == 0) sight = nullptr;  // no structure: nothing to close or see
+  window_ = window && config_.window_updates;
+  r.window = window_;
   read_places(*graph, doors, config_.close_edges_through_walls ? sight : nullptr, &r);
   counters_.truncated += r.truncated;
+  if (window_ && num_places_ == 0) {  // nothing in the window: every room stays as it is
+    finish_window(graph, time_ns, &r);
+    r.outcome = Outcome::kOk;
+    return r;
+  }
   // The paper: the filtration's Betti curve and its plateau (filtration.cc).
   compute_curve();
   const int chosen = num_places_ == 0 ? -1 : choose_plateau(curve_, curve_size_, config_.plateau_alpha);
+  if (chosen < 0 && window_) return window_without_rooms(graph, time_ns, r);
   if (chosen < 0) return no_rooms(graph, num_places_ == 0 ? Outcome::kNoPlaces : Outcome::kNoRooms, r);
   r.dilation_m = dilation_at(static_cast<std::size_t>(chosen));
   r.betti_at_dilation = curve_[chosen];
@@ -162,6 +175,7 @@ UpdateResult RoomFinder::update(sg::SceneGraph* graph, std::uint64_t time_ns, co
   std::size_t rooms =
       config_.seeding == Seeding::kPersistence ? seed_by_persistence(&r) : seed_rooms(r.dilation_m, &r);
   if (config_.seed_closed_regions) rooms = seed_closed_regions(rooms, &r);
+  if (rooms == 0 && window_) return window_without_rooms(graph, time_ns, r);
   if (rooms == 0) return no_rooms(graph, Outcome::kNoRooms, r);
   // The paper's flood fill: the other places join the room whose frontier reaches them through the clearest edge.
   const PlacesGraph g = places();
@@ -188,14 +202,20 @@ void RoomFinder::read_places(const sg::SceneGraph& graph, const ClosedPassages* 
   index_.clear();
   num_places_ = 0;
   num_edges_ = 0;
-  graph.for_each_node([&](const sg::NodeRecord& n) {
-    if (n.kind != sg::NodeKind::kPlace) return;
-    if (num_places_ == capacities_.places) {
-      ++r->truncated;
-      return;
-    }
-    place_ids_[num_places_++] = n.id;
-  });
+  num_boundary_ = 0;
+  if (window_) {
+    collect_window(graph, r);
+  } else {
+    if (config_.window_updates) collect_all_rooms(graph);  // every room may be taken over
+    graph.for_each_node([&](const sg::NodeRecord& n) {
+      if (n.kind != sg::NodeKind::kPlace) return;
+      if (num_places_ == capacities_.places) {
+        ++r->truncated;
+        return;
+      }
+      place_ids_[num_places_++] = n.id;
+    });
+  }
   std::sort(place_ids_, place_ids_ + num_places_);
   for (std::uint32_t i = 0; i < num_places_; ++i) {
     const sg::PlaceAttributes* a = graph.place(place_ids_[i]);
@@ -211,6 +231,7 @@ void RoomFinder::read_places(const sg::SceneGraph& graph, const ClosedPassages* 
     const std::size_t first = num_edges_;
     graph.for_each_neighbor(place_ids_[i], [&](sg::NodeId other, const sg::EdgeRecord& e) {
       const std::uint32_t* j = index_.find(other);
+      if (j == nullptr && window_) note_boundary(graph, i, other, r);  // a kept room's place, perhaps
       if (j == nullptr || *j <= i) return;  // not a (read) place, or counted from the other end
       if (num_edges_ == capacities_.place_edges) {
         ++r->truncated;

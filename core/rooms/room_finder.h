@@ -69,6 +69,9 @@ struct UpdateResult {
   std::size_t visible_touching_dropped = 0;  // ... beyond the finder's room for them (Capacities::places); 1 when
                                              // the map was too large in cells to look through (none found)
   std::size_t edges_through_walls = 0;  // close_edges_through_walls: open edges read as closed (in closed_edges too)
+  bool window = false;                  // read the window only (Config::window_updates)
+  std::size_t rooms_open = 0;           // window: rooms holding an active place (replaced by this update)
+  std::size_t boundary_edges = 0;       // window: place edges from the window to a kept room's places
 };
 
 struct Counters {
@@ -107,8 +110,9 @@ class RoomFinder {
   // With `sight` (the final door stage's sight lines, or the online door window's), a place edge through a long
   // wall is read as closed too (Config::close_edges_through_walls), and with whole-map sight lines rooms that see
   // each other are merged last (Config::merge_visible). Never allocates.
+  // window (with Config::window_updates): reads and replaces only the window's rooms (core/rooms/window.cc).
   UpdateResult update(scene_graph::SceneGraph* graph, std::uint64_t time_ns = 0, const ClosedPassages* doors = nullptr,
-                      const SightLines* sight = nullptr);
+                      const SightLines* sight = nullptr, bool window = false);
 
   // The Betti curve of the last update: value i at dilation_at(i) (ascending), curve_size() samples.
   std::size_t curve_size() const { return curve_size_; }
@@ -131,6 +135,7 @@ class RoomFinder {
     fn(arena_.stats());
     fn(index_.stats());
     fn(previous_.stats());
+    fn(room_slot_.stats());
   }
 
   struct Match {  // a new room's places in a previous room
@@ -150,6 +155,13 @@ class RoomFinder {
   // room_finder.cc: reading the places graph.
   void read_places(const scene_graph::SceneGraph& graph, const ClosedPassages* doors, const SightLines* sight,
                    UpdateResult* r);
+  // window.cc: the window's places and open rooms; rooms matched by the graph's room-place edges.
+  void collect_window(const scene_graph::SceneGraph& graph, UpdateResult* r);
+  void collect_all_rooms(const scene_graph::SceneGraph& graph);
+  void note_boundary(const scene_graph::SceneGraph& g, std::uint32_t place, scene_graph::NodeId other, UpdateResult* r);
+  bool previous_room_of(const scene_graph::SceneGraph& graph, std::uint32_t place, std::uint32_t* previous) const;
+  void finish_window(scene_graph::SceneGraph* graph, std::uint64_t time_ns, UpdateResult* r);
+  UpdateResult window_without_rooms(scene_graph::SceneGraph* graph, std::uint64_t time_ns, UpdateResult r);
   void build_adjacency();
   // filtration.cc: the paper's filtration, Betti curve and plateau seeds.
   void compute_curve();
@@ -184,6 +196,15 @@ class RoomFinder {
   memory::FixedHashMap<scene_graph::NodeId, std::uint32_t, memory::U64Hash> index_{"rooms.place_index"};
   // Place -> slot of its room in the previous update (for stable room ids).
   memory::FixedHashMap<scene_graph::NodeId, std::uint32_t, memory::U64Hash> previous_{"rooms.previous_rooms"};
+  // Config::window_updates: room id -> its slot among this update's previous rooms (the open ones, or all).
+  memory::FixedHashMap<scene_graph::NodeId, std::uint32_t, memory::U64Hash> room_slot_{"rooms.window_rooms"};
+  struct Boundary {  // a place edge from window place `place` to a place of kept room `room`
+    std::uint32_t place;
+    scene_graph::NodeId room;
+  };
+  Boundary* boundary_ = nullptr;  // capacity: capacities_.places
+  std::size_t num_boundary_ = 0;
+  bool window_ = false;  // this update reads the window only
 
   // Places of this update (local index i < num_places_).
   scene_graph::NodeId* place_ids_ = nullptr;

@@ -18,9 +18,9 @@ void RoomFinder::assign_ids(const sg::SceneGraph& graph, std::size_t num_rooms, 
   std::size_t n = 0;
   for (std::uint32_t i = 0; i < num_places_; ++i) {
     if (room_of_[i] < 0) continue;
-    const std::uint32_t* prev = previous_.find(place_ids_[i]);
-    if (prev == nullptr || *prev >= num_previous_ || previous_ids_[*prev] == sg::kNoNode) continue;
-    ws_.pairs[n++] = (static_cast<std::uint64_t>(room_of_[i]) << 32) | *prev;
+    std::uint32_t prev = 0;
+    if (!previous_room_of(graph, i, &prev) || prev >= num_previous_ || previous_ids_[prev] == sg::kNoNode) continue;
+    ws_.pairs[n++] = (static_cast<std::uint64_t>(room_of_[i]) << 32) | prev;
   }
   std::sort(ws_.pairs, ws_.pairs + n);
   std::size_t num_matches = 0;
@@ -117,7 +117,9 @@ void RoomFinder::write_rooms(sg::SceneGraph* graph, std::size_t num_rooms, std::
   accumulate_rooms(num_rooms);
   Eigen::Vector3d centroid_sum = Eigen::Vector3d::Zero();
   const std::size_t written = write_room_nodes(graph, num_rooms, time_ns, &centroid_sum, r);
-  const bool have_building = write_building(graph, written, centroid_sum, time_ns, r);
+  // A window update's building spans the kept rooms too: finish_window writes it.
+  const bool have_building = window_ ? building_written_ && graph->building(building_id_) != nullptr
+                                     : write_building(graph, written, centroid_sum, time_ns, r);
   write_edges(graph, num_rooms, have_building, r);
 
   // Remember this update's rooms for the next one's ids.
@@ -127,6 +129,10 @@ void RoomFinder::write_rooms(sg::SceneGraph* graph, std::size_t num_rooms, std::
       previous_.insert(place_ids_[i], static_cast<std::uint32_t>(room_of_[i]));
   std::copy(room_ids_, room_ids_ + num_rooms, previous_ids_);
   num_previous_ = num_rooms;
+  if (window_) {
+    finish_window(graph, time_ns, r);  // edges to the kept rooms, the building; the room list is every room
+    return;
+  }
   num_rooms_ = 0;
   for (std::size_t s = 0; s < num_rooms; ++s)
     if (room_ids_[s] != sg::kNoNode) room_ids_[num_rooms_++] = room_ids_[s];

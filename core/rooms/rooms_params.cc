@@ -68,6 +68,9 @@ const params::Table<Config>& params_table() {
            "rooms are adjacent also where free-space spheres of their places touch in sight");
     t.add("visible_touch_max_clearance_m", &Config::visible_touch_max_clearance_m, "m", above(0, 100), refinement,
           "... a sphere counting at most this radius");
+    // Cost.
+    t.flag("window_updates", &Config::window_updates, project,
+           "updates during the run read the active places and their rooms; other rooms stay until revisited");
     // Outputs.
     t.add("building_index", &Config::building_index, "", in(0, static_cast<double>(scene_graph::kIndexMask)), project,
           "the building node is make_node_id('B', building_index)");

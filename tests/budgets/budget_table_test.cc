@@ -212,6 +212,11 @@ TEST(BudgetTableTest, EveryBoardBudgetsTheWorkerThreads) {
       ASSERT_NE(b, nullptr) << t->board << ": no thread budget '" << name << "'";
       EXPECT_GT(b->budget_us, 0u) << t->board << "." << name;
     }
+    // The backend's door pass is a budgeted part of its update, and its final stage has a budget of its own.
+    const ThreadBudget* backend = t->find_thread("backend");
+    EXPECT_GT(backend->part_budget_us, 0u) << t->board << ": the online door pass";
+    EXPECT_LT(backend->part_budget_us, backend->budget_us) << t->board << ": the door pass is part of an update";
+    EXPECT_GT(backend->finish_budget_us, 0u) << t->board << ": the final stage";
     EXPECT_GE(t->find_thread("segmentation")->every_n_keyframes, 1u) << t->board;
     EXPECT_LE(t->find_thread("segmentation")->every_n_keyframes, 5u) << t->board << ": the paper's 1 Hz at 5 Hz keyframes";
     const QueueBudget* slots = nullptr;

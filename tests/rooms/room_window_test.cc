@@ -1,0 +1,172 @@
+// RoomFinder's window updates (Config::window_updates): an update during the run reads the active places and the
+// rooms holding them and leaves the other rooms as they are, with their edges, until the robot comes back; the
+// whole update after it finds what a fresh finder finds; no heap allocation.
+#include <gtest/gtest.h>
+
+#include <map>
+#include <memory>
+#include <set>
+
+#include "core/rooms/room_finder.h"
+#include "tests/rooms/synthetic_places.h"
+#include "tests/support/allocation_counter.h"
+
+namespace qsg::rooms {
+namespace {
+
+namespace sg = scene_graph;
+using testing::SyntheticPlaces;
+
+sg::Capacities capacities() {
+  sg::Capacities c;
+  c.object_nodes = 16;
+  c.agent_nodes = 16;
+  c.place_nodes = 4096;
+  c.room_nodes = 64;
+  c.building_nodes = 2;
+  c.edges = 32768;
+  c.adjacency_chunks = 16384;
+  c.mesh_connections = 16;
+  return c;
+}
+
+std::unique_ptr<sg::SceneGraph> make_graph(const SyntheticPlaces& s) {
+  auto g = std::make_unique<sg::SceneGraph>();
+  std::string error;
+  EXPECT_TRUE(g->init(capacities(), sg::SceneGraph::plan(capacities()).total_bytes(), &error)) << error;
+  EXPECT_TRUE(s.write(g.get()));
+  return g;
+}
+
+std::unique_ptr<RoomFinder> make_finder(bool window_updates) {
+  auto f = std::make_unique<RoomFinder>();
+  Config config;
+  config.window_updates = window_updates;
+  std::string error;
+  EXPECT_TRUE(f->init(config, Capacities::from_scene_graph(capacities()), 0, &error)) << error;
+  return f;
+}
+
+// Ground-truth tag -> the rooms its places are in.
+std::map<int, std::set<sg::NodeId>> rooms_by_tag(const sg::SceneGraph& g, const SyntheticPlaces& s) {
+  std::map<int, std::set<sg::NodeId>> out;
+  for (const auto& p : s.places)
+    if (p.room >= 0) out[p.room].insert(g.parent(p.id));
+  return out;
+}
+
+// Rooms as sets of places (ids aside), for comparing two partitions.
+std::set<std::set<sg::NodeId>> partition(const sg::SceneGraph& g, const SyntheticPlaces& s) {
+  std::map<sg::NodeId, std::set<sg::NodeId>> by_room;
+  for (const auto& p : s.places)
+    if (g.parent(p.id) != sg::kNoNode) by_room[g.parent(p.id)].insert(p.id);
+  std::set<std::set<sg::NodeId>> out;
+  for (auto& [room, places] : by_room) out.insert(places);
+  return out;
+}
+
+TEST(RoomWindowTest, KeepsRoomsAwayFromTheRobotUntilItComesBack) {
+  SyntheticPlaces s;
+  testing::corridor_plan(4, 0.5).add_to(&s, 1.0, Eigen::Vector2d::Zero(), 1.25);
+  auto g = make_graph(s);
+  auto finder = make_finder(true);
+  const UpdateResult first = finder->update(g.get(), 1, nullptr, nullptr, /*window=*/true);
+  ASSERT_EQ(first.outcome, Outcome::kOk);
+  ASSERT_EQ(first.rooms, 9u);  // 8 rooms and the corridor
+  const auto before = rooms_by_tag(*g, s);
+  for (const auto& [tag, rooms] : before) ASSERT_EQ(rooms.size(), 1u) << "tag " << tag;
+
+  // The robot at the west end: the places east of x = 9 m left the window; rooms 5-8 (x > 9 m) hold none.
+  const double cut_m = 9.0;
+  for (const auto& p : s.places) g->place(p.id)->is_active = p.position_m.x() < cut_m;
+  // A passage closed inside an east room (tag 7): a whole update would split that room, a window update does
+  // not read it.
+  int closed = 0;
+  for (const auto& e : s.edges) {
+    const auto &a = s.places[e.a], &b = s.places[e.b];
+    if (a.room != 7 || b.room != 7) continue;
+    if ((a.position_m.x() < 15.0) != (b.position_m.x() < 15.0)) {
+      sg::EdgeAttributes info;
+      info.weight = 0.0;
+      info.weighted = true;
+      ASSERT_TRUE(g->remove_edge(a.id, b.id));
+      ASSERT_EQ(g->add_edge(a.id, b.id, info), sg::Status::kOk);
+      ++closed;
+    }
+  }
+  ASSERT_GT(closed, 0);
+
+  UpdateResult r;
+  EXPECT_NO_ALLOCATIONS(r = finder->update(g.get(), 2, nullptr, nullptr, /*window=*/true));
+  EXPECT_EQ(r.outcome, Outcome::kOk);
+  EXPECT_TRUE(r.window);
+  EXPECT_LT(r.places, s.places.size()) << "the window update read every place";
+  EXPECT_LT(r.rooms_open, 9u);
+  EXPECT_GT(r.boundary_edges, 0u);
+  EXPECT_EQ(r.rooms, 9u);
+  const auto kept = rooms_by_tag(*g, s);
+  EXPECT_EQ(kept, before) << "rooms changed: the kept ones must stay, the window's keep their ids";
+  // Every room is the building's child, and the corridor still touches every room.
+  const sg::NodeId building = finder->building_id();
+  ASSERT_NE(building, sg::kNoNode);
+  const sg::NodeId corridor = *before.at(0).begin();
+  for (const auto& [tag, rooms] : before) {
+    EXPECT_EQ(g->parent(*rooms.begin()), building) << "tag " << tag;
+    if (tag != 0) {
+      EXPECT_TRUE(g->has_edge(corridor, *rooms.begin())) << "corridor - room " << tag;
+    }
+  }
+  // East rooms are inactive; the corridor (robot inside) active.
+  EXPECT_FALSE(g->room(*before.at(7).begin())->is_active);
+  EXPECT_TRUE(g->room(corridor)->is_active);
+
+  // The robot comes back east: room 7 opens again and its closed passage splits it.
+  for (const auto& p : s.places) g->place(p.id)->is_active = p.position_m.x() >= cut_m;
+  r = finder->update(g.get(), 3, nullptr, nullptr, /*window=*/true);
+  EXPECT_EQ(r.outcome, Outcome::kOk);
+  EXPECT_EQ(rooms_by_tag(*g, s).at(7).size(), 2u) << "room 7 was not read again";
+
+  // The whole update (the run's last) partitions as a fresh finder does on the same graph.
+  const UpdateResult whole = finder->update(g.get(), 4);
+  EXPECT_FALSE(whole.window);
+  EXPECT_EQ(whole.places, s.places.size());
+  const auto windowed = partition(*g, s);
+  auto g2 = make_graph(s);
+  for (const auto& e : s.edges) {  // the same closed passage
+    const auto &a = s.places[e.a], &b = s.places[e.b];
+    if (a.room == 7 && b.room == 7 && (a.position_m.x() < 15.0) != (b.position_m.x() < 15.0)) {
+      sg::EdgeAttributes info;
+      info.weight = 0.0;
+      info.weighted = true;
+      g2->remove_edge(a.id, b.id);
+      g2->add_edge(a.id, b.id, info);
+    }
+  }
+  for (const auto& p : s.places) g2->place(p.id)->is_active = g->place(p.id)->is_active;
+  auto fresh = make_finder(false);
+  ASSERT_EQ(fresh->update(g2.get(), 4).outcome, Outcome::kOk);
+  EXPECT_EQ(windowed, partition(*g2, s));
+}
+
+TEST(RoomWindowTest, EmptyWindowKeepsEveryRoomAndWindowOffReadsEverything) {
+  SyntheticPlaces s;
+  testing::corridor_plan(2, 0.5).add_to(&s, 1.0, Eigen::Vector2d::Zero(), 1.25);
+  auto g = make_graph(s);
+  auto finder = make_finder(true);
+  ASSERT_EQ(finder->update(g.get(), 1, nullptr, nullptr, true).rooms, 5u);
+  const auto before = rooms_by_tag(*g, s);
+  for (const auto& p : s.places) g->place(p.id)->is_active = false;  // the robot went elsewhere (no place active)
+  const UpdateResult r = finder->update(g.get(), 2, nullptr, nullptr, true);
+  EXPECT_EQ(r.outcome, Outcome::kOk);
+  EXPECT_EQ(r.places, 0u);
+  EXPECT_EQ(r.rooms, 5u);
+  EXPECT_EQ(rooms_by_tag(*g, s), before);
+  // With window_updates off, a window update is a whole one.
+  auto off = make_finder(false);
+  const UpdateResult w = off->update(g.get(), 3, nullptr, nullptr, true);
+  EXPECT_FALSE(w.window);
+  EXPECT_EQ(w.places, s.places.size());
+}
+
+}  // namespace
+}  // namespace qsg::rooms
