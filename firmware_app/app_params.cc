@@ -17,6 +17,7 @@ using params::at_least;
 using params::in;
 constexpr auto paper = params::Origin::kPaper;
 constexpr auto project = params::Origin::kProject;
+constexpr auto refinement = params::Origin::kRefinement;
 // Times become int64 nanoseconds: 10^9 s ("never" in tests and benchmarks) keeps them from overflow.
 constexpr double kMaxTime_s = 1e9;
 
@@ -117,6 +118,8 @@ params::Table<AppConfig::LoopClosure> loop_closure_table() {
                "objects similarity a candidate must reach to be verified");
   detector.add("min_time_separation_s", &D::min_time_separation_s, "s", any(), project,
                "candidates at least this much older");
+  detector.add("min_path_separation_m", &D::min_path_separation_m, "m", in(0, 1000), project,
+               "candidates at least this much path behind");
   detector.add("ratio", &D::ratio, "", any(), project, "ratio test against the best candidate");
   detector.flag("propose_unrefined_objects", &D::propose_unrefined_objects, project,
                 "object registrations ICP could not refine are proposed too");
@@ -129,7 +132,24 @@ params::Table<AppConfig::LoopClosure> loop_closure_table() {
   params::Table<backend::DeformationConfig> deformation;
   deformation.add("sigma_position_m", &backend::DeformationConfig::sigma_position_m, "m", any(), project,
                   "the deformation graph's relative-position edges");
+  using G = backend::AgentGraphConfig;
+  params::Table<G> agents_graph;
+  agents_graph.choice("odometry_weighting", &G::odometry_weighting,
+                      {{"per_distance", backend::OdometryWeighting::kPerDistance},
+                       {"covariance_growth", backend::OdometryWeighting::kCovarianceGrowth}},
+                      refinement,
+                      "odometry edges: a random walk per metre in each node's frame, or the growth of the reported "
+                      "world-frame covariance (bench/results/loop_closure.md)");
+  agents_graph.add("odometry_sigma_t_m_per_sqrt_m", &G::sigma_t_m_per_sqrt_m, "m", above(0, 10), refinement,
+                   "per_distance: translation random walk per sqrt(m) of path");
+  agents_graph.add("odometry_sigma_yaw_rad_per_sqrt_m", &G::sigma_yaw_rad_per_sqrt_m, "rad", above(0, 10), refinement,
+                   "per_distance: rotation about the vertical per sqrt(m)");
+  agents_graph.add("odometry_sigma_tilt_rad_per_sqrt_m", &G::sigma_tilt_rad_per_sqrt_m, "rad", above(0, 10),
+                   refinement, "per_distance: roll and pitch per sqrt(m)");
+  deformation.include(agents_graph, [](backend::DeformationConfig& d) -> G& { return d.agents; });
   t.include(deformation, [](C& c) -> backend::DeformationConfig& { return c.deformation; });
+  t.flag("odometry_sigmas_from_source", &C::odometry_sigmas_from_source, refinement,
+         "per_distance odometry edges take the source's own noise model when it has one (sim_drift's sigmas)");
   t.flag("reconcile", &C::reconcile, paper,
          "after the final correction: objects re-boxed from the corrected mesh, revisits merged, final doors and "
          "rooms on the corrected map (off: found as mapped and moved; bench/results/loop_closure.md)");

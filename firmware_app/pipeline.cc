@@ -355,6 +355,14 @@ bool Pipeline::init_backend(std::string* error) {
   bc.doors_online_every_n = config_.doors_online_every_n;
   bc.room_weights_path = config_.room_weights_path;
   bc.loop_closure = config_.loop_closure;
+  // The odometry edges' noise model: the simulator's drifting odometry states its own (its sigmas per sqrt(m)).
+  if (config_.loop_closure.odometry_sigmas_from_source && odometry_.kind() == OdometrySourceKind::kSimDrift) {
+    backend::AgentGraphConfig& g = bc.loop_closure.deformation.agents;
+    if (config_.odometry.translation_sigma_m_per_sqrt_m > 0.0)
+      g.sigma_t_m_per_sqrt_m = config_.odometry.translation_sigma_m_per_sqrt_m;
+    if (config_.odometry.yaw_sigma_rad_per_sqrt_m > 0.0)
+      g.sigma_yaw_rad_per_sqrt_m = config_.odometry.yaw_sigma_rad_per_sqrt_m;
+  }
   // The labels the objects can carry, so that the classifier uses the head trained for them
   // (RoomClassifier::Config::perceived_labels): the segmentation network's map when it is the only source of labels
   // (init_segmentation has validated it), else every mpcat40 label (ground-truth labels).

@@ -105,18 +105,22 @@ backend::DeformationProblem Pipeline::build_deformation() {
   backend::DeformationProblem problem = backend_.build_deformation(agents, graph_);
   if (const char* path = std::getenv("QSG_DUMP_DEFORMATION"); path != nullptr && *path != '\0') {
     std::vector<Eigen::Vector3d> truth;
+    std::vector<Eigen::Quaterniond> truth_q;
     const Eigen::Isometry3d mount =
         sim_camera_ != nullptr ? sim_camera_->body_T_camera() : Eigen::Isometry3d::Identity();
     for (std::size_t k = 0; k < problem.result.agents && !ground_truth_.empty(); ++k) {
       replay::StampedPose g;
       if (!replay::interpolate_pose(ground_truth_, static_cast<std::int64_t>(agents.chain(k).time_ns), INT64_MAX, &g)) {
         truth.clear();
+        truth_q.clear();
         break;
       }
-      truth.push_back((g.world_T_body() * mount).translation());
+      const Eigen::Isometry3d world_T_camera = g.world_T_body() * mount;
+      truth.push_back(world_T_camera.translation());
+      truth_q.push_back(Eigen::Quaterniond(world_T_camera.linear()));
     }
     std::string error;
-    if (!backend::write_deformation_problem(path, problem, truth, &error))
+    if (!backend::write_deformation_problem(path, problem, truth, &error, truth_q))
       std::fprintf(stderr, "loop closure: QSG_DUMP_DEFORMATION: %s\n", error.c_str());
   }
   return problem;

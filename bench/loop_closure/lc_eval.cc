@@ -2,8 +2,10 @@
 // the product's: for each odometry level (drivers/sim/odometry_levels.h: "sim", qsg_simulate's default drift, and
 // "vio", about 1 % of distance) and each building seed, a lockstep run of the whole tour (or --tours N of it) with
 // loop closure on, scored against the simulator's truth:
-//   - ATE RMSE (no alignment: the map is built in the odometry's frame from the true start) of the odometric chain
-//     and of the optimized one, and their ratio (target <= 0.30);
+//   - ATE RMSE of the odometric chain and of the optimized one, and their ratio (target <= 0.30), both without
+//     alignment ("as mapped": the map is built in the odometry's frame from the true start) and after SE(3) alignment
+//     (Umeyama over the positions, the TUM benchmark's and evo's ATE); the same per tour (--tours N: the chain split
+//     at equal times, the tours being one route walked N times);
 //   - loop closures proposed, kept by the optimizer (GNC), and proposed within 10 cm / 1 degree of the truth;
 //   - agents described, the longest deformation-graph solve;
 //   - with --layers, every layer of the final graph as drift_baseline scores it, for three runs side by side: the
@@ -11,6 +13,7 @@
 //     objects found / correct (bench/objects/object_match.h), the places' mean distance to the true GVD
 //     (bench/places/place_score.h), rooms precision / recall (bench/rooms/room_score.h, generated buildings only).
 // Every figure also goes to --json (bench/figures.h).
+#include <array>
 #include <cstdio>
 #include <cstdlib>
 #include <string>
@@ -23,6 +26,9 @@
 #include "budgets/budget_table.h"
 #include "drivers/sim/ground_truth.h"
 #include "drivers/world/world_query.h"
+#include "core/metrics/trajectory_error.h"
+#include "drivers/replay/trajectory.h"
+#include "firmware_app/app_params.h"
 #include "firmware_app/pipeline.h"
 
 namespace {
@@ -39,6 +45,8 @@ int usage(int status) {
               "  bench/results/loop_closure.md.\n"
               "  --world: explore a world file instead of generated buildings (the seeds then vary the odometry only),\n"
               "  e.g. bench/loop_closure/worlds/identical_rooms_4.json, where every false closure counts\n"
+              "  --set SECTION.KEY=VALUE: a config key for every run (as qsg_app --set), e.g.\n"
+              "  loop_closure.odometry_weighting=covariance_growth\n"
               "  --layers: also score objects, places and rooms of the final graph against the truth, beside a run on\n"
               "  ground-truth poses and one on the odometry alone (JSON: <level>_seed<N>.{gt,odometry,corrected}.*)\n");
   return status;
@@ -124,6 +132,60 @@ void report_layers(const std::string& prefix, const char* run, const Layers& l, 
   }
 }
 
+// ATE of the odometric and the optimized chain (the app's trajectory files: the same agents, in order) against the
+// truth, as mapped and after SE(3) alignment, over the whole run and per tour.
+struct TrajectoryScores {
+  bool ok = false;
+  double ate[2][2] = {{0, 0}, {0, 0}};  // [odometry, optimized][as mapped, SE(3) aligned]
+  std::vector<std::array<double, 4>> tours;  // per tour: odometry, optimized as mapped; odometry, optimized aligned
+};
+
+double ate_of(const replay::Trajectory& truth, const replay::Trajectory& est, std::size_t lo, std::size_t hi, bool aligned) {
+  std::vector<metrics::TimedPose> ref, e;
+  for (std::size_t k = lo; k < hi; ++k) {
+    ref.push_back({static_cast<std::int64_t>(k), truth[k].world_t_body_m, truth[k].world_R_body});
+    e.push_back({static_cast<std::int64_t>(k), est[k].world_t_body_m, est[k].world_R_body});
+  }
+  metrics::TrajectoryErrorConfig c;
+  c.max_time_difference_ns = 0;
+  c.alignment = aligned ? metrics::Alignment::kSE3 : metrics::Alignment::kNone;
+  const metrics::TrajectoryError r = metrics::evaluate_trajectory(ref, e, c);
+  return r.ok ? r.ate_rmse_m : -1.0;
+}
+
+TrajectoryScores score_trajectories(const std::string& dir, int tours) {
+  TrajectoryScores out;
+  replay::Trajectory truth, odometry, optimized;
+  std::string error;
+  if (!replay::read_tum_trajectory(dir + "/trajectory_ground_truth.txt", &truth, &error) ||
+      !replay::read_tum_trajectory(dir + "/trajectory_estimate.txt", &optimized, &error)) {
+    std::fprintf(stderr, "lc_eval: %s\n", error.c_str());
+    return out;
+  }
+  // Without a solve the app writes no odometric file: the estimate is the odometry.
+  if (!replay::read_tum_trajectory(dir + "/trajectory_odometry.txt", &odometry, &error)) odometry = optimized;
+  if (truth.size() != optimized.size() || truth.size() != odometry.size() || truth.size() < 3) {
+    std::fprintf(stderr, "lc_eval: %s: trajectory files of different lengths\n", dir.c_str());
+    return out;
+  }
+  const std::size_t n = truth.size();
+  for (int run = 0; run < 2; ++run)
+    for (int aligned = 0; aligned < 2; ++aligned)
+      out.ate[run][aligned] = ate_of(truth, run == 0 ? odometry : optimized, 0, n, aligned != 0);
+  const std::int64_t t0 = truth.front().time_ns, t1 = truth.back().time_ns;
+  std::size_t lo = 0;
+  for (int t = 0; t < tours && tours > 1; ++t) {
+    const std::int64_t end = t + 1 == tours ? t1 + 1 : t0 + (t1 - t0) / tours * (t + 1);
+    std::size_t hi = lo;
+    while (hi < n && truth[hi].time_ns < end) ++hi;
+    out.tours.push_back({ate_of(truth, odometry, lo, hi, false), ate_of(truth, optimized, lo, hi, false),
+                         ate_of(truth, odometry, lo, hi, true), ate_of(truth, optimized, lo, hi, true)});
+    lo = hi;
+  }
+  out.ok = true;
+  return out;
+}
+
 // One lockstep run of the whole tour; false (with the reason printed) when it could not start or finish.
 bool run(const app::AppConfig& c, app::Pipeline* p) {
   runtime::SteppedClock clock;
@@ -150,6 +212,7 @@ int main(int argc, char** argv) {
   double duration_s = 0.0;
   std::string output = "/tmp/lc_eval", json, world;
   bool layers = false;
+  std::vector<std::string> sets;
   bool reconcile = app::AppConfig().loop_closure.reconcile;
   double merge_places_m = app::AppConfig().loop_closure.merge_places_within_m;
   bool merge_objects = app::AppConfig().loop_closure.merge_objects;
@@ -165,6 +228,7 @@ int main(int argc, char** argv) {
     else if (a == "--json" && has) json = argv[++i];
     else if (a == "--world" && has) world = argv[++i];
     else if (a == "--layers") layers = true;
+    else if (a == "--set" && has) sets.push_back(argv[++i]);
     else if (a == "--reconcile" && has) reconcile = std::atoi(argv[++i]) != 0;
     else if (a == "--merge-places-m" && has) merge_places_m = std::atof(argv[++i]);
     else if (a == "--merge-objects" && has) merge_objects = std::atoi(argv[++i]) != 0;
@@ -176,8 +240,9 @@ int main(int argc, char** argv) {
                 world.empty() ? (std::to_string(rooms) + "-room generated buildings").c_str() : world.c_str(), tours,
                 budgets::active::kTable.board);
   bench::Figures figures(conditions);
-  std::printf("%-5s %5s %10s %10s %7s %9s %6s %6s %6s %10s\n", "level", "seed", "ate_odo_m", "ate_opt_m", "ratio",
-              "proposed", "kept", "true", "false", "solve_ms");
+  std::printf("ATE RMSE of the agents' camera positions: as mapped (no alignment), and after SE(3) alignment (se3)\n");
+  std::printf("%-5s %5s %10s %10s %7s %10s %10s %7s %9s %6s %6s %6s %10s\n", "level", "seed", "ate_odo_m", "ate_opt_m",
+              "ratio", "se3_odo_m", "se3_opt_m", "ratio", "proposed", "kept", "true", "false", "solve_ms");
   for (const std::string& level_name : levels) {
     sim::OdometryLevel level;
     if (!sim::parse_odometry_level(level_name, &level) || level == sim::OdometryLevel::kGroundTruth) {
@@ -204,6 +269,17 @@ int main(int argc, char** argv) {
       c.odometry.yaw_sigma_rad_per_sqrt_m = drift.yaw_sigma_rad_per_sqrt_m;
       c.odometry.scale_bias = drift.scale_bias;
       c.output_dir = output + "/" + level_name + "_seed" + seed;
+      for (const std::string& kv : sets) {
+        std::string error;
+        if (!params::set(app::app_schema(), &c, kv, &error)) {
+          std::fprintf(stderr, "lc_eval: --set %s\n", error.c_str());
+          return 2;
+        }
+      }
+      if (const std::string bad = c.check(); !bad.empty()) {
+        std::fprintf(stderr, "lc_eval: config: %s\n", bad.c_str());
+        return 2;
+      }
       c.snapshot_interval_s = 1e6;
       c.telemetry_interval_s = 1e6;
       app::Pipeline p;
@@ -212,16 +288,33 @@ int main(int argc, char** argv) {
       const metrics::TrajectoryError& opt = p.trajectory_error();
       const app::PipelineCounters& k = p.counters();
       const double ratio = odo.ok && opt.ok && odo.ate_rmse_m > 0.0 ? opt.ate_rmse_m / odo.ate_rmse_m : -1.0;
-      std::printf("%-5s %5s %10.3f %10.3f %7.2f %9llu %6llu %6llu %3llu/%-2llu %10.1f\n", level_name.c_str(),
-                  seed.c_str(), odo.ate_rmse_m, opt.ate_rmse_m, ratio, static_cast<unsigned long long>(k.loop_closures),
+      const TrajectoryScores ts = score_trajectories(c.output_dir, tours);
+      const double se3_ratio = ts.ok && ts.ate[0][1] > 0.0 ? ts.ate[1][1] / ts.ate[0][1] : -1.0;
+      std::printf("%-5s %5s %10.3f %10.3f %7.2f %10.3f %10.3f %7.2f %9llu %6llu %6llu %3llu/%-2llu %10.1f\n",
+                  level_name.c_str(), seed.c_str(), odo.ate_rmse_m, opt.ate_rmse_m, ratio, ts.ate[0][1], ts.ate[1][1],
+                  se3_ratio, static_cast<unsigned long long>(k.loop_closures),
                   static_cast<unsigned long long>(k.loop_closures_kept),
                   static_cast<unsigned long long>(k.loop_closures_true),
                   static_cast<unsigned long long>(k.loop_closures_false_kept),
                   static_cast<unsigned long long>(k.loop_closures_false), k.graph_optimization_max_us / 1000.0);
       const std::string prefix = level_name + "_seed" + seed + ".";
+      // ate_*: as mapped (no alignment); ate_se3_*: after SE(3) alignment (Umeyama), the TUM benchmark's / evo's ATE.
       figures.add(prefix + "ate_odometry", odo.ate_rmse_m, "m");
       figures.add(prefix + "ate_optimized", opt.ate_rmse_m, "m");
       figures.add(prefix + "ate_ratio", ratio, "ratio");
+      figures.add(prefix + "ate_se3_odometry", ts.ate[0][1], "m");
+      figures.add(prefix + "ate_se3_optimized", ts.ate[1][1], "m");
+      figures.add(prefix + "ate_se3_ratio", se3_ratio, "ratio");
+      for (std::size_t t = 0; t < ts.tours.size(); ++t) {
+        const std::array<double, 4>& a = ts.tours[t];
+        const std::string tp = prefix + "tour" + std::to_string(t + 1) + ".";
+        std::printf("        tour %zu: as mapped %.3f -> %.3f m (%.2f), SE(3) aligned %.3f -> %.3f m (%.2f)\n", t + 1, a[0],
+                    a[1], a[0] > 0.0 ? a[1] / a[0] : -1.0, a[2], a[3], a[2] > 0.0 ? a[3] / a[2] : -1.0);
+        figures.add(tp + "ate_odometry", a[0], "m");
+        figures.add(tp + "ate_optimized", a[1], "m");
+        figures.add(tp + "ate_se3_odometry", a[2], "m");
+        figures.add(tp + "ate_se3_optimized", a[3], "m");
+      }
       figures.add(prefix + "loop_closures_proposed", static_cast<double>(k.loop_closures), "count");
       figures.add(prefix + "loop_closures_kept", static_cast<double>(k.loop_closures_kept), "count");
       figures.add(prefix + "loop_closures_true", static_cast<double>(k.loop_closures_true), "count");

@@ -67,6 +67,8 @@ bool AgentLayer::init(const Config& config, const Capacities& capacities, std::s
   capacities_ = capacities;
   chain_ = std::make_unique<ChainNode[]>(capacities.keyframes);
   chain_size_ = chain_high_water_ = 0;
+  path_m_ = 0.0;
+  have_offered_ = false;
   ready_ = true;
   return true;
 }
@@ -136,6 +138,9 @@ AddResult AgentLayer::add_keyframe(scene_graph::SceneGraph* graph, std::uint64_t
     return AddResult::kBadPose;
   }
   const Eigen::Quaterniond q(world_T_body.linear());
+  if (have_offered_) path_m_ += (world_T_body.translation() - last_offered_m_).norm();
+  last_offered_m_ = world_T_body.translation();
+  have_offered_ = true;
   if (chain_size_ > 0) {
     const ChainNode& last = chain_[chain_size_ - 1];
     const bool moved = (world_T_body.translation() - last.t_m).norm() >= config_.min_translation_m;
@@ -181,6 +186,7 @@ AddResult AgentLayer::add_keyframe(scene_graph::SceneGraph* graph, std::uint64_t
   c.t_m = world_T_body.translation();
   c.q = q.normalized();
   c.variance = variance;
+  c.path_m = path_m_;
   if (chain_size_ > chain_high_water_) chain_high_water_ = chain_size_;
   ++next_index_;
   ++counters_.keyframes;

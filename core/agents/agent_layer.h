@@ -63,6 +63,9 @@ struct ChainNode {
   Eigen::Vector3d t_m = Eigen::Vector3d::Zero();
   Eigen::Quaterniond q = Eigen::Quaterniond::Identity();
   Eigen::Matrix<double, 6, 1> variance = Eigen::Matrix<double, 6, 1>::Zero();
+  // Odometric path length from the first keyframe to this node, over every keyframe offered (sparsified ones too):
+  // what a per-distance odometry noise model integrates between two nodes.
+  double path_m = 0.0;
 };
 const char* to_string(AddResult r);
 
@@ -100,6 +103,9 @@ class AgentLayer {
   scene_graph::NodeId last_node_ = scene_graph::kNoNode;
   std::uint64_t last_time_ns_ = 0;
   std::uint64_t next_index_ = 0;
+  double path_m_ = 0.0;                                  // odometric path over every keyframe offered
+  Eigen::Vector3d last_offered_m_ = Eigen::Vector3d::Zero();
+  bool have_offered_ = false;
   bool ready_ = false;
   std::unique_ptr<ChainNode[]> chain_;
   std::size_t chain_size_ = 0;

@@ -6,8 +6,35 @@
 
 namespace qsg::backend {
 
+const char* to_string(OdometryWeighting w) {
+  return w == OdometryWeighting::kPerDistance ? "per_distance" : "covariance_growth";
+}
+
+bool parse_odometry_weighting(const std::string& name, OdometryWeighting* out) {
+  if (name == "per_distance") *out = OdometryWeighting::kPerDistance;
+  else if (name == "covariance_growth") *out = OdometryWeighting::kCovarianceGrowth;
+  else return false;
+  return true;
+}
+
+std::string AgentGraphConfig::check() const {
+  const auto positive = [](double v) { return std::isfinite(v) && v > 0.0 && v <= 10.0; };
+  if (!positive(min_sigma_t_m) || !positive(min_sigma_rot_rad)) return "odometry sigma floors must be in (0, 10]";
+  if (!positive(sigma_t_m_per_sqrt_m) || !positive(sigma_yaw_rad_per_sqrt_m) || !positive(sigma_tilt_rad_per_sqrt_m))
+    return "odometry sigmas per sqrt(m) must be in (0, 10]";
+  if (!positive(floor_t_m) || !positive(floor_rot_rad)) return "odometry floors must be in (0, 10]";
+  return "";
+}
+
 void AgentGraphConfig::print(std::FILE* out) const {
-  std::fprintf(out, "agent pose graph: odometry sigma floors %.3f m, %.4f rad\n", min_sigma_t_m, min_sigma_rot_rad);
+  if (odometry_weighting == OdometryWeighting::kPerDistance)
+    std::fprintf(out,
+                 "agent pose graph: odometry edges per distance: %.4f m, yaw %.5f rad, tilt %.5f rad per sqrt(m), "
+                 "floors %.4f m, %.5f rad\n",
+                 sigma_t_m_per_sqrt_m, sigma_yaw_rad_per_sqrt_m, sigma_tilt_rad_per_sqrt_m, floor_t_m, floor_rot_rad);
+  else
+    std::fprintf(out, "agent pose graph: odometry edges from the covariance's growth, sigma floors %.3f m, %.4f rad\n",
+                 min_sigma_t_m, min_sigma_rot_rad);
   solver.print(out);
 }
 
@@ -28,6 +55,31 @@ RelativePoseEdge loop_closure_edge(const ChainLoopClosure& c) {
   return e;
 }
 
+RelativePoseEdge per_distance_odometry_edge(std::uint32_t a, std::uint32_t b, const Pose3& world_T_a,
+                                            const Pose3& world_T_b, double d_m, const AgentGraphConfig& config) {
+  RelativePoseEdge e;
+  e.from = a;
+  e.to = b;
+  e.measured_from_T_to = between(world_T_a, world_T_b);
+  const double d = std::max(0.0, d_m);
+  const double ft = config.floor_t_m * config.floor_t_m, fr = config.floor_rot_rad * config.floor_rot_rad;
+  const double var_t = config.sigma_t_m_per_sqrt_m * config.sigma_t_m_per_sqrt_m * d + ft;
+  // Rotation noise about the world axes, then in b's frame (the residual's rotation part is in the `to` frame).
+  const Eigen::Vector3d world_var(config.sigma_tilt_rad_per_sqrt_m * config.sigma_tilt_rad_per_sqrt_m * d + fr,
+                                  config.sigma_tilt_rad_per_sqrt_m * config.sigma_tilt_rad_per_sqrt_m * d + fr,
+                                  config.sigma_yaw_rad_per_sqrt_m * config.sigma_yaw_rad_per_sqrt_m * d + fr);
+  const Eigen::Matrix3d r_b = world_T_b.q.normalized().toRotationMatrix();
+  const Eigen::Matrix3d cov_rot = r_b.transpose() * world_var.asDiagonal() * r_b;
+  e.has_information = true;
+  e.information.setZero();
+  e.information.topLeftCorner<3, 3>() = Eigen::Matrix3d::Identity() / var_t;  // isotropic: any frame
+  Eigen::Matrix3d info_rot = cov_rot.inverse();
+  e.information.bottomRightCorner<3, 3>() = 0.5 * (info_rot + info_rot.transpose());
+  e.sigma_t_m.setConstant(std::sqrt(var_t));
+  e.sigma_rot_rad = world_var.cwiseSqrt();
+  return e;
+}
+
 std::vector<RelativePoseEdge> chain_odometry_edges(const agents::AgentLayer& agents, const AgentGraphConfig& config) {
   std::vector<RelativePoseEdge> edges;
   const std::size_t n = agents.chain_size();
@@ -36,6 +88,11 @@ std::vector<RelativePoseEdge> chain_odometry_edges(const agents::AgentLayer& age
   for (std::size_t k = 0; k + 1 < n; ++k) {
     const agents::ChainNode& a = agents.chain(k);
     const agents::ChainNode& b = agents.chain(k + 1);
+    if (config.odometry_weighting == OdometryWeighting::kPerDistance) {
+      edges.push_back(per_distance_odometry_edge(static_cast<std::uint32_t>(k), static_cast<std::uint32_t>(k + 1),
+                                                 Pose3{a.t_m, a.q}, Pose3{b.t_m, b.q}, b.path_m - a.path_m, config));
+      continue;
+    }
     RelativePoseEdge e;
     e.from = static_cast<std::uint32_t>(k);
     e.to = static_cast<std::uint32_t>(k + 1);

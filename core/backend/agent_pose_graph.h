@@ -6,6 +6,7 @@
 
 #include <cstdint>
 #include <cstdio>
+#include <string>
 #include <vector>
 
 #include "core/agents/agent_layer.h"
@@ -13,12 +14,39 @@
 
 namespace qsg::backend {
 
+// How an odometry edge between two chain nodes is weighted.
+enum class OdometryWeighting : std::uint8_t {
+  // Sigmas from the growth of the odometry's reported covariance diagonal between the two nodes, floored. The
+  // reported covariance is absolute and in the world frame: its position part grows with the yaw error times the
+  // distance from the start (not noise of this edge), and its rotation part is about the world axes while the edge's
+  // rotation residual is about the node's own axes (a camera's optical axis is not the vertical).
+  kCovarianceGrowth,
+  // A random walk per metre travelled, the odometry's own noise model (drivers/sim/drifting_odometry.h; a VIO's
+  // specification): translation sigma_t^2 d (isotropic), rotation sigma_yaw^2 d about the world vertical and
+  // sigma_tilt^2 d about the horizontal axes, expressed in the node's frame; d the odometric path between the nodes;
+  // plus the floors (squared) so that nodes added without motion (turning in place, waiting) stay finite.
+  kPerDistance,
+};
+const char* to_string(OdometryWeighting w);
+bool parse_odometry_weighting(const std::string& name, OdometryWeighting* out);
+
 struct AgentGraphConfig {
-  // Floors of an odometry edge's sigmas: the odometry's covariance may not grow between close nodes (or may be
-  // unknown: zero), and a zero sigma would make the edge infinitely stiff.
+  // Floors of an odometry edge's sigmas (kCovarianceGrowth: the odometry's covariance may not grow between close
+  // nodes, or may be unknown: zero, and a zero sigma would make the edge infinitely stiff).
   double min_sigma_t_m = 0.01;
   double min_sigma_rot_rad = 0.005;
+  // kCovarianceGrowth by default: per-distance weighting did not do better on the generated buildings with the
+  // closures the detector finds (bench/results/loop_closure.md, "Session of 2026-12-02 (2)").
+  OdometryWeighting odometry_weighting = OdometryWeighting::kCovarianceGrowth;
+  // kPerDistance: the odometry's random walks per sqrt(metre) (defaults: the simulator's "sim" level), and the
+  // floors added in quadrature.
+  double sigma_t_m_per_sqrt_m = 0.02;
+  double sigma_yaw_rad_per_sqrt_m = 0.003;
+  double sigma_tilt_rad_per_sqrt_m = 0.0005;
+  double floor_t_m = 0.001;
+  double floor_rot_rad = 0.0005;
   PoseGraphConfig solver;
+  std::string check() const;
   void print(std::FILE* out) const;
 };
 
@@ -41,6 +69,11 @@ struct AgentGraphResult {
 
 // A loop closure as a robust edge of the pose graph.
 RelativePoseEdge loop_closure_edge(const ChainLoopClosure& c);
+
+// The odometry edge from world_T_a to world_T_b (odometric poses), d_m of odometric path apart, weighted per the
+// configuration's kPerDistance model (a full information matrix: rotation about the vertical in b's frame).
+RelativePoseEdge per_distance_odometry_edge(std::uint32_t a, std::uint32_t b, const Pose3& world_T_a,
+                                            const Pose3& world_T_b, double d_m, const AgentGraphConfig& config);
 
 // The odometry edges of the chain (edge k joins node k and k + 1), for inspection and tests.
 std::vector<RelativePoseEdge> chain_odometry_edges(const agents::AgentLayer& agents, const AgentGraphConfig& config);

@@ -41,6 +41,10 @@ struct LoopClosureConfig {
   loop_closure::DescriptorConfig descriptor;
   loop_closure::DetectorConfig detector;
   DeformationConfig deformation;
+  // The odometry edges' per-distance noise (deformation.agents, OdometryWeighting::kPerDistance) taken from the
+  // odometry source's own model when it has one (the simulator's drifting odometry: its sigmas per sqrt(m)), else the
+  // configured ones. Applied by the app, which knows the source.
+  bool odometry_sigmas_from_source = true;
   // Reconciliation after the final correction (paper: interpolation and merging; BackendStage::reconcile): objects
   // re-boxed from the corrected mesh, revisited places and objects merged, and the final doors, rooms and labels
   // found on the corrected map. Off: they are found on the map as mapped and moved with the correction, which

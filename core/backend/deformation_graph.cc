@@ -18,7 +18,7 @@ std::string DeformationConfig::check() const {
   if (!(time_horizon_s > 0.0 && time_horizon_s <= 86400.0)) return "time_horizon_s must be in (0, 86400] s";
   if (!(whole_function_tolerance > 0.0 && whole_function_tolerance < 1.0))
     return "whole_function_tolerance must be in (0, 1)";
-  return "";
+  return agents.check();
 }
 
 void DeformationConfig::print(std::FILE* out) const {

@@ -4,7 +4,7 @@
 //   p tx ty tz qx qy qz qw                       one per node: agents, control points, places
 //   o x y z time_ns                              one per control point and place: odometric position, time seen
 //   e from to loop_closure info(0|1) tx ty tz qx qy qz qw  then 6 sigmas, or the 36 information entries
-//   t x y z                                      one per agent when TRUTH is 1
+//   t x y z [qx qy qz qw]                        one per agent when TRUTH is 1 (the orientation optional)
 #include "core/backend/deformation_io.h"
 
 #include <cstdio>
@@ -14,7 +14,8 @@
 namespace qsg::backend {
 
 bool write_deformation_problem(const std::string& path, const DeformationProblem& problem,
-                               const std::vector<Eigen::Vector3d>& truth_m, std::string* error) {
+                               const std::vector<Eigen::Vector3d>& truth_m, std::string* error,
+                               const std::vector<Eigen::Quaterniond>& truth_q) {
   const DeformationResult& r = problem.result;
   const bool truth = !truth_m.empty() && truth_m.size() == r.agents;
   const std::string tmp = path + ".tmp";
@@ -40,8 +41,15 @@ bool write_deformation_problem(const std::string& path, const DeformationProblem
     }
     std::fputc('\n', f);
   }
+  const bool with_q = truth && truth_q.size() == truth_m.size();
   if (truth)
-    for (const Eigen::Vector3d& t : truth_m) std::fprintf(f, "t %.17g %.17g %.17g\n", t.x(), t.y(), t.z());
+    for (std::size_t k = 0; k < truth_m.size(); ++k) {
+      const Eigen::Vector3d& t = truth_m[k];
+      std::fprintf(f, "t %.17g %.17g %.17g", t.x(), t.y(), t.z());
+      if (with_q)
+        std::fprintf(f, " %.17g %.17g %.17g %.17g", truth_q[k].x(), truth_q[k].y(), truth_q[k].z(), truth_q[k].w());
+      std::fputc('\n', f);
+    }
   const bool ok = std::fflush(f) == 0 && std::ferror(f) == 0;
   std::fclose(f);
   if (!ok || std::rename(tmp.c_str(), path.c_str()) != 0) return *error = "cannot write '" + path + "'", false;
@@ -123,10 +131,20 @@ bool read_deformation_problem(const std::string& path, DeformationProblemFile* o
     }
   }
   out->truth_m.clear();
+  out->truth_q.clear();
   if (truth != 0) {
     out->truth_m.resize(A);
-    for (Eigen::Vector3d& t : out->truth_m)
+    for (std::size_t k = 0; k < A; ++k) {
+      Eigen::Vector3d& t = out->truth_m[k];
       if (!next(&s) || !(s >> tag >> t.x() >> t.y() >> t.z()) || tag != "t") return fail("expected a truth line");
+      double q[4];
+      if (s >> q[0] >> q[1] >> q[2] >> q[3]) {
+        if (k != out->truth_q.size()) return fail("every truth line or none carries an orientation");
+        out->truth_q.push_back(Eigen::Quaterniond(q[3], q[0], q[1], q[2]).normalized());
+      } else if (!out->truth_q.empty()) {
+        return fail("every truth line or none carries an orientation");
+      }
+    }
   }
   return true;
 }

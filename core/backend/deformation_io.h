@@ -5,6 +5,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 
 #include <string>
 #include <vector>
@@ -16,10 +17,13 @@ namespace qsg::backend {
 struct DeformationProblemFile {
   DeformationProblem problem;
   std::vector<Eigen::Vector3d> truth_m;  // per agent, or empty
+  std::vector<Eigen::Quaterniond> truth_q;  // per agent when the file has the true orientations too, or empty
 };
 
+// truth_q (optional, one per agent with truth_m): the true orientations, written after each true position.
 bool write_deformation_problem(const std::string& path, const DeformationProblem& problem,
-                               const std::vector<Eigen::Vector3d>& truth_m, std::string* error);
+                               const std::vector<Eigen::Vector3d>& truth_m, std::string* error,
+                               const std::vector<Eigen::Quaterniond>& truth_q = {});
 // False with the line in `error` for an unreadable or malformed file (indices out of range, counts that disagree).
 bool read_deformation_problem(const std::string& path, DeformationProblemFile* out, std::string* error);
 

@@ -125,6 +125,24 @@ TEST(AgentLayerTest, KeyframesCloserThanThePolicyAreFoldedIntoTheNextNode) {
   EXPECT_NEAR(layer.chain(1).t_m.x(), 0.3, 1e-12);
 }
 
+// Each node keeps the odometric path from the first keyframe, over the folded keyframes too: a zig-zag between
+// nodes counts in full (what a per-distance odometry noise model integrates).
+TEST(AgentLayerTest, NodesKeepThePathTravelledThroughFoldedKeyframes) {
+  auto graph = scene_graph::testing::make_graph();
+  AgentLayer layer;
+  std::string error;
+  ASSERT_TRUE(layer.init(Config{}, Capacities{100}, &error)) << error;  // a node per 0.25 m
+  ASSERT_EQ(layer.add_keyframe(graph.get(), 1, pose(0.0, 0.0)), AddResult::kAdded);
+  EXPECT_EQ(layer.add_keyframe(graph.get(), 2, pose(0.2, 0.0)), AddResult::kSparsified);
+  EXPECT_EQ(layer.add_keyframe(graph.get(), 3, pose(0.1, 0.0)), AddResult::kSparsified);
+  EXPECT_EQ(layer.add_keyframe(graph.get(), 4, pose(0.3, 0.0)), AddResult::kAdded);
+  ASSERT_EQ(layer.chain_size(), 2u);
+  EXPECT_DOUBLE_EQ(layer.chain(0).path_m, 0.0);
+  EXPECT_NEAR(layer.chain(1).path_m, 0.2 + 0.1 + 0.2, 1e-12) << "not the 0.3 m between the nodes";
+  EXPECT_EQ(layer.add_keyframe(graph.get(), 5, pose(0.6, 0.0)), AddResult::kAdded);
+  EXPECT_NEAR(layer.chain(2).path_m, 0.8, 1e-12);
+}
+
 // An 8-hour mission at 0.5 m/s adds far more nodes than any store holds: the chain folds its older half and never
 // refuses, the graph's agent store never fills, and the chain stays one connected path.
 TEST(AgentLayerTest, AFullChainFoldsItsOlderHalfAndNeverRefuses) {

@@ -178,12 +178,24 @@ TEST_F(DeformationGraphTest, AProblemFileReadsBackAndSolvesTheSame) {
   const auto last = static_cast<std::uint32_t>(walk_.truth.size() - 1);
   const DeformationProblem problem = d.build(layer_, {true_closure(0, last)}, control_, *graph_);
   std::vector<Eigen::Vector3d> truth;
-  for (const Eigen::Isometry3d& t : walk_.truth) truth.push_back(t.translation());
+  std::vector<Eigen::Quaterniond> truth_q;
+  for (const Eigen::Isometry3d& t : walk_.truth) {
+    truth.push_back(t.translation());
+    truth_q.push_back(Eigen::Quaterniond(t.linear()));
+  }
   const std::string path = ::testing::TempDir() + "/deformation_problem.txt";
   std::string error;
-  ASSERT_TRUE(write_deformation_problem(path, problem, truth, &error)) << error;
+  ASSERT_TRUE(write_deformation_problem(path, problem, truth, &error)) << error;  // positions only
   DeformationProblemFile read;
   ASSERT_TRUE(read_deformation_problem(path, &read, &error)) << error;
+  EXPECT_TRUE(read.truth_q.empty());
+  ASSERT_TRUE(write_deformation_problem(path, problem, truth, &error, truth_q)) << error;  // and orientations
+  ASSERT_TRUE(read_deformation_problem(path, &read, &error)) << error;
+  ASSERT_EQ(read.truth_q.size(), truth.size());
+  for (std::size_t k = 0; k < truth.size(); ++k) {
+    EXPECT_EQ(read.truth_m[k], truth[k]) << k;
+    EXPECT_LT(read.truth_q[k].angularDistance(truth_q[k]), 1e-12) << k;
+  }
   ASSERT_EQ(read.problem.poses.size(), problem.poses.size());
   ASSERT_EQ(read.problem.edges.size(), problem.edges.size());
   EXPECT_EQ(read.problem.first_closure, problem.first_closure);
@@ -214,6 +226,10 @@ TEST_F(DeformationGraphTest, AProblemFileReadsBackAndSolvesTheSame) {
                          "e 0 7 0 0 1 0 0 0 0 0 1 1 1 1 1 1 1\n";
   EXPECT_FALSE(read_deformation_problem(path, &read, &error));
   EXPECT_NE(error.find("in range"), std::string::npos) << error;
+  std::ofstream(path) << "qsg_deformation_problem 1\nsizes 2 0 0 1 0 1 1\np 0 0 0 0 0 0 1\np 1 0 0 0 0 0 1\n"
+                         "e 0 1 0 0 1 0 0 0 0 0 1 1 1 1 1 1 1\nt 0 0 0 0 0 0 1\nt 1 0 0\n";
+  EXPECT_FALSE(read_deformation_problem(path, &read, &error));
+  EXPECT_NE(error.find("every truth line or none"), std::string::npos) << error;
 }
 
 TEST_F(DeformationGraphTest, WithoutLoopClosuresNothingMoves) {
