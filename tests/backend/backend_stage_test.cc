@@ -16,18 +16,7 @@ namespace {
 
 namespace sg = scene_graph;
 
-sg::Capacities graph_capacities() {
-  sg::Capacities c;
-  c.object_nodes = 16;
-  c.agent_nodes = 16;
-  c.place_nodes = 4096;
-  c.room_nodes = 64;
-  c.building_nodes = 2;
-  c.edges = 32768;
-  c.adjacency_chunks = 16384;
-  c.mesh_connections = 16;
-  return c;
-}
+sg::Capacities graph_capacities() { return rooms::testing::small_graph_capacities(); }
 
 std::unique_ptr<sg::SceneGraph> make_graph() {
   auto g = std::make_unique<sg::SceneGraph>();

@@ -26,18 +26,7 @@ namespace sg = scene_graph;
 using testing::GridPlan;
 using testing::SyntheticPlaces;
 
-sg::Capacities small_graph_capacities() {
-  sg::Capacities c;
-  c.object_nodes = 16;
-  c.agent_nodes = 16;
-  c.place_nodes = 4096;
-  c.room_nodes = 64;
-  c.building_nodes = 2;
-  c.edges = 32768;
-  c.adjacency_chunks = 16384;
-  c.mesh_connections = 16;
-  return c;
-}
+sg::Capacities small_graph_capacities() { return testing::small_graph_capacities(); }
 
 std::unique_ptr<sg::SceneGraph> make_graph(const sg::Capacities& c = small_graph_capacities()) {
   auto g = std::make_unique<sg::SceneGraph>();

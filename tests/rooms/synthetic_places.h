@@ -13,6 +13,20 @@
 
 namespace qsg::rooms::testing {
 
+// A scene graph sized for the synthetic place graphs of the room, window and backend-stage tests.
+inline scene_graph::Capacities small_graph_capacities() {
+  scene_graph::Capacities c;
+  c.object_nodes = 16;
+  c.agent_nodes = 16;
+  c.place_nodes = 4096;
+  c.room_nodes = 64;
+  c.building_nodes = 2;
+  c.edges = 32768;
+  c.adjacency_chunks = 16384;
+  c.mesh_connections = 16;
+  return c;
+}
+
 struct SyntheticPlace {
   scene_graph::NodeId id = scene_graph::kNoNode;
   Eigen::Vector3d position_m = Eigen::Vector3d::Zero();
