@@ -43,13 +43,7 @@ std::unique_ptr<RoomFinder> make_finder(const Config& config = Config{},
   return f;
 }
 
-// Ground-truth room tag -> set of room nodes its places were given (tags >= 0 only).
-std::map<int, std::set<sg::NodeId>> rooms_by_tag(const sg::SceneGraph& g, const SyntheticPlaces& s) {
-  std::map<int, std::set<sg::NodeId>> out;
-  for (const auto& p : s.places)
-    if (p.room >= 0) out[p.room].insert(g.parent(p.id));
-  return out;
-}
+using testing::rooms_by_tag;
 
 // Every tag maps to exactly one room, and different tags to different rooms.
 void expect_one_room_per_tag(const sg::SceneGraph& g, const SyntheticPlaces& s) {

@@ -36,13 +36,7 @@ std::unique_ptr<RoomFinder> make_finder(bool window_updates) {
   return f;
 }
 
-// Ground-truth tag -> the rooms its places are in.
-std::map<int, std::set<sg::NodeId>> rooms_by_tag(const sg::SceneGraph& g, const SyntheticPlaces& s) {
-  std::map<int, std::set<sg::NodeId>> out;
-  for (const auto& p : s.places)
-    if (p.room >= 0) out[p.room].insert(g.parent(p.id));
-  return out;
-}
+using testing::rooms_by_tag;
 
 // Rooms as sets of places (ids aside), for comparing two partitions.
 std::set<std::set<sg::NodeId>> partition(const sg::SceneGraph& g, const SyntheticPlaces& s) {

@@ -6,6 +6,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <map>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -203,6 +205,15 @@ inline GridPlan pinched_corridor_plan(int rooms_per_side, double cell_m = kCellM
     fill(x0, cy1 - inset, x1, cy1);
   }
   return plan;
+}
+
+// Ground-truth room tag -> the room nodes its places were given (tags >= 0 only).
+inline std::map<int, std::set<scene_graph::NodeId>> rooms_by_tag(const scene_graph::SceneGraph& g,
+                                                                   const SyntheticPlaces& s) {
+  std::map<int, std::set<scene_graph::NodeId>> out;
+  for (const auto& p : s.places)
+    if (p.room >= 0) out[p.room].insert(g.parent(p.id));
+  return out;
 }
 
 }  // namespace qsg::rooms::testing
