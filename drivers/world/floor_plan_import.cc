@@ -97,15 +97,21 @@ std::uint32_t big_endian(const unsigned char* p, int bytes) {
   return v;
 }
 
-// PNM: "P1".."P6", then width and height as decimal text, with whitespace and # comments between.
+// PNM: "P1".."P6", then width and height as decimal text, with whitespace and # comments between. Read exactly
+// as the decoder (OpenCV's PxM reader) reads it, so the size checked here is the size it will allocate: a comment
+// ends at '\n' or '\r', whitespace is any of " \t\n\v\f\r", and the character after a number is consumed.
 bool pnm_size(std::FILE* f, int* w, int* h) {
+  const auto is_space = [](int c) { return c == ' ' || c == '\t' || c == '\n' || c == '\v' || c == '\f' || c == '\r'; };
   long values[2] = {0, 0};
   for (long& v : values) {
     int c = std::fgetc(f);
     for (;;) {
       if (c == '#') {
-        while (c != '\n' && c != EOF) c = std::fgetc(f);
-      } else if (c == ' ' || c == '\t' || c == '\r' || c == '\n') {
+        do c = std::fgetc(f);
+        while (c != '\n' && c != '\r' && c != EOF);
+        if (c == EOF) return false;
+        c = std::fgetc(f);
+      } else if (is_space(c)) {
         c = std::fgetc(f);
       } else {
         break;
@@ -495,6 +501,12 @@ bool read_floor_plan_image(const std::string& path, const char* what, const Floo
   }
   if (out->empty()) {
     *error = path + ": cannot read the " + what + " image";
+    return false;
+  }
+  if (out->cols != w || out->rows != h) {  // the header reader and the decoder must agree; refuse if they do not
+    *error = path + ": the " + what + " image decodes to " + std::to_string(out->cols) + " x " +
+             std::to_string(out->rows) + " px but its header says " + std::to_string(w) + " x " + std::to_string(h);
+    out->release();
     return false;
   }
   return true;

@@ -268,6 +268,50 @@ TEST(FloorPlanImport, ImageSizeFromTheHeaderOfEveryKnownFormat) {
   EXPECT_EQ(r.world.rooms.size(), 2u);
 }
 
+// Regression (fuzz, floor_plan): a PNM comment ended by '\r' made the header reader and OpenCV's decoder disagree
+// on the size, so a header could pass the limit check as 1 x 1 while the decoder allocated 65535 x 65535. The header
+// reader now reads PNM exactly as the decoder does; the size it reports is the size decoded.
+TEST(FloorPlanImport, PnmHeaderIsReadAsTheDecoderReadsIt) {
+  qsg::testing::TempDir dir("qsg_floor_plan");
+  struct Case {
+    const char* header;
+    int w, h;
+  };
+  const Case cases[] = {
+      {"P5\n# comment\r3 2\n255\n", 3, 2},          // comment ended by CR
+      {"P5\n#\r3\v2\f255\n", 3, 2},                // vertical tab and form feed are whitespace
+      {"P5 3 2 255\n", 3, 2},                         // plain
+      {"P5\n#c\r\n# second\n3 2\n255\n", 3, 2},     // comments on consecutive lines
+  };
+  for (const Case& c : cases) {
+    const std::string path = dir.file("plan.pgm");
+    std::ofstream(path, std::ios::binary) << c.header << std::string(static_cast<std::size_t>(c.w * c.h), '\x80');
+    int w = 0, h = 0;
+    std::string error;
+    ASSERT_TRUE(read_image_size(path, &w, &h, &error)) << error;
+    EXPECT_EQ(w, c.w) << c.header;
+    EXPECT_EQ(h, c.h) << c.header;
+    cv::Mat grey;
+    ASSERT_TRUE(read_floor_plan_image(path, "occupancy", FloorPlanConfig(), &grey, &error)) << error;
+    EXPECT_EQ(grey.cols, c.w);
+    EXPECT_EQ(grey.rows, c.h);
+  }
+  // A comment hiding the real size from a reader that ends comments only at '\n': refused by its real size.
+  const std::string sneaky = dir.file("sneaky.pgm");
+  std::ofstream(sneaky, std::ios::binary) << "P5\n#\r65535 65535\n1 1\n255\n" << std::string(16, '\0');
+  int w = 0, h = 0;
+  std::string error;
+  ASSERT_TRUE(read_image_size(sneaky, &w, &h, &error)) << error;
+  EXPECT_EQ(w, 65535);
+  EXPECT_EQ(h, 65535);
+  cv::Mat grey;
+  EXPECT_FALSE(read_floor_plan_image(sneaky, "occupancy", FloorPlanConfig(), &grey, &error));
+  EXPECT_NE(error.find("image of 65535 x 65535 px exceeds"), std::string::npos) << error;
+  // A comment running to the end of the file has no size.
+  std::ofstream(sneaky, std::ios::binary) << "P5\n# no end";
+  EXPECT_FALSE(read_image_size(sneaky, &w, &h, &error));
+}
+
 TEST(FloorPlanImport, GroundTruthPathDropsTheFurnituresSuffix) {
   EXPECT_EQ(floor_plan_gt_path("/d/ipa/lab_ipa.png"), "/d/ipa/lab_ipa_gt_segmentation.png");
   EXPECT_EQ(floor_plan_gt_path("/d/ipa/lab_ipa_furnitures.png"), "/d/ipa/lab_ipa_gt_segmentation.png");
