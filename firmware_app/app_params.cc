@@ -124,6 +124,15 @@ params::Table<AppConfig::LoopClosure> loop_closure_table() {
   detector.flag("propose_unrefined_objects", &D::propose_unrefined_objects, project,
                 "object registrations ICP could not refine are proposed too");
   t.include(detector, [](C& c) -> D& { return c.detector; });
+  using L = loop_closure::LocalMapConfig;
+  params::Table<L> local_map;
+  local_map.flag("local_map", &L::enabled, refinement,
+                 "object registrations the keyframes' ICP cannot refine are refined on the two agents' local maps");
+  local_map.add("local_map_path_m", &L::path_m, "m", any(), refinement, "agents within this much path join an agent's local map");
+  local_map.add("local_map_voxel_m", &L::voxel_m, "m", any(), refinement, "a local map keeps one point per voxel of this side");
+  local_map.add("local_map_min_overlap", &L::min_overlap, "", any(), refinement,
+                "share of the query's local-map points on a match plane after ICP");
+  t.include(local_map, [](C& c) -> L& { return c.detector.local_map; });
   using R = loop_closure::RegistrationConfig;
   params::Table<R> registration;
   registration.add("noise_bound_m", &R::noise_bound_m, "m", any(), paper, "bound on one object centroid's error");

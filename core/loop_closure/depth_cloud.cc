@@ -66,24 +66,15 @@ Eigen::Vector3d normal_of(const DepthCloud& c, std::size_t i) {
   return Eigen::Vector3d(c.normals[i][0], c.normals[i][1], c.normals[i][2]).normalized();
 }
 
-}  // namespace
-
-IcpResult refine_icp(const DepthCloud& query, const DepthCloud& match, const Eigen::Isometry3d& initial,
-                     const IcpConfig& config) {
-  IcpResult r;
-  if (query.count < 32 || match.count < 32) return r;
-  Eigen::Vector3d mp[kMaxCloudPoints], mn[kMaxCloudPoints], qp[kMaxCloudPoints];
-  for (std::uint32_t j = 0; j < match.count; ++j) {
-    mp[j] = point_of(match, j);
-    mn[j] = normal_of(match, j);
-  }
-  for (std::uint32_t i = 0; i < query.count; ++i) qp[i] = point_of(query, i);
-  Eigen::Isometry3d T = initial;
-  const auto nearest = [&](const Eigen::Vector3d& p, double gate2, std::uint32_t* best) {
+// A keyframe's cloud is small: every match point is tried.
+class BruteForceIndex final : public NearestIndex {
+ public:
+  BruteForceIndex(const Eigen::Vector3d* points, std::uint32_t count) : points_(points), count_(count) {}
+  bool nearest(const Eigen::Vector3d& p, double gate2, std::uint32_t* best) const override {
     double best_d2 = gate2;
     bool found = false;
-    for (std::uint32_t j = 0; j < match.count; ++j) {
-      const double d2 = (mp[j] - p).squaredNorm();
+    for (std::uint32_t j = 0; j < count_; ++j) {
+      const double d2 = (points_[j] - p).squaredNorm();
       if (d2 < best_d2) {
         best_d2 = d2;
         *best = j;
@@ -91,16 +82,29 @@ IcpResult refine_icp(const DepthCloud& query, const DepthCloud& match, const Eig
       }
     }
     return found;
-  };
+  }
+
+ private:
+  const Eigen::Vector3d* points_;
+  std::uint32_t count_;
+};
+
+}  // namespace
+
+IcpResult point_to_plane_icp(const Eigen::Vector3d* qp, std::uint32_t query_count, const Eigen::Vector3d* mp,
+                             const Eigen::Vector3d* mn, const NearestIndex& index, const Eigen::Isometry3d& initial,
+                             const IcpConfig& config, double min_overlap) {
+  IcpResult r;
+  Eigen::Isometry3d T = initial;
   for (std::uint32_t it = 0; it < config.iterations; ++it) {
     const double gate = std::max(config.inlier_m, config.start_inlier_m * std::pow(0.7, it));
     Eigen::Matrix<double, 6, 6> H = Eigen::Matrix<double, 6, 6>::Zero();
     Eigen::Matrix<double, 6, 1> g = Eigen::Matrix<double, 6, 1>::Zero();
     std::uint32_t pairs = 0;
-    for (std::uint32_t i = 0; i < query.count; ++i) {
+    for (std::uint32_t i = 0; i < query_count; ++i) {
       const Eigen::Vector3d p = T * qp[i];
       std::uint32_t j = 0;
-      if (!nearest(p, gate * gate, &j)) continue;
+      if (!index.nearest(p, gate * gate, &j)) continue;
       // Point to plane: r = n . (p - m), p = exp(xi) T q ~ p + w x p + v.
       const double res = mn[j].dot(p - mp[j]);
       Eigen::Matrix<double, 6, 1> J;
@@ -123,10 +127,10 @@ IcpResult refine_icp(const DepthCloud& query, const DepthCloud& match, const Eig
   std::uint32_t inliers = 0;
   double sum = 0.0;
   Eigen::Matrix3d Hr = Eigen::Matrix3d::Zero(), Ht = Eigen::Matrix3d::Zero();
-  for (std::uint32_t i = 0; i < query.count; ++i) {
+  for (std::uint32_t i = 0; i < query_count; ++i) {
     const Eigen::Vector3d p = T * qp[i];
     std::uint32_t j = 0;
-    if (!nearest(p, config.neighbour_m * config.neighbour_m, &j)) continue;
+    if (!index.nearest(p, config.neighbour_m * config.neighbour_m, &j)) continue;
     const double d = mn[j].dot(p - mp[j]);
     if (std::abs(d) > config.inlier_m) continue;
     ++inliers;
@@ -140,14 +144,27 @@ IcpResult refine_icp(const DepthCloud& query, const DepthCloud& match, const Eig
     return e(2) > 0.0 ? std::max(0.0, e(0)) / e(2) : 0.0;
   };
   r.constraint_ratio = std::min(ratio(Hr), ratio(Ht));
-  r.overlap = static_cast<double>(inliers) / query.count;
+  r.overlap = query_count > 0 ? static_cast<double>(inliers) / query_count : 0.0;
   r.rmse_m = inliers > 0 ? std::sqrt(sum / inliers) : 0.0;
   r.match_T_query = T;
   const Eigen::Isometry3d correction = initial.inverse() * T;
-  r.ok = r.overlap >= config.min_overlap && r.constraint_ratio >= config.min_constraint_ratio &&
+  r.ok = r.overlap >= min_overlap && r.constraint_ratio >= config.min_constraint_ratio &&
          correction.translation().norm() <= config.max_correction_m &&
          Eigen::AngleAxisd(correction.linear()).angle() <= config.max_correction_rad;
   return r;
+}
+
+IcpResult refine_icp(const DepthCloud& query, const DepthCloud& match, const Eigen::Isometry3d& initial,
+                     const IcpConfig& config) {
+  if (query.count < 32 || match.count < 32) return IcpResult{};
+  Eigen::Vector3d mp[kMaxCloudPoints], mn[kMaxCloudPoints], qp[kMaxCloudPoints];
+  for (std::uint32_t j = 0; j < match.count; ++j) {
+    mp[j] = point_of(match, j);
+    mn[j] = normal_of(match, j);
+  }
+  for (std::uint32_t i = 0; i < query.count; ++i) qp[i] = point_of(query, i);
+  return point_to_plane_icp(qp, query.count, mp, mn, BruteForceIndex(mp, match.count), initial, config,
+                            config.min_overlap);
 }
 
 }  // namespace qsg::loop_closure

@@ -60,4 +60,18 @@ struct IcpResult {
 IcpResult refine_icp(const DepthCloud& query, const DepthCloud& match, const Eigen::Isometry3d& initial,
                      const IcpConfig& config);
 
+// The nearest match point to p within sqrt(gate2), for the ICP below.
+class NearestIndex {
+ public:
+  virtual ~NearestIndex() = default;
+  virtual bool nearest(const Eigen::Vector3d& p, double gate2, std::uint32_t* best) const = 0;
+};
+
+// The ICP itself, over any clouds: query points qp (query frame), match points mp with unit normals mn (match
+// frame) found through `index`. The result is trusted (ok) with at least min_overlap of the query's points on a
+// match plane, every direction constrained and the correction within the config's bounds.
+IcpResult point_to_plane_icp(const Eigen::Vector3d* qp, std::uint32_t query_count, const Eigen::Vector3d* mp,
+                             const Eigen::Vector3d* mn, const NearestIndex& index, const Eigen::Isometry3d& initial,
+                             const IcpConfig& config, double min_overlap);
+
 }  // namespace qsg::loop_closure

@@ -20,6 +20,7 @@ std::string DetectorConfig::check() const {
   if (const std::string why = appearance.check(); !why.empty()) return "appearance." + why;
   if (const std::string why = icp.check(); !why.empty()) return "icp." + why;
   if (const std::string why = registration.check(); !why.empty()) return "registration." + why;
+  if (const std::string why = local_map.check(); !why.empty()) return "local_map." + why;
   return "";
 }
 
@@ -32,6 +33,7 @@ void DetectorConfig::print(std::FILE* out) const {
   registration.print(out);
   appearance.print(out);
   icp.print(out);
+  local_map.print(out);
 }
 
 const char* to_string(ClosureSource s) { return s == ClosureSource::kAppearance ? "appearance" : "objects"; }
@@ -40,7 +42,8 @@ void DetectorCounters::print(std::FILE* out) const {
   std::fprintf(out,
                "loop closures: %llu queries (%llu without enough objects), %llu places candidates, %llu objects "
                "candidates, %llu ratio rejections, %llu appearance checks of which %llu registered, %llu verified by "
-               "objects of which %llu failed registration (%llu refined by ICP, %llu not, %llu of those dropped), "
+               "objects of which %llu failed registration (%llu refined by ICP, %llu not, %llu then on local maps, %llu "
+               "refused there, %llu dropped), "
                "%llu proposed; "
                "%llu agents refused, %llu folds, %llu tree rebuilds\n",
                static_cast<unsigned long long>(queries), static_cast<unsigned long long>(queries_without_objects),
@@ -48,7 +51,8 @@ void DetectorCounters::print(std::FILE* out) const {
                static_cast<unsigned long long>(ratio_rejections), static_cast<unsigned long long>(appearance_checks),
                static_cast<unsigned long long>(appearance_accepted), static_cast<unsigned long long>(verifications),
                static_cast<unsigned long long>(registration_failures), static_cast<unsigned long long>(icp_refined),
-               static_cast<unsigned long long>(icp_refused), static_cast<unsigned long long>(objects_unrefined),
+               static_cast<unsigned long long>(icp_refused), static_cast<unsigned long long>(local_map_refined),
+               static_cast<unsigned long long>(local_map_refused), static_cast<unsigned long long>(objects_unrefined),
                static_cast<unsigned long long>(proposed),
                static_cast<unsigned long long>(refused), static_cast<unsigned long long>(folds),
                static_cast<unsigned long long>(tree_rebuilds));
@@ -59,6 +63,7 @@ bool LoopClosureDetector::init(std::size_t capacity, const DetectorConfig& confi
   if (capacity == 0) return *error = "loop_closure.detector: capacity must be at least 1", false;
   config_ = config;
   registration_ = ObjectRegistration(config.registration);
+  if (!local_map_.init(config.local_map, kMaxLocalKeyframes, error)) return *error = "loop_closure.detector." + *error, false;
   entries_.clear();
   entries_.reserve(capacity);
   order_.assign(capacity, 0);
@@ -189,6 +194,58 @@ const AgentEntry* LoopClosureDetector::refine_with_neighbours(const AgentEntry& 
   return &match;
 }
 
+// The local-map pass (local_map.h) on an object registration keyframe ICP could not refine: the query's keyframe
+// with those of the agents stored just behind it, against the match's with its neighbours both ways (those old
+// enough), each within local_map.path_m of path. Updates out as refine_with_neighbours does.
+bool LoopClosureDetector::refine_with_local_maps(const AgentEntry& query, std::uint32_t match_entry, LoopClosure* out) {
+  const double path = config_.local_map.path_m;
+  const auto separation_ns = static_cast<std::uint64_t>(config_.min_time_separation_s * 1e9);
+  local_map_.begin(query.world_T_agent);
+  std::uint32_t keyframes = local_map_.add(query.cloud, query.world_T_agent) ? 1 : 0;
+  for (std::size_t i = entries_.size(); i-- > 0 && keyframes < kMaxLocalKeyframes;) {
+    const AgentEntry& e = entries_[i];
+    if (query.path_m - e.path_m > path) break;
+    if (e.cloud.count > 0 && local_map_.add(e.cloud, e.world_T_agent)) ++keyframes;
+  }
+  local_map_.finish(&local_map_.query_cloud());
+  const AgentEntry& match = entries_[match_entry];
+  local_map_.begin(match.world_T_agent);
+  keyframes = match.cloud.count > 0 && local_map_.add(match.cloud, match.world_T_agent) ? 1 : 0;
+  // Outwards from the match, alternately behind and ahead, so a full buffer keeps the nearest.
+  std::size_t back = match_entry, ahead = match_entry + 1;
+  bool more_back = true, more_ahead = true;
+  while ((more_back || more_ahead) && keyframes < kMaxLocalKeyframes) {
+    if (more_back) {
+      more_back = back > 0 && match.path_m - entries_[back - 1].path_m <= path;
+      if (more_back) {
+        const AgentEntry& e = entries_[--back];
+        if (e.cloud.count > 0 && local_map_.add(e.cloud, e.world_T_agent)) ++keyframes;
+      }
+    }
+    if (more_ahead && keyframes < kMaxLocalKeyframes) {
+      more_ahead = ahead < entries_.size() && entries_[ahead].path_m - match.path_m <= path &&
+                   entries_[ahead].time_ns + separation_ns <= query.time_ns;
+      if (more_ahead) {
+        const AgentEntry& e = entries_[ahead++];
+        if (e.cloud.count > 0 && local_map_.add(e.cloud, e.world_T_agent)) ++keyframes;
+      }
+    }
+  }
+  local_map_.finish(&local_map_.match_cloud());
+  const IcpResult r =
+      local_map_.register_clouds(local_map_.query_cloud(), local_map_.match_cloud(), out->match_T_query, config_.icp);
+  if (!r.ok) {
+    ++counters_.local_map_refused;
+    return false;
+  }
+  out->icp = r;
+  out->match_T_query = r.match_T_query;
+  out->refined = true;
+  out->local_map = true;
+  ++counters_.local_map_refined;
+  return true;
+}
+
 bool LoopClosureDetector::add_and_detect(const AgentEntry& query, LoopClosure* out) {
   ++counters_.queries;
   bool found = false;
@@ -243,6 +300,7 @@ bool LoopClosureDetector::add_and_detect(const AgentEntry& query, LoopClosure* o
         out->appearance = a;
         out->match_T_query = a.match_T_query;
         out->refined = false;
+        out->local_map = false;
         // The refinement pass on the same pair: a RANSAC pose from a dozen features can be a few degrees off in
         // rotation; ICP on the two views' depth pins it where the views constrain every direction.
         if (config_.icp.enabled && query.cloud.count > 0 && match.cloud.count > 0) {
@@ -271,8 +329,11 @@ bool LoopClosureDetector::add_and_detect(const AgentEntry& query, LoopClosure* o
       out->registration = r;
       out->match_T_query = match.world_T_agent.inverse() * r.target_T_source * query.world_T_agent;
       out->refined = false;
+      out->local_map = false;
       const AgentEntry* matched = &match;
       if (config_.icp.enabled && query.cloud.count > 0) matched = refine_with_neighbours(query, candidates_[k].entry, out);
+      if (!out->refined && config_.local_map.enabled && config_.icp.enabled && query.cloud.count > 0)
+        refine_with_local_maps(query, candidates_[k].entry, out);
       if (!out->refined && !config_.propose_unrefined_objects) {
         ++counters_.objects_unrefined;
         continue;

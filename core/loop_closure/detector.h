@@ -22,6 +22,7 @@
 
 #include "core/loop_closure/appearance.h"
 #include "core/loop_closure/depth_cloud.h"
+#include "core/loop_closure/local_map.h"
 #include "core/loop_closure/object_registration.h"
 #include "core/loop_closure/scene_descriptor.h"
 #include "core/memory/resource_stats.h"
@@ -52,6 +53,8 @@ struct DetectorConfig {
   // better at the sim level (bench/results/loop_closure.md, "Coarse object closures").
   bool propose_unrefined_objects = false;
   double icp_neighbour_m = 3.0;  // ... also against the match's neighbours (in the database) this close to it
+  // Where neither keyframe ICP refines an object registration: the two agents' local maps (local_map.h).
+  LocalMapConfig local_map;
 
   std::string check() const;
   void print(std::FILE* out) const;
@@ -83,6 +86,7 @@ struct LoopClosure {
   Registration registration;            // kObjects
   AppearanceRegistration appearance;    // kAppearance
   bool refined = false;                 // the estimate refined by ICP on the keyframes' depth (either source)
+  bool local_map = false;               // ... on the two agents' local maps (local_map.h) rather than one keyframe each
   IcpResult icp;
 };
 
@@ -98,6 +102,8 @@ struct DetectorCounters {
   std::uint64_t registration_failures = 0;
   std::uint64_t icp_refined = 0;          // registrations (appearance or objects) refined by ICP
   std::uint64_t icp_refused = 0;          // ... where ICP was tried and not trusted (coarse estimate kept)
+  std::uint64_t local_map_refined = 0;    // object registrations keyframe ICP could not refine, refined on local maps
+  std::uint64_t local_map_refused = 0;    // ... tried on local maps and not trusted
   std::uint64_t objects_unrefined = 0;    // object registrations not refined, not proposed (propose_unrefined_objects)
   std::uint64_t proposed = 0;                 // verified loop closures handed to the optimizer
   std::uint64_t refused = 0;                  // agents not stored (a database of fewer than 4)
@@ -117,7 +123,9 @@ class LoopClosureDetector {
   const DetectorCounters& counters() const { return counters_; }
   const DetectorConfig& config() const { return config_; }
   memory::ResourceStats stats() const;
-  std::size_t bytes() const { return entries_.capacity() * sizeof(AgentEntry) + order_.capacity() * 12; }
+  std::size_t bytes() const {
+    return entries_.capacity() * sizeof(AgentEntry) + order_.capacity() * 12 + local_map_.bytes();
+  }
 
  private:
   struct Candidate {
@@ -130,12 +138,15 @@ class LoopClosureDetector {
   void fold();
   static constexpr std::uint32_t kIcpNeighbours = 4;
   const AgentEntry* refine_with_neighbours(const AgentEntry& query, std::uint32_t match_entry, LoopClosure* out);
+  static constexpr std::uint32_t kMaxLocalKeyframes = 16;
+  bool refine_with_local_maps(const AgentEntry& query, std::uint32_t match_entry, LoopClosure* out);
   void build(std::uint32_t lo, std::uint32_t hi);
   void search(std::uint32_t lo, std::uint32_t hi, const AgentDescriptor& d, float radius, const AgentEntry& query);
   void consider(std::uint32_t entry, const AgentEntry& query);
 
   DetectorConfig config_;
   ObjectRegistration registration_;
+  LocalMapVerifier local_map_;
   std::vector<AgentEntry> entries_;
   std::vector<std::uint32_t> order_;  // the vantage-point tree: entries in tree order over [0, indexed_)
   std::vector<float> mu_;             // per tree position: the split radius of the node rooted there

@@ -1,0 +1,164 @@
+#include "core/loop_closure/local_map.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace qsg::loop_closure {
+
+namespace {
+
+constexpr std::int64_t kKeyOffset = std::int64_t{1} << 20;  // cells per axis either side of the anchor
+
+// A cell's key: three 21-bit cell coordinates; false beyond +-2^20 cells of the origin.
+bool cell_key(const Eigen::Vector3d& p, double cell, std::uint64_t* key) {
+  std::uint64_t k = 0;
+  for (int a = 0; a < 3; ++a) {
+    const double c = std::floor(p[a] / cell);
+    if (!(c > -static_cast<double>(kKeyOffset) && c < static_cast<double>(kKeyOffset - 1))) return false;
+    k = (k << 21) | static_cast<std::uint64_t>(static_cast<std::int64_t>(c) + kKeyOffset);
+  }
+  *key = k;
+  return true;
+}
+
+// The match cloud's points by voxel cell: the 27 cells around a query point hold every point within one cell side.
+class GridIndex final : public NearestIndex {
+ public:
+  GridIndex(const std::vector<std::pair<std::uint64_t, std::uint32_t>>& grid, const Eigen::Vector3d* points,
+            double cell)
+      : grid_(grid), points_(points), cell_(cell) {}
+  bool nearest(const Eigen::Vector3d& p, double gate2, std::uint32_t* best) const override {
+    std::uint64_t centre = 0;
+    if (!cell_key(p, cell_, &centre)) return false;
+    double best_d2 = gate2;
+    bool found = false;
+    constexpr std::uint64_t kMask = (std::uint64_t{1} << 21) - 1;
+    const std::int64_t cx = static_cast<std::int64_t>((centre >> 42) & kMask);
+    const std::int64_t cy = static_cast<std::int64_t>((centre >> 21) & kMask);
+    const std::int64_t cz = static_cast<std::int64_t>(centre & kMask);
+    for (std::int64_t dx = -1; dx <= 1; ++dx)
+      for (std::int64_t dy = -1; dy <= 1; ++dy)
+        for (std::int64_t dz = -1; dz <= 1; ++dz) {
+          const std::uint64_t key = (static_cast<std::uint64_t>(cx + dx) << 42) |
+                                    (static_cast<std::uint64_t>(cy + dy) << 21) | static_cast<std::uint64_t>(cz + dz);
+          auto it = std::lower_bound(grid_.begin(), grid_.end(), std::make_pair(key, std::uint32_t{0}));
+          for (; it != grid_.end() && it->first == key; ++it) {
+            const double d2 = (points_[it->second] - p).squaredNorm();
+            if (d2 < best_d2) {
+              best_d2 = d2;
+              *best = it->second;
+              found = true;
+            }
+          }
+        }
+    return found;
+  }
+
+ private:
+  const std::vector<std::pair<std::uint64_t, std::uint32_t>>& grid_;
+  const Eigen::Vector3d* points_;
+  double cell_;
+};
+
+}  // namespace
+
+std::string LocalMapConfig::check() const {
+  if (!(path_m > 0.0 && path_m <= 50.0)) return "path_m must be in (0, 50] m";
+  if (!(voxel_m >= 0.01 && voxel_m <= 1.0)) return "voxel_m must be in [0.01, 1] m";
+  if (!(min_overlap > 0.0 && min_overlap <= 1.0)) return "min_overlap must be in (0, 1]";
+  if (max_points < 64 || max_points > 65536) return "max_points must be in [64, 65536]";
+  return "";
+}
+
+void LocalMapConfig::print(std::FILE* out) const {
+  std::fprintf(out, "local-map verification: %s, agents within %.1f m of path, %.2f m voxels, <= %u points, overlap >= %.2f\n",
+               enabled ? "on" : "off", path_m, voxel_m, max_points, min_overlap);
+}
+
+bool LocalMapVerifier::init(const LocalMapConfig& config, std::uint32_t max_keyframes, std::string* error) {
+  if (const std::string why = config.check(); !why.empty()) return *error = "local_map." + why, false;
+  if (max_keyframes < 1) return *error = "local_map: max_keyframes must be at least 1", false;
+  config_ = config;
+  const std::size_t gather = static_cast<std::size_t>(max_keyframes) * kMaxCloudPoints;
+  gather_points_.reserve(gather);
+  gather_normals_.reserve(gather);
+  voxel_keys_.reserve(gather);
+  for (LocalCloud* c : {&query_, &match_}) {
+    c->points.reserve(config.max_points);
+    c->normals.reserve(config.max_points);
+  }
+  grid_.reserve(config.max_points);
+  return true;
+}
+
+std::size_t LocalMapVerifier::bytes() const {
+  return (gather_points_.capacity() + gather_normals_.capacity()) * sizeof(Eigen::Vector3d) +
+         voxel_keys_.capacity() * sizeof(voxel_keys_[0]) +
+         2 * (query_.points.capacity() + query_.normals.capacity()) * sizeof(Eigen::Vector3d) +
+         grid_.capacity() * sizeof(grid_[0]);
+}
+
+void LocalMapVerifier::begin(const Eigen::Isometry3d& world_T_anchor) {
+  anchor_T_world_ = world_T_anchor.inverse();
+  gather_points_.clear();
+  gather_normals_.clear();
+}
+
+bool LocalMapVerifier::add(const DepthCloud& cloud, const Eigen::Isometry3d& world_T_camera) {
+  if (gather_points_.size() + cloud.count > gather_points_.capacity()) return false;
+  const Eigen::Isometry3d anchor_T_camera = anchor_T_world_ * world_T_camera;
+  for (std::uint32_t i = 0; i < cloud.count; ++i) {
+    const Eigen::Vector3d p(cloud.points_mm[i][0], cloud.points_mm[i][1], cloud.points_mm[i][2]);
+    const Eigen::Vector3d n(cloud.normals[i][0], cloud.normals[i][1], cloud.normals[i][2]);
+    gather_points_.push_back(anchor_T_camera * (p * 1e-3));
+    gather_normals_.push_back(anchor_T_camera.linear() * n.normalized());
+  }
+  return true;
+}
+
+// One point per voxel (the mean of the voxel's points and normals), evenly strided down to max_points.
+void LocalMapVerifier::finish(LocalCloud* out) {
+  out->points.clear();
+  out->normals.clear();
+  voxel_keys_.clear();
+  for (std::uint32_t i = 0; i < gather_points_.size(); ++i) {
+    std::uint64_t key = 0;
+    if (cell_key(gather_points_[i], config_.voxel_m, &key)) voxel_keys_.emplace_back(key, i);
+  }
+  std::sort(voxel_keys_.begin(), voxel_keys_.end());
+  std::size_t voxels = 0;
+  for (std::size_t i = 0; i < voxel_keys_.size(); ++i)
+    voxels += (i == 0 || voxel_keys_[i].first != voxel_keys_[i - 1].first) ? 1 : 0;
+  const std::size_t stride = std::max<std::size_t>(1, (voxels + config_.max_points - 1) / config_.max_points);
+  std::size_t voxel = 0;
+  for (std::size_t i = 0; i < voxel_keys_.size();) {
+    std::size_t j = i;
+    Eigen::Vector3d p = Eigen::Vector3d::Zero(), n = Eigen::Vector3d::Zero();
+    for (; j < voxel_keys_.size() && voxel_keys_[j].first == voxel_keys_[i].first; ++j) {
+      p += gather_points_[voxel_keys_[j].second];
+      n += gather_normals_[voxel_keys_[j].second];
+    }
+    if (voxel++ % stride == 0 && out->points.size() < out->points.capacity() && n.norm() > 1e-6) {
+      out->points.push_back(p / static_cast<double>(j - i));
+      out->normals.push_back(n.normalized());
+    }
+    i = j;
+  }
+}
+
+IcpResult LocalMapVerifier::register_clouds(const LocalCloud& query, const LocalCloud& match,
+                                            const Eigen::Isometry3d& initial, const IcpConfig& icp) {
+  if (query.points.size() < 32 || match.points.size() < 32) return IcpResult{};
+  const double cell = std::max(icp.start_inlier_m, icp.neighbour_m);
+  grid_.clear();
+  for (std::uint32_t j = 0; j < match.points.size(); ++j) {
+    std::uint64_t key = 0;
+    if (cell_key(match.points[j], cell, &key)) grid_.emplace_back(key, j);
+  }
+  std::sort(grid_.begin(), grid_.end());
+  return point_to_plane_icp(query.points.data(), static_cast<std::uint32_t>(query.points.size()), match.points.data(),
+                            match.normals.data(), GridIndex(grid_, match.points.data(), cell), initial, icp,
+                            config_.min_overlap);
+}
+
+}  // namespace qsg::loop_closure
