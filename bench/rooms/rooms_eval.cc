@@ -135,17 +135,13 @@ struct Peers {
   double hydra_dilation_m = 0.0;
 };
 
-// Whether each keyframe's free space is observed (Frontend::observe), as the app does.
-constexpr bool kObserve = false;
-
 // The stages as the app configures them, from the options; frontend_stages false: the backend alone (a cached graph).
 bench::PipelineConfig pipeline_config(const Options& opt, bool frontend_stages) {
   bench::PipelineConfig pc;
   pc.frontend_stages = frontend_stages;
   pc.frontend.places = opt.places;
-  // The app observes every keyframe's free space (Frontend::observe); this evaluation did not before the shared
-  // harness (issue 32), so each places cycle carved the latest frame only.
-  pc.observe = kObserve;
+  // Every keyframe's free space observed (Frontend::observe), as the app does; before the shared harness (issue
+  // 32) this evaluation did not, so each places cycle carved the latest frame only (bench/results/rooms.md).
   pc.backend = true;
   pc.backend_stage.rooms = opt.rooms;
   pc.backend_stage.doors = opt.door;
