@@ -32,7 +32,7 @@ namespace qsg::bench {
 
 struct PipelineConfig {
   // False: no reconstruction and no frontend (the graph comes from elsewhere, e.g. an evaluation's cache); the
-  // backend stage alone.
+  // backend stage alone (close_doors, update_rooms*: integrate, update, explore and finish need the frontend).
   bool frontend_stages = true;
   reconstruction::Config reconstruction;
   reconstruction::Capacities reconstruction_capacities = reconstruction::capacities_from_budget();

@@ -1,8 +1,9 @@
 // Rooms evaluation: benchmark floor plans (IPA, plain and furnished) extruded to 3D and generated two-floor buildings
 // are explored by the simulated robot (ground-truth poses, or drifting ones with --odometry sim|vio, noise-free
-// depth), reconstructed (TSDF) and run through the frontend (places) every keyframe, then the room finder runs once
-// on the final graph. Scored with the benchmark's max-overlap precision and recall (mean over rooms and
-// area-weighted) against the ground truth, in the world frame (bench/rooms/room_score.h).
+// depth) and run through the app's stages (bench/eval_harness.h): reconstruction (TSDF) and frontend every
+// keyframe, then the backend stage's final door stage and room finder once on the final graph. Scored with the
+// benchmark's max-overlap precision and recall (mean over rooms and area-weighted) against the ground truth, in the
+// world frame (bench/rooms/room_score.h).
 //
 // How estimated rooms become pixel sets (documented in the report): the free cells of a 2D raster (the floor plan's
 // own pixels, 0.05 m; for generated buildings a 0.05 m raster of each floor's room footprints) are labelled by a
