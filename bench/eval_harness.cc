@@ -1,3 +1,4 @@
+// The evaluations' one pipeline: the app's stages driven in the app's order (eval_harness.h).
 #include "bench/eval_harness.h"
 
 #include <time.h>

@@ -1,3 +1,4 @@
+// places_eval's ground-truth regions, graph components and --diagnose output (places_diagnosis.h).
 #include "bench/places/places_diagnosis.h"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// rooms_eval's room labels against the ground truth (room_label_score.h).
 #include "bench/rooms/room_label_score.h"
 
 #include <Eigen/Core>

@@ -1,3 +1,4 @@
+// rooms_eval's cache files, dumps, pictures, door oracle and door judgement (rooms_eval_io.h).
 #include "bench/rooms/rooms_eval_io.h"
 
 #include <cmath>

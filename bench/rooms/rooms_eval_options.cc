@@ -1,3 +1,4 @@
+// rooms_eval's command line and help (rooms_eval_options.h).
 #include "bench/rooms/rooms_eval_options.h"
 
 #include <cstdio>
