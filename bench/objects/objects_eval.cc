@@ -1,7 +1,8 @@
 // Objects evaluation: explores generated buildings with the simulated robot (ground-truth poses, or drifting ones
-// with --odometry sim|vio, noise-free depth, ground-truth labels, 0.1 m voxels), runs the semantic TSDF and the
-// object layer on every keyframe, and prints objects % found and % correct (same label, position within 0.5 m of
-// the ground truth's, in the world frame) and the per-update time of the object layer.
+// with --odometry sim|vio, noise-free depth, ground-truth labels, 0.1 m voxels), runs the app's semantic TSDF and
+// frontend (objects, places, agents: bench/eval_harness.h) on every keyframe, and prints objects % found and %
+// correct (same label, position within 0.5 m of the ground truth's, in the world frame) and the per-update time of
+// the frontend (the object layer's alone: bm_objects).
 //
 // Definitions: a ground-truth object is "found" when an estimated object of its label has its position within
 // 0.5 m of the ground-truth box centre; an estimated object is "correct" when it matches some ground-truth object
@@ -19,13 +20,11 @@
 #include <string>
 #include <vector>
 
-#include <time.h>
-
 #include "bench/figures.h"
+#include "bench/eval_harness.h"
 #include "bench/objects/object_match.h"
 #include "bench/sim_tour.h"
 #include "budgets/budget_table.h"
-#include "core/agents/agent_layer.h"
 #include "core/objects/object_layer.h"
 #include "core/objects/objects_params.h"
 #include "core/params/params.h"
@@ -142,12 +141,6 @@ bool parse(int argc, char** argv, Options* o) {
 
 using bench::quantile;
 
-// CPU time of this thread: on a shared machine, wall time of a sub-millisecond stage mostly measures preemption.
-double thread_cpu_ms() {
-  timespec ts{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return 1e3 * static_cast<double>(ts.tv_sec) + 1e-6 * static_cast<double>(ts.tv_nsec);
-}
 
 struct Score {
   std::size_t gt = 0, observed = 0, found = 0, found_observed = 0, estimated = 0, correct = 0;
@@ -175,57 +168,37 @@ bool run_building(std::uint64_t seed, const Options& opt, Score* score, std::vec
   bench::set_odometry(opt.odometry, seed, &sim_tour);
   const sim::ExplorationResult& tour = sim_tour.tour;
 
-  reconstruction::SemanticTsdf tsdf;
-  const reconstruction::Config rc;
-  if (!tsdf.init(rc, reconstruction::capacities_from_budget(), budgets::active::reconstruction::kArenaBytes, &error)) {
-    std::fprintf(stderr, "semantic tsdf: %s\n", error.c_str());
-    return false;
-  }
-  objects::ObjectLayer layer;
-  objects::Config oc = opt.objects;
+  // The app's stages (bench/eval_harness.h): the frontend (objects, places, agents) on the TSDF every keyframe.
+  bench::PipelineConfig config;
+  objects::Config& oc = config.frontend.objects;
+  oc = opt.objects;
   if (opt.tolerance_m > 0.0)
     for (objects::LabelParams& p : oc.labels) p.tolerance_m = opt.tolerance_m;
-  if (!layer.init(oc, objects::capacities_from_budget(), budgets::active::objects::kArenaBytes, &error)) {
-    std::fprintf(stderr, "objects: %s\n", error.c_str());
-    return false;
-  }
   auto graph = std::make_unique<scene_graph::SceneGraph>();
   if (!graph->init(scene_graph::capacities_from_budget(), scene_graph::arena_bytes_from_budget(), &error)) {
     std::fprintf(stderr, "scene graph: %s\n", error.c_str());
     return false;
   }
-  agents::AgentLayer agent_layer;
-  if (!agent_layer.init(agents::Config{}, agents::capacities_from_budget(), &error)) {
-    std::fprintf(stderr, "agents: %s\n", error.c_str());
+  bench::EvalPipeline pipeline;
+  if (!pipeline.init(config, graph.get(), &error)) {
+    std::fprintf(stderr, "pipeline: %s\n", error.c_str());
     return false;
   }
+  const objects::ObjectLayer& layer = pipeline.frontend().objects();
   if (seed == opt.seeds.front()) {
-    rc.print(stdout);
+    config.reconstruction.print(stdout);
     oc.print(stdout);
     layer.capacities().print(stdout);
   }
-
-  auto frame = std::make_unique<messages::RgbdFrame>();
-  const std::size_t frames = bench::for_each_posed_frame(
-      sim_tour, *frame,
-      [&](const messages::RgbdFrame& f, const Eigen::Isometry3d& T, std::int64_t t_ns, const Eigen::Isometry3d&) {
-    const auto t0 = std::chrono::steady_clock::now();
-    tsdf.process(f, T);
-    const auto t1 = std::chrono::steady_clock::now();
-    const double cpu1 = thread_cpu_ms();
-    layer.update(tsdf, static_cast<std::uint64_t>(t_ns));
-    layer.sync(graph.get());
-    const double cpu2 = thread_cpu_ms();
-    const auto t2 = std::chrono::steady_clock::now();
-    update_cpu_ms->push_back(cpu2 - cpu1);
-    agent_layer.add_keyframe(graph.get(), static_cast<std::uint64_t>(t_ns), T);
-    recon_ms->push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
-    update_ms->push_back(std::chrono::duration<double, std::milli>(t2 - t1).count());
+  const std::size_t frames = pipeline.explore(sim_tour, [&](const bench::FrontendStep& step) {
+    update_cpu_ms->push_back(step.update_cpu_ms);
+    update_ms->push_back(step.update_ms);
   });
+  recon_ms->insert(recon_ms->end(), pipeline.integrate_ms().begin(), pipeline.integrate_ms().end());
   *keyframes += frames;
 
   reconstruction::Mesh mesh;
-  tsdf.extract_full_mesh(&mesh);
+  pipeline.tsdf().extract_full_mesh(&mesh);
   Score s;
   s.gt = w.objects.size();
   const std::vector<int> mesh_vertices = bench::object_mesh_vertices(w, mesh);
@@ -298,7 +271,7 @@ bool run_building(std::uint64_t seed, const Options& opt, Score* score, std::vec
   std::printf("seed %llu: %zu rooms, tour %.1f m, %zu keyframes; ground truth %zu objects (%zu observed), found %zu; "
               "estimated %zu, correct %zu; agents %zu, graph objects %zu\n",
               static_cast<unsigned long long>(seed), w.rooms.size(), tour.length_m, frames, s.gt, s.observed, s.found,
-              s.estimated, s.correct, agent_layer.num_keyframes(), graph->num_nodes(scene_graph::NodeKind::kObject));
+              s.estimated, s.correct, pipeline.frontend().agents().num_keyframes(), graph->num_nodes(scene_graph::NodeKind::kObject));
   layer.counters().print(stdout);
   layer.for_each_resource([](const memory::ResourceStats& r) {
     std::printf("  ");
@@ -353,9 +326,9 @@ int main(int argc, char** argv) {
   std::printf("  objects correct: %.1f %% of %zu estimated\n", correct_pct, score.estimated);
   std::printf("  (scored with the vertex mean instead of the reported position: found %.1f %%, correct %.1f %%)\n",
               pct(score.found_mean, score.gt), pct(score.correct_mean, score.estimated));
-  std::printf("  object layer per update (update + sync): median %.3f ms, p99 %.3f ms, max %.3f ms\n", median, p99,
+  std::printf("  frontend per update (objects, places, inter-layer edges): median %.3f ms, p99 %.3f ms, max %.3f ms\n", median, p99,
               max_ms);
-  std::printf("  object layer per update, thread CPU time: median %.3f ms, p99 %.3f ms, max %.3f ms\n", cpu_median,
+  std::printf("  frontend per update, thread CPU time: median %.3f ms, p99 %.3f ms, max %.3f ms\n", cpu_median,
               cpu_p99, cpu_max);
   std::printf("  (reconstruction per keyframe, for scale: median %.2f ms)\n", quantile(recon_ms, 0.5));
   std::printf("  merges: centre-in-box %llu, intersecting boxes %llu, size prior %llu; merge search: %llu queries, "
@@ -385,12 +358,12 @@ int main(int argc, char** argv) {
     add("objects_eval.correct", correct_pct, "%");
     add("objects_eval.ground_truth_objects", static_cast<double>(score.gt), "objects");
     add("objects_eval.estimated_objects", static_cast<double>(score.estimated), "objects");
-    add("objects_eval.update_ms_median", median, "ms");
-    add("objects_eval.update_ms_p99", p99, "ms");
-    add("objects_eval.update_ms_max", max_ms, "ms");
-    add("objects_eval.update_cpu_ms_median", cpu_median, "ms");
-    add("objects_eval.update_cpu_ms_p99", cpu_p99, "ms");
-    add("objects_eval.update_cpu_ms_max", cpu_max, "ms");
+    add("objects_eval.frontend_update_ms_median", median, "ms");
+    add("objects_eval.frontend_update_ms_p99", p99, "ms");
+    add("objects_eval.frontend_update_ms_max", max_ms, "ms");
+    add("objects_eval.frontend_update_cpu_ms_median", cpu_median, "ms");
+    add("objects_eval.frontend_update_cpu_ms_p99", cpu_p99, "ms");
+    add("objects_eval.frontend_update_cpu_ms_max", cpu_max, "ms");
     add("objects_eval.keyframes", static_cast<double>(keyframes), "keyframes");
     add("objects_eval.merges_centre_in_box", static_cast<double>(score.merged_centre), "merges");
     add("objects_eval.merges_intersecting_boxes", static_cast<double>(score.merged_intersect), "merges");

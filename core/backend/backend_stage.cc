@@ -5,6 +5,7 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <utility>
 
 #include "budgets/budget_table.h"
 
@@ -136,8 +137,10 @@ BackendStage::FinalDoors BackendStage::close_doors(const reconstruction::Mesh& m
   out.slices = stats.slices;
   out.bypassed = stats.bypassed;
   out.bypass_unchecked = stats.bypass_unchecked;
+  out.candidates = stats.candidates;
   out.edges_closed = rooms::cut_place_edges(doors, config_.doors, graph);
   if (config_.doors.sight_cut_edges) out.edges_through_walls = rooms::cut_edges_through_walls(final_sight_, graph);
+  out.found = std::move(doors);
   online_doors_.clear_doors();  // the final doors, every storey on the whole mesh, replace the online ones
   return out;
 }

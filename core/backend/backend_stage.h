@@ -100,7 +100,9 @@ class BackendStage {
     bool ok = false;
     std::string error;
     std::size_t doors = 0, slices = 0, bypassed = 0, bypass_unchecked = 0;
+    std::size_t candidates = 0;  // door candidates before the checks
     std::uint64_t edges_closed = 0, edges_through_walls = 0;
+    std::vector<rooms::Door> found;  // the doors themselves (for the evaluations' scoring)
   };
 
   BackendStage() = default;
