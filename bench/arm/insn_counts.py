@@ -9,9 +9,11 @@ expected milliseconds per run against each stage's budget. Writes [{name, value,
 OUT_DIR/<commit>.json (one file per commit) and compares it with the file of the nearest earlier commit.
 
   bench/arm/insn_counts.py [--duration 30] [--repeat 2] [--cpi 1.0] [--clock-ghz 1.4]   (from the repository root)
-  bench/arm/insn_counts.py --compare OLD.json NEW.json
+  bench/arm/insn_counts.py --compare OLD.json NEW.json      (exit 1 when an instruction figure grew > 1 %)
+  bench/arm/insn_counts.py --table RESULT.json              (the results log's table)
 """
 import argparse
+import concurrent.futures
 import json
 import math
 import os
@@ -153,6 +155,9 @@ def compare(old_path, new_path, threshold_pct):
     """Prints every instruction figure's change; returns how many grew by more than threshold_pct."""
     old = {f["name"]: f for f in json.load(open(old_path))}
     new = {f["name"]: f for f in json.load(open(new_path))}
+    strip = lambda c: re.sub(r"; expected ms at .*", "", c)  # the CPI assumption does not change the counts
+    if old and new and strip(next(iter(old.values()))["conditions"]) != strip(next(iter(new.values()))["conditions"]):
+        print("\nwarning: the two files were measured under different conditions; changes are not regressions")
     print(f"\ncompared with {os.path.basename(old_path)} (instruction figures; > {threshold_pct} % flagged):")
     print(f"  {'figure':58} {'old':>15} {'new':>15} {'change':>9}")
     grown = 0
@@ -175,22 +180,28 @@ def compare(old_path, new_path, threshold_pct):
     return grown
 
 
-def markdown(stages, keyframes, runs, args):
-    ms_per_insn = args.cpi / (args.clock_ghz * 1e6)
-    lo, hi = args.cpi_low / (args.clock_ghz * 1e6), args.cpi_high / (args.clock_ghz * 1e6)
-    print(f"\n| stage | runs | instructions per run (mean / max) | per keyframe | expected ms mean / max at CPI "
-          f"{args.cpi} ({args.cpi_low}-{args.cpi_high}) | budget ms |")
-    print("| --- | ---: | ---: | ---: | ---: | ---: |")
-    for sid in sorted(stages):
-        name, budget_us = stages[sid]
-        counts = sorted(c for _, c in runs.get(sid, []))
-        if not counts:
-            print(f"| {name} | 0 | - | - | - | {budget_us / 1000:g} |")
-            continue
-        mean = sum(counts) / len(counts)
-        print(f"| {name} | {len(counts)} | {mean / 1e6:.2f} M / {counts[-1] / 1e6:.2f} M | "
-              f"{sum(counts) / keyframes / 1e6:.3f} M | {mean * ms_per_insn:.2f} / {counts[-1] * ms_per_insn:.2f} "
-              f"({counts[-1] * lo:.2f}-{counts[-1] * hi:.2f}) | {budget_us / 1000:g} |")
+def markdown(figs, cpi_low, cpi_high):
+    """The results log's table from a result file's figures (expected ms at the file's CPI, and the range)."""
+    value = {f["name"]: f["value"] for f in figs}
+    stages = [n[len("arm_insn."):-len(".budget_ms")] for n in value if n.endswith(".budget_ms")]
+    m = re.search(r"CPI ([0-9.]+) and ([0-9.]+) GHz", figs[0]["conditions"])
+    cpi, ghz = float(m.group(1)), float(m.group(2))
+    print(f"\n| stage | runs | instructions per run: mean / p99 / max | per keyframe | expected ms per run: mean / "
+          f"max at CPI {cpi:g}, {ghz:g} GHz | max at CPI {cpi_low:g}-{cpi_high:g} | budget ms | max / budget at CPI "
+          f"{cpi:g} |")
+    print("| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
+    for s in stages:
+        p = f"arm_insn.{s}."
+        ms_max = value[p + "expected_ms_max"]
+        print(f"| {s} | {value[p + 'runs']:.0f} | {value[p + 'instructions_per_run_mean']:,.0f} / "
+              f"{value[p + 'instructions_per_run_p99']:,.0f} / {value[p + 'instructions_per_run_max']:,.0f} | "
+              f"{value[p + 'instructions_per_keyframe']:,.0f} | {value[p + 'expected_ms_mean']:.3f} / {ms_max:.3f} | "
+              f"{ms_max * cpi_low / cpi:.3f}-{ms_max * cpi_high / cpi:.3f} | {value[p + 'budget_ms']:g} | "
+              f"{100 * value[p + 'expected_max_share_of_budget']:.1f} % |")
+    print(f"\n{value['arm_insn.keyframes']:.0f} keyframes; the loop's tasks and threads "
+          f"{value['arm_insn.loop.instructions_per_keyframe']:,.0f} instructions per keyframe; the whole process "
+          f"{value['arm_insn.process.instructions']:,.0f} (start-up, the simulator's rendering and the outputs "
+          f"included); repeats' largest relative difference {value['arm_insn.repeat_max_relative_difference']:.2e}")
 
 
 def main():
@@ -202,6 +213,7 @@ def main():
     ap.add_argument("--rooms", type=int, default=0, help="rooms of the generated building (default: the config's)")
     ap.add_argument("--set", action="append", help="a config key for the app, SECTION.KEY=VALUE")
     ap.add_argument("--repeat", type=int, default=2, help="runs; every run must count the same (default 2)")
+    ap.add_argument("--jobs", type=int, default=1, help="repeats run at once (one core each)")
     ap.add_argument("--cpi", type=float, default=1.0, help="Carmel cycles per instruction (bench/results/arm_insn.md)")
     ap.add_argument("--cpi-low", type=float, default=0.7)
     ap.add_argument("--cpi-high", type=float, default=2.0)
@@ -210,9 +222,13 @@ def main():
     ap.add_argument("--threshold-pct", type=float, default=1.0, help="growth flagged as a regression")
     ap.add_argument("--no-build", action="store_true", help="do not (re)build the arm64 qsg_app first")
     ap.add_argument("--compare", nargs=2, metavar=("OLD", "NEW"), help="only compare two result files")
+    ap.add_argument("--table", metavar="RESULT", help="only print the results log's table of a result file")
     args = ap.parse_args()
     if args.compare:
         return 1 if compare(args.compare[0], args.compare[1], args.threshold_pct) else 0
+    if args.table:
+        markdown(json.load(open(args.table)), args.cpi_low, args.cpi_high)
+        return 0
 
     if not args.no_build:
         run(["cmake", "--build", "--preset", "arm64", "--target", "qsg_app", "-j2"], cwd=ROOT)
@@ -223,10 +239,12 @@ def main():
     commit = git("describe", "--always", "--dirty=-dirty", "--abbrev=12") or "unknown"
     qemu_version = subprocess.run([args.qemu, "--version"], capture_output=True, text=True).stdout.split("\n")[0]
 
-    results = []
-    for i in range(args.repeat):
+    def one_run(_):
         with tempfile.TemporaryDirectory(prefix="arm_insn_") as work:
-            results.append(run_app(args, plugin, work))
+            return run_app(args, plugin, work)
+
+    with concurrent.futures.ThreadPoolExecutor(max_workers=max(1, args.jobs)) as pool:
+        results = list(pool.map(one_run, range(args.repeat)))
     stages, keyframes, board, runs, total = results[0]
     # Repeats must agree. Exactly, but for bookkeeping that reads the host: telemetry prints the resident set, and
     # the backend keeps the longest wall-clock durations (a store or not): tens of instructions, explained in
@@ -265,7 +283,7 @@ def main():
         json.dump(figs, f, indent=2)
         f.write("\n")
     print(f"wrote {path}")
-    markdown(stages, keyframes, runs, args)
+    markdown(figs, args.cpi_low, args.cpi_high)
     prev = previous_file(args.out_dir, commit)
     if prev:
         compare(prev, path, args.threshold_pct)
