@@ -125,6 +125,7 @@ def figures_of(stages, keyframes, runs, total, args, commit, conditions):
         add(p + "expected_ms_max", counts[-1] * ms_per_insn, "ms")
         add(p + "budget_ms", budget_us / 1000.0, "ms")
         add(p + "expected_max_share_of_budget", counts[-1] * ms_per_insn / (budget_us / 1000.0), "ratio")
+        add(p + "expected_runs_over_budget", sum(1 for c in counts if c * ms_per_insn > budget_us / 1000.0), "runs")
     add("arm_insn.loop.instructions_per_keyframe", loop_total / keyframes, "instructions")
     return figs
 
