@@ -249,21 +249,24 @@ def main():
     stages, keyframes, board, runs, total = results[0]
     # Repeats must agree. Exactly, but for bookkeeping that reads the host: telemetry prints the resident set, and
     # the backend keeps the longest wall-clock durations (a store or not): tens of instructions, explained in
-    # bench/results/arm_insn.md. More than kTolerance apart is a real non-determinism and fails the run.
+    # bench/results/arm_insn.md. More than the tolerance apart is a real non-determinism and fails the run;
+    # telemetry, whose whole output is host figures (resident set, page faults), is held to 1e-2.
     identical = all(r[1:] == results[0][1:] for r in results[1:])
-    worst = 0.0
+    tolerance = 1e-3
+    worst = failing = 0.0
     for sid in sorted(stages):
         for j, r in enumerate(results[1:], 2):
             if r[3].get(sid) != runs.get(sid):
                 a = sum(c for _, c in runs.get(sid, []))
                 b = sum(c for _, c in r[3].get(sid, []))
                 rel = abs(a - b) / max(a, 1)
-                worst = max(worst, rel if len(r[3].get(sid, [])) == len(runs.get(sid, [])) else 1.0)
+                rel = rel if len(r[3].get(sid, [])) == len(runs.get(sid, [])) else 1.0
+                worst = max(worst, rel)
+                failing = max(failing, rel / (10 if stages[sid][0] == "telemetry" else 1))
                 print(f"insn_counts: run {j} differs on {stages[sid][0]}: {a} vs {b} instructions "
                       f"({len(runs.get(sid, []))} vs {len(r[3].get(sid, []))} runs, {rel:.2e} relative)")
     if results[0][1] != results[-1][1]:
-        worst = 1.0
-    tolerance = 1e-3
+        worst = failing = 1.0
     print(f"insn_counts: {args.repeat} run(s), counts {'identical' if identical else 'differ'}; largest relative "
           f"difference of a stage's total {worst:.2e} (tolerance {tolerance:g})")
 
@@ -290,7 +293,7 @@ def main():
         compare(prev, path, args.threshold_pct)
     else:
         print("\nno earlier commit's file to compare with")
-    return 0 if worst <= tolerance else 1
+    return 0 if failing <= tolerance else 1
 
 
 if __name__ == "__main__":
