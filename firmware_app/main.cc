@@ -19,6 +19,7 @@
 #include "firmware_app/exit_report.h"
 #include "firmware_app/fault_injection.h"
 #include "firmware_app/pipeline.h"
+#include "firmware_app/runtime/stage_marker.h"
 
 namespace {
 
@@ -34,7 +35,7 @@ void usage() {
       "               [--quiet]\n"
       "               [--odometry auto|sim_drift|ground_truth|tum|stream|static] [--odometry-tum FILE]\n"
       "               [--pose-stream udp:ADDRESS:PORT | unix:PATH] [--fault-plan FILE] [--report-json FILE]\n"
-      "               [--mlockall] [--deterministic] [--set SECTION.KEY=VALUE ...] [--dump-config]\n"
+      "               [--mlockall] [--deterministic] [--stage-markers] [--set SECTION.KEY=VALUE ...] [--dump-config]\n"
       "       qsg_app --convert SPARK_DSG_JSON OUT_JSON [--mesh MESH.ply]   (validate a scene graph and write it in the\n"
       "               Spark-DSG 1.1.3 layout, canonically; --mesh embeds the mesh as Spark-DSG does)\n"
       "  Defaults: the simulated quadruped explores a generated 12-room building in lockstep on the board's\n"
@@ -48,6 +49,8 @@ void usage() {
       "  needs CAP_IPC_LOCK or LimitMEMLOCK=infinity; a failure is logged and the run goes on unlocked).\n"
       "  --deterministic: in lockstep, measure task costs on the stepped clock too, so no deadline binds and two\n"
       "  runs (of one build or of two) write identical outputs: for regression comparisons, not for budgets.\n"
+      "  --stage-markers: bracket every timed stage run with a marker system call (an unassigned number: ENOSYS)\n"
+      "  that bench/arm/insn_count_plugin.c counts instructions between under qemu-aarch64; prints the stage ids.\n"
       "  --set SECTION.KEY=VALUE: one config key (e.g. rooms.visible_min_share=0.7), after --config.\n"
       "  --dump-config: print the effective configuration as a config file, every key with its doc, unit,\n"
       "  range and origin, and exit (with no other argument: the defaults, firmware_app/config/default.json).\n",
@@ -177,6 +180,8 @@ int main(int argc, char** argv) {
       config.lock_memory = true;
     } else if (a == "--deterministic") {
       deterministic = true;
+    } else if (a == "--stage-markers") {
+      runtime::set_stage_markers(true);
     } else if (a == "--quiet") {
       quiet = true;
     } else if (a == "--set" && has_value) {
@@ -210,6 +215,7 @@ int main(int argc, char** argv) {
 
   std::printf("qsg_app: board %s (%s)\n", budgets::active::kBoard, budgets::active::kTable.description);
   config.print(stdout);
+  if (runtime::stage_markers_on()) runtime::print_stage_markers(budgets::active::kTable, stdout);
 
   runtime::SteppedClock stepped;
   runtime::WallClock wall;

@@ -32,6 +32,7 @@
 #include "firmware_app/graph_picture.h"
 #include "drivers/world/world_file.h"
 #include "firmware_app/memory_lock.h"
+#include "firmware_app/runtime/stage_marker.h"
 #include "drivers/world/world_query.h"
 
 namespace qsg::app {
@@ -328,6 +329,7 @@ bool Pipeline::init_segmentation(std::string* error) {
   wc.threaded = !config_.lockstep;  // lockstep: deterministic, segmented after the keyframe's tasks
   wc.budget_us = t->budget_us;
   wc.lockstep_busy_from_cost = sc.lockstep_busy_from_cost;
+  runtime::stage_marker_id(budgets::active::kTable, "segmentation", &wc.stage_marker);
   return segmentation_.init(std::move(segmenter), std::max<std::uint32_t>(2, q->depth), wc, error);
 }
 
@@ -347,6 +349,7 @@ bool Pipeline::init_backend(std::string* error) {
   backend_budget_us_ = thread_budget->budget_us;
   door_pass_budget_us_ = thread_budget->part_budget_us;
   finish_budget_us_ = thread_budget->finish_budget_us;
+  runtime::stage_marker_id(budgets::active::kTable, "backend", &backend_marker_);
   if (!init_loop_closure(error)) return false;
   backend::BackendStage::Config bc;
   bc.rooms = config_.rooms;
@@ -393,6 +396,7 @@ bool Pipeline::init_backend(std::string* error) {
 void Pipeline::run_door_pass(const Eigen::Vector3d& robot_m) {
   const auto start = std::chrono::steady_clock::now();
   const std::int64_t c0 = thread_cpu_us();
+  runtime::stage_begin(runtime::kDoorPassStage, 0);
   backend_.begin_door_pass(robot_m);
   {
     std::lock_guard<std::mutex> lock(graph_mutex_);
@@ -403,6 +407,7 @@ void Pipeline::run_door_pass(const Eigen::Vector3d& robot_m) {
     backend_.rasterize_walls();
   }
   const bool ran = backend_.detect_doors().ran;
+  runtime::stage_end(runtime::kDoorPassStage, 0);
   {
     std::lock_guard<std::mutex> lock(backend_stats_mutex_);
     door_pass_cpu_.record(thread_cpu_us() - c0, door_pass_budget_us_);
@@ -427,7 +432,9 @@ void Pipeline::backend_worker() {
 
 void Pipeline::timed_backend_update(const BackendUpdate& u) {
   const std::int64_t c0 = thread_cpu_us(), w0 = steady_us();
+  runtime::stage_begin(backend_marker_, u.time_ns);
   run_backend_update(u);
+  runtime::stage_end(backend_marker_, u.time_ns);
   const std::int64_t cpu = thread_cpu_us() - c0, wall = steady_us() - w0;
   std::lock_guard<std::mutex> lock(backend_stats_mutex_);
   backend_wall_.record(wall, backend_budget_us_);
@@ -864,10 +871,12 @@ bool Pipeline::finish(std::string* error) {
   }
   // The backend's final stage (doors on the whole surface, rooms and labels once more), timed against its budget.
   const std::int64_t finish_c0 = thread_cpu_us();
+  runtime::stage_begin(runtime::kFinalStage, 0);
   if (config_.doors_at_finish) close_doors(mesh);
   {
     std::lock_guard<std::mutex> lock(graph_mutex_);
     backend_.update_rooms(&graph_, latest_keyframe_ns_, /*final=*/true);
+    runtime::stage_end(runtime::kFinalStage, 0);
     {
       std::lock_guard<std::mutex> stats_lock(backend_stats_mutex_);
       finish_cpu_.record(thread_cpu_us() - finish_c0, finish_budget_us_);

@@ -319,6 +319,7 @@ class Pipeline {
   std::uint32_t backend_budget_us_ = 0;
   std::uint32_t door_pass_budget_us_ = 0;
   std::uint32_t finish_budget_us_ = 0;
+  std::uint32_t backend_marker_ = 0;  // the backend thread's stage-marker id (runtime/stage_marker.h)
   SegmentationWorker::RunObserver backend_observer_ = nullptr;
   void* backend_observer_user_ = nullptr;
   // Telemetry lines go through a bounded queue to a writer thread: the loop never blocks on its output.

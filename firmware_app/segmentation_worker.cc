@@ -1,6 +1,8 @@
 // SegmentationWorker: fixed slots, one worker thread (or the loop's, in lockstep), per-frame wall and CPU time.
 #include "firmware_app/segmentation_worker.h"
 
+#include "firmware_app/runtime/stage_marker.h"
+
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -116,7 +118,9 @@ void SegmentationWorker::segment_slot(std::size_t i) {
   messages::RgbdFrame& f = *slots_[i].frame;
   const std::int64_t c0 = thread_cpu_us(), w0 = wall_us();
   std::string error;
+  runtime::stage_begin(config_.stage_marker, static_cast<std::uint64_t>(f.sample_time_ns));
   const bool ok = segmenter_->segment(f, &error);
+  runtime::stage_end(config_.stage_marker, static_cast<std::uint64_t>(f.sample_time_ns));
   const std::int64_t cpu = thread_cpu_us() - c0, wall = wall_us() - w0;
   if (config_.lockstep_busy_from_cost && !config_.threaded) busy_until_ns_ = f.sample_time_ns + cpu * 1000;
   if (observer_ != nullptr) observer_(observer_user_, cpu, wall);

@@ -44,6 +44,7 @@ struct SegmentationWorkerConfig {
   // the run's CPU time, in data time, as a worker on a core of its own would be; so the share of keyframes labelled
   // in a lockstep run is what the measured cost allows. Off: lockstep takes every frame offered (deterministic).
   bool lockstep_busy_from_cost = false;
+  std::uint32_t stage_marker = 0;  // the thread's stage-marker id (runtime/stage_marker.h), set from the board's table
 };
 
 struct SegmentationWorkerCounters {

@@ -6,6 +6,8 @@
 #include <cstring>
 #include <thread>
 
+#include "firmware_app/runtime/stage_marker.h"
+
 namespace qsg::runtime {
 
 void WallClock::sleep_until_ns(std::int64_t t_ns) {
@@ -51,6 +53,7 @@ bool Scheduler::init(const SchedulerConfig& config, const budgets::BoardTable& t
     Task t;
     t.budget = b;
     t.period_ns = by_rate ? static_cast<std::int64_t>(std::llround(1e9 / b.rate_hz)) : 0;
+    t.marker = static_cast<std::uint32_t>(i);
     tasks_.push_back(t);
   }
   std::stable_sort(tasks_.begin(), tasks_.end(),
@@ -85,7 +88,11 @@ const Scheduler::Task* Scheduler::find(const char* name) const {
 void Scheduler::run(Task& task, std::uint64_t keyframe) {
   const std::int64_t start = cost_clock_->now_ns();
   const TaskContext context{start, start + static_cast<std::int64_t>(task.budget.budget_us) * 1000, keyframe};
+  // Rate tasks are numbered by the tick they ran on, keyframe tasks by their keyframe.
+  const std::uint64_t sequence = task.period_ns > 0 ? ticks_ : keyframe;
+  stage_begin(task.marker, sequence);
   if (task.fn != nullptr) task.fn(task.user, context);
+  stage_end(task.marker, sequence);
   const std::int64_t end = cost_clock_->now_ns();
   task.stats.record((end - start) / 1000, task.budget.budget_us);
   if (observer_ != nullptr) observer_(observer_user_, static_cast<std::size_t>(&task - tasks_.begin()), (end - start) / 1000);

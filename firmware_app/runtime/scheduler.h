@@ -45,6 +45,7 @@ class Scheduler {
     std::int64_t period_ns = 0;    // rate tasks
     std::int64_t next_due_ns = 0;  // rate tasks
     bool pending = false;          // keyframe tasks: deferred to the next keyframe
+    std::uint32_t marker = 0;      // its stage-marker id: its index in the board's table (stage_marker.h)
     TaskStats stats;
   };
 

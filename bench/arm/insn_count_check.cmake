@@ -1,0 +1,73 @@
+# The instruction-counting plugin on a program whose count is known (ctest arm_insn.plugin_counts_a_known_loop):
+# insn_loop.cc, built for arm64 with the app's stage markers, runs under qemu-aarch64 with the plugin. The marked
+# loop must count exactly 2 instructions per iteration, the outer stage must hold the inner one, two runs must
+# count the same, and with markers off (the default) no run is reported. Skips (QSG_SKIP) without an arm64
+# compiler or qemu-aarch64.
+#   cmake -DPLUGIN=insn_count_plugin.so -DSOURCE_DIR=<repo> -DWORK_DIR=<dir> -P insn_count_check.cmake
+find_program(QEMU NAMES qemu-aarch64 qemu-aarch64-static)
+find_program(CXX_ARM NAMES aarch64-linux-gnu-g++ aarch64-linux-gnu-g++-12)
+if(NOT QEMU OR NOT CXX_ARM)
+  message("QSG_SKIP: needs qemu-aarch64 and aarch64-linux-gnu-g++ (toolchains/install_deps.sh --cross)")
+  return()
+endif()
+file(MAKE_DIRECTORY ${WORK_DIR})
+set(program ${WORK_DIR}/insn_loop)
+execute_process(COMMAND ${CXX_ARM} -std=c++17 -O2 -static -I${SOURCE_DIR} ${SOURCE_DIR}/bench/arm/insn_loop.cc
+                        ${SOURCE_DIR}/firmware_app/runtime/stage_marker.cc -o ${program}
+                RESULT_VARIABLE rc ERROR_VARIABLE err)
+if(NOT rc EQUAL 0)
+  message(FATAL_ERROR "building insn_loop for arm64 failed: ${err}")
+endif()
+
+# Runs insn_loop with ARGN under the plugin; sets <prefix>_inner, <prefix>_outer (-1 when not reported),
+# <prefix>_runs (the number of run lines) and <prefix>_text.
+function(count prefix)
+  set(out ${WORK_DIR}/${prefix}.txt)
+  execute_process(COMMAND ${QEMU} -plugin ${PLUGIN},out=${out} ${program} ${ARGN} RESULT_VARIABLE rc)
+  if(NOT rc EQUAL 0)
+    message(FATAL_ERROR "insn_loop ${ARGN} under the plugin exited with ${rc}")
+  endif()
+  file(STRINGS ${out} lines)
+  set(inner -1)
+  set(outer -1)
+  set(runs 0)
+  foreach(line IN LISTS lines)
+    if(line MATCHES "^run ([0-9]+) [0-9]+ ([0-9]+) [0-9]+$")
+      math(EXPR runs "${runs} + 1")
+      if(CMAKE_MATCH_1 EQUAL 5)
+        set(inner ${CMAKE_MATCH_2})
+      elseif(CMAKE_MATCH_1 EQUAL 3)
+        set(outer ${CMAKE_MATCH_2})
+      endif()
+    endif()
+  endforeach()
+  file(READ ${out} text)
+  set(${prefix}_inner ${inner} PARENT_SCOPE)
+  set(${prefix}_outer ${outer} PARENT_SCOPE)
+  set(${prefix}_runs ${runs} PARENT_SCOPE)
+  set(${prefix}_text "${text}" PARENT_SCOPE)
+endfunction()
+
+count(a 1000 --markers)
+count(b 3000 --markers)
+count(c 1000 --markers)
+count(off 1000)
+message("1000 iterations: inner ${a_inner}, outer ${a_outer}; 3000: inner ${b_inner}, outer ${b_outer}")
+if(NOT a_runs EQUAL 2 OR NOT b_runs EQUAL 2)
+  message(FATAL_ERROR "expected 2 marked runs, got ${a_runs} and ${b_runs}:\n${a_text}")
+endif()
+math(EXPR inner_delta "${b_inner} - ${a_inner}")
+math(EXPR outer_delta "${b_outer} - ${a_outer}")
+if(NOT inner_delta EQUAL 4000 OR NOT outer_delta EQUAL 4000)
+  message(FATAL_ERROR "2000 more iterations of a 2-instruction loop counted ${inner_delta} (inner) and "
+                      "${outer_delta} (outer) more instructions, not 4000")
+endif()
+if(a_inner LESS 2000 OR a_inner GREATER 2100 OR NOT a_outer GREATER a_inner)
+  message(FATAL_ERROR "inner ${a_inner} should be 2000 plus the markers' few, outer ${a_outer} above it")
+endif()
+if(NOT a_text STREQUAL c_text)
+  message(FATAL_ERROR "two runs of one input counted differently:\n${a_text}\n---\n${c_text}")
+endif()
+if(NOT off_runs EQUAL 0)
+  message(FATAL_ERROR "markers off (the default) but ${off_runs} runs reported:\n${off_text}")
+endif()
