@@ -132,6 +132,8 @@ params::Table<AppConfig::LoopClosure> loop_closure_table() {
   local_map.add("local_map_voxel_m", &L::voxel_m, "m", any(), refinement, "a local map keeps one point per voxel of this side");
   local_map.add("local_map_min_overlap", &L::min_overlap, "", any(), refinement,
                 "share of the query's local-map points on a match plane after ICP");
+  local_map.add("local_map_max_correction_rad", &L::max_correction_rad, "rad", any(), refinement,
+                "largest rotation the local-map ICP may apply to the object registration's estimate");
   t.include(local_map, [](C& c) -> L& { return c.detector.local_map; });
   using R = loop_closure::RegistrationConfig;
   params::Table<R> registration;

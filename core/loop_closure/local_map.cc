@@ -67,6 +67,7 @@ std::string LocalMapConfig::check() const {
   if (!(voxel_m >= 0.01 && voxel_m <= 1.0)) return "voxel_m must be in [0.01, 1] m";
   if (!(min_overlap > 0.0 && min_overlap <= 1.0)) return "min_overlap must be in (0, 1]";
   if (max_points < 64 || max_points > 65536) return "max_points must be in [64, 65536]";
+  if (!(max_correction_rad > 0.0 && max_correction_rad <= 3.2)) return "max_correction_rad must be in (0, 3.2] rad";
   return "";
 }
 
@@ -156,8 +157,10 @@ IcpResult LocalMapVerifier::register_clouds(const LocalCloud& query, const Local
     if (cell_key(match.points[j], cell, &key)) grid_.emplace_back(key, j);
   }
   std::sort(grid_.begin(), grid_.end());
+  IcpConfig bounded = icp;
+  bounded.max_correction_rad = std::min(icp.max_correction_rad, config_.max_correction_rad);
   return point_to_plane_icp(query.points.data(), static_cast<std::uint32_t>(query.points.size()), match.points.data(),
-                            match.normals.data(), GridIndex(grid_, match.points.data(), cell), initial, icp,
+                            match.normals.data(), GridIndex(grid_, match.points.data(), cell), initial, bounded,
                             config_.min_overlap);
 }
 

@@ -27,6 +27,9 @@ struct LocalMapConfig {
   double voxel_m = 0.08;     // one point per voxel of this side
   double min_overlap = 0.3;  // share of the query's local points on a match plane after ICP
   std::uint32_t max_points = 4096;  // per local cloud after thinning (evenly strided beyond)
+  // Largest rotation ICP may apply to the object registration's estimate (that estimate is within a degree or two;
+  // a larger turn is ICP sliding on geometry that pins the rotation poorly).
+  double max_correction_rad = 0.05;
 
   std::string check() const;
   void print(std::FILE* out) const;
