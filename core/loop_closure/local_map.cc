@@ -80,6 +80,7 @@ bool LocalMapVerifier::init(const LocalMapConfig& config, std::uint32_t max_keyf
   if (const std::string why = config.check(); !why.empty()) return *error = "local_map." + why, false;
   if (max_keyframes < 1) return *error = "local_map: max_keyframes must be at least 1", false;
   config_ = config;
+  if (!config.enabled) return true;  // off: no buffers (the detector never calls the pass)
   const std::size_t gather = static_cast<std::size_t>(max_keyframes) * kMaxCloudPoints;
   gather_points_.reserve(gather);
   gather_normals_.reserve(gather);

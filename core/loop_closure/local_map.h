@@ -45,7 +45,8 @@ struct LocalCloud {
 // Builds local clouds and registers them; one per detector.
 class LocalMapVerifier {
  public:
-  // max_keyframes: keyframe clouds one local cloud may gather (the rest of the window is skipped, counted).
+  // max_keyframes: keyframe clouds one local cloud may gather (the rest of the window is skipped). Buffers are
+  // reserved only when config.enabled.
   bool init(const LocalMapConfig& config, std::uint32_t max_keyframes, std::string* error);
   const LocalMapConfig& config() const { return config_; }
 
