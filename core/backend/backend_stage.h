@@ -57,6 +57,11 @@ struct LoopClosureConfig {
   std::string check() const;
 };
 
+// The sigmas a loop closure's edge gets in the deformation graph: by how it was verified (appearance, objects, ICP
+// on keyframes or on local maps, whose stitching adds the odometry's walk over the local map's path).
+void closure_sigmas(const loop_closure::LoopClosure& lc, const LoopClosureConfig& config, Eigen::Vector3d* sigma_t_m,
+                    Eigen::Vector3d* sigma_rot_rad);
+
 class BackendStage {
  public:
   struct Config {
