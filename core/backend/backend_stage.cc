@@ -78,7 +78,8 @@ bool BackendStage::init_loop_closure(std::size_t frame_bytes, std::string* error
   const LoopClosureConfig& c = config_.loop_closure;
   namespace lc = budgets::active::loop_closure;
   if (!descriptors_.init(c.descriptor, error)) return false;
-  if (!detector_.init(lc::kAgents, c.detector, error)) return false;
+  const loop_closure::LocalMapCapacities local_map{lc::kLocalMapKeyframes, lc::kLocalMapPoints};
+  if (!detector_.init(lc::kAgents, local_map, c.detector, error)) return false;
   if (!control_points_.init(lc::kControlPoints, c.deformation.control_point_spacing_m, error)) return false;
   control_points_.set_horizon_ns(static_cast<std::uint64_t>(c.deformation.time_horizon_s * 1e9));
   deformation_ = DeformationGraph(c.deformation);
