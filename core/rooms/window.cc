@@ -29,7 +29,7 @@ void RoomFinder::collect_window(const sg::SceneGraph& graph, UpdateResult* r) {
   }
   graph.for_each_node([&](const sg::NodeRecord& n) {
     if (n.kind != sg::NodeKind::kPlace) return;
-    const sg::PlaceAttributes* a = graph.place(n.id);
+    const sg::PlaceAttributes* a = graph.place_of(n);
     if (a == nullptr || !a->is_active) return;
     for (int d = 0; d < 3; ++d) {
       lo[d] = std::min(lo[d], a->position_m[d]);
@@ -43,11 +43,13 @@ void RoomFinder::collect_window(const sg::SceneGraph& graph, UpdateResult* r) {
   });
   r->rooms_open = num_previous_;
   const double margin = config_.window_room_margin_m;
+  // Every place is visited, so each costs one lookup at most (a place's parent is always a room: the layer rule).
   graph.for_each_node([&](const sg::NodeRecord& n) {
     if (n.kind != sg::NodeKind::kPlace) return;
-    const std::uint32_t* open = n.parent == sg::kNoNode ? nullptr : room_slot_.find(n.parent);
-    const sg::PlaceAttributes* a = graph.place(n.id);
-    if (open != nullptr && !a->is_active) {
+    const sg::PlaceAttributes* a = graph.place_of(n);
+    const std::uint32_t* open = n.parent == sg::kNoNode || a->is_active ? nullptr : room_slot_.find(n.parent);
+    if (n.parent != sg::kNoNode && !a->is_active && open == nullptr) return;  // a kept room's
+    if (open != nullptr) {
       const Eigen::Vector3d& p = a->position_m;
       bool near = true;
       for (int d = 0; d < 3; ++d) near = near && p[d] >= lo[d] - margin && p[d] <= hi[d] + margin;
@@ -64,8 +66,6 @@ void RoomFinder::collect_window(const sg::SceneGraph& graph, UpdateResult* r) {
         return;
       }
     }
-    const bool in_window = n.parent == sg::kNoNode || open != nullptr || a->is_active || graph.room(n.parent) == nullptr;
-    if (!in_window) return;
     if (num_places_ == capacities_.places) {
       ++r->truncated;
       return;
