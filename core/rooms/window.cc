@@ -1,9 +1,10 @@
 // Room updates over the active window (Config::window_updates, issue 37): which places an update reads, which rooms
 // it may replace, the room-room edges to the rooms it keeps, and the building over every room. A window update
-// (RoomFinder::update with window true) reads the active places, the places of the rooms holding one and the
-// places without a room, and replaces only the rooms holding an active place; the others keep their nodes and
-// edges, and the room-room edges from the window's rooms to them are written again. UpdateResult::places is then
-// the window's count, UpdateResult::rooms every room in the graph.
+// (RoomFinder::update with window true) reads the active places, the places of the rooms holding one (within
+// Config::window_room_margin_m of the active places' box) and the places without a room, and replaces only the
+// rooms holding an active place; the others keep their nodes and edges, and the room-room edges from the window's
+// rooms to them are written again. A room read in part keeps its node and its far places. UpdateResult::places is
+// then the window's count, UpdateResult::rooms every room in the graph.
 #include <algorithm>
 #include <cmath>
 #include <cstring>
