@@ -35,6 +35,7 @@ const char* to_string(Seeding seeding) {
 std::string Config::check() const {
   if (seeding != Seeding::kPlateau && seeding != Seeding::kPersistence) return "rooms.seeding: unknown value";
   if (!(max_door_clearance_m >= 0.0)) return "rooms.max_door_clearance_m: must be >= 0 (inf: no limit)";
+  if (!(window_room_margin_m >= 0.0)) return "rooms.window_room_margin_m: must be >= 0 (inf: whole rooms)";
   if (!std::isfinite(min_persistence_m) || min_persistence_m < 0.0)
     return "rooms.min_persistence_m: must be finite and >= 0, got " + std::to_string(min_persistence_m);
   if (!std::isfinite(min_dilation_m) || min_dilation_m < 0.0)
@@ -101,8 +102,8 @@ void Config::print(std::FILE* out) const {
   else
     std::fprintf(out, "rooms: split by extent off\n");
   std::fprintf(out, "rooms: closed-off regions seed rooms: %s\n", seed_closed_regions ? "on" : "off");
-  std::fprintf(out, "rooms: updates during the run over the active window and its rooms: %s\n",
-               window_updates ? "on" : "off");
+  std::fprintf(out, "rooms: updates during the run over the active window and its rooms: %s (margin %.2f m)\n",
+               window_updates ? "on" : "off", window_room_margin_m);
   if (merge_corridors)
     std::fprintf(out, "rooms: corridor merge: rooms touching >= %u rooms, through >= %u open place edges\n",
                  corridor_min_neighbours, corridor_min_open_edges);
