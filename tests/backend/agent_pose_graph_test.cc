@@ -165,7 +165,7 @@ TEST(AgentPoseGraphTest, PerDistanceWeightingSpreadsALoopsCorrectionAsTheDriftHa
   closure.sigma_t_m.setConstant(0.005);
   closure.sigma_rot_rad.setConstant(0.001);
   AgentGraphConfig config;
-  EXPECT_EQ(config.odometry_weighting, OdometryWeighting::kCovarianceGrowth) << "the measured default";
+  EXPECT_EQ(config.odometry_weighting, OdometryWeighting::kPerDistance) << "the measured default";
   config.sigma_t_m_per_sqrt_m = sigma_t;
   config.sigma_yaw_rad_per_sqrt_m = sigma_yaw;
   config.solver.loop_closure_loss = RobustLoss::kNone;

@@ -112,9 +112,13 @@ class DeformationGraphTest : public ::testing::Test {
 };
 
 // Both ways of deciding the loop closures (DeformationConfig::decide_on_agents) must pass every test below.
+// The odometry edges' model is the walk's own: per 0.5 m step a variance of 1e-4 m^2 and 1.2e-4 rad^2 of yaw (the
+// variance the fixture reports), i.e. 0.014 m and 0.0155 rad per sqrt(m) for the per-distance weighting.
 DeformationConfig strategy(bool decide_on_agents) {
   DeformationConfig c;
   c.decide_on_agents = decide_on_agents;
+  c.agents.sigma_t_m_per_sqrt_m = std::sqrt(1e-4 / 0.5);
+  c.agents.sigma_yaw_rad_per_sqrt_m = std::sqrt(1.2e-4 / 0.5);
   return c;
 }
 
