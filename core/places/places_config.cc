@@ -3,32 +3,19 @@
 #include "core/places/places_internal.h"
 
 #include "budgets/budget_table.h"
+#include "core/places/places_params.h"
 
 namespace qsg::places {
 
 std::string Config::check() const {
-  if (voxel_factor < 1 || voxel_factor > kMaxVoxelFactor) return "voxel_factor must be 1 or 2";
-  if (!(max_distance_m > 0.0 && max_distance_m <= 20.0)) return "max_distance_m must be in (0, 20] m";
-  if (!(min_clearance_m >= 0.0 && min_clearance_m < max_distance_m))
-    return "min_clearance_m must be in [0, max_distance_m)";
-  if (!(min_basis_angle_rad > 0.0 && min_basis_angle_rad <= 3.14159266)) return "min_basis_angle_rad must be in (0, pi]";
-  if (min_basis_points < 2 || min_basis_points > kMaxBasis) return "min_basis_points must be in [2, 8]";
-  if (!(place_resolution_m > 0.0 && place_resolution_m <= 20.0)) return "place_resolution_m must be in (0, 20] m";
-  if (!(window_radius_m > 0.0 && window_radius_m <= 100.0)) return "window_radius_m must be in (0, 100] m";
-  if (!(slab_below_m >= 0.0 && slab_above_m >= 0.0 && slab_below_m + slab_above_m > 0.0))
-    return "slab_below_m and slab_above_m must be >= 0 and not both 0";
-  if (!(min_tsdf_weight >= 0.0)) return "min_tsdf_weight must be >= 0";
-  if (bridge_max_fragment_places < 1 || bridge_max_fragment_places > kMaxBridgeFragment)
-    return "bridge_max_fragment_places must be in [1, " + std::to_string(kMaxBridgeFragment) + "]";
-  if (!(bridge_max_length_m > 0.0 && bridge_max_length_m <= 10.0)) return "bridge_max_length_m must be in (0, 10] m";
-  if (!(bridge_min_clearance_m > 0.0)) return "bridge_min_clearance_m must be positive";
-  if (enclosed_max_voxels < 0) return "enclosed_max_voxels must be >= 0";
-  if (contract_search_places < 1 || contract_search_places > kMaxContractSearch)
-    return "contract_search_places must be in [1, " + std::to_string(kMaxContractSearch) + "]";
-  if (!(keep_edges_at_rim_m >= 0.0 && keep_edges_at_rim_m < window_radius_m))
-    return "keep_edges_at_rim_m must be in [0, window_radius_m) (at or beyond the radius, no edge would ever go)";
-  if (!(merge_revisited_within_m >= 0.0 && merge_revisited_within_m <= place_resolution_m))
-    return "merge_revisited_within_m must be in [0, place_resolution_m] (the merge searches the neighbouring cells)";
+  // Each field within its declared range (places_params.cc), then the rules between fields.
+  if (std::string why = params::check(params_table(), *this); !why.empty()) return why;
+  if (!(min_clearance_m < max_distance_m)) return "min_clearance_m must be below max_distance_m";
+  if (!(slab_below_m + slab_above_m > 0.0)) return "slab_below_m and slab_above_m must not both be 0";
+  if (!(keep_edges_at_rim_m < window_radius_m))
+    return "keep_edges_at_rim_m must be below window_radius_m (at or beyond the radius, no edge would ever go)";
+  if (!(merge_revisited_within_m <= place_resolution_m))
+    return "merge_revisited_within_m must be at most place_resolution_m (the merge searches the neighbouring cells)";
   return {};
 }
 
