@@ -1,5 +1,5 @@
-// places::Config's check and print, the printed capacities, counters and memory use, and the budget table's
-// capacities.
+// places::Config's check and print (both from its table, places_params.cc), the printed capacities, counters and
+// memory use, and the budget table's capacities.
 #include "core/places/places_internal.h"
 
 #include "budgets/budget_table.h"
@@ -20,26 +20,7 @@ std::string Config::check() const {
 }
 
 void Config::print(std::FILE* out) const {
-  std::fprintf(out,
-               "places: voxel_factor=%d max_distance_m=%.2f min_clearance_m=%.2f min_basis_angle_deg=%.1f "
-               "min_basis_points=%d place_resolution_m=%.2f window_radius_m=%.1f slab_m=[-%.1f, +%.1f] "
-               "min_tsdf_weight=%.2f free_space_edges=%d relink_inactive=%d bridge_fragments=%d "
-               "bridge_max_fragment_places=%d bridge_max_length_m=%.2f bridge_min_clearance_m=%.2f "
-               "enclosed_max_voxels=%d contract_removed=%d contract_search_places=%d unobserved_is_obstacle=%d "
-               "unobserved_obstacle_above_m=%.2f rim_guard=%d signed_surface_seeds=%d correct_projective_distance=%d "
-               "hold_distant_fragments=%d bridge_path_search=%d keep_distances_at_rim=%d "
-               "revive_in_same_free_space=%d keep_edges_at_rim_m=%.2f relink_in_same_free_space=%d "
-               "merge_revisited_within_m=%.2f\n",
-               voxel_factor, max_distance_m, min_clearance_m, min_basis_angle_rad * 180.0 / 3.14159265358979,
-               min_basis_points, place_resolution_m, window_radius_m, slab_below_m, slab_above_m, min_tsdf_weight,
-               free_space_edges ? 1 : 0, relink_inactive ? 1 : 0, bridge_fragments ? 1 : 0,
-               bridge_max_fragment_places, bridge_max_length_m, bridge_min_clearance_m, enclosed_max_voxels,
-               contract_removed ? 1 : 0,
-               contract_search_places, unobserved_is_obstacle ? 1 : 0,
-               unobserved_obstacle_above_m, rim_guard ? 1 : 0, signed_surface_seeds ? 1 : 0,
-               correct_projective_distance ? 1 : 0, hold_distant_fragments ? 1 : 0,
-               bridge_path_search ? 1 : 0, keep_distances_at_rim ? 1 : 0, revive_in_same_free_space ? 1 : 0,
-               keep_edges_at_rim_m, relink_in_same_free_space ? 1 : 0, merge_revisited_within_m);
+  params::print(params::sections_of("places", params_table()), this, out);  // every field, from the table
 }
 
 void Capacities::print(std::FILE* out) const {

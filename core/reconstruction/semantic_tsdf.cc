@@ -20,11 +20,7 @@ std::string Config::check() const {
 }
 
 void Config::print(std::FILE* out) const {
-  std::fprintf(out,
-               "reconstruction: voxel_size_m=%.3f truncation_voxels=%.1f range_m=[%.2f, %.2f] window_radius_m=%.1f "
-               "max_weight=%.0f archive_resolution_m=%.3f (max %.3f) integrate_labels=%d integration_threads=%d\n",
-               voxel_size_m, truncation_voxels, min_range_m, max_range_m, window_radius_m, max_weight,
-               archive_resolution_m, archive_max_resolution_m, integrate_labels ? 1 : 0, integration_threads);
+  params::print(params::sections_of("reconstruction", params_table()), this, out);  // every field, from the table
 }
 
 void Counters::print(std::FILE* out) const {
