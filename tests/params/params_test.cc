@@ -15,6 +15,11 @@
 #include "core/doors/door_params.h"
 #include "core/rooms/rooms_params.h"
 #include "core/frontend/frontend_params.h"
+#ifdef QSG_HAVE_BACKEND_STAGE
+#include "core/backend/backend_params.h"
+#include "core/backend/backend_stage_params.h"
+#include "core/loop_closure/detector_params.h"
+#endif
 
 namespace qsg::params {
 namespace {
@@ -231,6 +236,29 @@ TEST(ParamsTest, StageChecksRefuseWhatTheirTablesRefuse) {
   expect_check_uses_table("objects", objects::params_table(), [](const objects::Config& c) { return c.check(); });
   expect_check_uses_table("agents", agents::params_table(), [](const agents::Config& c) { return c.check(); });
   expect_check_uses_table("frontend", frontend::params_table(), [](const frontend::Config& c) { return c.check(); });
+#ifdef QSG_HAVE_BACKEND_STAGE
+  namespace lc = loop_closure;
+  expect_check_uses_table("descriptor", lc::descriptor_params_table(), [](const lc::DescriptorConfig& c) {
+    return c.check();
+  });
+  expect_check_uses_table("detector", lc::detector_params_table(), [](const lc::DetectorConfig& c) {
+    return c.check();
+  });
+  expect_check_uses_table("local_map", lc::local_map_params_table(), [](const lc::LocalMapConfig& c) {
+    return c.check();
+  });
+  expect_check_uses_table("registration", lc::registration_params_table(), [](const lc::RegistrationConfig& c) {
+    return c.check();
+  });
+  expect_check_uses_table("agent_graph", backend::agent_graph_params_table(), [](const backend::AgentGraphConfig& c) {
+    return c.check();
+  });
+  expect_check_uses_table("deformation", backend::deformation_params_table(), [](const backend::DeformationConfig& c) {
+    return c.check();
+  });
+  expect_check_uses_table("loop_closure", backend::loop_closure_params_table(),
+                          [](const backend::LoopClosureConfig& c) { return c.check(); });
+#endif
 }
 
 TEST(ParamsTest, PaperTagsAreVisible) {
