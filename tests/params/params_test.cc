@@ -180,10 +180,10 @@ TEST(ParamsTest, StageTablesAreSound) {
   expect_sound("objects", objects::params_table());
   // The tables cover the stage Configs' settings: places 31, rooms 30 (the capacities are budgets'; the switches
   // merge_visible_in_window and box_from_free_space are gone), doors 27 of 29 (max_cells and bypass_max_places are
-  // capacities, for budgets/).
-  EXPECT_EQ(places::params_table().fields().size(), 31u);
-  EXPECT_EQ(rooms::params_table().fields().size(), 30u);
-  EXPECT_EQ(rooms::door_params_table().fields().size(), 27u);
+  // capacities, for budgets/). At least: a new setting adds its table line without touching this test.
+  EXPECT_GE(places::params_table().fields().size(), 31u);
+  EXPECT_GE(rooms::params_table().fields().size(), 30u);
+  EXPECT_GE(rooms::door_params_table().fields().size(), 27u);
 }
 
 // Values just outside a field's declared range (and NaN for a real), each one the table itself refuses.
