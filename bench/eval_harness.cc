@@ -8,10 +8,6 @@
 namespace qsg::bench {
 namespace {
 
-double ms_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
-
 double thread_cpu_ms() {
   timespec ts{};
   clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
@@ -19,6 +15,18 @@ double thread_cpu_ms() {
 }
 
 }  // namespace
+
+void EvalPipeline::Timer::begin(pipeline::Step step) {
+  const auto i = static_cast<std::size_t>(step);
+  if (step == pipeline::Step::kFrontendUpdate) cpu0_[i] = thread_cpu_ms();
+  t0_[i] = std::chrono::steady_clock::now();
+}
+
+void EvalPipeline::Timer::end(pipeline::Step step, bool) {
+  const auto i = static_cast<std::size_t>(step);
+  ms_[i] = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0_[i]).count();
+  if (step == pipeline::Step::kFrontendUpdate) cpu_ms_[i] = thread_cpu_ms() - cpu0_[i];
+}
 
 bool EvalPipeline::init(const PipelineConfig& config, scene_graph::SceneGraph* graph, std::string* error,
                         std::string* warning) {
@@ -47,52 +55,39 @@ bool EvalPipeline::init(const PipelineConfig& config, scene_graph::SceneGraph* g
 
 void EvalPipeline::integrate(const messages::RgbdFrame& frame, const Eigen::Isometry3d& world_T_camera,
                              std::uint64_t time_ns) {
-  const auto t0 = std::chrono::steady_clock::now();
-  tsdf_->process(frame, world_T_camera);
-  integrate_ms_.push_back(ms_since(t0));
-  if (backend_ != nullptr) backend_->paint_walls(*tsdf_);
-  const auto t1 = std::chrono::steady_clock::now();
-  if (config_.observe) frontend_->observe(*tsdf_, world_T_camera);
-  observe_ms_.push_back(ms_since(t1));
-  frontend_->add_keyframe(graph_, time_ns, world_T_camera);
+  const pipeline::KeyframeResult r = pipeline::integrate_keyframe(
+      stages(), host_, frame, world_T_camera, time_ns, Eigen::Matrix<double, 6, 1>::Zero(), config_.observe);
+  integrate_ms_.push_back(host_.ms(pipeline::Step::kIntegrate));
+  observe_ms_.push_back(r.integrated ? host_.ms(pipeline::Step::kObserve) : 0.0);
   ++keyframes_;
-}
-
-rooms::PassResult EvalPipeline::door_pass(const Eigen::Vector3d& robot_m, double* ms) {
-  const auto t0 = std::chrono::steady_clock::now();
-  backend_->begin_door_pass(robot_m);
-  backend_->add_door_places(*graph_);
-  backend_->rasterize_walls();
-  const rooms::PassResult r = backend_->detect_doors();
-  *ms = ms_since(t0);
-  return r;
 }
 
 FrontendStep EvalPipeline::update(const Eigen::Vector3d& robot_m, std::uint64_t time_ns) {
   FrontendStep step;
   step.keyframe = keyframes_;
   step.time_ns = time_ns;
-  const auto t0 = std::chrono::steady_clock::now();
-  const double cpu0 = thread_cpu_ms();
-  step.summary = frontend_->update(*tsdf_, robot_m, time_ns, graph_, frontend::Deadline{});
-  step.update_cpu_ms = thread_cpu_ms() - cpu0;
-  step.update_ms = ms_since(t0);
-  if (backend_ != nullptr && backend_->door_pass_due()) {
-    step.pass = door_pass(robot_m, &step.pass_ms);
-    step.door_pass = step.pass.ran;
+  step.summary = pipeline::frontend_update(stages(), host_, robot_m, time_ns, frontend::Deadline{});
+  step.update_cpu_ms = host_.cpu_ms(pipeline::Step::kFrontendUpdate);
+  step.update_ms = host_.ms(pipeline::Step::kFrontendUpdate);
+  if (backend_ != nullptr && pipeline::backend_update_due(step.summary)) {
+    const pipeline::BackendResult b = pipeline::backend_update(stages(), host_, robot_m, time_ns, /*rooms=*/false);
+    step.pass = b.pass;
+    step.door_pass = b.door_pass;
+    if (b.door_pass) step.pass_ms = host_.ms(pipeline::Step::kDoorPass);
   }
   return step;
 }
 
 FrontendStep EvalPipeline::finish(const Eigen::Vector3d& robot_m, std::uint64_t time_ns) {
   for (int i = 0; i < config_.finish_updates; ++i)
-    if (frontend_->update(*tsdf_, robot_m, time_ns, graph_, frontend::Deadline{}).places_complete) break;
+    if (pipeline::frontend_update(stages(), host_, robot_m, time_ns, frontend::Deadline{}).places_complete) break;
   FrontendStep step;
   step.keyframe = keyframes_;
   step.time_ns = time_ns;
   if (backend_ != nullptr && backend_->online_doors_enabled()) {
-    step.pass = door_pass(robot_m, &step.pass_ms);
+    step.pass = pipeline::door_pass(stages(), host_, robot_m);
     step.door_pass = step.pass.ran;
+    step.pass_ms = host_.ms(pipeline::Step::kDoorPass);
   }
   return step;
 }
@@ -105,7 +100,7 @@ backend::BackendStage::FinalDoors EvalPipeline::close_doors(const reconstruction
       if (graph_->place(e.source) != nullptr && graph_->place(e.target) != nullptr)
         before.push_back({{e.source, e.target}, e.info});
     });
-  backend::BackendStage::FinalDoors d = backend_->close_doors(mesh, graph_);
+  backend::BackendStage::FinalDoors d = pipeline::final_doors(stages(), host_, mesh);
   final_doors_ok_ = d.ok;
   if (changed != nullptr) {
     changed->clear();
@@ -120,7 +115,7 @@ backend::BackendStage::FinalDoors EvalPipeline::close_doors(const reconstruction
 
 rooms::UpdateResult EvalPipeline::update_rooms(std::uint64_t time_ns) {
   recorded_ran_ = false;
-  return backend_->update_rooms(graph_, time_ns, /*final=*/true);
+  return pipeline::final_rooms(stages(), host_, time_ns);
 }
 
 bool EvalPipeline::update_rooms_recorded(const std::vector<rooms::Door>& doors, const rooms::WallSight* sight,

@@ -1,18 +1,22 @@
 // The evaluations' one pipeline (issue 32): the app's stages — the reconstruction (TSDF and mesh), the frontend
 // (places, objects, agents and their inter-layer edges) and the backend stage (doors online and on the final surface,
-// rooms, labels) — built from the same Configs the app uses and driven in the app's order (firmware_app/pipeline.cc),
-// in one thread and without deadlines. objects_eval, places_eval and rooms_eval each run a tour through it and keep
-// only their scoring; none composes the stages by hand.
+// rooms, labels) — built from the same Configs the app uses and driven through the same steps as the app's threads
+// (core/pipeline/pipeline_steps.h, where their order is written once), in one thread and without deadlines.
+// objects_eval, places_eval, rooms_eval and drift_baseline each run a tour through it and keep only their scoring;
+// none composes the stages by hand.
 //
-// Per keyframe (integrate): the TSDF integrates the frame, the online doors' wall map takes the re-meshed blocks,
-// the frontend observes the frame's free space and adds its agent node. Every frontend_every_n-th keyframe (update):
-// a frontend update (objects, then a places cycle, their sync and the inter-layer edges), then a door pass when one
-// is due (every doors_online_every_n-th update, as the app). At the tour's end (finish): frontend updates until a
-// places cycle completes, and a last door pass on the latest places. Then the final door stage (close_doors) and the
-// room finder on the whole map (update_rooms), as the app's finish does.
+// Per keyframe (integrate): pipeline::integrate_keyframe. Every frontend_every_n-th keyframe (update):
+// pipeline::frontend_update, then, after a completed places cycle (always: no deadline), pipeline::backend_update
+// without its room step (a door pass when due). Where the evaluations differ from the app, on purpose: they skip the
+// online room updates (they score the final rooms only); at the tour's end (finish) they run frontend updates until a
+// places cycle completes, and, with online doors, a last door pass on the latest places (the app stops at its last
+// keyframe, whose places its last backend update saw). Then the final stage's two steps, pipeline::final_doors
+// (close_doors) and pipeline::final_rooms (update_rooms), as the app's finish does.
 #pragma once
 
 #include <Eigen/Geometry>
+#include <array>
+#include <chrono>
 #include <cstddef>
 #include <cstdint>
 #include <memory>
@@ -24,6 +28,7 @@
 #include "budgets/budget_table.h"
 #include "core/backend/backend_stage.h"
 #include "core/frontend/frontend.h"
+#include "core/pipeline/pipeline_steps.h"
 #include "core/reconstruction/semantic_tsdf.h"
 #include "core/rooms/room_finder.h"
 #include "core/scene_graph/scene_graph.h"
@@ -51,6 +56,7 @@ struct PipelineConfig {
 struct FrontendStep {
   std::size_t keyframe = 0;  // keyframes integrated so far
   Eigen::Isometry3d world_T_camera = Eigen::Isometry3d::Identity();
+  Eigen::Isometry3d truth_T_camera = Eigen::Isometry3d::Identity();  // the simulator's true pose (scoring only)
   std::uint64_t time_ns = 0;
   frontend::UpdateSummary summary;
   double update_ms = 0.0;      // the frontend update's wall time
@@ -81,11 +87,12 @@ class EvalPipeline {
     auto frame = std::make_unique<messages::RgbdFrame>();
     return for_each_posed_frame(tour, *frame,
                                 [&](const messages::RgbdFrame& f, const Eigen::Isometry3d& T, std::int64_t t_ns,
-                                    const Eigen::Isometry3d&) {
+                                    const Eigen::Isometry3d& truth_T) {
                                   integrate(f, T, static_cast<std::uint64_t>(t_ns));
                                   if ((keyframes_ - 1) % config_.frontend_every_n != 0) return;
                                   FrontendStep step = update(T.translation(), static_cast<std::uint64_t>(t_ns));
                                   step.world_T_camera = T;
+                                  step.truth_T_camera = truth_T;
                                   on_step(step);
                                 });
   }
@@ -118,9 +125,24 @@ class EvalPipeline {
   const PipelineConfig& config() const { return config_; }
 
  private:
-  rooms::PassResult door_pass(const Eigen::Vector3d& robot_m, double* ms);
+  // The harness's side of the steps: one thread, no locks; each step's wall time (and the frontend update's thread
+  // CPU time), read after the step.
+  class Timer : public pipeline::Host {
+   public:
+    void begin(pipeline::Step step) override;
+    void end(pipeline::Step step, bool ran) override;
+    double ms(pipeline::Step step) const { return ms_[static_cast<std::size_t>(step)]; }
+    double cpu_ms(pipeline::Step step) const { return cpu_ms_[static_cast<std::size_t>(step)]; }
+
+   private:
+    static constexpr std::size_t kSteps = static_cast<std::size_t>(pipeline::Step::kFinalStage) + 1;
+    std::array<std::chrono::steady_clock::time_point, kSteps> t0_{};
+    std::array<double, kSteps> cpu0_{}, ms_{}, cpu_ms_{};
+  };
+  pipeline::Stages stages() const { return {tsdf_.get(), frontend_.get(), backend_.get(), graph_}; }
 
   PipelineConfig config_;
+  Timer host_;
   scene_graph::SceneGraph* graph_ = nullptr;
   std::unique_ptr<reconstruction::SemanticTsdf> tsdf_;
   std::unique_ptr<frontend::Frontend> frontend_;

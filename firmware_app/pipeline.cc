@@ -391,37 +391,49 @@ bool Pipeline::init_backend(std::string* error) {
   return true;
 }
 
-// One online door pass (backend thread): the places under the graph's lock, the wall raster under the wall map's,
-// the detection under neither.
-void Pipeline::run_door_pass(const Eigen::Vector3d& robot_m) {
-  const auto start = std::chrono::steady_clock::now();
-  const std::int64_t c0 = thread_cpu_us();
-  runtime::stage_begin(runtime::kDoorPassStage, 0);
-  backend_.begin_door_pass(robot_m);
-  {
-    std::lock_guard<std::mutex> lock(graph_mutex_);
-    backend_.add_door_places(graph_);
+// The pipeline's steps call these around the door passes (backend thread) and the final stage (loop thread, at the
+// finish): stage markers, and the CPU time against the backend thread's part and finish budgets.
+void Pipeline::StepHost::begin(pipeline::Step step) {
+  if (step == pipeline::Step::kDoorPass) {
+    door_pass_start_ = std::chrono::steady_clock::now();
+    door_pass_cpu0_us_ = thread_cpu_us();
+    runtime::stage_begin(runtime::kDoorPassStage, 0);
+  } else if (step == pipeline::Step::kFinalStage) {
+    finish_cpu0_us_ = thread_cpu_us();
+    runtime::stage_begin(runtime::kFinalStage, 0);
   }
-  {
-    std::lock_guard<std::mutex> lock(wall_mutex_);
-    backend_.rasterize_walls();
-  }
-  const bool ran = backend_.detect_doors().ran;
-  runtime::stage_end(runtime::kDoorPassStage, 0);
-  {
-    std::lock_guard<std::mutex> lock(backend_stats_mutex_);
-    door_pass_cpu_.record(thread_cpu_us() - c0, door_pass_budget_us_);
-  }
-  if (!ran) return;
-  backend_.note_door_pass_us(static_cast<std::uint64_t>(
-      std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::steady_clock::now() - start).count()));
 }
 
-void Pipeline::run_backend_update(const BackendUpdate& u, bool door_pass) {
-  if (door_pass && backend_.door_pass_due()) run_door_pass(u.robot_m);
-  std::unique_lock<std::mutex> lock(graph_mutex_);
-  backend_.update_rooms(&graph_, u.time_ns);
-  run_loop_closure(u.time_ns, &lock);
+void Pipeline::StepHost::end(pipeline::Step step, bool ran) {
+  if (step == pipeline::Step::kDoorPass) {
+    runtime::stage_end(runtime::kDoorPassStage, 0);
+    {
+      std::lock_guard<std::mutex> lock(p_->backend_stats_mutex_);
+      p_->door_pass_cpu_.record(thread_cpu_us() - door_pass_cpu0_us_, p_->door_pass_budget_us_);
+    }
+    if (!ran) return;
+    p_->backend_.note_door_pass_us(static_cast<std::uint64_t>(
+        std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::steady_clock::now() - door_pass_start_)
+            .count()));
+  } else if (step == pipeline::Step::kFinalStage) {
+    runtime::stage_end(runtime::kFinalStage, 0);
+    std::lock_guard<std::mutex> lock(p_->backend_stats_mutex_);
+    p_->finish_cpu_.record(thread_cpu_us() - finish_cpu0_us_, p_->finish_budget_us_);
+  }
+}
+
+// A keyframe the TSDF took, before the map's other steps read it: offered to segmentation (frames without labels of
+// their own), counted, and its time given to the fault plan's recovery.
+void Pipeline::StepHost::integrated(const messages::RgbdFrame& frame, const Eigen::Isometry3d& world_T_camera) {
+  Pipeline& p = *p_;
+  if (!frame.has_labels) p.segmentation_.offer(frame, world_T_camera);  // no-op without a model
+  ++p.counters_.keyframes_integrated;
+  p.faults_.on_keyframe_integrated(frame.sample_time_ns, p.clock_->now_ns(), p.data_to_loop_ns(frame.sample_time_ns));
+}
+
+// Backend thread (lockstep: the loop, after the keyframe's tasks): a door pass when due, the rooms, loop closure.
+void Pipeline::run_backend_update(const BackendUpdate& u) {
+  pipeline::backend_update(stages(), host_, u.robot_m, u.time_ns);
 }
 
 void Pipeline::backend_worker() {
@@ -675,49 +687,35 @@ void Pipeline::telemetry_task(void* self, const runtime::TaskContext&) {
   p.telemetry_.commit();
 }
 
+// The reconstruction task: the keyframe through pipeline::integrate_keyframe (TSDF, wall map, free space, agent node).
 void Pipeline::integrate_keyframe(const runtime::TaskContext& c) {
   if (current_keyframe_ < 0) return;
-  const messages::RgbdFrame& frame = frames_[static_cast<std::size_t>(current_keyframe_)];
-  const Eigen::Isometry3d& world_T_camera = frame_poses_[static_cast<std::size_t>(current_keyframe_)];
+  const auto slot = static_cast<std::size_t>(current_keyframe_);
+  const messages::RgbdFrame& frame = frames_[slot];
+  const Eigen::Isometry3d& world_T_camera = frame_poses_[slot];
   cast_label_votes();  // labels that came back since the last keyframe; their blocks re-mesh in process()
-  if (!tsdf_.process(frame, world_T_camera)) {
+  const auto time_ns = static_cast<std::uint64_t>(frame.sample_time_ns);
+  const pipeline::KeyframeResult r =
+      pipeline::integrate_keyframe(stages(), host_, frame, world_T_camera, time_ns, frame_variances_[slot]);
+  if (!r.integrated) {
     ++counters_.keyframes_refused;
     return;
   }
-  if (!frame.has_labels) segmentation_.offer(frame, world_T_camera);  // no-op without a model
-  ++counters_.keyframes_integrated;
-  faults_.on_keyframe_integrated(frame.sample_time_ns, clock_->now_ns(), data_to_loop_ns(frame.sample_time_ns));
-  paint_walls();
-  frontend_.observe(tsdf_, world_T_camera);
+  counters_.blocks_painted += r.blocks_painted;
+  if (r.walls_deferred) ++counters_.wall_paint_deferred;
   robot_m_ = world_T_camera.translation();
-  latest_keyframe_ns_ = static_cast<std::uint64_t>(frame.sample_time_ns);
+  latest_keyframe_ns_ = time_ns;
   // The agent layer: one node per keyframe, joined to the previous one by an odometry edge.
-  std::lock_guard<std::mutex> lock(graph_mutex_);
-  const agents::AddResult added = frontend_.add_keyframe(&graph_, latest_keyframe_ns_, world_T_camera,
-                                                         frame_variances_[static_cast<std::size_t>(current_keyframe_)]);
-  if (added == agents::AddResult::kAdded) {
+  if (r.added == agents::AddResult::kAdded) {
     ++counters_.agent_nodes;
     capture_agent_frame(frame, frontend_.agents().last_node(), latest_keyframe_ns_);
     if (trajectory_m_.size() < trajectory_m_.capacity()) trajectory_m_.push_back(robot_m_);
-  } else if (added == agents::AddResult::kSparsified) {
+  } else if (r.added == agents::AddResult::kSparsified) {
     ++counters_.agent_sparsified;
   } else {
     ++counters_.agent_refused;
   }
   (void)c;
-}
-
-// The blocks marching cubes re-ran on since they were last painted go into the online door stage's wall map: their
-// volume is cleared and their vertices painted. Allocation-free; skipped (and counted) while a door pass reads the
-// map, in which case the next keyframe paints them.
-void Pipeline::paint_walls() {
-  if (!backend_.online_doors_enabled()) return;
-  std::unique_lock<std::mutex> lock(wall_mutex_, std::try_to_lock);
-  if (!lock.owns_lock()) {
-    ++counters_.wall_paint_deferred;
-    return;
-  }
-  counters_.blocks_painted += backend_.paint_walls(tsdf_);
 }
 
 void Pipeline::update_frontend(const runtime::TaskContext& c) {
@@ -726,14 +724,9 @@ void Pipeline::update_frontend(const runtime::TaskContext& c) {
   deadline.now = [](const void* clock) { return static_cast<const runtime::Clock*>(clock)->now_ns(); };
   deadline.context = cost_clock_;
   deadline.deadline_ns = c.deadline_ns;
-  frontend::UpdateSummary s;
-  {
-    std::lock_guard<std::mutex> lock(graph_mutex_);
-    s = frontend_.update(tsdf_, robot_m_, latest_keyframe_ns_, &graph_, deadline);
-    backend_.offer_control_points(tsdf_, latest_keyframe_ns_);
-  }
+  const frontend::UpdateSummary s = pipeline::frontend_update(stages(), host_, robot_m_, latest_keyframe_ns_, deadline);
   ++counters_.frontend_updates;
-  if (!s.places_complete) ++counters_.frontend_deadline_stops;
+  if (!pipeline::backend_update_due(s)) ++counters_.frontend_deadline_stops;
   else backend_queue_.push(BackendUpdate{latest_keyframe_ns_, 1, robot_m_});  // collates while the backend is busy
 }
 
@@ -783,11 +776,9 @@ bool Pipeline::write_snapshot(std::string* error, bool* deferred) {
   return ok;
 }
 
-// Doors on the final surface close the place edges through them (see AppConfig::doors_at_finish). A failure is
-// logged and counted; the rooms then stay as the run found them.
-void Pipeline::close_doors(const reconstruction::Mesh& mesh) {
-  std::lock_guard<std::mutex> lock(graph_mutex_);
-  const backend::BackendStage::FinalDoors d = backend_.close_doors(mesh, &graph_);
+// What the doors on the final surface did (AppConfig::doors_at_finish): they close the place edges through them. A
+// failure is logged and counted; the rooms then stay as the run found them.
+void Pipeline::report_final_doors(const backend::BackendStage::FinalDoors& d) {
   if (!d.ok) {
     ++counters_.door_failures;
     std::fprintf(stderr, "doors: %s; the rooms stay as the run found them\n", d.error.c_str());
@@ -870,17 +861,11 @@ bool Pipeline::finish(std::string* error) {
     }
   }
   // The backend's final stage (doors on the whole surface, rooms and labels once more), timed against its budget.
-  const std::int64_t finish_c0 = thread_cpu_us();
-  runtime::stage_begin(runtime::kFinalStage, 0);
-  if (config_.doors_at_finish) close_doors(mesh);
+  const pipeline::FinalResult final_stage =
+      pipeline::final_stage(stages(), host_, config_.doors_at_finish ? &mesh : nullptr, latest_keyframe_ns_);
+  if (config_.doors_at_finish) report_final_doors(final_stage.doors);
   {
     std::lock_guard<std::mutex> lock(graph_mutex_);
-    backend_.update_rooms(&graph_, latest_keyframe_ns_, /*final=*/true);
-    runtime::stage_end(runtime::kFinalStage, 0);
-    {
-      std::lock_guard<std::mutex> stats_lock(backend_stats_mutex_);
-      finish_cpu_.record(thread_cpu_us() - finish_c0, finish_budget_us_);
-    }
     if (!reconcile) {
       correct_outputs(&mesh, &odometric);
       match_object_keys();

@@ -6,6 +6,7 @@
 
 #include <Eigen/Geometry>
 #include <atomic>
+#include <chrono>
 #include <cstdint>
 #include <cstdio>
 #include <memory>
@@ -22,6 +23,7 @@
 #include "core/metrics/trajectory_error.h"
 #include "core/reconstruction/semantic_tsdf.h"
 #include "core/neural_tree/room_classifier.h"
+#include "core/pipeline/pipeline_steps.h"
 #include "core/doors/online_doors.h"
 #include "core/rooms/room_finder.h"
 #include "core/segmentation/segmenter.h"
@@ -218,8 +220,8 @@ class Pipeline {
   bool init_backend(std::string* error);
   void backend_worker();
   struct BackendUpdate;
-  void run_backend_update(const BackendUpdate& u, bool door_pass = true);
-  void close_doors(const reconstruction::Mesh& mesh);
+  void run_backend_update(const BackendUpdate& u);
+  void report_final_doors(const backend::BackendStage::FinalDoors& d);
   void copy_backend_counters();
   bool init_gpio(std::string* error);
   void integrate_keyframe(const runtime::TaskContext& c);
@@ -281,14 +283,38 @@ class Pipeline {
   backend::BackendStage backend_;
   std::mutex wall_mutex_;
   std::mutex deformation_mutex_;  // the backend thread's deformation solve against a snapshot reading its solution
-  void paint_walls();
-  void run_door_pass(const Eigen::Vector3d& robot_m);
+  // The app's side of the pipeline's steps (core/pipeline/pipeline_steps.h, where their order is written once): its
+  // mutexes, the door passes' and the final stage's timing against their budgets and stage markers, the keyframe's
+  // consumers besides the map (segmentation, fault recovery), and loop closure after each backend update's rooms.
+  // Called by the loop thread (keyframes, frontend updates, the finish) and the backend thread (backend updates);
+  // each hook touches only the state of the thread whose steps call it.
+  class StepHost : public pipeline::Host {
+   public:
+    explicit StepHost(Pipeline* p) : p_(p) {}
+    void lock(pipeline::Shared what) override { mutex(what).lock(); }
+    void unlock(pipeline::Shared what) override { mutex(what).unlock(); }
+    bool try_lock(pipeline::Shared what) override { return mutex(what).try_lock(); }
+    void begin(pipeline::Step step) override;
+    void end(pipeline::Step step, bool ran) override;
+    void integrated(const messages::RgbdFrame& frame, const Eigen::Isometry3d& world_T_camera) override;
+    void after_rooms(std::uint64_t time_ns, Held* graph) override { p_->run_loop_closure(time_ns, graph); }
+
+   private:
+    std::mutex& mutex(pipeline::Shared what) {
+      return what == pipeline::Shared::kGraph ? p_->graph_mutex_ : p_->wall_mutex_;
+    }
+    Pipeline* p_;
+    std::chrono::steady_clock::time_point door_pass_start_;
+    std::int64_t door_pass_cpu0_us_ = 0, finish_cpu0_us_ = 0;
+  };
+  StepHost host_{this};
+  pipeline::Stages stages() { return {&tsdf_, &frontend_, &backend_, &graph_}; }
   // Loop closure: keyframes of agents to be described (one per describe_every_m of path) are copied by the loop
   // into a free slot (none free: dropped, counted); the backend hands their appearance to the stage.
   bool init_loop_closure(std::string* error);
   void capture_agent_frame(const messages::RgbdFrame& frame, scene_graph::NodeId agent, std::uint64_t time_ns);
   void extract_captured_frames();
-  void run_loop_closure(std::uint64_t time_ns, std::unique_lock<std::mutex>* graph_lock);
+  void run_loop_closure(std::uint64_t time_ns, pipeline::Host::Held* graph_lock);
   bool optimize_graph();  // the final solve (graph_mutex_ held)
   backend::DeformationProblem build_deformation();  // graph_mutex_ held; dumps it for QSG_DUMP_DEFORMATION
   // At the finish (graph_mutex_ held): the final solve over every loop closure, then agents and places to their

@@ -81,13 +81,13 @@ void Pipeline::extract_captured_frames() {
 
 // Backend thread, graph_mutex_ held by *graph_lock: new loop closures, and the deformation graph re-solved when one
 // waits and solve_interval_s has passed; built under the lock, solved without it (the loop keeps mapping meanwhile).
-void Pipeline::run_loop_closure(std::uint64_t time_ns, std::unique_lock<std::mutex>* graph_lock) {
+void Pipeline::run_loop_closure(std::uint64_t time_ns, pipeline::Host::Held* graph_lock) {
   if (!backend_.loop_closure_enabled()) return;
   if (time_ns >= static_cast<std::uint64_t>(config_.loop_closure.horizon_s * 1e9)) extract_captured_frames();
   backend_.detect_loop_closures(graph_, frontend_.agents(), time_ns);
   if (!backend_.solve_due(time_ns)) return;
   backend::DeformationProblem problem = build_deformation();
-  graph_lock->unlock();
+  graph_lock->release();
   std::lock_guard<std::mutex> solving(deformation_mutex_);  // a snapshot reads the solution meanwhile: it waits
   const auto start = std::chrono::steady_clock::now();
   std::string why;

@@ -1,9 +1,9 @@
 // Drift baseline: what odometry drift does to every layer, the figures loop closure must later recover. The same
 // generated buildings (two floors by default) are explored by the simulated robot with each odometry level
-// (--odometry's gt, sim and vio: drivers/sim/odometry_levels.h), reconstructed (TSDF), run through the frontend
-// (objects, places, agents) every keyframe, then the door stage and the room finder run on the final graph, as in
-// rooms_eval. The map is built in the odometry's frame, which starts at the true start; everything is scored
-// against the world's ground truth in the world frame:
+// (--odometry's gt, sim and vio: drivers/sim/odometry_levels.h) and mapped through the app's stages in the
+// evaluations' harness (bench/eval_harness.h: TSDF, the frontend every keyframe, then the final door stage and the
+// room finder on the final graph, as in rooms_eval). The map is built in the odometry's frame, which starts at the
+// true start; everything is scored against the world's ground truth in the world frame:
 //   - ATE of the keyframe trajectory (camera positions): RMSE after SE(3) alignment and without alignment
 //     (core/metrics/trajectory_error.h);
 //   - objects found / correct (objects_eval's metric: bench/objects/object_match.h);
@@ -29,18 +29,14 @@
 #include <string>
 #include <vector>
 
+#include "bench/eval_harness.h"
 #include "bench/figures.h"
 #include "bench/objects/object_match.h"
 #include "bench/places/place_score.h"
 #include "bench/rooms/room_score.h"
 #include "bench/sim_tour.h"
 #include "budgets/budget_table.h"
-#include "core/frontend/frontend.h"
 #include "core/metrics/trajectory_error.h"
-#include "core/reconstruction/semantic_tsdf.h"
-#include "core/doors/door_detector.h"
-#include "core/rooms/room_finder.h"
-#include "core/doors/wall_sight.h"
 #include "core/scene_graph/scene_graph.h"
 #include "drivers/sim/ground_truth.h"
 #include "drivers/sim/odometry_levels.h"
@@ -253,56 +249,38 @@ bool run_level(const Options& opt, const world::World& w, const world::BuildingC
   odometry.seed = opt.odometry_seed;
   bench::set_odometry(odometry, bc.seed, sim_tour);
 
-  auto tsdf = std::make_unique<reconstruction::SemanticTsdf>();
-  if (!tsdf->init(reconstruction::Config{}, reconstruction::capacities_from_budget(),
-                  budgets::active::reconstruction::kArenaBytes, &error))
-    return std::fprintf(stderr, "tsdf: %s\n", error.c_str()), false;
-  auto fe = std::make_unique<frontend::Frontend>();
-  if (!fe->init(frontend::Config{}, &error)) return std::fprintf(stderr, "frontend: %s\n", error.c_str()), false;
   auto graph = std::make_unique<sg::SceneGraph>();
   if (!graph->init(sg::capacities_from_budget(), sg::arena_bytes_from_budget(), &error))
     return std::fprintf(stderr, "scene graph: %s\n", error.c_str()), false;
+  // The app's stages through the evaluations' harness: every frame a keyframe, the frontend every keyframe, no
+  // online doors; the frame's free space not observed (each places cycle carves the latest frame), as this
+  // baseline was recorded (bench/results/drift_baseline.md), where the app observes every keyframe.
+  bench::PipelineConfig pc;
+  pc.observe = false;
+  pc.backend = true;
+  pc.backend_stage.doors_online = false;
+  bench::EvalPipeline pipeline;
+  std::string warning;
+  if (!pipeline.init(pc, graph.get(), &error, &warning)) return std::fprintf(stderr, "%s\n", error.c_str()), false;
 
-  // Map from the odometry's poses, every frame a keyframe, the frontend every keyframe (rooms_eval's loop).
+  // Map from the odometry's poses, scored against the truth at the same stamps.
   std::vector<metrics::TimedPose> reference, estimate;
-  auto frame = std::make_unique<messages::RgbdFrame>();
   Eigen::Vector3d last = Eigen::Vector3d::Zero();
   std::uint64_t t_last = 0;
-  out->keyframes = bench::for_each_posed_frame(
-      *sim_tour, *frame,
-      [&](const messages::RgbdFrame& f, const Eigen::Isometry3d& T, std::int64_t t_ns,
-          const Eigen::Isometry3d& truth_T) {
-        tsdf->process(f, T);
-        fe->add_keyframe(graph.get(), static_cast<std::uint64_t>(t_ns), T);
-        fe->update(*tsdf, T.translation(), static_cast<std::uint64_t>(t_ns), graph.get(), frontend::Deadline{});
-        last = T.translation();
-        t_last = static_cast<std::uint64_t>(t_ns);
-        reference.push_back(timed_pose(t_ns, truth_T));
-        estimate.push_back(timed_pose(t_ns, T));
-      });
-  for (int i = 0; i < 100; ++i)
-    if (fe->update(*tsdf, last, t_last, graph.get(), frontend::Deadline{}).places_complete) break;
+  out->keyframes = pipeline.explore(*sim_tour, [&](const bench::FrontendStep& step) {
+    last = step.world_T_camera.translation();
+    t_last = step.time_ns;
+    reference.push_back(timed_pose(static_cast<std::int64_t>(step.time_ns), step.truth_T_camera));
+    estimate.push_back(timed_pose(static_cast<std::int64_t>(step.time_ns), step.world_T_camera));
+  });
+  pipeline.finish(last, t_last);
 
-  // The door stage and the room finder on the final graph, as the app does when a run finishes.
+  // The final stage on the whole map, as the app does when a run finishes: doors on the final surface, then rooms.
   reconstruction::Mesh mesh;
-  tsdf->extract_full_mesh(&mesh);
-  std::vector<Eigen::Vector3f> surface;
-  surface.reserve(mesh.vertices.size());
-  for (const reconstruction::MeshVertex& v : mesh.vertices) surface.emplace_back(v.x, v.y, v.z);
-  const rooms::DoorConfig door_config;
-  std::vector<rooms::Door> doors;
-  rooms::WallSight sight;
-  const bool have_doors = rooms::find_doors(surface, *graph, door_config, &doors, nullptr, &error, &sight);
-  if (have_doors) {
-    rooms::cut_place_edges(doors, door_config, graph.get());
-    if (door_config.sight_cut_edges) rooms::cut_edges_through_walls(sight, graph.get());
-  } else {
-    std::fprintf(stderr, "  doors: %s; rooms without them\n", error.c_str());
-  }
-  auto finder = std::make_unique<rooms::RoomFinder>();
-  if (!finder->init(rooms::Config{}, rooms::Capacities::from_scene_graph(graph->capacities()), 0, &error))
-    return std::fprintf(stderr, "rooms: %s\n", error.c_str()), false;
-  const rooms::UpdateResult rr = finder->update(graph.get(), t_last, nullptr, have_doors ? &sight : nullptr);
+  pipeline.tsdf().extract_full_mesh(&mesh);
+  const backend::BackendStage::FinalDoors doors = pipeline.close_doors(mesh, nullptr);
+  if (!doors.ok) std::fprintf(stderr, "  doors: %s; rooms without them\n", doors.error.c_str());
+  const rooms::UpdateResult rr = pipeline.update_rooms(t_last);
   out->rooms_estimated = rr.rooms;
 
   // Trajectory: the keyframes' camera positions against the truth at the same stamps.
@@ -326,7 +304,7 @@ bool run_level(const Options& opt, const world::World& w, const world::BuildingC
 
   // Objects: the scene graph's positions, objects_eval's match.
   std::vector<bench::EstimatedObject> objects;
-  fe->objects().for_each_object([&](const objects::ObjectView& o) {
+  pipeline.frontend().objects().for_each_object([&](const objects::ObjectView& o) {
     if (const sg::ObjectAttributes* a = graph->object(o.node)) objects.push_back({o.label, a->position_m});
   });
   const bench::ObjectMatch match = bench::match_objects(w, objects);

@@ -314,6 +314,28 @@ bool BackendStage::solve_due(std::uint64_t time_ns) {
   return true;
 }
 
+void closure_sigmas(const loop_closure::LoopClosure& lc, const LoopClosureConfig& config, Eigen::Vector3d* sigma_t_m,
+                    Eigen::Vector3d* sigma_rot_rad) {
+  // Appearance: depth-precise; objects: centroids of partial views, a decimetre and a degree or so.
+  // ICP-refined: depth-precise too (its gate is a few centimetres).
+  const bool precise = lc.source == loop_closure::ClosureSource::kAppearance || lc.refined;
+  const double rmse = lc.refined                                              ? lc.icp.rmse_m
+                      : lc.source == loop_closure::ClosureSource::kAppearance ? lc.appearance.inlier_rmse_m
+                                                                              : lc.registration.inlier_rmse_m;
+  *sigma_t_m = Eigen::Vector3d::Constant(precise ? std::max(0.02, rmse) : std::max(0.15, rmse));
+  *sigma_rot_rad = Eigen::Vector3d::Constant(precise ? 0.005 : 0.03);
+  if (!lc.local_map) return;
+  // A local map is stitched from the keyframes within path_m of its anchor by the odometry between them, so it
+  // carries the odometry's random walk over that path (both maps together: about the walk over path_m, added in
+  // quadrature to the ICP's own).
+  const AgentGraphConfig& walk = config.deformation.agents;
+  const double path = config.detector.local_map.path_m;
+  const double walk_t = walk.sigma_t_m_per_sqrt_m * std::sqrt(path);
+  const double walk_rot = walk.sigma_yaw_rad_per_sqrt_m * std::sqrt(path);
+  *sigma_t_m = (sigma_t_m->array().square() + walk_t * walk_t).sqrt().matrix();
+  *sigma_rot_rad = (sigma_rot_rad->array().square() + walk_rot * walk_rot).sqrt().matrix();
+}
+
 DeformationProblem BackendStage::build_deformation(const agents::AgentLayer& agents,
                                                    const scene_graph::SceneGraph& graph) const {
   std::vector<ChainLoopClosure> closures;
@@ -324,14 +346,7 @@ DeformationProblem BackendStage::build_deformation(const agents::AgentLayer& age
     cc.b = static_cast<std::uint32_t>(chain_index_at(agents, lc.query_time_ns));
     if (cc.a >= cc.b) continue;
     cc.a_T_b = Pose3{lc.match_T_query.translation(), Eigen::Quaterniond(lc.match_T_query.linear())};
-    // Appearance: depth-precise; objects: centroids of partial views, a decimetre and a degree or so.
-    // ICP-refined: depth-precise too (its gate is a few centimetres).
-    const bool precise = lc.source == loop_closure::ClosureSource::kAppearance || lc.refined;
-    const double rmse = lc.refined                                              ? lc.icp.rmse_m
-                        : lc.source == loop_closure::ClosureSource::kAppearance ? lc.appearance.inlier_rmse_m
-                                                                                : lc.registration.inlier_rmse_m;
-    cc.sigma_t_m = Eigen::Vector3d::Constant(precise ? std::max(0.02, rmse) : std::max(0.15, rmse));
-    cc.sigma_rot_rad = Eigen::Vector3d::Constant(precise ? 0.005 : 0.03);
+    closure_sigmas(lc, config_.loop_closure, &cc.sigma_t_m, &cc.sigma_rot_rad);
     closures.push_back(cc);
   }
   return deformation_.build(agents, closures, control_points_, graph);

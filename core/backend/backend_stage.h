@@ -2,8 +2,9 @@
 // a window around the robot, and once more on the final surface), rooms and the building, room labels, and the
 // persistent scene graph (agent descriptors, loop-closure detection and verification, the deformation graph and the
 // correction of every layer). Pure: no threads, no locks, no clock; each method says which shared state its caller
-// must hold (the app: firmware_app/pipeline.cc; the evaluations drive it the same way). Its stores are the budget
-// table's "rooms", "doors" and "loop_closure" arenas; its counters are atomics, readable from any thread.
+// must hold. The order of its calls is core/pipeline/pipeline_steps.h's, which the app (firmware_app/pipeline.cc) and
+// the evaluations (bench/eval_harness.h) both call. Its stores are the budget table's "rooms", "doors" and
+// "loop_closure" arenas; its counters are atomics, readable from any thread.
 #pragma once
 
 #include <Eigen/Geometry>
@@ -56,6 +57,11 @@ struct LoopClosureConfig {
   bool merge_objects = true;
   std::string check() const;
 };
+
+// The sigmas a loop closure's edge gets in the deformation graph: by how it was verified (appearance, objects, ICP
+// on keyframes or on local maps, whose stitching adds the odometry's walk over the local map's path).
+void closure_sigmas(const loop_closure::LoopClosure& lc, const LoopClosureConfig& config, Eigen::Vector3d* sigma_t_m,
+                    Eigen::Vector3d* sigma_rot_rad);
 
 class BackendStage {
  public:

@@ -1,5 +1,6 @@
 #include "core/doors/door_detector.h"
 #include "core/doors/door_params.h"
+#include "core/doors/raster_ops.h"
 #include "core/doors/wall_sight.h"
 
 #include "core/memory/fixed_hash_map.h"
@@ -87,94 +88,6 @@ namespace {
 
 constexpr double kFar = 1e20;  // "no wall yet" in the squared distance transform
 
-// Squared distance transform of one line (Felzenszwalb & Huttenlocher's lower envelope of parabolas): d[q] =
-// min over p of (q - p)^2 + f[p].
-void distance_1d(const double* f, int n, double* d, std::int32_t* v, double* z) {
-  constexpr double kInf = std::numeric_limits<double>::infinity();
-  const auto meet = [f](int q, int p) {  // where the parabolas from q and p intersect
-    return ((f[q] + static_cast<double>(q) * q) - (f[p] + static_cast<double>(p) * p)) / (2.0 * (q - p));
-  };
-  int k = 0;
-  v[0] = 0;
-  z[0] = -kInf;
-  z[1] = kInf;
-  for (int q = 1; q < n; ++q) {
-    double s = meet(q, v[k]);
-    while (s <= z[k]) s = meet(q, v[--k]);  // z[0] is -inf: ends at k = 0
-    ++k;
-    v[k] = q;
-    z[k] = s;
-    z[k + 1] = kInf;
-  }
-  k = 0;
-  for (int q = 0; q < n; ++q) {
-    while (z[k + 1] < q) ++k;
-    const double dq = q - v[k];
-    d[q] = dq * dq + f[v[k]];
-  }
-}
-
-// Zhang-Suen thinning of a 0/1 image (1: foreground), in place; the border row and column must be 0. Only a
-// foreground cell with a background neighbour can be removed (one with eight foreground neighbours fails the
-// count test), so each sub-iteration tests the current border list only, which gives the same skeleton as testing
-// every cell. list and marks hold up to cols x rows cell indices; in_list is a cols x rows scratch (cleared here).
-void thin(std::uint8_t* m, int cols, int rows, std::uint32_t* list, std::uint32_t* marks, std::uint8_t* in_list) {
-  const std::size_t n = static_cast<std::size_t>(cols) * rows;
-  std::fill(in_list, in_list + n, std::uint8_t{0});
-  const std::ptrdiff_t w = cols;
-  const std::ptrdiff_t around[8] = {-w, -w + 1, 1, w + 1, w, w - 1, -1, -w - 1};  // p2 .. p9, clockwise from north
-  std::size_t size = 0;
-  for (int r = 1; r + 1 < rows; ++r)
-    for (int c = 1; c + 1 < cols; ++c) {
-      const std::size_t i = static_cast<std::size_t>(r) * cols + c;
-      if (m[i] == 0) continue;
-      bool border = false;
-      for (const std::ptrdiff_t d : around) border = border || m[static_cast<std::ptrdiff_t>(i) + d] == 0;
-      if (border) {
-        in_list[i] = 1;
-        list[size++] = static_cast<std::uint32_t>(i);
-      }
-    }
-  for (bool changed = true; changed;) {
-    changed = false;
-    for (int pass = 0; pass < 2; ++pass) {
-      std::size_t marked = 0;
-      for (std::size_t k = 0; k < size; ++k) {
-        const std::ptrdiff_t i = list[k];
-        if (m[i] == 0) continue;
-        int p[8];
-        for (int j = 0; j < 8; ++j) p[j] = m[i + around[j]];
-        int count = 0, transitions = 0;
-        for (int j = 0; j < 8; ++j) {
-          count += p[j];
-          transitions += (p[j] == 0 && p[(j + 1) % 8] == 1) ? 1 : 0;
-        }
-        if (count < 2 || count > 6 || transitions != 1) continue;
-        const bool remove = pass == 0 ? (p[0] * p[2] * p[4] == 0 && p[2] * p[4] * p[6] == 0)
-                                      : (p[0] * p[2] * p[6] == 0 && p[0] * p[4] * p[6] == 0);
-        if (remove) marks[marked++] = static_cast<std::uint32_t>(i);
-      }
-      for (std::size_t k = 0; k < marked; ++k) m[marks[k]] = 0;
-      changed = changed || marked > 0;
-      // The next list: the survivors, then the foreground neighbours of the removed cells.
-      std::size_t kept = 0;
-      for (std::size_t k = 0; k < size; ++k) {
-        if (m[list[k]] != 0) list[kept++] = list[k];
-        else in_list[list[k]] = 0;
-      }
-      size = kept;
-      for (std::size_t k = 0; k < marked; ++k)
-        for (const std::ptrdiff_t d : around) {
-          const std::size_t q = static_cast<std::size_t>(static_cast<std::ptrdiff_t>(marks[k]) + d);
-          if (m[q] != 0 && in_list[q] == 0) {
-            in_list[q] = 1;
-            list[size++] = static_cast<std::uint32_t>(q);
-          }
-        }
-    }
-  }
-}
-
 double cross2(const Eigen::Vector2d& a, const Eigen::Vector2d& b) { return a.x() * b.y() - a.y() * b.x(); }
 
 // Proper intersection of segments pq and ab in the plane.
@@ -201,25 +114,8 @@ struct RasterPass {
   std::size_t at(int c, int r) const { return static_cast<std::size_t>(r) * cols + c; }
 
   // Walls dilated by one cell (into `axis` for now), so that the free space does not leak between diagonal wall
-  // cells.
-  void dilate_walls() {
-    for (int r = 0; r < rows; ++r)
-      for (int c = 0; c < cols; ++c) {
-        std::uint8_t any = 0;
-        for (int dr = -1; dr <= 1 && any == 0; ++dr) {
-          const int rr = r + dr;
-          if (rr < 0 || rr >= rows) continue;
-          for (int dc = -1; dc <= 1; ++dc) {
-            const int cc = c + dc;
-            if (cc >= 0 && cc < cols && wall[at(cc, rr)] != 0) {
-              any = 1;
-              break;
-            }
-          }
-        }
-        axis[at(c, r)] = any;
-      }
-  }
+  // cells. `free` is the row scratch (mapped_free_space fills it next).
+  void dilate_walls() { raster::dilate3x3(wall, cols, rows, free, axis); }
 
   // Mapped free space: the non-wall cells within mapped_radius_m of a place that a place reaches without crossing a
   // wall (not the space behind an outer wall that the radius alone would take in). A one-cell frame stays non-free,
@@ -279,13 +175,13 @@ struct RasterPass {
   void clearance_transform(double* f, double* d, std::int32_t* v, double* z) {
     for (int c = 0; c < cols; ++c) {
       for (int r = 0; r < rows; ++r) f[r] = free[at(c, r)] != 0 ? kFar : 0.0;
-      distance_1d(f, rows, d, v, z);
+      raster::distance_1d(f, rows, d, v, z);
       for (int r = 0; r < rows; ++r) clearance[at(c, r)] = static_cast<float>(std::min(d[r], kFar));
     }
     for (int r = 0; r < rows; ++r) {
       float* row = clearance + at(0, r);
       for (int c = 0; c < cols; ++c) f[c] = row[c];
-      distance_1d(f, cols, d, v, z);
+      raster::distance_1d(f, cols, d, v, z);
       for (int c = 0; c < cols; ++c) row[c] = static_cast<float>(std::sqrt(d[c]) * config.cell_m);
     }
   }
@@ -334,28 +230,61 @@ struct RasterPass {
 
   // The shortest wall-to-wall line through p over the given directions: its ends are the jambs. A line that ends at
   // the edge of the mapped space (space the robot has not seen yet) is no door: a half-mapped room would show one at
-  // every frontier, and the next pass, with more mapped, would take it back. Returns its length (infinite: none).
+  // every frontier, and the next pass, with more mapped, would take it back. Returns its length (infinite: none); of
+  // equally short lines, the one of the lowest direction index. Direction `first` is tried first (the one towards
+  // the nearest wall: a short line early cuts every later ray short); a ray stops one cell past the best line so
+  // far, so a line as short as the best is still seen and the result does not depend on the order.
   double shortest_jamb_line(const Eigen::Vector2d& p, const Eigen::Vector2d* directions, int num_directions,
-                            Eigen::Vector2d* best_a, Eigen::Vector2d* best_b) const {
+                            int first, Eigen::Vector2d* best_a, Eigen::Vector2d* best_b) const {
     double best = std::numeric_limits<double>::infinity();
+    int best_k = num_directions;
     *best_a = p;
     *best_b = p;
-    for (int k = 0; k < num_directions; ++k) {
+    for (int step = 0; step < num_directions; ++step) {
+      const int k = step == 0 ? first : (step <= first ? step - 1 : step);
       const Eigen::Vector2d& u = directions[k];
       Eigen::Vector2d a, b;
       bool wall_a = false, wall_b = false;
-      // A line no shorter than the best so far cannot win: each ray stops at what is left of it.
-      const double reach = std::min(config.max_width_m, best);
+      const double reach = std::min(config.max_width_m, best + config.cell_m);
       if (!ray(p, u, reach, &a, &wall_a) || !wall_a) continue;
-      if (!ray(p, -u, std::min(config.max_width_m, best - (a - p).norm()), &b, &wall_b) || !wall_b) continue;
+      if (!ray(p, -u, std::min(config.max_width_m, best + config.cell_m - (a - p).norm()), &b, &wall_b) || !wall_b)
+        continue;
       const double len = (a - b).norm();
-      if (len < best) {
+      if (len < best || (len == best && k < best_k)) {
         best = len;
+        best_k = k;
         *best_a = a;
         *best_b = b;
       }
     }
     return best;
+  }
+
+  // The index of the direction (over half a turn, num_directions of them) nearest the clearance's steepest descent at
+  // axis cell (c, r): across the passage. 0 where the clearance is flat.
+  int towards_wall(int c, int r, int num_directions) const {
+    const double gx = clearance[at(c + 1, r)] - clearance[at(c - 1, r)];
+    const double gy = clearance[at(c, r + 1)] - clearance[at(c, r - 1)];
+    if (gx == 0.0 && gy == 0.0) return 0;
+    double th = std::atan2(gy, gx);
+    if (th < 0.0) th += M_PI;
+    const int k = static_cast<int>(std::lround(th / M_PI * num_directions));
+    return k >= num_directions ? k - num_directions : k;
+  }
+
+  // Whether any cell near (c, r) is clear enough for the rise test below to pass in some direction: the test reads
+  // the cells holding points within rise_reach_m of the cell's centre, all inside this square. A uniform corridor
+  // fails it before its 72 rays are cast (a necessary condition: the outcome is the same).
+  bool rise_possible(int c, int r, double dc) const {
+    const double need = dc + config.min_rise_m;
+    const int half = static_cast<int>(std::ceil(config.rise_reach_m / config.cell_m)) + 1;
+    const int c0 = std::max(0, c - half), c1 = std::min(cols - 1, c + half);
+    for (int rr = std::max(0, r - half); rr <= std::min(rows - 1, r + half); ++rr) {
+      const float* row = clearance + at(0, rr);
+      for (int cc = c0; cc <= c1; ++cc)
+        if (static_cast<double>(row[cc]) >= need) return true;
+    }
+    return false;
   }
 
   // The door through axis cell (c, r), if it is one: a clearance minimum within the width range, a centred
@@ -365,9 +294,11 @@ struct RasterPass {
     if (axis[at(c, r)] == 0) return false;
     const double dc = clearance[at(c, r)];
     if (dc < 0.5 * config.min_width_m || dc > 0.5 * config.max_width_m || !clearance_minimum(c, r)) return false;
+    if (!rise_possible(c, r, dc)) return false;
     const Eigen::Vector2d p = raster.centre_of(c, r);
     Eigen::Vector2d best_a, best_b;
-    const double best = shortest_jamb_line(p, directions, num_directions, &best_a, &best_b);
+    const double best =
+        shortest_jamb_line(p, directions, num_directions, towards_wall(c, r, num_directions), &best_a, &best_b);
     if (!(best >= config.min_width_m && best <= config.max_width_m + config.cell_m)) return false;
     const double da = (best_a - p).norm(), db = (best_b - p).norm();
     if (std::abs(da - db) > config.max_off_centre * (da + db)) return false;
@@ -435,7 +366,7 @@ bool detect_doors_in_raster(DoorWorkspace* ws, const DoorRaster& raster, std::si
   if (st.free_cells == 0) return true;
   pass.clearance_transform(ws->line_f_, ws->line_d_, ws->line_v_, ws->line_z_);
   std::copy(pass.free, pass.free + pass.n, pass.axis);
-  thin(pass.axis, cols, rows, ws->list_, ws->stack_, ws->wall_);  // the wall raster is not needed any more
+  raster::thin(pass.axis, cols, rows, ws->list_, ws->stack_, ws->wall_);  // the wall raster is not needed any more
   st.axis_cells = 0;
   for (std::size_t i = 0; i < pass.n; ++i) st.axis_cells += pass.axis[i];
 

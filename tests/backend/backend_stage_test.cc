@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <memory>
 #include <set>
 #include <string>
@@ -49,6 +50,30 @@ std::set<std::string> store_names(const BackendStage& stage, bool with_door_set 
   std::set<std::string> names;
   stage.for_each_resource([&](const memory::ResourceStats& s) { names.insert(s.name); }, with_door_set);
   return names;
+}
+
+TEST(BackendStageTest, LocalMapClosuresCarryTheOdometryWalkOfTheirStitching) {
+  LoopClosureConfig config;
+  config.deformation.agents.sigma_t_m_per_sqrt_m = 0.02;
+  config.deformation.agents.sigma_yaw_rad_per_sqrt_m = 0.003;
+  config.detector.local_map.path_m = 4.0;
+  loop_closure::LoopClosure keyframe;
+  keyframe.source = loop_closure::ClosureSource::kObjects;
+  keyframe.refined = true;
+  keyframe.icp.rmse_m = 0.01;
+  Eigen::Vector3d t_kf, r_kf, t_lm, r_lm;
+  closure_sigmas(keyframe, config, &t_kf, &r_kf);
+  EXPECT_DOUBLE_EQ(t_kf.x(), 0.02);  // the ICP's floor
+  EXPECT_DOUBLE_EQ(r_kf.x(), 0.005);
+  loop_closure::LoopClosure local = keyframe;
+  local.local_map = true;
+  closure_sigmas(local, config, &t_lm, &r_lm);
+  // Walk over 4 m: 0.02 * 2 = 0.04 m and 0.003 * 2 = 0.006 rad, in quadrature with the keyframe ICP's sigmas.
+  EXPECT_NEAR(t_lm.x(), std::hypot(0.02, 0.04), 1e-12);
+  EXPECT_NEAR(r_lm.z(), std::hypot(0.005, 0.006), 1e-12);
+  config.detector.local_map.path_m = 1.0;
+  closure_sigmas(local, config, &t_lm, &r_lm);
+  EXPECT_NEAR(t_lm.y(), std::hypot(0.02, 0.02), 1e-12);
 }
 
 TEST(BackendStageTest, RoomsAndTheirLabelsInOneUpdate) {

@@ -51,7 +51,7 @@ foreach(file IN LISTS _size_files)
         set(_state 3)
       elseif(line MATCHES "{[ ]*(//.*)?$")
         set(_state 2)
-      elseif(line MATCHES "[;}][ ]*(//.*)?$")
+      elseif(line MATCHES "[:}][ ]*(//.*)?$")  # ';' reads ':' here (neutralised above): a declaration
         set(_state 0)
       endif()
     elseif(line MATCHES "^}")
