@@ -49,6 +49,7 @@ struct Options {
   double window_m = 7.0;
   bool incremental_index = true;
   int rooms_window = -1;  // -1: the config's default
+  double rooms_margin_m = -1.0;  // rooms::Config::window_room_margin_m; < 0: the config's default
   std::string json;
 };
 
@@ -136,6 +137,7 @@ bool run_tour(const Options& o, const Building& b, Run* out) {
   const scene_graph::Capacities caps = scene_graph::capacities_from_budget();
   backend::BackendStage::Config bc;
   if (o.rooms_window >= 0) bc.rooms.window_updates = o.rooms_window != 0;
+  if (o.rooms_margin_m >= 0.0) bc.rooms.window_room_margin_m = o.rooms_margin_m;
   for (semantics::Label l = 0; l < semantics::kNumObjectLabels; ++l) bc.perceived_labels.push_back(l);
   if (!graph->init(caps, scene_graph::arena_bytes_from_budget(), &error) ||
       !backend->init(bc, caps, 0, 0, &error, &warning)) {
@@ -349,7 +351,8 @@ void report(const Options& o, int rooms_per_side, const Run& run, bench::Figures
 int usage() {
   std::fprintf(stderr,
                "usage: window_costs [--rooms-per-side 6,50] [--tour-m 1000] [--step-m 0.25] [--window-m 7]\n"
-               "                    [--index rebuild|incremental] [--rooms-window 0|1] [--json FILE]\n");
+               "                    [--index rebuild|incremental] [--rooms-window 0|1] [--rooms-margin-m M|inf]\n"
+               "                    [--json FILE]\n");
   return 2;
 }
 
@@ -381,6 +384,9 @@ int main(int argc, char** argv) {
       o.incremental_index = std::string(v) == "incremental";
     } else if (a == "--rooms-window") {
       o.rooms_window = std::atoi(v) != 0 ? 1 : 0;
+    } else if (a == "--rooms-margin-m") {
+      o.rooms_margin_m = std::strtod(v, nullptr);
+      if (!(o.rooms_margin_m >= 0.0)) return usage();
     } else if (a == "--json") {
       o.json = v;
     } else {
@@ -388,11 +394,13 @@ int main(int argc, char** argv) {
     }
   }
   if (!(o.step_m > 0.0) || !(o.tour_m > 0.0) || !(o.window_m > 0.0)) return usage();
-  char conditions[256];
+  char conditions[320];
+  const double margin_m = o.rooms_margin_m >= 0.0 ? o.rooms_margin_m : rooms::Config{}.window_room_margin_m;
   std::snprintf(conditions, sizeof conditions,
                 "corridor buildings, places on a 0.5 m grid, tour %.0f m, step %.2f m, window %.1f m, index %s, "
-                "rooms window %d, thread CPU time",
-                o.tour_m, o.step_m, o.window_m, o.incremental_index ? "incremental" : "rebuild", o.rooms_window);
+                "rooms window %d, rooms margin %.1f m, thread CPU time",
+                o.tour_m, o.step_m, o.window_m, o.incremental_index ? "incremental" : "rebuild", o.rooms_window,
+                margin_m);
   bench::Figures fig(conditions);
   for (int rps : o.rooms_per_side) {
     const Building b = make_building(rps);

@@ -77,7 +77,8 @@ bool BackendStage::init_loop_closure(std::size_t frame_bytes, std::string* error
   const LoopClosureConfig& c = config_.loop_closure;
   namespace lc = budgets::active::loop_closure;
   if (!descriptors_.init(c.descriptor, error)) return false;
-  if (!detector_.init(lc::kAgents, c.detector, error)) return false;
+  const loop_closure::LocalMapCapacities local_map{lc::kLocalMapKeyframes, lc::kLocalMapPoints};
+  if (!detector_.init(lc::kAgents, local_map, c.detector, error)) return false;
   if (!control_points_.init(lc::kControlPoints, c.deformation.control_point_spacing_m, error)) return false;
   control_points_.set_horizon_ns(static_cast<std::uint64_t>(c.deformation.time_horizon_s * 1e9));
   deformation_ = DeformationGraph(c.deformation);
@@ -159,18 +160,21 @@ rooms::UpdateResult BackendStage::update_rooms(scene_graph::SceneGraph* graph, s
   counters_.rooms_merged_visible.store(r.visible_merges);
   counters_.updates.fetch_add(1);
   counters_.rooms.store(r.rooms);
-  if (r.rooms > 0 && classifier_ != nullptr && classifier_->ready()) label_rooms(graph);
+  if (r.rooms > 0 && classifier_ != nullptr && classifier_->ready()) label_rooms(graph, r.window, time_ns);
   return r;
 }
 
 // The classifier's input from the scene graph: rooms with their box, each object in the room of the place it hangs
-// from, room-room edges, the building.
-void BackendStage::label_rooms(scene_graph::SceneGraph* graph) {
+// from, room-room edges, the building. After a window update (window true) only the rooms it wrote (updated at
+// time_ns) are classified, among themselves; the others keep their labels, so the cost follows the window, not the
+// building. The final update classifies every room.
+void BackendStage::label_rooms(scene_graph::SceneGraph* graph, bool window, std::uint64_t time_ns) {
   room_graph_.clear();
   constexpr int kRooms = static_cast<int>(budgets::active::scene_graph::kRoomNodes);
   std::int32_t room_index[kRooms];
   scene_graph::NodeId room_ids[kRooms];
   int rooms = 0;
+  std::uint64_t kept_labelled = 0;  // window: rooms not classified now that hold a label
   const auto index_of = [&](scene_graph::NodeId id) {
     for (int i = 0; i < rooms; ++i)
       if (room_ids[i] == id) return room_index[i];
@@ -179,6 +183,10 @@ void BackendStage::label_rooms(scene_graph::SceneGraph* graph) {
   graph->for_each_node([&](const scene_graph::NodeRecord& n) {
     if (n.kind != scene_graph::NodeKind::kRoom || rooms >= kRooms) return;
     const scene_graph::RoomAttributes* a = graph->room(n.id);
+    if (window && a->last_update_time_ns != time_ns) {
+      kept_labelled += a->semantic_label != semantics::kRoomUnknown ? 1 : 0;
+      return;
+    }
     const Eigen::Vector3d size = a->bounding_box.type == scene_graph::BoundingBox::Type::kInvalid
                                      ? Eigen::Vector3d::Zero()
                                      : Eigen::Vector3d(a->bounding_box.max_m - a->bounding_box.min_m);
@@ -200,13 +208,21 @@ void BackendStage::label_rooms(scene_graph::SceneGraph* graph) {
   bool prefixed = true;
   for (int i = 0; i < rooms; ++i)
     prefixed = prefixed && scene_graph::node_prefix(room_ids[i]) == scene_graph::kRoomPrefix;
-  graph->for_each_edge([&](const scene_graph::EdgeRecord& e) {
+  const auto add_room_edge = [&](const scene_graph::EdgeRecord& e) {
     if (prefixed && (scene_graph::node_prefix(e.source) != scene_graph::kRoomPrefix ||
                      scene_graph::node_prefix(e.target) != scene_graph::kRoomPrefix))
       return;
     const int a = index_of(e.source), b = index_of(e.target);
     if (a >= 0 && b >= 0) room_graph_.add_edge(a, b);
-  });
+  };
+  if (!window) {
+    graph->for_each_edge(add_room_edge);
+  } else {  // the window's rooms' own edges (each once, from its source), not every edge of the graph
+    for (int i = 0; i < rooms; ++i)
+      graph->for_each_neighbor(room_ids[i], [&](scene_graph::NodeId, const scene_graph::EdgeRecord& e) {
+        if (e.source == room_ids[i]) add_room_edge(e);
+      });
+  }
   if (!classifier_->classify(room_graph_, &classifier_error_)) return;
   std::uint64_t labelled = 0;
   for (const neural_tree::RoomPrediction& p : classifier_->predictions()) {
@@ -227,7 +243,7 @@ void BackendStage::label_rooms(scene_graph::SceneGraph* graph) {
       labelled += p.label != semantics::kRoomUnknown ? 1 : 0;
     }
   }
-  counters_.rooms_labelled.store(labelled);
+  counters_.rooms_labelled.store(labelled + kept_labelled);
 }
 
 // ---------------------------------------------------------------------------------------------------------

@@ -233,7 +233,7 @@ class BackendStage {
 
  private:
   bool init_loop_closure(std::size_t frame_bytes, std::string* error);
-  void label_rooms(scene_graph::SceneGraph* graph);
+  void label_rooms(scene_graph::SceneGraph* graph, bool window, std::uint64_t time_ns);
 
   Config config_;
   Counters counters_;

@@ -56,12 +56,13 @@ void DetectorCounters::print(std::FILE* out) const {
                static_cast<unsigned long long>(tree_rebuilds));
 }
 
-bool LoopClosureDetector::init(std::size_t capacity, const DetectorConfig& config, std::string* error) {
+bool LoopClosureDetector::init(std::size_t capacity, const LocalMapCapacities& local_map, const DetectorConfig& config,
+                               std::string* error) {
   if (const std::string why = config.check(); !why.empty()) return *error = "loop_closure.detector: " + why, false;
   if (capacity == 0) return *error = "loop_closure.detector: capacity must be at least 1", false;
   config_ = config;
   registration_ = ObjectRegistration(config.registration);
-  if (!local_map_.init(config.local_map, kMaxLocalKeyframes, error)) return *error = "loop_closure.detector." + *error, false;
+  if (!local_map_.init(config.local_map, local_map, error)) return *error = "loop_closure.detector." + *error, false;
   entries_.clear();
   entries_.reserve(capacity);
   order_.assign(capacity, 0);
@@ -197,10 +198,11 @@ const AgentEntry* LoopClosureDetector::refine_with_neighbours(const AgentEntry& 
 // enough), each within local_map.path_m of path. Updates out as refine_with_neighbours does.
 bool LoopClosureDetector::refine_with_local_maps(const AgentEntry& query, std::uint32_t match_entry, LoopClosure* out) {
   const double path = config_.local_map.path_m;
+  const std::uint32_t max_keyframes = local_map_.capacities().keyframes;
   const auto separation_ns = static_cast<std::uint64_t>(config_.min_time_separation_s * 1e9);
   local_map_.begin(query.world_T_agent);
   std::uint32_t keyframes = local_map_.add(query.cloud, query.world_T_agent) ? 1 : 0;
-  for (std::size_t i = entries_.size(); i-- > 0 && keyframes < kMaxLocalKeyframes;) {
+  for (std::size_t i = entries_.size(); i-- > 0 && keyframes < max_keyframes;) {
     const AgentEntry& e = entries_[i];
     if (query.path_m - e.path_m > path) break;
     if (e.cloud.count > 0 && local_map_.add(e.cloud, e.world_T_agent)) ++keyframes;
@@ -212,7 +214,7 @@ bool LoopClosureDetector::refine_with_local_maps(const AgentEntry& query, std::u
   // Outwards from the match, alternately behind and ahead, so a full buffer keeps the nearest.
   std::size_t back = match_entry, ahead = match_entry + 1;
   bool more_back = true, more_ahead = true;
-  while ((more_back || more_ahead) && keyframes < kMaxLocalKeyframes) {
+  while ((more_back || more_ahead) && keyframes < max_keyframes) {
     if (more_back) {
       more_back = back > 0 && match.path_m - entries_[back - 1].path_m <= path;
       if (more_back) {
@@ -220,7 +222,7 @@ bool LoopClosureDetector::refine_with_local_maps(const AgentEntry& query, std::u
         if (e.cloud.count > 0 && local_map_.add(e.cloud, e.world_T_agent)) ++keyframes;
       }
     }
-    if (more_ahead && keyframes < kMaxLocalKeyframes) {
+    if (more_ahead && keyframes < max_keyframes) {
       more_ahead = ahead < entries_.size() && entries_[ahead].path_m - match.path_m <= path &&
                    entries_[ahead].time_ns + separation_ns <= query.time_ns;
       if (more_ahead) {

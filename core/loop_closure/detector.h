@@ -114,7 +114,9 @@ struct DetectorCounters {
 
 class LoopClosureDetector {
  public:
-  bool init(std::size_t capacity, const DetectorConfig& config, std::string* error);
+  // capacity: agents kept; local_map: the local-map pass's buffers (both from the budget table).
+  bool init(std::size_t capacity, const LocalMapCapacities& local_map, const DetectorConfig& config,
+            std::string* error);
   // Looks for a verified match of `query` among the stored agents, then stores it. True with `out` filled when a
   // loop closure is proposed.
   bool add_and_detect(const AgentEntry& query, LoopClosure* out);
@@ -138,7 +140,6 @@ class LoopClosureDetector {
   void fold();
   static constexpr std::uint32_t kIcpNeighbours = 4;
   const AgentEntry* refine_with_neighbours(const AgentEntry& query, std::uint32_t match_entry, LoopClosure* out);
-  static constexpr std::uint32_t kMaxLocalKeyframes = 16;
   bool refine_with_local_maps(const AgentEntry& query, std::uint32_t match_entry, LoopClosure* out);
   void build(std::uint32_t lo, std::uint32_t hi);
   void search(std::uint32_t lo, std::uint32_t hi, const AgentDescriptor& d, float radius, const AgentEntry& query);

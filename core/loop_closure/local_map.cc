@@ -67,29 +67,30 @@ class GridIndex final : public NearestIndex {
 std::string LocalMapConfig::check() const {
   // Each field the app exposes within its declared range (detector_params.cc).
   if (std::string why = params::check(local_map_params_table(), *this); !why.empty()) return why;
-  if (max_points < 64 || max_points > 65536) return "max_points must be in [64, 65536]";
   return "";
 }
 
 void LocalMapConfig::print(std::FILE* out) const {
-  std::fprintf(out, "local-map verification: %s, agents within %.1f m of path, %.2f m voxels, <= %u points, overlap >= %.2f\n",
-               enabled ? "on" : "off", path_m, voxel_m, max_points, min_overlap);
+  std::fprintf(out, "local-map verification: %s, agents within %.1f m of path, %.2f m voxels, overlap >= %.2f\n",
+               enabled ? "on" : "off", path_m, voxel_m, min_overlap);
 }
 
-bool LocalMapVerifier::init(const LocalMapConfig& config, std::uint32_t max_keyframes, std::string* error) {
+bool LocalMapVerifier::init(const LocalMapConfig& config, const LocalMapCapacities& capacities, std::string* error) {
   if (const std::string why = config.check(); !why.empty()) return *error = "local_map." + why, false;
-  if (max_keyframes < 1) return *error = "local_map: max_keyframes must be at least 1", false;
+  if (capacities.keyframes < 1) return *error = "local_map: capacity local_map_keyframes must be at least 1", false;
+  if (capacities.points < 64) return *error = "local_map: capacity local_map_points must be at least 64", false;
   config_ = config;
+  capacities_ = capacities;
   if (!config.enabled) return true;  // off: no buffers (the detector never calls the pass)
-  const std::size_t gather = static_cast<std::size_t>(max_keyframes) * kMaxCloudPoints;
+  const std::size_t gather = static_cast<std::size_t>(capacities.keyframes) * kMaxCloudPoints;
   gather_points_.reserve(gather);
   gather_normals_.reserve(gather);
   voxel_keys_.reserve(gather);
   for (LocalCloud* c : {&query_, &match_}) {
-    c->points.reserve(config.max_points);
-    c->normals.reserve(config.max_points);
+    c->points.reserve(capacities.points);
+    c->normals.reserve(capacities.points);
   }
-  grid_.reserve(config.max_points);
+  grid_.reserve(capacities.points);
   return true;
 }
 
@@ -118,7 +119,7 @@ bool LocalMapVerifier::add(const DepthCloud& cloud, const Eigen::Isometry3d& wor
   return true;
 }
 
-// One point per voxel (the mean of the voxel's points and normals), evenly strided down to max_points.
+// One point per voxel (the mean of the voxel's points and normals), evenly strided down to capacities_.points.
 void LocalMapVerifier::finish(LocalCloud* out) {
   out->points.clear();
   out->normals.clear();
@@ -131,7 +132,7 @@ void LocalMapVerifier::finish(LocalCloud* out) {
   std::size_t voxels = 0;
   for (std::size_t i = 0; i < voxel_keys_.size(); ++i)
     voxels += (i == 0 || voxel_keys_[i].first != voxel_keys_[i - 1].first) ? 1 : 0;
-  const std::size_t stride = std::max<std::size_t>(1, (voxels + config_.max_points - 1) / config_.max_points);
+  const std::size_t stride = std::max<std::size_t>(1, (voxels + capacities_.points - 1) / capacities_.points);
   std::size_t voxel = 0;
   for (std::size_t i = 0; i < voxel_keys_.size();) {
     std::size_t j = i;

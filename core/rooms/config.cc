@@ -74,8 +74,8 @@ void Config::print(std::FILE* out) const {
   else
     std::fprintf(out, "rooms: split by extent off\n");
   std::fprintf(out, "rooms: closed-off regions seed rooms: %s\n", seed_closed_regions ? "on" : "off");
-  std::fprintf(out, "rooms: updates during the run over the active window and its rooms: %s\n",
-               window_updates ? "on" : "off");
+  std::fprintf(out, "rooms: updates during the run over the active window and its rooms: %s (margin %.2f m)\n",
+               window_updates ? "on" : "off", window_room_margin_m);
   if (merge_corridors)
     std::fprintf(out, "rooms: corridor merge: rooms touching >= %u rooms, through >= %u open place edges\n",
                  corridor_min_neighbours, corridor_min_open_edges);

@@ -84,6 +84,10 @@ struct Config {
   // room-place edges (the room a new room shares most places with) in every update. Off: every update reads the
   // whole graph (the paper's rooms, its footnote: "it still operates on the entire graph").
   bool window_updates = true;
+  // ... and of an open room (one holding an active place) only the places within this of the active places' box;
+  // its farther places are not read and keep their room, so one long room (a corridor) costs what its part near
+  // the robot holds. Infinity: the whole room.
+  double window_room_margin_m = 5.0;
 
   static Config paper();              // the paper's method and numbers: kPlateau, 15 places, alpha 0.5, no split
   std::size_t curve_samples() const;  // samples of the Betti curve (d-, d- + step, ..., d+)

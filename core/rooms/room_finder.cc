@@ -58,6 +58,7 @@ memory::ArenaPlan RoomFinder::plan(const Config& config, const Capacities& c) {
   refine::Refinements::plan(&p, c);
   Map::plan(p, Map::slots_for(c.rooms));
   p.add_array<Boundary>(c.places);
+  p.add_array<RoomAccumulator>(c.rooms);
   return p;
 }
 
@@ -102,7 +103,8 @@ bool RoomFinder::init(const Config& config, const Capacities& c, std::size_t bud
   ok = refine_.carve(arena_, c) && ok;
   ok = room_slot_.carve(arena_, Map::slots_for(c.rooms), c.rooms) && ok;
   boundary_ = arena_.carve_array<Boundary>(c.places);
-  ok = ok && boundary_ != nullptr;
+  far_ = arena_.carve_array<RoomAccumulator>(c.rooms);
+  ok = ok && boundary_ != nullptr && far_ != nullptr;
   arena_.align_to_plan_boundary();
   if (!ok || !arena_.seal()) {
     if (error != nullptr) *error = "rooms: arena carve did not match its plan";

@@ -72,6 +72,8 @@ struct UpdateResult {
   bool window = false;                  // read the window only (Config::window_updates)
   std::size_t rooms_open = 0;           // window: rooms holding an active place (replaced by this update)
   std::size_t boundary_edges = 0;       // window: place edges from the window to a kept room's places
+  std::size_t rooms_partial = 0;        // window: open rooms read only near the window (Config::window_room_margin_m)
+  std::size_t places_kept = 0;          // ... their places not read (they keep their room)
 };
 
 struct Counters {
@@ -161,6 +163,9 @@ class RoomFinder {
   void note_boundary(const scene_graph::SceneGraph& g, std::uint32_t place, scene_graph::NodeId other, UpdateResult* r);
   bool previous_room_of(const scene_graph::SceneGraph& graph, std::uint32_t place, std::uint32_t* previous) const;
   void finish_window(scene_graph::SceneGraph* graph, std::uint64_t time_ns, UpdateResult* r);
+  bool partial_slot(scene_graph::NodeId room, std::uint32_t* slot) const;
+  void detach_partial(scene_graph::SceneGraph* graph);
+  void keep_far_part(scene_graph::SceneGraph* graph, std::uint32_t slot);
   UpdateResult window_without_rooms(scene_graph::SceneGraph* graph, std::uint64_t time_ns, UpdateResult r);
   void build_adjacency();
   // filtration.cc: the paper's filtration, Betti curve and plateau seeds.
@@ -198,11 +203,10 @@ class RoomFinder {
   memory::FixedHashMap<scene_graph::NodeId, std::uint32_t, memory::U64Hash> previous_{"rooms.previous_rooms"};
   // Config::window_updates: room id -> its slot among this update's previous rooms (the open ones, or all).
   memory::FixedHashMap<scene_graph::NodeId, std::uint32_t, memory::U64Hash> room_slot_{"rooms.window_rooms"};
-  struct Boundary {  // a place edge from window place `place` to a place of kept room `room`
-    std::uint32_t place;
-    scene_graph::NodeId room;
-  };
+  // A place edge from window place `place` to a place of kept (or partial) room `room`.
+  struct Boundary { std::uint32_t place; scene_graph::NodeId room; };
   Boundary* boundary_ = nullptr;  // capacity: capacities_.places
+  RoomAccumulator* far_ = nullptr;  // per open room (room_slot_), its places not read (count 0: none); rooms
   std::size_t num_boundary_ = 0;
   bool window_ = false;  // this update reads the window only
 
@@ -229,7 +233,7 @@ class RoomFinder {
   scene_graph::NodeId* previous_ids_ = nullptr;
   std::uint8_t* previous_taken_ = nullptr;
   scene_graph::RoomAttributes* saved_ = nullptr;  // attributes of kept rooms while they are re-added
-  std::uint8_t* saved_valid_ = nullptr;
+  std::uint8_t* saved_valid_ = nullptr;           // 1: saved_ holds them; 2: ... and the node stays (a partial room)
   std::size_t num_rooms_ = 0;
   std::size_t num_previous_ = 0;
   std::uint64_t next_room_index_ = 0;

@@ -57,6 +57,11 @@ void RoomFinder::assign_ids(const sg::SceneGraph& graph, std::size_t num_rooms, 
 void RoomFinder::remove_previous(sg::SceneGraph* graph, bool keep_taken, UpdateResult* r) {
   for (std::size_t p = 0; p < num_previous_; ++p) {
     if ((keep_taken && previous_taken_[p] != 0) || previous_ids_[p] == sg::kNoNode) continue;
+    std::uint32_t slot = 0;
+    if (partial_slot(previous_ids_[p], &slot)) {  // its far places keep it
+      keep_far_part(graph, slot);
+      continue;
+    }
     if (graph->room(previous_ids_[p]) != nullptr && graph->remove_node(previous_ids_[p])) {
       ++r->rooms_removed;
       ++counters_.rooms_removed;
@@ -99,15 +104,18 @@ bool RoomFinder::add_edge(sg::SceneGraph* graph, sg::NodeId a, sg::NodeId b, Upd
 }
 
 void RoomFinder::write_rooms(sg::SceneGraph* graph, std::size_t num_rooms, std::uint64_t time_ns, UpdateResult* r) {
+  if (r->rooms_partial > 0) detach_partial(graph);
   remove_previous(graph, /*keep_taken=*/true, r);
   // Kept rooms are removed and re-added under the same id with their labels: remove_node() drops a node's edges
-  // newest first in O(degree), where removing them one by one would scan the room's adjacency for each.
+  // newest first in O(degree), where removing them one by one would scan the room's adjacency for each. A partial
+  // room stays (its far places keep their edges to it) and its attributes are rewritten in place.
   for (std::size_t s = 0; s < num_rooms; ++s) {
     saved_valid_[s] = 0;
     if (const sg::RoomAttributes* existing = graph->room(room_ids_[s])) {
       saved_[s] = *existing;
-      saved_valid_[s] = 1;
-      graph->remove_node(room_ids_[s]);
+      std::uint32_t slot = 0;
+      saved_valid_[s] = partial_slot(room_ids_[s], &slot) ? 2 : 1;
+      if (saved_valid_[s] == 1) graph->remove_node(room_ids_[s]);
     }
   }
   free_chunks_ = 0;
@@ -166,6 +174,18 @@ void RoomFinder::accumulate_rooms(std::size_t num_rooms) {
     ++a.count;
     a.active = a.active || active_[i] != 0;
   }
+  for (std::size_t s = 0; s < num_rooms; ++s) {  // a partial room's far places (never active)
+    std::uint32_t slot = 0;
+    if (saved_valid_[s] != 2 || !partial_slot(room_ids_[s], &slot)) continue;
+    const RoomAccumulator& f = far_[slot];
+    RoomAccumulator& a = room_acc_[s];
+    for (int d = 0; d < 3; ++d) {
+      a.sum[d] += f.sum[d];
+      a.min[d] = std::min(a.min[d], f.min[d]);
+      a.max[d] = std::max(a.max[d], f.max[d]);
+    }
+    a.count += f.count;
+  }
 }
 
 // Room nodes: attributes replaced, labels of kept rooms preserved for the classifier. Returns the rooms written
@@ -191,6 +211,12 @@ std::size_t RoomFinder::write_room_nodes(sg::SceneGraph* graph, std::size_t num_
       attrs.semantic_label = saved_[s].semantic_label;
       attrs.class_probabilities = saved_[s].class_probabilities;
       attrs.color = saved_[s].color;
+    }
+    if (saved_valid_[s] == 2) {  // a partial room: its node and its far places' edges stay
+      *graph->room(room_ids_[s]) = attrs;
+      *centroid_sum += attrs.position_m;
+      ++written;
+      continue;
     }
     if (graph->num_nodes(sg::NodeKind::kRoom) >= gc.room_nodes || graph->num_nodes() >= gc.nodes() ||
         graph->add_room(room_ids_[s], attrs) != sg::Status::kOk) {
@@ -249,7 +275,12 @@ void RoomFinder::write_edges(sg::SceneGraph* graph, std::size_t num_rooms, bool 
       ++r->places_unassigned;
       continue;
     }
-    if (graph->parent(place_ids_[i]) != sg::kNoNode) {  // another writer's room owns it
+    const sg::NodeId parent = graph->parent(place_ids_[i]);
+    if (parent == room_ids_[s]) {  // a partial room's place that stays in it
+      ++r->places_assigned;
+      continue;
+    }
+    if (parent != sg::kNoNode) {  // another writer's room owns it
       ++r->places_unassigned;
       continue;
     }

@@ -71,6 +71,8 @@ const params::Table<Config>& params_table() {
     // Cost.
     t.flag("window_updates", &Config::window_updates, project,
            "updates during the run read the active places and their rooms; other rooms stay until revisited");
+    t.add("window_room_margin_m", &Config::window_room_margin_m, "m", at_least(0), project,
+          "window updates read an open room's places within this of the active places' box (inf: all)");
     // Outputs.
     t.add("building_index", &Config::building_index, "", in(0, static_cast<double>(scene_graph::kIndexMask)), project,
           "the building node is make_node_id('B', building_index)");

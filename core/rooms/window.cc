@@ -1,11 +1,14 @@
 // Room updates over the active window (Config::window_updates, issue 37): which places an update reads, which rooms
 // it may replace, the room-room edges to the rooms it keeps, and the building over every room. A window update
-// (RoomFinder::update with window true) reads the active places, the places of the rooms holding one and the
-// places without a room, and replaces only the rooms holding an active place; the others keep their nodes and
-// edges, and the room-room edges from the window's rooms to them are written again. UpdateResult::places is then
-// the window's count, UpdateResult::rooms every room in the graph.
+// (RoomFinder::update with window true) reads the active places, the places of the rooms holding one (within
+// Config::window_room_margin_m of the active places' box) and the places without a room, and replaces only the
+// rooms holding an active place; the others keep their nodes and edges, and the room-room edges from the window's
+// rooms to them are written again. A room read in part keeps its node and its far places. UpdateResult::places is
+// then the window's count, UpdateResult::rooms every room in the graph.
 #include <algorithm>
+#include <cmath>
 #include <cstring>
+#include <limits>
 
 #include "core/rooms/room_finder.h"
 
@@ -14,30 +17,97 @@ namespace qsg::rooms {
 namespace sg = scene_graph;
 
 // The rooms that hold an active place are open (this update replaces them); the window's places are the active
-// ones, those of the open rooms and those without a room. Rooms whose places are all inactive keep theirs.
+// ones, those without a room, and those of the open rooms within window_room_margin_m of the active places' box.
+// An open room's farther places are not read: they keep it (a partial room), and far_ sums them for its node.
+// Rooms whose places are all inactive keep theirs.
 void RoomFinder::collect_window(const sg::SceneGraph& graph, UpdateResult* r) {
   room_slot_.clear();
   num_previous_ = 0;
+  double lo[3], hi[3];
+  for (int d = 0; d < 3; ++d) {
+    lo[d] = std::numeric_limits<double>::infinity();
+    hi[d] = -lo[d];
+  }
   graph.for_each_node([&](const sg::NodeRecord& n) {
-    if (n.kind != sg::NodeKind::kPlace || n.parent == sg::kNoNode) return;
-    const sg::PlaceAttributes* a = graph.place(n.id);
-    if (a == nullptr || !a->is_active || room_slot_.contains(n.parent) || graph.room(n.parent) == nullptr) return;
+    if (n.kind != sg::NodeKind::kPlace) return;
+    const sg::PlaceAttributes* a = graph.place_of(n);
+    if (a == nullptr || !a->is_active) return;
+    for (int d = 0; d < 3; ++d) {
+      lo[d] = std::min(lo[d], a->position_m[d]);
+      hi[d] = std::max(hi[d], a->position_m[d]);
+    }
+    if (n.parent == sg::kNoNode || room_slot_.contains(n.parent) || graph.room(n.parent) == nullptr) return;
     if (num_previous_ == capacities_.rooms) return;  // cannot happen: the rooms are the finder's own
     room_slot_.insert(n.parent, static_cast<std::uint32_t>(num_previous_));
+    far_[num_previous_] = RoomAccumulator{{0, 0, 0}, {0, 0, 0}, {0, 0, 0}, 0, false};
     previous_ids_[num_previous_++] = n.parent;
   });
   r->rooms_open = num_previous_;
+  const double margin = config_.window_room_margin_m;
+  // Every place is visited, so each costs one lookup at most (a place's parent is always a room: the layer rule).
   graph.for_each_node([&](const sg::NodeRecord& n) {
     if (n.kind != sg::NodeKind::kPlace) return;
-    const bool in_window = n.parent == sg::kNoNode || graph.room(n.parent) == nullptr ||
-                           room_slot_.contains(n.parent) || graph.place(n.id)->is_active;
-    if (!in_window) return;
+    const sg::PlaceAttributes* a = graph.place_of(n);
+    const std::uint32_t* open = n.parent == sg::kNoNode || a->is_active ? nullptr : room_slot_.find(n.parent);
+    if (n.parent != sg::kNoNode && !a->is_active && open == nullptr) return;  // a kept room's
+    if (open != nullptr) {
+      const Eigen::Vector3d& p = a->position_m;
+      bool near = true;
+      for (int d = 0; d < 3; ++d) near = near && p[d] >= lo[d] - margin && p[d] <= hi[d] + margin;
+      if (!near) {  // a partial room's far place: summed as accumulate_rooms would
+        RoomAccumulator& f = far_[*open];
+        const double radius = std::isfinite(a->distance_m) ? std::max(0.0, a->distance_m) : 0.0;
+        for (int d = 0; d < 3; ++d) {
+          f.sum[d] += p[d];
+          f.min[d] = f.count == 0 ? p[d] - radius : std::min(f.min[d], p[d] - radius);
+          f.max[d] = f.count == 0 ? p[d] + radius : std::max(f.max[d], p[d] + radius);
+        }
+        ++f.count;
+        ++r->places_kept;
+        return;
+      }
+    }
     if (num_places_ == capacities_.places) {
       ++r->truncated;
       return;
     }
     place_ids_[num_places_++] = n.id;
   });
+  for (std::size_t k = 0; k < num_previous_; ++k) r->rooms_partial += far_[k].count > 0 ? 1 : 0;
+}
+
+// Whether room is an open room this window update reads only in part (its slot in *slot).
+bool RoomFinder::partial_slot(sg::NodeId room, std::uint32_t* slot) const {
+  if (!window_) return false;
+  const std::uint32_t* k = room_slot_.find(room);
+  if (k == nullptr || *k >= num_previous_ || far_[*k].count == 0) return false;
+  *slot = *k;
+  return true;
+}
+
+// A partial room's read places that this update puts in another room (or in none) leave it; the node stays with
+// its far places. Removing one parent edge scans the room's adjacency, but few places change room per update.
+void RoomFinder::detach_partial(sg::SceneGraph* graph) {
+  for (std::uint32_t i = 0; i < num_places_; ++i) {
+    const sg::NodeId room = graph->parent(place_ids_[i]);
+    std::uint32_t slot = 0;
+    if (room == sg::kNoNode || !partial_slot(room, &slot)) continue;
+    const std::int32_t s = room_of_[i];
+    if (s >= 0 && static_cast<std::size_t>(s) < capacities_.rooms && room_ids_[s] == room) continue;
+    graph->remove_edge(room, place_ids_[i]);
+  }
+}
+
+// A partial room no new room took over: it stays with its far places only, kept as a room away from the robot is.
+void RoomFinder::keep_far_part(sg::SceneGraph* graph, std::uint32_t slot) {
+  sg::RoomAttributes* a = graph->room(previous_ids_[slot]);
+  if (a == nullptr) return;
+  const RoomAccumulator& f = far_[slot];
+  const double n = static_cast<double>(f.count);
+  a->position_m = Eigen::Vector3d(f.sum[0] / n, f.sum[1] / n, f.sum[2] / n);
+  a->bounding_box = sg::BoundingBox::aabb(Eigen::Vector3d(f.min[0], f.min[1], f.min[2]),
+                                          Eigen::Vector3d(f.max[0], f.max[1], f.max[2]));
+  a->is_active = false;
 }
 
 // A whole update with window updates on: every room in the graph may be taken over (matched by its places).
@@ -122,8 +192,9 @@ UpdateResult RoomFinder::window_without_rooms(sg::SceneGraph* graph, std::uint64
   ++counters_.no_rooms;
   counters_.seeds_dropped += r.seeds_dropped;
   std::fill(previous_taken_, previous_taken_ + num_previous_, std::uint8_t{0});
-  remove_previous(graph, /*keep_taken=*/true, &r);
   std::fill(room_of_, room_of_ + num_places_, -1);
+  detach_partial(graph);
+  remove_previous(graph, /*keep_taken=*/true, &r);
   r.places_unassigned = num_places_;
   finish_window(graph, time_ns, &r);
   r.outcome = Outcome::kNoRooms;

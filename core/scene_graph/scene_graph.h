@@ -141,6 +141,10 @@ class SceneGraph {
   const RoomAttributes* room(NodeId id) const { return const_cast<SceneGraph*>(this)->room(id); }
   const BuildingAttributes* building(NodeId id) const { return const_cast<SceneGraph*>(this)->building(id); }
   const AgentAttributes* agent(NodeId id) const { return const_cast<SceneGraph*>(this)->agent(id); }
+  // A place's attributes from its record as for_each_node gives it, without the id lookup (nullptr: not a place).
+  const PlaceAttributes* place_of(const NodeRecord& n) const {
+    return n.kind == NodeKind::kPlace ? &places_[n.attributes] : nullptr;
+  }
 
   // Object mesh connections (indices of mesh vertices). False when the pool is full (counted).
   bool append_mesh_connection(NodeId object_id, std::uint32_t vertex);

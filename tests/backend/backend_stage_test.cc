@@ -107,6 +107,38 @@ TEST(BackendStageTest, RoomsAndTheirLabelsInOneUpdate) {
   EXPECT_FALSE(stage.solved());
 }
 
+// After a window update only the rooms it wrote are classified; a room away from the robot keeps its label until
+// the final update classifies every room.
+TEST(BackendStageTest, WindowUpdateLabelsOnlyTheRoomsItWrote) {
+  rooms::testing::SyntheticPlaces s;
+  auto g = two_rooms_with_objects(&s);
+  BackendStage stage;
+  BackendStage::Config c;
+  c.doors_online = false;
+  std::string error, warning;
+  ASSERT_TRUE(stage.init(c, graph_capacities(), 0, 0, &error, &warning)) << error;
+  ASSERT_EQ(stage.update_rooms(g.get(), 1'000'000'000).rooms, 2u);
+  const sg::NodeId a = g->parent(s.places.front().id), b = g->parent(s.places.back().id);
+  ASSERT_NE(a, sg::kNoNode);
+  ASSERT_NE(b, sg::kNoNode);
+  ASSERT_NE(a, b);
+  const semantics::RoomLabel predicted = g->room(b)->semantic_label;
+  ASSERT_NE(predicted, semantics::kRoomUnknown);
+  // The robot in room a: b holds no active place, and carries a label the classifier did not give it.
+  for (const auto& p : s.places) g->place(p.id)->is_active = g->parent(p.id) == a;
+  const auto other = static_cast<semantics::RoomLabel>(predicted == 1 ? 2 : 1);
+  g->room(b)->semantic_label = other;
+  const rooms::UpdateResult r = stage.update_rooms(g.get(), 2'000'000'000);
+  ASSERT_TRUE(r.window);
+  EXPECT_EQ(g->room(b)->last_update_time_ns, 1'000'000'000u) << "room b was rewritten";
+  EXPECT_EQ(g->room(b)->semantic_label, other) << "a room the window update did not write was classified";
+  EXPECT_EQ(g->room(a)->last_update_time_ns, 2'000'000'000u);
+  EXPECT_NE(g->room(a)->semantic_label, semantics::kRoomUnknown);
+  EXPECT_EQ(stage.counters().rooms_labelled.load(), 2u);  // a classified, b's kept label
+  stage.update_rooms(g.get(), 3'000'000'000, /*final=*/true);
+  EXPECT_EQ(g->room(b)->semantic_label, predicted) << "the final update classifies every room";
+}
+
 TEST(BackendStageTest, MissingWeightsAreAWarningAndRoomsStayUnknown) {
   rooms::testing::SyntheticPlaces s;
   auto g = two_rooms_with_objects(&s);

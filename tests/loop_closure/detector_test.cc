@@ -9,6 +9,8 @@
 namespace qsg::loop_closure {
 namespace {
 
+constexpr LocalMapCapacities kLocalMap{16, 4096};  // the local-map pass's buffers, as host_sim's table
+
 using scene_graph::NodeId;
 using scene_graph::make_node_id;
 
@@ -77,7 +79,7 @@ class DetectorTest : public ::testing::Test {
     // These agents carry no depth (nothing for ICP): object registrations are proposed unrefined.
     DetectorConfig config;
     config.propose_unrefined_objects = true;
-    ASSERT_TRUE(detector_.init(64, config, &error)) << error;
+    ASSERT_TRUE(detector_.init(64, kLocalMap, config, &error)) << error;
   }
   std::unique_ptr<scene_graph::SceneGraph> graph_;
   std::uint64_t places_ = 0, objects_ = 0;
@@ -125,7 +127,7 @@ TEST_F(DetectorTest, ARevisitWithDriftIsDetectedWithTheTrueRelativePose) {
 TEST_F(DetectorTest, AnUnrefinedObjectRegistrationIsNotProposedByDefault) {
   LoopClosureDetector detector;
   std::string error;
-  ASSERT_TRUE(detector.init(64, DetectorConfig{}, &error)) << error;
+  ASSERT_TRUE(detector.init(64, kLocalMap, DetectorConfig{}, &error)) << error;
   const NodeId a = draw_room(graph_.get(), &places_, &objects_, pose(0, 0, 0), kLiving);
   const NodeId c = draw_room(graph_.get(), &places_, &objects_, pose(0.6, -0.4, 0.07), kLiving);
   LoopClosure lc;
@@ -168,9 +170,9 @@ TEST_F(DetectorTest, TreeSearchFindsWhatALinearScanFinds) {
   config.min_objects = 0;
   config.objects_threshold = 1.0;  // empty object histograms score 0: nothing is verified
   LoopClosureDetector tree, scan;
-  ASSERT_TRUE(tree.init(600, config, &error));
+  ASSERT_TRUE(tree.init(600, kLocalMap, config, &error));
   config.rebuild_batch = 100000;  // never rebuilt: every query scans
-  ASSERT_TRUE(scan.init(600, config, &error));
+  ASSERT_TRUE(scan.init(600, kLocalMap, config, &error));
   std::mt19937 rng(1);
   std::uniform_real_distribution<float> u(0.0f, 1.0f);
   LoopClosure lc;
@@ -194,7 +196,7 @@ TEST_F(DetectorTest, TreeSearchFindsWhatALinearScanFinds) {
 TEST_F(DetectorTest, AFullDatabaseFoldsItsOlderHalf) {
   std::string error;
   LoopClosureDetector small;
-  ASSERT_TRUE(small.init(8, DetectorConfig{}, &error));
+  ASSERT_TRUE(small.init(8, kLocalMap, DetectorConfig{}, &error));
   LoopClosure lc;
   for (int i = 0; i < 9; ++i) {
     AgentEntry e;
@@ -215,7 +217,7 @@ TEST_F(DetectorTest, BadConfigIsRefusedWithTheField) {
   DetectorConfig c;
   c.places_threshold = 1.5;
   LoopClosureDetector d;
-  EXPECT_FALSE(d.init(8, c, &error));
+  EXPECT_FALSE(d.init(8, kLocalMap, c, &error));
   EXPECT_NE(error.find("places_threshold"), std::string::npos) << error;
 }
 

@@ -67,7 +67,7 @@ LocalMapConfig enabled() {
 TEST(LocalMapTest, OppositeViewsRegisterOnTheirLocalMaps) {
   LocalMapVerifier v;
   std::string error;
-  ASSERT_TRUE(v.init(enabled(), 16, &error)) << error;
+  ASSERT_TRUE(v.init(enabled(), LocalMapCapacities{16, 4096}, &error)) << error;
   const Eigen::Isometry3d world_T_match = camera(3.0, 2.0, 0.0), world_T_query = camera(3.2, 1.9, M_PI);
   v.begin(world_T_match);
   for (int k = 0; k <= 4; ++k) {
@@ -82,7 +82,7 @@ TEST(LocalMapTest, OppositeViewsRegisterOnTheirLocalMaps) {
   }
   v.finish(&v.query_cloud());
   EXPECT_GT(v.match_cloud().points.size(), 300u);
-  EXPECT_LE(v.match_cloud().points.size(), enabled().max_points);
+  EXPECT_LE(v.match_cloud().points.size(), 4096u);
   const Eigen::Isometry3d truth = world_T_match.inverse() * world_T_query;
   Eigen::Isometry3d coarse = truth;
   coarse.translation() += Eigen::Vector3d(0.07, -0.05, 0.03);
@@ -100,7 +100,7 @@ TEST(LocalMapTest, OppositeViewsRegisterOnTheirLocalMaps) {
 TEST(LocalMapTest, LocalMapsOfDifferentRoomsAreNotTrusted) {
   LocalMapVerifier v;
   std::string error;
-  ASSERT_TRUE(v.init(enabled(), 16, &error)) << error;
+  ASSERT_TRUE(v.init(enabled(), LocalMapCapacities{16, 4096}, &error)) << error;
   const Eigen::Isometry3d a = camera(3.0, 2.0, 0.3), b = camera(3.0, 2.0, 0.3);
   v.begin(a);
   ASSERT_TRUE(v.add(view(a, 1), a));
@@ -117,7 +117,7 @@ TEST(LocalMapTest, LocalMapsOfDifferentRoomsAreNotTrusted) {
 TEST(LocalMapTest, GatherBufferIsBoundedAndConfigChecked) {
   LocalMapVerifier v;
   std::string error;
-  ASSERT_TRUE(v.init(enabled(), 2, &error)) << error;
+  ASSERT_TRUE(v.init(enabled(), LocalMapCapacities{2, 4096}, &error)) << error;
   const Eigen::Isometry3d T = camera(3.0, 2.0, 0.0);
   const DepthCloud c = view(T, 3);
   ASSERT_EQ(c.count, kMaxCloudPoints);
@@ -127,7 +127,7 @@ TEST(LocalMapTest, GatherBufferIsBoundedAndConfigChecked) {
   EXPECT_FALSE(v.add(c, T));  // full: refused, nothing allocated
   LocalMapConfig bad = enabled();
   bad.voxel_m = 0.0;
-  EXPECT_FALSE(v.init(bad, 2, &error));
+  EXPECT_FALSE(v.init(bad, LocalMapCapacities{2, 4096}, &error));
   EXPECT_NE(error.find("voxel_m"), std::string::npos) << error;
 }
 

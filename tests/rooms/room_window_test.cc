@@ -131,6 +131,94 @@ TEST(RoomWindowTest, KeepsRoomsAwayFromTheRobotUntilItComesBack) {
   EXPECT_EQ(windowed, partition(*g2, s));
 }
 
+// A corridor 36 m long is one room; with the robot at its west end a window update reads the corridor only within
+// window_room_margin_m of the active places: its far part keeps its room (not read, edges untouched), the room's
+// node still spans every place of it, and a passage closed in the far part changes nothing until the whole update,
+// which partitions as a fresh finder does.
+TEST(RoomWindowTest, ReadsOnlyTheNearPartOfALongRoom) {
+  SyntheticPlaces s;
+  testing::corridor_plan(8, 0.5).add_to(&s, 1.0, Eigen::Vector2d::Zero(), 1.25);
+  auto g = make_graph(s);
+  auto finder = make_finder(true);
+  ASSERT_EQ(finder->config().window_room_margin_m, 5.0);
+  ASSERT_EQ(finder->update(g.get(), 1, nullptr, nullptr, /*window=*/true).rooms, 17u);  // 16 rooms, the corridor
+  const auto before = rooms_by_tag(*g, s);
+  for (const auto& [tag, rooms] : before) ASSERT_EQ(rooms.size(), 1u) << "tag " << tag;
+  const sg::NodeId corridor = *before.at(0).begin();
+
+  // The robot at the west end: places west of x = 9 m active; the corridor's places east of 14 m are far.
+  const double cut_m = 9.0, far_m = cut_m + 5.0 + 0.5;
+  std::size_t far_corridor = 0;
+  for (const auto& p : s.places) {
+    g->place(p.id)->is_active = p.position_m.x() < cut_m;
+    if (p.room == 0 && p.position_m.x() > far_m) ++far_corridor;
+  }
+  ASSERT_GT(far_corridor, 50u);
+  // A passage closed across the corridor's far part: a whole update would cut it there.
+  const auto close_far_passage = [&](sg::SceneGraph* graph) {
+    int closed = 0;
+    for (const auto& e : s.edges) {
+      const auto &a = s.places[e.a], &b = s.places[e.b];
+      if (a.room != 0 || b.room != 0 || (a.position_m.x() < 30.0) == (b.position_m.x() < 30.0)) continue;
+      sg::EdgeAttributes info;
+      info.weight = 0.0;
+      info.weighted = true;
+      graph->remove_edge(a.id, b.id);
+      if (graph->add_edge(a.id, b.id, info) == sg::Status::kOk) ++closed;
+    }
+    return closed;
+  };
+  ASSERT_GT(close_far_passage(g.get()), 0);
+  UpdateResult r;
+  EXPECT_NO_ALLOCATIONS(r = finder->update(g.get(), 2, nullptr, nullptr, /*window=*/true));
+  EXPECT_EQ(r.outcome, Outcome::kOk);
+  EXPECT_EQ(r.rooms_partial, 1u);
+  EXPECT_GE(r.places_kept, far_corridor);
+  EXPECT_LE(r.places + r.places_kept, s.places.size());
+  EXPECT_EQ(r.rooms, 17u);
+  EXPECT_EQ(rooms_by_tag(*g, s), before) << "the corridor's far part left it, or a room changed";
+  // The corridor's node spans all of it: centroid over every place of it, box over the far end too.
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  double max_x = -1e9;
+  std::size_t n = 0;
+  for (const auto& p : s.places)
+    if (g->parent(p.id) == corridor) {  // the corridor's places and the door places it took
+      sum += p.position_m;
+      max_x = std::max(max_x, p.position_m.x() + g->place(p.id)->distance_m);
+      ++n;
+    }
+  const sg::RoomAttributes* c = g->room(corridor);
+  ASSERT_NE(c, nullptr);
+  EXPECT_LT((c->position_m - sum / static_cast<double>(n)).norm(), 1e-9);
+  EXPECT_NEAR(c->bounding_box.max_m.x(), max_x, 1e-9);
+  EXPECT_TRUE(c->is_active);
+
+  // The robot walks to the east end: the corridor's west part is far now, its east part read again (the closed
+  // passage cuts it), and the rooms in the west keep theirs.
+  for (const auto& p : s.places) g->place(p.id)->is_active = p.position_m.x() > 27.0;
+  r = finder->update(g.get(), 3, nullptr, nullptr, /*window=*/true);
+  EXPECT_EQ(r.outcome, Outcome::kOk);
+  EXPECT_GE(r.rooms_partial, 1u);
+  EXPECT_EQ(rooms_by_tag(*g, s).at(0).size(), 2u) << "the corridor's east part was not read again";
+  for (const auto& p : s.places) {
+    if (p.room == 0 && p.position_m.x() < 10.0) {
+      EXPECT_EQ(g->parent(p.id), corridor) << "a far place lost its room";
+    }
+  }
+
+  // The whole update (the run's last) partitions as a fresh finder does on the same graph.
+  const UpdateResult whole = finder->update(g.get(), 4);
+  EXPECT_FALSE(whole.window);
+  EXPECT_EQ(whole.rooms_partial, 0u);
+  EXPECT_EQ(whole.places, s.places.size());
+  auto g2 = make_graph(s);
+  ASSERT_GT(close_far_passage(g2.get()), 0);
+  for (const auto& p : s.places) g2->place(p.id)->is_active = g->place(p.id)->is_active;
+  auto fresh = make_finder(false);
+  ASSERT_EQ(fresh->update(g2.get(), 4).outcome, Outcome::kOk);
+  EXPECT_EQ(partition(*g, s), partition(*g2, s));
+}
+
 TEST(RoomWindowTest, EmptyWindowKeepsEveryRoomAndWindowOffReadsEverything) {
   SyntheticPlaces s;
   testing::corridor_plan(2, 0.5).add_to(&s, 1.0, Eigen::Vector2d::Zero(), 1.25);
