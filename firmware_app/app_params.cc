@@ -1,5 +1,6 @@
 #include "firmware_app/app_params.h"
 
+#include "core/backend/backend_stage_params.h"
 #include "core/frontend/frontend_params.h"
 #include "core/objects/objects_params.h"
 #include "core/places/places_params.h"
@@ -15,9 +16,7 @@ using params::above;
 using params::any;
 using params::at_least;
 using params::in;
-constexpr auto paper = params::Origin::kPaper;
 constexpr auto project = params::Origin::kProject;
-constexpr auto refinement = params::Origin::kRefinement;
 // Times become int64 nanoseconds: 10^9 s ("never" in tests and benchmarks) keeps them from overflow.
 constexpr double kMaxTime_s = 1e9;
 
@@ -96,78 +95,6 @@ params::Table<runtime::KeyframeConfig> keyframes_table() {
         "at least one keyframe per this, even standing still (> min_interval_s)");
   t.add("min_translation_m", &C::min_translation_m, "m", in(0, 100), project, "a keyframe after this much motion");
   t.add("min_rotation_rad", &C::min_rotation_rad, "rad", in(0, 3.1416), project, "... or this much turn");
-  return t;
-}
-
-params::Table<AppConfig::LoopClosure> loop_closure_table() {
-  using C = AppConfig::LoopClosure;
-  params::Table<C> t;
-  t.flag("enabled", &C::enabled, paper, "the backend closes loops (off until it meets its target)");
-  t.add("horizon_s", &C::horizon_s, "s", in(0, 3600), project, "agents are described this long after the robot passed");
-  t.add("describe_every_m", &C::describe_every_m, "m", above(0, 100), project, "one described agent per this much path");
-  t.add("solve_interval_s", &C::solve_interval_s, "s", in(0, 3600), project,
-        "the deformation graph is re-solved at most this often");
-  params::Table<loop_closure::DescriptorConfig> descriptor;
-  descriptor.add("radius_m", &loop_closure::DescriptorConfig::radius_m, "m", any(), paper,
-                 "places within this graph distance of the agent describe it");
-  t.include(descriptor, [](C& c) -> loop_closure::DescriptorConfig& { return c.descriptor; });
-  using D = loop_closure::DetectorConfig;
-  params::Table<D> detector;
-  detector.add("places_threshold", &D::places_threshold, "", any(), paper, "places similarity a candidate must reach");
-  detector.add("objects_threshold", &D::objects_threshold, "", any(), paper,
-               "objects similarity a candidate must reach to be verified");
-  detector.add("min_time_separation_s", &D::min_time_separation_s, "s", any(), project,
-               "candidates at least this much older");
-  detector.add("min_path_separation_m", &D::min_path_separation_m, "m", in(0, 1000), project,
-               "candidates at least this much path behind");
-  detector.add("ratio", &D::ratio, "", any(), project, "ratio test against the best candidate");
-  detector.flag("propose_unrefined_objects", &D::propose_unrefined_objects, project,
-                "object registrations ICP could not refine are proposed too");
-  t.include(detector, [](C& c) -> D& { return c.detector; });
-  using L = loop_closure::LocalMapConfig;
-  params::Table<L> local_map;
-  local_map.flag("local_map", &L::enabled, refinement,
-                 "object registrations the keyframes' ICP cannot refine are refined on the two agents' local maps");
-  local_map.add("local_map_path_m", &L::path_m, "m", any(), refinement, "agents within this much path join an agent's local map");
-  local_map.add("local_map_voxel_m", &L::voxel_m, "m", any(), refinement, "a local map keeps one point per voxel of this side");
-  local_map.add("local_map_min_overlap", &L::min_overlap, "", any(), refinement,
-                "share of the query's local-map points on a match plane after ICP");
-  local_map.add("local_map_max_correction_rad", &L::max_correction_rad, "rad", any(), refinement,
-                "largest rotation the local-map ICP may apply to the object registration's estimate");
-  t.include(local_map, [](C& c) -> L& { return c.detector.local_map; });
-  using R = loop_closure::RegistrationConfig;
-  params::Table<R> registration;
-  registration.add("noise_bound_m", &R::noise_bound_m, "m", any(), paper, "bound on one object centroid's error");
-  registration.add("min_inliers", &R::min_inliers, "", in(2, 256), paper, "objects a registration must hold");
-  t.include(registration, [](C& c) -> R& { return c.detector.registration; });
-  params::Table<backend::DeformationConfig> deformation;
-  deformation.add("sigma_position_m", &backend::DeformationConfig::sigma_position_m, "m", any(), project,
-                  "the deformation graph's relative-position edges");
-  using G = backend::AgentGraphConfig;
-  params::Table<G> agents_graph;
-  agents_graph.choice("odometry_weighting", &G::odometry_weighting,
-                      {{"per_distance", backend::OdometryWeighting::kPerDistance},
-                       {"covariance_growth", backend::OdometryWeighting::kCovarianceGrowth}},
-                      refinement,
-                      "odometry edges: a random walk per metre in each node's frame, or the growth of the reported "
-                      "world-frame covariance (bench/results/loop_closure.md)");
-  agents_graph.add("odometry_sigma_t_m_per_sqrt_m", &G::sigma_t_m_per_sqrt_m, "m", above(0, 10), refinement,
-                   "per_distance: translation random walk per sqrt(m) of path");
-  agents_graph.add("odometry_sigma_yaw_rad_per_sqrt_m", &G::sigma_yaw_rad_per_sqrt_m, "rad", above(0, 10), refinement,
-                   "per_distance: rotation about the vertical per sqrt(m)");
-  agents_graph.add("odometry_sigma_tilt_rad_per_sqrt_m", &G::sigma_tilt_rad_per_sqrt_m, "rad", above(0, 10),
-                   refinement, "per_distance: roll and pitch per sqrt(m)");
-  deformation.include(agents_graph, [](backend::DeformationConfig& d) -> G& { return d.agents; });
-  t.include(deformation, [](C& c) -> backend::DeformationConfig& { return c.deformation; });
-  t.flag("odometry_sigmas_from_source", &C::odometry_sigmas_from_source, refinement,
-         "per_distance odometry edges take the source's own noise model when it has one (sim_drift's sigmas)");
-  t.flag("reconcile", &C::reconcile, paper,
-         "after the final correction: objects re-boxed from the corrected mesh, revisits merged, final doors and "
-         "rooms on the corrected map (off: found as mapped and moved; bench/results/loop_closure.md)");
-  t.add("merge_places_within_m", &C::merge_places_within_m, "m", in(0, 5), paper,
-        "after a correction, places closer than this whose free-space spheres hold each other merge (0: none)");
-  t.flag("merge_objects", &C::merge_objects, paper,
-         "after a correction, objects of one label merge when either's centre lies in the other's box");
   return t;
 }
 
@@ -306,7 +233,7 @@ const params::Schema<AppConfig>& app_schema() {
     s.section("places", places::params_table(), [](AppConfig& a) -> places::Config& { return a.frontend.places; });
     s.section("objects", objects::params_table(), [](AppConfig& a) -> objects::Config& { return a.frontend.objects; });
     s.section("frontend", frontend::params_table(), [](AppConfig& a) -> frontend::Config& { return a.frontend; });
-    s.section("loop_closure", loop_closure_table(),
+    s.section("loop_closure", backend::loop_closure_params_table(),
               [](AppConfig& a) -> AppConfig::LoopClosure& { return a.loop_closure; });
     s.section("agents", agents::params_table(), [](AppConfig& a) -> agents::Config& { return a.frontend.agents; });
     s.section("rooms", rooms::params_table(), [](AppConfig& a) -> rooms::Config& { return a.rooms; });

@@ -5,11 +5,13 @@ surface, one slice at the doors' height, thick islands as furniture; numpy), run
 `rooms_eval --dump-places DIR` wrote, scored per place against the ground-truth rooms.
 
     build/release/bench/rooms/rooms_eval --cache-dir C --generated 0 --dump-places D   # once (cached: seconds)
-    /usr/bin/python3 bench/rooms/finder_sandbox.py D [--min-persistence-m P] [--min-component N] [--no-extent-split]
-        [--no-corridor-merge] [--corridor-min-neighbours N] [--corridor-min-open-edges N] [--no-visible-merge]
-        [--visible-min-share S] [--visible-samples N] [--visible-local-radius-m R] [--visible-local-min-share S]
-        [--no-visible-touching]
-        [--sight-min-wall-m W] [--sight-wall-dilation-m D] [--sight-furniture-max-m L] [--sight-furniture-min-width-m W]
+    /usr/bin/python3 bench/rooms/finder_sandbox.py D [--config FILE] [--set SECTION.KEY=VALUE ...] [--door-oracle-m C]
+
+Its settings are the room finder's and the door stage's, read from firmware_app/config/default.json (written by
+`qsg_app --dump-config` from the parameter tables, so the mirror never restates a default) or from --config FILE in
+the same form; --set rooms.KEY=VALUE or doors.KEY=VALUE changes one, as rooms_eval's --set does: e.g.
+--set rooms.merge_visible=false (no numpy needed then), --set rooms.min_persistence_m=0.5,
+--set doors.sight_min_wall_m=2.5. The mirror has persistence seeding without a door-clearance limit only.
 
 It prints, per variant (plain, furnished), the same place-level score for the C++ rooms of the dump and for this
 mirror, so a change tried here first can be judged in well under a second before it is written in C++. The mirror
@@ -29,8 +31,12 @@ import argparse
 import collections
 import glob
 import heapq
+import json
 import math
 import os
+
+DEFAULT_CONFIG = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "firmware_app", "config",
+                              "default.json")
 
 
 def load(path):
@@ -47,7 +53,7 @@ def load(path):
     return places, edges
 
 
-def find_rooms(places, edges, min_component=6, min_persistence_m=0.4, d_min=0.5, d_max=1.2):
+def find_rooms(places, edges, min_component, min_persistence_m, d_min, d_max, closed_regions=True):
     """Room index per place id (-1: none), as RoomFinder with Seeding::kPersistence (no door-clearance limit)."""
     ids = list(places)
     index = {p: i for i, p in enumerate(ids)}
@@ -121,7 +127,7 @@ def find_rooms(places, edges, min_component=6, min_persistence_m=0.4, d_min=0.5,
             emit(i)
     # Closed-off regions (Config::seed_closed_regions): each piece of the graph that the closed edges cut off, holds
     # no seed and has at least min_component places is a room of its own.
-    if any(c < 0 for c, _, _ in edge_list):
+    if closed_regions and any(c < 0 for c, _, _ in edge_list):
         region = list(range(n))
 
         def region_of(i):
@@ -186,8 +192,8 @@ def extend_clearance(places, edges, saturation_m):
     return {p: a["d"] + (depth[p] if depth[p] != math.inf else 0.0) for p, a in places.items()}
 
 
-def split_by_extent(places, edges, room_of, saturation_m=1.0, min_extent_m=1.0, max_extent_m=2.5,
-                    min_persistence_m=0.5, min_component=6):
+def split_by_extent(places, edges, room_of, saturation_m, min_extent_m, max_extent_m, min_persistence_m,
+                    min_component):
     """RoomFinder's extent split: every room seeded again on the extended clearance through its own edges; a room
     with two or more seeds is split and its other places filled among them, through its own edges."""
     extent = extend_clearance(places, edges, saturation_m)
@@ -215,7 +221,7 @@ def split_by_extent(places, edges, room_of, saturation_m=1.0, min_extent_m=1.0, 
     return out
 
 
-def merge_corridors(places, edges, room_of, min_neighbours=3, min_open_edges=20):
+def merge_corridors(places, edges, room_of, min_neighbours, min_open_edges):
     """RoomFinder's corridor merge: while two adjacent rooms both touch at least min_neighbours rooms (through any
     place edge; a closed one has weight <= 0) and meet through at least min_open_edges open edges, the pair with
     the most open edges (ties: the lower pair of rooms) becomes one room (the lower keeps its number)."""
@@ -242,12 +248,15 @@ def merge_corridors(places, edges, room_of, min_neighbours=3, min_open_edges=20)
                 room[p] = best[0]
 
 
-def wall_sight(stem, places, z, dilation_m=0.15, min_wall_m=3.0, cell_m=0.05, half_band_m=0.4,
-               min_wall_height_m=0.3, mapped_radius_m=2.0, place_band_m=1.5, furniture_max_m=8.0,
-               furniture_min_width_m=1.0):
-    """rooms::WallSight's slice at z from the dump's surface (stem + ".surface.f32"): (structure mask [row, col],
-    raster origin), or None without the surface. Needs numpy (python3-numpy)."""
+def wall_sight(stem, places, z, doors):
+    """rooms::WallSight's slice at z from the dump's surface (stem + ".surface.f32"), with the door stage's settings
+    (the config's "doors" section): (structure mask [row, col], raster origin, cell side), or None without the
+    surface. Needs numpy (python3-numpy)."""
     import numpy as np
+    cell_m, half_band_m, place_band_m = doors["cell_m"], doors["slice_half_band_m"], doors["place_band_m"]
+    min_wall_height_m, mapped_radius_m = doors["min_wall_height_m"], doors["mapped_radius_m"]
+    dilation_m, min_wall_m = doors["sight_wall_dilation_m"], doors["sight_min_wall_m"]
+    furniture_max_m, furniture_min_width_m = doors["sight_furniture_max_m"], doors["sight_furniture_min_width_m"]
     path = stem + ".surface.f32"
     if not os.path.exists(path):
         return None
@@ -295,12 +304,12 @@ def wall_sight(stem, places, z, dilation_m=0.15, min_wall_m=3.0, cell_m=0.05, ha
         island = diagonal < furniture_max_m / cell_m and len(cells) / diagonal > furniture_min_width_m / cell_m
         if diagonal >= min_wall_m / cell_m and not island:
             mask[a[:, 0], a[:, 1]] = True
-    return mask, lo
+    return mask, lo, cell_m
 
 
-def sees(sight, a, b, cell_m=0.05):
+def sees(sight, a, b):
     """WallSight::sees on one slice: the plan segment a-b crosses no structure cell (cells in order, as the C++)."""
-    mask, lo = sight
+    mask, lo, cell_m = sight
     rows, cols = mask.shape
     x0, y0 = (a[0] - lo[0]) / cell_m, (a[1] - lo[1]) / cell_m
     x1, y1 = (b[0] - lo[0]) / cell_m, (b[1] - lo[1]) / cell_m
@@ -321,7 +330,7 @@ def sees(sight, a, b, cell_m=0.05):
     return True
 
 
-def touching_pairs(places, room_of, sight, max_clearance_m=4.0):
+def touching_pairs(places, room_of, sight, max_clearance_m):
     """RoomFinder::find_touching_pairs: pairs of places in different rooms whose free-space spheres touch (distance
     below the sum of their clearances, each at most max_clearance_m) and that see each other."""
     radius = {p: min(a["d"], max_clearance_m) for p, a in places.items()}
@@ -348,8 +357,8 @@ def touching_pairs(places, room_of, sight, max_clearance_m=4.0):
     return pairs
 
 
-def merge_visible(places, edges, room_of, sight, min_share=0.8, samples=12, max_rounds=32, local_radius_m=2.25,
-                  local_min_share=0.8, local_min_places=3, touching=True):
+def merge_visible(places, edges, room_of, sight, min_share, samples, max_rounds, local_radius_m, local_min_share,
+                  local_min_places, touching, touch_max_clearance_m):
     """RoomFinder's visibility merge on one slice: each round, up to `samples` places per room (ranks
     floor(j (n - 1) / (samples - 1)) in id order), each adjacent pair's share of clear sight lines, then the pairs at
     or above min_share clearest first (ties: the lower pair), each room once a round (the lower keeps its number).
@@ -359,7 +368,7 @@ def merge_visible(places, edges, room_of, sight, min_share=0.8, samples=12, max_
     room = dict(room_of)
     ids = sorted(places)
     if touching:
-        edges = list(edges) + touching_pairs(places, room, sight)
+        edges = list(edges) + touching_pairs(places, room, sight, touch_max_clearance_m)
 
     def pick(ps):
         n = len(ps)
@@ -433,36 +442,51 @@ def pooled(scores):
     return s[0] / max(1, s[1]), s[2] / max(1, s[3]), s[4] / max(1, s[5]), s[1]
 
 
+def load_config(path):
+    """The "rooms" and "doors" sections of an app config in `qsg_app --dump-config`'s form (whole-line // comments;
+    "inf" for an unbounded real)."""
+    with open(path) as f:
+        config = json.loads("".join(line for line in f if not line.lstrip().startswith("//")))
+    return {name: {k: (float(v) if v in ("inf", "-inf") else v) for k, v in config.get(name, {}).items()}
+            for name in ("rooms", "doors")}
+
+
+def set_setting(config, assignment):
+    """rooms_eval's --set SECTION.KEY=VALUE on the loaded sections: the key must exist, the value of its kind."""
+    path, eq, text = assignment.partition("=")
+    section, dot, key = path.partition(".")
+    if not eq or not dot or key not in config.get(section, {}):
+        raise SystemExit("--set %s: expected rooms.KEY=VALUE or doors.KEY=VALUE with a key of the config" % assignment)
+    old = config[section][key]
+    try:
+        if isinstance(old, bool):
+            value = {"true": True, "1": True, "false": False, "0": False}[text]
+        elif isinstance(old, (int, float)):
+            value = int(text) if isinstance(old, int) and text.lstrip("-").isdigit() else float(text)
+        else:
+            value = text
+    except (KeyError, ValueError):
+        raise SystemExit("--set %s: expected a value like %r" % (assignment, old))
+    config[section][key] = value
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("dump_dir")
-    ap.add_argument("--min-persistence-m", type=float, default=0.4)
-    ap.add_argument("--min-component", type=int, default=6)
-    ap.add_argument("--no-extent-split", action="store_true", help="the room finder without its extent split")
-    ap.add_argument("--extent-saturation-m", type=float, default=1.0)
-    ap.add_argument("--split-min-extent-m", type=float, default=1.0)
-    ap.add_argument("--split-max-extent-m", type=float, default=2.5)
-    ap.add_argument("--split-min-persistence-m", type=float, default=0.5)
-    ap.add_argument("--split-min-component", type=int, default=6)
-    ap.add_argument("--no-corridor-merge", action="store_true", help="the room finder without its corridor merge")
-    ap.add_argument("--corridor-min-neighbours", type=int, default=3)
-    ap.add_argument("--corridor-min-open-edges", type=int, default=20)
-    ap.add_argument("--no-visible-merge", action="store_true",
-                    help="the room finder without its visibility merge (which needs numpy and the dump's surface)")
-    ap.add_argument("--visible-min-share", type=float, default=0.8)
-    ap.add_argument("--visible-samples", type=int, default=12)
-    ap.add_argument("--visible-local-radius-m", type=float, default=2.25)
-    ap.add_argument("--visible-local-min-share", type=float, default=0.8)
-    ap.add_argument("--no-visible-touching", action="store_true",
-                    help="rooms adjacent by their place edges only (rooms::Config::visible_touching off)")
-    ap.add_argument("--sight-furniture-max-m", type=float, default=8.0)
-    ap.add_argument("--sight-furniture-min-width-m", type=float, default=1.0)
-    ap.add_argument("--sight-min-wall-m", type=float, default=3.0)
-    ap.add_argument("--sight-wall-dilation-m", type=float, default=0.15)
+    ap.add_argument("--config", default=DEFAULT_CONFIG,
+                    help="an app config in qsg_app --dump-config's form (default: firmware_app/config/default.json)")
+    ap.add_argument("--set", action="append", default=[], metavar="SECTION.KEY=VALUE",
+                    help="one room-finder (rooms.*) or door-stage (doors.*) setting, repeatable")
     ap.add_argument("--door-oracle-m", type=float, default=None, metavar="C",
                     help="a perfect door detector: every place edge between two ground-truth rooms gets clearance C "
                          "(0: cut), what any door or opening cue could give the persistence seeding at best")
     args = ap.parse_args()
+    config = load_config(args.config)
+    for assignment in args.set:
+        set_setting(config, assignment)
+    rc, doors = config["rooms"], config["doors"]
+    if rc["seeding"] != "persistence" or rc["max_door_clearance_m"] != math.inf:
+        raise SystemExit("the mirror has rooms.seeding=persistence with rooms.max_door_clearance_m=inf only")
     for variant in ("plain", "furnished"):
         files = sorted(glob.glob(os.path.join(args.dump_dir, "*_%s.txt" % variant)))
         if not files:
@@ -474,25 +498,24 @@ def main():
             if args.door_oracle_m is not None:
                 edges = [(a, b, args.door_oracle_m if 0 < places[a]["truth"] != places[b]["truth"] > 0 else w)
                          for a, b, w in edges]
-            rooms = find_rooms(places, edges, args.min_component, args.min_persistence_m)
-            if not args.no_extent_split:
-                rooms = split_by_extent(places, edges, rooms, args.extent_saturation_m, args.split_min_extent_m,
-                                        args.split_max_extent_m, args.split_min_persistence_m,
-                                        args.split_min_component)
-            if not args.no_corridor_merge:
-                rooms = merge_corridors(places, edges, rooms, args.corridor_min_neighbours,
-                                        args.corridor_min_open_edges)
-            if not args.no_visible_merge:
+            rooms = find_rooms(places, edges, rc["min_component_size"], rc["min_persistence_m"], rc["min_dilation_m"],
+                               rc["max_dilation_m"], rc["seed_closed_regions"])
+            if rc["split_by_extent"]:
+                rooms = split_by_extent(places, edges, rooms, rc["extent_saturation_m"], rc["split_min_extent_m"],
+                                        rc["split_max_extent_m"], rc["split_min_persistence_m"],
+                                        rc["split_min_component_size"])
+            if rc["merge_corridors"]:
+                rooms = merge_corridors(places, edges, rooms, rc["corridor_min_neighbours"],
+                                        rc["corridor_min_open_edges"])
+            if rc["merge_visible"]:
                 with open(path) as f:
                     door_z = [float(line.split()[5]) for line in f if line.startswith("D ")]
-                sight = wall_sight(path[:-4], places, door_z[0] if door_z else 1.2, args.sight_wall_dilation_m,
-                                   args.sight_min_wall_m, furniture_max_m=args.sight_furniture_max_m,
-                                   furniture_min_width_m=args.sight_furniture_min_width_m)
+                sight = wall_sight(path[:-4], places, door_z[0] if door_z else 1.2, doors)
                 if sight is not None:
-                    rooms = merge_visible(places, edges, rooms, sight, args.visible_min_share, args.visible_samples,
-                                          local_radius_m=args.visible_local_radius_m,
-                                          local_min_share=args.visible_local_min_share,
-                                          touching=not args.no_visible_touching)
+                    rooms = merge_visible(places, edges, rooms, sight, rc["visible_min_share"], rc["visible_samples"],
+                                          rc["visible_max_rounds"], rc["visible_local_radius_m"],
+                                          rc["visible_local_min_share"], rc["visible_local_min_places"],
+                                          rc["visible_touching"], rc["visible_touch_max_clearance_m"])
             mirror.append(score(places, rooms))
         for name, s in (("C++ (dump)", cpp), ("mirror", mirror)):
             print("%-10s %-10s places: P %.3f R %.3f | P weighted %.3f | rooms %d" % ((variant, name) + pooled(s)))

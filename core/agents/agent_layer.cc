@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstring>
 
+#include "core/agents/agents_params.h"
 #include "core/scene_graph/scene_graph.h"
 
 namespace qsg::agents {
@@ -14,11 +15,7 @@ std::string Config::check() const {
   if (!std::islower(static_cast<unsigned char>(prefix)))
     return "prefix must be a lower-case letter (the robot's partition; 'p' is taken by places)";
   if (prefix == scene_graph::kPlacePrefix) return "prefix 'p' is the places layer's";
-  if (!(min_translation_m >= 0.0 && min_translation_m <= 100.0)) return "min_translation_m must be in [0, 100]";
-  if (!(min_rotation_rad >= 0.0 && min_rotation_rad <= 3.1416)) return "min_rotation_rad must be in [0, pi]";
-  if (!(max_interval_s > 0.0 && max_interval_s <= 3600.0)) return "max_interval_s must be in (0, 3600]";
-  if (!(fold_at_fraction >= 0.5 && fold_at_fraction <= 1.0)) return "fold_at_fraction must be in [0.5, 1]";
-  return {};
+  return params::check(params_table(), *this);  // the policy's fields (agents_params.cc; the prefix is no setting)
 }
 
 void Config::print(std::FILE* out) const {

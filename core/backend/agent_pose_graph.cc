@@ -1,6 +1,8 @@
 // The agent chain's pose graph: odometry edges from the chain's poses and covariances, loop closures, the solve.
 #include "core/backend/agent_pose_graph.h"
 
+#include "core/backend/backend_params.h"
+
 #include <algorithm>
 #include <cmath>
 
@@ -18,10 +20,10 @@ bool parse_odometry_weighting(const std::string& name, OdometryWeighting* out) {
 }
 
 std::string AgentGraphConfig::check() const {
+  // Each field the app exposes within its declared range (backend_params.cc).
+  if (std::string why = params::check(agent_graph_params_table(), *this); !why.empty()) return why;
   const auto positive = [](double v) { return std::isfinite(v) && v > 0.0 && v <= 10.0; };
   if (!positive(min_sigma_t_m) || !positive(min_sigma_rot_rad)) return "odometry sigma floors must be in (0, 10]";
-  if (!positive(sigma_t_m_per_sqrt_m) || !positive(sigma_yaw_rad_per_sqrt_m) || !positive(sigma_tilt_rad_per_sqrt_m))
-    return "odometry sigmas per sqrt(m) must be in (0, 10]";
   if (!positive(floor_t_m) || !positive(floor_rot_rad)) return "odometry floors must be in (0, 10]";
   return "";
 }

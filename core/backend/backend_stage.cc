@@ -8,6 +8,7 @@
 #include <utility>
 
 #include "budgets/budget_table.h"
+#include "core/backend/backend_stage_params.h"
 
 namespace qsg::backend {
 
@@ -38,12 +39,10 @@ void store_max(std::atomic<std::uint64_t>& m, std::uint64_t v) {
 }  // namespace
 
 std::string LoopClosureConfig::check() const {
-  if (!(horizon_s >= 0.0 && horizon_s <= 3600.0)) return "horizon_s must be in [0, 3600] s";
-  if (!(describe_every_m > 0.0 && describe_every_m <= 100.0)) return "describe_every_m must be in (0, 100] m";
-  if (!(solve_interval_s >= 0.0 && solve_interval_s <= 3600.0)) return "solve_interval_s must be in [0, 3600] s";
+  // Each field the app exposes within its declared range (backend_stage_params.cc; then each part's other fields).
+  if (std::string why = params::check(loop_closure_params_table(), *this); !why.empty()) return why;
   if (const std::string d = descriptor.check(); !d.empty()) return d;
   if (const std::string d = detector.check(); !d.empty()) return d;
-  if (!(merge_places_within_m >= 0.0 && merge_places_within_m <= 5.0)) return "merge_places_within_m must be in [0, 5] m";
   return deformation.check();
 }
 

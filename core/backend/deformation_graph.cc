@@ -1,6 +1,8 @@
 // The embedded deformation graph: build (agents, control points, places and their edges), solve, interpolate.
 #include "core/backend/deformation_graph.h"
 
+#include "core/backend/backend_params.h"
+
 #include <algorithm>
 #include <cmath>
 #include <numeric>
@@ -8,11 +10,12 @@
 namespace qsg::backend {
 
 std::string DeformationConfig::check() const {
+  // Each field the app exposes within its declared range (backend_params.cc).
+  if (std::string why = params::check(deformation_params_table(), *this); !why.empty()) return why;
   if (!(control_point_spacing_m >= 0.1 && control_point_spacing_m <= 20.0))
     return "control_point_spacing_m must be in [0.1, 20] m";
   if (!(control_edge_radius_m > 0.0 && control_edge_radius_m <= 50.0)) return "control_edge_radius_m must be in (0, 50] m";
   if (max_control_neighbours < 1 || max_control_neighbours > 64) return "max_control_neighbours must be in [1, 64]";
-  if (!(sigma_position_m > 0.0 && sigma_position_m <= 10.0)) return "sigma_position_m must be in (0, 10] m";
   if (!(place_control_radius_m >= 0.0 && place_control_radius_m <= 50.0)) return "place_control_radius_m must be in [0, 50] m";
   if (interpolation_neighbours < 1 || interpolation_neighbours > 16) return "interpolation_neighbours must be in [1, 16]";
   if (!(time_horizon_s > 0.0 && time_horizon_s <= 86400.0)) return "time_horizon_s must be in (0, 86400] s";

@@ -1,4 +1,5 @@
 #include "core/doors/door_detector.h"
+#include "core/doors/door_params.h"
 #include "core/doors/raster_ops.h"
 #include "core/doors/wall_sight.h"
 
@@ -17,42 +18,17 @@ namespace qsg::rooms {
 namespace sg = scene_graph;
 
 bool DoorConfig::validate(std::string* error) const {
-  const auto fail = [&](const char* what) {
-    if (error != nullptr) *error = std::string("doors: ") + what;
+  const auto fail = [&](const std::string& what) {
+    if (error != nullptr) *error = "doors: " + what;
     return false;
   };
-  if (!(cell_m > 0.0)) return fail("cell_m must be positive");
-  if (!(slice_half_band_m > 0.0)) return fail("slice_half_band_m must be positive");
-  if (!(min_wall_height_m >= 0.0 && min_wall_height_m <= 2.0 * slice_half_band_m))
-    return fail("min_wall_height_m must lie in [0, 2 x slice_half_band_m]");
-  if (!(mapped_radius_m > 0.0) || !(place_band_m >= 0.0)) return fail("mapped_radius_m and place_band_m");
-  if (!(min_width_m > 0.0 && max_width_m >= min_width_m)) return fail("need 0 < min_width_m <= max_width_m");
-  if (!(min_rise_m >= 0.0) || !(rise_reach_m > 0.0)) return fail("min_rise_m >= 0 and rise_reach_m > 0");
-  if (!(max_off_centre >= 0.0 && max_off_centre <= 1.0)) return fail("max_off_centre must lie in [0, 1]");
-  if (!(suppression_m >= 0.0)) return fail("suppression_m must not be negative");
+  // Each field within its declared range (door_params.cc); then the rules between fields and the capacities.
+  if (std::string why = params::check(door_params_table(), *this); !why.empty()) return fail(why);
+  if (!(min_wall_height_m <= 2.0 * slice_half_band_m))
+    return fail("min_wall_height_m must be <= 2 x slice_half_band_m");
+  if (!(max_width_m >= min_width_m)) return fail("need min_width_m <= max_width_m");
   if (max_cells == 0) return fail("max_cells must be positive");
-  if (!std::isfinite(slice_above_robot_m)) return fail("slice_above_robot_m must be finite");
-  if (!(storey_bin_m > 0.0) || !(storey_min_share >= 0.0 && storey_min_share <= 1.0) ||
-      !(storey_separation_m >= 0.0))
-    return fail("storey_bin_m > 0, storey_min_share in [0, 1] and storey_separation_m >= 0");
-  if (!(cut_extension_m >= 0.0) || !(cut_max_dz_m >= 0.0)) return fail("cut_extension_m and cut_max_dz_m >= 0");
-  if (!(online_misses_to_drop >= 1 && online_misses_to_drop <= 255))
-    return fail("online_misses_to_drop must lie in [1, 255]");
-  if (!(online_match_m >= 0.0 && std::isfinite(online_match_m))) return fail("online_match_m must be >= 0");
-  if (!(bypass_max_m >= 0.0 && std::isfinite(bypass_max_m))) return fail("bypass_max_m must be finite and >= 0");
-  if (!(bypass_extension_m >= 0.0 && std::isfinite(bypass_extension_m)))
-    return fail("bypass_extension_m must be finite and >= 0");
-  if (!(bypass_max_edge_m > 0.0 && std::isfinite(bypass_max_edge_m)))
-    return fail("bypass_max_edge_m must be finite and positive");
   if (bypass_max_m > 0.0 && bypass_max_places == 0) return fail("bypass_max_places must be positive");
-  if (!(sight_wall_dilation_m >= 0.0 && sight_wall_dilation_m <= 1.0))
-    return fail("sight_wall_dilation_m must be in [0, 1]");
-  if (!(sight_min_wall_m >= 0.0 && std::isfinite(sight_min_wall_m)))
-    return fail("sight_min_wall_m must be finite and >= 0");
-  if (!(sight_furniture_max_m >= 0.0 && std::isfinite(sight_furniture_max_m)))
-    return fail("sight_furniture_max_m must be finite and >= 0");
-  if (!(sight_furniture_min_width_m > 0.0 && std::isfinite(sight_furniture_min_width_m)))
-    return fail("sight_furniture_min_width_m must be finite and > 0");
   return true;
 }
 
@@ -94,6 +70,7 @@ bool DoorWorkspace::carve(memory::Arena& arena, const Capacities& c) {
                   line_d_ != nullptr && line_v_ != nullptr && line_z_ != nullptr &&
                   (candidates_ != nullptr || c.candidates == 0);
   capacities_ = ok ? c : Capacities{};
+  door_params_table();  // built now, at start-up: validating each raster's config then allocates nothing
   return ok;
 }
 

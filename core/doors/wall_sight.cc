@@ -1,6 +1,8 @@
 // Sight lines across the structural walls of the final door stage's slices.
 #include "core/doors/wall_sight.h"
 
+#include "core/doors/door_params.h"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
@@ -170,6 +172,7 @@ bool WallSight::carve(memory::Arena& arena, std::size_t cells) {
   carved_ = grown_ != nullptr && scratch_ != nullptr && list_ != nullptr && structure_ != nullptr;
   capacity_cells_ = carved_ ? cells : 0;
   window_set_ = false;
+  door_params_table();  // built now, at start-up: validating each window slice's config then allocates nothing
   return carved_;
 }
 

@@ -4,10 +4,12 @@
 #include <algorithm>
 
 #include "budgets/budget_table.h"
+#include "core/frontend/frontend_params.h"
 
 namespace qsg::frontend {
 
 std::string Config::check() const {
+  if (std::string why = params::check(params_table(), *this); !why.empty()) return why;  // frontend_params.cc
   if (const std::string p = places.check(); !p.empty()) return "places: " + p;
   if (const std::string o = objects.check(); !o.empty()) return "objects: " + o;
   if (const std::string a = agents.check(); !a.empty()) return "agents: " + a;

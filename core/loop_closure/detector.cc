@@ -1,18 +1,16 @@
 #include "core/loop_closure/detector.h"
 
+#include "core/loop_closure/detector_params.h"
+
 #include <algorithm>
 #include <cmath>
 
 namespace qsg::loop_closure {
 
 std::string DetectorConfig::check() const {
-  if (!(places_threshold >= 0.0 && places_threshold <= 1.0)) return "places_threshold must be in [0, 1]";
-  if (!(objects_threshold >= 0.0 && objects_threshold <= 1.0)) return "objects_threshold must be in [0, 1]";
+  // Each field the app exposes within its declared range (detector_params.cc; then the fields without a table).
+  if (std::string why = params::check(detector_params_table(), *this); !why.empty()) return why;
   if (min_objects > kMaxDescriptorObjects) return "min_objects must be at most 32";
-  if (!(min_time_separation_s >= 0.0 && min_time_separation_s <= 86400.0))
-    return "min_time_separation_s must be in [0, 86400] s";
-  if (!(min_path_separation_m >= 0.0 && min_path_separation_m <= 1e5)) return "min_path_separation_m must be in [0, 1e5] m";
-  if (!(ratio > 0.0 && ratio <= 1.0)) return "ratio must be in (0, 1]";
   if (!(ratio_distance_m >= 0.0 && ratio_distance_m <= 1000.0)) return "ratio_distance_m must be in [0, 1000] m";
   if (max_verifications < 1 || max_verifications > 64) return "max_verifications must be in [1, 64]";
   if (rebuild_batch < 1 || rebuild_batch > 100000) return "rebuild_batch must be in [1, 100000]";

@@ -1,5 +1,7 @@
 #include "core/loop_closure/local_map.h"
 
+#include "core/loop_closure/detector_params.h"
+
 #include <algorithm>
 #include <cmath>
 
@@ -63,10 +65,8 @@ class GridIndex final : public NearestIndex {
 }  // namespace
 
 std::string LocalMapConfig::check() const {
-  if (!(path_m > 0.0 && path_m <= 50.0)) return "path_m must be in (0, 50] m";
-  if (!(voxel_m >= 0.01 && voxel_m <= 1.0)) return "voxel_m must be in [0.01, 1] m";
-  if (!(min_overlap > 0.0 && min_overlap <= 1.0)) return "min_overlap must be in (0, 1]";
-  if (!(max_correction_rad > 0.0 && max_correction_rad <= 3.2)) return "max_correction_rad must be in (0, 3.2] rad";
+  // Each field the app exposes within its declared range (detector_params.cc).
+  if (std::string why = params::check(local_map_params_table(), *this); !why.empty()) return why;
   return "";
 }
 

@@ -1,5 +1,7 @@
 #include "core/loop_closure/object_registration.h"
 
+#include "core/loop_closure/detector_params.h"
+
 #include <Eigen/SVD>
 #include <Eigen/Eigenvalues>
 
@@ -9,8 +11,8 @@
 namespace qsg::loop_closure {
 
 std::string RegistrationConfig::check() const {
-  if (!(noise_bound_m > 0.0 && noise_bound_m <= 5.0)) return "noise_bound_m must be in (0, 5] m";
-  if (min_inliers < 2 || min_inliers > kMaxCorrespondences) return "min_inliers must be in [2, 256]";
+  // Each field the app exposes within its declared range (detector_params.cc).
+  if (std::string why = params::check(registration_params_table(), *this); !why.empty()) return why;
   if (!(min_spread_m >= 0.0 && min_spread_m <= 100.0)) return "min_spread_m must be in [0, 100] m";
   if (max_clique_nodes < 1) return "max_clique_nodes must be at least 1";
   if (gnc_iterations < 1 || gnc_iterations > 1000) return "gnc_iterations must be in [1, 1000]";

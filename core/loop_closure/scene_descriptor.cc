@@ -1,12 +1,15 @@
 #include "core/loop_closure/scene_descriptor.h"
 
+#include "core/loop_closure/detector_params.h"
+
 #include <algorithm>
 #include <cmath>
 
 namespace qsg::loop_closure {
 
 std::string DescriptorConfig::check() const {
-  if (!(radius_m > 0.0 && radius_m <= 50.0)) return "radius_m must be in (0, 50] m";
+  // Each field the app exposes within its declared range (detector_params.cc).
+  if (std::string why = params::check(descriptor_params_table(), *this); !why.empty()) return why;
   if (!(max_clearance_m > 0.0 && max_clearance_m <= 20.0)) return "max_clearance_m must be in (0, 20] m";
   if (max_places < 1 || max_places > 65536) return "max_places must be in [1, 65536]";
   return "";

@@ -3,6 +3,7 @@
 #include "core/objects/object_layer_internal.h"
 
 #include "budgets/budget_table.h"
+#include "core/objects/objects_params.h"
 
 namespace qsg::objects {
 
@@ -47,6 +48,8 @@ LabelTable default_label_params() {
 }
 
 std::string Config::check() const {
+  // The scalar settings within their declared ranges (objects_params.cc); then the per-label table, kept in code.
+  if (std::string why = params::check(params_table(), *this); !why.empty()) return why;
   char buf[160];
   for (semantics::Label l = 0; l < semantics::kNumObjectLabels; ++l) {
     const LabelParams& p = labels[l];
@@ -68,8 +71,6 @@ std::string Config::check() const {
       return buf;
     }
   }
-  if (!(index_cell_m >= 0.25 && index_cell_m <= 50.0)) return "index_cell_m must be in [0.25, 50] m";
-  if (max_keys_per_object < 1 || max_keys_per_object > 1000000) return "max_keys_per_object must be in [1, 1000000]";
   return {};
 }
 

@@ -158,15 +158,16 @@ bool Field::parse(const std::string& text, Value* out, std::string* why) const {
 }
 
 std::string Field::check(const Value& v) const {
-  const std::string unit_text = unit[0] != '\0' ? std::string(" ") + unit : std::string();
+  // Built only on failure: a check of values in range allocates nothing.
+  const auto unit_text = [this] { return unit[0] != '\0' ? std::string(" ") + unit : std::string(); };
   switch (type) {
     case Type::kInteger:
     case Type::kReal:
-      if (!range.contains(number(v))) return "must be in " + range.text() + unit_text + ", got " + text(v);
+      if (!range.contains(number(v))) return "must be in " + range.text() + unit_text() + ", got " + text(v);
       return {};
     case Type::kRealArray:
       for (double d : v.array)
-        if (!range.contains(d)) return "each element must be in " + range.text() + unit_text + ", got " + text(v);
+        if (!range.contains(d)) return "each element must be in " + range.text() + unit_text() + ", got " + text(v);
       return {};
     case Type::kChoice:
       for (const std::string& c : choices)
@@ -190,8 +191,14 @@ std::string path_of(const Section& section, const Field& field) {
 
 std::string check(const std::vector<Section>& sections, const void* root) {
   for (const Section& s : sections)
-    for (const Field& f : s.fields)
-      if (const std::string why = f.check(f.get(root)); !why.empty()) return path_of(s, f) + " " + why;
+    if (std::string why = check_fields(s.fields, root, s.name.c_str()); !why.empty()) return why;
+  return {};
+}
+
+std::string check_fields(const std::vector<Field>& fields, const void* root, const char* section) {
+  for (const Field& f : fields)
+    if (const std::string why = f.check(f.get(root)); !why.empty())
+      return (section[0] != '\0' ? std::string(section) + "." : std::string()) + f.key + " " + why;
   return {};
 }
 

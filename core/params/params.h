@@ -230,6 +230,8 @@ std::string path_of(const Section& section, const Field& field);
 
 // Empty when every field is within its range, else "rooms.visible_min_share must be in (0, 1], got 0".
 std::string check(const std::vector<Section>& sections, const void* root);
+// The same over one table's fields on `root`, the key prefixed with "section." when a section is given.
+std::string check_fields(const std::vector<Field>& fields, const void* root, const char* section);
 // One line per section: "rooms: seeding=persistence min_persistence_m=0.4 ..." (wrapped near 118 columns).
 void print(const std::vector<Section>& sections, const void* root, std::FILE* out);
 // "section.key=value": sets one field (type- and range-checked); false with a message naming the key otherwise.
@@ -245,6 +247,13 @@ std::vector<Section> sections_of(const std::string& name, const Table<C>& table)
 
 template <typename R>
 std::string check(const Schema<R>& schema, const R& root) { return check(schema.sections(), &root); }
+// A stage Config's per-field check, from its table: its check() calls this first and then tests only the rules
+// between fields. "max_distance_m must be in (0, 20] m, got 0" (with a section: "rooms.min_dilation_m ...").
+// Allocates nothing while every value is within range.
+template <typename C>
+std::string check(const Table<C>& table, const C& config, const char* section = "") {
+  return check_fields(table.fields(), &config, section);
+}
 template <typename R>
 void print(const Schema<R>& schema, const R& root, std::FILE* out) { print(schema.sections(), &root, out); }
 template <typename R>

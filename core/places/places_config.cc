@@ -1,58 +1,26 @@
-// places::Config's check and print, the printed capacities, counters and memory use, and the budget table's
-// capacities.
+// places::Config's check and print (both from its table, places_params.cc), the printed capacities, counters and
+// memory use, and the budget table's capacities.
 #include "core/places/places_internal.h"
 
 #include "budgets/budget_table.h"
+#include "core/places/places_params.h"
 
 namespace qsg::places {
 
 std::string Config::check() const {
-  if (voxel_factor < 1 || voxel_factor > kMaxVoxelFactor) return "voxel_factor must be 1 or 2";
-  if (!(max_distance_m > 0.0 && max_distance_m <= 20.0)) return "max_distance_m must be in (0, 20] m";
-  if (!(min_clearance_m >= 0.0 && min_clearance_m < max_distance_m))
-    return "min_clearance_m must be in [0, max_distance_m)";
-  if (!(min_basis_angle_rad > 0.0 && min_basis_angle_rad <= 3.14159266)) return "min_basis_angle_rad must be in (0, pi]";
-  if (min_basis_points < 2 || min_basis_points > kMaxBasis) return "min_basis_points must be in [2, 8]";
-  if (!(place_resolution_m > 0.0 && place_resolution_m <= 20.0)) return "place_resolution_m must be in (0, 20] m";
-  if (!(window_radius_m > 0.0 && window_radius_m <= 100.0)) return "window_radius_m must be in (0, 100] m";
-  if (!(slab_below_m >= 0.0 && slab_above_m >= 0.0 && slab_below_m + slab_above_m > 0.0))
-    return "slab_below_m and slab_above_m must be >= 0 and not both 0";
-  if (!(min_tsdf_weight >= 0.0)) return "min_tsdf_weight must be >= 0";
-  if (bridge_max_fragment_places < 1 || bridge_max_fragment_places > kMaxBridgeFragment)
-    return "bridge_max_fragment_places must be in [1, " + std::to_string(kMaxBridgeFragment) + "]";
-  if (!(bridge_max_length_m > 0.0 && bridge_max_length_m <= 10.0)) return "bridge_max_length_m must be in (0, 10] m";
-  if (!(bridge_min_clearance_m > 0.0)) return "bridge_min_clearance_m must be positive";
-  if (enclosed_max_voxels < 0) return "enclosed_max_voxels must be >= 0";
-  if (contract_search_places < 1 || contract_search_places > kMaxContractSearch)
-    return "contract_search_places must be in [1, " + std::to_string(kMaxContractSearch) + "]";
-  if (!(keep_edges_at_rim_m >= 0.0 && keep_edges_at_rim_m < window_radius_m))
-    return "keep_edges_at_rim_m must be in [0, window_radius_m) (at or beyond the radius, no edge would ever go)";
-  if (!(merge_revisited_within_m >= 0.0 && merge_revisited_within_m <= place_resolution_m))
-    return "merge_revisited_within_m must be in [0, place_resolution_m] (the merge searches the neighbouring cells)";
+  // Each field within its declared range (places_params.cc), then the rules between fields.
+  if (std::string why = params::check(params_table(), *this); !why.empty()) return why;
+  if (!(min_clearance_m < max_distance_m)) return "min_clearance_m must be below max_distance_m";
+  if (!(slab_below_m + slab_above_m > 0.0)) return "slab_below_m and slab_above_m must not both be 0";
+  if (!(keep_edges_at_rim_m < window_radius_m))
+    return "keep_edges_at_rim_m must be below window_radius_m (at or beyond the radius, no edge would ever go)";
+  if (!(merge_revisited_within_m <= place_resolution_m))
+    return "merge_revisited_within_m must be at most place_resolution_m (the merge searches the neighbouring cells)";
   return {};
 }
 
 void Config::print(std::FILE* out) const {
-  std::fprintf(out,
-               "places: voxel_factor=%d max_distance_m=%.2f min_clearance_m=%.2f min_basis_angle_deg=%.1f "
-               "min_basis_points=%d place_resolution_m=%.2f window_radius_m=%.1f slab_m=[-%.1f, +%.1f] "
-               "min_tsdf_weight=%.2f free_space_edges=%d relink_inactive=%d bridge_fragments=%d "
-               "bridge_max_fragment_places=%d bridge_max_length_m=%.2f bridge_min_clearance_m=%.2f "
-               "enclosed_max_voxels=%d contract_removed=%d contract_search_places=%d unobserved_is_obstacle=%d "
-               "unobserved_obstacle_above_m=%.2f rim_guard=%d signed_surface_seeds=%d correct_projective_distance=%d "
-               "hold_distant_fragments=%d bridge_path_search=%d keep_distances_at_rim=%d "
-               "revive_in_same_free_space=%d keep_edges_at_rim_m=%.2f relink_in_same_free_space=%d "
-               "merge_revisited_within_m=%.2f\n",
-               voxel_factor, max_distance_m, min_clearance_m, min_basis_angle_rad * 180.0 / 3.14159265358979,
-               min_basis_points, place_resolution_m, window_radius_m, slab_below_m, slab_above_m, min_tsdf_weight,
-               free_space_edges ? 1 : 0, relink_inactive ? 1 : 0, bridge_fragments ? 1 : 0,
-               bridge_max_fragment_places, bridge_max_length_m, bridge_min_clearance_m, enclosed_max_voxels,
-               contract_removed ? 1 : 0,
-               contract_search_places, unobserved_is_obstacle ? 1 : 0,
-               unobserved_obstacle_above_m, rim_guard ? 1 : 0, signed_surface_seeds ? 1 : 0,
-               correct_projective_distance ? 1 : 0, hold_distant_fragments ? 1 : 0,
-               bridge_path_search ? 1 : 0, keep_distances_at_rim ? 1 : 0, revive_in_same_free_space ? 1 : 0,
-               keep_edges_at_rim_m, relink_in_same_free_space ? 1 : 0, merge_revisited_within_m);
+  params::print(params::sections_of("places", params_table()), this, out);  // every field, from the table
 }
 
 void Capacities::print(std::FILE* out) const {

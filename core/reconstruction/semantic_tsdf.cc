@@ -4,31 +4,23 @@
 
 #include "budgets/budget_table.h"
 #include "core/reconstruction/marching_cubes.h"
+#include "core/reconstruction/reconstruction_params.h"
 
 namespace qsg::reconstruction {
 
 // ---------------------------------------------------------------------------------------------------------
 std::string Config::check() const {
-  if (!(voxel_size_m >= 0.02 - 1e-12 && voxel_size_m <= 1.0)) return "voxel_size_m must be in [0.02, 1] m";
-  if (!(truncation_voxels >= 1.0 && truncation_voxels <= 10.0)) return "truncation_voxels must be in [1, 10]";
-  if (!(min_range_m >= 0.0 && max_range_m > min_range_m)) return "need 0 <= min_range_m < max_range_m";
-  if (!(max_range_m <= 50.0)) return "max_range_m must be at most 50 m";
-  if (!(window_radius_m > max_range_m && window_radius_m <= 500.0))
-    return "window_radius_m must exceed max_range_m and be at most 500 m";
-  if (!(max_weight > 1.0 && max_weight * kWeightScale < 65535.0)) return "max_weight must be in (1, 255]";
-  if (!(archive_resolution_m > 0.0 && archive_resolution_m <= 1.0)) return "archive_resolution_m must be in (0, 1] m";
-  if (!(archive_max_resolution_m >= archive_resolution_m && archive_max_resolution_m <= 5.0))
-    return "archive_max_resolution_m must be in [archive_resolution_m, 5] m";
-  if (integration_threads < 1 || integration_threads > 8) return "integration_threads must be in [1, 8]";
+  // Each field within its declared range (reconstruction_params.cc), then the rules between fields.
+  if (std::string why = params::check(params_table(), *this); !why.empty()) return why;
+  if (!(max_range_m > min_range_m)) return "max_range_m must exceed min_range_m";
+  if (!(window_radius_m > max_range_m)) return "window_radius_m must exceed max_range_m";
+  if (!(archive_max_resolution_m >= archive_resolution_m))
+    return "archive_max_resolution_m must be at least archive_resolution_m";
   return {};
 }
 
 void Config::print(std::FILE* out) const {
-  std::fprintf(out,
-               "reconstruction: voxel_size_m=%.3f truncation_voxels=%.1f range_m=[%.2f, %.2f] window_radius_m=%.1f "
-               "max_weight=%.0f archive_resolution_m=%.3f (max %.3f) integrate_labels=%d integration_threads=%d\n",
-               voxel_size_m, truncation_voxels, min_range_m, max_range_m, window_radius_m, max_weight,
-               archive_resolution_m, archive_max_resolution_m, integrate_labels ? 1 : 0, integration_threads);
+  params::print(params::sections_of("reconstruction", params_table()), this, out);  // every field, from the table
 }
 
 void Counters::print(std::FILE* out) const {

@@ -3,6 +3,8 @@
 
 #include <cmath>
 
+#include "core/rooms/rooms_params.h"
+
 namespace qsg::rooms {
 
 namespace sg = scene_graph;
@@ -33,55 +35,25 @@ const char* to_string(Seeding seeding) {
 }
 
 std::string Config::check() const {
-  if (seeding != Seeding::kPlateau && seeding != Seeding::kPersistence) return "rooms.seeding: unknown value";
-  if (!(max_door_clearance_m >= 0.0)) return "rooms.max_door_clearance_m: must be >= 0 (inf: no limit)";
-  if (!(window_room_margin_m >= 0.0)) return "rooms.window_room_margin_m: must be >= 0 (inf: whole rooms)";
-  if (!std::isfinite(min_persistence_m) || min_persistence_m < 0.0)
-    return "rooms.min_persistence_m: must be finite and >= 0, got " + std::to_string(min_persistence_m);
-  if (!std::isfinite(min_dilation_m) || min_dilation_m < 0.0)
-    return "rooms.min_dilation_m: must be finite and >= 0, got " + std::to_string(min_dilation_m);
-  if (!std::isfinite(max_dilation_m) || max_dilation_m < min_dilation_m)
-    return "rooms.max_dilation_m: must be finite and >= min_dilation_m, got " + std::to_string(max_dilation_m);
-  if (!std::isfinite(dilation_step_m) || dilation_step_m <= 0.0)
-    return "rooms.dilation_step_m: must be > 0, got " + std::to_string(dilation_step_m);
+  // Each field within its declared range (rooms_params.cc), whatever its switch; then the rules between fields.
+  if (std::string why = params::check(params_table(), *this, "rooms"); !why.empty()) return why;
+  if (!(max_dilation_m >= min_dilation_m))
+    return "rooms.max_dilation_m: must be >= min_dilation_m, got " + std::to_string(max_dilation_m);
   if (curve_samples() > kMaxCurveSamples)
     return "rooms.dilation_step_m: " + std::to_string(curve_samples()) + " samples over [d-, d+], at most " +
            std::to_string(kMaxCurveSamples);
-  if (min_component_size < 1) return "rooms.min_component_size: must be >= 1";
-  if (!(plateau_alpha >= 0.0 && plateau_alpha <= 1.0))
-    return "rooms.plateau_alpha: must be in [0, 1], got " + std::to_string(plateau_alpha);
-  if (!std::isfinite(extent_saturation_m) || extent_saturation_m < 0.0)
-    return "rooms.extent_saturation_m: must be finite and >= 0, got " + std::to_string(extent_saturation_m);
-  if (!std::isfinite(split_min_extent_m) || split_min_extent_m < 0.0)
-    return "rooms.split_min_extent_m: must be finite and >= 0, got " + std::to_string(split_min_extent_m);
-  if (!std::isfinite(split_max_extent_m) || split_max_extent_m < split_min_extent_m)
-    return "rooms.split_max_extent_m: must be finite and >= split_min_extent_m, got " +
-           std::to_string(split_max_extent_m);
-  if (!std::isfinite(split_min_persistence_m) || split_min_persistence_m < 0.0)
-    return "rooms.split_min_persistence_m: must be finite and >= 0, got " + std::to_string(split_min_persistence_m);
-  if (split_min_component_size < 1) return "rooms.split_min_component_size: must be >= 1";
+  if (!(split_max_extent_m >= split_min_extent_m))
+    return "rooms.split_max_extent_m: must be >= split_min_extent_m, got " + std::to_string(split_max_extent_m);
   if (merge_corridors && corridor_min_neighbours < 2)
     return "rooms.corridor_min_neighbours: must be >= 2 (1 would merge every room with its corridor)";
-  if (merge_corridors && (corridor_min_open_edges < 1 || corridor_min_open_edges > 65535))
-    return "rooms.corridor_min_open_edges: must be in [1, 65535] (0 would merge through doors; counts saturate at "
-           "65535)";
-  if (merge_visible && !(visible_min_share > 0.0 && visible_min_share <= 1.0))
-    return "rooms.visible_min_share: must be in (0, 1], got " + std::to_string(visible_min_share);
-  if (merge_visible && (visible_samples < 1 || visible_samples > kMaxVisibleSamples))
-    return "rooms.visible_samples: must be in [1, " + std::to_string(kMaxVisibleSamples) + "], got " +
-           std::to_string(visible_samples);
-  if (merge_visible && visible_max_rounds < 1) return "rooms.visible_max_rounds: must be >= 1";
-  if (merge_visible && !(std::isfinite(visible_local_radius_m) && visible_local_radius_m >= 0.0))
-    return "rooms.visible_local_radius_m: must be finite and >= 0, got " + std::to_string(visible_local_radius_m);
-  if (merge_visible && visible_local_radius_m > 0.0 &&
-      !(visible_local_min_share > 0.0 && visible_local_min_share <= 1.0))
-    return "rooms.visible_local_min_share: must be in (0, 1], got " + std::to_string(visible_local_min_share);
+  if (merge_corridors && corridor_min_open_edges < 1)
+    return "rooms.corridor_min_open_edges: must be >= 1 with merge_corridors (0 would merge through doors)";
+  if (merge_visible && visible_local_radius_m > 0.0 && !(visible_local_min_share > 0.0))
+    return "rooms.visible_local_min_share: must be > 0 with visible_local_radius_m > 0, got " +
+           std::to_string(visible_local_min_share);
   if (merge_visible && visible_local_radius_m > 0.0 && visible_local_min_places < 1)
-    return "rooms.visible_local_min_places: must be >= 1";
-  if (merge_visible && visible_touching &&
-      !(std::isfinite(visible_touch_max_clearance_m) && visible_touch_max_clearance_m > 0.0))
-    return "rooms.visible_touch_max_clearance_m: must be finite and > 0, got " +
-           std::to_string(visible_touch_max_clearance_m);
+    return "rooms.visible_local_min_places: must be >= 1 with visible_local_radius_m > 0";
+  // The table's bound is a double, which cannot hold 2^56 - 1 exactly.
   if (building_index > sg::kIndexMask) return "rooms.building_index: larger than a node index";
   return "";
 }

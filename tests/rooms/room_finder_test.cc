@@ -487,9 +487,15 @@ TEST(RoomFinderTest, CorridorMergeSettingsAreChecked) {
     EXPECT_FALSE(RoomFinder().init(c, Capacities::from_scene_graph(small_graph_capacities()), 0, &error)) << edges;
     EXPECT_NE(error.find("corridor_min_open_edges"), std::string::npos) << error;
   }
-  // Off, the two are not used and not checked.
+  // Off, the rules that need the merge on are not checked; the declared ranges hold whatever the switch.
+  c = Config{};
   c.merge_corridors = false;
+  c.corridor_min_neighbours = 1;
+  c.corridor_min_open_edges = 0;
   EXPECT_TRUE(RoomFinder().init(c, Capacities::from_scene_graph(small_graph_capacities()), 0, &error)) << error;
+  c.corridor_min_open_edges = 65536;
+  EXPECT_FALSE(RoomFinder().init(c, Capacities::from_scene_graph(small_graph_capacities()), 0, &error));
+  EXPECT_NE(error.find("rooms.corridor_min_open_edges must be in [0, 65535]"), std::string::npos) << error;
 }
 
 // Brute force: for every sampled dilation, the components (BFS) of the places and edges that survive it.
@@ -933,8 +939,10 @@ TEST(RoomFinderTest, VisibilityMergeSettingsAreChecked) {
   bad([](Config* c) { c->visible_touch_max_clearance_m = std::nan(""); }, "visible_touch_max_clearance_m");
   Config off;
   off.merge_visible = false;
-  off.visible_samples = 0;  // not read when off
+  off.visible_local_min_places = 0;  // needed only with the merge on
   EXPECT_EQ(off.check(), "");
+  off.visible_samples = 0;  // a declared range holds whatever the switch (as in the app's JSON and --set)
+  EXPECT_NE(off.check().find("rooms.visible_samples must be in [1, 32]"), std::string::npos) << off.check();
 }
 
 TEST(RoomFinderTest, BettiCurveMatchesBruteForce) {

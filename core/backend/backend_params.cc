@@ -1,0 +1,38 @@
+#include "core/backend/backend_params.h"
+
+namespace qsg::backend {
+
+const params::Table<AgentGraphConfig>& agent_graph_params_table() {
+  using G = AgentGraphConfig;
+  constexpr auto refinement = params::Origin::kRefinement;
+  static const params::Table<G> table = [&] {
+    params::Table<G> t;
+    t.choice("odometry_weighting", &G::odometry_weighting,
+             {{"per_distance", OdometryWeighting::kPerDistance},
+              {"covariance_growth", OdometryWeighting::kCovarianceGrowth}},
+             refinement,
+             "odometry edges: a random walk per metre in each node's frame, or the growth of the reported "
+             "world-frame covariance (bench/results/loop_closure.md)");
+    t.add("odometry_sigma_t_m_per_sqrt_m", &G::sigma_t_m_per_sqrt_m, "m", params::above(0, 10), refinement,
+          "per_distance: translation random walk per sqrt(m) of path");
+    t.add("odometry_sigma_yaw_rad_per_sqrt_m", &G::sigma_yaw_rad_per_sqrt_m, "rad", params::above(0, 10), refinement,
+          "per_distance: rotation about the vertical per sqrt(m)");
+    t.add("odometry_sigma_tilt_rad_per_sqrt_m", &G::sigma_tilt_rad_per_sqrt_m, "rad", params::above(0, 10),
+          refinement, "per_distance: roll and pitch per sqrt(m)");
+    return t;
+  }();
+  return table;
+}
+
+const params::Table<DeformationConfig>& deformation_params_table() {
+  static const params::Table<DeformationConfig> table = [] {
+    params::Table<DeformationConfig> t;
+    t.add("sigma_position_m", &DeformationConfig::sigma_position_m, "m", params::above(0, 10),
+          params::Origin::kProject, "the deformation graph's relative-position edges");
+    t.include(agent_graph_params_table(), [](DeformationConfig& d) -> AgentGraphConfig& { return d.agents; });
+    return t;
+  }();
+  return table;
+}
+
+}  // namespace qsg::backend

@@ -1,0 +1,45 @@
+#include "core/backend/backend_stage_params.h"
+
+#include "core/backend/backend_params.h"
+#include "core/loop_closure/detector_params.h"
+
+namespace qsg::backend {
+
+const params::Table<LoopClosureConfig>& loop_closure_params_table() {
+  using C = LoopClosureConfig;
+  using params::in;
+  constexpr auto paper = params::Origin::kPaper;
+  constexpr auto project = params::Origin::kProject;
+  constexpr auto refinement = params::Origin::kRefinement;
+  static const params::Table<C> table = [&] {
+    params::Table<C> t;
+    t.flag("enabled", &C::enabled, paper, "the backend closes loops (off until it meets its target)");
+    t.add("horizon_s", &C::horizon_s, "s", in(0, 3600), project,
+          "agents are described this long after the robot passed");
+    t.add("describe_every_m", &C::describe_every_m, "m", params::above(0, 100), project,
+          "one described agent per this much path");
+    t.add("solve_interval_s", &C::solve_interval_s, "s", in(0, 3600), project,
+          "the deformation graph is re-solved at most this often");
+    t.include(loop_closure::descriptor_params_table(),
+              [](C& c) -> loop_closure::DescriptorConfig& { return c.descriptor; });
+    t.include(loop_closure::detector_params_table(), [](C& c) -> loop_closure::DetectorConfig& { return c.detector; });
+    t.include(loop_closure::local_map_params_table(),
+              [](C& c) -> loop_closure::LocalMapConfig& { return c.detector.local_map; });
+    t.include(loop_closure::registration_params_table(),
+              [](C& c) -> loop_closure::RegistrationConfig& { return c.detector.registration; });
+    t.include(deformation_params_table(), [](C& c) -> DeformationConfig& { return c.deformation; });
+    t.flag("odometry_sigmas_from_source", &C::odometry_sigmas_from_source, refinement,
+           "per_distance odometry edges take the source's own noise model when it has one (sim_drift's sigmas)");
+    t.flag("reconcile", &C::reconcile, paper,
+           "after the final correction: objects re-boxed from the corrected mesh, revisits merged, final doors and "
+           "rooms on the corrected map (off: found as mapped and moved; bench/results/loop_closure.md)");
+    t.add("merge_places_within_m", &C::merge_places_within_m, "m", in(0, 5), paper,
+          "after a correction, places closer than this whose free-space spheres hold each other merge (0: none)");
+    t.flag("merge_objects", &C::merge_objects, paper,
+           "after a correction, objects of one label merge when either's centre lies in the other's box");
+    return t;
+  }();
+  return table;
+}
+
+}  // namespace qsg::backend
