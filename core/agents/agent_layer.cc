@@ -19,10 +19,7 @@ std::string Config::check() const {
 }
 
 void Config::print(std::FILE* out) const {
-  std::fprintf(out,
-               "agents: prefix='%c', a node every %.2f m or %.1f deg or %.1f s; the older half thinned at %.0f %% of "
-               "the store\n",
-               prefix, min_translation_m, min_rotation_rad * 180.0 / M_PI, max_interval_s, 100.0 * fold_at_fraction);
+  params::print(params::sections_of("agents", params_table()), this, out);  // every field, from the table
 }
 
 Capacities capacities_from_budget() {

@@ -59,37 +59,7 @@ std::string Config::check() const {
 }
 
 void Config::print(std::FILE* out) const {
-  std::fprintf(out,
-               "rooms: seeding %s, dilation [%.3f, %.3f] m step %.3f m (%zu samples), min_component_size %u places, "
-               "plateau_alpha %.2f, min_persistence_m %.2f, max_door_clearance_m %.2f, building B(%llu)\n",
-               to_string(seeding), min_dilation_m, max_dilation_m, dilation_step_m, curve_samples(),
-               min_component_size, plateau_alpha, min_persistence_m, max_door_clearance_m,
-               static_cast<unsigned long long>(building_index));
-  if (split_by_extent)
-    std::fprintf(out,
-                 "rooms: split by extent: saturation %.2f m, extent [%.2f, %.2f] m, min_persistence %.2f m, "
-                 "min_component_size %u places\n",
-                 extent_saturation_m, split_min_extent_m, split_max_extent_m, split_min_persistence_m,
-                 split_min_component_size);
-  else
-    std::fprintf(out, "rooms: split by extent off\n");
-  std::fprintf(out, "rooms: closed-off regions seed rooms: %s\n", seed_closed_regions ? "on" : "off");
-  std::fprintf(out, "rooms: updates during the run over the active window and its rooms: %s (margin %.2f m)\n",
-               window_updates ? "on" : "off", window_room_margin_m);
-  if (merge_corridors)
-    std::fprintf(out, "rooms: corridor merge: rooms touching >= %u rooms, through >= %u open place edges\n",
-                 corridor_min_neighbours, corridor_min_open_edges);
-  else
-    std::fprintf(out, "rooms: corridor merge off\n");
-  if (merge_visible)
-    std::fprintf(out,
-                 "rooms: visibility merge (with sight lines): >= %.2f of %u x %u sight lines clear, <= %u rounds; "
-                 "near the boundary (%.2f m, >= %u places a side): >= %.2f; rooms whose places' spheres touch in "
-                 "sight adjacent: %s\n",
-                 visible_min_share, visible_samples, visible_samples, visible_max_rounds, visible_local_radius_m,
-                 visible_local_min_places, visible_local_min_share, visible_touching ? "yes" : "no");
-  else
-    std::fprintf(out, "rooms: visibility merge off\n");
+  params::print(params::sections_of("rooms", params_table()), this, out);  // every field, from the table
 }
 
 Capacities Capacities::from_scene_graph(const sg::Capacities& graph) {
