@@ -35,9 +35,9 @@ struct AgentGraphConfig {
   // nodes, or may be unknown: zero, and a zero sigma would make the edge infinitely stiff).
   double min_sigma_t_m = 0.01;
   double min_sigma_rot_rad = 0.005;
-  // kPerDistance by default: with the local-map closures within each tour it does better than covariance growth on
-  // 5 of 6 generated-building runs (bench/results/loop_closure.md, "Session of 2026-12-03 (2)"). Set the walks below
-  // to the robot's odometry (the simulator's drifting odometry states its own).
+  // kPerDistance by default, with the local-map closures within each tour (why, measured:
+  // bench/results/loop_closure.md, "Session of 2026-12-03 (2)"). Set the walks below to the robot's odometry (the
+  // simulator's drifting odometry states its own).
   OdometryWeighting odometry_weighting = OdometryWeighting::kPerDistance;
   // kPerDistance: the odometry's random walks per sqrt(metre) (defaults: the simulator's "sim" level), and the
   // floors added in quadrature.

@@ -22,9 +22,8 @@
 namespace qsg::loop_closure {
 
 struct LocalMapConfig {
-  // On by default (loop closure itself is off by default): with per-distance odometry weighting it improves the
-  // trajectory on 5 of 6 generated-building runs and keeps no false closure among identical rooms
-  // (bench/results/loop_closure.md, "Session of 2026-12-03 (2)").
+  // On by default (loop closure itself is off by default); why, measured with per-distance odometry weighting:
+  // bench/results/loop_closure.md, "Session of 2026-12-03 (2)".
   bool enabled = true;
   double path_m = 3.0;       // agents within this much path of the anchor join its local cloud
   double voxel_m = 0.08;     // one point per voxel of this side
