@@ -151,6 +151,9 @@ class RoomFinder {
     double max[3];
     std::uint32_t count;
     bool active;
+    void reset();
+    void add(const double* position, double radius);  // a place and its free-space sphere
+    void add(const RoomAccumulator& other);           // another part of the same room
   };
 
  private:

@@ -150,41 +150,45 @@ void RoomFinder::write_rooms(sg::SceneGraph* graph, std::size_t num_rooms, std::
 // Centroid, bounds and activity of every room. The box holds each place's free-space sphere (radius: its
 // clearance), so it spans the room's free space rather than only the GVD inside it (which stays a clearance away
 // from every wall, floor and ceiling), as the room boxes the room classifier was trained on do.
-void RoomFinder::accumulate_rooms(std::size_t num_rooms) {
-  for (std::size_t s = 0; s < num_rooms; ++s) {
-    RoomAccumulator& a = room_acc_[s];
-    for (int d = 0; d < 3; ++d) {
-      a.sum[d] = 0.0;
-      a.min[d] = std::numeric_limits<double>::max();
-      a.max[d] = std::numeric_limits<double>::lowest();
-    }
-    a.count = 0;
-    a.active = false;
+void RoomFinder::RoomAccumulator::reset() {
+  for (int d = 0; d < 3; ++d) {
+    sum[d] = 0.0;
+    min[d] = std::numeric_limits<double>::max();
+    max[d] = std::numeric_limits<double>::lowest();
   }
+  count = 0;
+  active = false;
+}
+
+void RoomFinder::RoomAccumulator::add(const double* position, double radius) {
+  for (int d = 0; d < 3; ++d) {
+    sum[d] += position[d];
+    min[d] = std::min(min[d], position[d] - radius);
+    max[d] = std::max(max[d], position[d] + radius);
+  }
+  ++count;
+}
+
+void RoomFinder::RoomAccumulator::add(const RoomAccumulator& other) {
+  for (int d = 0; d < 3; ++d) {
+    sum[d] += other.sum[d];
+    min[d] = std::min(min[d], other.min[d]);
+    max[d] = std::max(max[d], other.max[d]);
+  }
+  count += other.count;
+}
+
+void RoomFinder::accumulate_rooms(std::size_t num_rooms) {
+  for (std::size_t s = 0; s < num_rooms; ++s) room_acc_[s].reset();
   for (std::uint32_t i = 0; i < num_places_; ++i) {
     if (room_of_[i] < 0) continue;
     RoomAccumulator& a = room_acc_[room_of_[i]];
-    const double radius = std::max(0.0, clearance_[i]);
-    for (int d = 0; d < 3; ++d) {
-      const double v = position_[3 * i + d];
-      a.sum[d] += v;
-      a.min[d] = std::min(a.min[d], v - radius);
-      a.max[d] = std::max(a.max[d], v + radius);
-    }
-    ++a.count;
+    a.add(&position_[3 * i], std::max(0.0, clearance_[i]));
     a.active = a.active || active_[i] != 0;
   }
   for (std::size_t s = 0; s < num_rooms; ++s) {  // a partial room's far places (never active)
     std::uint32_t slot = 0;
-    if (saved_valid_[s] != 2 || !partial_slot(room_ids_[s], &slot)) continue;
-    const RoomAccumulator& f = far_[slot];
-    RoomAccumulator& a = room_acc_[s];
-    for (int d = 0; d < 3; ++d) {
-      a.sum[d] += f.sum[d];
-      a.min[d] = std::min(a.min[d], f.min[d]);
-      a.max[d] = std::max(a.max[d], f.max[d]);
-    }
-    a.count += f.count;
+    if (saved_valid_[s] == 2 && partial_slot(room_ids_[s], &slot)) room_acc_[s].add(far_[slot]);
   }
 }
 

@@ -39,7 +39,7 @@ void RoomFinder::collect_window(const sg::SceneGraph& graph, UpdateResult* r) {
     if (n.parent == sg::kNoNode || room_slot_.contains(n.parent) || graph.room(n.parent) == nullptr) return;
     if (num_previous_ == capacities_.rooms) return;  // cannot happen: the rooms are the finder's own
     room_slot_.insert(n.parent, static_cast<std::uint32_t>(num_previous_));
-    far_[num_previous_] = RoomAccumulator{{0, 0, 0}, {0, 0, 0}, {0, 0, 0}, 0, false};
+    far_[num_previous_].reset();
     previous_ids_[num_previous_++] = n.parent;
   });
   r->rooms_open = num_previous_;
@@ -54,15 +54,8 @@ void RoomFinder::collect_window(const sg::SceneGraph& graph, UpdateResult* r) {
       const Eigen::Vector3d& p = a->position_m;
       bool near = true;
       for (int d = 0; d < 3; ++d) near = near && p[d] >= lo[d] - margin && p[d] <= hi[d] + margin;
-      if (!near) {  // a partial room's far place: summed as accumulate_rooms would
-        RoomAccumulator& f = far_[*open];
-        const double radius = std::isfinite(a->distance_m) ? std::max(0.0, a->distance_m) : 0.0;
-        for (int d = 0; d < 3; ++d) {
-          f.sum[d] += p[d];
-          f.min[d] = f.count == 0 ? p[d] - radius : std::min(f.min[d], p[d] - radius);
-          f.max[d] = f.count == 0 ? p[d] + radius : std::max(f.max[d], p[d] + radius);
-        }
-        ++f.count;
+      if (!near) {  // a partial room's far place: summed as accumulate_rooms sums the read ones
+        far_[*open].add(p.data(), std::isfinite(a->distance_m) ? std::max(0.0, a->distance_m) : 0.0);
         ++r->places_kept;
         return;
       }
