@@ -211,6 +211,8 @@ int main(int argc, char** argv) {
     };
     part_row("backend.doors", pipeline.door_pass_cpu_stats(), b != nullptr ? b->part_budget_us : 0);
     part_row("backend.final", pipeline.finish_cpu_stats(), b != nullptr ? b->finish_budget_us : 0);
+    if (pipeline.backend_stage().loop_closure_enabled())
+      part_row("backend.solve", pipeline.solve_cpu_stats(), b != nullptr ? b->solve_budget_us : 0);
   }
   if (pipeline.segmentation().initialized()) {
     thread_row("segmentation", threads.segmentation_cpu, threads.segmentation_wall);

@@ -65,6 +65,9 @@ struct ThreadBudget {
   // The thread's one run at the end of a mission (backend: the final stage, doors on the whole surface, rooms and
   // labels once more), off the real-time path but bounded (0: none).
   std::uint32_t finish_budget_us;
+  // A run of its own that some updates hand the thread (backend: a deformation-graph solve, at most every
+  // loop_closure.solve_interval_s), timed apart from the update that started it (0: none).
+  std::uint32_t solve_budget_us;
 };
 
 struct BoardTable {

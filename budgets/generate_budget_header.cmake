@@ -214,11 +214,18 @@ foreach(file IN LISTS TABLES)
     if(has_finish)
       json_get(finish_budget "${file}" "${json}" uint threads ${thread} finish_budget_us)
     endif()
+    set(solve_budget 0)
+    json_has(has_solve "${json}" threads ${thread} solve_budget_us)
+    if(has_solve)
+      json_get(solve_budget "${file}" "${json}" uint threads ${thread} solve_budget_us)
+    endif()
     string(APPEND ns "namespace ${thread} {\ninline constexpr std::uint32_t kBudgetUs = ${tbudget};\n"
       "inline constexpr std::uint32_t kEveryNKeyframes = ${every};\n"
       "inline constexpr std::uint32_t kPartBudgetUs = ${part_budget};\n"
-      "inline constexpr std::uint32_t kFinishBudgetUs = ${finish_budget};\n}  // namespace ${thread}\n")
-    string(APPEND thread_rows "    {\"${thread}\", ${tbudget}, ${every}, ${part_budget}, ${finish_budget}},\n")
+      "inline constexpr std::uint32_t kFinishBudgetUs = ${finish_budget};\n"
+      "inline constexpr std::uint32_t kSolveBudgetUs = ${solve_budget};\n}  // namespace ${thread}\n")
+    string(APPEND thread_rows
+      "    {\"${thread}\", ${tbudget}, ${every}, ${part_budget}, ${finish_budget}, ${solve_budget}},\n")
   endforeach()
   string(APPEND ns "}  // namespace threads\n")
 

@@ -232,6 +232,10 @@ ReportGroup tasks_group(const Pipeline& p) {
   thread("backend_thread", p.backend_cpu_stats());
   thread("backend_door_pass", p.door_pass_cpu_stats());
   thread("backend_final_stage", p.finish_cpu_stats());
+  if (p.backend_stage().loop_closure_enabled()) {
+    thread("backend_loop_closure_detect", p.loop_closure_detect_cpu_stats());
+    thread("backend_solve", p.solve_cpu_stats());
+  }
   if (p.segmentation().initialized()) thread("segmentation_thread", p.segmentation().cpu_stats());
   const runtime::TelemetryWriterStats t = p.telemetry_stats();
   g.add("telemetry_lines.dropped", U(t.dropped));

@@ -349,6 +349,8 @@ bool Pipeline::init_backend(std::string* error) {
   backend_budget_us_ = thread_budget->budget_us;
   door_pass_budget_us_ = thread_budget->part_budget_us;
   finish_budget_us_ = thread_budget->finish_budget_us;
+  solve_budget_us_ = thread_budget->solve_budget_us;
+  solve_records_.assign(kSolveRecords, SolveRecord{});
   runtime::stage_marker_id(budgets::active::kTable, "backend", &backend_marker_);
   if (!init_loop_closure(error)) return false;
   backend::BackendStage::Config bc;
@@ -444,10 +446,13 @@ void Pipeline::backend_worker() {
 
 void Pipeline::timed_backend_update(const BackendUpdate& u) {
   const std::int64_t c0 = thread_cpu_us(), w0 = steady_us();
+  solve_cpu_in_update_us_ = solve_wall_in_update_us_ = 0;
   runtime::stage_begin(backend_marker_, u.time_ns);
   run_backend_update(u);
   runtime::stage_end(backend_marker_, u.time_ns);
-  const std::int64_t cpu = thread_cpu_us() - c0, wall = steady_us() - w0;
+  // A solve the update started is a run of its own (solve_cpu_), not part of the update's budget.
+  const std::int64_t cpu = thread_cpu_us() - c0 - solve_cpu_in_update_us_;
+  const std::int64_t wall = steady_us() - w0 - solve_wall_in_update_us_;
   std::lock_guard<std::mutex> lock(backend_stats_mutex_);
   backend_wall_.record(wall, backend_budget_us_);
   backend_cpu_.record(cpu, backend_budget_us_);
@@ -472,6 +477,26 @@ runtime::TaskStats Pipeline::door_pass_cpu_stats() const {
 runtime::TaskStats Pipeline::finish_cpu_stats() const {
   std::lock_guard<std::mutex> lock(backend_stats_mutex_);
   return finish_cpu_;
+}
+
+runtime::TaskStats Pipeline::loop_closure_detect_cpu_stats() const {
+  std::lock_guard<std::mutex> lock(backend_stats_mutex_);
+  return lc_detect_cpu_;
+}
+
+runtime::TaskStats Pipeline::solve_cpu_stats() const {
+  std::lock_guard<std::mutex> lock(backend_stats_mutex_);
+  return solve_cpu_;
+}
+
+std::vector<Pipeline::SolveRecord> Pipeline::solve_records() const {
+  std::lock_guard<std::mutex> lock(backend_stats_mutex_);
+  std::vector<SolveRecord> out;
+  if (solve_records_.empty()) return out;
+  const std::uint64_t n = std::min<std::uint64_t>(solves_recorded_, solve_records_.size());
+  for (std::uint64_t i = solves_recorded_ - n; i < solves_recorded_; ++i)
+    out.push_back(solve_records_[static_cast<std::size_t>(i % solve_records_.size())]);
+  return out;
 }
 
 runtime::QueueStats Pipeline::segmentation_queue_stats() const {

@@ -153,6 +153,20 @@ class Pipeline {
   // and the final stage at finish() (doors on the whole surface, the last room update and labels).
   runtime::TaskStats door_pass_cpu_stats() const;
   runtime::TaskStats finish_cpu_stats() const;
+  // Loop closure on the backend thread, CPU time: detection and verification of the agents an update described
+  // (one run per update that described at least one; part of the update), and each deformation-graph solve (a run
+  // of its own against the table's solve_budget_us, left out of the update that started it).
+  runtime::TaskStats loop_closure_detect_cpu_stats() const;
+  runtime::TaskStats solve_cpu_stats() const;
+  // One solve during the run: when, at what path, how big, its cost. The last kSolveRecords are kept, oldest first.
+  struct SolveRecord {
+    double time_s = 0.0, path_m = 0.0;  // mission time; path of the agents described so far
+    std::uint32_t agents = 0, control_points = 0, places = 0, closures = 0, closures_kept = 0;
+    std::int64_t cpu_us = 0, wall_us = 0;
+    bool ok = false;
+  };
+  static constexpr std::size_t kSolveRecords = 1024;
+  std::vector<SolveRecord> solve_records() const;
   runtime::TelemetryWriterStats telemetry_stats() const { return telemetry_.stats(); }
   // Benchmarks: every backend update's and every segmentation run's CPU and wall microseconds. Before init().
   void set_thread_observers(SegmentationWorker::RunObserver backend, SegmentationWorker::RunObserver segmenter,
@@ -342,6 +356,12 @@ class Pipeline {
   runtime::TaskStats backend_cpu_;
   runtime::TaskStats door_pass_cpu_;
   runtime::TaskStats finish_cpu_;
+  runtime::TaskStats lc_detect_cpu_;
+  runtime::TaskStats solve_cpu_;
+  std::vector<SolveRecord> solve_records_;  // kSolveRecords slots from init, a ring
+  std::uint64_t solves_recorded_ = 0;
+  std::int64_t solve_cpu_in_update_us_ = 0, solve_wall_in_update_us_ = 0;  // backend thread: left out of its update
+  std::uint32_t solve_budget_us_ = 0;
   std::uint32_t backend_budget_us_ = 0;
   std::uint32_t door_pass_budget_us_ = 0;
   std::uint32_t finish_budget_us_ = 0;

@@ -10,6 +10,7 @@
 #include "budgets/budget_table.h"
 #include "core/backend/deformation_io.h"
 #include "firmware_app/pipeline.h"
+#include "firmware_app/runtime/clock.h"
 
 namespace qsg::app {
 
@@ -81,21 +82,50 @@ void Pipeline::extract_captured_frames() {
 
 // Backend thread, graph_mutex_ held by *graph_lock: new loop closures, and the deformation graph re-solved when one
 // waits and solve_interval_s has passed; built under the lock, solved without it (the loop keeps mapping meanwhile).
+// Detection is timed as part of the update; the solve as a run of its own (left out of the update's time).
 void Pipeline::run_loop_closure(std::uint64_t time_ns, pipeline::Host::Held* graph_lock) {
   if (!backend_.loop_closure_enabled()) return;
+  const runtime::ThreadCpuClock cpu_clock;
+  const runtime::WallClock wall_clock;
+  const std::int64_t detect0_ns = cpu_clock.now_ns();
+  const std::uint64_t described0 = backend_.counters().agents_described.load();
   if (time_ns >= static_cast<std::uint64_t>(config_.loop_closure.horizon_s * 1e9)) extract_captured_frames();
   backend_.detect_loop_closures(graph_, frontend_.agents(), time_ns);
+  if (backend_.counters().agents_described.load() > described0) {
+    std::lock_guard<std::mutex> lock(backend_stats_mutex_);
+    lc_detect_cpu_.record((cpu_clock.now_ns() - detect0_ns) / 1000, 0);
+  }
   if (!backend_.solve_due(time_ns)) return;
   backend::DeformationProblem problem = build_deformation();
+  SolveRecord r;
+  r.time_s = static_cast<double>(time_ns) * 1e-9;
+  r.path_m = backend_.described_path_m();
+  r.agents = static_cast<std::uint32_t>(problem.result.agents);
+  r.control_points = static_cast<std::uint32_t>(problem.result.control_points);
+  r.places = static_cast<std::uint32_t>(problem.result.places);
+  r.closures = static_cast<std::uint32_t>(problem.result.loop_closures);
   graph_lock->release();
   std::lock_guard<std::mutex> solving(deformation_mutex_);  // a snapshot reads the solution meanwhile: it waits
-  const auto start = std::chrono::steady_clock::now();
+  const std::int64_t cpu0_ns = cpu_clock.now_ns(), wall0_ns = wall_clock.now_ns();
   std::string why;
-  if (!backend_.solve_deformation(std::move(problem), &why))
-    std::fprintf(stderr, "loop closure: optimization failed (kept the previous solution): %s\n", why.c_str());
-  const auto us = static_cast<std::uint64_t>(
-      std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::steady_clock::now() - start).count());
-  if (us > graph_optimization_max_us_.load()) graph_optimization_max_us_.store(us);
+  r.ok = backend_.solve_deformation(std::move(problem), &why);
+  if (!r.ok) std::fprintf(stderr, "loop closure: optimization failed (kept the previous solution): %s\n", why.c_str());
+  r.cpu_us = (cpu_clock.now_ns() - cpu0_ns) / 1000;
+  r.wall_us = (wall_clock.now_ns() - wall0_ns) / 1000;
+  r.closures_kept = static_cast<std::uint32_t>(backend_.counters().loop_closures_kept.load());
+  if (r.ok) r.agents = static_cast<std::uint32_t>(backend_.deformation_result().agents_solved);
+  solve_cpu_in_update_us_ += r.cpu_us;
+  solve_wall_in_update_us_ += r.wall_us;
+  if (static_cast<std::uint64_t>(r.wall_us) > graph_optimization_max_us_.load())
+    graph_optimization_max_us_.store(static_cast<std::uint64_t>(r.wall_us));
+  std::printf("loop closure: solve at %.0f s, %.1f m of path: %u agents, %u control points, %u places, %u closures "
+              "(%u kept): %.1f ms CPU (budget %.0f ms)\n",
+              r.time_s, r.path_m, r.agents, r.control_points, r.places, r.closures, r.closures_kept,
+              static_cast<double>(r.cpu_us) / 1000.0, solve_budget_us_ / 1000.0);
+  std::lock_guard<std::mutex> lock(backend_stats_mutex_);
+  solve_cpu_.record(r.cpu_us, solve_budget_us_);
+  solve_records_[static_cast<std::size_t>(solves_recorded_ % solve_records_.size())] = r;
+  ++solves_recorded_;
 }
 
 // graph_mutex_ held: the stage's deformation problem; QSG_DUMP_DEFORMATION=FILE also writes it (with each agent's

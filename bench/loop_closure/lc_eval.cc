@@ -13,6 +13,7 @@
 //     objects found / correct (bench/objects/object_match.h), the places' mean distance to the true GVD
 //     (bench/places/place_score.h), rooms precision / recall (bench/rooms/room_score.h, generated buildings only).
 // Every figure also goes to --json (bench/figures.h).
+#include <algorithm>
 #include <array>
 #include <cstdio>
 #include <cstdlib>
@@ -187,6 +188,37 @@ TrajectoryScores score_trajectories(const std::string& dir, int tours) {
 }
 
 // One lockstep run of the whole tour; false (with the reason printed) when it could not start or finish.
+// Loop closure's cost on the backend thread (thread CPU time): detection and verification per agent described,
+// each solve, and the solve's growth with the path: the first solve at or past 10, 100 and 1,000 m, and the last.
+void add_cost_figures(const app::Pipeline& p, const std::string& prefix, bench::Figures* figures) {
+  const runtime::TaskStats detect = p.loop_closure_detect_cpu_stats(), solve = p.solve_cpu_stats();
+  const double described = static_cast<double>(p.counters().agents_described);
+  figures->add(prefix + "detect_cpu_per_agent_mean",
+               described > 0 ? static_cast<double>(detect.total_us) / 1000.0 / described : 0.0, "ms");
+  figures->add(prefix + "detect_cpu_update_max", static_cast<double>(detect.max_us) / 1000.0, "ms");
+  figures->add(prefix + "solves", static_cast<double>(solve.runs), "count");
+  figures->add(prefix + "solve_cpu_mean", solve.mean_us() / 1000.0, "ms");
+  figures->add(prefix + "solve_cpu_max", static_cast<double>(solve.max_us) / 1000.0, "ms");
+  figures->add(prefix + "solve_over_budget", static_cast<double>(solve.overruns), "count");
+  const std::vector<app::Pipeline::SolveRecord> records = p.solve_records();
+  const auto add_record = [&](const std::string& at, const app::Pipeline::SolveRecord& r) {
+    figures->add(prefix + at + ".path", r.path_m, "m");
+    figures->add(prefix + at + ".solve_cpu", static_cast<double>(r.cpu_us) / 1000.0, "ms");
+    figures->add(prefix + at + ".agents", r.agents, "count");
+    figures->add(prefix + at + ".control_points", r.control_points, "count");
+    figures->add(prefix + at + ".places", r.places, "count");
+    figures->add(prefix + at + ".closures", r.closures, "count");
+    std::printf("        solve at %7.1f m: %5u agents, %5u control points, %4u places, %4u closures: %8.1f ms CPU\n",
+                r.path_m, r.agents, r.control_points, r.places, r.closures, static_cast<double>(r.cpu_us) / 1000.0);
+  };
+  for (const double mark : {10.0, 100.0, 1000.0}) {
+    const auto it = std::find_if(records.begin(), records.end(),
+                                 [&](const app::Pipeline::SolveRecord& r) { return r.path_m >= mark; });
+    if (it != records.end()) add_record("solve_at_" + std::to_string(static_cast<int>(mark)) + "m", *it);
+  }
+  if (!records.empty()) add_record("solve_last", records.back());
+}
+
 bool run(const app::AppConfig& c, app::Pipeline* p) {
   runtime::SteppedClock clock;
   std::string error;
@@ -323,6 +355,7 @@ int main(int argc, char** argv) {
       figures.add(prefix + "loop_closures_by_appearance", static_cast<double>(k.loop_closures_by_appearance), "count");
       figures.add(prefix + "agents_described", static_cast<double>(k.agents_described), "count");
       figures.add(prefix + "solve_max", k.graph_optimization_max_us / 1000.0, "ms");
+      add_cost_figures(p, prefix, &figures);
       figures.add(prefix + "path_length", odo.path_length_m, "m");
       if (!layers) continue;
       // The same building and tour on the true poses, and on the odometry alone, beside the corrected run.

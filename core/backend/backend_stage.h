@@ -199,6 +199,8 @@ class BackendStage {
   const DeformationResult& deformation_result() const { return deformation_result_; }
   const loop_closure::LoopClosureDetector& detector() const { return detector_; }
   const ControlPoints& control_points() const { return control_points_; }
+  // Path along the agent chain up to the last agent looked at for description (m).
+  double described_path_m() const { return path_m_; }
 
   // Every store, as memory::ResourceStats (capacity, use, high-water mark, failures). with_door_set false: the
   // online doors' door set, which a door pass writes without the graph lock, is left out (their arena and wall

@@ -217,6 +217,10 @@ TEST(BudgetTableTest, EveryBoardBudgetsTheWorkerThreads) {
     EXPECT_GT(backend->part_budget_us, 0u) << t->board << ": the online door pass";
     EXPECT_LT(backend->part_budget_us, backend->budget_us) << t->board << ": the door pass is part of an update";
     EXPECT_GT(backend->finish_budget_us, 0u) << t->board << ": the final stage";
+    // A deformation-graph solve is a run of its own, longer than an update, and must end well before the next one
+    // can be due (loop_closure.solve_interval_s, 10 s by default): at most half of it.
+    EXPECT_GT(backend->solve_budget_us, backend->budget_us) << t->board << ": the loop-closure solve";
+    EXPECT_LE(backend->solve_budget_us, 5000000u) << t->board << ": half the default solve interval";
     EXPECT_GE(t->find_thread("segmentation")->every_n_keyframes, 1u) << t->board;
     EXPECT_LE(t->find_thread("segmentation")->every_n_keyframes, 5u) << t->board << ": the paper's 1 Hz at 5 Hz keyframes";
     const QueueBudget* slots = nullptr;
