@@ -27,6 +27,11 @@ int usage(int status) {
   std::printf(
       "usage: dg_solve PROBLEM [--strategy full_gnc|agents_first (agents_first)] [--max-outer N] [--json FILE]\n"
       "                [--max-closure-sigma M] [--closure-sigma-scale F]   (what-ifs on the loop closures)\n"
+      "                [--agent-spacing M]  (one agent node per M m of path: DeformationConfig::agent_spacing_m)\n"
+      "                [--whole-tolerance F]  (the whole graph's stopping rule: whole_function_tolerance)\n"
+      "                [--agent-turn RAD]  (with --agent-spacing: a node also per RAD of rotation, 0.2)\n"
+      "                [--hold-agents 0|1]  (the map solved around the agents' solution, held: DeformationConfig::hold_agents,\n"
+      "                                      on by default)\n"
       "                [--profile N]   (the error of N agents evenly spaced along the chain, before and after)\n"
       "                [--oracle-sigma M RAD] (the oracle closures' sigmas: 0.01 m, 0.002 rad)\n"
       "                [--oracle-pairs all|within|across] (with --segments: oracle closures within a segment\n"
@@ -77,6 +82,8 @@ int main(int argc, char** argv) {
   if (argc < 2) return usage(2);
   std::string path = argv[1], strategy = "agents_first", json;
   int max_outer = -1, profile = 0, segments = 0, oracle_gap = 32;
+  double agent_spacing_m = 0.0, whole_tolerance = 0.0, agent_turn_rad = 0.2;
+  bool hold_agents = backend::DeformationConfig{}.hold_agents;
   double max_sigma = 0.0, sigma_scale = 1.0, oracle_m = 0.0;
   bool oracle_only = false, agents_only = false, least_squares = false;
   double oracle_sigma_t = 0.01, oracle_sigma_rot = 0.002;
@@ -90,6 +97,10 @@ int main(int argc, char** argv) {
     const bool has = i + 1 < argc;
     if (a == "--strategy" && has) strategy = argv[++i];
     else if (a == "--max-outer" && has) max_outer = std::atoi(argv[++i]);
+    else if (a == "--agent-spacing" && has) agent_spacing_m = std::atof(argv[++i]);
+    else if (a == "--whole-tolerance" && has) whole_tolerance = std::atof(argv[++i]);
+    else if (a == "--agent-turn" && has) agent_turn_rad = std::atof(argv[++i]);
+    else if (a == "--hold-agents" && has) hold_agents = std::atoi(argv[++i]) != 0;
     else if (a == "--profile" && has) profile = std::atoi(argv[++i]);
     else if (a == "--segments" && has) segments = std::atoi(argv[++i]);
     else if (a == "--odometry" && has) odometry = argv[++i];
@@ -214,6 +225,10 @@ int main(int argc, char** argv) {
   backend::DeformationConfig config;
   config.decide_on_agents = strategy == "agents_first";
   if (max_outer > 0) config.agents.solver.gnc_max_outer_iterations = max_outer;
+  config.agent_spacing_m = agent_spacing_m;
+  config.agent_turn_rad = agent_turn_rad;
+  config.hold_agents = hold_agents;
+  if (whole_tolerance > 0.0) config.whole_function_tolerance = whole_tolerance;
   if (least_squares) config.agents.solver.loop_closure_loss = backend::RobustLoss::kNone;
   backend::DeformationGraph graph(config);
   const std::vector<backend::Pose3> initial = file.problem.poses;

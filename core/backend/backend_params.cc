@@ -29,6 +29,13 @@ const params::Table<DeformationConfig>& deformation_params_table() {
     params::Table<DeformationConfig> t;
     t.add("sigma_position_m", &DeformationConfig::sigma_position_m, "m", params::above(0, 10),
           params::Origin::kProject, "the deformation graph's relative-position edges");
+    t.add("agent_spacing_m", &DeformationConfig::agent_spacing_m, "m", params::in(0, 100),
+          params::Origin::kProject,
+          "one agent node of the solved graph per this much path (and at every closure); 0: every keyframe");
+    t.add("agent_turn_rad", &DeformationConfig::agent_turn_rad, "rad", params::above(0, 3.2),
+          params::Origin::kProject, "agent_spacing_m > 0: an agent node also after this much rotation");
+    t.flag("hold_agents", &DeformationConfig::hold_agents, params::Origin::kRefinement,
+          "the map is solved around the agent layer's solution, held (trajectory first, then the map)");
     t.include(agent_graph_params_table(), [](DeformationConfig& d) -> AgentGraphConfig& { return d.agents; });
     return t;
   }();

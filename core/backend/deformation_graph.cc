@@ -21,6 +21,8 @@ std::string DeformationConfig::check() const {
   if (!(time_horizon_s > 0.0 && time_horizon_s <= 86400.0)) return "time_horizon_s must be in (0, 86400] s";
   if (!(whole_function_tolerance > 0.0 && whole_function_tolerance < 1.0))
     return "whole_function_tolerance must be in (0, 1)";
+  if (!(agent_spacing_m >= 0.0 && agent_spacing_m <= 100.0)) return "agent_spacing_m must be in [0, 100] m";
+  if (!(agent_turn_rad > 0.0 && agent_turn_rad <= 3.2)) return "agent_turn_rad must be in (0, 3.2] rad";
   return agents.check();
 }
 
@@ -30,17 +32,21 @@ void DeformationConfig::print(std::FILE* out) const {
                "place to control point within %.2f m, %u nodes per interpolated point, time horizon %.0f s\n",
                control_point_spacing_m, control_edge_radius_m, max_control_neighbours, sigma_position_m,
                place_control_radius_m, interpolation_neighbours, time_horizon_s);
+  if (agent_spacing_m > 0.0)
+    std::fprintf(out, "deformation graph: an agent node every %.2f m of path (and at every loop closure)\n",
+                 agent_spacing_m);
   std::fprintf(out, "deformation graph: loop closures decided %s\n",
-               decide_on_agents ? "by GNC on the agent layer, then the whole graph by least squares"
-                                : "by GNC over the whole graph");
+               !decide_on_agents ? "by GNC over the whole graph"
+               : hold_agents     ? "by GNC on the agent layer, then the map by least squares around the agents, held"
+                                 : "by GNC on the agent layer, then the whole graph by least squares");
   agents.print(out);
 }
 
 void DeformationResult::print(std::FILE* out) const {
   std::fprintf(out,
-               "deformation graph: %zu agents, %zu control points, %zu places; edges aa %zu mm %zu pp %zu am %zu ap %zu "
-               "mp %zu; %zu of %zu loop closures kept; ",
-               agents, control_points, places, edges_aa, edges_mm, edges_pp, edges_am, edges_ap, edges_mp,
+               "deformation graph: %zu agents (%zu solved), %zu control points, %zu places; edges aa %zu mm %zu pp %zu "
+               "am %zu ap %zu mp %zu; %zu of %zu loop closures kept; ",
+               agents, agents_solved, control_points, places, edges_aa, edges_mm, edges_pp, edges_am, edges_ap, edges_mp,
                loop_closures_kept, loop_closures);
   solve.print(out);
   if (decide.iterations > 0) {
@@ -305,7 +311,7 @@ namespace {
 // agent it hangs from (an E_am or E_ap edge, else its place's control point), as the start of the whole solve.
 PoseGraphResult decide_on_agents(const PoseGraphConfig& solver, const DeformationProblem& problem,
                                  std::vector<Pose3>* poses, std::vector<double>* weights) {
-  const std::size_t A = problem.result.agents;
+  const std::size_t A = problem.result.agents_solved;
   std::vector<Pose3> agents(poses->begin(), poses->begin() + static_cast<std::ptrdiff_t>(A));
   std::vector<RelativePoseEdge> edges;
   std::vector<std::size_t> closure_edge;  // per loop closure: its index in `edges`
@@ -337,12 +343,146 @@ PoseGraphResult decide_on_agents(const PoseGraphConfig& solver, const Deformatio
   return r;
 }
 
+// An edge's covariance of [translation; rotation], both in its `to` frame (the convention of an edge with an
+// information matrix); `from_R_to` rotates the `from` frame into the `to` frame's axes.
+Eigen::Matrix<double, 6, 6> covariance_in_to_frame(const RelativePoseEdge& e) {
+  Eigen::Matrix<double, 6, 6> cov = Eigen::Matrix<double, 6, 6>::Zero();
+  if (e.has_information) {
+    cov = e.information.inverse();
+  } else {  // sigmas: translation in the `from` frame, rotation in the `to` frame
+    const Eigen::Matrix3d to_R_from = e.measured_from_T_to.q.conjugate().toRotationMatrix();
+    cov.topLeftCorner<3, 3>() = to_R_from * e.sigma_t_m.cwiseAbs2().asDiagonal() * to_R_from.transpose();
+    cov.bottomRightCorner<3, 3>() = e.sigma_rot_rad.cwiseAbs2().asDiagonal();
+  }
+  return cov;
+}
+
+// DeformationConfig::agent_spacing_m: the problem with one agent node per `spacing_m` of odometric path or
+// `turn_rad` of rotation (plus the first, the last and every loop closure's two agents). The odometry edges
+// between two kept agents compose into one, their covariances carried into its frame to first order (through the
+// adjoint: a step's rotation noise moves the far end by its lever arm); an edge from or to a dropped agent moves to
+// the kept agent before it, its measurement composed with the odometry between the two (the same geometry).
+// *kept: the chain index of each kept agent.
+DeformationProblem thin_agents(DeformationProblem in, double spacing_m, double turn_rad,
+                               std::vector<std::uint32_t>* kept) {
+  const std::size_t A = in.result.agents;
+  std::vector<char> keep(A, 0);
+  keep[0] = keep[A - 1] = 1;
+  for (std::size_t c = 0; c < in.result.loop_closures; ++c) {
+    const RelativePoseEdge& e = in.edges[in.first_closure + c];
+    if (e.from < A) keep[e.from] = 1;
+    if (e.to < A) keep[e.to] = 1;
+  }
+  double since = 0.0;
+  std::size_t last = 0;
+  for (std::size_t k = 1; k < A; ++k) {
+    since += (in.poses[k].t_m - in.poses[k - 1].t_m).norm();
+    if (since >= spacing_m || in.poses[last].q.angularDistance(in.poses[k].q) >= turn_rad) keep[k] = 1;
+    if (keep[k]) {
+      since = 0.0;
+      last = k;
+    }
+  }
+  kept->clear();
+  std::vector<std::uint32_t> owner(A);  // chain node -> the reduced index of the kept agent at or before it
+  for (std::size_t k = 0; k < A; ++k) {
+    if (keep[k]) kept->push_back(static_cast<std::uint32_t>(k));
+    owner[k] = static_cast<std::uint32_t>(kept->size() - 1);
+  }
+  const std::size_t K = kept->size();
+  const auto shift = static_cast<std::uint32_t>(A - K);
+  const auto remap = [&](std::uint32_t i) { return i < A ? owner[i] : i - shift; };
+  DeformationProblem out;
+  out.result = in.result;
+  out.result.agents_solved = K;
+  out.poses.reserve(in.poses.size() - (A - K));
+  for (std::uint32_t k : *kept) out.poses.push_back(in.poses[k]);
+  out.poses.insert(out.poses.end(), in.poses.begin() + static_cast<std::ptrdiff_t>(A), in.poses.end());
+  // Odometry: the chain's edges k -> k + 1 come first, in order.
+  const std::size_t odometry = in.first_closure;  // edges_aa is not kept by every writer of a problem
+  for (std::size_t j = 0; j + 1 < K; ++j) {
+    const std::uint32_t a = (*kept)[j], b = (*kept)[j + 1];
+    RelativePoseEdge e;
+    e.from = static_cast<std::uint32_t>(j);
+    e.to = static_cast<std::uint32_t>(j + 1);
+    e.measured_from_T_to = between(in.poses[a], in.poses[b]);
+    // Each step's noise, a perturbation in its `to` frame k + 1, seen in b's frame through the adjoint of b_T_(k+1)
+    // (first order): rotation noise moves b by its lever arm too.
+    Eigen::Matrix<double, 6, 6> cov = Eigen::Matrix<double, 6, 6>::Zero();
+    for (std::uint32_t k = a; k < b && k < odometry; ++k) {
+      const Pose3 b_T_k = between(in.poses[b], in.poses[k + 1]);
+      const Eigen::Matrix3d r = b_T_k.q.toRotationMatrix();
+      Eigen::Matrix3d skew;
+      skew << 0.0, -b_T_k.t_m.z(), b_T_k.t_m.y(), b_T_k.t_m.z(), 0.0, -b_T_k.t_m.x(), -b_T_k.t_m.y(), b_T_k.t_m.x(), 0.0;
+      Eigen::Matrix<double, 6, 6> adjoint = Eigen::Matrix<double, 6, 6>::Zero();
+      adjoint.topLeftCorner<3, 3>() = adjoint.bottomRightCorner<3, 3>() = r;
+      adjoint.topRightCorner<3, 3>() = skew * r;
+      cov += adjoint * covariance_in_to_frame(in.edges[k]) * adjoint.transpose();
+    }
+    e.has_information = true;
+    const Eigen::Matrix<double, 6, 6> info = cov.inverse();
+    e.information = 0.5 * (info + info.transpose());
+    out.edges.push_back(e);
+  }
+  out.result.edges_aa = out.edges.size();
+  out.first_closure = out.edges.size();
+  for (std::size_t k = odometry; k < in.edges.size(); ++k) {
+    RelativePoseEdge e = in.edges[k];
+    if (e.from < A && !keep[e.from]) {  // a position edge from a dropped agent: from the kept one before it
+      const std::uint32_t a = (*kept)[owner[e.from]];
+      e.measured_from_T_to = between(in.poses[a], in.poses[e.from]) * e.measured_from_T_to;
+    }
+    if (e.to < A && !keep[e.to]) {
+      const std::uint32_t a = (*kept)[owner[e.to]];
+      e.measured_from_T_to = e.measured_from_T_to * between(in.poses[e.to], in.poses[a]);
+    }
+    e.from = remap(e.from);
+    e.to = remap(e.to);
+    out.edges.push_back(e);
+  }
+  out.originals = std::move(in.originals);
+  out.times_ns = std::move(in.times_ns);
+  out.place_ids = std::move(in.place_ids);
+  return out;
+}
+
+// Every chain node's pose from the kept agents' solution: a kept agent takes its own; one between kept a and b
+// takes the odometric pose moved by a's and b's corrections (world_T_opt * odometric^-1), interpolated along the
+// path between them (translation linearly, rotation by slerp).
+std::vector<Pose3> expand_agents(const std::vector<Pose3>& odometric, const std::vector<std::uint32_t>& kept,
+                                 const std::vector<Pose3>& solved_kept) {
+  std::vector<Pose3> out(odometric.size());
+  for (std::size_t j = 0; j < kept.size(); ++j) {
+    out[kept[j]] = solved_kept[j];
+    if (j + 1 == kept.size()) break;
+    const std::uint32_t a = kept[j], b = kept[j + 1];
+    const Pose3 ca = solved_kept[j] * odometric[a].inverse(), cb = solved_kept[j + 1] * odometric[b].inverse();
+    double total = 0.0;
+    for (std::uint32_t k = a; k < b; ++k) total += (odometric[k + 1].t_m - odometric[k].t_m).norm();
+    double along = 0.0;
+    for (std::uint32_t k = a + 1; k < b; ++k) {
+      along += (odometric[k].t_m - odometric[k - 1].t_m).norm();
+      const double f = total > 0.0 ? along / total : static_cast<double>(k - a) / static_cast<double>(b - a);
+      const Pose3 c{(1.0 - f) * ca.t_m + f * cb.t_m, ca.q.slerp(f, cb.q).normalized()};
+      out[k] = c * odometric[k];
+    }
+  }
+  return out;
+}
+
 }  // namespace
 
 DeformationResult DeformationGraph::solve(DeformationProblem problem) {
+  if (problem.poses.empty()) return problem.result;
+  problem.result.agents_solved = problem.result.agents;
+  std::vector<std::uint32_t> kept;
+  std::vector<Pose3> odometric;  // the chain's poses, when the solved graph thins them
+  if (config_.agent_spacing_m > 0.0 && problem.result.agents > 2) {
+    odometric.assign(problem.poses.begin(), problem.poses.begin() + static_cast<std::ptrdiff_t>(problem.result.agents));
+    problem = thin_agents(std::move(problem), config_.agent_spacing_m, config_.agent_turn_rad, &kept);
+  }
   DeformationResult r = problem.result;
-  if (problem.poses.empty()) return r;
-  const std::size_t A = r.agents, nodes = problem.originals.size();
+  const std::size_t A = r.agents_solved, nodes = problem.originals.size();
   std::vector<Pose3> solved = problem.poses;
   if (config_.decide_on_agents && r.loop_closures > 0) {
     r.decide = decide_on_agents(config_.agents.solver, problem, &solved, &r.loop_closure_weight);
@@ -354,11 +494,15 @@ DeformationResult DeformationGraph::solve(DeformationProblem problem) {
     // The whole graph by least squares over the closures kept.
     std::vector<RelativePoseEdge> edges;
     edges.reserve(problem.edges.size());
+    const bool hold = config_.hold_agents;
     for (std::size_t k = 0; k < problem.edges.size(); ++k) {
+      const RelativePoseEdge& e = problem.edges[k];
+      if (hold && e.from < A && e.to < A) continue;  // between held agents: nothing to solve
       const bool closure = k >= problem.first_closure && k < problem.first_closure + r.loop_closures;
-      if (!closure || r.loop_closure_weight[k - problem.first_closure] > 0.5) edges.push_back(problem.edges[k]);
+      if (!closure || r.loop_closure_weight[k - problem.first_closure] > 0.5) edges.push_back(e);
     }
     PoseGraphConfig whole = config_.agents.solver;
+    if (hold) whole.hold_first_poses = A;
     whole.loop_closure_loss = RobustLoss::kNone;
     whole.function_tolerance = config_.whole_function_tolerance;
     r.solve = optimize_pose_graph(whole, solved, edges);
@@ -375,6 +519,7 @@ DeformationResult DeformationGraph::solve(DeformationProblem problem) {
   }
   for (double w : r.loop_closure_weight) r.loop_closures_kept += w > 0.5 ? 1 : 0;
   agent_poses_.assign(solved.begin(), solved.begin() + static_cast<std::ptrdiff_t>(A));
+  if (!kept.empty()) agent_poses_ = expand_agents(odometric, kept, agent_poses_);
   nodes_.clear();
   nodes_.reserve(nodes);
   for (std::size_t i = 0; i < nodes; ++i) nodes_.push_back(Node{problem.originals[i], problem.times_ns[i], solved[A + i]});

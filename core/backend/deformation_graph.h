@@ -51,6 +51,18 @@ struct DeformationConfig {
   // decide_on_agents: the whole graph's solve starts from the agents' solution, close to its optimum; it stops at
   // this relative cost change (the agents' solve keeps the solver's own tolerance).
   double whole_function_tolerance = 1e-4;
+  // decide_on_agents: the whole solve holds the agents at the agent layer's solution and moves the map (control
+  // points and places) around them, the trajectory-first two-step of Whelan et al. 2016 (which the paper cites);
+  // false: every node moves together, as the paper's problem states it. Held, the odometric map no longer pulls
+  // the trajectory back towards its drift, and the solve is 2-4x cheaper (bench/results/loop_closure.md).
+  bool hold_agents = true;
+  // Agent nodes of the solved graph: one per this much odometric path (and every loop closure's two agents, the
+  // first and the last); the chain nodes between two of them follow the pair's correction, interpolated along
+  // the path. 0: every chain node (one per keyframe) is a node, as the graph grows by ~7 nodes a metre.
+  double agent_spacing_m = 0.0;
+  // ... or this much rotation since the last agent node (a quadruped turning on the spot moves no path, but the
+  // map seen while it turns hangs from those nodes).
+  double agent_turn_rad = 0.2;
   AgentGraphConfig agents;               // odometry sigma floors and the solver (loop closures under GNC-TLS)
 
   DeformationConfig() {
@@ -91,6 +103,7 @@ class ControlPoints {
 
 struct DeformationResult {
   std::size_t agents = 0, control_points = 0, places = 0;
+  std::size_t agents_solved = 0;  // agent nodes in the solved graph (agent_spacing_m thins the chain's `agents`)
   std::size_t edges_aa = 0, edges_mm = 0, edges_pp = 0, edges_am = 0, edges_ap = 0, edges_mp = 0;
   std::size_t loop_closures = 0;
   std::size_t loop_closures_kept = 0;  // GNC weight above 0.5 after the solve

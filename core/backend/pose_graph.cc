@@ -323,8 +323,14 @@ class GraphSolve {
       // The smaller index becomes the root, so each root is its component's lowest-index pose.
       if (a != b) parent[std::max(a, b)] = std::min(a, b);
     }
+    for (std::uint32_t i = 0; i < num_poses && i < config_.hold_first_poses; ++i) {
+      if (!in_problem[i]) continue;
+      problem_.SetParameterBlockConstant(t_block(i));
+      problem_.SetParameterBlockConstant(q_block(i));
+    }
     if (!config_.fix_first_pose) return;
     for (std::uint32_t i = 0; i < num_poses; ++i) {
+      if (i < config_.hold_first_poses) continue;
       if (in_problem[i] && find_root(parent, i) == i) {
         problem_.SetParameterBlockConstant(t_block(i));
         problem_.SetParameterBlockConstant(q_block(i));

@@ -47,6 +47,8 @@ struct PoseGraphConfig {
   int gnc_inner_iterations = 10;
   // Removes the gauge freedom: holds poses[0], and the lowest-index pose of any component not connected to it.
   bool fix_first_pose = true;
+  // Poses [0, hold_first_poses) stay where they are (constant in the solve): the rest is solved around them.
+  std::size_t hold_first_poses = 0;
   int num_threads = 1;
   // Before the robust solve, keep only the largest set of pairwise-consistent loop closures (PCM, see
   // pairwise_consistency.h); the others get weight 0 and no residual. Off: the paper's path is GNC alone.
