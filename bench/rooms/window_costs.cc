@@ -146,6 +146,8 @@ bool run_tour(const Options& o, const Building& b, Run* out) {
     return false;
   }
   if (!warning.empty()) std::fprintf(stderr, "window_costs: %s\n", warning.c_str());
+  // The frontend reads places through a const graph: a writable access would open them (SceneGraph's open places).
+  const scene_graph::SceneGraph& reader = *graph;
   const frontend::NearestPlaceCapacities ic = frontend::nearest_place_capacities_from_budget();
   auto active_index = std::make_unique<frontend::NearestPlaceIndex>();
   auto all_rebuilt = std::make_unique<frontend::NearestPlaceIndex>();
@@ -218,13 +220,13 @@ bool run_tour(const Options& o, const Building& b, Run* out) {
     if (o.incremental_index) {
       active_index->clear_points();
       for (std::size_t i : window) {
-        const scene_graph::PlaceAttributes* a = graph->place(b.places.places[i].id);
+        const scene_graph::PlaceAttributes* a = reader.place(b.places.places[i].id);
         all_incremental->upsert(b.places.places[i].id, a->position_m);
         if (a->is_active) active_index->add_point(b.places.places[i].id, a->position_m);
       }
       active_index->build_tree();
       all_incremental->sweep(512, [&](scene_graph::NodeId id, const Eigen::Vector3d& p, Eigen::Vector3d* to) {
-        const scene_graph::PlaceAttributes* a = graph->place(id);
+        const scene_graph::PlaceAttributes* a = reader.place(id);
         if (a == nullptr) return 1;
         if (a->position_m == p) return 0;
         *to = a->position_m;
