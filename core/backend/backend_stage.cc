@@ -180,8 +180,8 @@ void BackendStage::label_rooms(scene_graph::SceneGraph* graph, bool window, std:
       if (room_ids[i] == id) return room_index[i];
     return -1;
   };
-  graph->for_each_node([&](const scene_graph::NodeRecord& n) {
-    if (n.kind != scene_graph::NodeKind::kRoom || rooms >= kRooms) return;
+  graph->for_each_node_of(scene_graph::NodeKind::kRoom, [&](const scene_graph::NodeRecord& n) {
+    if (rooms >= kRooms) return;
     const scene_graph::RoomAttributes* a = graph->room(n.id);
     if (window && a->last_update_time_ns != time_ns) {
       kept_labelled += a->semantic_label != semantics::kRoomUnknown ? 1 : 0;
@@ -193,8 +193,8 @@ void BackendStage::label_rooms(scene_graph::SceneGraph* graph, bool window, std:
     room_ids[rooms] = n.id;
     room_index[rooms++] = room_graph_.add_room(a->position_m, size);
   });
-  graph->for_each_node([&](const scene_graph::NodeRecord& n) {
-    if (n.kind != scene_graph::NodeKind::kObject || n.parent == scene_graph::kNoNode) return;
+  graph->for_each_node_of(scene_graph::NodeKind::kObject, [&](const scene_graph::NodeRecord& n) {
+    if (n.parent == scene_graph::kNoNode) return;
     const int room = index_of(graph->parent(n.parent));  // object -> place -> room
     if (room < 0) return;
     const scene_graph::ObjectAttributes* o = graph->object(n.id);

@@ -134,9 +134,8 @@ void OnlineDoors::add_place(const Eigen::Vector3d& p) {
 
 void OnlineDoors::add_places(const sg::SceneGraph& graph) {
   if (!begun_) return;
-  graph.for_each_node([&](const sg::NodeRecord& n) {
-    if (n.kind != sg::NodeKind::kPlace) return;
-    const Eigen::Vector3d& p = graph.place(n.id)->position_m;
+  graph.for_each_node_of(sg::NodeKind::kPlace, [&](const sg::NodeRecord& n) {
+    const Eigen::Vector3d& p = graph.place_of(n)->position_m;
     const std::size_t before = num_places_;
     add_place(p);
     if (num_places_ == before) return;  // outside the window's band (or beyond its capacity)

@@ -159,7 +159,7 @@ UpdateResult RoomFinder::update(sg::SceneGraph* graph, std::uint64_t time_ns, co
   if (sight != nullptr && sight->slices() == 0) sight = nullptr;  // no structure: nothing to close or see
   window_ = window && config_.window_updates;
   r.window = window_;
-  read_places(*graph, doors, config_.close_edges_through_walls ? sight : nullptr, &r);
+  read_places(graph, doors, config_.close_edges_through_walls ? sight : nullptr, &r);
   counters_.truncated += r.truncated;
   if (window_ && num_places_ == 0) {  // nothing in the window: every room stays as it is
     finish_window(graph, time_ns, &r);
@@ -199,18 +199,18 @@ UpdateResult RoomFinder::update(sg::SceneGraph* graph, std::uint64_t time_ns, co
 // a function of the graph's content, not of the order its storage happens to visit nodes and edges in (ties among
 // equal clearances are broken by index), so a graph saved and read back gives the same rooms as the one that was
 // built live, with places added and removed over a run.
-void RoomFinder::read_places(const sg::SceneGraph& graph, const ClosedPassages* doors, const SightLines* sight,
+void RoomFinder::read_places(sg::SceneGraph* writable, const ClosedPassages* doors, const SightLines* sight,
                              UpdateResult* r) {
+  const sg::SceneGraph& graph = *writable;  // written only by the window's choice (its open places)
   index_.clear();
   num_places_ = 0;
   num_edges_ = 0;
   num_boundary_ = 0;
   if (window_) {
-    collect_window(graph, r);
+    collect_window(writable, r);
   } else {
     if (config_.window_updates) collect_all_rooms(graph);  // every room may be taken over
-    graph.for_each_node([&](const sg::NodeRecord& n) {
-      if (n.kind != sg::NodeKind::kPlace) return;
+    graph.for_each_node_of(sg::NodeKind::kPlace, [&](const sg::NodeRecord& n) {
       if (num_places_ == capacities_.places) {
         ++r->truncated;
         return;

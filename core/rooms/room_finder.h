@@ -74,6 +74,8 @@ struct UpdateResult {
   std::size_t boundary_edges = 0;       // window: place edges from the window to a kept room's places
   std::size_t rooms_partial = 0;        // window: open rooms read only near the window (Config::window_room_margin_m)
   std::size_t places_kept = 0;          // ... their places not read (they keep their room)
+  std::size_t places_visited = 0;       // window: place records looked at to choose the window (the open places,
+                                        // the open rooms' inactive places): the window's size, not the graph's
 };
 
 struct Counters {
@@ -158,10 +160,11 @@ class RoomFinder {
 
  private:
   // room_finder.cc: reading the places graph.
-  void read_places(const scene_graph::SceneGraph& graph, const ClosedPassages* doors, const SightLines* sight,
+  void read_places(scene_graph::SceneGraph* graph, const ClosedPassages* doors, const SightLines* sight,
                    UpdateResult* r);
   // window.cc: the window's places and open rooms; rooms matched by the graph's room-place edges.
-  void collect_window(const scene_graph::SceneGraph& graph, UpdateResult* r);
+  void collect_window(scene_graph::SceneGraph* graph, UpdateResult* r);
+  void add_far(std::size_t slot, const scene_graph::PlaceAttributes& a, UpdateResult* r);
   void collect_all_rooms(const scene_graph::SceneGraph& graph);
   void note_boundary(const scene_graph::SceneGraph& g, std::uint32_t place, scene_graph::NodeId other, UpdateResult* r);
   bool previous_room_of(const scene_graph::SceneGraph& graph, std::uint32_t place, std::uint32_t* previous) const;

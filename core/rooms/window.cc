@@ -19,8 +19,10 @@ namespace sg = scene_graph;
 // The rooms that hold an active place are open (this update replaces them); the window's places are the active
 // ones, those without a room, and those of the open rooms within window_room_margin_m of the active places' box.
 // An open room's farther places are not read: they keep it (a partial room), and far_ sums them for its node.
-// Rooms whose places are all inactive keep theirs.
-void RoomFinder::collect_window(const sg::SceneGraph& graph, UpdateResult* r) {
+// Rooms whose places are all inactive keep theirs. No scan of the places layer: the active places and those without
+// a room come from the graph's open places (SceneGraph::for_each_open_place), the open rooms' others from their
+// children. Both in the node table's order, as a scan of every node would give them.
+void RoomFinder::collect_window(sg::SceneGraph* graph, UpdateResult* r) {
   room_slot_.clear();
   num_previous_ = 0;
   double lo[3], hi[3];
@@ -28,45 +30,63 @@ void RoomFinder::collect_window(const sg::SceneGraph& graph, UpdateResult* r) {
     lo[d] = std::numeric_limits<double>::infinity();
     hi[d] = -lo[d];
   }
-  graph.for_each_node([&](const sg::NodeRecord& n) {
-    if (n.kind != sg::NodeKind::kPlace) return;
-    const sg::PlaceAttributes* a = graph.place_of(n);
-    if (a == nullptr || !a->is_active) return;
-    for (int d = 0; d < 3; ++d) {
-      lo[d] = std::min(lo[d], a->position_m[d]);
-      hi[d] = std::max(hi[d], a->position_m[d]);
+  // The open places: active ones set the box and open their rooms; they and the places without a room are read.
+  graph->for_each_open_place([&](const sg::NodeRecord& n, const sg::PlaceAttributes& a) {
+    ++r->places_visited;
+    if (num_places_ == capacities_.places) {
+      ++r->truncated;
+    } else {
+      place_ids_[num_places_++] = n.id;
     }
-    if (n.parent == sg::kNoNode || room_slot_.contains(n.parent) || graph.room(n.parent) == nullptr) return;
+    if (!a.is_active) return;  // without a room
+    for (int d = 0; d < 3; ++d) {
+      lo[d] = std::min(lo[d], a.position_m[d]);
+      hi[d] = std::max(hi[d], a.position_m[d]);
+    }
+    if (n.parent == sg::kNoNode || room_slot_.contains(n.parent) || graph->room(n.parent) == nullptr) return;
     if (num_previous_ == capacities_.rooms) return;  // cannot happen: the rooms are the finder's own
     room_slot_.insert(n.parent, static_cast<std::uint32_t>(num_previous_));
     far_[num_previous_].reset();
     previous_ids_[num_previous_++] = n.parent;
   });
   r->rooms_open = num_previous_;
+  // The open rooms' inactive places: near ones are read, far ones summed (in slot order, so the sums are the same
+  // whatever order the room's edges are in).
   const double margin = config_.window_room_margin_m;
-  // Every place is visited, so each costs one lookup at most (a place's parent is always a room: the layer rule).
-  graph.for_each_node([&](const sg::NodeRecord& n) {
-    if (n.kind != sg::NodeKind::kPlace) return;
-    const sg::PlaceAttributes* a = graph.place_of(n);
-    const std::uint32_t* open = n.parent == sg::kNoNode || a->is_active ? nullptr : room_slot_.find(n.parent);
-    if (n.parent != sg::kNoNode && !a->is_active && open == nullptr) return;  // a kept room's
-    if (open != nullptr) {
+  std::uint64_t* far_slots = ws_.pairs;
+  const std::size_t far_capacity = capacities_.places;
+  for (std::size_t k = 0; k < num_previous_; ++k) {
+    std::size_t num_far = 0;
+    graph->for_each_child_record(previous_ids_[k], [&](std::uint32_t slot, const sg::NodeRecord& n) {
+      const sg::PlaceAttributes* a = graph->place_of(n);
+      if (a == nullptr || a->is_active) return;  // an active one is an open place, read above
+      ++r->places_visited;
       const Eigen::Vector3d& p = a->position_m;
       bool near = true;
       for (int d = 0; d < 3; ++d) near = near && p[d] >= lo[d] - margin && p[d] <= hi[d] + margin;
-      if (!near) {  // a partial room's far place: summed as accumulate_rooms sums the read ones
-        far_[*open].add(p.data(), std::isfinite(a->distance_m) ? std::max(0.0, a->distance_m) : 0.0);
-        ++r->places_kept;
-        return;
+      if (near) {
+        if (num_places_ == capacities_.places) {
+          ++r->truncated;
+          return;
+        }
+        place_ids_[num_places_++] = n.id;
+      } else if (num_far < far_capacity) {
+        far_slots[num_far++] = slot;
+      } else {  // beyond the scratch: summed now, out of slot order
+        add_far(k, *a, r);
       }
-    }
-    if (num_places_ == capacities_.places) {
-      ++r->truncated;
-      return;
-    }
-    place_ids_[num_places_++] = n.id;
-  });
+    });
+    std::sort(far_slots, far_slots + num_far);
+    for (std::size_t f = 0; f < num_far; ++f)
+      add_far(k, *graph->place_of(graph->node_at(static_cast<std::uint32_t>(far_slots[f]))), r);
+  }
   for (std::size_t k = 0; k < num_previous_; ++k) r->rooms_partial += far_[k].count > 0 ? 1 : 0;
+}
+
+// A partial room's far place: summed as accumulate_rooms sums the read ones.
+void RoomFinder::add_far(std::size_t slot, const sg::PlaceAttributes& a, UpdateResult* r) {
+  far_[slot].add(a.position_m.data(), std::isfinite(a.distance_m) ? std::max(0.0, a.distance_m) : 0.0);
+  ++r->places_kept;
 }
 
 // Whether room is an open room this window update reads only in part (its slot in *slot).
@@ -107,8 +127,8 @@ void RoomFinder::keep_far_part(sg::SceneGraph* graph, std::uint32_t slot) {
 void RoomFinder::collect_all_rooms(const sg::SceneGraph& graph) {
   room_slot_.clear();
   num_previous_ = 0;
-  graph.for_each_node([&](const sg::NodeRecord& n) {
-    if (n.kind != sg::NodeKind::kRoom || num_previous_ == capacities_.rooms) return;
+  graph.for_each_node_of(sg::NodeKind::kRoom, [&](const sg::NodeRecord& n) {
+    if (num_previous_ == capacities_.rooms) return;
     room_slot_.insert(n.id, static_cast<std::uint32_t>(num_previous_));
     previous_ids_[num_previous_++] = n.id;
   });
@@ -163,8 +183,7 @@ void RoomFinder::finish_window(sg::SceneGraph* graph, std::uint64_t time_ns, Upd
   }
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();
   std::size_t rooms = 0;
-  graph->for_each_node([&](const sg::NodeRecord& n) {
-    if (n.kind != sg::NodeKind::kRoom) return;
+  graph->for_each_node_of(sg::NodeKind::kRoom, [&](const sg::NodeRecord& n) {
     sg::RoomAttributes* a = graph->room(n.id);
     if (a->last_update_time_ns != time_ns && a->is_active) a->is_active = false;  // kept: no active place
     sum += a->position_m;

@@ -69,6 +69,8 @@ struct PlaceMeshConnection {
 
 inline constexpr std::size_t kMaxPlaceConnections = 4;  // Spark-DSG places keep up to 4 basis points
 
+// A place's is_active is written through SceneGraph::place(id) (the writable access), which keeps the graph's open
+// places (SceneGraph::for_each_open_place) a superset of the active ones.
 struct PlaceAttributes : SemanticAttributes {
   double distance_m = 0.0;  // clearance: distance to the nearest obstacle
   std::uint32_t num_basis_points = 0;

@@ -1,6 +1,7 @@
 // Scene-graph stores, hierarchy rules and the arena carve.
 #include "core/scene_graph/scene_graph.h"
 
+#include <algorithm>
 #include <cstdio>
 
 #include "budgets/budget_table.h"
@@ -71,6 +72,8 @@ std::size_t arena_bytes_from_budget() { return budgets::active::scene_graph::kAr
 
 namespace {
 std::size_t mesh_chunk_count(const Capacities& c) { return (c.mesh_connections + kMeshChunkValues - 1) / kMeshChunkValues; }
+std::size_t bit_words(const Capacities& c) { return (c.nodes() + 63) / 64; }
+constexpr int kKinds = 5;
 }  // namespace
 
 memory::ArenaPlan SceneGraph::plan(const Capacities& c) {
@@ -88,6 +91,7 @@ memory::ArenaPlan SceneGraph::plan(const Capacities& c) {
       plan, memory::FixedHashMap<EdgeKey, std::uint32_t, EdgeKeyHash>::slots_for(c.edges));
   memory::Pool<AdjacencyChunk>::plan(plan, c.adjacency_chunks);
   memory::Pool<MeshChunk>::plan(plan, mesh_chunk_count(c));
+  for (int k = 0; k <= kKinds; ++k) plan.add_array<std::uint64_t>(bit_words(c));  // the kinds', the open places'
   return plan;
 }
 
@@ -102,11 +106,37 @@ bool SceneGraph::init(const Capacities& c, std::size_t budget_bytes, std::string
                   buildings_.carve(arena_, c.building_nodes) && edges_.carve(arena_, c.edges) &&
                   edge_index_.carve(arena_, edge_slots, c.edges) && adjacency_.carve(arena_, c.adjacency_chunks) &&
                   mesh_chunks_.carve(arena_, mesh_chunk_count(c));
-  if (!ok || !arena_.seal()) {
+  bit_words_ = bit_words(c);
+  bool bits = true;
+  for (int k = 0; k < kKinds; ++k) bits = (kind_bits_[k] = arena_.carve_array<std::uint64_t>(bit_words_)) && bits;
+  open_bits_ = arena_.carve_array<std::uint64_t>(bit_words_);
+  bits = bits && open_bits_ != nullptr;
+  if (!ok || !bits || !arena_.seal()) {
     if (error != nullptr) *error = "scene_graph: the arena carve did not match its plan";
     return false;
   }
+  open_places_.set_capacity(c.place_nodes);
+  clear_bits();
   return true;
+}
+
+void SceneGraph::clear_bits() {
+  for (int k = 0; k < kKinds; ++k) std::fill(kind_bits_[k], kind_bits_[k] + bit_words_, std::uint64_t{0});
+  std::fill(open_bits_, open_bits_ + bit_words_, std::uint64_t{0});
+  open_places_.set_in_use(0);
+}
+
+void SceneGraph::set_slot_bits(std::uint32_t h, NodeKind kind) {
+  kind_bits_[static_cast<int>(kind)][h >> 6] |= std::uint64_t{1} << (h & 63);
+  if (kind == NodeKind::kPlace) mark_open(h);
+}
+
+void SceneGraph::clear_slot_bits(std::uint32_t h, NodeKind kind) {
+  const std::uint64_t bit = std::uint64_t{1} << (h & 63);
+  kind_bits_[static_cast<int>(kind)][h >> 6] &= ~bit;
+  if ((open_bits_[h >> 6] & bit) == 0) return;
+  open_bits_[h >> 6] &= ~bit;
+  open_places_.set_in_use(open_places_.in_use() - 1);
 }
 
 void SceneGraph::clear() {
@@ -121,6 +151,7 @@ void SceneGraph::clear() {
   edge_index_.clear();
   adjacency_.clear();
   mesh_chunks_.clear();
+  if (arena_.sealed()) clear_bits();
 }
 
 template <typename Attr>
@@ -144,6 +175,7 @@ Status SceneGraph::add_node(NodeId id, NodeKind kind, const LayerKey& layer, mem
     pool.release(attr);
     return Status::kFull;
   }
+  set_slot_bits(h, kind);
   return Status::kOk;
 }
 
@@ -321,9 +353,11 @@ void SceneGraph::remove_edge_handle(std::uint32_t e) {
   if (ns.parent == rec.target) {
     ns.parent = kNoNode;
     --nt.num_children;
+    if (ns.kind == NodeKind::kPlace) mark_open(rec.source_node);  // a place without a parent is open
   } else if (nt.parent == rec.source) {
     nt.parent = kNoNode;
     --ns.num_children;
+    if (nt.kind == NodeKind::kPlace) mark_open(rec.target_node);
   }
   adjacency_remove(ns, e);
   adjacency_remove(nt, e);
@@ -394,6 +428,7 @@ bool SceneGraph::remove_node(NodeId id) {
   }
   if (nodes_[h].kind == NodeKind::kObject) clear_mesh_connections(id);
   release_attributes(nodes_[h]);
+  clear_slot_bits(h, nodes_[h].kind);
   node_index_.erase(id);
   nodes_.release(h);
   return true;

@@ -126,18 +126,29 @@ class SceneGraph {
   bool has_node(NodeId id) const { return node_index_.contains(id); }
   bool has_edge(NodeId a, NodeId b) const;
   const NodeRecord* node(NodeId id) const;
+  // The record in a slot of the node table (a slot for_each_child_record gave; valid while that node lives).
+  const NodeRecord& node_at(std::uint32_t slot) const { return nodes_[slot]; }
   const EdgeRecord* edge(NodeId a, NodeId b) const;
   EdgeAttributes* edge_info(NodeId a, NodeId b);
   NodeId parent(NodeId id) const;
 
-  // Typed attribute access; nullptr when the node is absent or of another kind.
+  // Typed attribute access; nullptr when the node is absent or of another kind. The writable access to a place
+  // marks it open (below): whoever may write its is_active goes through here.
   ObjectAttributes* object(NodeId id) { return typed(id, NodeKind::kObject, objects_); }
-  PlaceAttributes* place(NodeId id) { return typed(id, NodeKind::kPlace, places_); }
+  PlaceAttributes* place(NodeId id) {
+    const std::uint32_t* h = node_index_.find(id);
+    if (h == nullptr || nodes_[*h].kind != NodeKind::kPlace) return nullptr;
+    mark_open(*h);
+    return &places_[nodes_[*h].attributes];
+  }
   RoomAttributes* room(NodeId id) { return typed(id, NodeKind::kRoom, rooms_); }
   BuildingAttributes* building(NodeId id) { return typed(id, NodeKind::kBuilding, buildings_); }
   AgentAttributes* agent(NodeId id) { return typed(id, NodeKind::kAgent, agents_); }
   const ObjectAttributes* object(NodeId id) const { return const_cast<SceneGraph*>(this)->object(id); }
-  const PlaceAttributes* place(NodeId id) const { return const_cast<SceneGraph*>(this)->place(id); }
+  const PlaceAttributes* place(NodeId id) const {
+    const std::uint32_t* h = node_index_.find(id);
+    return h == nullptr || nodes_[*h].kind != NodeKind::kPlace ? nullptr : &places_[nodes_[*h].attributes];
+  }
   const RoomAttributes* room(NodeId id) const { return const_cast<SceneGraph*>(this)->room(id); }
   const BuildingAttributes* building(NodeId id) const { return const_cast<SceneGraph*>(this)->building(id); }
   const AgentAttributes* agent(NodeId id) const { return const_cast<SceneGraph*>(this)->agent(id); }
@@ -166,6 +177,35 @@ class SceneGraph {
   void for_each_neighbor(NodeId id, Fn&& fn) const;  // fn(NodeId neighbour, const EdgeRecord&)
   template <typename Fn>
   void for_each_child(NodeId id, Fn&& fn) const;  // fn(NodeId child)
+  // The nodes of one kind, in for_each_node's order, without visiting the others (a bitmap per kind over the node
+  // table: a word per 64 slots, then the kind's nodes).
+  template <typename Fn>
+  void for_each_node_of(NodeKind kind, Fn&& fn) const {  // fn(const NodeRecord&)
+    for_each_bit(kind_bits_[static_cast<int>(kind)], [&](std::uint32_t h) { fn(nodes_[h]); });
+  }
+  // The children of a node with their slots in the node table (ascending slots are for_each_node's order), read
+  // from the edges' own handles: no lookup per child.
+  template <typename Fn>
+  void for_each_child_record(NodeId id, Fn&& fn) const;  // fn(std::uint32_t slot, const NodeRecord& child)
+
+  // Open places: every place that is active or has no parent, in a set that may hold more (issue 37: the room
+  // finder's window without a scan of the places layer). A place enters when it is added, when its parent edge
+  // goes, and on every writable access (place(id) non-const), which is how any writer of its is_active reaches it;
+  // for_each_open_place drops those it finds inactive with a parent. Never allocates (a bitmap over the node table).
+  template <typename Fn>
+  void for_each_open_place(Fn&& fn) {  // fn(const NodeRecord&, const PlaceAttributes&), in for_each_node's order
+    for_each_bit(open_bits_, [&](std::uint32_t h) {
+      const NodeRecord& n = nodes_[h];
+      const PlaceAttributes& a = places_[n.attributes];
+      if (!a.is_active && n.parent != kNoNode) {
+        open_bits_[h >> 6] &= ~(std::uint64_t{1} << (h & 63));
+        open_places_.set_in_use(open_places_.in_use() - 1);
+        return;
+      }
+      fn(n, a);
+    });
+  }
+  memory::ResourceStats open_places_stats() const { return open_places_.stats(); }
 
   std::size_t num_nodes() const { return nodes_.size(); }
   std::size_t num_nodes(NodeKind kind) const;
@@ -190,6 +230,7 @@ class SceneGraph {
     fn(edge_index_.stats());
     fn(adjacency_.stats());
     fn(mesh_chunks_.stats());
+    fn(open_places_.stats());
   }
 
  private:
@@ -219,6 +260,23 @@ class SceneGraph {
     if (h == nullptr || nodes_[*h].kind != kind) return nullptr;
     return &pool[nodes_[*h].attributes];
   }
+  void mark_open(std::uint32_t h) {
+    std::uint64_t& w = open_bits_[h >> 6];
+    const std::uint64_t bit = std::uint64_t{1} << (h & 63);
+    if ((w & bit) != 0) return;
+    w |= bit;
+    open_places_.set_in_use(open_places_.in_use() + 1);
+  }
+  void set_slot_bits(std::uint32_t h, NodeKind kind);
+  void clear_bits();
+  void clear_slot_bits(std::uint32_t h, NodeKind kind);
+  // fn(slot) for each set bit of a node-table bitmap, ascending; fn may clear the bit it is given.
+  template <typename Fn>
+  void for_each_bit(const std::uint64_t* bits, Fn&& fn) const {
+    for (std::size_t w = 0; w < bit_words_; ++w)
+      for (std::uint64_t x = bits[w]; x != 0; x &= x - 1)
+        fn(static_cast<std::uint32_t>(w * 64 + static_cast<std::size_t>(__builtin_ctzll(x))));
+  }
   bool adjacency_push(NodeRecord& node, std::uint32_t edge);
   void adjacency_remove(NodeRecord& node, std::uint32_t edge);
   void remove_edge_handle(std::uint32_t edge);
@@ -237,6 +295,11 @@ class SceneGraph {
   memory::FixedHashMap<EdgeKey, std::uint32_t, EdgeKeyHash> edge_index_{"scene_graph.edge_index"};
   memory::Pool<AdjacencyChunk> adjacency_{"scene_graph.adjacency_chunks"};
   memory::Pool<MeshChunk> mesh_chunks_{"scene_graph.mesh_chunks"};
+  // Bitmaps over the node table's slots: one per node kind, and the open places (for_each_open_place).
+  std::uint64_t* kind_bits_[5] = {};
+  std::uint64_t* open_bits_ = nullptr;
+  std::size_t bit_words_ = 0;
+  memory::UsageCounter open_places_{"scene_graph.open_places", "places", 0};
 };
 
 template <typename Fn>
@@ -265,6 +328,24 @@ void SceneGraph::for_each_child(NodeId id, Fn&& fn) const {
     const NodeRecord* o = node(other);
     if (o != nullptr && o->parent == id) fn(other);
   });
+}
+
+template <typename Fn>
+void SceneGraph::for_each_child_record(NodeId id, Fn&& fn) const {
+  const std::uint32_t* h = node_index_.find(id);
+  if (h == nullptr || nodes_[*h].num_children == 0) return;
+  const NodeRecord& n = nodes_[*h];
+  std::uint32_t remaining = n.degree;
+  std::uint32_t in_chunk = remaining == 0 ? 0 : (remaining - 1) % kAdjacencyChunkEdges + 1;
+  for (std::uint32_t c = n.adjacency_head; c != memory::kInvalidHandle && remaining > 0; c = adjacency_[c].next) {
+    for (std::uint32_t i = 0; i < in_chunk; ++i) {
+      const EdgeRecord& e = edges_[adjacency_[c].edges[i]];
+      const std::uint32_t other = e.source == id ? e.target_node : e.source_node;
+      if (nodes_[other].parent == id) fn(other, nodes_[other]);
+    }
+    remaining -= in_chunk;
+    in_chunk = kAdjacencyChunkEdges;
+  }
 }
 
 template <typename Fn>

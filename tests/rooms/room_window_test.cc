@@ -239,5 +239,35 @@ TEST(RoomWindowTest, EmptyWindowKeepsEveryRoomAndWindowOffReadsEverything) {
   EXPECT_EQ(w.places, s.places.size());
 }
 
+// The window's choice visits the open places and the open rooms' places, not the building (issue 37): the same
+// robot window in a building and in that building with three more copies of it far away gives the same places
+// visited and read. A choice that scanned the places layer would visit four times as many in the second.
+TEST(RoomWindowTest, ChoosesTheWindowWithoutVisitingTheBuilding) {
+  const auto visited = [](int copies, std::size_t* places, UpdateResult* r) {
+    SyntheticPlaces s;
+    for (int c = 0; c < copies; ++c)
+      testing::corridor_plan(4, 0.5).add_to(&s, 1.0, Eigen::Vector2d(200.0 * c, 0.0), 1.25);
+    *places = s.places.size();
+    auto g = make_graph(s);
+    auto finder = make_finder(true);
+    ASSERT_EQ(finder->update(g.get(), 1).outcome, Outcome::kOk);  // a whole update: every place gets its room
+    for (const auto& p : s.places) g->place(p.id)->is_active = p.position_m.x() < 9.0;
+    ASSERT_EQ(finder->update(g.get(), 2, nullptr, nullptr, /*window=*/true).outcome, Outcome::kOk);
+    EXPECT_NO_ALLOCATIONS(*r = finder->update(g.get(), 3, nullptr, nullptr, /*window=*/true));
+    ASSERT_EQ(r->outcome, Outcome::kOk);
+  };
+  std::size_t one = 0, four = 0;
+  UpdateResult a, b;
+  visited(1, &one, &a);
+  visited(4, &four, &b);
+  ASSERT_EQ(four, 4 * one);
+  EXPECT_GT(a.places_visited, 0u);
+  EXPECT_LT(a.places_visited, one) << "the window's choice visited every place";
+  EXPECT_EQ(b.places_visited, a.places_visited) << "the window's choice grew with the building";
+  EXPECT_EQ(b.places, a.places);
+  EXPECT_EQ(b.rooms_open, a.rooms_open);
+  EXPECT_EQ(b.rooms, 4 * a.rooms);
+}
+
 }  // namespace
 }  // namespace qsg::rooms

@@ -257,5 +257,90 @@ TEST(SceneGraphTest, BudgetCapacitiesInitialize) {
   EXPECT_EQ(g.capacities().object_nodes, capacities_from_budget().object_nodes);
 }
 
+// The open places (issue 37): after random adds, removals, parent edges made and dropped and is_active written
+// through the writable access, for_each_open_place visits exactly the places that are active or have no parent, in
+// for_each_node's order; for_each_node_of and for_each_child_record agree with the scans they replace.
+TEST(SceneGraphTest, OpenPlacesAreTheActiveAndTheParentless) {
+  auto g = make_graph();
+  std::mt19937 rng(7);
+  std::vector<NodeId> places, rooms;
+  for (int i = 0; i < 4; ++i) {
+    rooms.push_back(make_node_id('R', i));
+    ASSERT_EQ(g->add_room(rooms.back(), RoomAttributes{}), Status::kOk);
+  }
+  std::uint64_t next = 0;
+  for (int step = 0; step < 4000; ++step) {
+    const int op = static_cast<int>(rng() % 6);
+    if (op == 0 || places.size() < 8) {  // a new place, active or not
+      PlaceAttributes p = place_at(static_cast<double>(next), 0.0, 1.0);
+      p.is_active = rng() % 2 == 0;
+      places.push_back(make_node_id('p', next++));
+      ASSERT_EQ(g->add_place(places.back(), p), Status::kOk);
+    } else if (op == 1) {  // a place removed
+      const std::size_t k = rng() % places.size();
+      ASSERT_TRUE(g->remove_node(places[k]));
+      places.erase(places.begin() + static_cast<long>(k));
+    } else if (op == 2) {  // a room takes a place
+      const NodeId p = places[rng() % places.size()];
+      if (g->parent(p) == kNoNode) {
+        ASSERT_EQ(g->add_edge(rooms[rng() % rooms.size()], p), Status::kOk);
+      }
+    } else if (op == 3) {  // a place leaves its room
+      const NodeId p = places[rng() % places.size()];
+      if (g->parent(p) != kNoNode) {
+        ASSERT_TRUE(g->remove_edge(g->parent(p), p));
+      }
+    } else if (op == 4) {  // is_active written (the writable access)
+      g->place(places[rng() % places.size()])->is_active = rng() % 2 == 0;
+    } else if (rng() % 50 == 0) {  // a room goes, with its parent edges
+      const std::size_t k = rng() % rooms.size();
+      ASSERT_TRUE(g->remove_node(rooms[k]));
+      ASSERT_EQ(g->add_room(rooms[k], RoomAttributes{}), Status::kOk);
+    }
+    if (step % 97 != 0) continue;
+    std::vector<NodeId> expected, open, of_kind;
+    g->for_each_node([&](const NodeRecord& n) {
+      if (n.kind != NodeKind::kPlace) return;
+      of_kind.push_back(n.id);
+      if (g->place_of(n)->is_active || n.parent == kNoNode) expected.push_back(n.id);
+    });
+    g->for_each_open_place([&](const NodeRecord& n, const PlaceAttributes& a) {
+      EXPECT_TRUE(a.is_active || n.parent == kNoNode);
+      open.push_back(n.id);
+    });
+    ASSERT_EQ(open, expected) << "step " << step;
+    EXPECT_EQ(g->open_places_stats().in_use, expected.size());
+    std::vector<NodeId> listed;
+    g->for_each_node_of(NodeKind::kPlace, [&](const NodeRecord& n) { listed.push_back(n.id); });
+    EXPECT_EQ(listed, of_kind);
+    for (NodeId r : rooms) {
+      std::set<NodeId> children, records;
+      g->for_each_child(r, [&](NodeId c) { children.insert(c); });
+      g->for_each_child_record(r, [&](std::uint32_t slot, const NodeRecord& c) {
+        EXPECT_EQ(&g->node_at(slot), &c);
+        records.insert(c.id);
+      });
+      EXPECT_EQ(records, children);
+    }
+  }
+  // Reading a place through the const graph does not open it; writing through the writable access does.
+  const NodeId p = places.front();
+  if (g->parent(p) == kNoNode) {
+    ASSERT_EQ(g->add_edge(rooms[0], p), Status::kOk);
+  }
+  g->place(p)->is_active = false;
+  g->for_each_open_place([&](const NodeRecord&, const PlaceAttributes&) {});
+  const std::size_t closed = g->open_places_stats().in_use;
+  EXPECT_FALSE(static_cast<const SceneGraph&>(*g).place(p)->is_active);
+  EXPECT_EQ(g->open_places_stats().in_use, closed);
+  g->place(p)->is_active = true;
+  EXPECT_EQ(g->open_places_stats().in_use, closed + 1);
+  bool seen = false;
+  g->for_each_open_place([&](const NodeRecord& n, const PlaceAttributes&) { seen = seen || n.id == p; });
+  EXPECT_TRUE(seen);
+  g->clear();
+  EXPECT_EQ(g->open_places_stats().in_use, 0u);
+}
+
 }  // namespace
 }  // namespace qsg::scene_graph
