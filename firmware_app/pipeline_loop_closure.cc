@@ -10,6 +10,7 @@
 #include "budgets/budget_table.h"
 #include "core/backend/deformation_io.h"
 #include "firmware_app/pipeline.h"
+#include "firmware_app/runtime/stage_marker.h"
 
 namespace qsg::app {
 
@@ -29,6 +30,14 @@ bool Pipeline::init_loop_closure(std::string* error) {
       !lc_ready_frames_.init(slots, budgets::DropPolicy::kDropNewest, nullptr, error))
     return false;
   for (std::uint32_t i = 0; i < slots; ++i) lc_free_frames_.push(static_cast<int>(i));
+  // --stage-markers: each agent's detection and verification is a marked run (no hook otherwise).
+  if (runtime::stage_markers_on())
+    backend_.set_detect_hook(
+        [](void*, bool begin, std::uint64_t agent_time_ns) {
+          if (begin) runtime::stage_begin(runtime::kLoopClosureDetectStage, agent_time_ns);
+          else runtime::stage_end(runtime::kLoopClosureDetectStage, agent_time_ns);
+        },
+        nullptr);
   return true;
 }
 
@@ -74,7 +83,9 @@ void Pipeline::extract_captured_frames() {
     v.fy = f.intrinsics.fy;
     v.cx = f.intrinsics.cx;
     v.cy = f.intrinsics.cy;
+    runtime::stage_begin(runtime::kLoopClosureAppearanceStage, f.time_ns);
     backend_.add_appearance(f.agent, f.time_ns, v);
+    runtime::stage_end(runtime::kLoopClosureAppearanceStage, f.time_ns);
     lc_free_frames_.push(int{slot});
   }
 }
@@ -86,12 +97,20 @@ void Pipeline::run_loop_closure(std::uint64_t time_ns, pipeline::Host::Held* gra
   if (time_ns >= static_cast<std::uint64_t>(config_.loop_closure.horizon_s * 1e9)) extract_captured_frames();
   backend_.detect_loop_closures(graph_, frontend_.agents(), time_ns);
   if (!backend_.solve_due(time_ns)) return;
+  runtime::stage_begin(runtime::kLoopClosureSolveStage, time_ns);  // the graph built and solved
   backend::DeformationProblem problem = build_deformation();
+  const backend::DeformationResult sizes = problem.result;
   graph_lock->release();
   std::lock_guard<std::mutex> solving(deformation_mutex_);  // a snapshot reads the solution meanwhile: it waits
   const auto start = std::chrono::steady_clock::now();
   std::string why;
-  if (!backend_.solve_deformation(std::move(problem), &why))
+  const bool solved = backend_.solve_deformation(std::move(problem), &why);
+  runtime::stage_end(runtime::kLoopClosureSolveStage, time_ns);
+  if (runtime::stage_markers_on())  // the graph's size beside each marked solve (bench/arm/insn_counts.py)
+    std::printf("loop_closure_solve %llu agents=%zu control_points=%zu places=%zu loop_closures=%zu\n",
+                static_cast<unsigned long long>(time_ns), sizes.agents, sizes.control_points, sizes.places,
+                sizes.loop_closures);
+  if (!solved)
     std::fprintf(stderr, "loop closure: optimization failed (kept the previous solution): %s\n", why.c_str());
   const auto us = static_cast<std::uint64_t>(
       std::chrono::duration_cast<std::chrono::microseconds>(std::chrono::steady_clock::now() - start).count());
