@@ -11,6 +11,7 @@
 #include "core/backend/deformation_io.h"
 #include "firmware_app/pipeline.h"
 #include "firmware_app/runtime/clock.h"
+#include "firmware_app/runtime/stage_marker.h"
 
 namespace qsg::app {
 
@@ -30,6 +31,14 @@ bool Pipeline::init_loop_closure(std::string* error) {
       !lc_ready_frames_.init(slots, budgets::DropPolicy::kDropNewest, nullptr, error))
     return false;
   for (std::uint32_t i = 0; i < slots; ++i) lc_free_frames_.push(static_cast<int>(i));
+  // --stage-markers: each agent's detection and verification is a marked run (no hook otherwise).
+  if (runtime::stage_markers_on())
+    backend_.set_detect_hook(
+        [](void*, bool begin, std::uint64_t agent_time_ns) {
+          if (begin) runtime::stage_begin(runtime::kLoopClosureDetectStage, agent_time_ns);
+          else runtime::stage_end(runtime::kLoopClosureDetectStage, agent_time_ns);
+        },
+        nullptr);
   return true;
 }
 
@@ -75,7 +84,9 @@ void Pipeline::extract_captured_frames() {
     v.fy = f.intrinsics.fy;
     v.cx = f.intrinsics.cx;
     v.cy = f.intrinsics.cy;
+    runtime::stage_begin(runtime::kLoopClosureAppearanceStage, f.time_ns);
     backend_.add_appearance(f.agent, f.time_ns, v);
+    runtime::stage_end(runtime::kLoopClosureAppearanceStage, f.time_ns);
     lc_free_frames_.push(int{slot});
   }
 }
@@ -96,6 +107,7 @@ void Pipeline::run_loop_closure(std::uint64_t time_ns, pipeline::Host::Held* gra
     lc_detect_cpu_.record((cpu_clock.now_ns() - detect0_ns) / 1000, 0);
   }
   if (!backend_.solve_due(time_ns)) return;
+  runtime::stage_begin(runtime::kLoopClosureSolveStage, time_ns);  // the graph built and solved
   backend::DeformationProblem problem = build_deformation();
   SolveRecord r;
   r.time_s = static_cast<double>(time_ns) * 1e-9;
@@ -109,6 +121,10 @@ void Pipeline::run_loop_closure(std::uint64_t time_ns, pipeline::Host::Held* gra
   const std::int64_t cpu0_ns = cpu_clock.now_ns(), wall0_ns = wall_clock.now_ns();
   std::string why;
   r.ok = backend_.solve_deformation(std::move(problem), &why);
+  runtime::stage_end(runtime::kLoopClosureSolveStage, time_ns);
+  if (runtime::stage_markers_on())  // the graph's size beside each marked solve (bench/arm/insn_counts.py)
+    std::printf("loop_closure_solve %llu agents=%u control_points=%u places=%u loop_closures=%u\n",
+                static_cast<unsigned long long>(time_ns), r.agents, r.control_points, r.places, r.closures);
   if (!r.ok) std::fprintf(stderr, "loop closure: optimization failed (kept the previous solution): %s\n", why.c_str());
   r.cpu_us = (cpu_clock.now_ns() - cpu0_ns) / 1000;
   r.wall_us = (wall_clock.now_ns() - wall0_ns) / 1000;

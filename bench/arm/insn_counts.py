@@ -61,9 +61,13 @@ def run_app(args, plugin, work):
         rc = subprocess.run(cmd, cwd=ROOT, stdout=f, stderr=subprocess.STDOUT).returncode
     if rc != 0:
         sys.exit(f"insn_counts: the app exited with {rc}; see {log}")
-    stages, keyframes, board = {}, 0, "?"
+    stages, keyframes, board, solves = {}, 0, "?", {}
     with open(log) as f:
         for line in f:
+            # With loop closure on, the graph's size beside each marked solve (keyed by its sequence, the time).
+            m = re.match(r"loop_closure_solve (\d+) (.*)$", line)
+            if m:
+                solves[int(m.group(1))] = {k: int(v) for k, v in re.findall(r"(\w+)=(\d+)", m.group(2))}
             m = re.match(r"stage_marker (\d+) (\S+) (\d+)$", line)
             if m:
                 stages[int(m.group(1))] = (m.group(2), int(m.group(3)))
@@ -87,7 +91,12 @@ def run_app(args, plugin, work):
         sys.exit(f"insn_counts: no stage table or no keyframe in {log} (is the app built with --stage-markers?)")
     if unmatched:
         sys.exit(f"insn_counts: {unmatched} unmatched end markers in {out}")
-    return stages, keyframes, board, runs, total
+    if args.keep_logs:
+        os.makedirs(args.keep_logs, exist_ok=True)
+        tag = os.path.basename(work)
+        shutil.copy(log, os.path.join(args.keep_logs, tag + ".app.log"))
+        shutil.copy(out, os.path.join(args.keep_logs, tag + ".runs.txt"))
+    return stages, keyframes, board, runs, total, solves
 
 
 def quantile(sorted_values, q):
@@ -96,7 +105,7 @@ def quantile(sorted_values, q):
     return sorted_values[k - 1]
 
 
-def figures_of(stages, keyframes, runs, total, args, commit, conditions):
+def figures_of(stages, keyframes, runs, total, args, commit, conditions, solves=None):
     figs = []
 
     def add(name, value, unit):
@@ -127,7 +136,33 @@ def figures_of(stages, keyframes, runs, total, args, commit, conditions):
         add(p + "expected_max_share_of_budget", counts[-1] * ms_per_insn / (budget_us / 1000.0), "ratio")
         add(p + "expected_runs_over_budget", sum(1 for c in counts if c * ms_per_insn > budget_us / 1000.0), "runs")
     add("arm_insn.loop.instructions_per_keyframe", loop_total / keyframes, "instructions")
+    # Each online loop-closure solve with the size of its graph (the app prints them with --stage-markers).
+    for sid, (name, _) in sorted(stages.items()):
+        if name != "loop_closure_solve":
+            continue
+        for k, (seq, count) in enumerate(runs.get(sid, [])):
+            p = f"arm_insn.{name}.solve_{k}."
+            add(p + "time_s", seq * 1e-9, "s")
+            add(p + "instructions", count, "instructions")
+            add(p + "expected_ms", count * ms_per_insn, "ms")
+            for key, value in sorted((solves or {}).get(seq, {}).items()):
+                add(p + key, value, "count")
     return figs
+
+
+def print_solves(figs):
+    """The per-solve lines of a result file: time, graph size, instructions, expected ms."""
+    value = {f["name"]: f["value"] for f in figs}
+    k = 0
+    while f"arm_insn.loop_closure_solve.solve_{k}.instructions" in value:
+        if k == 0:
+            print("\n| solve at s | agents | control points | places | loop closures | instructions | expected ms |")
+            print("| ---: | ---: | ---: | ---: | ---: | ---: | ---: |")
+        p = f"arm_insn.loop_closure_solve.solve_{k}."
+        print(f"| {value[p + 'time_s']:.1f} | {value.get(p + 'agents', 0):.0f} | {value.get(p + 'control_points', 0):.0f} "
+              f"| {value.get(p + 'places', 0):.0f} | {value.get(p + 'loop_closures', 0):.0f} | "
+              f"{value[p + 'instructions']:,.0f} | {value[p + 'expected_ms']:.1f} |")
+        k += 1
 
 
 def commit_time(commit):
@@ -222,6 +257,9 @@ def main():
     ap.add_argument("--out-dir", default=os.path.join(ROOT, "bench/results/arm_insn"))
     ap.add_argument("--threshold-pct", type=float, default=1.0, help="growth flagged as a regression")
     ap.add_argument("--no-build", action="store_true", help="do not (re)build the arm64 qsg_app first")
+    ap.add_argument("--commit", help="the commit --app was built from, when it is not this tree's (another "
+                    "worktree's build); names the result file")
+    ap.add_argument("--keep-logs", metavar="DIR", help="copy each run's app log and runs file (plugin output) here")
     ap.add_argument("--compare", nargs=2, metavar=("OLD", "NEW"), help="only compare two result files")
     ap.add_argument("--table", metavar="RESULT", help="only print the results log's table of a result file")
     args = ap.parse_args()
@@ -229,6 +267,7 @@ def main():
         return 1 if compare(args.compare[0], args.compare[1], args.threshold_pct) else 0
     if args.table:
         markdown(json.load(open(args.table)), args.cpi_low, args.cpi_high)
+        print_solves(json.load(open(args.table)))
         return 0
 
     if not args.no_build:
@@ -237,7 +276,7 @@ def main():
         sys.exit(f"insn_counts: no arm64 app at {args.app} (cmake --preset arm64 && cmake --build --preset arm64 "
                  "--target qsg_app)")
     plugin = build_plugin(os.path.join(ROOT, "build", "arm_insn"))
-    commit = git("describe", "--always", "--dirty=-dirty", "--abbrev=12") or "unknown"
+    commit = args.commit or git("describe", "--always", "--dirty=-dirty", "--abbrev=12") or "unknown"
     qemu_version = subprocess.run([args.qemu, "--version"], capture_output=True, text=True).stdout.split("\n")[0]
 
     def one_run(_):
@@ -246,12 +285,12 @@ def main():
 
     with concurrent.futures.ThreadPoolExecutor(max_workers=max(1, args.jobs)) as pool:
         results = list(pool.map(one_run, range(args.repeat)))
-    stages, keyframes, board, runs, total = results[0]
+    stages, keyframes, board, runs, total, solves = results[0]
     # Repeats must agree. Exactly, but for bookkeeping that reads the host: telemetry prints the resident set, and
     # the backend keeps the longest wall-clock durations (a store or not): tens of instructions, explained in
     # bench/results/arm_insn.md. More than the tolerance apart is a real non-determinism and fails the run;
     # telemetry, whose whole output is host figures (resident set, page faults), is held to 1e-2.
-    identical = all(r[1:] == results[0][1:] for r in results[1:])
+    identical = all(r[1:5] == results[0][1:5] for r in results[1:])
     tolerance = 1e-3
     worst = failing = 0.0
     for sid in sorted(stages):
@@ -276,7 +315,7 @@ def main():
                   "".join(f" --set {s}" for s in args.set or []) +
                   f" (lockstep, simulated robot); expected ms at CPI {args.cpi} and {args.clock_ghz} GHz "
                   f"(Carmel assumption, bench/results/arm_insn.md); {args.repeat} runs")
-    figs = figures_of(stages, keyframes, runs, total, args, commit, conditions)
+    figs = figures_of(stages, keyframes, runs, total, args, commit, conditions, solves)
     figs.append({"name": "arm_insn.runs_identical", "value": 1 if identical else 0, "unit": "bool",
                  "conditions": conditions, "commit": commit})
     figs.append({"name": "arm_insn.repeat_max_relative_difference", "value": worst, "unit": "ratio",
@@ -288,6 +327,7 @@ def main():
         f.write("\n")
     print(f"wrote {path}")
     markdown(figs, args.cpi_low, args.cpi_high)
+    print_solves(figs)
     prev = previous_file(args.out_dir, commit)
     if prev:
         compare(prev, path, args.threshold_pct)

@@ -293,6 +293,17 @@ bool BackendStage::detect_loop_closures(const scene_graph::SceneGraph& graph, co
     // Described: the agents whose keyframe was captured (one per describe_every_m of path).
     while (!pending_.empty() && pending_.front().time_ns < n.time_ns) pending_.erase(pending_.begin());
     if (pending_.empty() || pending_.front().agent != n.id) continue;
+    struct Bracket {  // the hook around this agent's description and lookup, whichever way the iteration ends
+      DetectHook hook;
+      void* user;
+      std::uint64_t t;
+      Bracket(DetectHook h, void* u, std::uint64_t time) : hook(h), user(u), t(time) {
+        if (hook != nullptr) hook(user, true, t);
+      }
+      ~Bracket() {
+        if (hook != nullptr) hook(user, false, t);
+      }
+    } bracket(detect_hook_, detect_hook_user_, n.time_ns);
     scene_graph::NodeId place = scene_graph::kNoNode;
     graph.for_each_neighbor(n.id, [&](scene_graph::NodeId other, const scene_graph::EdgeRecord&) {
       if (place == scene_graph::kNoNode && graph.place(other) != nullptr) place = other;

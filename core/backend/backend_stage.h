@@ -163,6 +163,13 @@ class BackendStage {
   // the earlier ones. True when a new loop closure was verified.
   bool detect_loop_closures(const scene_graph::SceneGraph& graph, const agents::AgentLayer& agents,
                             std::uint64_t time_ns);
+  // Called around each agent detect_loop_closures describes and looks up (begin, then end), with the agent's time:
+  // the app's stage markers count the instructions per agent. None set: one branch per agent.
+  using DetectHook = void (*)(void* user, bool begin, std::uint64_t agent_time_ns);
+  void set_detect_hook(DetectHook hook, void* user) {
+    detect_hook_ = hook;
+    detect_hook_user_ = user;
+  }
   // True when a closure waits for a solve and solve_interval_s has passed since the last (marks it started).
   bool solve_due(std::uint64_t time_ns);
   bool solve_pending() const { return solve_pending_; }
@@ -269,6 +276,8 @@ class BackendStage {
   double path_m_ = 0.0;                   // path along the chain to the last node looked at
   Eigen::Vector3d last_m_ = Eigen::Vector3d::Zero();
   bool have_last_ = false;
+  DetectHook detect_hook_ = nullptr;
+  void* detect_hook_user_ = nullptr;
   std::uint32_t cp_mesh_stamp_ = 0;  // blocks meshed after this stamp are offered as control points
 };
 

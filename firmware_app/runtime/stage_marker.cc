@@ -43,11 +43,25 @@ bool stage_marker_info(const budgets::BoardTable& table, std::uint32_t stage, St
     *info = {"backend_final_stage", backend->finish_budget_us};
     return true;
   }
+  // Appearance and detection run in a backend update, against the thread's budget; a solve is a run of its own
+  // (solve_budget_us, the exit report's backend_solve).
+  if (stage == kLoopClosureAppearanceStage) {
+    *info = {"loop_closure_appearance", backend->budget_us};
+    return true;
+  }
+  if (stage == kLoopClosureDetectStage) {
+    *info = {"loop_closure_detect", backend->budget_us};
+    return true;
+  }
+  if (stage == kLoopClosureSolveStage) {
+    *info = {"loop_closure_solve", backend->solve_budget_us > 0 ? backend->solve_budget_us : backend->budget_us};
+    return true;
+  }
   return false;
 }
 
 bool stage_marker_id(const budgets::BoardTable& table, const char* name, std::uint32_t* stage) {
-  for (std::uint32_t s = 0; s <= kFinalStage; ++s) {
+  for (std::uint32_t s = 0; s <= kLastStage; ++s) {
     StageMarkerInfo info;
     if (stage_marker_info(table, s, &info) && std::strcmp(info.name, name) == 0) {
       *stage = s;
@@ -58,7 +72,7 @@ bool stage_marker_id(const budgets::BoardTable& table, const char* name, std::ui
 }
 
 void print_stage_markers(const budgets::BoardTable& table, std::FILE* out) {
-  for (std::uint32_t s = 0; s <= kFinalStage; ++s) {
+  for (std::uint32_t s = 0; s <= kLastStage; ++s) {
     StageMarkerInfo info;
     if (stage_marker_info(table, s, &info)) std::fprintf(out, "stage_marker %u %s %u\n", s, info.name, info.budget_us);
   }

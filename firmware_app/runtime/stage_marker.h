@@ -17,10 +17,17 @@ inline constexpr std::uint64_t kStageMarkerMagic = 0x7173672d73746167ULL;  // "q
 enum class StageMarkerOp : std::uint64_t { kBegin = 1, kEnd = 2 };
 
 // Stage ids, fixed by the board's table: its tasks in table order (0 .. num_tasks - 1), then its worker threads
-// (kThreadStageBase + index), then the backend's two timed parts (the online door pass, the final stage).
+// (kThreadStageBase + index), then the backend's timed parts: the online door pass, the final stage, and with loop
+// closure on, per keyframe captured its appearance (features, depth cloud), per agent described its detection and
+// verification, per online solve the deformation graph (built and solved). The loop-closure parts run inside a
+// backend update and carry the backend thread's budget: they add to that update's cost.
 inline constexpr std::uint32_t kThreadStageBase = 32;
 inline constexpr std::uint32_t kDoorPassStage = 64;
 inline constexpr std::uint32_t kFinalStage = 65;
+inline constexpr std::uint32_t kLoopClosureAppearanceStage = 66;
+inline constexpr std::uint32_t kLoopClosureDetectStage = 67;
+inline constexpr std::uint32_t kLoopClosureSolveStage = 68;
+inline constexpr std::uint32_t kLastStage = kLoopClosureSolveStage;
 
 // One stage id's name (the table's task or thread name, or the exit report's name of the part) and budget.
 struct StageMarkerInfo {

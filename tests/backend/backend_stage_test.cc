@@ -8,6 +8,8 @@
 #include <memory>
 #include <set>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "budgets/budget_table.h"
 #include "tests/rooms/synthetic_places.h"
@@ -170,6 +172,44 @@ TEST(BackendStageTest, LoopClosureStoresAreCarvedAndReported) {
   EXPECT_FALSE(stage.detect_loop_closures(*g, agents, 100'000'000'000ull));
   EXPECT_FALSE(stage.solve_due(100'000'000'000ull));
   EXPECT_EQ(stage.counters().agents_described.load(), 0u);
+}
+
+// The detect hook (the app's stage markers) brackets each agent the stage looks at: those whose keyframe appearance
+// it holds, once each, in chain order, and nothing without a hook.
+TEST(BackendStageTest, DetectHookBracketsEachAgentWithAnAppearance) {
+  BackendStage stage;
+  BackendStage::Config c;
+  c.loop_closure.enabled = true;
+  std::string error, warning;
+  ASSERT_TRUE(stage.init(c, graph_capacities(), 64, 0, &error, &warning)) << error;
+  auto g = make_graph();
+  agents::AgentLayer agents;
+  ASSERT_TRUE(agents.init(agents::Config{}, agents::Capacities{64}, &error)) << error;
+  for (int k = 0; k < 6; ++k) {
+    const Eigen::Isometry3d pose(Eigen::Translation3d(1.0 * k, 0.0, 0.0));
+    ASSERT_EQ(agents.add_keyframe(g.get(), 1'000'000'000ull * (k + 1), pose), agents::AddResult::kAdded);
+  }
+  const int w = 32, h = 24;
+  std::vector<std::uint8_t> grey(w * h, 128);
+  std::vector<float> depth(w * h, 2.0f);
+  loop_closure::GreyDepthView view{grey.data(), depth.data(), w, h, 30.0, 30.0, 15.5, 11.5};
+  for (std::size_t k : {1u, 3u, 4u}) stage.add_appearance(agents.chain(k).id, agents.chain(k).time_ns, view);
+  struct Calls {
+    std::vector<std::pair<bool, std::uint64_t>> seen;
+  } calls;
+  stage.set_detect_hook(
+      [](void* user, bool begin, std::uint64_t t) { static_cast<Calls*>(user)->seen.emplace_back(begin, t); },
+      &calls);
+  EXPECT_FALSE(stage.detect_loop_closures(*g, agents, 1000'000'000'000ull));  // no places: nothing to describe
+  ASSERT_EQ(calls.seen.size(), 6u);
+  for (std::size_t i = 0; i < 3; ++i) {
+    const std::uint64_t t = agents.chain(std::vector<std::size_t>{1, 3, 4}[i]).time_ns;
+    EXPECT_EQ(calls.seen[2 * i], std::make_pair(true, t));
+    EXPECT_EQ(calls.seen[2 * i + 1], std::make_pair(false, t));
+  }
+  // Described already: a later call looks at nobody.
+  EXPECT_FALSE(stage.detect_loop_closures(*g, agents, 1001'000'000'000ull));
+  EXPECT_EQ(calls.seen.size(), 6u);
 }
 
 TEST(BackendStageTest, StoresOverTheirArenaAreAClearError) {

@@ -46,10 +46,20 @@ TEST(StageMarkerTest, EveryTaskAndThreadOfEachBoardHasAnIdWithItsBudget) {
     ASSERT_TRUE(stage_marker_info(*board, kFinalStage, &part));
     EXPECT_STREQ(part.name, "backend_final_stage");
     EXPECT_EQ(part.budget_us, backend->finish_budget_us);
+    // Appearance and detection run inside a backend update: the thread's budget; a solve has its own.
+    for (const auto& [id, name] : {std::pair{kLoopClosureAppearanceStage, "loop_closure_appearance"},
+                                   std::pair{kLoopClosureDetectStage, "loop_closure_detect"}}) {
+      ASSERT_TRUE(stage_marker_info(*board, id, &part)) << name;
+      EXPECT_STREQ(part.name, name);
+      EXPECT_EQ(part.budget_us, backend->budget_us);
+    }
+    ASSERT_TRUE(stage_marker_info(*board, kLoopClosureSolveStage, &part));
+    EXPECT_STREQ(part.name, "loop_closure_solve");
+    EXPECT_EQ(part.budget_us, backend->solve_budget_us);
     // Ids between the groups name nothing.
     EXPECT_FALSE(stage_marker_info(*board, static_cast<std::uint32_t>(board->num_tasks), &part));
     EXPECT_FALSE(stage_marker_info(*board, kThreadStageBase + static_cast<std::uint32_t>(board->num_threads), &part));
-    EXPECT_FALSE(stage_marker_info(*board, kFinalStage + 1, &part));
+    EXPECT_FALSE(stage_marker_info(*board, kLastStage + 1, &part));
     std::uint32_t id = 0;
     EXPECT_FALSE(stage_marker_id(*board, "no_such_stage", &id));
   }
@@ -76,7 +86,7 @@ TEST(StageMarkerTest, PrintsOneLinePerId) {
   const std::string text = buffer;
   std::size_t lines = 0;
   for (char c : text) lines += c == '\n' ? 1 : 0;
-  EXPECT_EQ(lines, table.num_tasks + table.num_threads + 2) << text;  // + the backend's two parts
+  EXPECT_EQ(lines, table.num_tasks + table.num_threads + 5) << text;  // + the backend's five parts
   for (std::size_t i = 0; i < table.num_tasks; ++i) {
     const std::string line = "stage_marker " + std::to_string(i) + " " + table.tasks[i].name + " " +
                              std::to_string(table.tasks[i].budget_us) + "\n";
