@@ -334,18 +334,10 @@ template <typename Fn>
 void SceneGraph::for_each_child_record(NodeId id, Fn&& fn) const {
   const std::uint32_t* h = node_index_.find(id);
   if (h == nullptr || nodes_[*h].num_children == 0) return;
-  const NodeRecord& n = nodes_[*h];
-  std::uint32_t remaining = n.degree;
-  std::uint32_t in_chunk = remaining == 0 ? 0 : (remaining - 1) % kAdjacencyChunkEdges + 1;
-  for (std::uint32_t c = n.adjacency_head; c != memory::kInvalidHandle && remaining > 0; c = adjacency_[c].next) {
-    for (std::uint32_t i = 0; i < in_chunk; ++i) {
-      const EdgeRecord& e = edges_[adjacency_[c].edges[i]];
-      const std::uint32_t other = e.source == id ? e.target_node : e.source_node;
-      if (nodes_[other].parent == id) fn(other, nodes_[other]);
-    }
-    remaining -= in_chunk;
-    in_chunk = kAdjacencyChunkEdges;
-  }
+  for_each_neighbor(id, [&](NodeId, const EdgeRecord& e) {
+    const std::uint32_t other = e.source == id ? e.target_node : e.source_node;
+    if (nodes_[other].parent == id) fn(other, nodes_[other]);
+  });
 }
 
 template <typename Fn>
