@@ -162,6 +162,8 @@ class Pipeline {
   struct SolveRecord {
     double time_s = 0.0, path_m = 0.0;  // mission time; path of the agents described so far
     std::uint32_t agents = 0, control_points = 0, places = 0, closures = 0, closures_kept = 0;
+    std::uint32_t map_settled = 0, closures_carried = 0;  // the bounded solve's held nodes and carried decisions
+    bool decided_again = false;
     std::int64_t cpu_us = 0, wall_us = 0;
     bool ok = false;
   };
@@ -360,6 +362,7 @@ class Pipeline {
   runtime::TaskStats solve_cpu_;
   std::vector<SolveRecord> solve_records_;  // kSolveRecords slots from init, a ring
   std::uint64_t solves_recorded_ = 0;
+  std::uint64_t deformations_dumped_ = 0;  // QSG_DUMP_DEFORMATION with "%d": the next file's number
   std::int64_t solve_cpu_in_update_us_ = 0, solve_wall_in_update_us_ = 0;  // backend thread: left out of its update
   std::uint32_t solve_budget_us_ = 0;
   std::uint32_t backend_budget_us_ = 0;

@@ -129,15 +129,22 @@ void Pipeline::run_loop_closure(std::uint64_t time_ns, pipeline::Host::Held* gra
   r.cpu_us = (cpu_clock.now_ns() - cpu0_ns) / 1000;
   r.wall_us = (wall_clock.now_ns() - wall0_ns) / 1000;
   r.closures_kept = static_cast<std::uint32_t>(backend_.counters().loop_closures_kept.load());
-  if (r.ok) r.agents = static_cast<std::uint32_t>(backend_.deformation_result().agents_solved);
+  if (r.ok) {
+    const backend::DeformationResult& d = backend_.deformation_result();
+    r.agents = static_cast<std::uint32_t>(d.agents_solved);
+    r.map_settled = static_cast<std::uint32_t>(d.map_settled);
+    r.closures_carried = static_cast<std::uint32_t>(d.closures_carried);
+    r.decided_again = d.decided_again;
+  }
   solve_cpu_in_update_us_ += r.cpu_us;
   solve_wall_in_update_us_ += r.wall_us;
   if (static_cast<std::uint64_t>(r.wall_us) > graph_optimization_max_us_.load())
     graph_optimization_max_us_.store(static_cast<std::uint64_t>(r.wall_us));
   std::printf("loop closure: solve at %.0f s, %.1f m of path: %u agents, %u control points, %u places, %u closures "
-              "(%u kept): %.1f ms CPU (budget %.0f ms)\n",
+              "(%u kept): %.1f ms CPU (budget %.0f ms); %u control points held, %u decisions carried%s\n",
               r.time_s, r.path_m, r.agents, r.control_points, r.places, r.closures, r.closures_kept,
-              static_cast<double>(r.cpu_us) / 1000.0, solve_budget_us_ / 1000.0);
+              static_cast<double>(r.cpu_us) / 1000.0, solve_budget_us_ / 1000.0, r.map_settled, r.closures_carried,
+              r.decided_again ? " (all decided again)" : "");
   std::lock_guard<std::mutex> lock(backend_stats_mutex_);
   solve_cpu_.record(r.cpu_us, solve_budget_us_);
   solve_records_[static_cast<std::size_t>(solves_recorded_ % solve_records_.size())] = r;
@@ -165,8 +172,12 @@ backend::DeformationProblem Pipeline::build_deformation() {
       truth.push_back(world_T_camera.translation());
       truth_q.push_back(Eigen::Quaterniond(world_T_camera.linear()));
     }
+    // A path with "%d" keeps every solve's problem (numbered from 0); without, the last one.
+    std::string file = path;
+    if (const std::size_t at = file.find("%d"); at != std::string::npos)
+      file.replace(at, 2, std::to_string(deformations_dumped_++));
     std::string error;
-    if (!backend::write_deformation_problem(path, problem, truth, &error, truth_q))
+    if (!backend::write_deformation_problem(file, problem, truth, &error, truth_q))
       std::fprintf(stderr, "loop closure: QSG_DUMP_DEFORMATION: %s\n", error.c_str());
   }
   return problem;

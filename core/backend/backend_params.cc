@@ -36,6 +36,13 @@ const params::Table<DeformationConfig>& deformation_params_table() {
           params::Origin::kProject, "agent_spacing_m > 0: an agent node also after this much rotation");
     t.flag("hold_agents", &DeformationConfig::hold_agents, params::Origin::kRefinement,
           "the map is solved around the agent layer's solution, held (trajectory first, then the map)");
+    t.add("settle_tolerance_m", &DeformationConfig::settle_tolerance_m, "m", params::in(0, 1),
+          params::Origin::kRefinement,
+          "control points the new solution moves less than this stay at the last solve's pose, held; 0: all solved");
+    t.add("settle_hops", &DeformationConfig::settle_hops, "edges", params::in(0, 16), params::Origin::kRefinement,
+          "settle_tolerance_m: map nodes this many edges from a moving one are solved too");
+    t.flag("incremental_decisions", &DeformationConfig::incremental_decisions, params::Origin::kRefinement,
+           "a solve keeps the last one's closure decisions and starts from its solution; GNC decides the new ones");
     t.include(agent_graph_params_table(), [](DeformationConfig& d) -> AgentGraphConfig& { return d.agents; });
     return t;
   }();

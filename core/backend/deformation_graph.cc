@@ -23,6 +23,9 @@ std::string DeformationConfig::check() const {
     return "whole_function_tolerance must be in (0, 1)";
   if (!(agent_spacing_m >= 0.0 && agent_spacing_m <= 100.0)) return "agent_spacing_m must be in [0, 100] m";
   if (!(agent_turn_rad > 0.0 && agent_turn_rad <= 3.2)) return "agent_turn_rad must be in (0, 3.2] rad";
+  if (incremental_decisions && !decide_on_agents) return "incremental_decisions needs decide_on_agents";
+  if (settle_tolerance_m > 0.0 && !(decide_on_agents && hold_agents))
+    return "settle_tolerance_m > 0 needs decide_on_agents and hold_agents (the map is settled around held agents)";
   return agents.check();
 }
 
@@ -35,6 +38,12 @@ void DeformationConfig::print(std::FILE* out) const {
   if (agent_spacing_m > 0.0)
     std::fprintf(out, "deformation graph: an agent node every %.2f m of path (and at every loop closure)\n",
                  agent_spacing_m);
+  if (settle_tolerance_m > 0.0)
+    std::fprintf(out,
+                 "deformation graph: control points moved less than %.3f m since the last solve stay held (%u hops)\n",
+                 settle_tolerance_m, settle_hops);
+  if (incremental_decisions)
+    std::fprintf(out, "deformation graph: a solve keeps the last one's decisions and decides its new closures\n");
   std::fprintf(out, "deformation graph: loop closures decided %s\n",
                !decide_on_agents ? "by GNC over the whole graph"
                : hold_agents     ? "by GNC on the agent layer, then the map by least squares around the agents, held"
@@ -45,9 +54,10 @@ void DeformationConfig::print(std::FILE* out) const {
 void DeformationResult::print(std::FILE* out) const {
   std::fprintf(out,
                "deformation graph: %zu agents (%zu solved), %zu control points, %zu places; edges aa %zu mm %zu pp %zu "
-               "am %zu ap %zu mp %zu; %zu of %zu loop closures kept; ",
+               "am %zu ap %zu mp %zu; %zu of %zu loop closures kept (%zu carried decided%s); %zu map nodes settled; ",
                agents, agents_solved, control_points, places, edges_aa, edges_mm, edges_pp, edges_am, edges_ap, edges_mp,
-               loop_closures_kept, loop_closures);
+               loop_closures_kept, loop_closures, closures_carried, decided_again ? ", all decided again" : "",
+               map_settled);
   solve.print(out);
   if (decide.iterations > 0) {
     std::fprintf(out, "deformation graph: decided on the agent layer: ");
@@ -306,6 +316,8 @@ DeformationProblem DeformationGraph::build(const agents::AgentLayer& agents,
 
 namespace {
 
+void carry_map(const DeformationProblem& problem, const std::vector<Pose3>& agents, std::vector<Pose3>* poses);
+
 // decide_on_agents, first step: GNC over the agents and the edges between them; the closures' weights in input
 // order into *weights, the agents' solution into the first A poses, every other node carried along rigidly with the
 // agent it hangs from (an E_am or E_ap edge, else its place's control point), as the start of the whole solve.
@@ -326,6 +338,14 @@ PoseGraphResult decide_on_agents(const PoseGraphConfig& solver, const Deformatio
   if (!r.poses_updated()) return r;
   weights->clear();
   for (std::size_t i : closure_edge) weights->push_back(r.edge_weight.empty() ? 1.0 : r.edge_weight[i]);
+  carry_map(problem, agents, poses);
+  return r;
+}
+
+// Every map node carried rigidly with the agent it hangs from (an E_am or E_ap edge, else its place's control
+// point), from the agents' poses in *poses (the odometric ones) to `agents`, which then replace them.
+void carry_map(const DeformationProblem& problem, const std::vector<Pose3>& agents, std::vector<Pose3>* poses) {
+  const std::size_t A = agents.size();
   std::vector<std::int64_t> anchor(poses->size(), -1);
   for (const RelativePoseEdge& e : problem.edges)
     if (e.from < A && e.to >= A && anchor[e.to] < 0) anchor[e.to] = e.from;
@@ -340,7 +360,6 @@ PoseGraphResult decide_on_agents(const PoseGraphConfig& solver, const Deformatio
     (*poses)[i].q = (dq * (*poses)[i].q).normalized();
   }
   std::copy(agents.begin(), agents.end(), poses->begin());
-  return r;
 }
 
 // An edge's covariance of [translation; rotation], both in its `to` frame (the convention of an edge with an
@@ -475,6 +494,9 @@ std::vector<Pose3> expand_agents(const std::vector<Pose3>& odometric, const std:
 DeformationResult DeformationGraph::solve(DeformationProblem problem) {
   if (problem.poses.empty()) return problem.result;
   problem.result.agents_solved = problem.result.agents;
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> ends;  // each closure's chain nodes (before any thinning)
+  for (std::size_t c = 0; c < problem.result.loop_closures; ++c)
+    ends.emplace_back(problem.edges[problem.first_closure + c].from, problem.edges[problem.first_closure + c].to);
   std::vector<std::uint32_t> kept;
   std::vector<Pose3> odometric;  // the chain's poses, when the solved graph thins them
   if (config_.agent_spacing_m > 0.0 && problem.result.agents > 2) {
@@ -485,31 +507,47 @@ DeformationResult DeformationGraph::solve(DeformationProblem problem) {
   const std::size_t A = r.agents_solved, nodes = problem.originals.size();
   std::vector<Pose3> solved = problem.poses;
   if (config_.decide_on_agents && r.loop_closures > 0) {
-    r.decide = decide_on_agents(config_.agents.solver, problem, &solved, &r.loop_closure_weight);
+    if (!(config_.incremental_decisions && decide_incrementally(problem, kept, ends, &solved, &r)))
+      r.decide = decide_on_agents(config_.agents.solver, problem, &solved, &r.loop_closure_weight);
     if (!r.decide.poses_updated()) {
       r.solve = r.decide;
       r.loop_closure_weight.clear();
       return r;
     }
-    // The whole graph by least squares over the closures kept.
+    // The whole graph by least squares over the closures kept. Held first (hold_agents): the agents, then the map
+    // nodes that settled at the last solve (settle_tolerance_m); the solve moves the rest.
+    const bool hold = config_.hold_agents;
+    std::vector<char> held;
+    if (hold) r.map_settled = settle(problem, kept, &solved, &held);
+    const std::size_t num_held = hold ? A + r.map_settled : 0;
+    std::vector<std::uint32_t> where(solved.size());  // a node's index in the solve
+    std::iota(where.begin(), where.end(), 0u);
+    if (r.map_settled > 0) {
+      auto next_held = static_cast<std::uint32_t>(A), next_free = static_cast<std::uint32_t>(num_held);
+      for (std::size_t i = A; i < solved.size(); ++i) where[i] = held[i] ? next_held++ : next_free++;
+    }
+    std::vector<Pose3> ordered(solved.size());
+    for (std::size_t i = 0; i < solved.size(); ++i) ordered[where[i]] = solved[i];
     std::vector<RelativePoseEdge> edges;
     edges.reserve(problem.edges.size());
-    const bool hold = config_.hold_agents;
     for (std::size_t k = 0; k < problem.edges.size(); ++k) {
-      const RelativePoseEdge& e = problem.edges[k];
-      if (hold && e.from < A && e.to < A) continue;  // between held agents: nothing to solve
+      RelativePoseEdge e = problem.edges[k];
+      e.from = where[e.from];
+      e.to = where[e.to];
+      if (e.from < num_held && e.to < num_held) continue;  // between held nodes: nothing to solve
       const bool closure = k >= problem.first_closure && k < problem.first_closure + r.loop_closures;
       if (!closure || r.loop_closure_weight[k - problem.first_closure] > 0.5) edges.push_back(e);
     }
     PoseGraphConfig whole = config_.agents.solver;
-    if (hold) whole.hold_first_poses = A;
+    whole.hold_first_poses = num_held;
     whole.loop_closure_loss = RobustLoss::kNone;
     whole.function_tolerance = config_.whole_function_tolerance;
-    r.solve = optimize_pose_graph(whole, solved, edges);
+    r.solve = optimize_pose_graph(whole, ordered, edges);
     if (!r.solve.poses_updated()) {
       r.loop_closure_weight.clear();
       return r;
     }
+    for (std::size_t i = 0; i < solved.size(); ++i) solved[i] = ordered[where[i]];
   } else {
     r.solve = optimize_pose_graph(config_.agents.solver, solved, problem.edges);
     if (!r.solve.poses_updated()) return r;
@@ -520,8 +558,12 @@ DeformationResult DeformationGraph::solve(DeformationProblem problem) {
   for (double w : r.loop_closure_weight) r.loop_closures_kept += w > 0.5 ? 1 : 0;
   agent_poses_.assign(solved.begin(), solved.begin() + static_cast<std::ptrdiff_t>(A));
   if (!kept.empty()) agent_poses_ = expand_agents(odometric, kept, agent_poses_);
+  closure_ends_ = std::move(ends);
+  closure_weights_ = r.loop_closure_weight;
+  tail_correction_ = agent_poses_.back() * (kept.empty() ? problem.poses[A - 1] : odometric.back()).inverse();
   nodes_.clear();
   nodes_.reserve(nodes);
+  control_points_ = r.control_points;
   for (std::size_t i = 0; i < nodes; ++i) nodes_.push_back(Node{problem.originals[i], problem.times_ns[i], solved[A + i]});
   place_node_.clear();
   for (std::size_t p = 0; p < problem.place_ids.size(); ++p)
@@ -529,6 +571,116 @@ DeformationResult DeformationGraph::solve(DeformationProblem problem) {
   index_nodes();
   solved_ = true;
   return r;
+}
+
+bool DeformationGraph::decide_incrementally(const DeformationProblem& problem, const std::vector<std::uint32_t>& kept,
+                                            const std::vector<std::pair<std::uint32_t, std::uint32_t>>& ends,
+                                            std::vector<Pose3>* solved, DeformationResult* r) const {
+  const std::size_t A = problem.result.agents_solved, L = r->loop_closures;
+  if (!solved_ || closure_ends_.empty() || agent_poses_.empty()) return false;
+  // The agent layer's edges; a closure the last solve decided (same index, same chain nodes) keeps its decision.
+  std::vector<RelativePoseEdge> edges;
+  std::vector<std::int64_t> closure_edge(L, -1);  // its index in `edges`, when in
+  std::vector<char> carried(L, 0);
+  std::size_t num_carried = 0;
+  for (std::size_t k = 0; k < problem.edges.size(); ++k) {
+    RelativePoseEdge e = problem.edges[k];
+    if (e.from >= A || e.to >= A) continue;
+    if (k >= problem.first_closure && k < problem.first_closure + L) {
+      const std::size_t c = k - problem.first_closure;
+      if (c < closure_ends_.size() && closure_ends_[c] == ends[c]) {
+        carried[c] = 1;
+        ++num_carried;
+        if (closure_weights_[c] <= 0.5) continue;  // an outlier stays out
+        e.is_loop_closure = false;                 // an inlier stays in, as a plain edge
+      }
+      closure_edge[c] = static_cast<std::int64_t>(edges.size());
+    }
+    edges.push_back(e);
+  }
+  if (num_carried == 0) return false;
+  // From the last solution; chain nodes after it follow its last node's correction.
+  std::vector<Pose3> agents(A);
+  for (std::size_t j = 0; j < A; ++j) {
+    const std::size_t chain = kept.empty() ? j : kept[j];
+    agents[j] = chain < agent_poses_.size() ? agent_poses_[chain] : tail_correction_ * problem.poses[j];
+  }
+  PoseGraphResult pr = optimize_pose_graph(config_.agents.solver, agents, edges);
+  if (!pr.poses_updated()) return false;
+  const double threshold = config_.agents.solver.loop_closure_loss_scale_sigma;
+  for (std::size_t c = 0; c < L; ++c)
+    if (carried[c] && closure_edge[c] >= 0 &&
+        pr.edge_residual_sigma[static_cast<std::size_t>(closure_edge[c])] > threshold) {
+      r->decided_again = true;  // the new closures contradict an old decision: decide them all again
+      return false;
+    }
+  r->loop_closure_weight.assign(L, 0.0);
+  for (std::size_t c = 0; c < L; ++c) {
+    if (carried[c]) r->loop_closure_weight[c] = closure_weights_[c] > 0.5 ? 1.0 : 0.0;
+    else if (closure_edge[c] >= 0)
+      r->loop_closure_weight[c] =
+          pr.edge_weight.empty() ? 1.0 : pr.edge_weight[static_cast<std::size_t>(closure_edge[c])];
+  }
+  r->closures_carried = num_carried;
+  r->decide = std::move(pr);
+  carry_map(problem, agents, solved);
+  return true;
+}
+
+// A map node settles when the last solve had it (same odometric position, same time seen) and each agent it hangs
+// from (its E_am and E_ap edges) carries it, rigidly, to within settle_tolerance_m of where that agent's last
+// solution carried it; a node without an agent edge follows its neighbours. Then the unsettled spread settle_hops
+// map edges (E_mm, E_pp, E_mp), so the boundary between moved and held map can bend. Only control points are held.
+std::size_t DeformationGraph::settle(const DeformationProblem& problem, const std::vector<std::uint32_t>& kept,
+                                     std::vector<Pose3>* solved, std::vector<char>* held) const {
+  const std::size_t A = problem.result.agents_solved, N = problem.poses.size(), C = problem.result.control_points;
+  held->assign(N, 0);
+  if (!solved_ || config_.settle_tolerance_m <= 0.0 || problem.originals.size() + A != N) return 0;
+  std::vector<std::int64_t> last(N, -1);  // the node's index in nodes_
+  std::vector<char> moves(N, 0);
+  for (std::size_t m = 0; m + A < N; ++m) {
+    std::int64_t j = -1;
+    if (m < C) {
+      if (m < control_points_) j = static_cast<std::int64_t>(m);
+    } else if (m - C < problem.place_ids.size()) {
+      const auto it = place_node_.find(problem.place_ids[m - C]);
+      if (it != place_node_.end()) j = it->second;
+    }
+    const bool same = j >= 0 && nodes_[static_cast<std::size_t>(j)].original == problem.originals[m] &&
+                      nodes_[static_cast<std::size_t>(j)].time_ns == problem.times_ns[m];
+    last[A + m] = same ? j : -1;
+    moves[A + m] = same ? 0 : 1;
+  }
+  for (const RelativePoseEdge& e : problem.edges) {
+    if (e.from >= A || e.to < A || moves[e.to]) continue;
+    const std::size_t chain = kept.empty() ? e.from : kept[e.from];
+    if (chain >= agent_poses_.size()) {  // an agent the last solve did not have
+      moves[e.to] = 1;
+      continue;
+    }
+    const Pose3& odometric = problem.poses[e.from];
+    const Eigen::Vector3d local = odometric.q.conjugate() * (problem.originals[e.to - A] - odometric.t_m);
+    const Pose3& now = (*solved)[e.from];
+    const Pose3& before = agent_poses_[chain];
+    const double moved = ((now.q * local + now.t_m) - (before.q * local + before.t_m)).norm();
+    if (!(moved <= config_.settle_tolerance_m)) moves[e.to] = 1;
+  }
+  for (std::uint32_t hop = 0; hop < config_.settle_hops; ++hop) {
+    std::vector<char> grown = moves;
+    for (const RelativePoseEdge& e : problem.edges)
+      if (e.from >= A && e.to >= A && (moves[e.from] || moves[e.to])) grown[e.from] = grown[e.to] = 1;
+    moves.swap(grown);
+  }
+  // Places are always solved: few (they do not grow with the path), and a place held where its tree of places
+  // moved bends the most (bench/results/loop_closure.md).
+  std::size_t settled = 0;
+  for (std::size_t i = A; i < A + C && i < N; ++i) {
+    if (moves[i]) continue;
+    (*held)[i] = 1;
+    (*solved)[i] = nodes_[static_cast<std::size_t>(last[i])].optimized;
+    ++settled;
+  }
+  return settled;
 }
 
 void DeformationGraph::index_nodes() {

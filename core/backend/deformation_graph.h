@@ -63,6 +63,17 @@ struct DeformationConfig {
   // ... or this much rotation since the last agent node (a quadruped turning on the spot moves no path, but the
   // map seen while it turns hangs from those nodes).
   double agent_turn_rad = 0.2;
+  // Bounded solve (a refinement; needs hold_agents): a control point already in the last solve, whose agents'
+  // corrections moved it less than this since then, keeps that solve's pose, held; the others, those within
+  // settle_hops map edges of a moved node, and every place are solved. The solve's cost then follows what the new
+  // closures moved, not the whole map. 0: every map node is solved every time.
+  double settle_tolerance_m = 0.0;
+  std::uint32_t settle_hops = 2;
+  // Incremental decisions (a refinement; needs decide_on_agents): a solve after the first keeps the last solve's
+  // decision on each of its closures (inliers become plain edges, outliers are left out) and starts the agent layer
+  // from the last solution; GNC decides the new closures only. If an inlier kept so no longer fits (its residual
+  // beyond the TLS threshold), the solve decides every closure again, from odometry, as without this.
+  bool incremental_decisions = false;
   AgentGraphConfig agents;               // odometry sigma floors and the solver (loop closures under GNC-TLS)
 
   DeformationConfig() {
@@ -104,6 +115,10 @@ class ControlPoints {
 struct DeformationResult {
   std::size_t agents = 0, control_points = 0, places = 0;
   std::size_t agents_solved = 0;  // agent nodes in the solved graph (agent_spacing_m thins the chain's `agents`)
+  std::size_t map_settled = 0;    // settle_tolerance_m: control points held at the last solve's pose (places never)
+  // incremental_decisions: closures carried over decided, and whether GNC had to decide every closure again.
+  std::size_t closures_carried = 0;
+  bool decided_again = false;
   std::size_t edges_aa = 0, edges_mm = 0, edges_pp = 0, edges_am = 0, edges_ap = 0, edges_mp = 0;
   std::size_t loop_closures = 0;
   std::size_t loop_closures_kept = 0;  // GNC weight above 0.5 after the solve
@@ -150,6 +165,9 @@ class DeformationGraph {
   // A place's optimized position, or false when the place was not in the solved graph.
   bool place_position(scene_graph::NodeId id, Eigen::Vector3d* out) const;
   const DeformationConfig& config() const { return config_; }
+  // The solved map nodes: the control points [0, C) then the places, in the solved problem's order.
+  std::size_t num_map_nodes() const { return nodes_.size(); }
+  const Pose3& map_node_pose(std::size_t i) const { return nodes_[i].optimized; }
 
  private:
   struct Node {
@@ -159,11 +177,25 @@ class DeformationGraph {
   };
   std::uint64_t cell_key(const Eigen::Vector3d& p) const;
   void index_nodes();
+  // settle_tolerance_m: marks in *held the map nodes that keep the last solve's pose (and sets it in *solved);
+  // `kept` maps solved agents to chain nodes (empty: one to one). Returns how many.
+  std::size_t settle(const DeformationProblem& problem, const std::vector<std::uint32_t>& kept,
+                     std::vector<Pose3>* solved, std::vector<char>* held) const;
+  // incremental_decisions: the agent layer with the last solve's decisions, GNC over the new closures; false (and
+  // *r untouched) when there is nothing to carry over or a carried inlier no longer fits.
+  bool decide_incrementally(const DeformationProblem& problem, const std::vector<std::uint32_t>& kept,
+                            const std::vector<std::pair<std::uint32_t, std::uint32_t>>& ends,
+                            std::vector<Pose3>* solved, DeformationResult* r) const;
 
   DeformationConfig config_;
   bool solved_ = false;
   std::vector<Pose3> agent_poses_;
   std::vector<Node> nodes_;  // control points then places: what interpolation reads
+  std::size_t control_points_ = 0;  // of nodes_, the control points
+  // The last solve's closures (their chain nodes) and weights, and the correction of its last chain node.
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> closure_ends_;
+  std::vector<double> closure_weights_;
+  Pose3 tail_correction_;
   std::unordered_map<scene_graph::NodeId, std::uint32_t> place_node_;
   std::vector<std::pair<std::uint64_t, std::uint32_t>> cells_;  // sorted (cell, node)
 };

@@ -26,9 +26,15 @@ bool write_deformation_problem(const std::string& path, const DeformationProblem
   for (const Pose3& p : problem.poses)
     std::fprintf(f, "p %.17g %.17g %.17g %.17g %.17g %.17g %.17g\n", p.t_m.x(), p.t_m.y(), p.t_m.z(), p.q.x(), p.q.y(),
                  p.q.z(), p.q.w());
-  for (std::size_t i = 0; i < problem.originals.size(); ++i)
-    std::fprintf(f, "o %.17g %.17g %.17g %llu\n", problem.originals[i].x(), problem.originals[i].y(),
+  // A place's line ends with its node id (a control point's has none): a sequence of solves matches places by it.
+  const bool ids = problem.place_ids.size() == r.places;
+  for (std::size_t i = 0; i < problem.originals.size(); ++i) {
+    std::fprintf(f, "o %.17g %.17g %.17g %llu", problem.originals[i].x(), problem.originals[i].y(),
                  problem.originals[i].z(), static_cast<unsigned long long>(problem.times_ns[i]));
+    if (ids && i >= r.control_points)
+      std::fprintf(f, " %llu", static_cast<unsigned long long>(problem.place_ids[i - r.control_points]));
+    std::fputc('\n', f);
+  }
   for (const RelativePoseEdge& e : problem.edges) {
     const Pose3& m = e.measured_from_T_to;
     std::fprintf(f, "e %u %u %d %d %.17g %.17g %.17g %.17g %.17g %.17g %.17g", e.from, e.to, e.is_loop_closure ? 1 : 0,
@@ -104,6 +110,13 @@ bool read_deformation_problem(const std::string& path, DeformationProblemFile* o
     if (!next(&s) || !(s >> tag >> p.originals[i].x() >> p.originals[i].y() >> p.originals[i].z() >> t) || tag != "o")
       return fail("expected an original-position line");
     p.times_ns[i] = t;
+    unsigned long long id = 0;
+    if (i >= C && s >> id) {
+      if (p.place_ids.size() != i - C) return fail("every place line or none carries a node id");
+      p.place_ids.push_back(id);
+    } else if (i >= C && !p.place_ids.empty()) {
+      return fail("every place line or none carries a node id");
+    }
   }
   p.edges.resize(num_edges);
   for (std::size_t k = 0; k < num_edges; ++k) {

@@ -293,6 +293,104 @@ TEST_F(DeformationGraphTest, HeldAgentsKeepTheAgentLayersSolutionAndTheMapFollow
   EXPECT_LT(wall_rmse(d), 0.3 * walls_before) << "the control points follow the held agents";
 }
 
+// DeformationConfig::settle_tolerance_m: a second solve holds the control points its new closure did not move and
+// solves the rest, to within a few centimetres of solving every node again; a tolerance too loose to tell shows why
+// it must be small (the moved half then keeps its old pose).
+TEST_F(DeformationGraphTest, ASecondSolveHoldsTheMapItsNewClosureDidNotMove) {
+  const auto last = static_cast<std::uint32_t>(walk_.truth.size() - 1);
+  const auto half = static_cast<std::uint32_t>(walk_.truth.size() / 2);
+  DeformationConfig c = strategy(true);
+  c.hold_agents = true;
+  DeformationConfig tight = c, loose = c;
+  tight.settle_tolerance_m = 0.01;
+  loose.settle_tolerance_m = 1.0;
+  loose.settle_hops = 0;
+  ASSERT_EQ(tight.check(), "");
+  DeformationGraph full(c), settled(tight), careless(loose);
+  // First solve: the first half corrected by a closure to its far corner; the second half drifts on.
+  const std::vector<ChainLoopClosure> first = {true_closure(0, half)};
+  for (DeformationGraph* d : {&full, &settled, &careless}) {
+    const DeformationResult r = d->optimize(layer_, first, control_, *graph_);
+    ASSERT_TRUE(r.solve.poses_updated()) << r.solve.message;
+    EXPECT_EQ(r.map_settled, 0u) << "nothing to settle at: no solve before";
+  }
+  // Second: the loop's closure corrects the second half; the first half hardly moves.
+  const std::vector<ChainLoopClosure> both = {true_closure(0, half), true_closure(0, last)};
+  const DeformationResult a = full.optimize(layer_, both, control_, *graph_);
+  const DeformationResult b = settled.optimize(layer_, both, control_, *graph_);
+  const DeformationResult l = careless.optimize(layer_, both, control_, *graph_);
+  ASSERT_TRUE(a.solve.poses_updated() && b.solve.poses_updated() && l.solve.poses_updated());
+  const std::size_t nodes = a.control_points + a.places;
+  EXPECT_EQ(a.map_settled, 0u);
+  EXPECT_GE(b.map_settled, 3u) << "the first half settles";
+  EXPECT_LT(b.map_settled, a.control_points / 2) << "the second half moves";
+  EXPECT_EQ(l.map_settled, a.control_points) << "a metre of tolerance holds every control point (places never)";
+  ASSERT_EQ(settled.num_map_nodes(), nodes);
+  double worst = 0.0;
+  for (std::size_t i = 0; i < nodes; ++i)
+    worst = std::max(worst, (settled.map_node_pose(i).t_m - full.map_node_pose(i).t_m).norm());
+  EXPECT_LT(worst, 0.05) << "held nodes are where solving them again puts them";
+  EXPECT_LT(wall_rmse(settled), wall_rmse(full) + 0.01);
+  EXPECT_GT(wall_rmse(careless), wall_rmse(full) + 0.05) << "the moved half left at its first-solve pose";
+  for (std::size_t k = 0; k < walk_.truth.size(); ++k)
+    EXPECT_EQ(settled.agent_pose(k).t_m, full.agent_pose(k).t_m) << "the agents are the agent layer's either way";
+}
+
+// DeformationConfig::incremental_decisions: a second solve keeps the first one's decisions and decides only its new
+// closures (a wrong one among them switches off as before), to the full solve's agents; and when the new closures
+// contradict a closure kept earlier, it decides them all again, which a carried decision alone could not.
+TEST_F(DeformationGraphTest, IncrementalDecisionsKeepTheLastOnesAndDecideAgainWhenContradicted) {
+  const auto last = static_cast<std::uint32_t>(walk_.truth.size() - 1);
+  const auto half = static_cast<std::uint32_t>(walk_.truth.size() / 2);
+  DeformationConfig c = strategy(true);
+  DeformationConfig inc = c;
+  inc.incremental_decisions = true;
+  ASSERT_EQ(inc.check(), "");
+  ChainLoopClosure wrong = true_closure(10, 30);
+  wrong.a_T_b = Pose3{Eigen::Vector3d(0.5, 0.2, 0.0), Eigen::Quaterniond::Identity()};  // "the same place": it is not
+  {
+    SCOPED_TRACE("new closures consistent with the old");
+    DeformationGraph full(c), incremental(inc);
+    const std::vector<ChainLoopClosure> first = {true_closure(0, half)};
+    ASSERT_TRUE(full.optimize(layer_, first, control_, *graph_).solve.poses_updated());
+    const DeformationResult r1 = incremental.optimize(layer_, first, control_, *graph_);
+    ASSERT_TRUE(r1.solve.poses_updated());
+    EXPECT_EQ(r1.closures_carried, 0u) << "nothing decided before";
+    const std::vector<ChainLoopClosure> both = {true_closure(0, half), true_closure(0, last), wrong,
+                                               true_closure(1, last)};
+    const DeformationResult a = full.optimize(layer_, both, control_, *graph_);
+    const DeformationResult b = incremental.optimize(layer_, both, control_, *graph_);
+    ASSERT_TRUE(a.solve.poses_updated() && b.solve.poses_updated());
+    EXPECT_EQ(b.closures_carried, 1u);
+    EXPECT_FALSE(b.decided_again);
+    ASSERT_EQ(b.loop_closure_weight.size(), 4u);
+    EXPECT_EQ(b.loop_closure_weight, a.loop_closure_weight);
+    EXPECT_LT(b.loop_closure_weight[2], 0.5) << "the wrong one";
+    EXPECT_LT(std::abs(agent_rmse(incremental) - agent_rmse(full)), 0.01);
+    EXPECT_LT(std::abs(wall_rmse(incremental) - wall_rmse(full)), 0.01);
+  }
+  {
+    SCOPED_TRACE("a wrong closure kept alone, then contradicted");
+    DeformationGraph full(c), incremental(inc);
+    // The loop's closure, 0.6 m off. Alone, nothing contradicts it: the drifted walk bends to fit it, GNC keeps it.
+    ChainLoopClosure off = true_closure(0, last);
+    off.a_T_b.t_m += Eigen::Vector3d(0.0, 0.6, 0.0);
+    const DeformationResult r1 = incremental.optimize(layer_, {off}, control_, *graph_);
+    ASSERT_TRUE(r1.solve.poses_updated());
+    ASSERT_EQ(r1.loop_closures_kept, 1u);
+    const std::vector<ChainLoopClosure> more = {off, true_closure(1, last), true_closure(0, last - 1),
+                                               true_closure(2, last), true_closure(0, last - 2)};
+    const DeformationResult a = full.optimize(layer_, more, control_, *graph_);
+    const DeformationResult b = incremental.optimize(layer_, more, control_, *graph_);
+    ASSERT_TRUE(a.solve.poses_updated() && b.solve.poses_updated());
+    EXPECT_LT(a.loop_closure_weight[0], 0.5) << "the full decision rejects it";
+    EXPECT_TRUE(b.decided_again) << "its carried decision no longer fits";
+    EXPECT_EQ(b.closures_carried, 0u);
+    EXPECT_EQ(b.loop_closure_weight, a.loop_closure_weight);
+    EXPECT_LT(std::abs(agent_rmse(incremental) - agent_rmse(full)), 1e-6);
+  }
+}
+
 TEST(ControlPointsTest, OnePerCellAndAFullStoreRefuses) {
   ControlPoints c;
   std::string error;

@@ -1,0 +1,189 @@
+// Re-solves the sequence of deformation problems one mission wrote (QSG_DUMP_DEFORMATION=DIR/dg_%d.txt keeps every
+// solve's), in order, as the app's backend solved them: one DeformationGraph carries each solution into the next
+// solve. Two of them side by side: every map node solved each time (settle_tolerance_m 0) and the bounded solve
+// (settle_tolerance_m M: the map nodes the new closures did not move stay held). Per solve: the path so far, the
+// graph's size, the thread CPU of each, the nodes held, and how far the bounded solve's map nodes are from the full
+// solve's (the price of holding them). Every figure also goes to --json (bench/figures.h).
+#include <time.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+#include <vector>
+
+#include "bench/figures.h"
+#include "core/backend/deformation_graph.h"
+#include "core/backend/deformation_io.h"
+
+namespace {
+
+using namespace qsg;
+
+int usage(int status) {
+  std::fprintf(status == 0 ? stdout : stderr,
+               "usage: dg_sequence PROBLEM... [--settle M (0.01)] [--hops N (2)] [--whole-tolerance F]\n"
+               "                   [--agent-spacing M (0)] [--incremental] [--bounded-whole-tolerance F]\n"
+               "                   [--json FILE]\n"
+               "  --incremental: the bounded side also keeps the last solve's closure decisions\n"
+               "                 (DeformationConfig::incremental_decisions)\n"
+               "  --bounded-whole-tolerance F: the bounded side's stopping rule only (with --settle 0: how far the\n"
+               "                 full solve's own nodes move with its stopping rule)\n"
+               "  PROBLEM...: one mission's solves in the order the app made them (QSG_DUMP_DEFORMATION with %%d)\n");
+  return status;
+}
+
+double cpu_seconds() {
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
+}
+
+struct Timed {
+  backend::DeformationResult result;
+  double cpu_s = 0.0;
+};
+
+// Mean, 99th percentile and largest of a set of distances.
+struct Spread {
+  std::vector<double> values;
+  double mean = 0.0, p99 = 0.0, max = 0.0;
+  void add(double v) { values.push_back(v); }
+  void finish() {
+    if (values.empty()) return;
+    for (double v : values) mean += v / static_cast<double>(values.size());
+    std::sort(values.begin(), values.end());
+    max = values.back();
+    p99 = values[std::min(values.size() - 1, values.size() * 99 / 100)];
+  }
+};
+
+Timed solve(backend::DeformationGraph* graph, const backend::DeformationProblem& problem) {
+  const double start = cpu_seconds();
+  Timed t;
+  t.result = graph->solve(problem);
+  t.cpu_s = cpu_seconds() - start;
+  return t;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::vector<std::string> paths;
+  std::string json;
+  double settle_m = 0.01;
+  int hops = 2;
+  double whole_tolerance = 0.0, agent_spacing_m = 0.0, bounded_tolerance = 0.0;
+  bool incremental = false;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    const bool has = i + 1 < argc;
+    if (a == "--help") return usage(0);
+    if (a == "--settle" && has) settle_m = std::atof(argv[++i]);
+    else if (a == "--hops" && has) hops = std::atoi(argv[++i]);
+    else if (a == "--whole-tolerance" && has) whole_tolerance = std::atof(argv[++i]);
+    else if (a == "--agent-spacing" && has) agent_spacing_m = std::atof(argv[++i]);
+    else if (a == "--incremental") incremental = true;
+    else if (a == "--bounded-whole-tolerance" && has) bounded_tolerance = std::atof(argv[++i]);
+    else if (a == "--json" && has) json = argv[++i];
+    else if (!a.empty() && a[0] == '-') return usage(2);
+    else paths.push_back(a);
+  }
+  if (paths.empty()) return usage(2);
+  backend::DeformationConfig full_config;
+  if (whole_tolerance > 0.0) full_config.whole_function_tolerance = whole_tolerance;
+  full_config.agent_spacing_m = agent_spacing_m;
+  backend::DeformationConfig settled_config = full_config;
+  settled_config.settle_tolerance_m = settle_m;
+  settled_config.settle_hops = static_cast<std::uint32_t>(std::max(0, hops));
+  settled_config.incremental_decisions = incremental;
+  if (bounded_tolerance > 0.0) settled_config.whole_function_tolerance = bounded_tolerance;
+  if (std::string why = settled_config.check(); !why.empty()) {
+    std::fprintf(stderr, "dg_sequence: %s\n", why.c_str());
+    return 2;
+  }
+  backend::DeformationGraph full(full_config), settled(settled_config);
+  bench::Figures figures("deformation problems " + paths.front() + " .. " + paths.back() + " (" +
+                         std::to_string(paths.size()) + " solves), settle " + std::to_string(settle_m) + " m, " +
+                         std::to_string(hops) + " hops" + (incremental ? ", incremental decisions" : ""));
+  std::printf("solve  path_m  agents  control  places  settled  cpu_full_s  cpu_settled_s  ratio  "
+              "control: mean    p99     max   places: mean    p99     max (m)  kept/closures  kept/carried  ate_full  "
+              "ate_bounded\n");
+  double total_full = 0.0, total_settled = 0.0, worst_control = 0.0, worst_place = 0.0;
+  int decided_again = 0;
+  for (std::size_t s = 0; s < paths.size(); ++s) {
+    backend::DeformationProblemFile file;
+    std::string error;
+    if (!backend::read_deformation_problem(paths[s], &file, &error)) {
+      std::fprintf(stderr, "dg_sequence: %s\n", error.c_str());
+      return 1;
+    }
+    const backend::DeformationProblem& p = file.problem;
+    double path_m = 0.0;
+    for (std::size_t k = 1; k < p.result.agents; ++k) path_m += (p.poses[k].t_m - p.poses[k - 1].t_m).norm();
+    const Timed a = solve(&full, p), b = solve(&settled, p);
+    if (!a.result.solve.poses_updated() || !b.result.solve.poses_updated()) {
+      std::fprintf(stderr, "dg_sequence: solve %zu failed (%s / %s)\n", s, a.result.solve.message.c_str(),
+                   b.result.solve.message.c_str());
+      return 1;
+    }
+    // How far the bounded solve's map nodes are from the full solve's: the control points (what moves the mesh)
+    // and the places apart.
+    const std::size_t C = p.result.control_points;
+    Spread control, places;
+    for (std::size_t i = 0; i < full.num_map_nodes() && i < settled.num_map_nodes(); ++i)
+      (i < C ? control : places).add((full.map_node_pose(i).t_m - settled.map_node_pose(i).t_m).norm());
+    control.finish();
+    places.finish();
+    // The agents against the truth, as mapped (no alignment), when the file has it.
+    const auto ate = [&](const backend::DeformationGraph& g) {
+      double sum = 0.0;
+      for (std::size_t k = 0; k < file.truth_m.size(); ++k)
+        sum += (g.agent_pose(k).t_m - file.truth_m[k]).squaredNorm();
+      return file.truth_m.empty() ? -1.0 : std::sqrt(sum / static_cast<double>(file.truth_m.size()));
+    };
+    const double ate_full = ate(full), ate_bounded = ate(settled);
+    std::printf("%5zu %7.1f %7zu %8zu %7zu %8zu %11.3f %14.3f %6.2f  %7.4f %7.4f %7.4f  %7.4f %7.4f %7.4f  "
+                "%4zu/%-4zu %4zu/%-4zu %6.3f %6.3f%s\n",
+                s, path_m, p.result.agents, p.result.control_points, p.result.places, b.result.map_settled, a.cpu_s,
+                b.cpu_s, b.cpu_s > 0.0 ? a.cpu_s / b.cpu_s : 0.0, control.mean, control.p99, control.max, places.mean,
+                places.p99, places.max, a.result.loop_closures_kept, a.result.loop_closures,
+                b.result.loop_closures_kept, b.result.closures_carried, ate_full, ate_bounded, b.result.decided_again ? " decided again" : "");
+    std::fflush(stdout);
+    char key[48];
+    std::snprintf(key, sizeof key, "dg_sequence.s%03zu.", s);
+    const std::string k = key;
+    figures.add(k + "path", path_m, "m");
+    figures.add(k + "map_nodes", static_cast<double>(control.values.size() + places.values.size()), "nodes");
+    figures.add(k + "settled", static_cast<double>(b.result.map_settled), "nodes");
+    figures.add(k + "cpu_full", a.cpu_s, "s");
+    figures.add(k + "cpu_settled", b.cpu_s, "s");
+    figures.add(k + "control_diff_mean", control.mean, "m");
+    figures.add(k + "control_diff_p99", control.p99, "m");
+    figures.add(k + "control_diff_max", control.max, "m");
+    figures.add(k + "place_diff_mean", places.mean, "m");
+    figures.add(k + "place_diff_p99", places.p99, "m");
+    figures.add(k + "place_diff_max", places.max, "m");
+    figures.add(k + "kept_full", static_cast<double>(a.result.loop_closures_kept), "closures");
+    figures.add(k + "kept_bounded", static_cast<double>(b.result.loop_closures_kept), "closures");
+    figures.add(k + "ate_full", ate_full, "m");
+    figures.add(k + "ate_bounded", ate_bounded, "m");
+    decided_again += b.result.decided_again ? 1 : 0;
+    total_full += a.cpu_s;
+    total_settled += b.cpu_s;
+    worst_control = std::max(worst_control, control.max);
+    worst_place = std::max(worst_place, places.max);
+  }
+  std::printf("dg_sequence: %zu solves, CPU %.2f s full, %.2f s settled (%.2fx); largest difference %.4f m (control "
+              "points), %.4f m (places)\n",
+              paths.size(), total_full, total_settled, total_settled > 0.0 ? total_full / total_settled : 0.0,
+              worst_control, worst_place);
+  figures.add("dg_sequence.cpu_full_total", total_full, "s");
+  figures.add("dg_sequence.cpu_settled_total", total_settled, "s");
+  figures.add("dg_sequence.control_diff_max", worst_control, "m");
+  figures.add("dg_sequence.place_diff_max", worst_place, "m");
+  figures.add("dg_sequence.decided_again", decided_again, "solves");
+  if (!json.empty() && !figures.write(json)) return 1;
+  return 0;
+}
