@@ -281,8 +281,12 @@ bool BackendStage::detect_loop_closures(const scene_graph::SceneGraph& graph, co
   if (!c.enabled) return false;
   const auto horizon_ns = static_cast<std::uint64_t>(c.horizon_s * 1e9);
   if (time_ns < horizon_ns) return false;
-  std::size_t k = 0;
-  while (k < agents.chain_size() && agents.chain(k).time_ns <= described_until_ns_ && have_last_) ++k;
+  std::size_t k = 0;  // the first chain node not yet described: a binary search, the chain being in time order
+  for (std::size_t hi = have_last_ ? agents.chain_size() : 0; k < hi;) {
+    const std::size_t mid = k + (hi - k) / 2;
+    if (agents.chain(mid).time_ns <= described_until_ns_) k = mid + 1;
+    else hi = mid;
+  }
   bool found = false;
   for (; k < agents.chain_size() && agents.chain(k).time_ns + horizon_ns <= time_ns; ++k) {
     const agents::ChainNode& n = agents.chain(k);
