@@ -1,9 +1,10 @@
 // Re-solves the sequence of deformation problems one mission wrote (QSG_DUMP_DEFORMATION=DIR/dg_%d.txt keeps every
 // solve's), in order, as the app's backend solved them: one DeformationGraph carries each solution into the next
-// solve. Two of them side by side: every map node solved each time (settle_tolerance_m 0) and the bounded solve
-// (settle_tolerance_m M: the map nodes the new closures did not move stay held). Per solve: the path so far, the
-// graph's size, the thread CPU of each, the nodes held, and how far the bounded solve's map nodes are from the full
-// solve's (the price of holding them). Every figure also goes to --json (bench/figures.h).
+// solve. Two of them side by side: the full solve (every map node solved and every closure decided, each time) and
+// the bounded one (the shipped defaults: control points the new closures did not move stay held, earlier closure
+// decisions are carried). Per solve: the path so far, the graph's size, the thread CPU of each, the control points
+// held, how far the bounded solve's map nodes are from the full solve's (the price of holding them), the closures
+// kept and the agents' ATE of each. Every figure also goes to --json (bench/figures.h).
 #include <time.h>
 
 #include <algorithm>
@@ -23,11 +24,11 @@ using namespace qsg;
 
 int usage(int status) {
   std::fprintf(status == 0 ? stdout : stderr,
-               "usage: dg_sequence PROBLEM... [--settle M (0.01)] [--hops N (2)] [--whole-tolerance F]\n"
-               "                   [--agent-spacing M (0)] [--incremental] [--bounded-whole-tolerance F]\n"
+               "usage: dg_sequence PROBLEM... [--settle M] [--hops N] [--incremental 0|1] [--whole-tolerance F]\n"
+               "                   [--agent-spacing M (0)] [--bounded-whole-tolerance F]\n"
                "                   [--json FILE]\n"
-               "  --incremental: the bounded side also keeps the last solve's closure decisions\n"
-               "                 (DeformationConfig::incremental_decisions)\n"
+               "  the bounded side: DeformationConfig's defaults; --settle, --hops: settle_tolerance_m, settle_hops;\n"
+               "  --incremental: incremental_decisions (it keeps the last solve's closure decisions)\n"
                "  --bounded-whole-tolerance F: the bounded side's stopping rule only (with --settle 0: how far the\n"
                "                 full solve's own nodes move with its stopping rule)\n"
                "  PROBLEM...: one mission's solves in the order the app made them (QSG_DUMP_DEFORMATION with %%d)\n");
@@ -72,10 +73,10 @@ Timed solve(backend::DeformationGraph* graph, const backend::DeformationProblem&
 int main(int argc, char** argv) {
   std::vector<std::string> paths;
   std::string json;
-  double settle_m = 0.01;
-  int hops = 2;
+  double settle_m = backend::DeformationConfig{}.settle_tolerance_m;
+  int hops = static_cast<int>(backend::DeformationConfig{}.settle_hops);
   double whole_tolerance = 0.0, agent_spacing_m = 0.0, bounded_tolerance = 0.0;
-  bool incremental = false;
+  bool incremental = backend::DeformationConfig{}.incremental_decisions;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     const bool has = i + 1 < argc;
@@ -84,14 +85,16 @@ int main(int argc, char** argv) {
     else if (a == "--hops" && has) hops = std::atoi(argv[++i]);
     else if (a == "--whole-tolerance" && has) whole_tolerance = std::atof(argv[++i]);
     else if (a == "--agent-spacing" && has) agent_spacing_m = std::atof(argv[++i]);
-    else if (a == "--incremental") incremental = true;
+    else if (a == "--incremental" && has) incremental = std::atoi(argv[++i]) != 0;
     else if (a == "--bounded-whole-tolerance" && has) bounded_tolerance = std::atof(argv[++i]);
     else if (a == "--json" && has) json = argv[++i];
     else if (!a.empty() && a[0] == '-') return usage(2);
     else paths.push_back(a);
   }
   if (paths.empty()) return usage(2);
-  backend::DeformationConfig full_config;
+  backend::DeformationConfig full_config;  // every map node solved, every closure decided, each time
+  full_config.settle_tolerance_m = 0.0;
+  full_config.incremental_decisions = false;
   if (whole_tolerance > 0.0) full_config.whole_function_tolerance = whole_tolerance;
   full_config.agent_spacing_m = agent_spacing_m;
   backend::DeformationConfig settled_config = full_config;
@@ -106,7 +109,7 @@ int main(int argc, char** argv) {
   backend::DeformationGraph full(full_config), settled(settled_config);
   bench::Figures figures("deformation problems " + paths.front() + " .. " + paths.back() + " (" +
                          std::to_string(paths.size()) + " solves), settle " + std::to_string(settle_m) + " m, " +
-                         std::to_string(hops) + " hops" + (incremental ? ", incremental decisions" : ""));
+                         std::to_string(hops) + " hops, incremental decisions " + (incremental ? "on" : "off"));
   std::printf("solve  path_m  agents  control  places  settled  cpu_full_s  cpu_settled_s  ratio  "
               "control: mean    p99     max   places: mean    p99     max (m)  kept/closures  kept/carried  ate_full  "
               "ate_bounded\n");

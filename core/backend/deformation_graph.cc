@@ -23,9 +23,6 @@ std::string DeformationConfig::check() const {
     return "whole_function_tolerance must be in (0, 1)";
   if (!(agent_spacing_m >= 0.0 && agent_spacing_m <= 100.0)) return "agent_spacing_m must be in [0, 100] m";
   if (!(agent_turn_rad > 0.0 && agent_turn_rad <= 3.2)) return "agent_turn_rad must be in (0, 3.2] rad";
-  if (incremental_decisions && !decide_on_agents) return "incremental_decisions needs decide_on_agents";
-  if (settle_tolerance_m > 0.0 && !(decide_on_agents && hold_agents))
-    return "settle_tolerance_m > 0 needs decide_on_agents and hold_agents (the map is settled around held agents)";
   return agents.check();
 }
 
@@ -38,11 +35,11 @@ void DeformationConfig::print(std::FILE* out) const {
   if (agent_spacing_m > 0.0)
     std::fprintf(out, "deformation graph: an agent node every %.2f m of path (and at every loop closure)\n",
                  agent_spacing_m);
-  if (settle_tolerance_m > 0.0)
+  if (settle_tolerance_m > 0.0 && decide_on_agents && hold_agents)
     std::fprintf(out,
                  "deformation graph: control points moved less than %.3f m since the last solve stay held (%u hops)\n",
                  settle_tolerance_m, settle_hops);
-  if (incremental_decisions)
+  if (incremental_decisions && decide_on_agents)
     std::fprintf(out, "deformation graph: a solve keeps the last one's decisions and decides its new closures\n");
   std::fprintf(out, "deformation graph: loop closures decided %s\n",
                !decide_on_agents ? "by GNC over the whole graph"

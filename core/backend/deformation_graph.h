@@ -63,17 +63,18 @@ struct DeformationConfig {
   // ... or this much rotation since the last agent node (a quadruped turning on the spot moves no path, but the
   // map seen while it turns hangs from those nodes).
   double agent_turn_rad = 0.2;
-  // Bounded solve (a refinement; needs hold_agents): a control point already in the last solve, whose agents'
-  // corrections moved it less than this since then, keeps that solve's pose, held; the others, those within
-  // settle_hops map edges of a moved node, and every place are solved. The solve's cost then follows what the new
-  // closures moved, not the whole map. 0: every map node is solved every time.
-  double settle_tolerance_m = 0.0;
+  // Bounded solve (a refinement; with decide_on_agents and hold_agents only): a control point already in the last
+  // solve, whose agents' corrections moved it less than this since then, keeps that solve's pose, held; the others,
+  // those within settle_hops map edges of a moved node, and every place are solved. The solve's cost then follows
+  // what the new closures moved, not the whole map (bench/results/loop_closure.md). 0: every map node is solved
+  // every time.
+  double settle_tolerance_m = 0.01;
   std::uint32_t settle_hops = 2;
-  // Incremental decisions (a refinement; needs decide_on_agents): a solve after the first keeps the last solve's
+  // Incremental decisions (a refinement; with decide_on_agents only): a solve after the first keeps the last solve's
   // decision on each of its closures (inliers become plain edges, outliers are left out) and starts the agent layer
   // from the last solution; GNC decides the new closures only. If an inlier kept so no longer fits (its residual
   // beyond the TLS threshold), the solve decides every closure again, from odometry, as without this.
-  bool incremental_decisions = false;
+  bool incremental_decisions = true;
   AgentGraphConfig agents;               // odometry sigma floors and the solver (loop closures under GNC-TLS)
 
   DeformationConfig() {

@@ -301,7 +301,9 @@ TEST_F(DeformationGraphTest, ASecondSolveHoldsTheMapItsNewClosureDidNotMove) {
   const auto half = static_cast<std::uint32_t>(walk_.truth.size() / 2);
   DeformationConfig c = strategy(true);
   c.hold_agents = true;
+  c.incremental_decisions = false;
   DeformationConfig tight = c, loose = c;
+  c.settle_tolerance_m = 0.0;  // every node solved
   tight.settle_tolerance_m = 0.01;
   loose.settle_tolerance_m = 1.0;
   loose.settle_hops = 0;
@@ -343,6 +345,7 @@ TEST_F(DeformationGraphTest, IncrementalDecisionsKeepTheLastOnesAndDecideAgainWh
   const auto last = static_cast<std::uint32_t>(walk_.truth.size() - 1);
   const auto half = static_cast<std::uint32_t>(walk_.truth.size() / 2);
   DeformationConfig c = strategy(true);
+  c.incremental_decisions = false;  // every closure decided every time
   DeformationConfig inc = c;
   inc.incremental_decisions = true;
   ASSERT_EQ(inc.check(), "");
