@@ -1,5 +1,6 @@
 #include "core/doors/online_doors.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "budgets/budget_table.h"
@@ -121,10 +122,15 @@ void OnlineDoors::begin_pass(const Eigen::Vector3d& robot_m) {
   begun_ = true;
 }
 
-void OnlineDoors::add_place(const Eigen::Vector3d& p) {
-  if (!begun_ || !p.allFinite() || std::abs(p.z() - slice_z_m_) > config_.place_band_m) return;
+bool OnlineDoors::takes(const Eigen::Vector3d& p) const {
   int c, r;
-  if (!raster_.cell_of(p.x(), p.y(), &c, &r)) return;
+  return begun_ && p.allFinite() && std::abs(p.z() - slice_z_m_) <= config_.place_band_m &&
+         raster_.cell_of(p.x(), p.y(), &c, &r);
+}
+
+void OnlineDoors::add_place(const Eigen::Vector3d& p) {
+  int c = 0, r = 0;
+  if (!takes(p) || !raster_.cell_of(p.x(), p.y(), &c, &r)) return;
   if (num_places_ == capacities_.places) {
     ++places_dropped_;
     return;
@@ -132,19 +138,41 @@ void OnlineDoors::add_place(const Eigen::Vector3d& p) {
   workspace_.place_cells()[num_places_++] = static_cast<std::uint32_t>(static_cast<std::size_t>(r) * raster_.cols + c);
 }
 
+// The places in the window's box come from the graph's grid and open places (not a scan of the places layer), and
+// are taken in the node table's order, as a scan would take them: with more than the capacity, the first ones. Their
+// slots are kept in the place cells' buffer (a max-heap while collecting), which add_place then overwrites in order.
 void OnlineDoors::add_places(const sg::SceneGraph& graph) {
   if (!begun_) return;
-  graph.for_each_node_of(sg::NodeKind::kPlace, [&](const sg::NodeRecord& n) {
-    const Eigen::Vector3d& p = graph.place_of(n)->position_m;
-    const std::size_t before = num_places_;
-    add_place(p);
-    if (num_places_ == before) return;  // outside the window's band (or beyond its capacity)
-    bypass_.add_place(n.id, p);
-    // Each edge once, from its lower id's end; an end outside the band is dropped by BypassGraph::finish.
-    graph.for_each_neighbor(n.id, [&](sg::NodeId other, const sg::EdgeRecord&) {
-      if (other > n.id && graph.place(other) != nullptr) bypass_.add_edge(n.id, other);
-    });
+  const double lo[3] = {raster_.lo.x(), raster_.lo.y(), slice_z_m_ - config_.place_band_m};
+  const double hi[3] = {raster_.lo.x() + raster_.cols * raster_.cell_m, raster_.lo.y() + raster_.rows * raster_.cell_m,
+                        slice_z_m_ + config_.place_band_m};
+  std::uint32_t* slots = workspace_.place_cells();
+  const std::size_t capacity = capacities_.places;
+  std::size_t n = 0;
+  graph.for_each_place_in_box(lo, hi, [&](std::uint32_t slot, const sg::NodeRecord&, const sg::PlaceAttributes& a) {
+    if (!takes(a.position_m)) return;
+    if (n < capacity) {
+      slots[n++] = slot;
+      std::push_heap(slots, slots + n);
+      return;
+    }
+    ++places_dropped_;  // beyond the capacity: the last in the node table's order
+    if (capacity == 0 || slot > slots[0]) return;
+    std::pop_heap(slots, slots + n);
+    slots[n - 1] = slot;
+    std::push_heap(slots, slots + n);
   });
+  std::sort(slots, slots + n);
+  for (std::size_t k = 0; k < n; ++k) {  // add_place writes entry num_places_ <= k
+    const sg::NodeRecord& rec = graph.node_at(slots[k]);
+    const Eigen::Vector3d& p = graph.place_of(rec)->position_m;
+    add_place(p);
+    bypass_.add_place(rec.id, p);
+    // Each edge once, from its lower id's end; an end outside the band is dropped by BypassGraph::finish.
+    graph.for_each_neighbor(rec.id, [&](sg::NodeId other, const sg::EdgeRecord&) {
+      if (other > rec.id && graph.place(other) != nullptr) bypass_.add_edge(rec.id, other);
+    });
+  }
 }
 
 void OnlineDoors::rasterize() {

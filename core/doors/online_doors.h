@@ -9,10 +9,11 @@
 // A pass runs only while the robot's height holds still (not on stairs), in steps that let the caller keep its locks
 // short:
 //   begin_pass(robot)   the window and the slice height (robot height + slice_above_robot_m);
-//   add_places(graph)   every place, and the place edges between those in the window's band (the caller holds
-//                       whatever guards the graph): the window's places graph, on which a found door that the
-//                       places go round is dropped (DoorConfig::bypass_max_m, as find_doors does); add_place(p)
-//                       takes one position only, and without a places graph no door is dropped;
+//   add_places(graph)   the places in the window's band (found in the graph's grid, not by a scan) and the place
+//                       edges between them (the caller holds whatever guards the graph): the window's places graph,
+//                       on which a found door that the places go round is dropped (DoorConfig::bypass_max_m, as
+//                       find_doors does); add_place(p) takes one position only, and without a places graph no
+//                       door is dropped;
 //   rasterize()         the wall raster from the WallMap (the caller holds whatever guards the painting);
 //   detect()            the detection and the DoorSet's update (no shared state but the DoorSet), and the window's
 //                       sight lines (sight(): its slice's long walls, WallSight::set_window_slice), which the room
@@ -87,8 +88,8 @@ class OnlineDoors {
   // slice would cut the storey at the wrong height (and replace the doors there), so that pass does not run.
   void begin_pass(const Eigen::Vector3d& robot_m);
   void add_place(const Eigen::Vector3d& position_m);
-  // Every place of the graph (add_place), and the window's places graph: the places in the window's band and the
-  // place edges between them.
+  // The places in the window's band (add_place, in the node table's order), and the window's places graph: those
+  // places and the place edges between them.
   void add_places(const scene_graph::SceneGraph& graph);
   void rasterize();
   PassResult detect();
@@ -109,6 +110,7 @@ class OnlineDoors {
 
  private:
   bool inside_interior(const Eigen::Vector2d& p) const;
+  bool takes(const Eigen::Vector3d& p) const;  // in the window and the slice's band (after begin_pass)
   DoorConfig config_;
   OnlineDoorCapacities capacities_;
   memory::Arena arena_;

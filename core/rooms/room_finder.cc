@@ -59,6 +59,7 @@ memory::ArenaPlan RoomFinder::plan(const Config& config, const Capacities& c) {
   Map::plan(p, Map::slots_for(c.rooms));
   p.add_array<Boundary>(c.places);
   p.add_array<RoomAccumulator>(c.rooms);
+  p.add_array<std::int64_t>(3 * c.rooms);
   return p;
 }
 
@@ -104,7 +105,8 @@ bool RoomFinder::init(const Config& config, const Capacities& c, std::size_t bud
   ok = room_slot_.carve(arena_, Map::slots_for(c.rooms), c.rooms) && ok;
   boundary_ = arena_.carve_array<Boundary>(c.places);
   far_ = arena_.carve_array<RoomAccumulator>(c.rooms);
-  ok = ok && boundary_ != nullptr && far_ != nullptr;
+  far_units_ = arena_.carve_array<std::int64_t>(3 * c.rooms);
+  ok = ok && boundary_ != nullptr && far_ != nullptr && far_units_ != nullptr;
   arena_.align_to_plan_boundary();
   if (!ok || !arena_.seal()) {
     if (error != nullptr) *error = "rooms: arena carve did not match its plan";

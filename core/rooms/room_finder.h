@@ -75,7 +75,7 @@ struct UpdateResult {
   std::size_t rooms_partial = 0;        // window: open rooms read only near the window (Config::window_room_margin_m)
   std::size_t places_kept = 0;          // ... their places not read (they keep their room)
   std::size_t places_visited = 0;       // window: place records looked at to choose the window (the open places,
-                                        // the open rooms' inactive places): the window's size, not the graph's
+                                        // the closed places in the grid cells near them): the window's size
 };
 
 struct Counters {
@@ -164,7 +164,6 @@ class RoomFinder {
                    UpdateResult* r);
   // window.cc: the window's places and open rooms; rooms matched by the graph's room-place edges.
   void collect_window(scene_graph::SceneGraph* graph, UpdateResult* r);
-  void add_far(std::size_t slot, const scene_graph::PlaceAttributes& a, UpdateResult* r);
   void collect_all_rooms(const scene_graph::SceneGraph& graph);
   void note_boundary(const scene_graph::SceneGraph& g, std::uint32_t place, scene_graph::NodeId other, UpdateResult* r);
   bool previous_room_of(const scene_graph::SceneGraph& graph, std::uint32_t place, std::uint32_t* previous) const;
@@ -213,6 +212,7 @@ class RoomFinder {
   struct Boundary { std::uint32_t place; scene_graph::NodeId room; };
   Boundary* boundary_ = nullptr;  // capacity: capacities_.places
   RoomAccumulator* far_ = nullptr;  // per open room (room_slot_), its places not read (count 0: none); rooms
+  std::int64_t* far_units_ = nullptr;  // ... their position sums in the graph's fixed point (3 per room)
   std::size_t num_boundary_ = 0;
   bool window_ = false;  // this update reads the window only
 

@@ -19,9 +19,9 @@ namespace sg = scene_graph;
 // The rooms that hold an active place are open (this update replaces them); the window's places are the active
 // ones, those without a room, and those of the open rooms within window_room_margin_m of the active places' box.
 // An open room's farther places are not read: they keep it (a partial room), and far_ sums them for its node.
-// Rooms whose places are all inactive keep theirs. No scan of the places layer: the active places and those without
-// a room come from the graph's open places (SceneGraph::for_each_open_place), the open rooms' others from their
-// children. Both in the node table's order, as a scan of every node would give them.
+// Rooms whose places are all inactive keep theirs. No scan of the places layer, and no walk of a long room: the
+// active places and those without a room come from the graph's open places (SceneGraph::for_each_open_place), the
+// open rooms' others from the graph's grid of closed places (SceneGraph::for_each_closed_place_near).
 void RoomFinder::collect_window(sg::SceneGraph* graph, UpdateResult* r) {
   room_slot_.clear();
   num_previous_ = 0;
@@ -50,43 +50,51 @@ void RoomFinder::collect_window(sg::SceneGraph* graph, UpdateResult* r) {
     previous_ids_[num_previous_++] = n.parent;
   });
   r->rooms_open = num_previous_;
-  // The open rooms' inactive places: near ones are read, far ones summed (in slot order, so the sums are the same
-  // whatever order the room's edges are in).
+  if (num_previous_ == 0) return;
+  // The open rooms' closed places (their inactive ones): those in the margin are read, found in the graph's grid;
+  // the far ones are the graph's sums of the room's closed places less the read ones (exact: fixed point).
   const double margin = config_.window_room_margin_m;
-  std::uint64_t* far_slots = ws_.pairs;
-  const std::size_t far_capacity = capacities_.places;
-  for (std::size_t k = 0; k < num_previous_; ++k) {
-    std::size_t num_far = 0;
-    graph->for_each_child_record(previous_ids_[k], [&](std::uint32_t slot, const sg::NodeRecord& n) {
-      const sg::PlaceAttributes* a = graph->place_of(n);
-      if (a == nullptr || a->is_active) return;  // an active one is an open place, read above
-      ++r->places_visited;
-      const Eigen::Vector3d& p = a->position_m;
-      bool near = true;
-      for (int d = 0; d < 3; ++d) near = near && p[d] >= lo[d] - margin && p[d] <= hi[d] + margin;
-      if (near) {
-        if (num_places_ == capacities_.places) {
-          ++r->truncated;
-          return;
-        }
-        place_ids_[num_places_++] = n.id;
-      } else if (num_far < far_capacity) {
-        far_slots[num_far++] = slot;
-      } else {  // beyond the scratch: summed now, out of slot order
-        add_far(k, *a, r);
-      }
-    });
-    std::sort(far_slots, far_slots + num_far);
-    for (std::size_t f = 0; f < num_far; ++f)
-      add_far(k, *graph->place_of(graph->node_at(static_cast<std::uint32_t>(far_slots[f]))), r);
+  double near_lo[3], near_hi[3];
+  for (int d = 0; d < 3; ++d) {
+    near_lo[d] = lo[d] - margin;
+    near_hi[d] = hi[d] + margin;
   }
-  for (std::size_t k = 0; k < num_previous_; ++k) r->rooms_partial += far_[k].count > 0 ? 1 : 0;
-}
-
-// A partial room's far place: summed as accumulate_rooms sums the read ones.
-void RoomFinder::add_far(std::size_t slot, const sg::PlaceAttributes& a, UpdateResult* r) {
-  far_[slot].add(a.position_m.data(), std::isfinite(a.distance_m) ? std::max(0.0, a.distance_m) : 0.0);
-  ++r->places_kept;
+  for (std::size_t k = 0; k < num_previous_; ++k) {
+    const sg::ChildSums& s = graph->closed_child_sums(previous_ids_[k]);
+    std::copy(s.sum, s.sum + 3, &far_units_[3 * k]);
+    for (int d = 0; d < 3; ++d) {
+      far_[k].min[d] = s.min[d];
+      far_[k].max[d] = s.max[d];
+    }
+    far_[k].count = s.count;
+  }
+  graph->for_each_closed_place_near(near_lo, near_hi, [&](std::uint32_t, const sg::NodeRecord& n,
+                                                          const sg::PlaceAttributes& a) {
+    ++r->places_visited;
+    const std::uint32_t* k = room_slot_.find(n.parent);
+    if (k == nullptr) return;  // a kept room's place
+    for (int d = 0; d < 3; ++d)
+      if (!(a.position_m[d] >= near_lo[d] && a.position_m[d] <= near_hi[d])) return;  // in the cell, not the box
+    if (num_places_ == capacities_.places) {  // stays in the far part
+      ++r->truncated;
+      return;
+    }
+    place_ids_[num_places_++] = n.id;
+    for (int d = 0; d < 3; ++d) far_units_[3 * *k + d] -= sg::child_sum_units(a.position_m[d]);
+    --far_[*k].count;
+  });
+  for (std::size_t k = 0; k < num_previous_; ++k) {
+    RoomAccumulator& f = far_[k];
+    if (f.count == 0) {
+      f.reset();
+      continue;
+    }
+    // The box is the room's closed places' box (it only grows while the room keeps a closed place: a near place
+    // that leaves the room may stay in it until the room is read whole).
+    for (int d = 0; d < 3; ++d) f.sum[d] = static_cast<double>(far_units_[3 * k + d]) / sg::kChildSumUnitsPerM;
+    r->places_kept += f.count;
+    ++r->rooms_partial;
+  }
 }
 
 // Whether room is an open room this window update reads only in part (its slot in *slot).

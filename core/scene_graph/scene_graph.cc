@@ -92,6 +92,7 @@ memory::ArenaPlan SceneGraph::plan(const Capacities& c) {
   memory::Pool<AdjacencyChunk>::plan(plan, c.adjacency_chunks);
   memory::Pool<MeshChunk>::plan(plan, mesh_chunk_count(c));
   for (int k = 0; k <= kKinds; ++k) plan.add_array<std::uint64_t>(bit_words(c));  // the kinds', the open places'
+  PlaceGrid::plan(plan, c.place_nodes, c.room_nodes);
   return plan;
 }
 
@@ -110,7 +111,7 @@ bool SceneGraph::init(const Capacities& c, std::size_t budget_bytes, std::string
   bool bits = true;
   for (int k = 0; k < kKinds; ++k) bits = (kind_bits_[k] = arena_.carve_array<std::uint64_t>(bit_words_)) && bits;
   open_bits_ = arena_.carve_array<std::uint64_t>(bit_words_);
-  bits = bits && open_bits_ != nullptr;
+  bits = bits && open_bits_ != nullptr && grid_.carve(arena_, c.place_nodes, c.room_nodes);
   if (!ok || !bits || !arena_.seal()) {
     if (error != nullptr) *error = "scene_graph: the arena carve did not match its plan";
     return false;
@@ -124,6 +125,27 @@ void SceneGraph::clear_bits() {
   for (int k = 0; k < kKinds; ++k) std::fill(kind_bits_[k], kind_bits_[k] + bit_words_, std::uint64_t{0});
   std::fill(open_bits_, open_bits_ + bit_words_, std::uint64_t{0});
   open_places_.set_in_use(0);
+  grid_.clear();
+}
+
+// An inactive place with a parent leaves the open set for the grid (its parent is a room: the layer above places).
+void SceneGraph::close_place(std::uint32_t h) {
+  open_bits_[h >> 6] &= ~(std::uint64_t{1} << (h & 63));
+  open_places_.set_in_use(open_places_.in_use() - 1);
+  const NodeRecord& n = nodes_[h];
+  const std::uint32_t* parent = node_index_.find(n.parent);
+  if (parent != nullptr && nodes_[*parent].kind == NodeKind::kRoom)
+    grid_.file(n.attributes, h, nodes_[*parent].attributes, places_[n.attributes]);
+}
+
+const ChildSums& SceneGraph::closed_child_sums(NodeId room) const {
+  static const ChildSums kNone = [] {
+    ChildSums s;
+    s.reset();
+    return s;
+  }();
+  const std::uint32_t* h = node_index_.find(room);
+  return h == nullptr || nodes_[*h].kind != NodeKind::kRoom ? kNone : grid_.sums(nodes_[*h].attributes);
 }
 
 void SceneGraph::set_slot_bits(std::uint32_t h, NodeKind kind) {

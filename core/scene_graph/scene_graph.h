@@ -16,6 +16,7 @@
 #include "core/memory/resource_stats.h"
 #include "core/scene_graph/attributes.h"
 #include "core/scene_graph/node_id.h"
+#include "core/scene_graph/place_grid.h"
 
 namespace qsg::scene_graph {
 
@@ -198,14 +199,41 @@ class SceneGraph {
       const NodeRecord& n = nodes_[h];
       const PlaceAttributes& a = places_[n.attributes];
       if (!a.is_active && n.parent != kNoNode) {
-        open_bits_[h >> 6] &= ~(std::uint64_t{1} << (h & 63));
-        open_places_.set_in_use(open_places_.in_use() - 1);
+        close_place(h);
         return;
       }
       fn(n, a);
     });
   }
   memory::ResourceStats open_places_stats() const { return open_places_.stats(); }
+
+  // Closed places (the others: inactive, with a parent) are kept in a spatial hash, and each room has the sums of
+  // its closed children (place_grid.h). fn(slot, const NodeRecord&, const PlaceAttributes&) for every closed place
+  // in a cell the box [lo, hi] touches: a superset of the box's closed places, in no particular order.
+  template <typename Fn>
+  void for_each_closed_place_near(const double* lo, const double* hi, Fn&& fn) const {
+    grid_.for_each_in_box(lo, hi, [&](std::uint32_t h) { fn(h, nodes_[h], places_[nodes_[h].attributes]); });
+  }
+  // Every place inside the box [lo, hi] (closed ones from the hash, open ones from their set), each once, in no
+  // particular order: fn(slot, const NodeRecord&, const PlaceAttributes&).
+  template <typename Fn>
+  void for_each_place_in_box(const double* lo, const double* hi, Fn&& fn) const {
+    const auto inside = [&](const PlaceAttributes& a) {
+      for (int d = 0; d < 3; ++d)
+        if (!(a.position_m[d] >= lo[d] && a.position_m[d] <= hi[d])) return false;
+      return true;
+    };
+    for_each_closed_place_near(lo, hi, [&](std::uint32_t h, const NodeRecord& n, const PlaceAttributes& a) {
+      if (inside(a)) fn(h, n, a);
+    });
+    for_each_bit(open_bits_, [&](std::uint32_t h) {
+      const PlaceAttributes& a = places_[nodes_[h].attributes];
+      if (inside(a)) fn(h, nodes_[h], a);
+    });
+  }
+  // The sums of a room's closed children (count 0: none, or not a room).
+  const ChildSums& closed_child_sums(NodeId room) const;
+  std::size_t num_closed_places() const { return grid_.filed_places(); }
 
   std::size_t num_nodes() const { return nodes_.size(); }
   std::size_t num_nodes(NodeKind kind) const;
@@ -231,6 +259,7 @@ class SceneGraph {
     fn(adjacency_.stats());
     fn(mesh_chunks_.stats());
     fn(open_places_.stats());
+    fn(grid_.stats());
   }
 
  private:
@@ -260,13 +289,16 @@ class SceneGraph {
     if (h == nullptr || nodes_[*h].kind != kind) return nullptr;
     return &pool[nodes_[*h].attributes];
   }
+  // A place opens (its filed cell and share of its room's sums go) before anything about it can change.
   void mark_open(std::uint32_t h) {
     std::uint64_t& w = open_bits_[h >> 6];
     const std::uint64_t bit = std::uint64_t{1} << (h & 63);
     if ((w & bit) != 0) return;
     w |= bit;
     open_places_.set_in_use(open_places_.in_use() + 1);
+    grid_.unfile(nodes_[h].attributes, places_[nodes_[h].attributes]);
   }
+  void close_place(std::uint32_t h);
   void set_slot_bits(std::uint32_t h, NodeKind kind);
   void clear_bits();
   void clear_slot_bits(std::uint32_t h, NodeKind kind);
@@ -300,6 +332,7 @@ class SceneGraph {
   std::uint64_t* open_bits_ = nullptr;
   std::size_t bit_words_ = 0;
   memory::UsageCounter open_places_{"scene_graph.open_places", "places", 0};
+  PlaceGrid grid_;  // the closed places (carved after the bitmaps)
 };
 
 template <typename Fn>

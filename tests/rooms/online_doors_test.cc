@@ -284,6 +284,59 @@ TEST(OnlineDoors, AFoundDoorThePlacesGoRoundIsNotKept) {
   }
 }
 
+// add_places finds the window's places in the graph's grid of closed places and its open places (issue 37: not a
+// scan of the places layer) and takes them as a scan of every place would: the same places in the node table's order
+// (with more than the capacity, the first ones), whether the places are open or closed, and none of another storey
+// or outside the window.
+TEST(OnlineDoors, AddPlacesTakesWhatAScanOfEveryPlaceTakes) {
+  namespace sg = scene_graph;
+  const Scene s = two_rooms(1.6, 2.5);
+  const Eigen::Vector3d robot(2.0, 2.0, 0.5);
+  for (const std::size_t capacity : {std::size_t{512}, std::size_t{40}}) {
+    OnlineDoorCapacities c = small_capacities();
+    c.places = capacity;
+    std::string error;
+    OnlineDoors scan, open, closed;
+    for (OnlineDoors* o : {&scan, &open, &closed}) {
+      ASSERT_TRUE(o->init(DoorConfig{}, c, 0, &error)) << error;
+      paint(s, &o->wall_map());
+    }
+    const PassResult expected = pass(&scan, s, robot);
+    ASSERT_TRUE(expected.ran);
+    auto graph = places_graph(s, 4.0, 1.6, 2.5);
+    // Places of another storey and far away: never taken.
+    for (std::size_t i = 0; i < s.places.size(); ++i) {
+      sg::PlaceAttributes a;
+      a.position_m = s.places[i] + Eigen::Vector3d(i % 2 == 0 ? 0.0 : 100.0, 0.0, i % 2 == 0 ? 3.0 : 0.0);
+      ASSERT_EQ(graph->add_place(sg::make_node_id(sg::kPlacePrefix, 10000 + i), a), sg::Status::kOk);
+    }
+    const PassResult all_open = pass_with_graph(&open, *graph, robot);
+    // Every other place (and every far one) closed: inactive, in a room.
+    const sg::NodeId room = sg::make_node_id(sg::kRoomPrefix, 0);
+    ASSERT_EQ(graph->add_room(room, sg::RoomAttributes{}), sg::Status::kOk);
+    std::size_t in_room = 0;
+    graph->for_each_node_of(sg::NodeKind::kPlace, [&](const sg::NodeRecord& n) {
+      if (sg::node_index(n.id) % 2 == 0 && graph->add_edge(room, n.id) == sg::Status::kOk) ++in_room;
+    });
+    graph->for_each_open_place([](const sg::NodeRecord&, const sg::PlaceAttributes&) {});
+    ASSERT_EQ(graph->num_closed_places(), in_room);
+    const PassResult some_closed = pass_with_graph(&closed, *graph, robot);
+    for (const PassResult* r : {&all_open, &some_closed}) {
+      ASSERT_TRUE(r->ran);
+      EXPECT_EQ(r->places, expected.places) << "capacity " << capacity;
+      EXPECT_EQ(r->places_dropped, expected.places_dropped) << "capacity " << capacity;
+      EXPECT_EQ(r->found, expected.found) << "capacity " << capacity;
+      EXPECT_EQ(r->stats.candidates, expected.stats.candidates) << "capacity " << capacity;
+      EXPECT_EQ(r->stats.free_cells, expected.stats.free_cells) << "capacity " << capacity;
+    }
+    EXPECT_EQ(expected.places + expected.places_dropped, s.places.size());
+    if (capacity < s.places.size()) {
+      EXPECT_GT(expected.places_dropped, 0u);
+    }
+    EXPECT_EQ(closed.doors().size(), scan.doors().size());
+  }
+}
+
 TEST(DoorSet, AWindowUpdateMatchesNearestFirstCountsMissesAndLeavesDoorsOutOfScope) {
   DoorConfig config;
   config.cut_extension_m = 0.0;  // edges close exactly on the door lines

@@ -269,5 +269,50 @@ TEST(RoomWindowTest, ChoosesTheWindowWithoutVisitingTheBuilding) {
   EXPECT_EQ(b.rooms, 4 * a.rooms);
 }
 
+// A long room far from the robot costs nothing to keep (issue 37): the same robot window at the west end of a
+// corridor building and of one whose corridor (and row of rooms) is 4x as long visits and reads the same places;
+// the corridor's far part, 4x larger or more, comes from the graph's sums, and its node still spans all of it.
+TEST(RoomWindowTest, AFarRoomFourTimesAsLongVisitsTheSame) {
+  struct Run {
+    UpdateResult r;
+    std::size_t corridor_places = 0;
+  };
+  const auto run = [](int rooms_per_side, Run* out) {
+    SyntheticPlaces s;
+    testing::corridor_plan(rooms_per_side, 0.5).add_to(&s, 1.0, Eigen::Vector2d::Zero(), 1.25);
+    auto g = make_graph(s);
+    auto finder = make_finder(true);
+    ASSERT_EQ(finder->update(g.get(), 1).outcome, Outcome::kOk);  // a whole update: every place gets its room
+    const sg::NodeId corridor = *rooms_by_tag(*g, s).at(0).begin();
+    for (const auto& p : s.places) g->place(p.id)->is_active = p.position_m.x() < 9.0;
+    ASSERT_EQ(finder->update(g.get(), 2, nullptr, nullptr, /*window=*/true).outcome, Outcome::kOk);
+    EXPECT_NO_ALLOCATIONS(out->r = finder->update(g.get(), 3, nullptr, nullptr, /*window=*/true));
+    ASSERT_EQ(out->r.outcome, Outcome::kOk);
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    double max_x = -1e9;
+    for (const auto& p : s.places)
+      if (g->parent(p.id) == corridor) {
+        sum += p.position_m;
+        max_x = std::max(max_x, p.position_m.x() + g->place(p.id)->distance_m);
+        ++out->corridor_places;
+      }
+    const sg::RoomAttributes* c = g->room(corridor);
+    ASSERT_NE(c, nullptr);
+    EXPECT_LT((c->position_m - sum / static_cast<double>(out->corridor_places)).norm(), 1e-9);
+    EXPECT_NEAR(c->bounding_box.max_m.x(), max_x, 1e-9);
+  };
+  Run a, b;
+  run(6, &a);
+  run(24, &b);
+  EXPECT_GT(b.corridor_places, 3 * a.corridor_places);
+  EXPECT_EQ(a.r.rooms_partial, 1u);
+  EXPECT_EQ(b.r.rooms_partial, 1u);
+  EXPECT_GT(b.r.places_kept, 4 * a.r.places_kept) << "the corridor's far part did not grow";
+  EXPECT_GT(a.r.places_visited, 0u);
+  EXPECT_EQ(b.r.places_visited, a.r.places_visited) << "the window's choice grew with a far room";
+  EXPECT_EQ(b.r.places, a.r.places);
+  EXPECT_EQ(b.r.rooms_open, a.r.rooms_open);
+}
+
 }  // namespace
 }  // namespace qsg::rooms

@@ -342,5 +342,133 @@ TEST(SceneGraphTest, OpenPlacesAreTheActiveAndTheParentless) {
   EXPECT_EQ(g->open_places_stats().in_use, 0u);
 }
 
+// The grid of closed places and the rooms' sums (issue 37) agree with a scan after random adds, removals, parent
+// edges made and dropped, rooms removed, and positions, clearances and is_active written through the writable
+// access: the places in a box are exactly those a scan finds (at any time), and once the open places were iterated
+// the grid holds exactly the inactive places with a parent and each room's sums are its closed children's.
+TEST(SceneGraphTest, PlaceGridAgreesWithAScan) {
+  auto g = make_graph();
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> coord(-12.0, 12.0);
+  std::vector<NodeId> places, rooms;
+  for (int i = 0; i < 6; ++i) {
+    rooms.push_back(make_node_id('R', i));
+    ASSERT_EQ(g->add_room(rooms.back(), RoomAttributes{}), Status::kOk);
+  }
+  const auto random_place = [&] {
+    PlaceAttributes p = place_at(coord(rng), coord(rng), 0.1 + 0.1 * static_cast<double>(rng() % 10));
+    p.position_m.z() = static_cast<double>(rng() % 3) * 2.5;
+    p.is_active = rng() % 3 == 0;
+    return p;
+  };
+  std::uint64_t next = 0;
+  std::size_t checks = 0;
+  for (int step = 0; step < 6000; ++step) {
+    const int op = static_cast<int>(rng() % 7);
+    if ((op == 0 || places.size() < 16) && places.size() < 400) {
+      places.push_back(make_node_id('p', next++));
+      ASSERT_EQ(g->add_place(places.back(), random_place()), Status::kOk);
+    } else if (op == 1 && !places.empty()) {
+      const std::size_t k = rng() % places.size();
+      ASSERT_TRUE(g->remove_node(places[k]));
+      places.erase(places.begin() + static_cast<long>(k));
+    } else if (op == 2) {
+      const NodeId p = places[rng() % places.size()];
+      if (g->parent(p) == kNoNode) {
+        ASSERT_EQ(g->add_edge(rooms[rng() % rooms.size()], p), Status::kOk);
+      }
+    } else if (op == 3) {
+      const NodeId p = places[rng() % places.size()];
+      if (g->parent(p) != kNoNode && rng() % 3 == 0) {
+        ASSERT_TRUE(g->remove_edge(g->parent(p), p));
+      }
+    } else if (op == 4) {  // moved (a loop closure's correction), clearance and activity rewritten
+      PlaceAttributes* a = g->place(places[rng() % places.size()]);
+      const PlaceAttributes moved = random_place();
+      if (rng() % 2 == 0) a->position_m = moved.position_m;
+      a->distance_m = moved.distance_m;
+      a->is_active = moved.is_active;
+    } else if (op == 5 && rng() % 40 == 0) {
+      const std::size_t k = rng() % rooms.size();
+      ASSERT_TRUE(g->remove_node(rooms[k]));
+      ASSERT_EQ(g->add_room(rooms[k], RoomAttributes{}), Status::kOk);
+    } else if (op == 6 && rng() % 4 == 0) {  // the room finder's window: the open places iterated, closed ones filed
+      g->for_each_open_place([](const NodeRecord&, const PlaceAttributes&) {});
+    }
+    if (step % 23 != 0) continue;
+    ++checks;
+    // A random box (sometimes empty, sometimes larger than the grid): the places in it, each once.
+    double lo[3], hi[3];
+    for (int d = 0; d < 3; ++d) {
+      lo[d] = coord(rng) * (d == 2 ? 0.4 : 1.0);
+      hi[d] = lo[d] + std::abs(coord(rng)) * (step % 5 == 0 ? 10.0 : 0.5);
+    }
+    if (step % 7 == 0) hi[0] = lo[0] - 1.0;
+    const auto inside = [&](const PlaceAttributes& a) {
+      for (int d = 0; d < 3; ++d)
+        if (!(a.position_m[d] >= lo[d] && a.position_m[d] <= hi[d])) return false;
+      return true;
+    };
+    std::multiset<NodeId> expected, found;
+    g->for_each_node_of(NodeKind::kPlace, [&](const NodeRecord& n) {
+      if (inside(*g->place_of(n))) expected.insert(n.id);
+    });
+    g->for_each_place_in_box(lo, hi, [&](std::uint32_t slot, const NodeRecord& n, const PlaceAttributes& a) {
+      EXPECT_EQ(&g->node_at(slot), &n);
+      EXPECT_EQ(g->place_of(n), &a);
+      found.insert(n.id);
+    });
+    ASSERT_EQ(found, expected) << "step " << step;
+    if (step % 2 != 0) continue;
+    // After the open places' iteration: the grid holds exactly the closed places, the rooms' sums are theirs.
+    g->for_each_open_place([](const NodeRecord&, const PlaceAttributes&) {});
+    std::set<NodeId> closed_in_box, near;
+    std::size_t closed = 0;
+    std::map<NodeId, ChildSums> sums;
+    for (NodeId r : rooms) sums[r].reset();
+    g->for_each_node_of(NodeKind::kPlace, [&](const NodeRecord& n) {
+      const PlaceAttributes& a = *g->place_of(n);
+      if (a.is_active || n.parent == kNoNode) return;
+      ++closed;
+      if (inside(a)) closed_in_box.insert(n.id);
+      ChildSums& s = sums[n.parent];
+      for (int d = 0; d < 3; ++d) s.sum[d] += child_sum_units(a.position_m[d]);
+      ++s.count;
+    });
+    EXPECT_EQ(g->num_closed_places(), closed);
+    g->for_each_closed_place_near(lo, hi, [&](std::uint32_t, const NodeRecord& n, const PlaceAttributes& a) {
+      EXPECT_FALSE(a.is_active || n.parent == kNoNode) << "an open place in the grid";
+      EXPECT_TRUE(near.insert(n.id).second) << "a place in the grid twice";
+    });
+    for (NodeId id : closed_in_box) EXPECT_EQ(near.count(id), 1u) << "a closed place in the box not found";
+    for (NodeId r : rooms) {
+      const ChildSums& s = g->closed_child_sums(r);
+      ASSERT_EQ(s.count, sums[r].count) << "room " << r << " step " << step;
+      for (int d = 0; d < 3; ++d) EXPECT_EQ(s.sum[d], sums[r].sum[d]);
+    }
+  }
+  EXPECT_GT(checks, 200u);
+  // Each room's box holds its closed children's spheres.
+  g->for_each_open_place([](const NodeRecord&, const PlaceAttributes&) {});
+  const SceneGraph& cg = *g;
+  for (NodeId r : rooms) {
+    const ChildSums& s = cg.closed_child_sums(r);
+    cg.for_each_child(r, [&](NodeId c) {
+      const PlaceAttributes& a = *cg.place(c);
+      if (a.is_active) return;
+      for (int d = 0; d < 3; ++d) {
+        EXPECT_LE(s.min[d], a.position_m[d] - a.distance_m);
+        EXPECT_GE(s.max[d], a.position_m[d] + a.distance_m);
+      }
+    });
+  }
+  std::size_t cells = 0;
+  g->for_each_resource([&](const memory::ResourceStats& st) {
+    if (std::string(st.name) == "scene_graph.place_grid") cells = st.in_use;
+  });
+  EXPECT_GT(cells, 0u);
+  EXPECT_LE(cells, g->num_closed_places());
+}
+
 }  // namespace
 }  // namespace qsg::scene_graph
