@@ -17,6 +17,7 @@
 
 #include "bench/figures.h"
 #include "budgets/budget_table.h"
+#include "firmware_app/app_params.h"
 #include "firmware_app/pipeline.h"
 
 namespace {
@@ -85,6 +86,13 @@ int main(int argc, char** argv) {
     else if (a == "--output" && i + 1 < argc) config.output_dir = argv[++i];
     else if (a == "--model" && i + 1 < argc) config.segmentation.model_path = argv[++i];
     else if (a == "--no-segmentation") config.segmentation.model_path.clear();
+    else if (a == "--set" && i + 1 < argc) {  // a config key, as qsg_app --set SECTION.KEY=VALUE
+      std::string error;
+      if (!params::set(app::app_schema(), &config, argv[++i], &error)) {
+        std::fprintf(stderr, "app_budget_check: --set %s\n", error.c_str());
+        return 2;
+      }
+    }
     else if (a == "--cost-clock" && i + 1 < argc && (std::strcmp(argv[i + 1], "wall") == 0 || std::strcmp(argv[i + 1], "cpu") == 0))
       cpu_cost = std::strcmp(argv[++i], "cpu") == 0;
     else if (a == "--size" && i + 1 < argc) {
@@ -99,6 +107,7 @@ int main(int argc, char** argv) {
     else {
       std::printf("usage: app_budget_check [--duration S (120; 0 = whole tour)] [--rooms N] [--seed N] [--size WxH] "
                   "[--output DIR] [--json FILE] [--model ONNX | --no-segmentation] [--cost-clock wall|cpu]\n"
+                  "                        [--set SECTION.KEY=VALUE]...  (a config key, as qsg_app --set)\n"
                   "  The app's pipeline on the simulated robot, cadence in lockstep: each task's and thread's median /\n"
                   "  p99 / max against the board's budget (exit 1 on a violation; CI runs it and reports) and the\n"
                   "  end-to-end per-keyframe latency with the keyframe rate it sustains. --size 640x480 --duration 0 for\n"
