@@ -26,11 +26,12 @@ int usage(int status) {
   std::fprintf(status == 0 ? stdout : stderr,
                "usage: dg_sequence PROBLEM... [--settle M] [--hops N] [--incremental 0|1] [--whole-tolerance F]\n"
                "                   [--agent-spacing M (0)] [--bounded-whole-tolerance F]\n"
-               "                   [--json FILE]\n"
+               "                   [--bounded-only] [--json FILE]\n"
                "  the bounded side: DeformationConfig's defaults; --settle, --hops: settle_tolerance_m, settle_hops;\n"
                "  --incremental: incremental_decisions (it keeps the last solve's closure decisions)\n"
                "  --bounded-whole-tolerance F: the bounded side's stopping rule only (with --settle 0: how far the\n"
                "                 full solve's own nodes move with its stopping rule)\n"
+               "  --bounded-only: the bounded solve alone, with its iterations (where a slow solve's time goes)\n"
                "  PROBLEM...: one mission's solves in the order the app made them (QSG_DUMP_DEFORMATION with %%d)\n");
   return status;
 }
@@ -77,6 +78,7 @@ int main(int argc, char** argv) {
   int hops = static_cast<int>(backend::DeformationConfig{}.settle_hops);
   double whole_tolerance = 0.0, agent_spacing_m = 0.0, bounded_tolerance = 0.0;
   bool incremental = backend::DeformationConfig{}.incremental_decisions;
+  bool bounded_only = false;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     const bool has = i + 1 < argc;
@@ -87,6 +89,7 @@ int main(int argc, char** argv) {
     else if (a == "--agent-spacing" && has) agent_spacing_m = std::atof(argv[++i]);
     else if (a == "--incremental" && has) incremental = std::atoi(argv[++i]) != 0;
     else if (a == "--bounded-whole-tolerance" && has) bounded_tolerance = std::atof(argv[++i]);
+    else if (a == "--bounded-only") bounded_only = true;
     else if (a == "--json" && has) json = argv[++i];
     else if (!a.empty() && a[0] == '-') return usage(2);
     else paths.push_back(a);
@@ -125,6 +128,17 @@ int main(int argc, char** argv) {
     const backend::DeformationProblem& p = file.problem;
     double path_m = 0.0;
     for (std::size_t k = 1; k < p.result.agents; ++k) path_m += (p.poses[k].t_m - p.poses[k - 1].t_m).norm();
+    if (bounded_only) {  // the bounded solve alone: where its time goes
+      const Timed b = solve(&settled, p);
+      std::printf("%5zu %7.1f %7zu %8zu %7zu %8zu %9.3f s: decide %d iterations (%d GNC outer), map %d iterations; "
+                  "%zu of %zu kept, %zu carried%s\n",
+                  s, path_m, p.result.agents, p.result.control_points, p.result.places, b.result.map_settled, b.cpu_s,
+                  b.result.decide.iterations, b.result.decide.gnc_outer_iterations, b.result.solve.iterations,
+                  b.result.loop_closures_kept, b.result.loop_closures, b.result.closures_carried,
+                  b.result.decided_again ? ", decided again" : "");
+      std::fflush(stdout);
+      continue;
+    }
     const Timed a = solve(&full, p), b = solve(&settled, p);
     if (!a.result.solve.poses_updated() || !b.result.solve.poses_updated()) {
       std::fprintf(stderr, "dg_sequence: solve %zu failed (%s / %s)\n", s, a.result.solve.message.c_str(),
