@@ -5,7 +5,6 @@
 // decisions are carried). Per solve: the path so far, the graph's size, the thread CPU of each, the control points
 // held, how far the bounded solve's map nodes are from the full solve's (the price of holding them), the closures
 // kept and the agents' ATE of each. Every figure also goes to --json (bench/figures.h).
-#include <time.h>
 
 #include <algorithm>
 #include <cmath>
@@ -15,6 +14,7 @@
 #include <vector>
 
 #include "bench/figures.h"
+#include "bench/thread_cpu.h"
 #include "core/backend/deformation_graph.h"
 #include "core/backend/deformation_io.h"
 
@@ -34,12 +34,6 @@ int usage(int status) {
                "  --bounded-only: the bounded solve alone, with its iterations (where a slow solve's time goes)\n"
                "  PROBLEM...: one mission's solves in the order the app made them (QSG_DUMP_DEFORMATION with %%d)\n");
   return status;
-}
-
-double cpu_seconds() {
-  timespec ts{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
 }
 
 struct Timed {
@@ -62,10 +56,10 @@ struct Spread {
 };
 
 Timed solve(backend::DeformationGraph* graph, const backend::DeformationProblem& problem) {
-  const double start = cpu_seconds();
+  const double start = bench::thread_cpu_seconds();
   Timed t;
   t.result = graph->solve(problem);
-  t.cpu_s = cpu_seconds() - start;
+  t.cpu_s = bench::thread_cpu_seconds() - start;
   return t;
 }
 

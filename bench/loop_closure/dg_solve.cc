@@ -6,7 +6,6 @@
 // dropped or re-weighted, oracle closures from the truth (--oracle R: what closures everywhere the robot revisits
 // would give), the error per stretch of the chain (--segments N: one per tour) and along it (--profile N).
 // Every figure also goes to --json (bench/figures.h).
-#include <time.h>
 
 #include <chrono>
 #include <cmath>
@@ -16,6 +15,7 @@
 #include <string>
 
 #include "bench/figures.h"
+#include "bench/thread_cpu.h"
 #include "core/backend/deformation_io.h"
 #include "core/metrics/trajectory_error.h"
 
@@ -50,13 +50,6 @@ int usage(int status) {
       "  agents_first: GNC decides the loop closures on the agent layer, then the whole graph is solved once with\n"
       "                the kept ones, from the agents' solution (DeformationConfig::decide_on_agents)\n");
   return status;
-}
-
-// This thread's CPU time: the solve runs on one thread, so this is its cost whatever else shares the machine.
-double cpu_seconds() {
-  timespec ts{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
 }
 
 // ATE RMSE of agents [lo, hi) against the truth: as mapped (no alignment) or after SE(3) alignment.
@@ -233,10 +226,10 @@ int main(int argc, char** argv) {
   backend::DeformationGraph graph(config);
   const std::vector<backend::Pose3> initial = file.problem.poses;
   const auto start = std::chrono::steady_clock::now();
-  const double cpu_start = cpu_seconds();
+  const double cpu_start = bench::thread_cpu_seconds();
   const backend::DeformationResult r = graph.solve(file.problem);
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  const double cpu = cpu_seconds() - cpu_start;
+  const double cpu = bench::thread_cpu_seconds() - cpu_start;
   r.print(stdout);
   std::vector<backend::Pose3> solved(r.agents);
   for (std::size_t k = 0; k < r.agents; ++k) solved[k] = graph.agent_pose(k);
