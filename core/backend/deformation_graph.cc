@@ -585,7 +585,7 @@ bool DeformationGraph::decide_incrementally(const DeformationProblem& problem, c
     if (e.from >= A || e.to >= A) continue;
     if (k >= problem.first_closure && k < problem.first_closure + L) {
       const std::size_t c = k - problem.first_closure;
-      if (c < closure_ends_.size() && closure_ends_[c] == ends[c]) {
+      if (c < closure_ends_.size() && c < closure_weights_.size() && closure_ends_[c] == ends[c]) {
         carried[c] = 1;
         ++num_carried;
         if (closure_weights_[c] <= 0.5) continue;  // an outlier stays out
