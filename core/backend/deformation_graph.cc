@@ -51,7 +51,7 @@ void DeformationConfig::print(std::FILE* out) const {
 void DeformationResult::print(std::FILE* out) const {
   std::fprintf(out,
                "deformation graph: %zu agents (%zu solved), %zu control points, %zu places; edges aa %zu mm %zu pp %zu "
-               "am %zu ap %zu mp %zu; %zu of %zu loop closures kept (%zu carried decided%s); %zu map nodes settled; ",
+               "am %zu ap %zu mp %zu; %zu of %zu loop closures kept (%zu decisions carried%s); %zu control points held; ",
                agents, agents_solved, control_points, places, edges_aa, edges_mm, edges_pp, edges_am, edges_ap, edges_mp,
                loop_closures_kept, loop_closures, closures_carried, decided_again ? ", all decided again" : "",
                map_settled);
