@@ -122,15 +122,14 @@ void OnlineDoors::begin_pass(const Eigen::Vector3d& robot_m) {
   begun_ = true;
 }
 
-bool OnlineDoors::takes(const Eigen::Vector3d& p) const {
-  int c, r;
+bool OnlineDoors::takes(const Eigen::Vector3d& p, int* c, int* r) const {
   return begun_ && p.allFinite() && std::abs(p.z() - slice_z_m_) <= config_.place_band_m &&
-         raster_.cell_of(p.x(), p.y(), &c, &r);
+         raster_.cell_of(p.x(), p.y(), c, r);
 }
 
 void OnlineDoors::add_place(const Eigen::Vector3d& p) {
   int c = 0, r = 0;
-  if (!takes(p) || !raster_.cell_of(p.x(), p.y(), &c, &r)) return;
+  if (!takes(p, &c, &r)) return;
   if (num_places_ == capacities_.places) {
     ++places_dropped_;
     return;
@@ -150,7 +149,8 @@ void OnlineDoors::add_places(const sg::SceneGraph& graph) {
   const std::size_t capacity = capacities_.places;
   std::size_t n = 0;
   graph.for_each_place_in_box(lo, hi, [&](std::uint32_t slot, const sg::NodeRecord&, const sg::PlaceAttributes& a) {
-    if (!takes(a.position_m)) return;
+    int c = 0, r = 0;
+    if (!takes(a.position_m, &c, &r)) return;
     if (n < capacity) {
       slots[n++] = slot;
       std::push_heap(slots, slots + n);

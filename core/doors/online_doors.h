@@ -110,7 +110,8 @@ class OnlineDoors {
 
  private:
   bool inside_interior(const Eigen::Vector2d& p) const;
-  bool takes(const Eigen::Vector3d& p) const;  // in the window and the slice's band (after begin_pass)
+  // In the window and the slice's band (after begin_pass); *c, *r: its raster cell.
+  bool takes(const Eigen::Vector3d& p, int* c, int* r) const;
   DoorConfig config_;
   OnlineDoorCapacities capacities_;
   memory::Arena arena_;
