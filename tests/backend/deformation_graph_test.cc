@@ -202,6 +202,8 @@ TEST_F(DeformationGraphTest, AProblemFileReadsBackAndSolvesTheSame) {
   }
   ASSERT_EQ(read.problem.poses.size(), problem.poses.size());
   ASSERT_EQ(read.problem.edges.size(), problem.edges.size());
+  ASSERT_FALSE(problem.place_ids.empty());
+  EXPECT_EQ(read.problem.place_ids, problem.place_ids) << "places keep their node ids (dg_sequence matches by them)";
   EXPECT_EQ(read.problem.first_closure, problem.first_closure);
   EXPECT_EQ(read.truth_m.size(), truth.size());
   for (std::size_t k = 0; k < problem.poses.size(); ++k) {
