@@ -454,11 +454,15 @@ Eigen::Vector3d BackendStage::corrected_position(scene_graph::NodeId id, scene_g
   return deformation_.deform(p_m, time_ns);
 }
 
-// Vertices carry no time, so each moves with its nearest nodes of any time.
+// A vertex with a time (when its block was seen) moves with the nodes seen within the time horizon of it, like a
+// place or an object: a wall mapped on two visits, drifted apart, follows each visit's own correction and comes
+// together again. Without times (a mesh read from a file) each moves with its nearest nodes of any time.
 void BackendStage::correct_mesh(reconstruction::Mesh* mesh) const {
   if (!deformation_.solved()) return;
-  for (reconstruction::MeshVertex& v : mesh->vertices) {
-    const Eigen::Vector3d p = deformation_.deform(Eigen::Vector3d(v.x, v.y, v.z));
+  const bool timed = mesh->has_vertex_times();
+  for (std::size_t i = 0; i < mesh->vertices.size(); ++i) {
+    reconstruction::MeshVertex& v = mesh->vertices[i];
+    const Eigen::Vector3d p = deformation_.deform(Eigen::Vector3d(v.x, v.y, v.z), timed ? mesh->vertex_time_ns[i] : 0);
     v.x = static_cast<float>(p.x());
     v.y = static_cast<float>(p.y());
     v.z = static_cast<float>(p.z());

@@ -180,7 +180,8 @@ class BackendStage {
   // Graph lock held: agents and places to their optimized poses, objects, rooms and the building moved by the
   // deformation around them (nothing when no solve has succeeded).
   void correct_graph(const agents::AgentLayer& agents, scene_graph::SceneGraph* graph) const;
-  // The mesh moved by the deformation (embedded deformation: each vertex by its nearest nodes).
+  // The mesh moved by the deformation (embedded deformation: each vertex by its nearest nodes of its own time, when
+  // the mesh has vertex times).
   void correct_mesh(reconstruction::Mesh* mesh) const;
   // After correct_graph and correct_mesh (graph lock held; off the real-time path: it allocates): the paper's
   // reconciliation. Each object's centre and box from its mesh vertices in the corrected mesh (indices: the

@@ -76,6 +76,7 @@ MeshCleanupStats clean_mesh(Mesh* mesh, std::vector<std::uint32_t>* old_to_new, 
   }
   mesh->triangles.resize(kept);
 
+  const bool times = mesh->has_vertex_times();
   std::vector<std::uint32_t> remap(n, memory::kInvalidHandle);
   for (const MeshTriangle& t : mesh->triangles)
     for (std::uint32_t v : t.v) remap[v] = 0;
@@ -86,9 +87,12 @@ MeshCleanupStats clean_mesh(Mesh* mesh, std::vector<std::uint32_t>* old_to_new, 
       continue;
     }
     remap[i] = next;
+    if (times) mesh->vertex_time_ns[next] = mesh->vertex_time_ns[i];
     mesh->vertices[next++] = mesh->vertices[i];
   }
   mesh->vertices.resize(next);
+  if (times) mesh->vertex_time_ns.resize(next);
+  else mesh->vertex_time_ns.clear();
   for (MeshTriangle& t : mesh->triangles)
     for (std::uint32_t& v : t.v) v = remap[v];
   std::unordered_map<std::uint64_t, std::uint32_t> edge_uses;

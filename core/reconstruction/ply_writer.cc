@@ -120,6 +120,7 @@ bool read_ply(const std::string& path, Mesh* mesh, std::string* error) {
   if (!in.read(reinterpret_cast<char*>(buf.data()), static_cast<std::streamsize>(buf.size())))
     return fail("vertex data truncated (" + std::to_string(num_vertices) + " vertices declared)");
   mesh->vertices.resize(num_vertices);
+  mesh->vertex_time_ns.clear();  // not in the file
   for (std::size_t i = 0; i < num_vertices; ++i) {
     const unsigned char* p = &buf[i * kVertexBytes];
     MeshVertex& v = mesh->vertices[i];

@@ -365,11 +365,13 @@ void SemanticTsdf::for_each_block_triangle(const Block& block, Fn&& fn) const {
 void SemanticTsdf::extract_active_mesh(Mesh* out) {
   out->vertices.clear();
   out->triangles.clear();
+  out->vertex_time_ns.clear();
   if (!ready_) return;
   weld_.clear();
   for (std::uint32_t h = 0; h < blocks_.capacity(); ++h) {
     if (!blocks_.live(h)) continue;
     const Block& block = blocks_[h];
+    const std::uint64_t time_ns = block.mean_time_ns();
     for_each_block_triangle(block, [&](const MeshVertex* const* v, const std::uint16_t* codes) {
       MeshTriangle tri;
       for (int j = 0; j < 3; ++j) {
@@ -377,7 +379,10 @@ void SemanticTsdf::extract_active_mesh(Mesh* out) {
         const std::uint32_t next = static_cast<std::uint32_t>(out->vertices.size());
         const std::uint32_t* id = weld_.find_or_insert(edge_key(block.index, codes[j]), next, &inserted);
         if (id == nullptr) return;  // the weld table is as large as the mesh pools: cannot fill first
-        if (inserted) out->vertices.push_back(*v[j]);
+        if (inserted) {
+          out->vertices.push_back(*v[j]);
+          out->vertex_time_ns.push_back(time_ns);
+        }
         tri.v[j] = *id;
       }
       out->triangles.push_back(tri);
@@ -547,6 +552,7 @@ void SemanticTsdf::archive_block(std::uint32_t handle) {
   } else if (block.num_triangles > 0) {
     entry = archive_blocks_.insert(block.index, ArchiveEntry{});
   }
+  if (entry != nullptr && block.num_triangles > 0) entry->time_ns = block.mean_time_ns();
   bool overflow = entry == nullptr && block.num_triangles > 0;
   bool tried_room = false;
   if (entry != nullptr) {
@@ -596,8 +602,10 @@ bool SemanticTsdf::process(const messages::RgbdFrame& frame, const Eigen::Isomet
 void SemanticTsdf::extract_archive(Mesh* out) const {
   out->vertices.clear();
   out->triangles.clear();
+  out->vertex_time_ns.clear();
   if (!ready_) return;
-  // Only the vertices some triangle uses (a revisit can leave unused ones until the next compaction).
+  // Only the vertices some triangle uses (a revisit can leave unused ones until the next compaction). A vertex
+  // two blocks share takes the later block's time.
   std::vector<std::uint32_t> remap(archive_vertices_.size(), memory::kInvalidHandle);
   archive_blocks_.for_each([&](const memory::Index3&, const ArchiveEntry& e) {
     for (std::uint32_t c = e.head; c != memory::kInvalidHandle; c = archive_chunks_[c].next)
@@ -607,8 +615,10 @@ void SemanticTsdf::extract_archive(Mesh* out) const {
           if (remap[v] == memory::kInvalidHandle) {
             remap[v] = static_cast<std::uint32_t>(out->vertices.size());
             out->vertices.push_back(archive_vertices_[v]);
+            out->vertex_time_ns.push_back(e.time_ns);
           }
           v = remap[v];
+          out->vertex_time_ns[v] = std::max(out->vertex_time_ns[v], e.time_ns);
         }
         out->triangles.push_back(t);
       }
@@ -618,14 +628,19 @@ void SemanticTsdf::extract_archive(Mesh* out) const {
 void SemanticTsdf::extract_full_mesh(Mesh* out) {
   out->vertices.clear();
   out->triangles.clear();
+  out->vertex_time_ns.clear();
   if (!ready_) return;
   // The archive, less what an active block has observed again (the active mesh stands for it now)...
+  // Each vertex takes the time of the latest visit that holds it (the archive's blocks', the active blocks').
   std::vector<std::uint32_t> remap(archive_vertices_.size(), memory::kInvalidHandle);
-  const auto emit_archived = [&](std::uint32_t v) {
+  const auto emit_archived = [&](std::uint32_t v, std::uint64_t time_ns) {
     if (remap[v] == memory::kInvalidHandle) {
       remap[v] = static_cast<std::uint32_t>(out->vertices.size());
       out->vertices.push_back(archive_vertices_[v]);
+      out->vertex_time_ns.push_back(time_ns);
     }
+    std::uint64_t& t = out->vertex_time_ns[remap[v]];
+    t = std::max(t, time_ns);
     return remap[v];
   };
   archive_blocks_.for_each([&](const memory::Index3& index, const ArchiveEntry& e) {
@@ -636,7 +651,7 @@ void SemanticTsdf::extract_full_mesh(Mesh* out) {
         const MeshVertex* corners[3] = {&archive_vertices_[t.v[0]], &archive_vertices_[t.v[1]],
                                         &archive_vertices_[t.v[2]]};
         if (active != nullptr && covered_by_block(blocks_[*active], corners)) continue;
-        for (std::uint32_t& v : t.v) v = emit_archived(v);
+        for (std::uint32_t& v : t.v) v = emit_archived(v, e.time_ns);
         out->triangles.push_back(t);
       }
   });
@@ -649,11 +664,14 @@ void SemanticTsdf::extract_full_mesh(Mesh* out) {
   for (std::size_t i = 0; i < active.vertices.size(); ++i) {
     const memory::Index3 cell = archive_cell(active.vertices[i]);
     if (const std::uint32_t* id = archive_index_.find(cell)) {
-      active_to_out[i] = emit_archived(*id);
+      active_to_out[i] = emit_archived(*id, active.vertex_time_ns[i]);
       continue;
     }
     const auto it = fresh.emplace(cell, static_cast<std::uint32_t>(out->vertices.size()));
-    if (it.second) out->vertices.push_back(active.vertices[i]);
+    if (it.second) {
+      out->vertices.push_back(active.vertices[i]);
+      out->vertex_time_ns.push_back(active.vertex_time_ns[i]);
+    }
     active_to_out[i] = it.first->second;
   }
   for (MeshTriangle t : active.triangles) {

@@ -60,6 +60,11 @@ struct MeshTriangle {
 struct Mesh {
   std::vector<MeshVertex> vertices;
   std::vector<MeshTriangle> triangles;
+  // When each vertex's surface was seen (data time, ns): the mean time of the frames integrated into its block.
+  // Filled by SemanticTsdf's extract_* calls, kept in step by clean_mesh; empty when not known (a mesh read from
+  // a file). The deformation moves a vertex with the nodes of its own visit (BackendStage::correct_mesh).
+  std::vector<std::uint64_t> vertex_time_ns;
+  bool has_vertex_times() const { return !vertices.empty() && vertex_time_ns.size() == vertices.size(); }
 };
 
 struct Config {
@@ -210,6 +215,9 @@ class SemanticTsdf {
     std::uint32_t head = memory::kInvalidHandle;  // chunk chain of the block's archived triangles
     std::uint32_t tail = memory::kInvalidHandle;
     std::uint32_t count = 0;
+    // When its last visit saw the block (mean data time of the frames integrated into it, ns). A revisit keeps
+    // the earlier triangles it did not observe again under the newer time.
+    std::uint64_t time_ns = 0;
   };
   class Workers;
 

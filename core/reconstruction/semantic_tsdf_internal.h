@@ -52,6 +52,11 @@ struct SemanticTsdf::Block {
   std::uint16_t num_vertices = 0;
   std::uint16_t num_triangles = 0;
   bool dirty = false;
+  std::uint32_t time_frames = 0;  // frames integrated into the block since it was allocated ...
+  double time_sum_s = 0.0;        // ... and the sum of their data times (s): the block's time is their mean
+  std::uint64_t mean_time_ns() const {
+    return time_frames == 0 ? 0 : static_cast<std::uint64_t>(std::max(0.0, time_sum_s / time_frames) * 1e9);
+  }
   Voxel voxels[kBlockVoxels];
 };
 

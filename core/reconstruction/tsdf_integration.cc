@@ -110,6 +110,8 @@ bool SemanticTsdf::integrate(const messages::RgbdFrame& frame, const Eigen::Isom
         Block& b = blocks_[h];
         if (b.frame_stamp != frame_stamp_) {
           b.frame_stamp = frame_stamp_;
+          b.time_sum_s += static_cast<double>(frame.sample_time_ns) * 1e-9;
+          ++b.time_frames;
           touched_.push_back(h);
         }
       }

@@ -10,6 +10,8 @@
 #include <tuple>
 #include <utility>
 
+#include "core/reconstruction/mesh_cleanup.h"
+#include "core/reconstruction/ply_writer.h"
 #include "core/reconstruction/semantic_tsdf.h"
 #include "tests/support/allocation_counter.h"
 
@@ -160,6 +162,75 @@ TEST(MeshArchiveTest, ArchivedAndActiveMeshesJoinWithoutASeam) {
   EXPECT_EQ(joined.triangles.size(), reference.triangles.size());
   EXPECT_EQ(joined.vertices.size(), reference.vertices.size()) << "border vertices must be shared, not doubled";
   EXPECT_EQ(boundary_edges(joined), boundary_edges(reference)) << "a crack between archive and window";
+}
+
+// Every vertex carries the time its visit saw it (the mean data time of its block's frames), through the archive,
+// the active window and the clean-up: the deformation moves a revisit's surface with that visit's nodes.
+TEST(MeshArchiveTest, VerticesCarryTheTimeTheirVisitSawThem) {
+  auto tsdf = make_tsdf(Config{});
+  auto first = wall_frame(2.03f), second = wall_frame(3.03f), blind = wall_frame(2.03f, 0, 0);
+  const auto at_time = [](messages::RgbdFrame& f, double s) { f.sample_time_ns = static_cast<std::int64_t>(s * 1e9); };
+  // Visit 1 (1 .. 49 s): the wall at 2 m. Away. Visit 2 (100 .. 124 s) along half of it, seeing it 1 m farther
+  // (the odometry drifted): a second surface, the first one out of its truncation band, so both stay archived.
+  for (int k = 0; k <= 48; ++k) {
+    at_time(*first, 1.0 + k);
+    ASSERT_TRUE(tsdf->process(*first, at(0.5 * k)));
+  }
+  for (int k = 0; k < 3; ++k) {
+    at_time(*blind, 50.0 + k);
+    ASSERT_TRUE(tsdf->process(*blind, at(40.0 + 10.0 * k)));
+  }
+  for (int k = 0; k <= 24; ++k) {
+    at_time(*second, 100.0 + k);
+    ASSERT_TRUE(tsdf->process(*second, at(0.5 * k)));
+  }
+  // At the end of visit 2: the full mesh holds archived vertices of visit 1 and active ones of visit 2.
+  const auto check = [](const Mesh& m, bool want_first, bool want_second) {
+    ASSERT_TRUE(m.has_vertex_times());
+    std::size_t near = 0, far = 0;
+    for (std::size_t i = 0; i < m.vertices.size(); ++i) {
+      const double z = m.vertices[i].z, t = static_cast<double>(m.vertex_time_ns[i]) * 1e-9;
+      if (std::abs(z - 2.03) < 0.15) {
+        ++near;
+        EXPECT_GE(t, 0.5) << "vertex " << i;
+        EXPECT_LE(t, 49.5) << "vertex " << i;
+      } else if (std::abs(z - 3.03) < 0.15) {
+        ++far;
+        EXPECT_GE(t, 99.5) << "vertex " << i;
+        EXPECT_LE(t, 124.5) << "vertex " << i;
+      }
+    }
+    if (want_first) {
+      EXPECT_GT(near, 100u);
+    }
+    if (want_second) {
+      EXPECT_GT(far, 100u);
+    }
+  };
+  Mesh full;
+  tsdf->extract_full_mesh(&full);
+  ASSERT_GT(tsdf->active_blocks(), 0u);
+  check(full, true, true);
+  Mesh active;
+  tsdf->extract_active_mesh(&active);
+  check(active, false, true);  // visit 1's wall is archived
+  for (int k = 0; k < 3; ++k) {
+    at_time(*blind, 130.0 + k);
+    ASSERT_TRUE(tsdf->process(*blind, at(-40.0 - 10.0 * k)));
+  }
+  ASSERT_EQ(tsdf->active_blocks(), 0u);
+  Mesh archive;
+  tsdf->extract_archive(&archive);
+  check(archive, true, true);
+  // The clean-up keeps the times with their vertices; a mesh read from a file has none.
+  clean_mesh(&archive);
+  check(archive, true, true);
+  const std::string path = ::testing::TempDir() + "/vertex_times.ply";
+  std::string error;
+  ASSERT_TRUE(write_ply(path, archive, &error)) << error;
+  Mesh read;
+  ASSERT_TRUE(read_ply(path, &read, &error)) << error;
+  EXPECT_FALSE(read.has_vertex_times());
 }
 
 TEST(MeshArchiveTest, FullArchiveCoarsensInsteadOfDroppingSurface) {
