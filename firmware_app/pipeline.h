@@ -165,6 +165,8 @@ class Pipeline {
     std::uint32_t map_settled = 0, closures_carried = 0;  // the bounded solve's held nodes and carried decisions
     bool decided_again = false;
     std::int64_t cpu_us = 0, wall_us = 0;
+    // Building the problem, under the graph lock (the loop thread waits for it to add a keyframe's agent).
+    std::int64_t build_cpu_us = 0, build_wall_us = 0;
     bool ok = false;
   };
   static constexpr std::size_t kSolveRecords = 1024;

@@ -16,6 +16,7 @@ import sys
 
 LINE = re.compile(r"loop closure: solve at (\d+) s, ([\d.]+) m of path: (\d+) agents, (\d+) control points, "
                   r"(\d+) places, (\d+) closures \((\d+) kept\): ([\d.]+) ms CPU")
+BUILD = re.compile(r"built in ([\d.]+) ms CPU under the graph lock")  # logs from 2026-12-03 (5) on
 
 
 def main():
@@ -30,7 +31,8 @@ def main():
         for line in f:
             m = LINE.search(line)
             if m:
-                rows.append([float(x) for x in m.groups()])
+                b = BUILD.search(line)
+                rows.append([float(x) for x in m.groups()] + [float(b.group(1)) if b else None])
     if not rows:
         sys.exit(f"{a.log}: no 'loop closure: solve at' lines")
     figures = []
@@ -38,7 +40,7 @@ def main():
     def add(name, value, unit):
         figures.append({"name": name, "value": value, "unit": unit, "conditions": a.conditions, "commit": a.commit})
 
-    for i, (t, path, agents, cps, places, closures, kept, cpu) in enumerate(rows):
+    for i, (t, path, agents, cps, places, closures, kept, cpu, build) in enumerate(rows):
         p = f"solve.{i}."
         add(p + "time", t, "s")
         add(p + "path", path, "m")
@@ -47,6 +49,8 @@ def main():
         add(p + "places", places, "count")
         add(p + "closures", closures, "count")
         add(p + "cpu", cpu, "ms")
+        if build is not None:
+            add(p + "build_cpu", build, "ms")
     last = int(rows[-1][1] // 50)
     for b in range(last + 1):
         cpu = [r[7] for r in rows if b * 50 <= r[1] < (b + 1) * 50]
