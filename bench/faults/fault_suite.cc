@@ -243,6 +243,7 @@ Run run_app(const Options& o, const std::string& name, const std::vector<std::st
   if (pid == 0) {
     const int fd = ::open((dir + "/log.txt").c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
     if (fd >= 0) ::dup2(fd, STDOUT_FILENO), ::dup2(fd, STDERR_FILENO);
+    ::setenv("QSG_DEBUG_LOOP_CLOSURES", "1", 1);  // the log lists each closure with its error against the truth
     std::vector<char*> argv;
     for (std::string& a : args) argv.push_back(a.data());
     argv.push_back(nullptr);
