@@ -94,6 +94,7 @@ ReportGroup odometry_group(const OdometryInput& o) {
   g.add("rejected_time_jumps", U(b.time_jumps));
   g.add("rejected_pose_jumps", U(b.pose_jumps));
   g.add("resyncs", U(b.resyncs));
+  g.add("steps", U(b.steps));
   g.add("gaps", U(b.gaps));
   g.add("overwritten", U(b.overwritten));
   return g;
@@ -330,7 +331,7 @@ void print_telemetry_counters(const Pipeline& p, std::FILE* out) {
                "camera.invalid_depth_frames=%llu camera.bad_frames=%llu camera.disconnects=%llu camera.missing_files=%llu "
                "odometry_driver.dropped=%llu odometry_driver.stalls=%llu odometry.source_bad=%llu "
                "odometry.frames_no_pose=%llu odometry.frames_pose_too_old=%llu odometry.frames_in_gap=%llu "
-               "odometry.silences=%llu odometry.rejected=%llu odometry.gaps=%llu "
+               "odometry.silences=%llu odometry.rejected=%llu odometry.gaps=%llu odometry.steps=%llu "
                "pipeline.frames_bad=%llu pipeline.frames_without_pose=%llu pipeline.keyframes_refused=%llu "
                "pipeline.keyframes_unlabelled=%llu pipeline.agent_refused=%llu pipeline.snapshot_failures=%llu "
                "pipeline.gpio_failures=%llu pipeline.door_failures=%llu pipeline.online_bypass_refused=%llu "
@@ -351,7 +352,7 @@ void print_telemetry_counters(const Pipeline& p, std::FILE* out) {
                u(d.dropped), u(d.stalls), u(d.late), u(d.timestamps_backwards), u(d.invalid_depth_frames),
                u(d.bad_frames), u(d.disconnects), u(d.missing_files), u(od ? od->dropped : 0), u(od ? od->stalls : 0),
                u(o.source_bad), u(o.frames_no_pose), u(o.frames_pose_too_old), u(o.frames_in_gap), u(o.silences),
-               u(b.rejected()), u(b.gaps), u(c.frames_bad), u(c.frames_without_pose), u(c.keyframes_refused),
+               u(b.rejected()), u(b.gaps), u(b.steps), u(c.frames_bad), u(c.frames_without_pose), u(c.keyframes_refused),
                u(c.keyframes_unlabelled), u(c.agent_refused), u(c.snapshot_failures), u(c.gpio_failures),
                u(c.door_failures), u(c.online_bypass_refused), u(p.frame_queue_stats().dropped),
                u(p.segmentation_queue_stats().dropped), u(p.backend_queue_stats().dropped), u(r.blocks_refused),

@@ -70,7 +70,7 @@ void Pipeline::print_telemetry(std::FILE* out) {
                "[t=%7.1fs] kf/s=%.1f keyframes=%llu | max_us recon=%lld frontend=%lld overruns=%zu | blocks=%zu/%zu "
                "archive=%zu tri | graph nodes=%zu rooms=%llu | frames queue hw=%u drops=%llu | driver drops=%llu stalls=%llu "
                "bad=%llu missing files=%llu | gpio fail=%llu%s | fullest store %s hw %zu/%zu, refused %llu | odometry %s rejected=%llu "
-               "gaps=%llu silences=%llu frames without pose=%llu | agents %zu/%zu (folded %llu) | rss=%.0f MB "
+               "gaps=%llu steps=%llu silences=%llu frames without pose=%llu | agents %zu/%zu (folded %llu) | rss=%.0f MB "
                "(peak %.0f)",
                t_s, kf_per_s, (unsigned long long)counters_.keyframes, (long long)(recon ? recon->max_us : 0),
                (long long)(front ? front->max_us : 0), overruns, tsdf_.active_blocks(), tsdf_.capacities().max_blocks,
@@ -79,7 +79,8 @@ void Pipeline::print_telemetry(std::FILE* out) {
                (unsigned long long)d.missing_files, (unsigned long long)counters_.gpio_failures, paused() ? " PAUSED" : "", fullest.name, fullest.high_water,
                fullest.capacity, (unsigned long long)refused, odometry_.source_name(),
                (unsigned long long)odometry_.buffer().counters().rejected(),
-               (unsigned long long)odometry_.buffer().counters().gaps, (unsigned long long)odometry_.counters().silences,
+               (unsigned long long)odometry_.buffer().counters().gaps,
+               (unsigned long long)odometry_.buffer().counters().steps, (unsigned long long)odometry_.counters().silences,
                (unsigned long long)counters_.frames_without_pose, frontend_.agents().chain_size(),
                frontend_.agents().chain_stats().capacity, (unsigned long long)frontend_.agents().counters().folded,
                rss_mb(), peak_rss_mb());

@@ -97,9 +97,9 @@ void PoseBufferCounters::print(std::FILE* out) const {
   std::fprintf(out,
                "odometry samples: accepted=%" PRIu64 " rejected=%" PRIu64 " (non_finite=%" PRIu64
                " bad_quaternion=%" PRIu64 " out_of_order=%" PRIu64 " duplicates=%" PRIu64 " time_jumps=%" PRIu64
-               " pose_jumps=%" PRIu64 ") gaps=%" PRIu64 " resyncs=%" PRIu64 " overwritten=%" PRIu64 "\n",
+               " pose_jumps=%" PRIu64 ") gaps=%" PRIu64 " resyncs=%" PRIu64 " steps=%" PRIu64 " overwritten=%" PRIu64 "\n",
                accepted, rejected(), non_finite, bad_quaternion, out_of_order, duplicates, time_jumps, pose_jumps, gaps,
-               resyncs, overwritten);
+               resyncs, steps, overwritten);
 }
 
 bool PoseBuffer::init(std::uint32_t capacity, const PoseBufferConfig& config, std::string* error) {
@@ -111,6 +111,7 @@ bool PoseBuffer::init(std::uint32_t capacity, const PoseBufferConfig& config, st
   capacity_ = capacity;
   head_ = size_ = high_water_ = 0;
   have_held_ = false;
+  jump_run_ = 0;
   counters_ = {};
   return true;
 }
@@ -183,6 +184,7 @@ PoseSampleResult PoseBuffer::push(const messages::OdometrySample& sample) {
     if (dt_ns > 0 && dt_ns <= static_cast<std::int64_t>(config_.max_gap_s * 1e9) && pose.sequence != held_.sequence &&
         (pose.t_m - held_.t_m).norm() <= config_.max_speed_m_per_s * 1e-9 * static_cast<double>(dt_ns)) {
       ++counters_.resyncs;
+      jump_run_ = 0;
       append(held_);
       append(pose);
       return PoseSampleResult::kAccepted;
@@ -195,7 +197,25 @@ PoseSampleResult PoseBuffer::push(const messages::OdometrySample& sample) {
     have_held_ = true;
     return order;
   }
+  if (order == PoseSampleResult::kPoseJump) {
+    ++jump_run_;
+    last_jump_t_m_ = pose.t_m;
+  }
   if (order != PoseSampleResult::kAccepted) return count(order);
+  // After refused jumps: a sample back where the stream was ends a glitch; one where the refused samples went is a
+  // step the source kept (its speed from the newest is now under the limit only because time has passed).
+  if (jump_run_ > 0 && size_ > 0) {
+    const double from_newest_m = (pose.t_m - newest().t_m).norm();
+    if ((pose.t_m - last_jump_t_m_).norm() < from_newest_m) {
+      ++counters_.steps;
+      if ((counters_.steps & (counters_.steps - 1)) == 0)
+        std::fprintf(stderr,
+                     "qsg: warning: odometry: the source stepped %.2f m and stayed there (%u samples refused as jumps "
+                     "first): a relocalization or a reset; %" PRIu64 " steps so far\n",
+                     from_newest_m, jump_run_, counters_.steps);
+    }
+  }
+  jump_run_ = 0;
   append(pose);
   return PoseSampleResult::kAccepted;
 }

@@ -61,6 +61,10 @@ struct PoseBufferCounters {
   std::uint64_t time_jumps = 0;
   std::uint64_t pose_jumps = 0;
   std::uint64_t resyncs = 0;      // held samples confirmed by the next (accepted with a gap)
+  // The source moved faster than max_speed_m_per_s and stayed there (a relocalization or a reset): after samples
+  // refused as pose jumps, one was accepted nearer the refused ones than the pose before them. The map on either
+  // side is then joined by that step (logged; a fault, not a rejection).
+  std::uint64_t steps = 0;
   std::uint64_t gaps = 0;         // accepted samples more than max_gap_s after the previous one (logged faults)
   std::uint64_t overwritten = 0;  // oldest samples dropped because the ring was full (normal in a long run)
   std::uint64_t rejected() const {
@@ -115,6 +119,9 @@ class PoseBuffer {
   std::uint32_t size_ = 0;
   std::uint32_t high_water_ = 0;
   bool have_held_ = false;
+  // Samples refused as pose jumps since the last accepted one, and where the last of them was.
+  std::uint32_t jump_run_ = 0;
+  Eigen::Vector3d last_jump_t_m_ = Eigen::Vector3d::Zero();
   BufferedPose held_;
   PoseBufferCounters counters_;
 };

@@ -122,6 +122,29 @@ TEST(PoseBufferTest, ATimeJumpIsHeldUntilTheNextSampleConfirmsIt) {
   EXPECT_EQ(b.lookup(30000 * kMs, &T), PoseLookup::kInGap);
 }
 
+// A lone corrupt sample is a jump and nothing more; a source that steps 1.5 m and stays there (a VIO relocalizing)
+// is accepted once time makes its speed plausible, and that acceptance is counted as a step, not passed silently.
+TEST(PoseBufferTest, AStepTheSourceKeepsIsCountedWhenItIsAccepted) {
+  PoseBuffer b = make();  // max_speed_m_per_s 10
+  for (int i = 0; i < 5; ++i) ASSERT_EQ(b.push(sample(i, i * 10 * kMs, {0.01 * i, 0, 0})), PoseSampleResult::kAccepted);
+  // A glitch: one sample 2 m off, then the stream where it was.
+  EXPECT_EQ(b.push(sample(5, 50 * kMs, {2.05, 0, 0})), PoseSampleResult::kPoseJump);
+  EXPECT_EQ(b.push(sample(6, 60 * kMs, {0.06, 0, 0})), PoseSampleResult::kAccepted);
+  EXPECT_EQ(b.counters().steps, 0u);
+  // A step: from 70 ms on, the source reports 1.5 m further and stays. Refused while 1.5 m in under 0.15 s is over
+  // 10 m/s, then accepted, and counted.
+  int refused = 0;
+  for (int i = 7; i < 40; ++i) {
+    const PoseSampleResult r = b.push(sample(i, i * 10 * kMs, {1.5 + 0.01 * i, 0, 0}));
+    if (r == PoseSampleResult::kPoseJump) ++refused;
+    else ASSERT_EQ(r, PoseSampleResult::kAccepted);
+  }
+  EXPECT_GT(refused, 5);
+  EXPECT_EQ(b.counters().steps, 1u);
+  EXPECT_EQ(b.counters().pose_jumps, 1u + static_cast<std::uint64_t>(refused));
+  EXPECT_NEAR(b.newest().t_m.x(), 1.89, 1e-9);
+}
+
 TEST(PoseBufferTest, TheRingKeepsTheNewestSamplesAndNeverAllocatesAfterInit) {
   PoseBuffer b = make(8);
   EXPECT_NO_ALLOCATIONS({
