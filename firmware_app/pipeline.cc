@@ -720,6 +720,11 @@ void Pipeline::integrate_keyframe(const runtime::TaskContext& c) {
   const Eigen::Isometry3d& world_T_camera = frame_poses_[slot];
   cast_label_votes();  // labels that came back since the last keyframe; their blocks re-mesh in process()
   const auto time_ns = static_cast<std::uint64_t>(frame.sample_time_ns);
+  // A step the odometry kept (odometry.steps): the next agent's edge measures the step, not motion.
+  if (const std::uint64_t steps = odometry_.buffer().counters().steps; steps != odometry_steps_seen_) {
+    odometry_steps_seen_ = steps;
+    frontend_.mark_odometry_step();
+  }
   const pipeline::KeyframeResult r =
       pipeline::integrate_keyframe(stages(), host_, frame, world_T_camera, time_ns, frame_variances_[slot]);
   if (!r.integrated) {

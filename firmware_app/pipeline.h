@@ -384,6 +384,7 @@ class Pipeline {
   frontend::Frontend frontend_;
   Eigen::Vector3d robot_m_ = Eigen::Vector3d::Zero();  // camera position of the latest integrated keyframe
   std::uint64_t latest_keyframe_ns_ = 0;
+  std::uint64_t odometry_steps_seen_ = 0;  // the pose buffer's steps counter at the last keyframe
   std::vector<Eigen::Vector3d> trajectory_m_;  // keyframe positions for the picture (reserved at init)
 
   PipelineCounters counters_;

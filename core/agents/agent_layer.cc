@@ -62,6 +62,7 @@ bool AgentLayer::init(const Config& config, const Capacities& capacities, std::s
   chain_ = std::make_unique<ChainNode[]>(capacities.keyframes);
   chain_size_ = chain_high_water_ = 0;
   path_m_ = 0.0;
+  step_pending_ = false;
   have_offered_ = false;
   ready_ = true;
   return true;
@@ -90,6 +91,7 @@ void AgentLayer::fold_older_half(scene_graph::SceneGraph* graph) {
       chain_[kept++] = chain_[i];
       continue;
     }
+    if (chain_[i].after_odometry_step) chain_[i + 1].after_odometry_step = true;  // the step is now before i + 1
     // Its neighbours: the last kept node and the next one (i + 1 is kept: odd indices fold, i + 1 is even).
     const scene_graph::NodeId prev = chain_[kept - 1].id, next = chain_[i + 1].id;
     graph->remove_node(chain_[i].id);  // its odometry edges and its place edge go with it
@@ -181,6 +183,8 @@ AddResult AgentLayer::add_keyframe(scene_graph::SceneGraph* graph, std::uint64_t
   c.q = q.normalized();
   c.variance = variance;
   c.path_m = path_m_;
+  c.after_odometry_step = step_pending_;
+  step_pending_ = false;
   if (chain_size_ > chain_high_water_) chain_high_water_ = chain_size_;
   ++next_index_;
   ++counters_.keyframes;

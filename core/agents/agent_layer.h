@@ -66,6 +66,9 @@ struct ChainNode {
   // Odometric path length from the first keyframe to this node, over every keyframe offered (sparsified ones too):
   // what a per-distance odometry noise model integrates between two nodes.
   double path_m = 0.0;
+  // The odometry stepped (a relocalization or a reset, AgentLayer::mark_odometry_step) between the previous node and
+  // this one: the edge into this node does not measure the robot's motion.
+  bool after_odometry_step = false;
 };
 const char* to_string(AddResult r);
 
@@ -80,6 +83,9 @@ class AgentLayer {
   AddResult add_keyframe(scene_graph::SceneGraph* graph, std::uint64_t timestamp_ns, const Eigen::Isometry3d& world_T_body,
                          std::uint64_t external_key = 0,
                          const Eigen::Matrix<double, 6, 1>& variance = Eigen::Matrix<double, 6, 1>::Zero());
+  // The odometry source stepped (its pose buffer accepted a jump it kept): the next node added is marked
+  // ChainNode::after_odometry_step. A node folded away passes its mark to the next one.
+  void mark_odometry_step() { step_pending_ = true; }
 
   scene_graph::NodeId last_node() const { return last_node_; }
   std::uint64_t last_timestamp_ns() const { return last_time_ns_; }
@@ -106,6 +112,7 @@ class AgentLayer {
   double path_m_ = 0.0;                                  // odometric path over every keyframe offered
   Eigen::Vector3d last_offered_m_ = Eigen::Vector3d::Zero();
   bool have_offered_ = false;
+  bool step_pending_ = false;  // mark_odometry_step() since the last node added
   bool ready_ = false;
   std::unique_ptr<ChainNode[]> chain_;
   std::size_t chain_size_ = 0;

@@ -25,6 +25,7 @@ std::string AgentGraphConfig::check() const {
   const auto positive = [](double v) { return std::isfinite(v) && v > 0.0 && v <= 10.0; };
   if (!positive(min_sigma_t_m) || !positive(min_sigma_rot_rad)) return "odometry sigma floors must be in (0, 10]";
   if (!positive(floor_t_m) || !positive(floor_rot_rad)) return "odometry floors must be in (0, 10]";
+  if (!positive(step_sigma_t_m) || !positive(step_sigma_rot_rad)) return "odometry step sigmas must be in (0, 10]";
   return "";
 }
 
@@ -90,20 +91,25 @@ std::vector<RelativePoseEdge> chain_odometry_edges(const agents::AgentLayer& age
   for (std::size_t k = 0; k + 1 < n; ++k) {
     const agents::ChainNode& a = agents.chain(k);
     const agents::ChainNode& b = agents.chain(k + 1);
-    if (config.odometry_weighting == OdometryWeighting::kPerDistance) {
-      edges.push_back(per_distance_odometry_edge(static_cast<std::uint32_t>(k), static_cast<std::uint32_t>(k + 1),
-                                                 Pose3{a.t_m, a.q}, Pose3{b.t_m, b.q}, b.path_m - a.path_m, config));
-      continue;
-    }
     RelativePoseEdge e;
-    e.from = static_cast<std::uint32_t>(k);
-    e.to = static_cast<std::uint32_t>(k + 1);
-    e.measured_from_T_to = between(Pose3{a.t_m, a.q}, Pose3{b.t_m, b.q});
-    // The odometry's covariance grows along the path: what it grew by between the two nodes is this edge's.
-    const Eigen::Matrix<double, 6, 1> growth = (b.variance - a.variance).cwiseMax(0.0);
-    for (int i = 0; i < 3; ++i) {
-      e.sigma_t_m[i] = std::max(config.min_sigma_t_m, std::sqrt(growth[i]));
-      e.sigma_rot_rad[i] = std::max(config.min_sigma_rot_rad, std::sqrt(growth[3 + i]));
+    if (config.odometry_weighting == OdometryWeighting::kPerDistance) {
+      e = per_distance_odometry_edge(static_cast<std::uint32_t>(k), static_cast<std::uint32_t>(k + 1),
+                                     Pose3{a.t_m, a.q}, Pose3{b.t_m, b.q}, b.path_m - a.path_m, config);
+    } else {
+      e.from = static_cast<std::uint32_t>(k);
+      e.to = static_cast<std::uint32_t>(k + 1);
+      e.measured_from_T_to = between(Pose3{a.t_m, a.q}, Pose3{b.t_m, b.q});
+      // The odometry's covariance grows along the path: what it grew by between the two nodes is this edge's.
+      const Eigen::Matrix<double, 6, 1> growth = (b.variance - a.variance).cwiseMax(0.0);
+      for (int i = 0; i < 3; ++i) {
+        e.sigma_t_m[i] = std::max(config.min_sigma_t_m, std::sqrt(growth[i]));
+        e.sigma_rot_rad[i] = std::max(config.min_sigma_rot_rad, std::sqrt(growth[3 + i]));
+      }
+    }
+    if (b.after_odometry_step) {  // the step, not motion: loose, by sigmas alone
+      e.has_information = false;
+      e.sigma_t_m = e.sigma_t_m.cwiseMax(config.step_sigma_t_m);
+      e.sigma_rot_rad = e.sigma_rot_rad.cwiseMax(config.step_sigma_rot_rad);
     }
     edges.push_back(e);
   }

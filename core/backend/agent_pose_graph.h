@@ -46,6 +46,11 @@ struct AgentGraphConfig {
   double sigma_tilt_rad_per_sqrt_m = 0.0005;
   double floor_t_m = 0.001;
   double floor_rot_rad = 0.0005;
+  // The edge into a node after an odometry step (ChainNode::after_odometry_step) measures the step, not motion: at
+  // least these sigmas, loose against the loop closures' centimetres (which then place the two sides), finite so a
+  // stretch without closures stays determined.
+  double step_sigma_t_m = 2.0;
+  double step_sigma_rot_rad = 0.5;
   PoseGraphConfig solver;
   std::string check() const;
   void print(std::FILE* out) const;

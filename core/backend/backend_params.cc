@@ -19,6 +19,10 @@ const params::Table<AgentGraphConfig>& agent_graph_params_table() {
           "per_distance: rotation about the vertical per sqrt(m)");
     t.add("odometry_sigma_tilt_rad_per_sqrt_m", &G::sigma_tilt_rad_per_sqrt_m, "rad", params::above(0, 10),
           refinement, "per_distance: roll and pitch per sqrt(m)");
+    t.add("odometry_step_sigma_t_m", &G::step_sigma_t_m, "m", params::above(0, 10), params::Origin::kProject,
+          "the edge across a step the odometry kept (odometry.steps): at least this translation sigma");
+    t.add("odometry_step_sigma_rot_rad", &G::step_sigma_rot_rad, "rad", params::above(0, 10), params::Origin::kProject,
+          "... and this rotation sigma");
     return t;
   }();
   return table;

@@ -95,6 +95,8 @@ class Frontend {
   const places::Places& places() const { return places_; }
   const objects::ObjectLayer& objects() const { return objects_; }
   const agents::AgentLayer& agents() const { return agents_; }
+  // The odometry stepped (a relocalization or a reset): the next agent's odometry edge does not measure motion.
+  void mark_odometry_step() { agents_.mark_odometry_step(); }
   const Counters& counters() const { return counters_; }
   const Config& config() const { return config_; }
   template <typename Fn>

@@ -179,6 +179,43 @@ TEST(AgentLayerTest, AFullChainFoldsItsOlderHalfAndNeverRefuses) {
             layer.chain(layer.chain_size() - 1).t_m.x() - layer.chain(layer.chain_size() - 2).t_m.x());
 }
 
+// A step of the odometry marks the next node added (not a sparsified keyframe), and survives the chain's folding.
+TEST(AgentLayerTest, AnOdometryStepMarksTheNextNodeAndSurvivesFolding) {
+  auto graph = scene_graph::testing::make_graph();
+  AgentLayer layer;
+  Config c;
+  c.min_translation_m = 0.2;
+  c.fold_at_fraction = 1.0;
+  std::string error;
+  ASSERT_TRUE(layer.init(c, Capacities{8}, &error)) << error;
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  const auto add = [&](double x, std::uint64_t t) {
+    T.translation().x() = x;
+    return layer.add_keyframe(graph.get(), t, T);
+  };
+  ASSERT_EQ(add(0.0, 1), AddResult::kAdded);
+  ASSERT_EQ(add(0.5, 2), AddResult::kAdded);
+  ASSERT_EQ(add(1.0, 3), AddResult::kAdded);
+  layer.mark_odometry_step();
+  ASSERT_EQ(add(1.05, 4), AddResult::kSparsified);  // not a node: the mark waits for the next one
+  ASSERT_EQ(add(1.5, 5), AddResult::kAdded);
+  ASSERT_EQ(add(2.0, 6), AddResult::kAdded);
+  ASSERT_EQ(layer.chain_size(), 5u);
+  EXPECT_FALSE(layer.chain(2).after_odometry_step);
+  EXPECT_TRUE(layer.chain(3).after_odometry_step);
+  EXPECT_FALSE(layer.chain(4).after_odometry_step);
+  // Fill the chain until it folds its older half: node 3 (odd, in the older half) folds, and node 4 (t = 6), the
+  // next one, now comes after the step.
+  std::uint64_t t = 7;
+  for (double x = 2.5; layer.counters().folded == 0; x += 0.5) ASSERT_EQ(add(x, t++), AddResult::kAdded);
+  std::size_t marked = 0;
+  for (std::size_t k = 0; k < layer.chain_size(); ++k) {
+    marked += layer.chain(k).after_odometry_step ? 1 : 0;
+    EXPECT_EQ(layer.chain(k).after_odometry_step, layer.chain(k).time_ns == 6) << "node " << k;
+  }
+  EXPECT_EQ(marked, 1u);
+}
+
 TEST(AgentLayerTest, BadConfigIsRejectedClearly) {
   AgentLayer layer;
   std::string error;

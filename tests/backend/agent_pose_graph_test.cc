@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <memory>
 #include <vector>
 
 #include "core/scene_graph/scene_graph.h"
@@ -89,6 +90,58 @@ TEST(AgentPoseGraphTest, OdometryEdgesComeFromTheChainAndALoopClosureCorrectsThe
   ASSERT_TRUE(r.solve.poses_updated()) << r.solve.message;
   EXPECT_EQ(r.loop_closures, 1u);
   EXPECT_LT(position_rmse(optimized, loop.truth), 0.3 * drifted);
+}
+
+// The odometry steps 1.2 m sideways after node 16 and keeps the step (a relocalizing VIO), on a loop without drift.
+// Marked (AgentLayer::mark_odometry_step), the edge into node 17 is loose and true loop closures across the step put
+// the two halves back together under GNC; unmarked, the tight edge holds the step against them.
+TEST(AgentPoseGraphTest, AnEdgeAcrossAnOdometryStepIsLooseSoClosuresPlaceTheTwoSides) {
+  const SquareLoop loop = square_loop();
+  const auto chain = [&](bool mark, agents::AgentLayer* layer, std::unique_ptr<scene_graph::SceneGraph>* graph) {
+    *graph = scene_graph::testing::make_graph();
+    agents::Config c;
+    c.min_translation_m = 0.0;
+    std::string error;
+    ASSERT_TRUE(layer->init(c, agents::Capacities{100}, &error)) << error;
+    for (std::size_t i = 0; i < loop.truth.size(); ++i) {
+      Eigen::Isometry3d odom = loop.truth[i];
+      if (i > 16) odom.translation() += Eigen::Vector3d(0.0, 1.2, 0.0);
+      if (i == 17 && mark) layer->mark_odometry_step();
+      ASSERT_EQ(layer->add_keyframe(graph->get(), 1000 + i, odom), agents::AddResult::kAdded);
+    }
+  };
+  const auto closure = [&](std::uint32_t a, std::uint32_t b) {
+    ChainLoopClosure c;
+    c.a = a;
+    c.b = b;
+    const Eigen::Isometry3d a_T_b = loop.truth[a].inverse() * loop.truth[b];
+    c.a_T_b = Pose3{a_T_b.translation(), Eigen::Quaterniond(a_T_b.linear())};
+    return c;
+  };
+  // The last side comes back along x = 0 to the start: closures from it to the first nodes, across the step.
+  const std::vector<ChainLoopClosure> closures = {closure(0, 31), closure(1, 31), closure(0, 30), closure(2, 31)};
+  AgentGraphConfig config;
+  config.solver.loop_closure_loss = RobustLoss::kGncTls;
+  double error_m[2] = {0.0, 0.0};
+  std::size_t kept[2] = {0, 0};
+  for (int mark = 0; mark < 2; ++mark) {
+    agents::AgentLayer layer;
+    std::unique_ptr<scene_graph::SceneGraph> graph;
+    chain(mark == 1, &layer, &graph);
+    const std::vector<RelativePoseEdge> edges = chain_odometry_edges(layer, config);
+    ASSERT_EQ(layer.chain(17).after_odometry_step, mark == 1);
+    EXPECT_EQ(edges[16].sigma_t_m.x() >= config.step_sigma_t_m, mark == 1);
+    std::vector<Pose3> optimized;
+    const AgentGraphResult r = optimize_agent_chain(layer, closures, config, &optimized);
+    ASSERT_TRUE(r.solve.poses_updated()) << r.solve.message;
+    // Aligned at the start (pose 0 is held): the error of the second half.
+    for (std::size_t i = 17; i < optimized.size(); ++i)
+      error_m[mark] = std::max(error_m[mark], (optimized[i].t_m - loop.truth[i].translation()).norm());
+    for (std::size_t e = edges.size(); e < r.solve.edge_weight.size(); ++e) kept[mark] += r.solve.edge_weight[e] > 0.5;
+  }
+  EXPECT_GT(error_m[0], 0.5) << "unmarked, the step stays";
+  EXPECT_LT(error_m[1], 0.05) << "marked, the closures place the second half";
+  EXPECT_EQ(kept[1], closures.size());
 }
 
 // The per-distance model in the node's own frame: for a camera looking along the world x axis (optical frame: z
