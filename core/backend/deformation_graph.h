@@ -78,8 +78,9 @@ struct DeformationConfig {
   // Reduced decisions (a refinement; with decide_on_agents only, reduced_decisions.h): GNC decides the closures
   // (all of them, or the new ones with incremental_decisions) on the agent graph reduced to the closures' agents,
   // the odometry between them composed with its covariance; the whole chain is then solved by least squares with
-  // those decisions. A decision's cost then follows the closures, not the chain's length.
-  bool reduced_decisions = false;
+  // those decisions. A decision's cost then follows the closures, not the chain's length; the same decisions on
+  // the 1,010 m mission (bench/results/loop_closure.md, session (5)).
+  bool reduced_decisions = true;
   AgentGraphConfig agents;               // odometry sigma floors and the solver (loop closures under GNC-TLS)
 
   DeformationConfig() {
