@@ -32,7 +32,7 @@ int usage(int status) {
                "  --bounded-whole-tolerance F: the bounded side's stopping rule only (with --settle 0: how far the\n"
                "                 full solve's own nodes move with its stopping rule)\n"
                "  --bounded-only: the bounded solve alone, with its iterations (where a slow solve's time goes)\n"
-               "  --reduced: the bounded side's reduced_decisions (GNC on the agent graph reduced to the closures)\n"
+               "  --reduced: the bounded side's reduced_decisions (on by default: GNC on the agent graph reduced)\n"
                "  --compare-reduced: the bounded solve without and with reduced_decisions, side by side (no full\n"
                "                 solve): CPU of the solve and of its decision, the chain's and the map's solves, the\n"
                "                 closures each keeps and where they differ, ATE of each\n"
@@ -194,7 +194,8 @@ int main(int argc, char** argv) {
   int hops = static_cast<int>(backend::DeformationConfig{}.settle_hops);
   double whole_tolerance = 0.0, agent_spacing_m = 0.0, bounded_tolerance = 0.0;
   bool incremental = backend::DeformationConfig{}.incremental_decisions;
-  bool bounded_only = false, reduced = false, compare_reduced = false;
+  bool bounded_only = false, compare_reduced = false;
+  bool reduced = backend::DeformationConfig{}.reduced_decisions;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     const bool has = i + 1 < argc;

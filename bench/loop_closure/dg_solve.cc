@@ -39,7 +39,7 @@ int usage(int status) {
       "                [--oracle-min-path M] (oracle pairs at least M m of true path apart)\n"
       "                [--least-squares]  (every closure kept: no GNC)\n"
       "                [--agents-only]  (the agent layer alone: no control points or places)\n"
-      "                [--reduced 0|1]  (GNC decides on the agent graph reduced to the closures' agents, then the\n"
+      "                [--reduced 0|1]  (on by default: GNC decides on the agent graph reduced to the closures, then the\n"
       "                                  chain is solved with the decisions: DeformationConfig::reduced_decisions)\n"
       "                [--segments N]  (ATE of N equal stretches of the chain, by agent index: one per tour)\n"
       "                [--odometry as_dumped|per_distance] [--sigma-t M] [--sigma-yaw RAD] [--sigma-tilt RAD]\n"
@@ -80,7 +80,8 @@ int main(int argc, char** argv) {
   double agent_spacing_m = 0.0, whole_tolerance = 0.0, agent_turn_rad = 0.2;
   bool hold_agents = backend::DeformationConfig{}.hold_agents;
   double max_sigma = 0.0, sigma_scale = 1.0, oracle_m = 0.0;
-  bool oracle_only = false, agents_only = false, least_squares = false, reduced = false;
+  bool oracle_only = false, agents_only = false, least_squares = false;
+  bool reduced = backend::DeformationConfig{}.reduced_decisions;
   double oracle_sigma_t = 0.01, oracle_sigma_rot = 0.002;
   std::string oracle_pairs = "all";
   double oracle_min_path_m = 0.0;
