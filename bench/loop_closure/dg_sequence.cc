@@ -26,12 +26,16 @@ int usage(int status) {
   std::fprintf(status == 0 ? stdout : stderr,
                "usage: dg_sequence PROBLEM... [--settle M] [--hops N] [--incremental 0|1] [--whole-tolerance F]\n"
                "                   [--agent-spacing M (0)] [--bounded-whole-tolerance F]\n"
-               "                   [--bounded-only] [--json FILE]\n"
+               "                   [--bounded-only] [--reduced 0|1] [--compare-reduced] [--json FILE]\n"
                "  the bounded side: DeformationConfig's defaults; --settle, --hops: settle_tolerance_m, settle_hops;\n"
                "  --incremental: incremental_decisions (it keeps the last solve's closure decisions)\n"
                "  --bounded-whole-tolerance F: the bounded side's stopping rule only (with --settle 0: how far the\n"
                "                 full solve's own nodes move with its stopping rule)\n"
                "  --bounded-only: the bounded solve alone, with its iterations (where a slow solve's time goes)\n"
+               "  --reduced: the bounded side's reduced_decisions (on by default: GNC on the agent graph reduced)\n"
+               "  --compare-reduced: the bounded solve without and with reduced_decisions, side by side (no full\n"
+               "                 solve): CPU of the solve and of its decision, the chain's and the map's solves, the\n"
+               "                 closures each keeps and where they differ, ATE of each\n"
                "  PROBLEM...: one mission's solves in the order the app made them (QSG_DUMP_DEFORMATION with %%d)\n");
   return status;
 }
@@ -63,6 +67,124 @@ Timed solve(backend::DeformationGraph* graph, const backend::DeformationProblem&
   return t;
 }
 
+// The agents against the truth, as mapped (no alignment), when the file has it; -1 otherwise.
+double agent_ate(const backend::DeformationGraph& g, const std::vector<Eigen::Vector3d>& truth_m) {
+  double sum = 0.0;
+  for (std::size_t k = 0; k < truth_m.size(); ++k) sum += (g.agent_pose(k).t_m - truth_m[k]).squaredNorm();
+  return truth_m.empty() ? -1.0 : std::sqrt(sum / static_cast<double>(truth_m.size()));
+}
+
+// --compare-reduced: the bounded solve as configured (reduced_decisions off) and the same with it on, side by side.
+int compare_reduced_decisions(const std::vector<std::string>& paths, backend::DeformationConfig config,
+                              const std::string& json) {
+  constexpr double kBudgetS = 1.5;  // host_sim's threads.backend.solve_budget_us
+  config.reduced_decisions = false;
+  config.agents.solver.clock_s = &bench::thread_cpu_seconds;  // each solve's share of the thread's CPU
+  backend::DeformationConfig reduced_config = config;
+  reduced_config.reduced_decisions = true;
+  backend::DeformationGraph base(config), reduced(reduced_config);
+  bench::Figures figures("deformation problems " + paths.front() + " .. " + paths.back() + " (" +
+                         std::to_string(paths.size()) + " solves), the bounded solve (shipped defaults) without and "
+                         "with reduced_decisions, one core");
+  std::printf("solve  path_m  agents closures  cpu_base_s cpu_red_s  | base: decide_s map_s | reduced: agents "
+              "decide_s chain_s map_s | kept base/red differ | ate_base ate_red\n");
+  Spread cpu_base, cpu_red;
+  double decide_base = 0.0, map_base = 0.0, decide_red = 0.0, chain_red = 0.0, map_red = 0.0;
+  int over_base = 0, over_red = 0, again_base = 0, again_red = 0, solves_differ = 0, closures_differ = 0;
+  double ate_diff_max = 0.0;
+  for (std::size_t s = 0; s < paths.size(); ++s) {
+    backend::DeformationProblemFile file;
+    std::string error;
+    if (!backend::read_deformation_problem(paths[s], &file, &error)) {
+      std::fprintf(stderr, "dg_sequence: %s\n", error.c_str());
+      return 1;
+    }
+    const backend::DeformationProblem& p = file.problem;
+    double path_m = 0.0;
+    for (std::size_t k = 1; k < p.result.agents; ++k) path_m += (p.poses[k].t_m - p.poses[k - 1].t_m).norm();
+    const Timed a = solve(&base, p), b = solve(&reduced, p);
+    if (!a.result.solve.poses_updated() || !b.result.solve.poses_updated()) {
+      std::fprintf(stderr, "dg_sequence: solve %zu failed (%s / %s)\n", s, a.result.solve.message.c_str(),
+                   b.result.solve.message.c_str());
+      return 1;
+    }
+    std::size_t differ = 0;
+    for (std::size_t c = 0; c < a.result.loop_closure_weight.size() && c < b.result.loop_closure_weight.size(); ++c)
+      differ += (a.result.loop_closure_weight[c] > 0.5) != (b.result.loop_closure_weight[c] > 0.5) ? 1 : 0;
+    const double ate_a = agent_ate(base, file.truth_m), ate_b = agent_ate(reduced, file.truth_m);
+    const backend::DeformationResult &ra = a.result, &rb = b.result;
+    std::printf("%5zu %7.1f %7zu %5zu  %9.3f %9.3f  | %7.3f %6.3f%s | %6zu %7.3f %7.3f %6.3f%s | %4zu %4zu %3zu | %7.4f "
+                "%7.4f\n",
+                s, path_m, p.result.agents, p.result.loop_closures, a.cpu_s, b.cpu_s, ra.decide.solver_time_s,
+                ra.solve.solver_time_s, ra.decided_again ? " again" : "      ", rb.agents_decided,
+                rb.decide.solver_time_s, rb.decide_chain.solver_time_s, rb.solve.solver_time_s,
+                rb.decided_again ? " again" : "      ", ra.loop_closures_kept, rb.loop_closures_kept, differ, ate_a,
+                ate_b);
+    std::fflush(stdout);
+    char key[48];
+    std::snprintf(key, sizeof key, "dg_sequence.s%03zu.", s);
+    const std::string k = key;
+    figures.add(k + "path", path_m, "m");
+    figures.add(k + "cpu_base", a.cpu_s, "s");
+    figures.add(k + "cpu_reduced", b.cpu_s, "s");
+    figures.add(k + "decide_time_base", ra.decide.solver_time_s, "s");
+    figures.add(k + "map_time_base", ra.solve.solver_time_s, "s");
+    figures.add(k + "decide_time_reduced", rb.decide.solver_time_s, "s");
+    figures.add(k + "chain_time_reduced", rb.decide_chain.solver_time_s, "s");
+    figures.add(k + "map_time_reduced", rb.solve.solver_time_s, "s");
+    figures.add(k + "agents_decided_reduced", static_cast<double>(rb.agents_decided), "agents");
+    figures.add(k + "kept_base", static_cast<double>(ra.loop_closures_kept), "closures");
+    figures.add(k + "kept_reduced", static_cast<double>(rb.loop_closures_kept), "closures");
+    figures.add(k + "closures_differ", static_cast<double>(differ), "closures");
+    figures.add(k + "ate_base", ate_a, "m");
+    figures.add(k + "ate_reduced", ate_b, "m");
+    cpu_base.add(a.cpu_s);
+    cpu_red.add(b.cpu_s);
+    over_base += a.cpu_s > kBudgetS ? 1 : 0;
+    over_red += b.cpu_s > kBudgetS ? 1 : 0;
+    again_base += ra.decided_again ? 1 : 0;
+    again_red += rb.decided_again ? 1 : 0;
+    solves_differ += differ > 0 ? 1 : 0;
+    closures_differ += static_cast<int>(differ);
+    decide_base += ra.decide.solver_time_s;
+    map_base += ra.solve.solver_time_s;
+    decide_red += rb.decide.solver_time_s;
+    chain_red += rb.decide_chain.solver_time_s;
+    map_red += rb.solve.solver_time_s;
+    if (ate_a >= 0.0 && ate_b >= 0.0) ate_diff_max = std::max(ate_diff_max, std::abs(ate_a - ate_b));
+  }
+  cpu_base.finish();
+  cpu_red.finish();
+  std::printf("dg_sequence: %zu solves; CPU per solve base mean %.3f p99 %.3f max %.3f s, %d over %.1f s (%d decided "
+              "again); reduced mean %.3f p99 %.3f max %.3f s, %d over (%d decided again)\n"
+              "  CPU: base decide %.1f s, map %.1f s; reduced decide %.1f s, chain %.1f s, map %.1f s; closures "
+              "decided differently %d in %d solves; largest ATE difference %.4f m\n",
+              paths.size(), cpu_base.mean, cpu_base.p99, cpu_base.max, over_base, kBudgetS, again_base, cpu_red.mean,
+              cpu_red.p99, cpu_red.max, over_red, again_red, decide_base, map_base, decide_red, chain_red, map_red,
+              closures_differ, solves_differ, ate_diff_max);
+  const std::pair<const char*, const Spread*> sides[] = {{"base", &cpu_base}, {"reduced", &cpu_red}};
+  for (const auto& [name, spread] : sides) {
+    const std::string k = std::string("dg_sequence.cpu_") + name;
+    figures.add(k + "_mean", spread->mean, "s");
+    figures.add(k + "_p99", spread->p99, "s");
+    figures.add(k + "_max", spread->max, "s");
+  }
+  figures.add("dg_sequence.over_budget_base", over_base, "solves");
+  figures.add("dg_sequence.over_budget_reduced", over_red, "solves");
+  figures.add("dg_sequence.decided_again_base", again_base, "solves");
+  figures.add("dg_sequence.decided_again_reduced", again_red, "solves");
+  figures.add("dg_sequence.decide_time_base", decide_base, "s");
+  figures.add("dg_sequence.map_time_base", map_base, "s");
+  figures.add("dg_sequence.decide_time_reduced", decide_red, "s");
+  figures.add("dg_sequence.chain_time_reduced", chain_red, "s");
+  figures.add("dg_sequence.map_time_reduced", map_red, "s");
+  figures.add("dg_sequence.closures_differ", closures_differ, "closures");
+  figures.add("dg_sequence.solves_differ", solves_differ, "solves");
+  figures.add("dg_sequence.ate_diff_max", ate_diff_max, "m");
+  if (!json.empty() && !figures.write(json)) return 1;
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -72,7 +194,8 @@ int main(int argc, char** argv) {
   int hops = static_cast<int>(backend::DeformationConfig{}.settle_hops);
   double whole_tolerance = 0.0, agent_spacing_m = 0.0, bounded_tolerance = 0.0;
   bool incremental = backend::DeformationConfig{}.incremental_decisions;
-  bool bounded_only = false;
+  bool bounded_only = false, compare_reduced = false;
+  bool reduced = backend::DeformationConfig{}.reduced_decisions;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     const bool has = i + 1 < argc;
@@ -84,6 +207,8 @@ int main(int argc, char** argv) {
     else if (a == "--incremental" && has) incremental = std::atoi(argv[++i]) != 0;
     else if (a == "--bounded-whole-tolerance" && has) bounded_tolerance = std::atof(argv[++i]);
     else if (a == "--bounded-only") bounded_only = true;
+    else if (a == "--reduced" && has) reduced = std::atoi(argv[++i]) != 0;
+    else if (a == "--compare-reduced") compare_reduced = true;
     else if (a == "--json" && has) json = argv[++i];
     else if (!a.empty() && a[0] == '-') return usage(2);
     else paths.push_back(a);
@@ -99,6 +224,8 @@ int main(int argc, char** argv) {
   settled_config.settle_hops = static_cast<std::uint32_t>(std::max(0, hops));
   settled_config.incremental_decisions = incremental;
   if (bounded_tolerance > 0.0) settled_config.whole_function_tolerance = bounded_tolerance;
+  settled_config.reduced_decisions = reduced;
+  if (compare_reduced) return compare_reduced_decisions(paths, settled_config, json);
   if (std::string why = settled_config.check(); !why.empty()) {
     std::fprintf(stderr, "dg_sequence: %s\n", why.c_str());
     return 2;

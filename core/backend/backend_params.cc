@@ -47,6 +47,8 @@ const params::Table<DeformationConfig>& deformation_params_table() {
           "settle_tolerance_m: map nodes this many edges from a moving one are solved too");
     t.flag("incremental_decisions", &DeformationConfig::incremental_decisions, params::Origin::kRefinement,
            "a solve keeps the last one's closure decisions and starts from its solution; GNC decides the new ones");
+    t.flag("reduced_decisions", &DeformationConfig::reduced_decisions, params::Origin::kRefinement,
+           "GNC decides closures on the agent graph reduced to their agents, then the chain is solved with them");
     t.include(agent_graph_params_table(), [](DeformationConfig& d) -> AgentGraphConfig& { return d.agents; });
     return t;
   }();

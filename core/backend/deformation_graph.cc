@@ -2,6 +2,7 @@
 #include "core/backend/deformation_graph.h"
 
 #include "core/backend/backend_params.h"
+#include "core/backend/reduced_decisions.h"
 
 #include <algorithm>
 #include <cmath>
@@ -41,6 +42,8 @@ void DeformationConfig::print(std::FILE* out) const {
                  settle_tolerance_m, settle_hops);
   if (incremental_decisions && decide_on_agents)
     std::fprintf(out, "deformation graph: a solve keeps the last one's decisions and decides its new closures\n");
+  if (reduced_decisions && decide_on_agents)
+    std::fprintf(out, "deformation graph: closures decided on the agent graph reduced to their agents\n");
   std::fprintf(out, "deformation graph: loop closures decided %s\n",
                !decide_on_agents ? "by GNC over the whole graph"
                : hold_agents     ? "by GNC on the agent layer, then the map by least squares around the agents, held"
@@ -59,6 +62,11 @@ void DeformationResult::print(std::FILE* out) const {
   if (decide.iterations > 0) {
     std::fprintf(out, "deformation graph: decided on the agent layer: ");
     decide.print(out);
+  }
+  if (agents_decided > 0) {
+    std::fprintf(out, "deformation graph: decided on %zu agents, then the agent layer solved with the decisions: ",
+                 agents_decided);
+    decide_chain.print(out);
   }
 }
 
@@ -318,8 +326,10 @@ void carry_map(const DeformationProblem& problem, const std::vector<Pose3>& agen
 // decide_on_agents, first step: GNC over the agents and the edges between them; the closures' weights in input
 // order into *weights, the agents' solution into the first A poses, every other node carried along rigidly with the
 // agent it hangs from (an E_am or E_ap edge, else its place's control point), as the start of the whole solve.
+// reduced: GNC on the reduced agent graph, then the chain by least squares with its decisions (*chain: that solve).
 PoseGraphResult decide_on_agents(const PoseGraphConfig& solver, const DeformationProblem& problem,
-                                 std::vector<Pose3>* poses, std::vector<double>* weights) {
+                                 std::vector<Pose3>* poses, std::vector<double>* weights, bool reduced,
+                                 PoseGraphResult* chain, std::size_t* agents_decided) {
   const std::size_t A = problem.result.agents_solved;
   std::vector<Pose3> agents(poses->begin(), poses->begin() + static_cast<std::ptrdiff_t>(A));
   std::vector<RelativePoseEdge> edges;
@@ -331,7 +341,19 @@ PoseGraphResult decide_on_agents(const PoseGraphConfig& solver, const Deformatio
       closure_edge.push_back(edges.size());
     edges.push_back(e);
   }
-  PoseGraphResult r = optimize_pose_graph(solver, agents, edges);
+  PoseGraphResult r;
+  ReducedDecision d;
+  if (reduced && decide_on_reduced_graph(solver, agents, edges, problem.first_closure, &d)) {
+    *agents_decided = d.graph.kept.size();
+    if (d.decide.poses_updated()) {
+      chain_with_decisions(solver, edges, &d, &agents);
+      if (!d.chain.poses_updated()) return *chain = std::move(d.chain);
+      *chain = std::move(d.chain);
+    }
+    r = std::move(d.decide);
+  } else {
+    r = optimize_pose_graph(solver, agents, edges);
+  }
   if (!r.poses_updated()) return r;
   weights->clear();
   for (std::size_t i : closure_edge) weights->push_back(r.edge_weight.empty() ? 1.0 : r.edge_weight[i]);
@@ -357,20 +379,6 @@ void carry_map(const DeformationProblem& problem, const std::vector<Pose3>& agen
     (*poses)[i].q = (dq * (*poses)[i].q).normalized();
   }
   std::copy(agents.begin(), agents.end(), poses->begin());
-}
-
-// An edge's covariance of [translation; rotation], both in its `to` frame (the convention of an edge with an
-// information matrix); `from_R_to` rotates the `from` frame into the `to` frame's axes.
-Eigen::Matrix<double, 6, 6> covariance_in_to_frame(const RelativePoseEdge& e) {
-  Eigen::Matrix<double, 6, 6> cov = Eigen::Matrix<double, 6, 6>::Zero();
-  if (e.has_information) {
-    cov = e.information.inverse();
-  } else {  // sigmas: translation in the `from` frame, rotation in the `to` frame
-    const Eigen::Matrix3d to_R_from = e.measured_from_T_to.q.conjugate().toRotationMatrix();
-    cov.topLeftCorner<3, 3>() = to_R_from * e.sigma_t_m.cwiseAbs2().asDiagonal() * to_R_from.transpose();
-    cov.bottomRightCorner<3, 3>() = e.sigma_rot_rad.cwiseAbs2().asDiagonal();
-  }
-  return cov;
 }
 
 // DeformationConfig::agent_spacing_m: the problem with one agent node per `spacing_m` of odometric path or
@@ -462,30 +470,6 @@ DeformationProblem thin_agents(DeformationProblem in, double spacing_m, double t
   return out;
 }
 
-// Every chain node's pose from the kept agents' solution: a kept agent takes its own; one between kept a and b
-// takes the odometric pose moved by a's and b's corrections (world_T_opt * odometric^-1), interpolated along the
-// path between them (translation linearly, rotation by slerp).
-std::vector<Pose3> expand_agents(const std::vector<Pose3>& odometric, const std::vector<std::uint32_t>& kept,
-                                 const std::vector<Pose3>& solved_kept) {
-  std::vector<Pose3> out(odometric.size());
-  for (std::size_t j = 0; j < kept.size(); ++j) {
-    out[kept[j]] = solved_kept[j];
-    if (j + 1 == kept.size()) break;
-    const std::uint32_t a = kept[j], b = kept[j + 1];
-    const Pose3 ca = solved_kept[j] * odometric[a].inverse(), cb = solved_kept[j + 1] * odometric[b].inverse();
-    double total = 0.0;
-    for (std::uint32_t k = a; k < b; ++k) total += (odometric[k + 1].t_m - odometric[k].t_m).norm();
-    double along = 0.0;
-    for (std::uint32_t k = a + 1; k < b; ++k) {
-      along += (odometric[k].t_m - odometric[k - 1].t_m).norm();
-      const double f = total > 0.0 ? along / total : static_cast<double>(k - a) / static_cast<double>(b - a);
-      const Pose3 c{(1.0 - f) * ca.t_m + f * cb.t_m, ca.q.slerp(f, cb.q).normalized()};
-      out[k] = c * odometric[k];
-    }
-  }
-  return out;
-}
-
 }  // namespace
 
 DeformationResult DeformationGraph::solve(DeformationProblem problem) {
@@ -505,7 +489,8 @@ DeformationResult DeformationGraph::solve(DeformationProblem problem) {
   std::vector<Pose3> solved = problem.poses;
   if (config_.decide_on_agents && r.loop_closures > 0) {
     if (!(config_.incremental_decisions && decide_incrementally(problem, kept, ends, &solved, &r)))
-      r.decide = decide_on_agents(config_.agents.solver, problem, &solved, &r.loop_closure_weight);
+      r.decide = decide_on_agents(config_.agents.solver, problem, &solved, &r.loop_closure_weight,
+                                  config_.reduced_decisions, &r.decide_chain, &r.agents_decided);
     if (!r.decide.poses_updated()) {
       r.solve = r.decide;
       r.loop_closure_weight.clear();
@@ -602,7 +587,11 @@ bool DeformationGraph::decide_incrementally(const DeformationProblem& problem, c
     const std::size_t chain = kept.empty() ? j : kept[j];
     agents[j] = chain < agent_poses_.size() ? agent_poses_[chain] : tail_correction_ * problem.poses[j];
   }
-  PoseGraphResult pr = optimize_pose_graph(config_.agents.solver, agents, edges);
+  // reduced_decisions: GNC on the reduced agent graph; the chain is solved once the decisions stand.
+  ReducedDecision d;
+  const bool reduced = config_.reduced_decisions &&
+                       decide_on_reduced_graph(config_.agents.solver, agents, edges, problem.first_closure, &d);
+  PoseGraphResult pr = reduced ? std::move(d.decide) : optimize_pose_graph(config_.agents.solver, agents, edges);
   if (!pr.poses_updated()) return false;
   const double threshold = config_.agents.solver.loop_closure_loss_scale_sigma;
   for (std::size_t c = 0; c < L; ++c)
@@ -617,6 +606,13 @@ bool DeformationGraph::decide_incrementally(const DeformationProblem& problem, c
     else if (closure_edge[c] >= 0)
       r->loop_closure_weight[c] =
           pr.edge_weight.empty() ? 1.0 : pr.edge_weight[static_cast<std::size_t>(closure_edge[c])];
+  }
+  if (reduced) {
+    d.decide.edge_weight = pr.edge_weight;
+    chain_with_decisions(config_.agents.solver, edges, &d, &agents);
+    if (!d.chain.poses_updated()) return false;
+    r->agents_decided = d.graph.kept.size();
+    r->decide_chain = std::move(d.chain);
   }
   r->closures_carried = num_carried;
   r->decide = std::move(pr);

@@ -75,6 +75,12 @@ struct DeformationConfig {
   // from the last solution; GNC decides the new closures only. If an inlier kept so no longer fits (its residual
   // beyond the TLS threshold), the solve decides every closure again, from odometry, as without this.
   bool incremental_decisions = true;
+  // Reduced decisions (a refinement; with decide_on_agents only, reduced_decisions.h): GNC decides the closures
+  // (all of them, or the new ones with incremental_decisions) on the agent graph reduced to the closures' agents,
+  // the odometry between them composed with its covariance; the whole chain is then solved by least squares with
+  // those decisions. A decision's cost then follows the closures, not the chain's length; the same decisions on
+  // the 1,010 m mission (bench/results/loop_closure.md, session (5)).
+  bool reduced_decisions = true;
   AgentGraphConfig agents;               // odometry sigma floors and the solver (loop closures under GNC-TLS)
 
   DeformationConfig() {
@@ -126,6 +132,10 @@ struct DeformationResult {
   std::vector<double> loop_closure_weight;  // per loop closure, in input order
   PoseGraphResult solve;   // the whole graph's solve (with decide_on_agents: least squares with the kept closures)
   PoseGraphResult decide;  // decide_on_agents: GNC over the agent layer (its edge weights decide the closures)
+  // reduced_decisions: the agents GNC decided on (the reduced graph; 0 when it ran on the whole layer), and the
+  // whole agent layer's least-squares solve with those decisions.
+  std::size_t agents_decided = 0;
+  PoseGraphResult decide_chain;
   void print(std::FILE* out) const;
 };
 

@@ -341,6 +341,7 @@ class GraphSolve {
   void solve(const ceres::Solver::Options& options, ceres::Solver::Summary* summary, PoseGraphResult* result) {
     ceres::Solve(options, &problem_, summary);
     result->iterations += summary->num_successful_steps + summary->num_unsuccessful_steps;
+    result->solver_time_s += summary->total_time_in_seconds;  // replaced by the injected clock's, when given
   }
 
   // Whitened residual norm of edge k at the current state, without its GNC weight.
@@ -461,8 +462,23 @@ void PoseGraphResult::print(std::FILE* out) const {
                message.c_str());
 }
 
+namespace {
+PoseGraphResult optimize(const PoseGraphConfig& config, std::vector<Pose3>& poses,
+                         const std::vector<RelativePoseEdge>& edges);
+}  // namespace
+
 PoseGraphResult optimize_pose_graph(const PoseGraphConfig& config, std::vector<Pose3>& poses,
                                     const std::vector<RelativePoseEdge>& edges) {
+  if (config.clock_s == nullptr) return optimize(config, poses, edges);
+  const double start_s = config.clock_s();
+  PoseGraphResult result = optimize(config, poses, edges);
+  result.solver_time_s = config.clock_s() - start_s;
+  return result;
+}
+
+namespace {
+PoseGraphResult optimize(const PoseGraphConfig& config, std::vector<Pose3>& poses,
+                         const std::vector<RelativePoseEdge>& edges) {
   if (std::string error = check_config(config); !error.empty()) return invalid(std::move(error));
   if (poses.empty()) return invalid("empty graph: no poses");
   // Indices are uint32 in the edges; a larger graph could not be addressed.
@@ -515,5 +531,7 @@ PoseGraphResult optimize_pose_graph(const PoseGraphConfig& config, std::vector<P
                    summary.message;
   return result;
 }
+
+}  // namespace
 
 }  // namespace qsg::backend

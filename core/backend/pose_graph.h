@@ -50,6 +50,9 @@ struct PoseGraphConfig {
   // Poses [0, hold_first_poses) stay where they are (constant in the solve): the rest is solved around them.
   std::size_t hold_first_poses = 0;
   int num_threads = 1;
+  // Injected clock (seconds), for benchmarks: when set, PoseGraphResult::solver_time_s is the whole call's time on
+  // it (e.g. the thread's CPU time) instead of Ceres' own wall-clock time.
+  double (*clock_s)() = nullptr;
   // Before the robust solve, keep only the largest set of pairwise-consistent loop closures (PCM, see
   // pairwise_consistency.h); the others get weight 0 and no residual. Off: the paper's path is GNC alone.
   bool prefilter_pairwise_consistency = false;
@@ -80,6 +83,8 @@ struct PoseGraphResult {
   // kept or 0 rejected); kGncTls: the outer iterations run. Otherwise empty and 0.
   std::vector<double> edge_weight;
   int gnc_outer_iterations = 0;
+  // Where a solve's time goes: Ceres' own wall-clock time over its solves, or PoseGraphConfig::clock_s's.
+  double solver_time_s = 0.0;
   // With prefilter_pairwise_consistency: the prefilter's tallies (its rejected closures are downweighted too).
   PairwiseConsistencyResult pairwise;
   std::string message;

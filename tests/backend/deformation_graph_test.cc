@@ -286,6 +286,7 @@ TEST_F(DeformationGraphTest, HeldAgentsKeepTheAgentLayersSolutionAndTheMapFollow
   ASSERT_TRUE(optimize_agent_chain(layer_, closures, agents, &alone).solve.poses_updated());
   DeformationConfig c = strategy(true);
   c.hold_agents = true;
+  c.reduced_decisions = false;  // the agent layer's own solve; reduced decisions re-solve it to a tolerance
   DeformationGraph d(c);
   const double walls_before = wall_rmse(d);
   const DeformationResult r = d.optimize(layer_, closures, control_, *graph_);
@@ -393,6 +394,54 @@ TEST_F(DeformationGraphTest, IncrementalDecisionsKeepTheLastOnesAndDecideAgainWh
     EXPECT_EQ(b.closures_carried, 0u);
     EXPECT_EQ(b.loop_closure_weight, a.loop_closure_weight);
     EXPECT_LT(std::abs(agent_rmse(incremental) - agent_rmse(full)), 1e-6);
+  }
+}
+
+// reduced_decisions off: the agents are exactly GNC's over the whole agent layer (the current path, bit for bit);
+// on: the same decisions, a wrong closure rejected, fresh and carried, and agents within millimetres of the off path.
+TEST_F(DeformationGraphTest, ReducedDecisionsDecideAsTheWholeAgentLayer) {
+  const auto last = static_cast<std::uint32_t>(walk_.truth.size() - 1);
+  const auto half = static_cast<std::uint32_t>(walk_.truth.size() / 2);
+  ChainLoopClosure wrong = true_closure(10, 30);
+  wrong.a_T_b = Pose3{Eigen::Vector3d(0.5, 0.2, 0.0), Eigen::Quaterniond::Identity()};
+  const std::vector<ChainLoopClosure> first = {true_closure(0, half), wrong};
+  const std::vector<ChainLoopClosure> both = {true_closure(0, half), wrong, true_closure(0, last),
+                                             true_closure(1, last), true_closure(2, last - 1)};
+  DeformationConfig on = strategy(true);
+  ASSERT_TRUE(on.reduced_decisions) << "on by default";
+  DeformationConfig off = on;
+  off.reduced_decisions = false;
+  ASSERT_EQ(on.check(), "");
+  for (const bool incremental : {false, true}) {
+    SCOPED_TRACE(incremental ? "incremental decisions" : "every closure decided each time");
+    off.incremental_decisions = on.incremental_decisions = incremental;
+    DeformationGraph a(off), b(on);
+    for (const std::vector<ChainLoopClosure>* closures : {&first, &both}) {
+      const DeformationResult ra = a.optimize(layer_, *closures, control_, *graph_);
+      const DeformationResult rb = b.optimize(layer_, *closures, control_, *graph_);
+      ASSERT_TRUE(ra.solve.poses_updated() && rb.solve.poses_updated());
+      EXPECT_EQ(ra.agents_decided, 0u);
+      EXPECT_EQ(rb.agents_decided > 0, !incremental || closures == &first || rb.closures_carried < closures->size());
+      EXPECT_EQ(rb.loop_closure_weight, ra.loop_closure_weight);
+      EXPECT_LT(rb.loop_closure_weight[1], 0.5) << "the wrong closure";
+      double worst = 0.0;
+      for (std::size_t k = 0; k < walk_.truth.size(); ++k)
+        worst = std::max(worst, (a.agent_pose(k).t_m - b.agent_pose(k).t_m).norm());
+      EXPECT_LT(worst, 0.005);
+      EXPECT_LT(std::abs(wall_rmse(a) - wall_rmse(b)), 0.005);
+    }
+  }
+  // Off, from scratch: the agents are GNC's over the agent layer itself (odometry and closures), bit for bit.
+  off.incremental_decisions = false;
+  DeformationGraph fresh(off);
+  ASSERT_TRUE(fresh.optimize(layer_, both, control_, *graph_).solve.poses_updated());
+  std::vector<Pose3> agents;
+  const AgentGraphResult chain = optimize_agent_chain(layer_, both, off.agents, &agents);
+  ASSERT_TRUE(chain.solve.poses_updated());
+  for (std::size_t k = 0; k < agents.size(); ++k) {
+    EXPECT_EQ(fresh.agent_pose(k).t_m, agents[k].t_m) << k;
+    // The whole solve holds the agents and writes them back normalized once more: the last bit may change.
+    EXPECT_LT((fresh.agent_pose(k).q.coeffs() - agents[k].q.coeffs()).norm(), 1e-15) << k;
   }
 }
 
