@@ -46,6 +46,19 @@ struct Timed {
 };
 
 // Mean, 99th percentile and largest of a set of distances.
+// One dumped problem, and the odometric path its chain covers; false (printed) when it cannot be read.
+bool read_problem(const std::string& path, backend::DeformationProblemFile* file, double* path_m) {
+  std::string error;
+  if (!backend::read_deformation_problem(path, file, &error)) {
+    std::fprintf(stderr, "dg_sequence: %s\n", error.c_str());
+    return false;
+  }
+  const backend::DeformationProblem& p = file->problem;
+  *path_m = 0.0;
+  for (std::size_t k = 1; k < p.result.agents; ++k) *path_m += (p.poses[k].t_m - p.poses[k - 1].t_m).norm();
+  return true;
+}
+
 struct Spread {
   std::vector<double> values;
   double mean = 0.0, p99 = 0.0, max = 0.0;
@@ -94,14 +107,9 @@ int compare_reduced_decisions(const std::vector<std::string>& paths, backend::De
   double ate_diff_max = 0.0;
   for (std::size_t s = 0; s < paths.size(); ++s) {
     backend::DeformationProblemFile file;
-    std::string error;
-    if (!backend::read_deformation_problem(paths[s], &file, &error)) {
-      std::fprintf(stderr, "dg_sequence: %s\n", error.c_str());
-      return 1;
-    }
-    const backend::DeformationProblem& p = file.problem;
     double path_m = 0.0;
-    for (std::size_t k = 1; k < p.result.agents; ++k) path_m += (p.poses[k].t_m - p.poses[k - 1].t_m).norm();
+    if (!read_problem(paths[s], &file, &path_m)) return 1;
+    const backend::DeformationProblem& p = file.problem;
     const Timed a = solve(&base, p), b = solve(&reduced, p);
     if (!a.result.solve.poses_updated() || !b.result.solve.poses_updated()) {
       std::fprintf(stderr, "dg_sequence: solve %zu failed (%s / %s)\n", s, a.result.solve.message.c_str(),
@@ -241,14 +249,9 @@ int main(int argc, char** argv) {
   int decided_again = 0;
   for (std::size_t s = 0; s < paths.size(); ++s) {
     backend::DeformationProblemFile file;
-    std::string error;
-    if (!backend::read_deformation_problem(paths[s], &file, &error)) {
-      std::fprintf(stderr, "dg_sequence: %s\n", error.c_str());
-      return 1;
-    }
-    const backend::DeformationProblem& p = file.problem;
     double path_m = 0.0;
-    for (std::size_t k = 1; k < p.result.agents; ++k) path_m += (p.poses[k].t_m - p.poses[k - 1].t_m).norm();
+    if (!read_problem(paths[s], &file, &path_m)) return 1;
+    const backend::DeformationProblem& p = file.problem;
     if (bounded_only) {  // the bounded solve alone: where its time goes
       const Timed b = solve(&settled, p);
       std::printf("%5zu %7.1f %7zu %8zu %7zu %8zu %9.3f s: decide %d iterations (%d GNC outer), map %d iterations; "
