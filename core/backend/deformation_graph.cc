@@ -180,6 +180,30 @@ std::uint64_t DeformationGraph::cell_key(const Eigen::Vector3d& p) const {
   return cell_of(p, config_.control_point_spacing_m);
 }
 
+// The cached E_mm lists still describe this set of control points (append-only, in time order), or start again:
+// how many leading points have theirs.
+std::size_t DeformationGraph::reusable_control_edges(const ControlPoints& control, bool* in_order) const {
+  const std::size_t C = control.size();
+  std::size_t final_points = mm_begin_.empty() ? 0 : mm_begin_.size() - 1;
+  *in_order = true;
+  for (std::size_t i = 1; i < C && *in_order; ++i) *in_order = control.time_ns(i) >= control.time_ns(i - 1);
+  if (!*in_order || final_points > C || (final_points > 0 && control.point(final_points - 1) != mm_last_point_)) {
+    mm_neighbours_.clear();
+    mm_begin_.clear();
+    final_points = 0;
+  }
+  if (mm_begin_.empty()) mm_begin_.push_back(0);
+  return final_points;
+}
+
+void DeformationGraph::keep_control_edges(const Eigen::Vector3d& point, const std::vector<std::uint32_t>& neighbours,
+                                          std::size_t* final_points) const {
+  mm_neighbours_.insert(mm_neighbours_.end(), neighbours.begin(), neighbours.end());
+  mm_begin_.push_back(static_cast<std::uint32_t>(mm_neighbours_.size()));
+  mm_last_point_ = point;
+  ++*final_points;
+}
+
 DeformationProblem DeformationGraph::build(const agents::AgentLayer& agents,
                                            const std::vector<ChainLoopClosure>& loop_closures,
                                            const ControlPoints& control, const scene_graph::SceneGraph& graph) const {
@@ -254,19 +278,29 @@ DeformationProblem DeformationGraph::build(const agents::AgentLayer& agents,
     std::sort(out->begin(), out->end());
   };
   std::vector<std::pair<double, std::uint32_t>> near;
+  bool in_order = true;
+  std::size_t final_points = reusable_control_edges(control, &in_order);
+  std::vector<std::uint32_t> fresh;  // a point's neighbours when searched now
   // E_am and E_mm.
   for (std::size_t i = 0; i < C; ++i) {
     const auto node = static_cast<std::uint32_t>(A + i);
     const std::uint32_t k = agent_at(control.time_ns(i));
     edges.push_back(position_edge(k, node, poses[k], control.point(i), sigma));
     ++r.edges_am;
-    near_control(control.point(i), control.time_ns(i), config_.control_edge_radius_m, &near);
-    std::uint32_t added = 0;
-    for (const auto& [d, j] : near) {
-      if (j == i || added == config_.max_control_neighbours) continue;
+    if (i < final_points) {
+      fresh.assign(mm_neighbours_.begin() + mm_begin_[i], mm_neighbours_.begin() + mm_begin_[i + 1]);
+    } else {
+      near_control(control.point(i), control.time_ns(i), config_.control_edge_radius_m, &near);
+      fresh.clear();
+      for (const auto& [d, j] : near)
+        if (j != i && fresh.size() < config_.max_control_neighbours) fresh.push_back(j);
+      // Final once no control point to come can be within the horizon of it: the list is kept for the next build.
+      if (in_order && i == final_points && control.time_ns(C - 1) > control.time_ns(i) + horizon_ns)
+        keep_control_edges(control.point(i), fresh, &final_points);
+    }
+    for (const std::uint32_t j : fresh) {
       edges.push_back(position_edge(node, static_cast<std::uint32_t>(A + j), poses[node], control.point(j), sigma));
       ++r.edges_mm;
-      ++added;
     }
   }
   // E_pp: a minimum spanning tree of the place-place edges (Kruskal); E_ap: agents to their places; E_mp.

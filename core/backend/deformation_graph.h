@@ -209,6 +209,15 @@ class DeformationGraph {
   Pose3 tail_correction_;
   std::unordered_map<scene_graph::NodeId, std::uint32_t> place_node_;
   std::vector<std::pair<std::uint64_t, std::uint32_t>> cells_;  // sorted (cell, node)
+  // build(): the E_mm neighbours of the control points that can gain none any more (seen more than the time horizon
+  // before the newest, control points coming in time order), kept from one build to the next. Their search was most
+  // of a build's time, under the graph lock (bench/results/loop_closure.md). build() is not reentrant.
+  std::size_t reusable_control_edges(const ControlPoints& control, bool* in_order) const;
+  void keep_control_edges(const Eigen::Vector3d& point, const std::vector<std::uint32_t>& neighbours,
+                          std::size_t* final_points) const;
+  mutable std::vector<std::uint32_t> mm_neighbours_;  // control point indices, each final point's in turn ...
+  mutable std::vector<std::uint32_t> mm_begin_;       // ... point i's from mm_begin_[i] to mm_begin_[i + 1]
+  mutable Eigen::Vector3d mm_last_point_ = Eigen::Vector3d::Zero();  // the last final point (a changed set: cleared)
 };
 
 }  // namespace qsg::backend

@@ -238,6 +238,40 @@ TEST_F(DeformationGraphTest, AProblemFileReadsBackAndSolvesTheSame) {
   EXPECT_NE(error.find("every truth line or none"), std::string::npos) << error;
 }
 
+// build() keeps the control-point edges of points past the time horizon from one build to the next: a graph that
+// built before gives exactly the problem a fresh one builds, as the points grow, and when the set is replaced.
+TEST_F(DeformationGraphTest, ABuildThatReusesTheLastOnesEdgesBuildsTheSameProblem) {
+  const auto same = [](const DeformationProblem& a, const DeformationProblem& b) {
+    ASSERT_EQ(a.edges.size(), b.edges.size());
+    EXPECT_EQ(a.result.edges_mm, b.result.edges_mm);
+    for (std::size_t e = 0; e < a.edges.size(); ++e) {
+      EXPECT_EQ(a.edges[e].from, b.edges[e].from) << e;
+      EXPECT_EQ(a.edges[e].to, b.edges[e].to) << e;
+      EXPECT_EQ(a.edges[e].measured_from_T_to.t_m, b.edges[e].measured_from_T_to.t_m) << e;
+    }
+  };
+  DeformationGraph reused;
+  ControlPoints growing;
+  std::string error;
+  ASSERT_TRUE(growing.init(1000, 1.0, &error)) << error;
+  std::size_t offered = 0, builds = 0;
+  for (std::size_t until : {walls_.size() / 3, walls_.size() / 2, walls_.size()}) {
+    for (; offered < until; ++offered) ASSERT_TRUE(growing.offer(walls_[offered].odom, walls_[offered].time_ns));
+    const DeformationProblem a = reused.build(layer_, {true_closure(2, 40)}, growing, *graph_);
+    const DeformationProblem b = DeformationGraph().build(layer_, {true_closure(2, 40)}, growing, *graph_);
+    ASSERT_GT(a.result.edges_mm, 0u);
+    same(a, b);
+    ++builds;
+  }
+  // Another set of control points (the walls 0.3 m off): the kept edges do not apply, and are not used.
+  ControlPoints other;
+  ASSERT_TRUE(other.init(1000, 1.0, &error)) << error;
+  for (const Wall& w : walls_) other.offer(w.odom + Eigen::Vector3d(0.3, 0.0, 0.0), w.time_ns);
+  ASSERT_GT(other.size(), 10u);
+  same(reused.build(layer_, {}, other, *graph_), DeformationGraph().build(layer_, {}, other, *graph_));
+  EXPECT_EQ(builds, 3u);
+}
+
 TEST_F(DeformationGraphTest, WithoutLoopClosuresNothingMoves) {
   DeformationGraph d;
   const DeformationResult r = d.optimize(layer_, {}, control_, *graph_);
