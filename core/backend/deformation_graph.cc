@@ -466,19 +466,13 @@ DeformationProblem thin_agents(DeformationProblem in, double spacing_m, double t
     e.measured_from_T_to = between(in.poses[a], in.poses[b]);
     // Each step's noise, a perturbation in its `to` frame k + 1, seen in b's frame through the adjoint of b_T_(k+1)
     // (first order): rotation noise moves b by its lever arm too.
-    Eigen::Matrix<double, 6, 6> cov = Eigen::Matrix<double, 6, 6>::Zero();
+    Matrix6d cov = Matrix6d::Zero();
     for (std::uint32_t k = a; k < b && k < odometry; ++k) {
-      const Pose3 b_T_k = between(in.poses[b], in.poses[k + 1]);
-      const Eigen::Matrix3d r = b_T_k.q.toRotationMatrix();
-      Eigen::Matrix3d skew;
-      skew << 0.0, -b_T_k.t_m.z(), b_T_k.t_m.y(), b_T_k.t_m.z(), 0.0, -b_T_k.t_m.x(), -b_T_k.t_m.y(), b_T_k.t_m.x(), 0.0;
-      Eigen::Matrix<double, 6, 6> adjoint = Eigen::Matrix<double, 6, 6>::Zero();
-      adjoint.topLeftCorner<3, 3>() = adjoint.bottomRightCorner<3, 3>() = r;
-      adjoint.topRightCorner<3, 3>() = skew * r;
-      cov += adjoint * covariance_in_to_frame(in.edges[k]) * adjoint.transpose();
+      const Matrix6d ad = adjoint(between(in.poses[b], in.poses[k + 1]));
+      cov += ad * covariance_in_to_frame(in.edges[k]) * ad.transpose();
     }
     e.has_information = true;
-    const Eigen::Matrix<double, 6, 6> info = cov.inverse();
+    const Matrix6d info = cov.inverse();
     e.information = 0.5 * (info + info.transpose());
     out.edges.push_back(e);
   }
