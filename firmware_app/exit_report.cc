@@ -235,6 +235,7 @@ ReportGroup tasks_group(const Pipeline& p) {
   thread("backend_final_stage", p.finish_cpu_stats());
   if (p.backend_stage().loop_closure_enabled()) {
     thread("backend_loop_closure_detect", p.loop_closure_detect_cpu_stats());
+    thread("backend_loop_closure_lock", p.loop_closure_lock_cpu_stats());
     thread("backend_solve", p.solve_cpu_stats());
   }
   if (p.segmentation().initialized()) thread("segmentation_thread", p.segmentation().cpu_stats());

@@ -157,6 +157,9 @@ class Pipeline {
   // (one run per update that described at least one; part of the update), and each deformation-graph solve (a run
   // of its own against the table's solve_budget_us, left out of the update that started it).
   runtime::TaskStats loop_closure_detect_cpu_stats() const;
+  // ... and what of it held the graph lock, per update that described an agent or copied a solve's inputs: the
+  // description and the copy (the lookup, verification, build and solve run without the lock).
+  runtime::TaskStats loop_closure_lock_cpu_stats() const;
   runtime::TaskStats solve_cpu_stats() const;
   // One solve during the run: when, at what path, how big, its cost. The last kSolveRecords are kept, oldest first.
   struct SolveRecord {
@@ -165,7 +168,9 @@ class Pipeline {
     std::uint32_t map_settled = 0, closures_carried = 0;  // the bounded solve's held nodes and carried decisions
     bool decided_again = false;
     std::int64_t cpu_us = 0, wall_us = 0;
-    // Building the problem, under the graph lock (the loop thread waits for it to add a keyframe's agent).
+    // Copying the chain and the places under the graph lock (the loop thread waits for it to add a keyframe's
+    // agent), then building the problem from the copy without the lock.
+    std::int64_t lock_cpu_us = 0, lock_wall_us = 0;
     std::int64_t build_cpu_us = 0, build_wall_us = 0;
     bool ok = false;
   };
@@ -334,7 +339,7 @@ class Pipeline {
   void extract_captured_frames();
   void run_loop_closure(std::uint64_t time_ns, pipeline::Host::Held* graph_lock);
   bool optimize_graph();  // the final solve (graph_mutex_ held)
-  backend::DeformationProblem build_deformation();  // graph_mutex_ held; dumps it for QSG_DUMP_DEFORMATION
+  backend::DeformationProblem build_deformation();  // from the copied inputs; dumps it for QSG_DUMP_DEFORMATION
   // At the finish (graph_mutex_ held): the final solve over every loop closure, then agents and places to their
   // optimized poses, objects, rooms and the mesh moved by the deformation graph; the counters and a summary line.
   void correct_outputs(reconstruction::Mesh* mesh, reconstruction::Mesh* odometric);
@@ -361,6 +366,7 @@ class Pipeline {
   runtime::TaskStats door_pass_cpu_;
   runtime::TaskStats finish_cpu_;
   runtime::TaskStats lc_detect_cpu_;
+  runtime::TaskStats lc_lock_cpu_;
   runtime::TaskStats solve_cpu_;
   std::vector<SolveRecord> solve_records_;  // kSolveRecords slots from init, a ring
   std::uint64_t solves_recorded_ = 0;

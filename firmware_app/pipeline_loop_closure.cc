@@ -92,36 +92,52 @@ void Pipeline::extract_captured_frames() {
 }
 
 // Backend thread, graph_mutex_ held by *graph_lock: new loop closures, and the deformation graph re-solved when one
-// waits and solve_interval_s has passed; built under the lock, solved without it (the loop keeps mapping meanwhile).
-// Detection is timed as part of the update; the solve as a run of its own (left out of the update's time).
+// waits and solve_interval_s has passed. Under the lock only what reads the loop thread's state: the agents left
+// behind are described and, when a solve may follow, the chain, control points and places copied; the lookup,
+// verification, build and solve run without it (the loop keeps mapping meanwhile). Detection is timed as part of
+// the update; the solve as a run of its own (left out of the update's time).
 void Pipeline::run_loop_closure(std::uint64_t time_ns, pipeline::Host::Held* graph_lock) {
   if (!backend_.loop_closure_enabled()) return;
   const runtime::ThreadCpuClock cpu_clock;
   const runtime::WallClock wall_clock;
-  const std::int64_t detect0_ns = cpu_clock.now_ns();
-  const std::uint64_t described0 = backend_.counters().agents_described.load();
+  const std::int64_t describe0_ns = cpu_clock.now_ns();
   if (time_ns >= static_cast<std::uint64_t>(config_.loop_closure.horizon_s * 1e9)) extract_captured_frames();
-  backend_.detect_loop_closures(graph_, frontend_.agents(), time_ns);
-  if (backend_.counters().agents_described.load() > described0) {
+  const std::size_t described = backend_.describe_agents(graph_, frontend_.agents(), time_ns);
+  const std::int64_t describe_us = (cpu_clock.now_ns() - describe0_ns) / 1000;
+  SolveRecord r;
+  const bool may_solve = backend_.solve_may_follow(time_ns, described > 0);
+  if (may_solve) {
+    const std::int64_t copy0_ns = cpu_clock.now_ns(), copy0_wall_ns = wall_clock.now_ns();
+    backend_.copy_deformation_inputs(frontend_.agents(), graph_);
+    r.lock_cpu_us = (cpu_clock.now_ns() - copy0_ns) / 1000;
+    r.lock_wall_us = (wall_clock.now_ns() - copy0_wall_ns) / 1000;
+  }
+  graph_lock->release();
+  if (described > 0 || may_solve) {  // what the loop thread could have waited for
     std::lock_guard<std::mutex> lock(backend_stats_mutex_);
-    lc_detect_cpu_.record((cpu_clock.now_ns() - detect0_ns) / 1000, 0);
+    lc_lock_cpu_.record(describe_us + r.lock_cpu_us, 0);
+  }
+  if (described > 0) {
+    const std::int64_t detect0_ns = cpu_clock.now_ns();
+    backend_.detect_described();
+    std::lock_guard<std::mutex> lock(backend_stats_mutex_);
+    lc_detect_cpu_.record(describe_us + (cpu_clock.now_ns() - detect0_ns) / 1000, 0);
   }
   if (!backend_.solve_due(time_ns)) return;
   runtime::stage_begin(runtime::kLoopClosureSolveStage, time_ns);  // the graph built and solved
-  const std::int64_t build_cpu0_ns = cpu_clock.now_ns(), build_wall0_ns = wall_clock.now_ns();
-  backend::DeformationProblem problem = build_deformation();
-  SolveRecord r;
-  r.build_cpu_us = (cpu_clock.now_ns() - build_cpu0_ns) / 1000;
-  r.build_wall_us = (wall_clock.now_ns() - build_wall0_ns) / 1000;
   r.time_s = static_cast<double>(time_ns) * 1e-9;
   r.path_m = backend_.described_path_m();
+  std::lock_guard<std::mutex> solving(deformation_mutex_);  // a snapshot reads the solution meanwhile: it waits
+  std::int64_t cpu0_ns = cpu_clock.now_ns(), wall0_ns = wall_clock.now_ns();
+  backend::DeformationProblem problem = build_deformation();
+  r.build_cpu_us = (cpu_clock.now_ns() - cpu0_ns) / 1000;
+  r.build_wall_us = (wall_clock.now_ns() - wall0_ns) / 1000;
   r.agents = static_cast<std::uint32_t>(problem.result.agents);
   r.control_points = static_cast<std::uint32_t>(problem.result.control_points);
   r.places = static_cast<std::uint32_t>(problem.result.places);
   r.closures = static_cast<std::uint32_t>(problem.result.loop_closures);
-  graph_lock->release();
-  std::lock_guard<std::mutex> solving(deformation_mutex_);  // a snapshot reads the solution meanwhile: it waits
-  const std::int64_t cpu0_ns = cpu_clock.now_ns(), wall0_ns = wall_clock.now_ns();
+  cpu0_ns = cpu_clock.now_ns();
+  wall0_ns = wall_clock.now_ns();
   std::string why;
   r.ok = backend_.solve_deformation(std::move(problem), &why);
   runtime::stage_end(runtime::kLoopClosureSolveStage, time_ns);
@@ -144,22 +160,24 @@ void Pipeline::run_loop_closure(std::uint64_t time_ns, pipeline::Host::Held* gra
   if (static_cast<std::uint64_t>(r.wall_us) > graph_optimization_max_us_.load())
     graph_optimization_max_us_.store(static_cast<std::uint64_t>(r.wall_us));
   std::printf("loop closure: solve at %.0f s, %.1f m of path: %u agents, %u control points, %u places, %u closures "
-              "(%u kept): %.1f ms CPU (budget %.0f ms); %u control points held, %u decisions carried%s; built in "
-              "%.1f ms CPU under the graph lock\n",
+              "(%u kept): %.1f ms CPU (budget %.0f ms); %u control points held, %u decisions carried%s; inputs "
+              "copied in %.2f ms CPU under the graph lock, built in %.1f ms CPU\n",
               r.time_s, r.path_m, r.agents, r.control_points, r.places, r.closures, r.closures_kept,
               static_cast<double>(r.cpu_us) / 1000.0, solve_budget_us_ / 1000.0, r.map_settled, r.closures_carried,
-              r.decided_again ? " (all decided again)" : "", static_cast<double>(r.build_cpu_us) / 1000.0);
+              r.decided_again ? " (all decided again)" : "", static_cast<double>(r.lock_cpu_us) / 1000.0,
+              static_cast<double>(r.build_cpu_us) / 1000.0);
   std::lock_guard<std::mutex> lock(backend_stats_mutex_);
   solve_cpu_.record(r.cpu_us, solve_budget_us_);
   solve_records_[static_cast<std::size_t>(solves_recorded_ % solve_records_.size())] = r;
   ++solves_recorded_;
 }
 
-// graph_mutex_ held: the stage's deformation problem; QSG_DUMP_DEFORMATION=FILE also writes it (with each agent's
-// true camera position where known) for bench/loop_closure/dg_solve to reproduce the solve offline.
+// The stage's deformation problem from its last copy of the chain and the places (copy_deformation_inputs, under
+// graph_mutex_); QSG_DUMP_DEFORMATION=FILE also writes it (with each agent's true camera position where known) for
+// bench/loop_closure/dg_solve to reproduce the solve offline.
 backend::DeformationProblem Pipeline::build_deformation() {
-  const agents::AgentLayer& agents = frontend_.agents();
-  backend::DeformationProblem problem = backend_.build_deformation(agents, graph_);
+  const agents::ChainView agents = backend_.deformation_inputs().chain_view();
+  backend::DeformationProblem problem = backend_.build_deformation();
   if (const char* path = std::getenv("QSG_DUMP_DEFORMATION"); path != nullptr && *path != '\0') {
     std::vector<Eigen::Vector3d> truth;
     std::vector<Eigen::Quaterniond> truth_q;
@@ -193,6 +211,7 @@ bool Pipeline::optimize_graph() {
   const runtime::ThreadCpuClock cpu_clock;
   const std::int64_t cpu0_ns = cpu_clock.now_ns();
   std::string why;
+  backend_.copy_deformation_inputs(frontend_.agents(), graph_);
   const bool ok = backend_.solve_deformation(build_deformation(), &why);
   if (!ok) std::fprintf(stderr, "loop closure: optimization failed (kept the previous solution): %s\n", why.c_str());
   const auto us = static_cast<std::uint64_t>(

@@ -16,7 +16,10 @@ import sys
 
 LINE = re.compile(r"loop closure: solve at (\d+) s, ([\d.]+) m of path: (\d+) agents, (\d+) control points, "
                   r"(\d+) places, (\d+) closures \((\d+) kept\): ([\d.]+) ms CPU")
-BUILD = re.compile(r"built in ([\d.]+) ms CPU under the graph lock")  # logs from 2026-12-03 (5) on
+# Logs from 2026-12-03 (5) on: "built in X ms CPU under the graph lock"; from 2026-12-04 on the inputs are copied
+# under the lock ("inputs copied in X ms CPU under the graph lock, built in Y ms CPU") and built without it.
+BUILD = re.compile(r"built in ([\d.]+) ms CPU")
+LOCK = re.compile(r"copied in ([\d.]+) ms CPU under the graph lock")
 
 
 def main():
@@ -32,7 +35,9 @@ def main():
             m = LINE.search(line)
             if m:
                 b = BUILD.search(line)
-                rows.append([float(x) for x in m.groups()] + [float(b.group(1)) if b else None])
+                k = LOCK.search(line)
+                rows.append([float(x) for x in m.groups()] + [float(b.group(1)) if b else None,
+                                                               float(k.group(1)) if k else None])
     if not rows:
         sys.exit(f"{a.log}: no 'loop closure: solve at' lines")
     figures = []
@@ -40,7 +45,7 @@ def main():
     def add(name, value, unit):
         figures.append({"name": name, "value": value, "unit": unit, "conditions": a.conditions, "commit": a.commit})
 
-    for i, (t, path, agents, cps, places, closures, kept, cpu, build) in enumerate(rows):
+    for i, (t, path, agents, cps, places, closures, kept, cpu, build, lock) in enumerate(rows):
         p = f"solve.{i}."
         add(p + "time", t, "s")
         add(p + "path", path, "m")
@@ -51,6 +56,8 @@ def main():
         add(p + "cpu", cpu, "ms")
         if build is not None:
             add(p + "build_cpu", build, "ms")
+        if lock is not None:
+            add(p + "lock_cpu", lock, "ms")
     last = int(rows[-1][1] // 50)
     for b in range(last + 1):
         cpu = [r[7] for r in rows if b * 50 <= r[1] < (b + 1) * 50]

@@ -119,4 +119,19 @@ class AgentLayer {
   std::size_t chain_high_water_ = 0;
 };
 
+// A read-only view of a pose chain, oldest first: the live one (an AgentLayer converts to it) or a copy of it taken
+// under a lock (backend::DeformationInputs), so what reads the chain does not care which.
+class ChainView {
+ public:
+  ChainView(const ChainNode* nodes, std::size_t size) : nodes_(nodes), size_(size) {}
+  ChainView(const AgentLayer& agents)  // NOLINT(google-explicit-constructor): the live chain is a chain
+      : nodes_(agents.chain_size() > 0 ? &agents.chain(0) : nullptr), size_(agents.chain_size()) {}
+  std::size_t chain_size() const { return size_; }
+  const ChainNode& chain(std::size_t i) const { return nodes_[i]; }
+
+ private:
+  const ChainNode* nodes_ = nullptr;
+  std::size_t size_ = 0;
+};
+
 }  // namespace qsg::agents

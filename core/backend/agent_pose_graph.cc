@@ -83,7 +83,7 @@ RelativePoseEdge per_distance_odometry_edge(std::uint32_t a, std::uint32_t b, co
   return e;
 }
 
-std::vector<RelativePoseEdge> chain_odometry_edges(const agents::AgentLayer& agents, const AgentGraphConfig& config) {
+std::vector<RelativePoseEdge> chain_odometry_edges(const agents::ChainView& agents, const AgentGraphConfig& config) {
   std::vector<RelativePoseEdge> edges;
   const std::size_t n = agents.chain_size();
   if (n < 2) return edges;

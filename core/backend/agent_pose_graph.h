@@ -82,7 +82,7 @@ RelativePoseEdge per_distance_odometry_edge(std::uint32_t a, std::uint32_t b, co
                                             const Pose3& world_T_b, double d_m, const AgentGraphConfig& config);
 
 // The odometry edges of the chain (edge k joins node k and k + 1), for inspection and tests.
-std::vector<RelativePoseEdge> chain_odometry_edges(const agents::AgentLayer& agents, const AgentGraphConfig& config);
+std::vector<RelativePoseEdge> chain_odometry_edges(const agents::ChainView& agents, const AgentGraphConfig& config);
 
 // Optimizes the chain with the loop closures; `optimized` gets one world_T_agent per chain node, starting from the
 // odometric poses. With no loop closure there is nothing to correct: the odometric poses come back unchanged.

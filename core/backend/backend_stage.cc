@@ -15,7 +15,7 @@ namespace qsg::backend {
 namespace {
 
 // The chain node with the time closest to t (the chain is ordered in time; folding may have removed the exact one).
-std::size_t chain_index_at(const agents::AgentLayer& agents, std::uint64_t t) {
+std::size_t chain_index_at(const agents::ChainView& agents, std::uint64_t t) {
   std::size_t lo = 0, hi = agents.chain_size();
   while (hi - lo > 1) {
     const std::size_t mid = (lo + hi) / 2;
@@ -69,10 +69,10 @@ bool BackendStage::init(const Config& config, const scene_graph::Capacities& gc,
     painted_stamp_.assign(tsdf_block_slots, 0u);
     painted_block_.assign(tsdf_block_slots, memory::Index3{});
   }
-  return init_loop_closure(frame_bytes, error);
+  return init_loop_closure(gc, frame_bytes, error);
 }
 
-bool BackendStage::init_loop_closure(std::size_t frame_bytes, std::string* error) {
+bool BackendStage::init_loop_closure(const scene_graph::Capacities& gc, std::size_t frame_bytes, std::string* error) {
   if (!config_.loop_closure.enabled) return true;
   const LoopClosureConfig& c = config_.loop_closure;
   namespace lc = budgets::active::loop_closure;
@@ -84,9 +84,12 @@ bool BackendStage::init_loop_closure(std::size_t frame_bytes, std::string* error
   deformation_ = DeformationGraph(c.deformation);
   if (!appearance_.init(c.detector.appearance, error)) return false;
   pending_.reserve(2 * lc::kAppearanceFrames);
+  described_.reserve(pending_.capacity());
   loop_closures_.reserve(lc::kLoopClosures);
+  deformation_inputs_.reserve(gc.agent_nodes, lc::kControlPoints, gc.place_nodes, gc.edges);
   const std::size_t bytes = detector_.bytes() + lc::kControlPoints * (sizeof(Eigen::Vector3d) + 8 + 16) + frame_bytes +
-                            pending_.capacity() * sizeof(PendingAppearance);
+                            pending_.capacity() * sizeof(PendingAppearance) +
+                            described_.capacity() * sizeof(loop_closure::AgentEntry) + deformation_inputs_.capacity_bytes();
   if (bytes > lc::kArenaBytes)
     return *error = "budget: loop_closure stores need " + std::to_string(bytes) + " bytes, the arena has " +
                     std::to_string(lc::kArenaBytes),
@@ -275,20 +278,24 @@ void BackendStage::add_appearance(scene_graph::NodeId agent, std::uint64_t time_
   loop_closure::make_depth_cloud(view, config_.loop_closure.detector.icp.max_depth_m, &p.cloud);
 }
 
-bool BackendStage::detect_loop_closures(const scene_graph::SceneGraph& graph, const agents::AgentLayer& agents,
-                                        std::uint64_t time_ns) {
+std::size_t BackendStage::describe_agents(const scene_graph::SceneGraph& graph, const agents::AgentLayer& agents,
+                                         std::uint64_t time_ns) {
   const LoopClosureConfig& c = config_.loop_closure;
-  if (!c.enabled) return false;
+  if (!c.enabled) return 0;
   const auto horizon_ns = static_cast<std::uint64_t>(c.horizon_s * 1e9);
-  if (time_ns < horizon_ns) return false;
+  if (time_ns < horizon_ns) return 0;
   std::size_t k = 0;  // the first chain node not yet described: a binary search, the chain being in time order
   for (std::size_t hi = have_last_ ? agents.chain_size() : 0; k < hi;) {
     const std::size_t mid = k + (hi - k) / 2;
     if (agents.chain(mid).time_ns <= described_until_ns_) k = mid + 1;
     else hi = mid;
   }
-  bool found = false;
-  for (; k < agents.chain_size() && agents.chain(k).time_ns + horizon_ns <= time_ns; ++k) {
+  std::size_t described = 0;
+  // An agent is described only with its appearance, which waits in pending_: described_ holds as many as pending_
+  // can, so it never fills here (the check keeps the next ones for the next call if it ever did).
+  for (; k < agents.chain_size() && agents.chain(k).time_ns + horizon_ns <= time_ns &&
+         described_.size() < described_.capacity();
+       ++k) {
     const agents::ChainNode& n = agents.chain(k);
     if (have_last_) path_m_ += (n.t_m - last_m_).norm();
     last_m_ = n.t_m;
@@ -297,7 +304,33 @@ bool BackendStage::detect_loop_closures(const scene_graph::SceneGraph& graph, co
     // Described: the agents whose keyframe was captured (one per describe_every_m of path).
     while (!pending_.empty() && pending_.front().time_ns < n.time_ns) pending_.erase(pending_.begin());
     if (pending_.empty() || pending_.front().agent != n.id) continue;
-    struct Bracket {  // the hook around this agent's description and lookup, whichever way the iteration ends
+    scene_graph::NodeId place = scene_graph::kNoNode;
+    graph.for_each_neighbor(n.id, [&](scene_graph::NodeId other, const scene_graph::EdgeRecord&) {
+      if (place == scene_graph::kNoNode && graph.place(other) != nullptr) place = other;
+    });
+    described_.emplace_back();
+    loop_closure::AgentEntry& e = described_.back();
+    if (place == scene_graph::kNoNode || !descriptors_.describe(graph, place, n.t_m, &e.descriptor)) {
+      described_.pop_back();
+      continue;
+    }
+    e.agent = n.id;
+    e.time_ns = n.time_ns;
+    e.path_m = path_m_;
+    e.world_T_agent = isometry(n.t_m, n.q);
+    e.appearance = pending_.front().features;
+    e.cloud = pending_.front().cloud;
+    pending_.erase(pending_.begin());
+    counters_.agents_described.fetch_add(1);
+    ++described;
+  }
+  return described;
+}
+
+bool BackendStage::detect_described() {
+  bool found = false;
+  for (const loop_closure::AgentEntry& e : described_) {
+    struct Bracket {  // the hook around this agent's lookup and verification, whichever way it ends
       DetectHook hook;
       void* user;
       std::uint64_t t;
@@ -307,21 +340,7 @@ bool BackendStage::detect_loop_closures(const scene_graph::SceneGraph& graph, co
       ~Bracket() {
         if (hook != nullptr) hook(user, false, t);
       }
-    } bracket(detect_hook_, detect_hook_user_, n.time_ns);
-    scene_graph::NodeId place = scene_graph::kNoNode;
-    graph.for_each_neighbor(n.id, [&](scene_graph::NodeId other, const scene_graph::EdgeRecord&) {
-      if (place == scene_graph::kNoNode && graph.place(other) != nullptr) place = other;
-    });
-    loop_closure::AgentEntry e;
-    if (place == scene_graph::kNoNode || !descriptors_.describe(graph, place, n.t_m, &e.descriptor)) continue;
-    e.agent = n.id;
-    e.time_ns = n.time_ns;
-    e.path_m = path_m_;
-    e.world_T_agent = isometry(n.t_m, n.q);
-    e.appearance = pending_.front().features;
-    e.cloud = pending_.front().cloud;
-    pending_.erase(pending_.begin());
-    counters_.agents_described.fetch_add(1);
+    } bracket(detect_hook_, detect_hook_user_, e.time_ns);
     loop_closure::LoopClosure closure;
     if (!detector_.add_and_detect(e, &closure)) continue;
     counters_.loop_closures.fetch_add(1);
@@ -333,8 +352,14 @@ bool BackendStage::detect_loop_closures(const scene_graph::SceneGraph& graph, co
     if (closure.source == loop_closure::ClosureSource::kAppearance) counters_.loop_closures_by_appearance.fetch_add(1);
     found = true;
   }
+  described_.clear();
   if (found) solve_pending_ = true;
   return found;
+}
+
+bool BackendStage::solve_may_follow(std::uint64_t time_ns, bool described) const {
+  const auto interval_ns = static_cast<std::uint64_t>(config_.loop_closure.solve_interval_s * 1e9);
+  return (solve_pending_ || described) && (last_solve_ns_ == 0 || time_ns >= last_solve_ns_ + interval_ns);
 }
 
 bool BackendStage::solve_due(std::uint64_t time_ns) {
@@ -367,8 +392,12 @@ void closure_sigmas(const loop_closure::LoopClosure& lc, const LoopClosureConfig
   *sigma_rot_rad = (sigma_rot_rad->array().square() + walk_rot * walk_rot).sqrt().matrix();
 }
 
-DeformationProblem BackendStage::build_deformation(const agents::AgentLayer& agents,
-                                                   const scene_graph::SceneGraph& graph) const {
+void BackendStage::copy_deformation_inputs(const agents::AgentLayer& agents, const scene_graph::SceneGraph& graph) {
+  deformation_inputs_.copy(agents, control_points_.view(), graph);
+}
+
+DeformationProblem BackendStage::build_deformation() const {
+  const agents::ChainView agents = deformation_inputs_.chain_view();
   std::vector<ChainLoopClosure> closures;
   closures.reserve(loop_closures_.size());
   for (const loop_closure::LoopClosure& lc : loop_closures_) {
@@ -380,7 +409,7 @@ DeformationProblem BackendStage::build_deformation(const agents::AgentLayer& age
     closure_sigmas(lc, config_.loop_closure, &cc.sigma_t_m, &cc.sigma_rot_rad);
     closures.push_back(cc);
   }
-  return deformation_.build(agents, closures, control_points_, graph);
+  return deformation_.build(deformation_inputs_, closures);
 }
 
 bool BackendStage::solve_deformation(DeformationProblem problem, std::string* error) {

@@ -159,11 +159,20 @@ class BackendStage {
   void offer_control_points(const reconstruction::SemanticTsdf& tsdf, std::uint64_t time_ns);
   // Backend thread: the appearance (features and depth cloud) of an agent's keyframe, kept until it is described.
   void add_appearance(scene_graph::NodeId agent, std::uint64_t time_ns, const loop_closure::GreyDepthView& view);
-  // Backend thread, graph lock held: describes the chain nodes the robot left horizon_s ago and looks each up among
-  // the earlier ones. True when a new loop closure was verified.
+  // Backend thread, graph lock held: describes the chain nodes the robot left horizon_s ago (the places and objects
+  // around each) into a buffer reserved at start-up. Returns how many.
+  std::size_t describe_agents(const scene_graph::SceneGraph& graph, const agents::AgentLayer& agents,
+                              std::uint64_t time_ns);
+  // Backend thread, without the lock: looks each described agent up among the earlier ones and verifies the match
+  // (appearance, objects, ICP). True when a new loop closure was verified.
+  bool detect_described();
+  // Both (graph lock held).
   bool detect_loop_closures(const scene_graph::SceneGraph& graph, const agents::AgentLayer& agents,
-                            std::uint64_t time_ns);
-  // Called around each agent detect_loop_closures describes and looks up (begin, then end), with the agent's time:
+                            std::uint64_t time_ns) {
+    describe_agents(graph, agents, time_ns);
+    return detect_described();
+  }
+  // Called around each described agent's lookup and verification (begin, then end), with the agent's time:
   // the app's stage markers count the instructions per agent. None set: one branch per agent.
   using DetectHook = void (*)(void* user, bool begin, std::uint64_t agent_time_ns);
   void set_detect_hook(DetectHook hook, void* user) {
@@ -172,9 +181,21 @@ class BackendStage {
   }
   // True when a closure waits for a solve and solve_interval_s has passed since the last (marks it started).
   bool solve_due(std::uint64_t time_ns);
+  // Whether solve_due(time_ns) can be true after detect_described(): the inputs must then be copied first.
+  bool solve_may_follow(std::uint64_t time_ns, bool described) const;
   bool solve_pending() const { return solve_pending_; }
-  // Graph lock held: the deformation graph over the chain, every loop closure so far, control points and places.
-  DeformationProblem build_deformation(const agents::AgentLayer& agents, const scene_graph::SceneGraph& graph) const;
+  // Graph lock held: copies what the deformation problem reads of the chain, the control points (offered by the loop
+  // thread) and the graph's places into buffers reserved at start-up (DeformationInputs), so the problem is built
+  // without the lock.
+  void copy_deformation_inputs(const agents::AgentLayer& agents, const scene_graph::SceneGraph& graph);
+  const DeformationInputs& deformation_inputs() const { return deformation_inputs_; }
+  // Without the lock: the deformation graph over the last copy, every loop closure so far and the control points.
+  DeformationProblem build_deformation() const;
+  // Both (graph lock held).
+  DeformationProblem build_deformation(const agents::AgentLayer& agents, const scene_graph::SceneGraph& graph) {
+    copy_deformation_inputs(agents, graph);
+    return build_deformation();
+  }
   // Without the lock: solves it. False (and counted, the previous solution kept) when the solve failed.
   bool solve_deformation(DeformationProblem problem, std::string* error);
   // Graph lock held: agents and places to their optimized poses, objects, rooms and the building moved by the
@@ -242,7 +263,7 @@ class BackendStage {
   std::string classifier_view() const { return classifier_ != nullptr ? classifier_->view() : std::string(); }
 
  private:
-  bool init_loop_closure(std::size_t frame_bytes, std::string* error);
+  bool init_loop_closure(const scene_graph::Capacities& gc, std::size_t frame_bytes, std::string* error);
   void label_rooms(scene_graph::SceneGraph* graph, bool window, std::uint64_t time_ns);
 
   Config config_;
@@ -264,11 +285,13 @@ class BackendStage {
     loop_closure::DepthCloud cloud;
   };
   std::vector<PendingAppearance> pending_;  // waiting for their description (time order)
+  std::vector<loop_closure::AgentEntry> described_;  // described under the lock, looked up without it
   loop_closure::AppearanceExtractor appearance_;
   loop_closure::DescriptorBuilder descriptors_;
   loop_closure::LoopClosureDetector detector_;
   ControlPoints control_points_;
   DeformationGraph deformation_;
+  DeformationInputs deformation_inputs_;  // the chain and places as last copied under the graph lock
   DeformationResult deformation_result_;
   std::vector<loop_closure::LoopClosure> loop_closures_;  // capacity: the budget's loop_closure.loop_closures
   bool solve_pending_ = false;

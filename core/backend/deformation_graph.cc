@@ -182,7 +182,7 @@ std::uint64_t DeformationGraph::cell_key(const Eigen::Vector3d& p) const {
 
 // The cached E_mm lists still describe this set of control points (append-only, in time order), or start again:
 // how many leading points have theirs.
-std::size_t DeformationGraph::reusable_control_edges(const ControlPoints& control, bool* in_order) const {
+std::size_t DeformationGraph::reusable_control_edges(const ControlPointView& control, bool* in_order) const {
   const std::size_t C = control.size();
   std::size_t final_points = mm_begin_.empty() ? 0 : mm_begin_.size() - 1;
   *in_order = true;
@@ -204,9 +204,18 @@ void DeformationGraph::keep_control_edges(const Eigen::Vector3d& point, const st
   ++*final_points;
 }
 
-DeformationProblem DeformationGraph::build(const agents::AgentLayer& agents,
+DeformationProblem DeformationGraph::build(const agents::ChainView& agents,
                                            const std::vector<ChainLoopClosure>& loop_closures,
                                            const ControlPoints& control, const scene_graph::SceneGraph& graph) const {
+  DeformationInputs in;
+  in.copy(agents, control.view(), graph);
+  return build(in, loop_closures);
+}
+
+DeformationProblem DeformationGraph::build(const DeformationInputs& in,
+                                           const std::vector<ChainLoopClosure>& loop_closures) const {
+  const agents::ChainView agents = in.chain_view();
+  const ControlPointView control = in.control_view();
   DeformationProblem problem;
   DeformationResult& r = problem.result;
   const std::size_t A = agents.chain_size();
@@ -222,17 +231,16 @@ DeformationProblem DeformationGraph::build(const agents::AgentLayer& agents,
   // Places: index them after the control points.
   std::unordered_map<scene_graph::NodeId, std::uint32_t> place_index;
   std::vector<scene_graph::NodeId>& place_ids = problem.place_ids;
-  graph.for_each_node([&](const scene_graph::NodeRecord& n) {
-    if (n.kind != scene_graph::NodeKind::kPlace) return;
-    place_index.emplace(n.id, static_cast<std::uint32_t>(A + C + place_ids.size()));
-    place_ids.push_back(n.id);
-  });
+  for (const DeformationInputs::Place& p : in.places) {
+    place_index.emplace(p.id, static_cast<std::uint32_t>(A + C + place_ids.size()));
+    place_ids.push_back(p.id);
+  }
   r.places = place_ids.size();
   std::vector<Pose3>& poses = problem.poses;
   poses.reserve(A + C + place_ids.size());
   for (std::size_t k = 0; k < A; ++k) poses.push_back(Pose3{agents.chain(k).t_m, agents.chain(k).q});
   for (std::size_t i = 0; i < C; ++i) poses.push_back(Pose3{control.point(i), Eigen::Quaterniond::Identity()});
-  for (scene_graph::NodeId id : place_ids) poses.push_back(Pose3{graph.place(id)->position_m, Eigen::Quaterniond::Identity()});
+  for (const DeformationInputs::Place& p : in.places) poses.push_back(Pose3{p.position_m, Eigen::Quaterniond::Identity()});
 
   // E_aa: odometry along the chain, then the loop closures (GNC).
   std::vector<RelativePoseEdge>& edges = problem.edges;
@@ -307,13 +315,13 @@ DeformationProblem DeformationGraph::build(const agents::AgentLayer& agents,
   std::vector<std::pair<double, std::pair<std::uint32_t, std::uint32_t>>> place_edges;
   std::unordered_map<scene_graph::NodeId, std::uint32_t> agent_index;
   for (std::size_t k = 0; k < A; ++k) agent_index.emplace(agents.chain(k).id, static_cast<std::uint32_t>(k));
-  graph.for_each_edge([&](const scene_graph::EdgeRecord& e) {
-    const auto ps = place_index.find(e.source), pt = place_index.find(e.target);
+  for (const auto& [source, target] : in.edges) {
+    const auto ps = place_index.find(source), pt = place_index.find(target);
     if (ps != place_index.end() && pt != place_index.end()) {
       place_edges.push_back({(poses[ps->second].t_m - poses[pt->second].t_m).norm(), {ps->second, pt->second}});
-      return;
+      continue;
     }
-    const auto as = agent_index.find(e.source), at = agent_index.find(e.target);
+    const auto as = agent_index.find(source), at = agent_index.find(target);
     if (as != agent_index.end() && pt != place_index.end()) {
       edges.push_back(position_edge(as->second, pt->second, poses[as->second], poses[pt->second].t_m, sigma));
       ++r.edges_ap;
@@ -321,7 +329,7 @@ DeformationProblem DeformationGraph::build(const agents::AgentLayer& agents,
       edges.push_back(position_edge(at->second, ps->second, poses[at->second], poses[ps->second].t_m, sigma));
       ++r.edges_ap;
     }
-  });
+  }
   std::sort(place_edges.begin(), place_edges.end());
   UnionFind forest(poses.size());
   for (const auto& [length, ends] : place_edges) {
@@ -331,9 +339,7 @@ DeformationProblem DeformationGraph::build(const agents::AgentLayer& agents,
   }
   for (std::size_t p = 0; p < place_ids.size(); ++p) {
     const auto node = static_cast<std::uint32_t>(A + C + p);
-    const scene_graph::PlaceAttributes* a = graph.place(place_ids[p]);
-    const Eigen::Vector3d basis = a->mesh_connections.empty() ? a->position_m : a->mesh_connections[0].voxel_pos_m;
-    near_control(basis, a->last_update_time_ns, config_.place_control_radius_m, &near);
+    near_control(in.places[p].basis_m, in.places[p].time_ns, config_.place_control_radius_m, &near);
     if (near.empty()) continue;
     edges.push_back(position_edge(node, static_cast<std::uint32_t>(A + near[0].second), poses[node],
                                   control.point(near[0].second), sigma));
@@ -346,9 +352,9 @@ DeformationProblem DeformationGraph::build(const agents::AgentLayer& agents,
     problem.originals.push_back(control.point(i));
     problem.times_ns.push_back(control.time_ns(i));
   }
-  for (scene_graph::NodeId id : place_ids) {
-    problem.originals.push_back(graph.place(id)->position_m);
-    problem.times_ns.push_back(graph.place(id)->last_update_time_ns);
+  for (const DeformationInputs::Place& p : in.places) {
+    problem.originals.push_back(p.position_m);
+    problem.times_ns.push_back(p.time_ns);
   }
   return problem;
 }

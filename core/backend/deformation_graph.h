@@ -24,6 +24,7 @@
 
 #include "core/agents/agent_layer.h"
 #include "core/backend/agent_pose_graph.h"
+#include "core/backend/deformation_inputs.h"
 #include "core/memory/fixed_hash_map.h"
 #include "core/memory/resource_stats.h"
 #include "core/scene_graph/scene_graph.h"
@@ -104,6 +105,7 @@ class ControlPoints {
   std::size_t size() const { return points_.size(); }
   const Eigen::Vector3d& point(std::size_t i) const { return points_[i]; }
   std::uint64_t time_ns(std::size_t i) const { return times_[i]; }
+  ControlPointView view() const { return {points_.data(), times_.data(), points_.size()}; }
   double spacing_m() const { return spacing_m_; }
   memory::ResourceStats stats() const;
   void clear();
@@ -156,12 +158,14 @@ class DeformationGraph {
   explicit DeformationGraph(const DeformationConfig& config = {}) : config_(config) {}
   // Builds the graph from the chain, its loop closures, the control points and the graph's places (and the agents'
   // place edges).
-  DeformationProblem build(const agents::AgentLayer& agents, const std::vector<ChainLoopClosure>& loop_closures,
+  DeformationProblem build(const agents::ChainView& agents, const std::vector<ChainLoopClosure>& loop_closures,
                            const ControlPoints& control, const scene_graph::SceneGraph& graph) const;
+  // The same from a copy of the chain, the control points and the graph's places (DeformationInputs::copy).
+  DeformationProblem build(const DeformationInputs& inputs, const std::vector<ChainLoopClosure>& loop_closures) const;
   // Solves it and, on success, makes it the deformation in use; on failure the previous one (or none) stays.
   DeformationResult solve(DeformationProblem problem);
   // build() then solve().
-  DeformationResult optimize(const agents::AgentLayer& agents, const std::vector<ChainLoopClosure>& loop_closures,
+  DeformationResult optimize(const agents::ChainView& agents, const std::vector<ChainLoopClosure>& loop_closures,
                              const ControlPoints& control, const scene_graph::SceneGraph& graph) {
     return solve(build(agents, loop_closures, control, graph));
   }
@@ -211,8 +215,8 @@ class DeformationGraph {
   std::vector<std::pair<std::uint64_t, std::uint32_t>> cells_;  // sorted (cell, node)
   // build(): the E_mm neighbours of the control points that can gain none any more (seen more than the time horizon
   // before the newest, control points coming in time order), kept from one build to the next. Their search was most
-  // of a build's time, under the graph lock (bench/results/loop_closure.md). build() is not reentrant.
-  std::size_t reusable_control_edges(const ControlPoints& control, bool* in_order) const;
+  // of a build's time (bench/results/loop_closure.md). build() is not reentrant.
+  std::size_t reusable_control_edges(const ControlPointView& control, bool* in_order) const;
   void keep_control_edges(const Eigen::Vector3d& point, const std::vector<std::uint32_t>& neighbours,
                           std::size_t* final_points) const;
   mutable std::vector<std::uint32_t> mm_neighbours_;  // control point indices, each final point's in turn ...

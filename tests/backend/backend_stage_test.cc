@@ -174,9 +174,9 @@ TEST(BackendStageTest, LoopClosureStoresAreCarvedAndReported) {
   EXPECT_EQ(stage.counters().agents_described.load(), 0u);
 }
 
-// The detect hook (the app's stage markers) brackets each agent the stage looks at: those whose keyframe appearance
-// it holds, once each, in chain order, and nothing without a hook.
-TEST(BackendStageTest, DetectHookBracketsEachAgentWithAnAppearance) {
+// The detect hook (the app's stage markers) brackets each described agent's lookup and verification: the agents
+// whose keyframe appearance the stage holds and that have a place, once each, in chain order.
+TEST(BackendStageTest, DetectHookBracketsEachDescribedAgentsLookup) {
   BackendStage stage;
   BackendStage::Config c;
   c.loop_closure.enabled = true;
@@ -200,16 +200,27 @@ TEST(BackendStageTest, DetectHookBracketsEachAgentWithAnAppearance) {
   stage.set_detect_hook(
       [](void* user, bool begin, std::uint64_t t) { static_cast<Calls*>(user)->seen.emplace_back(begin, t); },
       &calls);
-  EXPECT_FALSE(stage.detect_loop_closures(*g, agents, 1000'000'000'000ull));  // no places: nothing to describe
-  ASSERT_EQ(calls.seen.size(), 6u);
-  for (std::size_t i = 0; i < 3; ++i) {
-    const std::uint64_t t = agents.chain(std::vector<std::size_t>{1, 3, 4}[i]).time_ns;
+  // Agent 1 has no place: it is not described. Agents 3 and 4 each hang from a place.
+  for (std::size_t k : {3u, 4u}) {
+    const sg::NodeId place = sg::make_node_id(sg::kPlacePrefix, k);
+    sg::PlaceAttributes a;
+    a.position_m = agents.chain(k).t_m;
+    ASSERT_EQ(g->add_place(place, a), sg::Status::kOk);
+    ASSERT_EQ(g->add_edge(agents.chain(k).id, place), sg::Status::kOk);
+  }
+  EXPECT_EQ(stage.describe_agents(*g, agents, 1000'000'000'000ull), 2u);
+  EXPECT_TRUE(calls.seen.empty());  // described under the lock; looked up after it
+  EXPECT_FALSE(stage.detect_described());  // nothing earlier to match
+  ASSERT_EQ(calls.seen.size(), 4u);
+  EXPECT_EQ(stage.counters().agents_described.load(), 2u);
+  for (std::size_t i = 0; i < 2; ++i) {
+    const std::uint64_t t = agents.chain(std::vector<std::size_t>{3, 4}[i]).time_ns;
     EXPECT_EQ(calls.seen[2 * i], std::make_pair(true, t));
     EXPECT_EQ(calls.seen[2 * i + 1], std::make_pair(false, t));
   }
   // Described already: a later call looks at nobody.
   EXPECT_FALSE(stage.detect_loop_closures(*g, agents, 1001'000'000'000ull));
-  EXPECT_EQ(calls.seen.size(), 6u);
+  EXPECT_EQ(calls.seen.size(), 4u);
 }
 
 TEST(BackendStageTest, StoresOverTheirArenaAreAClearError) {

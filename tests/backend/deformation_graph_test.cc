@@ -272,6 +272,50 @@ TEST_F(DeformationGraphTest, ABuildThatReusesTheLastOnesEdgesBuildsTheSameProble
   EXPECT_EQ(builds, 3u);
 }
 
+// The app copies the chain, the control points and the places under the graph lock and builds from the copy
+// without it: the copy must build the live state's problem, whatever the loop thread does to the live state after
+// it, and must not allocate once reserved for the stores it copies.
+TEST_F(DeformationGraphTest, AProblemBuiltFromACopyIsTheLiveStatesAtTheCopy) {
+  const std::vector<ChainLoopClosure> closures = {true_closure(2, 40)};
+  const DeformationProblem live = DeformationGraph().build(layer_, closures, control_, *graph_);
+  DeformationInputs in;
+  in.reserve(100, 1000, graph_->capacities().place_nodes, graph_->capacities().edges);
+  in.copy(layer_, control_.view(), *graph_);
+  EXPECT_EQ(in.grown, 0u);
+  ASSERT_EQ(in.chain.size(), walk_.odometry.size());
+  ASSERT_EQ(in.places.size(), places_.size());
+  // The loop thread goes on: a keyframe, a control point, a new place and an old one moved.
+  const std::uint64_t t = layer_.chain(layer_.chain_size() - 1).time_ns + 2'000'000'000ull;
+  ASSERT_EQ(layer_.add_keyframe(graph_.get(), t, walk_.odometry.back() * planar(0.5, 0.0, 0.0)), agents::AddResult::kAdded);
+  ASSERT_TRUE(control_.offer(Eigen::Vector3d(20.0, 20.0, 1.0), t));
+  scene_graph::PlaceAttributes p;
+  p.position_m = Eigen::Vector3d(3.0, 3.0, 0.0);
+  p.last_update_time_ns = t;
+  ASSERT_EQ(graph_->add_place(scene_graph::make_node_id(scene_graph::kPlacePrefix, 999), p), scene_graph::Status::kOk);
+  graph_->place(places_.front().first)->position_m += Eigen::Vector3d(0.4, 0.0, 0.0);
+  const DeformationProblem copied = DeformationGraph().build(in, closures);
+  ASSERT_EQ(copied.poses.size(), live.poses.size());
+  ASSERT_EQ(copied.edges.size(), live.edges.size());
+  for (std::size_t i = 0; i < live.poses.size(); ++i) EXPECT_EQ(copied.poses[i].t_m, live.poses[i].t_m) << i;
+  for (std::size_t e = 0; e < live.edges.size(); ++e) {
+    EXPECT_EQ(copied.edges[e].from, live.edges[e].from) << e;
+    EXPECT_EQ(copied.edges[e].to, live.edges[e].to) << e;
+    EXPECT_EQ(copied.edges[e].measured_from_T_to.t_m, live.edges[e].measured_from_T_to.t_m) << e;
+  }
+  EXPECT_EQ(copied.originals, live.originals);
+  EXPECT_EQ(copied.place_ids, live.place_ids);
+  // The state after the changes differs (so the comparison above could fail), and a copy now, into buffers
+  // reserved for the stores, still does not grow them.
+  const DeformationProblem after = DeformationGraph().build(layer_, closures, control_, *graph_);
+  EXPECT_GT(after.poses.size(), live.poses.size());
+  in.copy(layer_, control_.view(), *graph_);
+  EXPECT_EQ(in.grown, 0u);
+  EXPECT_EQ(in.copies, 2u);
+  DeformationInputs unreserved;
+  unreserved.copy(layer_, control_.view(), *graph_);
+  EXPECT_EQ(unreserved.grown, 1u);
+}
+
 TEST_F(DeformationGraphTest, WithoutLoopClosuresNothingMoves) {
   DeformationGraph d;
   const DeformationResult r = d.optimize(layer_, {}, control_, *graph_);
