@@ -434,7 +434,10 @@ void Pipeline::StepHost::integrated(const messages::RgbdFrame& frame, const Eige
 }
 
 // Backend thread (lockstep: the loop, after the keyframe's tasks): a door pass when due, the rooms, loop closure.
+// The captured keyframes' appearance (ORB features, depth cloud) is computed first, before any lock is taken.
 void Pipeline::run_backend_update(const BackendUpdate& u) {
+  if (backend_.loop_closure_enabled() && u.time_ns >= static_cast<std::uint64_t>(config_.loop_closure.horizon_s * 1e9))
+    extract_captured_frames();
   pipeline::backend_update(stages(), host_, u.robot_m, u.time_ns);
 }
 

@@ -93,7 +93,8 @@ void Pipeline::extract_captured_frames() {
 
 // Backend thread, graph_mutex_ held by *graph_lock: new loop closures, and the deformation graph re-solved when one
 // waits and solve_interval_s has passed. Under the lock only what reads the loop thread's state: the agents left
-// behind are described and, when a solve may follow, the chain, control points and places copied; the lookup,
+// behind are described (their keyframes' appearance was extracted before the lock, run_backend_update) and, when a
+// solve may follow, the chain, control points and places copied; the lookup,
 // verification, build and solve run without it (the loop keeps mapping meanwhile). Detection is timed as part of
 // the update; the solve as a run of its own (left out of the update's time).
 void Pipeline::run_loop_closure(std::uint64_t time_ns, pipeline::Host::Held* graph_lock) {
@@ -101,7 +102,6 @@ void Pipeline::run_loop_closure(std::uint64_t time_ns, pipeline::Host::Held* gra
   const runtime::ThreadCpuClock cpu_clock;
   const runtime::WallClock wall_clock;
   const std::int64_t describe0_ns = cpu_clock.now_ns();
-  if (time_ns >= static_cast<std::uint64_t>(config_.loop_closure.horizon_s * 1e9)) extract_captured_frames();
   const std::size_t described = backend_.describe_agents(graph_, frontend_.agents(), time_ns);
   const std::int64_t describe_us = (cpu_clock.now_ns() - describe0_ns) / 1000;
   SolveRecord r;
