@@ -243,10 +243,12 @@ void Pipeline::correct_outputs(reconstruction::Mesh* mesh, reconstruction::Mesh*
   counters_.graph_optimization_max_us = graph_optimization_max_us_.load();
   if (!backend_.loop_closure_enabled()) return;
   backend_.detector().counters().print(stdout);
-  std::printf("loop closure: %zu control points (%llu refused), %zu loop closures in the graph\n",
+  std::printf("loop closure: %zu control points (%llu refused, %llu folded in %llu folds), %zu loop closures in the "
+              "graph\n",
               backend_.control_points().size(),
               static_cast<unsigned long long>(backend_.control_points().stats().failed),
-              backend_.loop_closures().size());
+              static_cast<unsigned long long>(backend_.control_points().folded()),
+              static_cast<unsigned long long>(backend_.control_points().folds()), backend_.loop_closures().size());
   score_loop_closures();
   if (!backend_.solved()) return;
   backend_.deformation_result().print(stdout);

@@ -137,17 +137,18 @@ void ControlPoints::clear() {
   points_.clear();
   times_.clear();
   cells_.clear();
+  folds_ = folded_ = 0;
 }
 
 bool ControlPoints::offer(const Eigen::Vector3d& p_m, std::uint64_t time_ns) {
   if (!p_m.allFinite() || points_.capacity() == 0) return false;
   bool inserted = false;
-  const auto next = static_cast<std::uint32_t>(points_.size());
   if (points_.size() == points_.capacity()) {
     const std::uint32_t* slot = cells_.find(cell_of(p_m, spacing_m_));
-    if (slot == nullptr || time_ns > times_[*slot] + horizon_ns_) ++refused_;
-    return false;
+    if (slot != nullptr && time_ns <= times_[*slot] + horizon_ns_) return false;  // not needed
+    fold_older_half();
   }
+  const auto next = static_cast<std::uint32_t>(points_.size());
   std::uint32_t* slot = cells_.find_or_insert(cell_of(p_m, spacing_m_), next, &inserted);
   if (slot == nullptr) {
     ++refused_;
@@ -160,6 +161,29 @@ bool ControlPoints::offer(const Eigen::Vector3d& p_m, std::uint64_t time_ns) {
   points_.push_back(p_m);
   times_.push_back(time_ns);
   return true;
+}
+
+// Drops every second point of the older half (the first of them included, so at least one goes), in place, and
+// re-indexes the cells: each cell to its newest remaining point. No allocation.
+void ControlPoints::fold_older_half() {
+  const std::size_t n = points_.size(), half = std::max<std::size_t>(1, n / 2);
+  std::size_t kept = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (i < half && i % 2 == 0) continue;
+    points_[kept] = points_[i];
+    times_[kept] = times_[i];
+    ++kept;
+  }
+  folded_ += n - kept;
+  ++folds_;
+  points_.resize(kept);
+  times_.resize(kept);
+  cells_.clear();
+  for (std::size_t i = 0; i < kept; ++i) {
+    bool inserted = false;
+    std::uint32_t* slot = cells_.find_or_insert(cell_of(points_[i], spacing_m_), static_cast<std::uint32_t>(i), &inserted);
+    if (slot != nullptr) *slot = static_cast<std::uint32_t>(i);  // points in arrival order: the newest wins
+  }
 }
 
 memory::ResourceStats ControlPoints::stats() const {

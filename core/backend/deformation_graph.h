@@ -94,7 +94,10 @@ struct DeformationConfig {
 };
 
 // Mesh control points: one per occupied cell of a spatial hash, at the first vertex seen there (odometric frame).
-// offer() runs on the loop thread: fixed storage, no allocation after init.
+// offer() runs on the loop thread: fixed storage, no allocation after init. A revisit after the time horizon makes
+// new ones, so on a long mission the store fills; when it is full, every second point of its older half (by
+// arrival, which is time order) is dropped (a fold, counted): the oldest visits keep a coarser deformation, memory
+// stays fixed, and nothing new is refused.
 class ControlPoints {
  public:
   bool init(std::size_t capacity, double spacing_m, std::string* error);
@@ -108,9 +111,12 @@ class ControlPoints {
   ControlPointView view() const { return {points_.data(), times_.data(), points_.size()}; }
   double spacing_m() const { return spacing_m_; }
   memory::ResourceStats stats() const;
+  std::uint64_t folds() const { return folds_; }
+  std::uint64_t folded() const { return folded_; }  // points dropped by folds
   void clear();
 
  private:
+  void fold_older_half();
   double spacing_m_ = 1.0;
   std::uint64_t horizon_ns_ = 30'000'000'000ull;
   std::vector<Eigen::Vector3d> points_;
@@ -119,6 +125,7 @@ class ControlPoints {
   memory::FixedHashMap<std::uint64_t, std::uint32_t, memory::U64Hash> cells_{"backend.control_cells",
                                                                              memory::OverflowPolicy::kRefuse};
   std::uint64_t refused_ = 0;
+  std::uint64_t folds_ = 0, folded_ = 0;
 };
 
 struct DeformationResult {

@@ -523,7 +523,7 @@ TEST_F(DeformationGraphTest, ReducedDecisionsDecideAsTheWholeAgentLayer) {
   }
 }
 
-TEST(ControlPointsTest, OnePerCellAndAFullStoreRefuses) {
+TEST(ControlPointsTest, OnePerCellAndAFullStoreFoldsItsOlderHalf) {
   ControlPoints c;
   std::string error;
   ASSERT_TRUE(c.init(3, 1.0, &error)) << error;
@@ -531,11 +531,39 @@ TEST(ControlPointsTest, OnePerCellAndAFullStoreRefuses) {
   EXPECT_FALSE(c.offer(Eigen::Vector3d(0.8, 0.9, 0.1), 2)) << "same cell";
   EXPECT_TRUE(c.offer(Eigen::Vector3d(1.2, 0.2, 0.2), 3));
   EXPECT_TRUE(c.offer(Eigen::Vector3d(-0.2, 0.2, 0.2), 4));
-  EXPECT_FALSE(c.offer(Eigen::Vector3d(5.0, 5.0, 5.0), 5));
-  EXPECT_FALSE(c.offer(Eigen::Vector3d(std::nan(""), 0, 0), 6));
-  EXPECT_EQ(c.size(), 3u);
-  EXPECT_EQ(c.stats().failed, 1u);
-  EXPECT_EQ(c.time_ns(1), 3u);
+  EXPECT_FALSE(c.offer(Eigen::Vector3d(1.5, 0.5, 0.5), 5)) << "full, but its cell has a recent point: not needed";
+  EXPECT_EQ(c.folds(), 0u);
+  // Full, a new cell: the oldest point goes, the new one is kept, nothing is refused.
+  EXPECT_TRUE(c.offer(Eigen::Vector3d(5.0, 5.0, 5.0), 6));
+  EXPECT_FALSE(c.offer(Eigen::Vector3d(std::nan(""), 0, 0), 7));
+  ASSERT_EQ(c.size(), 3u);
+  EXPECT_EQ(c.time_ns(0), 3u);
+  EXPECT_EQ(c.time_ns(2), 6u);
+  EXPECT_EQ(c.stats().failed, 0u);
+  EXPECT_EQ(c.folds(), 1u);
+  EXPECT_EQ(c.folded(), 1u);
+  // The folded point's cell has no point any more: offered again, it gets one (the cells were re-indexed).
+  EXPECT_TRUE(c.offer(Eigen::Vector3d(0.8, 0.9, 0.1), 8));
+  EXPECT_EQ(c.time_ns(2), 8u);
+  EXPECT_FALSE(c.offer(Eigen::Vector3d(5.1, 5.1, 5.1), 9)) << "the kept point's cell still has it";
+}
+
+// A long mission's revisits fill the store: folded, the walk's control points still carry the correction.
+TEST_F(DeformationGraphTest, AFoldedStoreStillCorrectsTheWalk) {
+  ControlPoints small;
+  std::string error;
+  ASSERT_TRUE(small.init(walls_.size() / 2, 1.0, &error)) << error;
+  for (const Wall& w : walls_) ASSERT_TRUE(small.offer(w.odom, w.time_ns));
+  EXPECT_GT(small.folds(), 0u);
+  EXPECT_LE(small.size(), walls_.size() / 2);
+  EXPECT_EQ(small.stats().failed, 0u);
+  const auto last = static_cast<std::uint32_t>(walk_.truth.size() - 1);
+  DeformationGraph full(strategy(true)), folded(strategy(true));
+  ASSERT_TRUE(full.optimize(layer_, {true_closure(0, last)}, control_, *graph_).solve.poses_updated());
+  ASSERT_TRUE(folded.optimize(layer_, {true_closure(0, last)}, small, *graph_).solve.poses_updated());
+  const double odometry = wall_rmse(DeformationGraph());
+  EXPECT_LT(wall_rmse(folded), 0.3 * odometry) << "folded " << small.folded() << " in " << small.folds();
+  EXPECT_LT(wall_rmse(folded), 2.0 * wall_rmse(full)) << "coarser where folded, not lost; odometry " << odometry;
 }
 
 }  // namespace
