@@ -27,6 +27,7 @@ int usage(int status) {
                "usage: dg_sequence PROBLEM... [--settle M] [--hops N] [--incremental 0|1] [--whole-tolerance F]\n"
                "                   [--agent-spacing M (0)] [--bounded-whole-tolerance F]\n"
                "                   [--bounded-only] [--reduced 0|1] [--compare-reduced] [--json FILE]\n"
+               "                   [--place-rotation-sigma R] [--control-rotation-sigma R] [--bounded-prior-only]\n"
                "  the bounded side: DeformationConfig's defaults; --settle, --hops: settle_tolerance_m, settle_hops;\n"
                "  --incremental: incremental_decisions (it keeps the last solve's closure decisions)\n"
                "  --bounded-whole-tolerance F: the bounded side's stopping rule only (with --settle 0: how far the\n"
@@ -36,6 +37,9 @@ int usage(int status) {
                "  --compare-reduced: the bounded solve without and with reduced_decisions, side by side (no full\n"
                "                 solve): CPU of the solve and of its decision, the chain's and the map's solves, the\n"
                "                 closures each keeps and where they differ, ATE of each\n"
+               "  --place-rotation-sigma, --control-rotation-sigma R: both sides' place_rotation_sigma_rad and\n"
+               "                 control_rotation_sigma_rad (the map nodes' rotation priors; 0: none);\n"
+               "                 --bounded-prior-only: the bounded side's only (how far the priors move the map)\n"
                "  PROBLEM...: one mission's solves in the order the app made them (QSG_DUMP_DEFORMATION with %%d)\n");
   return status;
 }
@@ -202,7 +206,8 @@ int main(int argc, char** argv) {
   int hops = static_cast<int>(backend::DeformationConfig{}.settle_hops);
   double whole_tolerance = 0.0, agent_spacing_m = 0.0, bounded_tolerance = 0.0;
   bool incremental = backend::DeformationConfig{}.incremental_decisions;
-  bool bounded_only = false, compare_reduced = false;
+  bool bounded_only = false, compare_reduced = false, bounded_prior_only = false;
+  double place_rotation_sigma = 0.0, control_rotation_sigma = 0.0;
   bool reduced = backend::DeformationConfig{}.reduced_decisions;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -217,6 +222,9 @@ int main(int argc, char** argv) {
     else if (a == "--bounded-only") bounded_only = true;
     else if (a == "--reduced" && has) reduced = std::atoi(argv[++i]) != 0;
     else if (a == "--compare-reduced") compare_reduced = true;
+    else if (a == "--place-rotation-sigma" && has) place_rotation_sigma = std::atof(argv[++i]);
+    else if (a == "--control-rotation-sigma" && has) control_rotation_sigma = std::atof(argv[++i]);
+    else if (a == "--bounded-prior-only") bounded_prior_only = true;
     else if (a == "--json" && has) json = argv[++i];
     else if (!a.empty() && a[0] == '-') return usage(2);
     else paths.push_back(a);
@@ -227,7 +235,10 @@ int main(int argc, char** argv) {
   full_config.incremental_decisions = false;
   if (whole_tolerance > 0.0) full_config.whole_function_tolerance = whole_tolerance;
   full_config.agent_spacing_m = agent_spacing_m;
+  full_config.place_rotation_sigma_rad = place_rotation_sigma;
+  full_config.control_rotation_sigma_rad = control_rotation_sigma;
   backend::DeformationConfig settled_config = full_config;
+  if (bounded_prior_only) full_config.place_rotation_sigma_rad = full_config.control_rotation_sigma_rad = 0.0;
   settled_config.settle_tolerance_m = settle_m;
   settled_config.settle_hops = static_cast<std::uint32_t>(std::max(0, hops));
   settled_config.incremental_decisions = incremental;
@@ -241,7 +252,10 @@ int main(int argc, char** argv) {
   backend::DeformationGraph full(full_config), settled(settled_config);
   bench::Figures figures("deformation problems " + paths.front() + " .. " + paths.back() + " (" +
                          std::to_string(paths.size()) + " solves), settle " + std::to_string(settle_m) + " m, " +
-                         std::to_string(hops) + " hops, incremental decisions " + (incremental ? "on" : "off"));
+                         std::to_string(hops) + " hops, incremental decisions " + (incremental ? "on" : "off") +
+                         ", rotation priors " + std::to_string(place_rotation_sigma) + " rad (places), " +
+                         std::to_string(control_rotation_sigma) + " rad (control points)" +
+                         (bounded_prior_only ? " on the bounded side only" : ""));
   std::printf("solve  path_m  agents  control  places  settled  cpu_full_s  cpu_settled_s  ratio  "
               "control: mean    p99     max   places: mean    p99     max (m)  kept/closures  kept/carried  ate_full  "
               "ate_bounded\n");
