@@ -84,6 +84,31 @@ Timed solve(backend::DeformationGraph* graph, const backend::DeformationProblem&
   return t;
 }
 
+// The map nodes against the truth carried from the agent each hangs from (the first agent edge to it, else its
+// place's control point's): true_T_odometric of that agent applied to the node's odometric position, what it would
+// be had the agent been where it truly was. Needs the file's true orientations; empty spreads without them.
+void map_truth_error(const backend::DeformationGraph& g, const backend::DeformationProblemFile& file, Spread* control,
+                     Spread* places) {
+  const backend::DeformationProblem& p = file.problem;
+  const std::size_t A = p.result.agents, C = p.result.control_points;
+  if (file.truth_q.size() != A || g.num_map_nodes() != p.originals.size()) return;
+  std::vector<std::int64_t> anchor(p.poses.size(), -1);
+  for (const backend::RelativePoseEdge& e : p.edges)
+    if (e.from < A && e.to >= A && anchor[e.to] < 0) anchor[e.to] = e.from;
+  for (const backend::RelativePoseEdge& e : p.edges)
+    if (e.from >= A && e.to >= A && anchor[e.from] < 0 && anchor[e.to] >= 0) anchor[e.from] = anchor[e.to];
+  for (std::size_t i = 0; i < p.originals.size(); ++i) {
+    const std::int64_t a = anchor[A + i];
+    if (a < 0) continue;
+    const backend::Pose3& odo = p.poses[static_cast<std::size_t>(a)];
+    const Eigen::Quaterniond& tq = file.truth_q[static_cast<std::size_t>(a)];
+    const Eigen::Vector3d truth = file.truth_m[static_cast<std::size_t>(a)] + tq * (odo.q.conjugate() * (p.originals[i] - odo.t_m));
+    (i < C ? control : places)->add((g.map_node_pose(i).t_m - truth).norm());
+  }
+  control->finish();
+  places->finish();
+}
+
 // The agents against the truth, as mapped (no alignment), when the file has it; -1 otherwise.
 double agent_ate(const backend::DeformationGraph& g, const std::vector<Eigen::Vector3d>& truth_m) {
   double sum = 0.0;
@@ -299,6 +324,9 @@ int main(int argc, char** argv) {
       return file.truth_m.empty() ? -1.0 : std::sqrt(sum / static_cast<double>(file.truth_m.size()));
     };
     const double ate_full = ate(full), ate_bounded = ate(settled);
+    Spread truth_control[2], truth_places[2];
+    map_truth_error(full, file, &truth_control[0], &truth_places[0]);
+    map_truth_error(settled, file, &truth_control[1], &truth_places[1]);
     std::printf("%5zu %7.1f %7zu %8zu %7zu %8zu %11.3f %14.3f %6.2f  %7.4f %7.4f %7.4f  %7.4f %7.4f %7.4f  "
                 "%4zu/%-4zu %4zu/%-4zu %6.3f %6.3f%s\n",
                 s, path_m, p.result.agents, p.result.control_points, p.result.places, b.result.map_settled, a.cpu_s,
@@ -324,6 +352,18 @@ int main(int argc, char** argv) {
     figures.add(k + "kept_bounded", static_cast<double>(b.result.loop_closures_kept), "closures");
     figures.add(k + "ate_full", ate_full, "m");
     figures.add(k + "ate_bounded", ate_bounded, "m");
+    for (int side = 0; side < 2 && !truth_places[0].values.empty(); ++side) {
+      const std::string n = k + (side == 0 ? "full" : "bounded");
+      std::printf("      %s against the carried truth: control points mean %.4f p99 %.4f max %.4f, places mean %.4f "
+                  "p99 %.4f max %.4f m\n", side == 0 ? "full   " : "bounded", truth_control[side].mean,
+                  truth_control[side].p99, truth_control[side].max, truth_places[side].mean, truth_places[side].p99,
+                  truth_places[side].max);
+      figures.add(n + "_control_truth_mean", truth_control[side].mean, "m");
+      figures.add(n + "_control_truth_p99", truth_control[side].p99, "m");
+      figures.add(n + "_place_truth_mean", truth_places[side].mean, "m");
+      figures.add(n + "_place_truth_p99", truth_places[side].p99, "m");
+      figures.add(n + "_place_truth_max", truth_places[side].max, "m");
+    }
     decided_again += b.result.decided_again ? 1 : 0;
     total_full += a.cpu_s;
     total_settled += b.cpu_s;
