@@ -497,6 +497,7 @@ TEST_F(DeformationGraphTest, ARotationPriorLandsHangingPlacesWhereverTheSolveSto
     ASSERT_EQ(hanging->add_place(places_[p].first, *graph_->place(places_[p].first)), scene_graph::Status::kOk);
     if (p > 0) hanging->add_edge(places_[p - 1].first, places_[p].first);
   }
+  ASSERT_EQ(DeformationConfig{}.place_rotation_sigma_rad, kPlaceSigmaRad) << "on by default";
   const auto last = static_cast<std::uint32_t>(walk_.truth.size() - 1);
   const auto solve = [&](double sigma_rad, double tolerance, std::vector<Eigen::Vector3d>* out) {
     DeformationConfig c = strategy(true);
@@ -562,6 +563,7 @@ TEST_F(DeformationGraphTest, RotationPriorsLetTheMapFollowACorrection) {
     DeformationConfig c = strategy(true);
     if (!settle) c.settle_tolerance_m = 0.0;
     c.incremental_decisions = settle;
+    c.place_rotation_sigma_rad = c.control_rotation_sigma_rad = 0.0;
     DeformationConfig with = c;
     with.place_rotation_sigma_rad = with.control_rotation_sigma_rad = kPlaceSigmaRad;
     DeformationGraph a(c), b(with);
@@ -581,6 +583,7 @@ TEST_F(DeformationGraphTest, RotationPriorsLetTheMapFollowACorrection) {
     EXPECT_LT(wall_rmse(b), wall_rmse(a) + 0.01);
   }
   DeformationConfig whole = strategy(false), with = whole;
+  whole.place_rotation_sigma_rad = 0.0;
   with.place_rotation_sigma_rad = with.control_rotation_sigma_rad = kPlaceSigmaRad;
   DeformationGraph a(whole), b(with);
   ASSERT_TRUE(a.optimize(layer_, solves.back(), control_, *graph_).solve.poses_updated());
