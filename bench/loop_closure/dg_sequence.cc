@@ -27,6 +27,7 @@ int usage(int status) {
                "usage: dg_sequence PROBLEM... [--settle M] [--hops N] [--incremental 0|1] [--whole-tolerance F]\n"
                "                   [--agent-spacing M (0)] [--bounded-whole-tolerance F]\n"
                "                   [--bounded-only] [--reduced 0|1] [--compare-reduced] [--json FILE]\n"
+               "                   [--place-rotation-sigma R] [--control-rotation-sigma R] [--bounded-prior-only]\n"
                "  the bounded side: DeformationConfig's defaults; --settle, --hops: settle_tolerance_m, settle_hops;\n"
                "  --incremental: incremental_decisions (it keeps the last solve's closure decisions)\n"
                "  --bounded-whole-tolerance F: the bounded side's stopping rule only (with --settle 0: how far the\n"
@@ -36,6 +37,9 @@ int usage(int status) {
                "  --compare-reduced: the bounded solve without and with reduced_decisions, side by side (no full\n"
                "                 solve): CPU of the solve and of its decision, the chain's and the map's solves, the\n"
                "                 closures each keeps and where they differ, ATE of each\n"
+               "  --place-rotation-sigma, --control-rotation-sigma R: both sides' place_rotation_sigma_rad and\n"
+               "                 control_rotation_sigma_rad (the map nodes' rotation priors; 0: none);\n"
+               "                 --bounded-prior-only: the bounded side's only (how far the priors move the map)\n"
                "  PROBLEM...: one mission's solves in the order the app made them (QSG_DUMP_DEFORMATION with %%d)\n");
   return status;
 }
@@ -78,6 +82,31 @@ Timed solve(backend::DeformationGraph* graph, const backend::DeformationProblem&
   t.result = graph->solve(problem);
   t.cpu_s = bench::thread_cpu_seconds() - start;
   return t;
+}
+
+// The map nodes against the truth carried from the agent each hangs from (the first agent edge to it, else its
+// place's control point's): true_T_odometric of that agent applied to the node's odometric position, what it would
+// be had the agent been where it truly was. Needs the file's true orientations; empty spreads without them.
+void map_truth_error(const backend::DeformationGraph& g, const backend::DeformationProblemFile& file, Spread* control,
+                     Spread* places) {
+  const backend::DeformationProblem& p = file.problem;
+  const std::size_t A = p.result.agents, C = p.result.control_points;
+  if (file.truth_q.size() != A || g.num_map_nodes() != p.originals.size()) return;
+  std::vector<std::int64_t> anchor(p.poses.size(), -1);
+  for (const backend::RelativePoseEdge& e : p.edges)
+    if (e.from < A && e.to >= A && anchor[e.to] < 0) anchor[e.to] = e.from;
+  for (const backend::RelativePoseEdge& e : p.edges)
+    if (e.from >= A && e.to >= A && anchor[e.from] < 0 && anchor[e.to] >= 0) anchor[e.from] = anchor[e.to];
+  for (std::size_t i = 0; i < p.originals.size(); ++i) {
+    const std::int64_t a = anchor[A + i];
+    if (a < 0) continue;
+    const backend::Pose3& odo = p.poses[static_cast<std::size_t>(a)];
+    const Eigen::Quaterniond& tq = file.truth_q[static_cast<std::size_t>(a)];
+    const Eigen::Vector3d truth = file.truth_m[static_cast<std::size_t>(a)] + tq * (odo.q.conjugate() * (p.originals[i] - odo.t_m));
+    (i < C ? control : places)->add((g.map_node_pose(i).t_m - truth).norm());
+  }
+  control->finish();
+  places->finish();
 }
 
 // The agents against the truth, as mapped (no alignment), when the file has it; -1 otherwise.
@@ -202,7 +231,8 @@ int main(int argc, char** argv) {
   int hops = static_cast<int>(backend::DeformationConfig{}.settle_hops);
   double whole_tolerance = 0.0, agent_spacing_m = 0.0, bounded_tolerance = 0.0;
   bool incremental = backend::DeformationConfig{}.incremental_decisions;
-  bool bounded_only = false, compare_reduced = false;
+  bool bounded_only = false, compare_reduced = false, bounded_prior_only = false;
+  double place_rotation_sigma = 0.0, control_rotation_sigma = 0.0;
   bool reduced = backend::DeformationConfig{}.reduced_decisions;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -217,6 +247,9 @@ int main(int argc, char** argv) {
     else if (a == "--bounded-only") bounded_only = true;
     else if (a == "--reduced" && has) reduced = std::atoi(argv[++i]) != 0;
     else if (a == "--compare-reduced") compare_reduced = true;
+    else if (a == "--place-rotation-sigma" && has) place_rotation_sigma = std::atof(argv[++i]);
+    else if (a == "--control-rotation-sigma" && has) control_rotation_sigma = std::atof(argv[++i]);
+    else if (a == "--bounded-prior-only") bounded_prior_only = true;
     else if (a == "--json" && has) json = argv[++i];
     else if (!a.empty() && a[0] == '-') return usage(2);
     else paths.push_back(a);
@@ -227,7 +260,10 @@ int main(int argc, char** argv) {
   full_config.incremental_decisions = false;
   if (whole_tolerance > 0.0) full_config.whole_function_tolerance = whole_tolerance;
   full_config.agent_spacing_m = agent_spacing_m;
+  full_config.place_rotation_sigma_rad = place_rotation_sigma;
+  full_config.control_rotation_sigma_rad = control_rotation_sigma;
   backend::DeformationConfig settled_config = full_config;
+  if (bounded_prior_only) full_config.place_rotation_sigma_rad = full_config.control_rotation_sigma_rad = 0.0;
   settled_config.settle_tolerance_m = settle_m;
   settled_config.settle_hops = static_cast<std::uint32_t>(std::max(0, hops));
   settled_config.incremental_decisions = incremental;
@@ -241,7 +277,10 @@ int main(int argc, char** argv) {
   backend::DeformationGraph full(full_config), settled(settled_config);
   bench::Figures figures("deformation problems " + paths.front() + " .. " + paths.back() + " (" +
                          std::to_string(paths.size()) + " solves), settle " + std::to_string(settle_m) + " m, " +
-                         std::to_string(hops) + " hops, incremental decisions " + (incremental ? "on" : "off"));
+                         std::to_string(hops) + " hops, incremental decisions " + (incremental ? "on" : "off") +
+                         ", rotation priors " + std::to_string(place_rotation_sigma) + " rad (places), " +
+                         std::to_string(control_rotation_sigma) + " rad (control points)" +
+                         (bounded_prior_only ? " on the bounded side only" : ""));
   std::printf("solve  path_m  agents  control  places  settled  cpu_full_s  cpu_settled_s  ratio  "
               "control: mean    p99     max   places: mean    p99     max (m)  kept/closures  kept/carried  ate_full  "
               "ate_bounded\n");
@@ -285,6 +324,9 @@ int main(int argc, char** argv) {
       return file.truth_m.empty() ? -1.0 : std::sqrt(sum / static_cast<double>(file.truth_m.size()));
     };
     const double ate_full = ate(full), ate_bounded = ate(settled);
+    Spread truth_control[2], truth_places[2];
+    map_truth_error(full, file, &truth_control[0], &truth_places[0]);
+    map_truth_error(settled, file, &truth_control[1], &truth_places[1]);
     std::printf("%5zu %7.1f %7zu %8zu %7zu %8zu %11.3f %14.3f %6.2f  %7.4f %7.4f %7.4f  %7.4f %7.4f %7.4f  "
                 "%4zu/%-4zu %4zu/%-4zu %6.3f %6.3f%s\n",
                 s, path_m, p.result.agents, p.result.control_points, p.result.places, b.result.map_settled, a.cpu_s,
@@ -310,6 +352,18 @@ int main(int argc, char** argv) {
     figures.add(k + "kept_bounded", static_cast<double>(b.result.loop_closures_kept), "closures");
     figures.add(k + "ate_full", ate_full, "m");
     figures.add(k + "ate_bounded", ate_bounded, "m");
+    for (int side = 0; side < 2 && !truth_places[0].values.empty(); ++side) {
+      const std::string n = k + (side == 0 ? "full" : "bounded");
+      std::printf("      %s against the carried truth: control points mean %.4f p99 %.4f max %.4f, places mean %.4f "
+                  "p99 %.4f max %.4f m\n", side == 0 ? "full   " : "bounded", truth_control[side].mean,
+                  truth_control[side].p99, truth_control[side].max, truth_places[side].mean, truth_places[side].p99,
+                  truth_places[side].max);
+      figures.add(n + "_control_truth_mean", truth_control[side].mean, "m");
+      figures.add(n + "_control_truth_p99", truth_control[side].p99, "m");
+      figures.add(n + "_place_truth_mean", truth_places[side].mean, "m");
+      figures.add(n + "_place_truth_p99", truth_places[side].p99, "m");
+      figures.add(n + "_place_truth_max", truth_places[side].max, "m");
+    }
     decided_again += b.result.decided_again ? 1 : 0;
     total_full += a.cpu_s;
     total_settled += b.cpu_s;

@@ -49,6 +49,12 @@ const params::Table<DeformationConfig>& deformation_params_table() {
            "a solve keeps the last one's closure decisions and starts from its solution; GNC decides the new ones");
     t.flag("reduced_decisions", &DeformationConfig::reduced_decisions, params::Origin::kRefinement,
            "GNC decides closures on the agent graph reduced to their agents, then the chain is solved with them");
+    t.add("place_rotation_sigma_rad", &DeformationConfig::place_rotation_sigma_rad, "rad", params::in(0, 100),
+          params::Origin::kRefinement,
+          "a prior pulls each place's rotation towards the one the map's solve starts it with (its agent's "
+          "correction): a loose stopping rule lands them where a tight one does; 0: none, the paper's problem");
+    t.add("control_rotation_sigma_rad", &DeformationConfig::control_rotation_sigma_rad, "rad", params::in(0, 100),
+          params::Origin::kRefinement, "... and each mesh control point's; 0: none");
     t.include(agent_graph_params_table(), [](DeformationConfig& d) -> AgentGraphConfig& { return d.agents; });
     return t;
   }();

@@ -40,6 +40,9 @@ void DeformationConfig::print(std::FILE* out) const {
     std::fprintf(out,
                  "deformation graph: control points moved less than %.3f m since the last solve stay held (%u hops)\n",
                  settle_tolerance_m, settle_hops);
+  if ((place_rotation_sigma_rad > 0.0 || control_rotation_sigma_rad > 0.0) && decide_on_agents)
+    std::fprintf(out, "deformation graph: map rotations held to their start by priors, sigma %.3g rad (places), "
+                 "%.3g rad (control points; 0: none)\n", place_rotation_sigma_rad, control_rotation_sigma_rad);
   if (incremental_decisions && decide_on_agents)
     std::fprintf(out, "deformation graph: a solve keeps the last one's decisions and decides its new closures\n");
   if (reduced_decisions && decide_on_agents)
@@ -445,6 +448,20 @@ void carry_map(const DeformationProblem& problem, const std::vector<Pose3>& agen
   std::copy(agents.begin(), agents.end(), poses->begin());
 }
 
+// DeformationConfig::place_rotation_sigma_rad, control_rotation_sigma_rad: a prior per solved map node (original
+// index i >= A, at where[i] in the solve, which holds the first num_held) towards its rotation at the solve's start.
+std::vector<RotationPrior> map_rotation_priors(const DeformationConfig& config, std::size_t A, std::size_t C,
+                                               const std::vector<Pose3>& start, const std::vector<std::uint32_t>& where,
+                                               std::size_t num_held) {
+  std::vector<RotationPrior> priors;
+  if (!(config.place_rotation_sigma_rad > 0.0 || config.control_rotation_sigma_rad > 0.0)) return priors;
+  for (std::size_t i = A; i < start.size(); ++i) {
+    const double sigma = i < A + C ? config.control_rotation_sigma_rad : config.place_rotation_sigma_rad;
+    if (sigma > 0.0 && where[i] >= num_held) priors.push_back(RotationPrior{where[i], start[i].q, sigma});
+  }
+  return priors;
+}
+
 // DeformationConfig::agent_spacing_m: the problem with one agent node per `spacing_m` of odometric path or
 // `turn_rad` of rotation (plus the first, the last and every loop closure's two agents). The odometry edges
 // between two kept agents compose into one, their covariances carried into its frame to first order (through the
@@ -582,7 +599,8 @@ DeformationResult DeformationGraph::solve(DeformationProblem problem) {
     whole.hold_first_poses = num_held;
     whole.loop_closure_loss = RobustLoss::kNone;
     whole.function_tolerance = config_.whole_function_tolerance;
-    r.solve = optimize_pose_graph(whole, ordered, edges);
+    r.solve = optimize_pose_graph(whole, ordered, edges,
+                                  map_rotation_priors(config_, A, r.control_points, solved, where, num_held));
     if (!r.solve.poses_updated()) {
       r.loop_closure_weight.clear();
       return r;

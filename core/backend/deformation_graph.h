@@ -82,6 +82,16 @@ struct DeformationConfig {
   // those decisions. A decision's cost then follows the closures, not the chain's length; the same decisions on
   // the 1,010 m mission (bench/results/loop_closure.md, session (5)).
   bool reduced_decisions = true;
+  // Rotation priors on the map nodes (a refinement; with decide_on_agents only): position-only edges hold a place's
+  // or control point's rotation little, so where it lands depends on where the solve starts and when it stops. A
+  // residual 2 vec(q_start^-1 q) / sigma pulls each solved map node towards the rotation the whole solve starts it
+  // with: the correction of the agent it hangs from, carried. (GNC over the whole graph starts the map at identity,
+  // the paper's initial value, where a prior would hold the map against the closures' rotation.) 0: none, as the
+  // paper's problem states it. On for places: they then land where a tighter stopping rule lands them, nearer the
+  // GVD, at half the solve's CPU; control points need none once the places are held (bench/results/loop_closure.md,
+  // session of 2026-12-04).
+  double place_rotation_sigma_rad = 0.3;
+  double control_rotation_sigma_rad = 0.0;
   AgentGraphConfig agents;               // odometry sigma floors and the solver (loop closures under GNC-TLS)
 
   DeformationConfig() {

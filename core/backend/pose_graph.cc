@@ -74,6 +74,24 @@ class RelativePoseResidual {
   const double* weight_ = nullptr;
 };
 
+// RotationPrior's residual: 2 vec(q_prior^-1 q) / sigma.
+class RotationPriorResidual {
+ public:
+  RotationPriorResidual(const Eigen::Quaterniond& q, double sigma_rad) : q_inv_(q.conjugate()), inv_sigma_(1.0 / sigma_rad) {}
+  template <typename T>
+  bool operator()(const T* q_ptr, T* residual_ptr) const {
+    const Eigen::Map<const Eigen::Quaternion<T>> q(q_ptr);
+    const Eigen::Quaternion<T> q_err = q_inv_.template cast<T>() * q;
+    Eigen::Map<Eigen::Matrix<T, 3, 1>> residual(residual_ptr);
+    residual = T(2.0 * inv_sigma_) * q_err.vec();
+    return true;
+  }
+
+ private:
+  Eigen::Quaterniond q_inv_;
+  double inv_sigma_ = 1.0;
+};
+
 std::string format(const char* fmt, ...) __attribute__((format(printf, 1, 2)));
 std::string format(const char* fmt, ...) {
   char buffer[256];
@@ -199,9 +217,10 @@ std::uint32_t find_root(std::vector<std::uint32_t>& parent, std::uint32_t i) {
 class GraphSolve {
  public:
   GraphSolve(const PoseGraphConfig& config, const std::vector<Pose3>& poses, const std::vector<RelativePoseEdge>& edges,
-             const std::vector<bool>& excluded)
+             const std::vector<bool>& excluded, const std::vector<RotationPrior>& rotation_priors)
       : config_(config),
         edges_(edges),
+        rotation_priors_(rotation_priors),
         excluded_(excluded),
         gnc_(config.loop_closure_loss == RobustLoss::kGncTls),
         loop_closure_loss_(make_loss(config.loop_closure_loss, config.loop_closure_loss_scale_sigma),
@@ -328,6 +347,12 @@ class GraphSolve {
       problem_.SetParameterBlockConstant(t_block(i));
       problem_.SetParameterBlockConstant(q_block(i));
     }
+    for (const RotationPrior& prior : rotation_priors_) {
+      if (prior.pose < config_.hold_first_poses || !in_problem[prior.pose]) continue;
+      using Cost = ceres::AutoDiffCostFunction<RotationPriorResidual, 3, kQuaternionDim>;
+      problem_.AddResidualBlock(new Cost(new RotationPriorResidual(prior.q.normalized(), prior.sigma_rad)), nullptr,
+                                q_block(prior.pose));
+    }
     if (!config_.fix_first_pose) return;
     for (std::uint32_t i = 0; i < num_poses; ++i) {
       if (i < config_.hold_first_poses) continue;
@@ -400,6 +425,7 @@ class GraphSolve {
 
   const PoseGraphConfig& config_;
   const std::vector<RelativePoseEdge>& edges_;
+  const std::vector<RotationPrior>& rotation_priors_;
   const std::vector<bool>& excluded_;
   const bool gnc_;
   bool has_loop_closure_ = false;
@@ -464,21 +490,27 @@ void PoseGraphResult::print(std::FILE* out) const {
 
 namespace {
 PoseGraphResult optimize(const PoseGraphConfig& config, std::vector<Pose3>& poses,
-                         const std::vector<RelativePoseEdge>& edges);
+                         const std::vector<RelativePoseEdge>& edges, const std::vector<RotationPrior>& priors);
 }  // namespace
 
 PoseGraphResult optimize_pose_graph(const PoseGraphConfig& config, std::vector<Pose3>& poses,
                                     const std::vector<RelativePoseEdge>& edges) {
-  if (config.clock_s == nullptr) return optimize(config, poses, edges);
+  return optimize_pose_graph(config, poses, edges, {});
+}
+
+PoseGraphResult optimize_pose_graph(const PoseGraphConfig& config, std::vector<Pose3>& poses,
+                                    const std::vector<RelativePoseEdge>& edges,
+                                    const std::vector<RotationPrior>& rotation_priors) {
+  if (config.clock_s == nullptr) return optimize(config, poses, edges, rotation_priors);
   const double start_s = config.clock_s();
-  PoseGraphResult result = optimize(config, poses, edges);
+  PoseGraphResult result = optimize(config, poses, edges, rotation_priors);
   result.solver_time_s = config.clock_s() - start_s;
   return result;
 }
 
 namespace {
 PoseGraphResult optimize(const PoseGraphConfig& config, std::vector<Pose3>& poses,
-                         const std::vector<RelativePoseEdge>& edges) {
+                         const std::vector<RelativePoseEdge>& edges, const std::vector<RotationPrior>& priors) {
   if (std::string error = check_config(config); !error.empty()) return invalid(std::move(error));
   if (poses.empty()) return invalid("empty graph: no poses");
   // Indices are uint32 in the edges; a larger graph could not be addressed.
@@ -489,6 +521,13 @@ PoseGraphResult optimize(const PoseGraphConfig& config, std::vector<Pose3>& pose
   }
   for (std::size_t i = 0; i < edges.size(); ++i) {
     if (std::string error = check_edge(i, edges[i], poses.size()); !error.empty()) return invalid(std::move(error));
+  }
+  for (std::size_t i = 0; i < priors.size(); ++i) {
+    const RotationPrior& p = priors[i];
+    if (p.pose >= poses.size() || !p.q.coeffs().allFinite() || p.q.norm() < kMinQuaternionNorm ||
+        !(std::isfinite(p.sigma_rad) && p.sigma_rad > 0.0))
+      return invalid(format("rotation prior %zu (pose %u): pose out of range, quaternion not usable or sigma not > 0",
+                            i, p.pose));
   }
   PoseGraphResult result;
   if (edges.empty()) {
@@ -504,7 +543,7 @@ PoseGraphResult optimize(const PoseGraphConfig& config, std::vector<Pose3>& pose
   }
 
   // Solve on a copy so a failed solve leaves the caller's poses as they were.
-  GraphSolve graph(config, poses, edges, excluded);
+  GraphSolve graph(config, poses, edges, excluded, priors);
   std::string options_error;
   if (!graph.configure(&options_error)) {
     result.status = PoseGraphStatus::kSolverFailed;

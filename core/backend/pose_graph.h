@@ -96,10 +96,23 @@ struct PoseGraphResult {
   void print(std::FILE* out) const;
 };
 
+// A unary pull of one pose's rotation towards a given one: residual 2 vec(q^-1 q_pose) / sigma_rad, plain least
+// squares (e.g. the deformation graph's map nodes, whose rotations position-only edges hold only weakly). Ignored
+// on a pose the solve holds or that no edge reaches.
+struct RotationPrior {
+  std::uint32_t pose = 0;
+  Eigen::Quaterniond q = Eigen::Quaterniond::Identity();
+  double sigma_rad = 1.0;
+};
+
 // Optimizes `poses` (world_T_i, indexed by the edges' from/to) in place. Quaternions need not be unit: they are
 // normalized, and written back normalized. On invalid input or solver failure `poses` is left untouched and the
 // result says why; it never aborts or throws on bad data.
 PoseGraphResult optimize_pose_graph(const PoseGraphConfig& config, std::vector<Pose3>& poses,
                                     const std::vector<RelativePoseEdge>& edges);
+// ... with rotation priors (their costs count in initial_cost and final_cost; edge_residual_sigma has edges only).
+PoseGraphResult optimize_pose_graph(const PoseGraphConfig& config, std::vector<Pose3>& poses,
+                                    const std::vector<RelativePoseEdge>& edges,
+                                    const std::vector<RotationPrior>& rotation_priors);
 
 }  // namespace qsg::backend

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <string>
 #include <vector>
@@ -18,6 +19,12 @@ namespace qsg::backend {
 namespace {
 
 using testing::planar;
+
+// The map nodes' rotation prior of the tests below, and how far apart a loose and a tight stopping rule may land
+// the hanging places without it (at least) and with it (at most).
+constexpr double kPlaceSigmaRad = 0.3;
+constexpr double kWithoutM = 0.05;
+constexpr double kWithM = 0.02;
 
 // A 6 m square walked once in 0.5 m steps; the odometry's yaw drifts 0.6 degree per step.
 struct Walk {
@@ -521,6 +528,111 @@ TEST_F(DeformationGraphTest, ReducedDecisionsDecideAsTheWholeAgentLayer) {
     // The whole solve holds the agents and writes them back normalized once more: the last bit may change.
     EXPECT_LT((fresh.agent_pose(k).q.coeffs() - agents[k].q.coeffs()).norm(), 1e-15) << k;
   }
+}
+
+// DeformationConfig::place_rotation_sigma_rad: places tied to the walk only by edges of their own (to the next place
+// and to a wall's control point, no agent's) hold their rotation by those position-only edges alone; the last of
+// the chain can swing about its control point at no cost. Without the prior, the whole solve's stopping rule
+// decides where they land; with it, a loose and a tight rule land them together, and the closure still corrects
+// them.
+TEST_F(DeformationGraphTest, ARotationPriorLandsHangingPlacesWhereverTheSolveStops) {
+  auto hanging = scene_graph::testing::make_graph();
+  for (std::size_t p = 0; p < places_.size(); ++p) {
+    ASSERT_EQ(hanging->add_place(places_[p].first, *graph_->place(places_[p].first)), scene_graph::Status::kOk);
+    if (p > 0) hanging->add_edge(places_[p - 1].first, places_[p].first);
+  }
+  ASSERT_EQ(DeformationConfig{}.place_rotation_sigma_rad, kPlaceSigmaRad) << "on by default";
+  const auto last = static_cast<std::uint32_t>(walk_.truth.size() - 1);
+  const auto solve = [&](double sigma_rad, double tolerance, std::vector<Eigen::Vector3d>* out) {
+    DeformationConfig c = strategy(true);
+    c.place_rotation_sigma_rad = sigma_rad;
+    c.whole_function_tolerance = tolerance;
+    ASSERT_EQ(c.check(), "");
+    DeformationGraph d(c);
+    const DeformationResult r = d.optimize(layer_, {true_closure(0, last)}, control_, *hanging);
+    ASSERT_TRUE(r.solve.poses_updated()) << r.solve.message;
+    ASSERT_EQ(r.edges_ap, 0u);
+    ASSERT_EQ(r.edges_mp, places_.size()) << "every place hangs from a wall's control point";
+    out->clear();
+    for (const auto& [id, truth] : places_) {
+      out->emplace_back();
+      ASSERT_TRUE(d.place_position(id, &out->back()));
+    }
+  };
+  const auto apart = [](const std::vector<Eigen::Vector3d>& a, const std::vector<Eigen::Vector3d>& b) {
+    double worst = 0.0;
+    for (std::size_t i = 0; i < a.size(); ++i) worst = std::max(worst, (a[i] - b[i]).norm());
+    return worst;
+  };
+  std::vector<Eigen::Vector3d> loose, tight, loose_prior, tight_prior;
+  solve(0.0, 1e-4, &loose);
+  solve(0.0, 1e-10, &tight);
+  solve(kPlaceSigmaRad, 1e-4, &loose_prior);
+  solve(kPlaceSigmaRad, 1e-10, &tight_prior);
+  std::printf("hanging places, loose against tight: %.4f m without the prior, %.4f m with it\n", apart(loose, tight),
+              apart(loose_prior, tight_prior));
+  EXPECT_GT(apart(loose, tight), kWithoutM) << "without the prior the stopping rule decides";
+  EXPECT_LT(apart(loose_prior, tight_prior), kWithM);
+  double before = 0.0, after = 0.0;
+  for (std::size_t p = 0; p < places_.size(); ++p) {
+    before += (graph_->place(places_[p].first)->position_m - places_[p].second).squaredNorm();
+    after += (loose_prior[p] - places_[p].second).squaredNorm();
+  }
+  EXPECT_LT(after, 0.09 * before) << "the prior does not keep them from the correction";
+}
+
+// The priors do not keep the map from a real correction: with them on places and control points, the closures move
+// the walk's places and walls as far towards the truth as without, in one solve and in a second one over settled
+// control points and carried decisions. GNC over the whole graph has no prior (its map starts at identity, which
+// would hold the map against the closures' rotation): the same solution with them or without.
+TEST_F(DeformationGraphTest, RotationPriorsLetTheMapFollowACorrection) {
+  const auto last = static_cast<std::uint32_t>(walk_.truth.size() - 1);
+  const auto half = static_cast<std::uint32_t>(walk_.truth.size() / 2);
+  const auto place_error = [&](const DeformationGraph& d) {
+    double sum = 0.0;
+    for (const auto& [id, truth] : places_) {
+      Eigen::Vector3d p = graph_->place(id)->position_m;
+      if (d.solved()) {
+        EXPECT_TRUE(d.place_position(id, &p));
+      }
+      sum += (p - truth).squaredNorm();
+    }
+    return std::sqrt(sum / static_cast<double>(places_.size()));
+  };
+  const double places_before = place_error(DeformationGraph{}), walls_before = wall_rmse(DeformationGraph{});
+  const std::vector<std::vector<ChainLoopClosure>> solves = {{true_closure(0, half)},
+                                                             {true_closure(0, half), true_closure(0, last)}};
+  for (const bool settle : {false, true}) {
+    SCOPED_TRACE(settle ? "settled control points, carried decisions (the defaults)" : "every map node solved");
+    DeformationConfig c = strategy(true);
+    if (!settle) c.settle_tolerance_m = 0.0;
+    c.incremental_decisions = settle;
+    c.place_rotation_sigma_rad = c.control_rotation_sigma_rad = 0.0;
+    DeformationConfig with = c;
+    with.place_rotation_sigma_rad = with.control_rotation_sigma_rad = kPlaceSigmaRad;
+    DeformationGraph a(c), b(with);
+    DeformationResult r;
+    for (const std::vector<ChainLoopClosure>& closures : solves) {
+      ASSERT_TRUE(a.optimize(layer_, closures, control_, *graph_).solve.poses_updated());
+      r = b.optimize(layer_, closures, control_, *graph_);
+      ASSERT_TRUE(r.solve.poses_updated()) << r.solve.message;
+    }
+    std::printf("places %.4f -> %.4f without, %.4f with; walls %.4f -> %.4f without, %.4f with\n", places_before,
+                place_error(a), place_error(b), walls_before, wall_rmse(a), wall_rmse(b));
+    EXPECT_EQ(r.map_settled >= 3, settle);
+    EXPECT_EQ(r.closures_carried, settle ? 1u : 0u);
+    EXPECT_LT(place_error(b), 0.1 * places_before);
+    EXPECT_LT(place_error(b), place_error(a) + 0.01);
+    EXPECT_LT(wall_rmse(b), 0.2 * walls_before);
+    EXPECT_LT(wall_rmse(b), wall_rmse(a) + 0.01);
+  }
+  DeformationConfig whole = strategy(false), with = whole;
+  whole.place_rotation_sigma_rad = 0.0;
+  with.place_rotation_sigma_rad = with.control_rotation_sigma_rad = kPlaceSigmaRad;
+  DeformationGraph a(whole), b(with);
+  ASSERT_TRUE(a.optimize(layer_, solves.back(), control_, *graph_).solve.poses_updated());
+  ASSERT_TRUE(b.optimize(layer_, solves.back(), control_, *graph_).solve.poses_updated());
+  EXPECT_EQ(place_error(a), place_error(b)) << "GNC over the whole graph: no prior";
 }
 
 TEST(ControlPointsTest, OnePerCellAndAFullStoreFoldsItsOlderHalf) {
