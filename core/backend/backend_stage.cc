@@ -392,6 +392,23 @@ void closure_sigmas(const loop_closure::LoopClosure& lc, const LoopClosureConfig
   *sigma_rot_rad = (sigma_rot_rad->array().square() + walk_rot * walk_rot).sqrt().matrix();
 }
 
+bool chain_closure(const agents::ChainView& agents, const loop_closure::LoopClosure& lc, const LoopClosureConfig& config,
+                   ChainLoopClosure* out) {
+  if (agents.chain_size() == 0) return false;
+  out->a = static_cast<std::uint32_t>(chain_index_at(agents, lc.match_time_ns));
+  out->b = static_cast<std::uint32_t>(chain_index_at(agents, lc.query_time_ns));
+  if (out->a >= out->b) return false;
+  const agents::ChainNode& a = agents.chain(out->a);
+  const agents::ChainNode& b = agents.chain(out->b);
+  Eigen::Isometry3d a_T_b = lc.match_T_query;
+  // An agent the chain folded away since: join the chain node nearest it through the odometry between them.
+  if (a.time_ns != lc.match_time_ns) a_T_b = isometry(a.t_m, a.q).inverse() * lc.world_T_match * a_T_b;
+  if (b.time_ns != lc.query_time_ns) a_T_b = a_T_b * lc.world_T_query.inverse() * isometry(b.t_m, b.q);
+  out->a_T_b = Pose3{a_T_b.translation(), Eigen::Quaterniond(a_T_b.linear())};
+  closure_sigmas(lc, config, &out->sigma_t_m, &out->sigma_rot_rad);
+  return true;
+}
+
 void BackendStage::copy_deformation_inputs(const agents::AgentLayer& agents, const scene_graph::SceneGraph& graph) {
   deformation_inputs_.copy(agents, control_points_.view(), graph);
 }
@@ -402,12 +419,7 @@ DeformationProblem BackendStage::build_deformation() const {
   closures.reserve(loop_closures_.size());
   for (const loop_closure::LoopClosure& lc : loop_closures_) {
     ChainLoopClosure cc;
-    cc.a = static_cast<std::uint32_t>(chain_index_at(agents, lc.match_time_ns));
-    cc.b = static_cast<std::uint32_t>(chain_index_at(agents, lc.query_time_ns));
-    if (cc.a >= cc.b) continue;
-    cc.a_T_b = Pose3{lc.match_T_query.translation(), Eigen::Quaterniond(lc.match_T_query.linear())};
-    closure_sigmas(lc, config_.loop_closure, &cc.sigma_t_m, &cc.sigma_rot_rad);
-    closures.push_back(cc);
+    if (chain_closure(agents, lc, config_.loop_closure, &cc)) closures.push_back(cc);
   }
   return deformation_.build(deformation_inputs_, closures);
 }

@@ -280,6 +280,8 @@ bool LoopClosureDetector::add_and_detect(const AgentEntry& query, LoopClosure* o
       out->query = query.agent;
       out->match_time_ns = match.time_ns;
       out->query_time_ns = query.time_ns;
+      out->world_T_match = match.world_T_agent;
+      out->world_T_query = query.world_T_agent;
       out->places_similarity = c.places;
       out->objects_similarity = c.objects;
       ++counters_.proposed;

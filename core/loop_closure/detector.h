@@ -80,6 +80,10 @@ struct LoopClosure {
   std::uint64_t match_time_ns = 0;
   std::uint64_t query_time_ns = 0;
   Eigen::Isometry3d match_T_query = Eigen::Isometry3d::Identity();  // the measured relative pose
+  // The two agents' odometric poses when the closure was found: the agent chain may fold either away later, and
+  // the closure then joins the nearest chain nodes through the odometry between them (exact, odometric frame).
+  Eigen::Isometry3d world_T_match = Eigen::Isometry3d::Identity();
+  Eigen::Isometry3d world_T_query = Eigen::Isometry3d::Identity();
   float places_similarity = 0.0f;
   float objects_similarity = 0.0f;
   ClosureSource source = ClosureSource::kObjects;

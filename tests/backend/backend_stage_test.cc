@@ -78,6 +78,67 @@ TEST(BackendStageTest, LocalMapClosuresCarryTheOdometryWalkOfTheirStitching) {
   EXPECT_NEAR(t_lm.y(), std::hypot(0.02, 0.02), 1e-12);
 }
 
+// A closure whose agent the chain folded away joins the nearest chain node through the odometry between them: an
+// exact closure between two keyframes gives the exact relative pose of the two chain nodes it lands on.
+TEST(BackendStageTest, AClosureToAFoldedAgentJoinsItsNodeThroughTheOdometry) {
+  auto g = make_graph();
+  agents::AgentLayer agents;
+  std::string error;
+  ASSERT_TRUE(agents.init(agents::Config{}, agents::Capacities{10}, &error)) << error;
+  std::vector<Eigen::Isometry3d> poses;
+  std::vector<std::uint64_t> times;
+  for (int k = 0; k < 30; ++k) {  // a 1 m step and a 12 degree turn per keyframe: a curling walk
+    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+    if (!poses.empty()) pose = poses.back() * Eigen::Translation3d(1.0, 0.0, 0.0) *
+                               Eigen::AngleAxisd(0.2094, Eigen::Vector3d::UnitZ());
+    poses.push_back(pose);
+    times.push_back(1'000'000'000ull * (k + 1));
+    ASSERT_NE(agents.add_keyframe(g.get(), times.back(), pose), agents::AddResult::kFull);
+  }
+  ASSERT_GT(agents.counters().folded, 0u) << "the test needs a folded chain";
+  const auto node_of = [&](std::uint64_t t) {
+    for (std::size_t i = 0; i < agents.chain_size(); ++i)
+      if (agents.chain(i).time_ns == t) return static_cast<int>(i);
+    return -1;
+  };
+  int folded = -1;
+  for (int k = 1; k < 10 && folded < 0; ++k)
+    if (node_of(times[k]) < 0) folded = k;
+  ASSERT_GE(folded, 0);
+  const auto closure = [&](int m, int q) {
+    loop_closure::LoopClosure lc;
+    lc.match_time_ns = times[m];
+    lc.query_time_ns = times[q];
+    lc.world_T_match = poses[m];
+    lc.world_T_query = poses[q];
+    lc.match_T_query = poses[m].inverse() * poses[q];  // exact
+    return lc;
+  };
+  const auto iso = [](const agents::ChainNode& n) {
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.linear() = n.q.toRotationMatrix();
+    T.translation() = n.t_m;
+    return T;
+  };
+  ChainLoopClosure cc;
+  ASSERT_TRUE(chain_closure(agents, closure(folded, 29), LoopClosureConfig{}, &cc));
+  ASSERT_NE(agents.chain(cc.a).time_ns, times[folded]);
+  const Eigen::Isometry3d nodes = iso(agents.chain(cc.a)).inverse() * iso(agents.chain(cc.b));
+  EXPECT_LT((cc.a_T_b.t_m - nodes.translation()).norm(), 1e-9);
+  EXPECT_LT(Eigen::AngleAxisd(cc.a_T_b.q.toRotationMatrix().transpose() * nodes.linear()).angle(), 1e-9);
+  const Eigen::Isometry3d raw = closure(folded, 29).match_T_query;
+  EXPECT_GT((raw.translation() - nodes.translation()).norm(), 0.5) << "taken as it was, it would be off";
+  // Both agents still in the chain: the measured pose as it is.
+  const int kept = node_of(times[28]) >= 0 ? 28 : 27;
+  ASSERT_GE(node_of(times[kept]), 0);
+  const int first_kept = node_of(times[0]) >= 0 ? 0 : -1;
+  if (first_kept == 0) {
+    ASSERT_TRUE(chain_closure(agents, closure(0, kept), LoopClosureConfig{}, &cc));
+    EXPECT_EQ(cc.a_T_b.t_m, closure(0, kept).match_T_query.translation());
+  }
+  EXPECT_FALSE(chain_closure(agents, closure(kept, kept), LoopClosureConfig{}, &cc)) << "one node";
+}
+
 TEST(BackendStageTest, RoomsAndTheirLabelsInOneUpdate) {
   rooms::testing::SyntheticPlaces s;
   auto g = two_rooms_with_objects(&s);
