@@ -482,21 +482,6 @@ runtime::TaskStats Pipeline::finish_cpu_stats() const {
   return finish_cpu_;
 }
 
-runtime::TaskStats Pipeline::loop_closure_detect_cpu_stats() const {
-  std::lock_guard<std::mutex> lock(backend_stats_mutex_);
-  return lc_detect_cpu_;
-}
-
-runtime::TaskStats Pipeline::loop_closure_lock_cpu_stats() const {
-  std::lock_guard<std::mutex> lock(backend_stats_mutex_);
-  return lc_lock_cpu_;
-}
-
-runtime::TaskStats Pipeline::solve_cpu_stats() const {
-  std::lock_guard<std::mutex> lock(backend_stats_mutex_);
-  return solve_cpu_;
-}
-
 std::vector<Pipeline::SolveRecord> Pipeline::solve_records() const {
   std::lock_guard<std::mutex> lock(backend_stats_mutex_);
   std::vector<SolveRecord> out;

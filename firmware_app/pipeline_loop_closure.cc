@@ -91,6 +91,22 @@ void Pipeline::extract_captured_frames() {
   }
 }
 
+// Loop closure's costs on the backend thread (pipeline.h).
+runtime::TaskStats Pipeline::loop_closure_detect_cpu_stats() const {
+  std::lock_guard<std::mutex> lock(backend_stats_mutex_);
+  return lc_detect_cpu_;
+}
+
+runtime::TaskStats Pipeline::loop_closure_lock_cpu_stats() const {
+  std::lock_guard<std::mutex> lock(backend_stats_mutex_);
+  return lc_lock_cpu_;
+}
+
+runtime::TaskStats Pipeline::solve_cpu_stats() const {
+  std::lock_guard<std::mutex> lock(backend_stats_mutex_);
+  return solve_cpu_;
+}
+
 // Backend thread, graph_mutex_ held by *graph_lock: new loop closures, and the deformation graph re-solved when one
 // waits and solve_interval_s has passed. Under the lock only what reads the loop thread's state: the agents left
 // behind are described (their keyframes' appearance was extracted before the lock, run_backend_update) and, when a
