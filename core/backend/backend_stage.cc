@@ -440,13 +440,11 @@ bool BackendStage::solve_deformation(DeformationProblem problem, std::string* er
 Eigen::Isometry3d BackendStage::corrected_pose(const agents::AgentLayer& agents, std::size_t k) const {
   const Eigen::Isometry3d odom = isometry(agents.chain(k).t_m, agents.chain(k).q);
   if (!deformation_.solved() || deformation_.num_agent_poses() == 0) return odom;
-  if (k < deformation_.num_agent_poses()) {
-    const Pose3 p = deformation_.agent_pose(k);
-    return isometry(p.t_m, p.q);
-  }
-  const std::size_t last = deformation_.num_agent_poses() - 1;
-  const Pose3 p = deformation_.agent_pose(last);
-  return isometry(p.t_m, p.q) * isometry(agents.chain(last).t_m, agents.chain(last).q).inverse() * odom;
+  // By the node's time: a fold of the chain since the solve shifts its indices.
+  Pose3 p;
+  if (deformation_.agent_pose_at(agents.chain(k).time_ns, &p)) return isometry(p.t_m, p.q);
+  const Pose3& tail = deformation_.tail_correction();  // a node added since: the last solved node's correction
+  return isometry(tail.t_m, tail.q) * odom;
 }
 
 void BackendStage::correct_graph(const agents::AgentLayer& agents, scene_graph::SceneGraph* graph) const {

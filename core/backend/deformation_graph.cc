@@ -266,6 +266,8 @@ DeformationProblem DeformationGraph::build(const DeformationInputs& in,
   std::vector<Pose3>& poses = problem.poses;
   poses.reserve(A + C + place_ids.size());
   for (std::size_t k = 0; k < A; ++k) poses.push_back(Pose3{agents.chain(k).t_m, agents.chain(k).q});
+  problem.agent_times_ns.reserve(A);
+  for (std::size_t k = 0; k < A; ++k) problem.agent_times_ns.push_back(agents.chain(k).time_ns);
   for (std::size_t i = 0; i < C; ++i) poses.push_back(Pose3{control.point(i), Eigen::Quaterniond::Identity()});
   for (const DeformationInputs::Place& p : in.places) poses.push_back(Pose3{p.position_m, Eigen::Quaterniond::Identity()});
 
@@ -554,6 +556,7 @@ DeformationResult DeformationGraph::solve(DeformationProblem problem) {
   for (std::size_t c = 0; c < problem.result.loop_closures; ++c)
     ends.emplace_back(problem.edges[problem.first_closure + c].from, problem.edges[problem.first_closure + c].to);
   std::vector<std::uint32_t> kept;
+  const std::vector<std::uint64_t> chain_times = problem.agent_times_ns;  // before any thinning
   std::vector<Pose3> odometric;  // the chain's poses, when the solved graph thins them
   if (config_.agent_spacing_m > 0.0 && problem.result.agents > 2) {
     odometric.assign(problem.poses.begin(), problem.poses.begin() + static_cast<std::ptrdiff_t>(problem.result.agents));
@@ -563,7 +566,7 @@ DeformationResult DeformationGraph::solve(DeformationProblem problem) {
   const std::size_t A = r.agents_solved, nodes = problem.originals.size();
   std::vector<Pose3> solved = problem.poses;
   if (config_.decide_on_agents && r.loop_closures > 0) {
-    if (!(config_.incremental_decisions && decide_incrementally(problem, kept, ends, &solved, &r)))
+    if (!(config_.incremental_decisions && decide_incrementally(problem, kept, ends, chain_times, &solved, &r)))
       r.decide = decide_on_agents(config_.agents.solver, problem, &solved, &r.loop_closure_weight,
                                   config_.reduced_decisions, &r.decide_chain, &r.agents_decided);
     if (!r.decide.poses_updated()) {
@@ -575,7 +578,7 @@ DeformationResult DeformationGraph::solve(DeformationProblem problem) {
     // nodes that settled at the last solve (settle_tolerance_m); the solve moves the rest.
     const bool hold = config_.hold_agents;
     std::vector<char> held;
-    if (hold) r.map_settled = settle(problem, kept, &solved, &held);
+    if (hold) r.map_settled = settle(problem, kept, chain_times, &solved, &held);
     const std::size_t num_held = hold ? A + r.map_settled : 0;
     std::vector<std::uint32_t> where(solved.size());  // a node's index in the solve
     std::iota(where.begin(), where.end(), 0u);
@@ -616,6 +619,7 @@ DeformationResult DeformationGraph::solve(DeformationProblem problem) {
   for (double w : r.loop_closure_weight) r.loop_closures_kept += w > 0.5 ? 1 : 0;
   agent_poses_.assign(solved.begin(), solved.begin() + static_cast<std::ptrdiff_t>(A));
   if (!kept.empty()) agent_poses_ = expand_agents(odometric, kept, agent_poses_);
+  agent_times_ = chain_times.size() == agent_poses_.size() ? chain_times : std::vector<std::uint64_t>{};
   closure_ends_ = std::move(ends);
   closure_weights_ = r.loop_closure_weight;
   tail_correction_ = agent_poses_.back() * (kept.empty() ? problem.poses[A - 1] : odometric.back()).inverse();
@@ -631,9 +635,25 @@ DeformationResult DeformationGraph::solve(DeformationProblem problem) {
   return r;
 }
 
+std::int64_t DeformationGraph::last_agent(const std::vector<std::uint64_t>& chain_times, std::size_t k) const {
+  if (chain_times.empty() || agent_times_.empty())
+    return k < agent_poses_.size() ? static_cast<std::int64_t>(k) : -1;
+  if (k >= chain_times.size()) return -1;
+  const auto it = std::lower_bound(agent_times_.begin(), agent_times_.end(), chain_times[k]);
+  return it != agent_times_.end() && *it == chain_times[k] ? it - agent_times_.begin() : -1;
+}
+
+bool DeformationGraph::agent_pose_at(std::uint64_t time_ns, Pose3* out) const {
+  const auto it = std::lower_bound(agent_times_.begin(), agent_times_.end(), time_ns);
+  if (!solved_ || it == agent_times_.end() || *it != time_ns) return false;
+  *out = agent_poses_[static_cast<std::size_t>(it - agent_times_.begin())];
+  return true;
+}
+
 bool DeformationGraph::decide_incrementally(const DeformationProblem& problem, const std::vector<std::uint32_t>& kept,
                                             const std::vector<std::pair<std::uint32_t, std::uint32_t>>& ends,
-                                            std::vector<Pose3>* solved, DeformationResult* r) const {
+                                            const std::vector<std::uint64_t>& chain_times, std::vector<Pose3>* solved,
+                                            DeformationResult* r) const {
   const std::size_t A = problem.result.agents_solved, L = r->loop_closures;
   if (!solved_ || closure_ends_.empty() || agent_poses_.empty()) return false;
   // The agent layer's edges; a closure the last solve decided (same index, same chain nodes) keeps its decision.
@@ -646,7 +666,10 @@ bool DeformationGraph::decide_incrementally(const DeformationProblem& problem, c
     if (e.from >= A || e.to >= A) continue;
     if (k >= problem.first_closure && k < problem.first_closure + L) {
       const std::size_t c = k - problem.first_closure;
-      if (c < closure_ends_.size() && c < closure_weights_.size() && closure_ends_[c] == ends[c]) {
+      // The same closure on the same chain nodes (found by time: a fold shifts the indices).
+      const std::int64_t a = last_agent(chain_times, ends[c].first), b = last_agent(chain_times, ends[c].second);
+      if (c < closure_ends_.size() && c < closure_weights_.size() && a >= 0 && b >= 0 &&
+          closure_ends_[c] == std::make_pair(static_cast<std::uint32_t>(a), static_cast<std::uint32_t>(b))) {
         carried[c] = 1;
         ++num_carried;
         if (closure_weights_[c] <= 0.5) continue;  // an outlier stays out
@@ -660,8 +683,8 @@ bool DeformationGraph::decide_incrementally(const DeformationProblem& problem, c
   // From the last solution; chain nodes after it follow its last node's correction.
   std::vector<Pose3> agents(A);
   for (std::size_t j = 0; j < A; ++j) {
-    const std::size_t chain = kept.empty() ? j : kept[j];
-    agents[j] = chain < agent_poses_.size() ? agent_poses_[chain] : tail_correction_ * problem.poses[j];
+    const std::int64_t last = last_agent(chain_times, kept.empty() ? j : kept[j]);
+    agents[j] = last >= 0 ? agent_poses_[static_cast<std::size_t>(last)] : tail_correction_ * problem.poses[j];
   }
   // reduced_decisions: GNC on the reduced agent graph; the chain is solved once the decisions stand.
   ReducedDecision d;
@@ -701,7 +724,8 @@ bool DeformationGraph::decide_incrementally(const DeformationProblem& problem, c
 // solution carried it; a node without an agent edge follows its neighbours. Then the unsettled spread settle_hops
 // map edges (E_mm, E_pp, E_mp), so the boundary between moved and held map can bend. Only control points are held.
 std::size_t DeformationGraph::settle(const DeformationProblem& problem, const std::vector<std::uint32_t>& kept,
-                                     std::vector<Pose3>* solved, std::vector<char>* held) const {
+                                     const std::vector<std::uint64_t>& chain_times, std::vector<Pose3>* solved,
+                                     std::vector<char>* held) const {
   const std::size_t A = problem.result.agents_solved, N = problem.poses.size(), C = problem.result.control_points;
   held->assign(N, 0);
   if (!solved_ || config_.settle_tolerance_m <= 0.0 || problem.originals.size() + A != N) return 0;
@@ -722,15 +746,15 @@ std::size_t DeformationGraph::settle(const DeformationProblem& problem, const st
   }
   for (const RelativePoseEdge& e : problem.edges) {
     if (e.from >= A || e.to < A || moves[e.to]) continue;
-    const std::size_t chain = kept.empty() ? e.from : kept[e.from];
-    if (chain >= agent_poses_.size()) {  // an agent the last solve did not have
+    const std::int64_t agent = last_agent(chain_times, kept.empty() ? e.from : kept[e.from]);
+    if (agent < 0) {  // an agent the last solve did not have
       moves[e.to] = 1;
       continue;
     }
     const Pose3& odometric = problem.poses[e.from];
     const Eigen::Vector3d local = odometric.q.conjugate() * (problem.originals[e.to - A] - odometric.t_m);
     const Pose3& now = (*solved)[e.from];
-    const Pose3& before = agent_poses_[chain];
+    const Pose3& before = agent_poses_[static_cast<std::size_t>(agent)];
     const double moved = ((now.q * local + now.t_m) - (before.q * local + before.t_m)).norm();
     if (!(moved <= config_.settle_tolerance_m)) moves[e.to] = 1;
   }

@@ -168,6 +168,9 @@ struct DeformationProblem {
   std::vector<Eigen::Vector3d> originals;      // control points and places: their odometric positions
   std::vector<std::uint64_t> times_ns;         // ... and when they were seen
   std::vector<scene_graph::NodeId> place_ids;
+  // The chain nodes' times (strictly increasing), so the next solve finds its agents in this one after the chain
+  // folded (which shifts their indices). Empty for a problem read from a file: indices are then taken as they are.
+  std::vector<std::uint64_t> agent_times_ns;
 };
 
 class DeformationGraph {
@@ -193,6 +196,11 @@ class DeformationGraph {
   Eigen::Vector3d deform(const Eigen::Vector3d& p_m, std::uint64_t time_ns = 0) const;
   // The optimized pose of chain node k (the odometric one before any solve, or beyond the solved chain).
   Pose3 agent_pose(std::size_t k) const { return k < agent_poses_.size() ? agent_poses_[k] : Pose3{}; }
+  // The optimized pose of the chain node seen at time_ns, found by its time (the chain may have folded since the
+  // solve); false when the solve did not have it (a node added since: tail_correction() * its odometric pose).
+  bool agent_pose_at(std::uint64_t time_ns, Pose3* out) const;
+  // The last solved chain node's correction (optimized * odometric^-1), for the nodes added since.
+  const Pose3& tail_correction() const { return tail_correction_; }
   std::size_t num_agent_poses() const { return agent_poses_.size(); }
   // A place's optimized position, or false when the place was not in the solved graph.
   bool place_position(scene_graph::NodeId id, Eigen::Vector3d* out) const;
@@ -212,16 +220,22 @@ class DeformationGraph {
   // settle_tolerance_m: marks in *held the map nodes that keep the last solve's pose (and sets it in *solved);
   // `kept` maps solved agents to chain nodes (empty: one to one). Returns how many.
   std::size_t settle(const DeformationProblem& problem, const std::vector<std::uint32_t>& kept,
-                     std::vector<Pose3>* solved, std::vector<char>* held) const;
+                     const std::vector<std::uint64_t>& chain_times, std::vector<Pose3>* solved,
+                     std::vector<char>* held) const;
+  // The last solve's index of this problem's chain node k (chain_times: the problem's agent_times_ns), found by
+  // time; -1 when the last solve did not have it. Without times on either side, k itself when in range.
+  std::int64_t last_agent(const std::vector<std::uint64_t>& chain_times, std::size_t k) const;
   // incremental_decisions: the agent layer with the last solve's decisions, GNC over the new closures; false (and
   // *r untouched) when there is nothing to carry over or a carried inlier no longer fits.
   bool decide_incrementally(const DeformationProblem& problem, const std::vector<std::uint32_t>& kept,
                             const std::vector<std::pair<std::uint32_t, std::uint32_t>>& ends,
-                            std::vector<Pose3>* solved, DeformationResult* r) const;
+                            const std::vector<std::uint64_t>& chain_times, std::vector<Pose3>* solved,
+                            DeformationResult* r) const;
 
   DeformationConfig config_;
   bool solved_ = false;
   std::vector<Pose3> agent_poses_;
+  std::vector<std::uint64_t> agent_times_;  // agent_poses_' chain node times (empty: unknown)
   std::vector<Node> nodes_;  // control points then places: what interpolation reads
   std::size_t control_points_ = 0;  // of nodes_, the control points
   // The last solve's closures (their chain nodes) and weights, and the correction of its last chain node.

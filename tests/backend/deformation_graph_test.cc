@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -321,6 +322,46 @@ TEST_F(DeformationGraphTest, AProblemBuiltFromACopyIsTheLiveStatesAtTheCopy) {
   DeformationInputs unreserved;
   unreserved.copy(layer_, control_.view(), *graph_);
   EXPECT_EQ(unreserved.grown, 1u);
+}
+
+// The agent chain folds when it fills (every second node of its older half goes), which shifts the indices of the
+// nodes after the fold. The next solve must find its agents in the last one by time: the closure it decided is
+// carried on the same two nodes, the solve starts from their last solution, and a node's pose is asked by time.
+TEST_F(DeformationGraphTest, AfterAChainFoldTheNextSolveFindsItsAgentsByTime) {
+  const auto last = static_cast<std::uint32_t>(walk_.truth.size() - 1);
+  DeformationGraph d(strategy(true));
+  ASSERT_TRUE(d.optimize(layer_, {true_closure(0, last)}, control_, *graph_).solve.poses_updated());
+  std::vector<agents::ChainNode> folded;  // odd nodes of the first 20 folded away
+  std::vector<std::uint32_t> original;    // each kept node's index in the full chain
+  for (std::uint32_t k = 0; k < layer_.chain_size(); ++k)
+    if (k >= 20 || k % 2 == 0) {
+      folded.push_back(layer_.chain(k));
+      original.push_back(k);
+    }
+  const agents::ChainView view(folded.data(), folded.size());
+  const auto at = [&](std::uint32_t k) {
+    return static_cast<std::uint32_t>(std::find(original.begin(), original.end(), k) - original.begin());
+  };
+  const auto moved = [&](ChainLoopClosure c) {  // the same closure on the folded chain's indices
+    c.a = at(c.a);
+    c.b = at(c.b);
+    return c;
+  };
+  const std::vector<ChainLoopClosure> closures = {moved(true_closure(0, last)), moved(true_closure(24, 44))};
+  const DeformationResult r = d.optimize(view, closures, control_, *graph_);
+  ASSERT_TRUE(r.solve.poses_updated()) << r.solve.message;
+  EXPECT_EQ(r.closures_carried, 1u) << "the first closure, on the same two nodes";
+  EXPECT_EQ(r.loop_closures_kept, 2u);
+  DeformationGraph fresh(strategy(true));
+  ASSERT_TRUE(fresh.optimize(view, closures, control_, *graph_).solve.poses_updated());
+  for (std::size_t k = 0; k < folded.size(); ++k) {
+    EXPECT_LT((d.agent_pose(k).t_m - fresh.agent_pose(k).t_m).norm(), 0.01) << k;
+    Pose3 p;
+    ASSERT_TRUE(d.agent_pose_at(folded[k].time_ns, &p)) << k;
+    EXPECT_EQ(p.t_m, d.agent_pose(k).t_m) << k;
+  }
+  Pose3 p;
+  EXPECT_FALSE(d.agent_pose_at(layer_.chain(1).time_ns, &p)) << "folded away: not in the solve";
 }
 
 TEST_F(DeformationGraphTest, WithoutLoopClosuresNothingMoves) {
