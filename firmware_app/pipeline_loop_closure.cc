@@ -265,6 +265,11 @@ void Pipeline::correct_outputs(reconstruction::Mesh* mesh, reconstruction::Mesh*
               static_cast<unsigned long long>(backend_.control_points().stats().failed),
               static_cast<unsigned long long>(backend_.control_points().folded()),
               static_cast<unsigned long long>(backend_.control_points().folds()), backend_.loop_closures().size());
+  // A copy under the graph lock that found a buffer short allocated there: its reservation missed a store.
+  const backend::DeformationInputs& in = backend_.deformation_inputs();
+  std::printf("loop closure: %llu solve inputs copied under the graph lock, %llu of them grew a buffer%s\n",
+              static_cast<unsigned long long>(in.copies), static_cast<unsigned long long>(in.grown),
+              in.grown > 0 ? " (allocated under the lock)" : "");
   score_loop_closures();
   if (!backend_.solved()) return;
   backend_.deformation_result().print(stdout);
