@@ -2,10 +2,10 @@
 # Runs every fuzz target of a QSG_FUZZ build for a bounded time each, from the committed seed corpora (plus the
 # source tree's example world and app configs), under the build's ASan and UBSan. Exits non-zero on the first finding: the crashing
 # input is left in BUILD/fuzz_artifacts/ (reproduce: BUILD/fuzz/fuzz_<name> FILE).
-#   fuzz/run_fuzzers.sh [BUILD_DIR (build/fuzz)] [SECONDS_EACH (45)] [TARGET ...]
+#   fuzz/run_fuzzers.sh [BUILD_DIR (build/asan)] [SECONDS_EACH (45)] [TARGET ...]
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
-build=${1:-build/fuzz}
+build=${1:-build/asan}
 seconds=${2:-45}
 shift $(( $# > 2 ? 2 : $# ))
 targets=("$@")
@@ -16,7 +16,7 @@ artifacts=$build/fuzz_artifacts
 mkdir -p "$artifacts"
 for name in "${targets[@]}"; do
   binary=$build/fuzz/fuzz_$name
-  [[ -x $binary ]] || { echo "fuzz: $binary not built (cmake --preset fuzz && cmake --build --preset fuzz)" >&2; exit 1; }
+  [[ -x $binary ]] || { echo "fuzz: $binary not built (cmake --preset asan && cmake --build --preset asan)" >&2; exit 1; }
   corpus=$build/fuzz_corpus/$name
   mkdir -p "$corpus"
   cp -n fuzz/corpus/"$name"/* "$corpus"/ 2> /dev/null || true

@@ -2,27 +2,30 @@
 # Installs every build and test dependency of quadsg on a Debian 12 (bookworm) machine. Idempotent: when
 # everything is already there it does not touch apt at all (no root needed).
 #
-#   toolchains/install_deps.sh [--native] [--cross]
+#   toolchains/install_deps.sh [--native] [--sanitize] [--cross]
 #
 #   --native  (default) compiler, CMake, Ninja and the -dev packages of the host build (Eigen, OpenCV, Ceres,
 #             libgpiod, libv4l, nanoflann, yaml-cpp, nlohmann-json, GoogleTest, Google Benchmark), ccache;
 #             three.js (libjs-three, inlined into the app's scene_graph.html) and headless Chromium (its test).
-#   --cross   also the aarch64 tools (GCC cross compiler, clang + lld and its libFuzzer, qemu-user, mmdebstrap; qemu-system-arm,
-#             kmod and cpio for the VM stage) and both arm64 sysroots under build/sysroots/: bookworm-arm64
-#             (arm64 CI tests) and bullseye-arm64 (Xavier deploy), built by toolchains/make_sysroot.sh (itself
-#             a no-op when a sysroot is up to date).
+#   --sanitize  also clang and its sanitizer and libFuzzer runtimes (the asan preset: tests and fuzz/ targets).
+#   --cross   also the aarch64 tools (GCC cross compiler, lld, qemu-user, mmdebstrap; qemu-system-arm, kmod and
+#             cpio for the VM stage; what --sanitize installs) and both arm64 sysroots under build/sysroots/:
+#             bookworm-arm64 (the arm64 preset) and bullseye-arm64 (the xavier-deploy preset, CI's arm64 stage),
+#             built by toolchains/make_sysroot.sh (itself a no-op when a sysroot is up to date).
 set -euo pipefail
 
 here=$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)
 root=$(dirname "$here")
 
 cross=0
+sanitize=0
 for arg in "$@"; do
   case "$arg" in
     --native) ;;  # always: the cross build needs the host tools too (CMake, Ninja, pkg-config)
-    --cross) cross=1 ;;
-    -h|--help) sed -n '2,12p' "$0"; exit 0 ;;
-    *) echo "install_deps: unknown option '$arg' (--native, --cross)" >&2; exit 2 ;;
+    --sanitize) sanitize=1 ;;
+    --cross) cross=1 sanitize=1 ;;
+    -h|--help) sed -n '2,13p' "$0"; exit 0 ;;
+    *) echo "install_deps: unknown option '$arg' (--native, --sanitize, --cross)" >&2; exit 2 ;;
   esac
 done
 
@@ -30,10 +33,12 @@ packages=(cmake ninja-build g++ git pkg-config ccache
           libeigen3-dev libopencv-dev libceres-dev libgpiod-dev libv4l-dev libnanoflann-dev libyaml-cpp-dev
           nlohmann-json3-dev libgtest-dev libbenchmark-dev
           libjs-three chromium fonts-dejavu-core)
+if (( sanitize )); then
+  # clang with libFuzzer and its sanitizer runtimes (the asan preset, fuzz/run_fuzzers.sh).
+  packages+=(clang libclang-rt-14-dev)
+fi
 if (( cross )); then
-  packages+=(g++-aarch64-linux-gnu binutils-aarch64-linux-gnu qemu-user mmdebstrap clang lld)
-  # libFuzzer and the sanitizer runtimes for clang (the fuzz preset, fuzz/run_fuzzers.sh).
-  packages+=(libclang-rt-14-dev)
+  packages+=(g++-aarch64-linux-gnu binutils-aarch64-linux-gnu qemu-user mmdebstrap lld)
   # The VM stage (toolchains/vm/): qemu-system-arm boots Debian's arm64 kernel, depmod (kmod) resolves the
   # modules vivid needs, cpio packs the initramfs. The arm64 kernel and busybox are .debs that
   # toolchains/vm/fetch_kernel.sh downloads through its own apt state, so the host needs no arm64 dpkg

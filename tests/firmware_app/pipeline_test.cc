@@ -104,9 +104,7 @@ std::uint64_t thread_minor_faults() {
 // over the same stretch with Arena::create's pre-faulting taken out (the stores' pages as they first fill).
 TEST(PipelineTest, LockstepRunTakesNoPageFaultsAfterStartUp) {
   if (qsg::testing::running_emulated()) GTEST_SKIP() << "under qemu-user the page faults counted are the emulator's";
-#if defined(__SANITIZE_ADDRESS__)
-  GTEST_SKIP() << "AddressSanitizer maps its shadow memory on first use";
-#endif
+  if (qsg::testing::address_sanitizer()) GTEST_SKIP() << "AddressSanitizer maps its shadow memory on first use";
   runtime::SteppedClock clock;
   Pipeline p;
   std::string error;
