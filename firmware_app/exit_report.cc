@@ -65,7 +65,8 @@ ReportGroup pipeline_group(const PipelineCounters& c) {
   g.add("loop_closures_true", U(c.loop_closures_true));
   g.add("loop_closures_false", U(c.loop_closures_false));
   g.add("loop_closures_false_kept", U(c.loop_closures_false_kept));
-  g.add("loop_closures_dropped", U(c.loop_closures_dropped));
+  g.add("loop_closure_folds", U(c.loop_closure_folds));
+  g.add("loop_closures_folded", U(c.loop_closures_folded));
   g.add("graph_optimizations", U(c.graph_optimizations));
   g.add("graph_optimization_failures", U(c.graph_optimization_failures));
   g.add("graph_optimization_max_us", U(c.graph_optimization_max_us));

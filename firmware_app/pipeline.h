@@ -99,7 +99,8 @@ struct PipelineCounters {
   std::uint64_t loop_closures_true = 0;    // proposed within 10 cm / 1 degree of the truth (sim, replay with poses)
   std::uint64_t loop_closures_false = 0;   // proposed more than 0.5 m or 5 degrees off the truth
   std::uint64_t loop_closures_false_kept = 0;  // ... and kept by the optimization: what bends the map
-  std::uint64_t loop_closures_dropped = 0; // beyond the "loop_closures" capacity (counted, not optimized)
+  std::uint64_t loop_closure_folds = 0;        // the "loop_closures" store full: its older half folded
+  std::uint64_t loop_closures_folded = 0;      // closures those folds dropped (the last solve's outliers first)
   std::uint64_t agent_frames_dropped = 0;  // agents to describe whose keyframe found no free slot (no appearance)
   std::uint64_t loop_closures_by_appearance = 0;
   std::uint64_t places_merged_after_correction = 0;   // reconciliation at the finish (BackendStage::reconcile)

@@ -251,7 +251,8 @@ void Pipeline::correct_outputs(reconstruction::Mesh* mesh, reconstruction::Mesh*
     std::fprintf(stderr, "loop closure: the final optimization failed; outputs keep the last solution\n");
   counters_.loop_closures = b.loop_closures.load();
   counters_.loop_closures_kept = b.loop_closures_kept.load();
-  counters_.loop_closures_dropped = b.loop_closures_dropped.load();
+  counters_.loop_closure_folds = b.loop_closure_folds.load();
+  counters_.loop_closures_folded = b.loop_closures_folded.load();
   counters_.loop_closures_by_appearance = b.loop_closures_by_appearance.load();
   counters_.agent_frames_dropped = lc_frames_dropped_ + b.appearances_dropped.load();
   counters_.graph_optimizations = b.graph_optimizations.load();

@@ -427,6 +427,8 @@ int main(int argc, char** argv) {
       figures.add(prefix + "loop_closures_false_kept", static_cast<double>(k.loop_closures_false_kept), "count");
       figures.add(prefix + "loop_closures_by_appearance", static_cast<double>(k.loop_closures_by_appearance), "count");
       figures.add(prefix + "agents_described", static_cast<double>(k.agents_described), "count");
+      figures.add(prefix + "loop_closure_folds", static_cast<double>(k.loop_closure_folds), "count");
+      figures.add(prefix + "loop_closures_folded", static_cast<double>(k.loop_closures_folded), "count");
       figures.add(prefix + "solve_max", k.graph_optimization_max_us / 1000.0, "ms");
       add_cost_figures(p, prefix, &figures);
       figures.add(prefix + "path_length", odo.path_length_m, "m");

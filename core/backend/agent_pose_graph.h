@@ -63,6 +63,10 @@ struct ChainLoopClosure {
   Pose3 a_T_b;
   Eigen::Vector3d sigma_t_m = Eigen::Vector3d::Constant(0.05);
   Eigen::Vector3d sigma_rot_rad = Eigen::Vector3d::Constant(0.01);
+  // Which closure this is, kept from one solve to the next (the backend uses the query agent's time; 0: unnamed,
+  // then a closure is known by its index). The deformation graph carries a decision by it when the closure store
+  // folded since (which shifts the indices).
+  std::uint64_t id = 0;
 };
 
 struct AgentGraphResult {

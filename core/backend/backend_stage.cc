@@ -86,10 +86,16 @@ bool BackendStage::init_loop_closure(const scene_graph::Capacities& gc, std::siz
   pending_.reserve(2 * lc::kAppearanceFrames);
   described_.reserve(pending_.capacity());
   loop_closures_.reserve(lc::kLoopClosures);
+  if (c.closure_capacity > lc::kLoopClosures || (c.closure_capacity > 0 && c.closure_capacity < 4))
+    return *error = "loop_closure.closure_capacity " + std::to_string(c.closure_capacity) +
+                    " must be 0 (the budget's) or in [4, " + std::to_string(lc::kLoopClosures) + "]",
+           false;
+  closure_capacity_ = c.closure_capacity > 0 ? c.closure_capacity : loop_closures_.capacity();
   deformation_inputs_.reserve(gc.agent_nodes, lc::kControlPoints, gc.place_nodes, gc.edges);
-  const std::size_t bytes = detector_.bytes() + lc::kControlPoints * (sizeof(Eigen::Vector3d) + 8 + 16) + frame_bytes +
-                            pending_.capacity() * sizeof(PendingAppearance) +
-                            described_.capacity() * sizeof(loop_closure::AgentEntry) + deformation_inputs_.capacity_bytes();
+  const std::size_t bytes =
+      detector_.bytes() + lc::kControlPoints * (sizeof(Eigen::Vector3d) + 8 + 16) + frame_bytes +
+      pending_.capacity() * sizeof(PendingAppearance) + described_.capacity() * sizeof(loop_closure::AgentEntry) +
+      deformation_inputs_.capacity_bytes() + loop_closures_.capacity() * sizeof(loop_closure::LoopClosure);
   if (bytes > lc::kArenaBytes)
     return *error = "budget: loop_closure stores need " + std::to_string(bytes) + " bytes, the arena has " +
                     std::to_string(lc::kArenaBytes),
@@ -344,11 +350,16 @@ bool BackendStage::detect_described() {
     loop_closure::LoopClosure closure;
     if (!detector_.add_and_detect(e, &closure)) continue;
     counters_.loop_closures.fetch_add(1);
-    if (loop_closures_.size() == loop_closures_.capacity()) {
-      counters_.loop_closures_dropped.fetch_add(1);
-      continue;
+    if (loop_closures_.size() >= closure_capacity_) {
+      const std::size_t folded = fold_loop_closures(&loop_closures_, [this](const loop_closure::LoopClosure& lc) {
+        double w = 1.0;
+        return deformation_.closure_weight(lc.query_time_ns, &w) && w <= 0.5;
+      });
+      counters_.loop_closure_folds.fetch_add(1);
+      counters_.loop_closures_folded.fetch_add(folded);
     }
     loop_closures_.push_back(closure);
+    loop_closures_high_water_ = std::max(loop_closures_high_water_, loop_closures_.size());
     if (closure.source == loop_closure::ClosureSource::kAppearance) counters_.loop_closures_by_appearance.fetch_add(1);
     found = true;
   }
@@ -406,6 +417,7 @@ bool chain_closure(const agents::ChainView& agents, const loop_closure::LoopClos
   if (b.time_ns != lc.query_time_ns) a_T_b = a_T_b * lc.world_T_query.inverse() * isometry(b.t_m, b.q);
   out->a_T_b = Pose3{a_T_b.translation(), Eigen::Quaterniond(a_T_b.linear())};
   closure_sigmas(lc, config, &out->sigma_t_m, &out->sigma_rot_rad);
+  out->id = lc.query_time_ns;  // one closure per query agent
   return true;
 }
 

@@ -39,6 +39,9 @@ struct LoopClosureConfig {
   // The deformation graph is re-solved after a new loop closure at most once per this much mission time; closures
   // found meanwhile wait for the next solve (and the finish solves whatever is pending).
   double solve_interval_s = 10.0;
+  // Closures kept at most (0: the budget's loop_closure.loop_closures, which bounds it); a full store folds
+  // (fold_loop_closures). Below the budget only to try the fold on a short mission (bench/loop_closure).
+  std::uint32_t closure_capacity = 0;
   loop_closure::DescriptorConfig descriptor;
   loop_closure::DetectorConfig detector;
   DeformationConfig deformation;
@@ -68,6 +71,26 @@ void closure_sigmas(const loop_closure::LoopClosure& lc, const LoopClosureConfig
 // node (or out of order).
 bool chain_closure(const agents::ChainView& agents, const loop_closure::LoopClosure& lc, const LoopClosureConfig& config,
                    ChainLoopClosure* out);
+// The loop-closure store's policy when full (a fold), in place and without allocating: of the older half, the
+// closures `rejected` names (the last solve's outliers) go first; when that frees less than a quarter of the store,
+// every second closure left in the older half goes too, as the agent chain and the control points fold. The newer
+// half stays whole. Returns how many closures went.
+template <typename Rejected>
+std::size_t fold_loop_closures(std::vector<loop_closure::LoopClosure>* closures, Rejected&& rejected) {
+  std::vector<loop_closure::LoopClosure>& v = *closures;
+  const std::size_t n = v.size(), half = n / 2;
+  std::size_t out = 0;
+  for (std::size_t i = 0; i < half; ++i)
+    if (!rejected(v[i])) v[out++] = v[i];
+  if (half - out < (n + 3) / 4) {  // too few outliers: thin what is left of the older half
+    std::size_t thinned = 0;
+    for (std::size_t i = 0; i < out; i += 2) v[thinned++] = v[i];
+    out = thinned;
+  }
+  for (std::size_t i = half; i < n; ++i) v[out++] = v[i];
+  v.resize(out);
+  return n - out;
+}
 
 class BackendStage {
  public:
@@ -100,7 +123,8 @@ class BackendStage {
     std::atomic<std::uint64_t> agents_described{0};
     std::atomic<std::uint64_t> loop_closures{0};
     std::atomic<std::uint64_t> loop_closures_kept{0};
-    std::atomic<std::uint64_t> loop_closures_dropped{0};
+    std::atomic<std::uint64_t> loop_closure_folds{0};    // the closure store full: fold_loop_closures
+    std::atomic<std::uint64_t> loop_closures_folded{0};  // closures its folds dropped
     std::atomic<std::uint64_t> loop_closures_by_appearance{0};
     std::atomic<std::uint64_t> appearances_dropped{0};  // described too late: the oldest waiting appearance went
     std::atomic<std::uint64_t> graph_optimizations{0};
@@ -257,9 +281,10 @@ class BackendStage {
     memory::ResourceStats s;
     s.name = "loop_closure.closures";
     s.unit = "closures";
-    s.capacity = loop_closures_.capacity();
-    s.in_use = s.high_water = loop_closures_.size();
-    s.failed = counters_.loop_closures_dropped.load();
+    s.capacity = closure_capacity_;
+    s.in_use = loop_closures_.size();
+    s.high_water = loop_closures_high_water_;
+    s.failed = 0;  // a full store folds (counters: loop_closure_folds, loop_closures_folded); nothing is refused
     fn(s);
   }
   const rooms::OnlineDoors& online_doors() const { return online_doors_; }
@@ -300,6 +325,8 @@ class BackendStage {
   DeformationInputs deformation_inputs_;  // the chain and places as last copied under the graph lock
   DeformationResult deformation_result_;
   std::vector<loop_closure::LoopClosure> loop_closures_;  // capacity: the budget's loop_closure.loop_closures
+  std::size_t loop_closures_high_water_ = 0;
+  std::size_t closure_capacity_ = 0;  // loop_closure.closure_capacity, or the store's reserved capacity
   bool solve_pending_ = false;
   std::uint64_t last_solve_ns_ = 0;
   std::uint64_t described_until_ns_ = 0;  // chain nodes up to this time are described (or skipped)

@@ -20,6 +20,8 @@ const params::Table<LoopClosureConfig>& loop_closure_params_table() {
           "one described agent per this much path");
     t.add("solve_interval_s", &C::solve_interval_s, "s", in(0, 3600), project,
           "the deformation graph is re-solved at most this often");
+    t.add("closure_capacity", &C::closure_capacity, "closures", in(0, 1u << 20), project,
+          "closures kept at most (0: the budget's); a full store folds its older half, outliers first");
     t.include(loop_closure::descriptor_params_table(),
               [](C& c) -> loop_closure::DescriptorConfig& { return c.descriptor; });
     t.include(loop_closure::detector_params_table(), [](C& c) -> loop_closure::DetectorConfig& { return c.detector; });

@@ -231,6 +231,18 @@ void DeformationGraph::keep_control_edges(const Eigen::Vector3d& point, const st
   ++*final_points;
 }
 
+namespace {
+
+// Each closure's name; none when one is unnamed (all are then known by index).
+std::vector<std::uint64_t> closure_ids(const std::vector<ChainLoopClosure>& closures) {
+  std::vector<std::uint64_t> ids;
+  if (!std::all_of(closures.begin(), closures.end(), [](const ChainLoopClosure& c) { return c.id != 0; })) return ids;
+  for (const ChainLoopClosure& c : closures) ids.push_back(c.id);
+  return ids;
+}
+
+}  // namespace
+
 DeformationProblem DeformationGraph::build(const agents::ChainView& agents,
                                            const std::vector<ChainLoopClosure>& loop_closures,
                                            const ControlPoints& control, const scene_graph::SceneGraph& graph) const {
@@ -277,6 +289,7 @@ DeformationProblem DeformationGraph::build(const DeformationInputs& in,
   r.edges_aa = edges.size();
   problem.first_closure = edges.size();
   for (const ChainLoopClosure& c : loop_closures) edges.push_back(loop_closure_edge(c));
+  problem.closure_ids = closure_ids(loop_closures);
   const double sigma = config_.sigma_position_m;
   // The chain node a time belongs to: the last one at or before it.
   const auto agent_at = [&](std::uint64_t t) {
@@ -557,6 +570,8 @@ DeformationResult DeformationGraph::solve(DeformationProblem problem) {
     ends.emplace_back(problem.edges[problem.first_closure + c].from, problem.edges[problem.first_closure + c].to);
   std::vector<std::uint32_t> kept;
   const std::vector<std::uint64_t> chain_times = problem.agent_times_ns;  // before any thinning
+  std::vector<std::uint64_t> ids = problem.closure_ids;
+  if (ids.size() != problem.result.loop_closures) ids.clear();
   std::vector<Pose3> odometric;  // the chain's poses, when the solved graph thins them
   if (config_.agent_spacing_m > 0.0 && problem.result.agents > 2) {
     odometric.assign(problem.poses.begin(), problem.poses.begin() + static_cast<std::ptrdiff_t>(problem.result.agents));
@@ -566,7 +581,7 @@ DeformationResult DeformationGraph::solve(DeformationProblem problem) {
   const std::size_t A = r.agents_solved, nodes = problem.originals.size();
   std::vector<Pose3> solved = problem.poses;
   if (config_.decide_on_agents && r.loop_closures > 0) {
-    if (!(config_.incremental_decisions && decide_incrementally(problem, kept, ends, chain_times, &solved, &r)))
+    if (!(config_.incremental_decisions && decide_incrementally(problem, kept, ends, chain_times, ids, &solved, &r)))
       r.decide = decide_on_agents(config_.agents.solver, problem, &solved, &r.loop_closure_weight,
                                   config_.reduced_decisions, &r.decide_chain, &r.agents_decided);
     if (!r.decide.poses_updated()) {
@@ -622,6 +637,11 @@ DeformationResult DeformationGraph::solve(DeformationProblem problem) {
   agent_times_ = chain_times.size() == agent_poses_.size() ? chain_times : std::vector<std::uint64_t>{};
   closure_ends_ = std::move(ends);
   closure_weights_ = r.loop_closure_weight;
+  closure_by_id_.clear();
+  if (ids.size() == closure_weights_.size()) {
+    for (std::size_t k = 0; k < ids.size(); ++k) closure_by_id_.emplace_back(ids[k], static_cast<std::uint32_t>(k));
+    std::sort(closure_by_id_.begin(), closure_by_id_.end());
+  }
   tail_correction_ = agent_poses_.back() * (kept.empty() ? problem.poses[A - 1] : odometric.back()).inverse();
   nodes_.clear();
   nodes_.reserve(nodes);
@@ -643,6 +663,19 @@ std::int64_t DeformationGraph::last_agent(const std::vector<std::uint64_t>& chai
   return it != agent_times_.end() && *it == chain_times[k] ? it - agent_times_.begin() : -1;
 }
 
+std::int64_t DeformationGraph::last_closure(const std::vector<std::uint64_t>& ids, std::size_t c) const {
+  if (ids.empty() || closure_by_id_.empty()) return c < closure_weights_.size() ? static_cast<std::int64_t>(c) : -1;
+  const auto it = std::lower_bound(closure_by_id_.begin(), closure_by_id_.end(), std::make_pair(ids[c], 0u));
+  return it != closure_by_id_.end() && it->first == ids[c] ? static_cast<std::int64_t>(it->second) : -1;
+}
+
+bool DeformationGraph::closure_weight(std::uint64_t id, double* weight) const {
+  const auto it = std::lower_bound(closure_by_id_.begin(), closure_by_id_.end(), std::make_pair(id, 0u));
+  if (!solved_ || it == closure_by_id_.end() || it->first != id || it->second >= closure_weights_.size()) return false;
+  *weight = closure_weights_[it->second];
+  return true;
+}
+
 bool DeformationGraph::agent_pose_at(std::uint64_t time_ns, Pose3* out) const {
   const auto it = std::lower_bound(agent_times_.begin(), agent_times_.end(), time_ns);
   if (!solved_ || it == agent_times_.end() || *it != time_ns) return false;
@@ -652,27 +685,33 @@ bool DeformationGraph::agent_pose_at(std::uint64_t time_ns, Pose3* out) const {
 
 bool DeformationGraph::decide_incrementally(const DeformationProblem& problem, const std::vector<std::uint32_t>& kept,
                                             const std::vector<std::pair<std::uint32_t, std::uint32_t>>& ends,
-                                            const std::vector<std::uint64_t>& chain_times, std::vector<Pose3>* solved,
+                                            const std::vector<std::uint64_t>& chain_times,
+                                            const std::vector<std::uint64_t>& ids, std::vector<Pose3>* solved,
                                             DeformationResult* r) const {
   const std::size_t A = problem.result.agents_solved, L = r->loop_closures;
   if (!solved_ || closure_ends_.empty() || agent_poses_.empty()) return false;
-  // The agent layer's edges; a closure the last solve decided (same index, same chain nodes) keeps its decision.
+  // The agent layer's edges; a closure the last solve decided (same closure, same chain nodes) keeps its decision.
   std::vector<RelativePoseEdge> edges;
   std::vector<std::int64_t> closure_edge(L, -1);  // its index in `edges`, when in
   std::vector<char> carried(L, 0);
+  std::vector<double> last_weight(L, 0.0);  // a carried closure's weight in the last solve
   std::size_t num_carried = 0;
   for (std::size_t k = 0; k < problem.edges.size(); ++k) {
     RelativePoseEdge e = problem.edges[k];
     if (e.from >= A || e.to >= A) continue;
     if (k >= problem.first_closure && k < problem.first_closure + L) {
       const std::size_t c = k - problem.first_closure;
-      // The same closure on the same chain nodes (found by time: a fold shifts the indices).
+      // The same closure (by its id: a fold of the closure store shifts the indices) on the same chain nodes (by
+      // time: a fold of the chain does).
+      const std::int64_t o = last_closure(ids, c);
       const std::int64_t a = last_agent(chain_times, ends[c].first), b = last_agent(chain_times, ends[c].second);
-      if (c < closure_ends_.size() && c < closure_weights_.size() && a >= 0 && b >= 0 &&
-          closure_ends_[c] == std::make_pair(static_cast<std::uint32_t>(a), static_cast<std::uint32_t>(b))) {
+      if (o >= 0 && static_cast<std::size_t>(o) < closure_ends_.size() && a >= 0 && b >= 0 &&
+          closure_ends_[static_cast<std::size_t>(o)] ==
+              std::make_pair(static_cast<std::uint32_t>(a), static_cast<std::uint32_t>(b))) {
         carried[c] = 1;
+        last_weight[c] = closure_weights_[static_cast<std::size_t>(o)];
         ++num_carried;
-        if (closure_weights_[c] <= 0.5) continue;  // an outlier stays out
+        if (last_weight[c] <= 0.5) continue;       // an outlier stays out
         e.is_loop_closure = false;                 // an inlier stays in, as a plain edge
       }
       closure_edge[c] = static_cast<std::int64_t>(edges.size());
@@ -701,7 +740,8 @@ bool DeformationGraph::decide_incrementally(const DeformationProblem& problem, c
     }
   r->loop_closure_weight.assign(L, 0.0);
   for (std::size_t c = 0; c < L; ++c) {
-    if (carried[c]) r->loop_closure_weight[c] = closure_weights_[c] > 0.5 ? 1.0 : 0.0;
+    if (carried[c])
+      r->loop_closure_weight[c] = last_weight[c] > 0.5 ? 1.0 : 0.0;
     else if (closure_edge[c] >= 0)
       r->loop_closure_weight[c] =
           pr.edge_weight.empty() ? 1.0 : pr.edge_weight[static_cast<std::size_t>(closure_edge[c])];

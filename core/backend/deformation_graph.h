@@ -171,6 +171,7 @@ struct DeformationProblem {
   // The chain nodes' times (strictly increasing), so the next solve finds its agents in this one after the chain
   // folded (which shifts their indices). Empty for a problem read from a file: indices are then taken as they are.
   std::vector<std::uint64_t> agent_times_ns;
+  std::vector<std::uint64_t> closure_ids;  // each closure's ChainLoopClosure::id (empty for a problem from a file)
 };
 
 class DeformationGraph {
@@ -202,6 +203,9 @@ class DeformationGraph {
   // The last solved chain node's correction (optimized * odometric^-1), for the nodes added since.
   const Pose3& tail_correction() const { return tail_correction_; }
   std::size_t num_agent_poses() const { return agent_poses_.size(); }
+  // The last solve's weight of the closure named `id` (ChainLoopClosure::id; above 0.5: kept), or false when it had
+  // no closure of that name.
+  bool closure_weight(std::uint64_t id, double* weight) const;
   // A place's optimized position, or false when the place was not in the solved graph.
   bool place_position(scene_graph::NodeId id, Eigen::Vector3d* out) const;
   const DeformationConfig& config() const { return config_; }
@@ -225,12 +229,15 @@ class DeformationGraph {
   // The last solve's index of this problem's chain node k (chain_times: the problem's agent_times_ns), found by
   // time; -1 when the last solve did not have it. Without times on either side, k itself when in range.
   std::int64_t last_agent(const std::vector<std::uint64_t>& chain_times, std::size_t k) const;
+  // The last solve's index of this problem's closure c (ids: the problem's closure_ids), found by its id; without ids
+  // on either side, c itself. -1 when the last solve did not have it.
+  std::int64_t last_closure(const std::vector<std::uint64_t>& ids, std::size_t c) const;
   // incremental_decisions: the agent layer with the last solve's decisions, GNC over the new closures; false (and
   // *r untouched) when there is nothing to carry over or a carried inlier no longer fits.
   bool decide_incrementally(const DeformationProblem& problem, const std::vector<std::uint32_t>& kept,
                             const std::vector<std::pair<std::uint32_t, std::uint32_t>>& ends,
-                            const std::vector<std::uint64_t>& chain_times, std::vector<Pose3>* solved,
-                            DeformationResult* r) const;
+                            const std::vector<std::uint64_t>& chain_times, const std::vector<std::uint64_t>& ids,
+                            std::vector<Pose3>* solved, DeformationResult* r) const;
 
   DeformationConfig config_;
   bool solved_ = false;
@@ -241,6 +248,7 @@ class DeformationGraph {
   // The last solve's closures (their chain nodes) and weights, and the correction of its last chain node.
   std::vector<std::pair<std::uint32_t, std::uint32_t>> closure_ends_;
   std::vector<double> closure_weights_;
+  std::vector<std::pair<std::uint64_t, std::uint32_t>> closure_by_id_;  // sorted (id, index); empty: by index
   Pose3 tail_correction_;
   std::unordered_map<scene_graph::NodeId, std::uint32_t> place_node_;
   std::vector<std::pair<std::uint64_t, std::uint32_t>> cells_;  // sorted (cell, node)

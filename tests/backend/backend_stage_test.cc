@@ -139,6 +139,44 @@ TEST(BackendStageTest, AClosureToAFoldedAgentJoinsItsNodeThroughTheOdometry) {
   EXPECT_FALSE(chain_closure(agents, closure(kept, kept), LoopClosureConfig{}, &cc)) << "one node";
 }
 
+// A full closure store folds its older half: the last solve's outliers first; when they free less than a quarter of
+// the store, every second closure left there too. The newer half stays whole, outliers and all.
+TEST(BackendStageTest, AFullClosureStoreFoldsItsOlderHalfOutliersFirst) {
+  using Closures = std::vector<loop_closure::LoopClosure>;
+  const auto store = [](std::size_t n) {
+    Closures v(n);
+    for (std::size_t k = 0; k < n; ++k) v[k].query_time_ns = k + 1;
+    return v;
+  };
+  const auto times = [](const Closures& v) {
+    std::vector<std::uint64_t> t;
+    for (const auto& lc : v) t.push_back(lc.query_time_ns);
+    return t;
+  };
+  {
+    SCOPED_TRACE("enough outliers in the older half");
+    Closures v = store(8);
+    const auto* data = v.data();
+    const std::set<std::uint64_t> outliers = {2, 3, 7};
+    const auto rejected = [&](const loop_closure::LoopClosure& lc) { return outliers.count(lc.query_time_ns) > 0; };
+    EXPECT_EQ(fold_loop_closures(&v, rejected), 2u);
+    EXPECT_EQ(times(v), (std::vector<std::uint64_t>{1, 4, 5, 6, 7, 8})) << "the newer half's outlier stays";
+    EXPECT_EQ(v.data(), data) << "in place";
+  }
+  {
+    SCOPED_TRACE("no outliers: every second closure of the older half");
+    Closures v = store(8);
+    EXPECT_EQ(fold_loop_closures(&v, [](const loop_closure::LoopClosure&) { return false; }), 2u);
+    EXPECT_EQ(times(v), (std::vector<std::uint64_t>{1, 3, 5, 6, 7, 8}));
+  }
+  {
+    SCOPED_TRACE("one outlier is too few: it goes, then every second closure left");
+    Closures v = store(8);
+    EXPECT_EQ(fold_loop_closures(&v, [](const loop_closure::LoopClosure& lc) { return lc.query_time_ns == 1; }), 2u);
+    EXPECT_EQ(times(v), (std::vector<std::uint64_t>{2, 4, 5, 6, 7, 8}));
+  }
+}
+
 TEST(BackendStageTest, RoomsAndTheirLabelsInOneUpdate) {
   rooms::testing::SyntheticPlaces s;
   auto g = two_rooms_with_objects(&s);
@@ -233,6 +271,26 @@ TEST(BackendStageTest, LoopClosureStoresAreCarvedAndReported) {
   EXPECT_FALSE(stage.detect_loop_closures(*g, agents, 100'000'000'000ull));
   EXPECT_FALSE(stage.solve_due(100'000'000'000ull));
   EXPECT_EQ(stage.counters().agents_described.load(), 0u);
+  // The closure store's capacity: the budget's by default, a smaller one when configured, never a larger one.
+  const auto closures_capacity = [](const BackendStage& s) {
+    std::size_t capacity = 0;
+    s.for_each_resource([&](const memory::ResourceStats& r) {
+      if (std::string(r.name) == "loop_closure.closures") capacity = r.capacity;
+    });
+    return capacity;
+  };
+  EXPECT_EQ(closures_capacity(stage), budgets::active::loop_closure::kLoopClosures);
+  for (const std::uint32_t capacity :
+       {2u, static_cast<std::uint32_t>(budgets::active::loop_closure::kLoopClosures + 1)}) {
+    BackendStage small;
+    c.loop_closure.closure_capacity = capacity;
+    EXPECT_FALSE(small.init(c, graph_capacities(), 64, 0, &error, &warning));
+    EXPECT_NE(error.find("loop_closure.closure_capacity"), std::string::npos) << error;
+  }
+  BackendStage small;
+  c.loop_closure.closure_capacity = 16;
+  ASSERT_TRUE(small.init(c, graph_capacities(), 64, 0, &error, &warning)) << error;
+  EXPECT_EQ(closures_capacity(small), 16u);
 }
 
 // The detect hook (the app's stage markers) brackets each described agent's lookup and verification: the agents

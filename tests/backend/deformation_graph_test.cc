@@ -523,6 +523,42 @@ TEST_F(DeformationGraphTest, IncrementalDecisionsKeepTheLastOnesAndDecideAgainWh
   }
 }
 
+// The closure store folds when full (backend_stage.h: fold_loop_closures), which shifts every closure's index. A
+// closure named by its id keeps its decision all the same; unnamed ones are known by index and lose theirs.
+TEST_F(DeformationGraphTest, NamedClosuresKeepTheirDecisionsWhenTheStoreFolds) {
+  const auto last = static_cast<std::uint32_t>(walk_.truth.size() - 1);
+  const auto half = static_cast<std::uint32_t>(walk_.truth.size() / 2);
+  DeformationConfig c = strategy(true);
+  c.incremental_decisions = true;
+  ASSERT_EQ(c.check(), "");
+  ChainLoopClosure wrong = true_closure(10, 30);
+  wrong.a_T_b = Pose3{Eigen::Vector3d(0.5, 0.2, 0.0), Eigen::Quaterniond::Identity()};
+  std::vector<ChainLoopClosure> before = {true_closure(0, half), true_closure(0, last), wrong, true_closure(1, last)};
+  std::vector<ChainLoopClosure> after = {true_closure(0, last), wrong, true_closure(1, last), true_closure(2, last)};
+  for (const bool named : {true, false}) {
+    SCOPED_TRACE(named ? "named" : "unnamed");
+    for (std::size_t k = 0; k < before.size(); ++k) before[k].id = named ? 100 + k : 0;
+    for (std::size_t k = 0; k < after.size(); ++k) after[k].id = named ? 101 + k : 0;  // the first one folded away
+    DeformationGraph g(c);
+    const DeformationResult r1 = g.optimize(layer_, before, control_, *graph_);
+    ASSERT_TRUE(r1.solve.poses_updated());
+    ASSERT_EQ(r1.loop_closure_weight.size(), 4u);
+    ASSERT_LT(r1.loop_closure_weight[2], 0.5) << "the wrong one";
+    double w = 1.0;
+    EXPECT_EQ(g.closure_weight(102, &w), named);
+    if (named) {
+      EXPECT_LT(w, 0.5);
+    }
+    const DeformationResult r2 = g.optimize(layer_, after, control_, *graph_);
+    ASSERT_TRUE(r2.solve.poses_updated());
+    EXPECT_EQ(r2.closures_carried, named ? 3u : 0u);
+    EXPECT_FALSE(r2.decided_again);
+    ASSERT_EQ(r2.loop_closure_weight.size(), 4u);
+    EXPECT_LT(r2.loop_closure_weight[1], 0.5) << "the wrong one stays out";
+    EXPECT_GT(r2.loop_closure_weight[3], 0.5) << "the new one is decided";
+  }
+}
+
 // reduced_decisions off: the agents are exactly GNC's over the whole agent layer (the current path, bit for bit);
 // on: the same decisions, a wrong closure rejected, fresh and carried, and agents within millimetres of the off path.
 TEST_F(DeformationGraphTest, ReducedDecisionsDecideAsTheWholeAgentLayer) {
