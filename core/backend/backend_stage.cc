@@ -412,11 +412,26 @@ bool chain_closure(const agents::ChainView& agents, const loop_closure::LoopClos
   const agents::ChainNode& a = agents.chain(out->a);
   const agents::ChainNode& b = agents.chain(out->b);
   Eigen::Isometry3d a_T_b = lc.match_T_query;
-  // An agent the chain folded away since: join the chain node nearest it through the odometry between them.
-  if (a.time_ns != lc.match_time_ns) a_T_b = isometry(a.t_m, a.q).inverse() * lc.world_T_match * a_T_b;
-  if (b.time_ns != lc.query_time_ns) a_T_b = a_T_b * lc.world_T_query.inverse() * isometry(b.t_m, b.q);
+  // An agent the chain folded away since: join the chain node nearest it through the odometry between them, whose
+  // random walk over that distance the edge then carries too (in quadrature, as a local map's stitching).
+  double joined_m = 0.0;
+  if (a.time_ns != lc.match_time_ns) {
+    a_T_b = isometry(a.t_m, a.q).inverse() * lc.world_T_match * a_T_b;
+    joined_m += (a.t_m - lc.world_T_match.translation()).norm();
+  }
+  if (b.time_ns != lc.query_time_ns) {
+    a_T_b = a_T_b * lc.world_T_query.inverse() * isometry(b.t_m, b.q);
+    joined_m += (b.t_m - lc.world_T_query.translation()).norm();
+  }
   out->a_T_b = Pose3{a_T_b.translation(), Eigen::Quaterniond(a_T_b.linear())};
   closure_sigmas(lc, config, &out->sigma_t_m, &out->sigma_rot_rad);
+  if (joined_m > 0.0) {
+    const AgentGraphConfig& walk = config.deformation.agents;
+    const double walk_t2 = walk.sigma_t_m_per_sqrt_m * walk.sigma_t_m_per_sqrt_m * joined_m;
+    const double walk_rot2 = walk.sigma_yaw_rad_per_sqrt_m * walk.sigma_yaw_rad_per_sqrt_m * joined_m;
+    out->sigma_t_m = (out->sigma_t_m.array().square() + walk_t2).sqrt().matrix();
+    out->sigma_rot_rad = (out->sigma_rot_rad.array().square() + walk_rot2).sqrt().matrix();
+  }
   out->id = lc.query_time_ns;  // one closure per query agent
   return true;
 }

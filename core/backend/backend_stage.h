@@ -67,8 +67,8 @@ void closure_sigmas(const loop_closure::LoopClosure& lc, const LoopClosureConfig
                     Eigen::Vector3d* sigma_rot_rad);
 // A loop closure as an edge between chain nodes: the nodes nearest its two agents' times. An agent the chain has
 // folded away since is joined to that node through the odometry between them (the closure's stored odometric
-// poses), so the edge measures the nodes' relative pose, not the folded agent's. False when both ends fall on one
-// node (or out of order).
+// poses), so the edge measures the nodes' relative pose, not the folded agent's, and its sigmas add the odometry's
+// walk over the distance joined. False when both ends fall on one node (or out of order).
 bool chain_closure(const agents::ChainView& agents, const loop_closure::LoopClosure& lc, const LoopClosureConfig& config,
                    ChainLoopClosure* out);
 // The loop-closure store's policy when full (a fold), in place and without allocating: of the older half, the

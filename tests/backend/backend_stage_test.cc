@@ -128,6 +128,16 @@ TEST(BackendStageTest, AClosureToAFoldedAgentJoinsItsNodeThroughTheOdometry) {
   EXPECT_LT(Eigen::AngleAxisd(cc.a_T_b.q.toRotationMatrix().transpose() * nodes.linear()).angle(), 1e-9);
   const Eigen::Isometry3d raw = closure(folded, 29).match_T_query;
   EXPECT_GT((raw.translation() - nodes.translation()).norm(), 0.5) << "taken as it was, it would be off";
+  // The join adds the odometry's walk over the distance joined to the closure's own sigmas.
+  const LoopClosureConfig config;
+  Eigen::Vector3d own_t, own_rot;
+  closure_sigmas(closure(folded, 29), config, &own_t, &own_rot);
+  const double joined = (agents.chain(cc.a).t_m - poses[folded].translation()).norm() +
+                        (agents.chain(cc.b).t_m - poses[29].translation()).norm();
+  ASSERT_GT(joined, 0.5);
+  const AgentGraphConfig& walk = config.deformation.agents;
+  EXPECT_NEAR(cc.sigma_t_m.x(), std::hypot(own_t.x(), walk.sigma_t_m_per_sqrt_m * std::sqrt(joined)), 1e-12);
+  EXPECT_NEAR(cc.sigma_rot_rad.z(), std::hypot(own_rot.z(), walk.sigma_yaw_rad_per_sqrt_m * std::sqrt(joined)), 1e-12);
   // Both agents still in the chain: the measured pose as it is.
   const int kept = node_of(times[28]) >= 0 ? 28 : 27;
   ASSERT_GE(node_of(times[kept]), 0);
@@ -135,6 +145,8 @@ TEST(BackendStageTest, AClosureToAFoldedAgentJoinsItsNodeThroughTheOdometry) {
   if (first_kept == 0) {
     ASSERT_TRUE(chain_closure(agents, closure(0, kept), LoopClosureConfig{}, &cc));
     EXPECT_EQ(cc.a_T_b.t_m, closure(0, kept).match_T_query.translation());
+    closure_sigmas(closure(0, kept), config, &own_t, &own_rot);
+    EXPECT_EQ(cc.sigma_t_m, own_t) << "nothing joined, nothing added";
   }
   EXPECT_FALSE(chain_closure(agents, closure(kept, kept), LoopClosureConfig{}, &cc)) << "one node";
 }
