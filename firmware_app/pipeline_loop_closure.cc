@@ -309,14 +309,18 @@ void Pipeline::score_loop_closures() {
     const bool false_closure = e_m > 0.5 || e_rad > 5.0 * M_PI / 180.0;
     wrong += false_closure ? 1 : 0;
     wrong_kept += false_closure && kept ? 1 : 0;
+    // The rotation error about the world's vertical (yaw) and about a horizontal axis (tilt).
+    const Eigen::AngleAxisd e_aa(error.linear());
+    const Eigen::Vector3d e_world = (a.world_T_body() * mount).linear() * (e_aa.axis() * e_aa.angle());
     if (std::getenv("QSG_DEBUG_LOOP_CLOSURES") != nullptr)
-      std::printf("  closure %zu (%s%s, icp overlap %.2f): %.1f s -> %.1f s, error %.3f m %.2f deg, %u inliers, "
-                  "kept %d\n",
-                  i, loop_closure::to_string(lc.source), lc.refined ? "+icp" : "", lc.icp.overlap,
-                  lc.match_time_ns * 1e-9, lc.query_time_ns * 1e-9, e_m, e_rad * 180.0 / M_PI,
-                  lc.source == loop_closure::ClosureSource::kAppearance ? lc.appearance.inliers
-                                                                        : lc.registration.inliers,
-                  kept ? 1 : 0);
+      std::printf(
+          "  closure %zu (%s%s%s, icp overlap %.2f rmse %.3f m constraint %.2f): %.1f s -> %.1f s, error %.3f m "
+          "%.2f deg (yaw %.2f, tilt %.2f), %u inliers, kept %d\n",
+          i, loop_closure::to_string(lc.source), lc.refined ? "+icp" : "", lc.local_map ? " on local maps" : "",
+          lc.icp.overlap, lc.icp.rmse_m, lc.icp.constraint_ratio, lc.match_time_ns * 1e-9, lc.query_time_ns * 1e-9, e_m,
+          e_rad * 180.0 / M_PI, std::abs(e_world.z()) * 180.0 / M_PI, e_world.head<2>().norm() * 180.0 / M_PI,
+          lc.source == loop_closure::ClosureSource::kAppearance ? lc.appearance.inliers : lc.registration.inliers,
+          kept ? 1 : 0);
   }
   if (scored == 0) return;
   std::sort(errors_m.begin(), errors_m.end());

@@ -1,5 +1,7 @@
 #include "core/loop_closure/depth_cloud.h"
 
+#include "core/loop_closure/detector_params.h"
+
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 
@@ -9,6 +11,7 @@
 namespace qsg::loop_closure {
 
 std::string IcpConfig::check() const {
+  if (std::string why = params::check(icp_params_table(), *this); !why.empty()) return why;
   if (!(max_depth_m > 0.0 && max_depth_m <= 100.0)) return "max_depth_m must be in (0, 100] m";
   if (iterations < 1 || iterations > 200) return "iterations must be in [1, 200]";
   if (!(inlier_m > 0.0 && start_inlier_m >= inlier_m && start_inlier_m <= 5.0))
@@ -23,9 +26,9 @@ std::string IcpConfig::check() const {
 void IcpConfig::print(std::FILE* out) const {
   std::fprintf(out,
                "icp refinement: %s, %u iterations, gate %.2f -> %.2f m, overlap >= %.2f, correction <= %.2f m and "
-               "%.3f rad\n",
+               "%.3f rad, %s\n",
                enabled ? "on" : "off", iterations, start_inlier_m, inlier_m, min_overlap, max_correction_m,
-               max_correction_rad);
+               max_correction_rad, gravity_aligned ? "yaw + translation (gravity aligned)" : "full SE(3)");
 }
 
 bool make_depth_cloud(const GreyDepthView& v, double max_depth_m, DepthCloud* out) {
@@ -91,11 +94,40 @@ class BruteForceIndex final : public NearestIndex {
 
 }  // namespace
 
+GravityPrior GravityPrior::from_poses(const Eigen::Isometry3d& world_T_match, const Eigen::Isometry3d& world_T_query) {
+  GravityPrior g;
+  g.match_up = world_T_match.linear().transpose() * Eigen::Vector3d::UnitZ();
+  g.query_up = world_T_query.linear().transpose() * Eigen::Vector3d::UnitZ();
+  return g;
+}
+
+namespace {
+
+// The estimate with the odometry's tilt: the smallest rotation that takes the query's vertical, as the estimate
+// maps it, onto the match's, applied to the estimate's rotation.
+Eigen::Isometry3d with_gravity_tilt(const Eigen::Isometry3d& estimate, const GravityPrior& g) {
+  Eigen::Isometry3d out = estimate;
+  out.linear() = (Eigen::Quaterniond::FromTwoVectors(estimate.linear() * g.query_up, g.match_up) *
+                  Eigen::Quaterniond(estimate.linear()))
+                     .normalized()
+                     .toRotationMatrix();
+  return out;
+}
+
+double eigen_ratio(const Eigen::Matrix3d& m) {
+  const Eigen::Vector3d e = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(m).eigenvalues();
+  return e(2) > 0.0 ? std::max(0.0, e(0)) / e(2) : 0.0;
+}
+
+}  // namespace
+
 IcpResult point_to_plane_icp(const Eigen::Vector3d* qp, std::uint32_t query_count, const Eigen::Vector3d* mp,
                              const Eigen::Vector3d* mn, const NearestIndex& index, const Eigen::Isometry3d& initial,
-                             const IcpConfig& config, double min_overlap) {
+                             const IcpConfig& config, double min_overlap, const GravityPrior* gravity) {
   IcpResult r;
-  Eigen::Isometry3d T = initial;
+  const bool four_dof = gravity != nullptr && config.gravity_aligned;
+  const Eigen::Vector3d up = four_dof ? gravity->match_up.normalized() : Eigen::Vector3d::UnitZ();
+  Eigen::Isometry3d T = four_dof ? with_gravity_tilt(initial, *gravity) : initial;
   for (std::uint32_t it = 0; it < config.iterations; ++it) {
     const double gate = std::max(config.inlier_m, config.start_inlier_m * std::pow(0.7, it));
     Eigen::Matrix<double, 6, 6> H = Eigen::Matrix<double, 6, 6>::Zero();
@@ -105,10 +137,14 @@ IcpResult point_to_plane_icp(const Eigen::Vector3d* qp, std::uint32_t query_coun
       const Eigen::Vector3d p = T * qp[i];
       std::uint32_t j = 0;
       if (!index.nearest(p, gate * gate, &j)) continue;
-      // Point to plane: r = n . (p - m), p = exp(xi) T q ~ p + w x p + v.
+      // Point to plane: r = n . (p - m), p = exp(xi) T q ~ p + w x p + v; 4 DOF: w = theta up, so the first
+      // column is (p x n) . up and the next two are unused.
       const double res = mn[j].dot(p - mp[j]);
       Eigen::Matrix<double, 6, 1> J;
-      J << p.cross(mn[j]), mn[j];
+      if (four_dof)
+        J << p.cross(mn[j]).dot(up), 0.0, 0.0, mn[j];
+      else
+        J << p.cross(mn[j]), mn[j];
       H += J * J.transpose();
       g += J * res;
       ++pairs;
@@ -117,9 +153,10 @@ IcpResult point_to_plane_icp(const Eigen::Vector3d* qp, std::uint32_t query_coun
     if (pairs < 24) return r;
     H.diagonal().array() += 1e-6;
     const Eigen::Matrix<double, 6, 1> xi = -H.ldlt().solve(g);
+    const Eigen::Vector3d w = four_dof ? Eigen::Vector3d(xi(0) * up) : Eigen::Vector3d(xi.head<3>());
     Eigen::Isometry3d step = Eigen::Isometry3d::Identity();
-    const double angle = xi.head<3>().norm();
-    if (angle > 1e-12) step.linear() = Eigen::AngleAxisd(angle, xi.head<3>() / angle).toRotationMatrix();
+    const double angle = w.norm();
+    if (angle > 1e-12) step.linear() = Eigen::AngleAxisd(angle, w / angle).toRotationMatrix();
     step.translation() = xi.tail<3>();
     T = step * T;
     if (xi.norm() < 1e-5) break;
@@ -139,11 +176,9 @@ IcpResult point_to_plane_icp(const Eigen::Vector3d* qp, std::uint32_t query_coun
     Hr += c * c.transpose();
     Ht += mn[j] * mn[j].transpose();
   }
-  const auto ratio = [](const Eigen::Matrix3d& m) {
-    const Eigen::Vector3d e = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(m).eigenvalues();
-    return e(2) > 0.0 ? std::max(0.0, e(0)) / e(2) : 0.0;
-  };
-  r.constraint_ratio = std::min(ratio(Hr), ratio(Ht));
+  // Every direction pinned, the tilt's too at 4 DOF: a view that leaves a tilt free is one whose yaw and
+  // translation are weak as well (a wall and a floor).
+  r.constraint_ratio = std::min(eigen_ratio(Hr), eigen_ratio(Ht));
   r.overlap = query_count > 0 ? static_cast<double>(inliers) / query_count : 0.0;
   r.rmse_m = inliers > 0 ? std::sqrt(sum / inliers) : 0.0;
   r.match_T_query = T;
@@ -155,7 +190,7 @@ IcpResult point_to_plane_icp(const Eigen::Vector3d* qp, std::uint32_t query_coun
 }
 
 IcpResult refine_icp(const DepthCloud& query, const DepthCloud& match, const Eigen::Isometry3d& initial,
-                     const IcpConfig& config) {
+                     const IcpConfig& config, const GravityPrior* gravity) {
   if (query.count < 32 || match.count < 32) return IcpResult{};
   Eigen::Vector3d mp[kMaxCloudPoints], mn[kMaxCloudPoints], qp[kMaxCloudPoints];
   for (std::uint32_t j = 0; j < match.count; ++j) {
@@ -164,7 +199,7 @@ IcpResult refine_icp(const DepthCloud& query, const DepthCloud& match, const Eig
   }
   for (std::uint32_t i = 0; i < query.count; ++i) qp[i] = point_of(query, i);
   return point_to_plane_icp(qp, query.count, mp, mn, BruteForceIndex(mp, match.count), initial, config,
-                            config.min_overlap);
+                            config.min_overlap, gravity);
 }
 
 }  // namespace qsg::loop_closure

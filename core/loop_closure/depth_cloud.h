@@ -38,6 +38,9 @@ struct IcpConfig {
   double min_constraint_ratio = 0.05;
   double max_correction_m = 0.5; // beyond these from the coarse estimate the refinement is not trusted
   double max_correction_rad = 0.15;
+  // Odometry with an IMU observes roll and pitch, so two agents' relative tilt is the odometry's: ICP estimates
+  // yaw and translation only (4 DOF) and leaves the tilt as the odometry has it (given a GravityPrior).
+  bool gravity_aligned = true;
 
   std::string check() const;
   void print(std::FILE* out) const;
@@ -56,9 +59,19 @@ struct IcpResult {
   std::uint32_t iterations = 0;
 };
 
-// Refines `initial` (match_T_query, camera frames) by point-to-plane ICP of the query's cloud onto the match's.
+// The world's vertical in the match's and the query's frames (from their odometric poses), for a gravity-aligned
+// ICP: the estimate's tilt is first set to the odometry's (the vertical of the query lands on the match's), then
+// only rotations about the vertical and translations are estimated.
+struct GravityPrior {
+  Eigen::Vector3d match_up = Eigen::Vector3d::UnitZ();
+  Eigen::Vector3d query_up = Eigen::Vector3d::UnitZ();
+  static GravityPrior from_poses(const Eigen::Isometry3d& world_T_match, const Eigen::Isometry3d& world_T_query);
+};
+
+// Refines `initial` (match_T_query, camera frames) by point-to-plane ICP of the query's cloud onto the match's;
+// 4 DOF about `gravity` when given and config.gravity_aligned, else 6 DOF.
 IcpResult refine_icp(const DepthCloud& query, const DepthCloud& match, const Eigen::Isometry3d& initial,
-                     const IcpConfig& config);
+                     const IcpConfig& config, const GravityPrior* gravity = nullptr);
 
 // The nearest match point to p within sqrt(gate2), for the ICP below.
 class NearestIndex {
@@ -69,9 +82,10 @@ class NearestIndex {
 
 // The ICP itself, over any clouds: query points qp (query frame), match points mp with unit normals mn (match
 // frame) found through `index`. The result is trusted (ok) with at least min_overlap of the query's points on a
-// match plane, every direction constrained and the correction within the config's bounds.
+// match plane, every direction it estimates constrained and the correction within the config's bounds. With
+// `gravity` (and config.gravity_aligned) it estimates yaw about the vertical and translation (GravityPrior).
 IcpResult point_to_plane_icp(const Eigen::Vector3d* qp, std::uint32_t query_count, const Eigen::Vector3d* mp,
                              const Eigen::Vector3d* mn, const NearestIndex& index, const Eigen::Isometry3d& initial,
-                             const IcpConfig& config, double min_overlap);
+                             const IcpConfig& config, double min_overlap, const GravityPrior* gravity = nullptr);
 
 }  // namespace qsg::loop_closure

@@ -181,7 +181,8 @@ const AgentEntry* LoopClosureDetector::refine_with_neighbours(const AgentEntry& 
   for (std::uint32_t i = 0; i < n; ++i) {
     const AgentEntry& m = entries_[order[i]];
     const Eigen::Isometry3d initial = m.world_T_agent.inverse() * world_T_query;
-    const IcpResult r = refine_icp(query.cloud, m.cloud, initial, config_.icp);
+    const GravityPrior gravity = GravityPrior::from_poses(m.world_T_agent, query.world_T_agent);
+    const IcpResult r = refine_icp(query.cloud, m.cloud, initial, config_.icp, &gravity);
     if (!r.ok) continue;
     out->icp = r;
     out->match_T_query = r.match_T_query;
@@ -232,8 +233,9 @@ bool LoopClosureDetector::refine_with_local_maps(const AgentEntry& query, std::u
     }
   }
   local_map_.finish(&local_map_.match_cloud());
-  const IcpResult r =
-      local_map_.register_clouds(local_map_.query_cloud(), local_map_.match_cloud(), out->match_T_query, config_.icp);
+  const GravityPrior gravity = GravityPrior::from_poses(match.world_T_agent, query.world_T_agent);
+  const IcpResult r = local_map_.register_clouds(local_map_.query_cloud(), local_map_.match_cloud(), out->match_T_query,
+                                                 config_.icp, &gravity);
   if (!r.ok) {
     ++counters_.local_map_refused;
     return false;
@@ -306,7 +308,8 @@ bool LoopClosureDetector::add_and_detect(const AgentEntry& query, LoopClosure* o
         // The refinement pass on the same pair: a RANSAC pose from a dozen features can be a few degrees off in
         // rotation; ICP on the two views' depth pins it where the views constrain every direction.
         if (config_.icp.enabled && query.cloud.count > 0 && match.cloud.count > 0) {
-          const IcpResult r = refine_icp(query.cloud, match.cloud, a.match_T_query, config_.icp);
+          const GravityPrior gravity = GravityPrior::from_poses(match.world_T_agent, query.world_T_agent);
+          const IcpResult r = refine_icp(query.cloud, match.cloud, a.match_T_query, config_.icp, &gravity);
           if (r.ok) {
             out->icp = r;
             out->match_T_query = r.match_T_query;

@@ -58,6 +58,16 @@ const params::Table<LocalMapConfig>& local_map_params_table() {
   return table;
 }
 
+const params::Table<IcpConfig>& icp_params_table() {
+  static const params::Table<IcpConfig> table = [] {
+    params::Table<IcpConfig> t;
+    t.flag("icp_gravity_aligned", &IcpConfig::gravity_aligned, refinement,
+           "ICP (keyframes and local maps) estimates yaw and translation and keeps the odometry's roll and pitch");
+    return t;
+  }();
+  return table;
+}
+
 const params::Table<RegistrationConfig>& registration_params_table() {
   using R = RegistrationConfig;
   static const params::Table<R> table = [] {

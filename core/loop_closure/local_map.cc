@@ -150,7 +150,8 @@ void LocalMapVerifier::finish(LocalCloud* out) {
 }
 
 IcpResult LocalMapVerifier::register_clouds(const LocalCloud& query, const LocalCloud& match,
-                                            const Eigen::Isometry3d& initial, const IcpConfig& icp) {
+                                            const Eigen::Isometry3d& initial, const IcpConfig& icp,
+                                            const GravityPrior* gravity) {
   if (query.points.size() < 32 || match.points.size() < 32) return IcpResult{};
   const double cell = std::max(icp.start_inlier_m, icp.neighbour_m);
   grid_.clear();
@@ -163,7 +164,7 @@ IcpResult LocalMapVerifier::register_clouds(const LocalCloud& query, const Local
   bounded.max_correction_rad = std::min(icp.max_correction_rad, config_.max_correction_rad);
   return point_to_plane_icp(query.points.data(), static_cast<std::uint32_t>(query.points.size()), match.points.data(),
                             match.normals.data(), GridIndex(grid_, match.points.data(), cell), initial, bounded,
-                            config_.min_overlap);
+                            config_.min_overlap, gravity);
 }
 
 }  // namespace qsg::loop_closure

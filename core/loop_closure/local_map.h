@@ -64,7 +64,7 @@ class LocalMapVerifier {
 
   // ICP of the query's local cloud onto the match's from `initial` (match_T_query, the anchors' frames).
   IcpResult register_clouds(const LocalCloud& query, const LocalCloud& match, const Eigen::Isometry3d& initial,
-                            const IcpConfig& icp);
+                            const IcpConfig& icp, const GravityPrior* gravity = nullptr);
 
   LocalCloud& query_cloud() { return query_; }
   LocalCloud& match_cloud() { return match_; }

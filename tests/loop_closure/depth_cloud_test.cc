@@ -56,6 +56,50 @@ TEST(DepthCloudTest, IcpRefinesACoarseEstimateToTheDepthsPrecision) {
   EXPECT_GT(r.overlap, 0.8);
 }
 
+double tilt_deg(const Eigen::Isometry3d& world_T_match, const Eigen::Isometry3d& error) {
+  const Eigen::AngleAxisd aa(error.linear());
+  return (world_T_match.linear() * aa.axis() * aa.angle()).head<2>().norm() * 180.0 / M_PI;
+}
+
+// Odometry with an IMU knows the two views' tilt; the coarse estimate (a RANSAC pose, say) is 2 degrees off in
+// roll. Gravity aligned, ICP keeps the odometry's tilt exactly and finds yaw and translation.
+TEST(DepthCloudTest, GravityAlignedIcpKeepsTheOdometrysTiltAndEstimatesYawAndTranslation) {
+  const Eigen::Isometry3d world_T_match = pose(2.5, 2.5, 0.5, 3.9, 0.1), world_T_query = pose(2.2, 2.8, 0.5, 4.1, 0.1);
+  const DepthCloud match = corner(world_T_match.inverse(), 1), query = corner(world_T_query.inverse(), 2);
+  const Eigen::Isometry3d truth = world_T_match.inverse() * world_T_query;
+  Eigen::Isometry3d coarse = truth * pose(0.08, -0.06, 0.0, 0.03, 0.0);
+  coarse.linear() = coarse.linear() * Eigen::AngleAxisd(0.035, Eigen::Vector3d::UnitY()).toRotationMatrix();
+  const GravityPrior gravity = GravityPrior::from_poses(world_T_match, world_T_query);
+  const IcpResult r = refine_icp(query, match, coarse, IcpConfig{}, &gravity);
+  ASSERT_TRUE(r.ok) << "overlap " << r.overlap << " constraint " << r.constraint_ratio;
+  const Eigen::Isometry3d error = truth.inverse() * r.match_T_query;
+  EXPECT_LT(tilt_deg(world_T_match, error), 1e-6);
+  EXPECT_LT(error.translation().norm(), 0.01);
+  EXPECT_LT(Eigen::AngleAxisd(error.linear()).angle(), 0.003);
+
+  IcpConfig full;  // the same without the prior's use: 6 DOF
+  full.gravity_aligned = false;
+  const IcpResult r6 = refine_icp(query, match, coarse, full, &gravity);
+  EXPECT_GT(tilt_deg(world_T_match, truth.inverse() * r6.match_T_query), 1e-6) << "6 DOF estimates the tilt";
+}
+
+// Object centroids can put the coarse estimate 0.2 m off; gravity-aligned ICP still gets to the depth's precision.
+TEST(DepthCloudTest, IcpConvergesFromTwoDecimetresOff) {
+  const Eigen::Isometry3d world_T_match = pose(2.5, 2.5, 0.5, 3.9, 0.1), world_T_query = pose(2.2, 2.8, 0.5, 4.1, 0.1);
+  const DepthCloud match = corner(world_T_match.inverse(), 1), query = corner(world_T_query.inverse(), 2);
+  const Eigen::Isometry3d truth = world_T_match.inverse() * world_T_query;
+  const GravityPrior gravity = GravityPrior::from_poses(world_T_match, world_T_query);
+  for (const Eigen::Vector3d& off :
+       {Eigen::Vector3d(0.2, 0.0, 0.0), Eigen::Vector3d(0.0, -0.2, 0.0), Eigen::Vector3d(0.14, 0.14, 0.0)}) {
+    const Eigen::Isometry3d coarse = truth * pose(off.x(), off.y(), off.z(), 0.02, 0.0);
+    const IcpResult r = refine_icp(query, match, coarse, IcpConfig{}, &gravity);
+    ASSERT_TRUE(r.ok) << off.transpose() << ": overlap " << r.overlap;
+    const Eigen::Isometry3d error = truth.inverse() * r.match_T_query;
+    EXPECT_LT(error.translation().norm(), 0.01) << off.transpose();
+    EXPECT_LT(Eigen::AngleAxisd(error.linear()).angle(), 0.003) << off.transpose();
+  }
+}
+
 // A wall and the floor pin two directions of translation, not the third: ICP could slide along it.
 TEST(DepthCloudTest, AWallAndAFloorAloneAreDegenerate) {
   DepthCloud a, b;

@@ -247,6 +247,7 @@ TEST(ParamsTest, StageChecksRefuseWhatTheirTablesRefuse) {
   expect_check_uses_table("local_map", lc::local_map_params_table(), [](const lc::LocalMapConfig& c) {
     return c.check();
   });
+  expect_check_uses_table("icp", lc::icp_params_table(), [](const lc::IcpConfig& c) { return c.check(); });
   expect_check_uses_table("registration", lc::registration_params_table(), [](const lc::RegistrationConfig& c) {
     return c.check();
   });
