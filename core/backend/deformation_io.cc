@@ -1,9 +1,13 @@
 // The deformation problem's text format (version 1):
 //   qsg_deformation_problem 1
 //   sizes AGENTS CONTROL_POINTS PLACES FIRST_CLOSURE LOOP_CLOSURES EDGES TRUTH(0|1)
-//   p tx ty tz qx qy qz qw                       one per node: agents, control points, places
-//   o x y z time_ns                              one per control point and place: odometric position, time seen
-//   e from to loop_closure info(0|1) tx ty tz qx qy qz qw  then 6 sigmas, or the 36 information entries
+//   p tx ty tz qx qy qz qw [time_ns]             one per node: agents, control points, places; an agent's line
+//                                                may end with its chain node's time (every agent's or none)
+//   o x y z time_ns [node_id]                    one per control point and place: odometric position, time seen;
+//                                                a place's may end with its node id (every place's or none)
+//   e from to loop_closure info(0|1) tx ty tz qx qy qz qw  then 6 sigmas, or the 36 information entries; a loop
+//                                                closure's may end with its id (ChainLoopClosure::id; every one's or
+//                                                none): a sequence of solves carries decisions by id and agent time
 //   t x y z [qx qy qz qw]                        one per agent when TRUTH is 1 (the orientation optional)
 #include "core/backend/deformation_io.h"
 
@@ -23,9 +27,15 @@ bool write_deformation_problem(const std::string& path, const DeformationProblem
   if (f == nullptr) return *error = "cannot write '" + tmp + "'", false;
   std::fprintf(f, "qsg_deformation_problem 1\nsizes %zu %zu %zu %zu %zu %zu %d\n", r.agents, r.control_points, r.places,
                problem.first_closure, r.loop_closures, problem.edges.size(), truth ? 1 : 0);
-  for (const Pose3& p : problem.poses)
-    std::fprintf(f, "p %.17g %.17g %.17g %.17g %.17g %.17g %.17g\n", p.t_m.x(), p.t_m.y(), p.t_m.z(), p.q.x(), p.q.y(),
+  const bool agent_times = problem.agent_times_ns.size() == r.agents;
+  for (std::size_t k = 0; k < problem.poses.size(); ++k) {
+    const Pose3& p = problem.poses[k];
+    std::fprintf(f, "p %.17g %.17g %.17g %.17g %.17g %.17g %.17g", p.t_m.x(), p.t_m.y(), p.t_m.z(), p.q.x(), p.q.y(),
                  p.q.z(), p.q.w());
+    if (agent_times && k < r.agents)
+      std::fprintf(f, " %llu", static_cast<unsigned long long>(problem.agent_times_ns[k]));
+    std::fputc('\n', f);
+  }
   // A place's line ends with its node id (a control point's has none): a sequence of solves matches places by it.
   const bool ids = problem.place_ids.size() == r.places;
   for (std::size_t i = 0; i < problem.originals.size(); ++i) {
@@ -35,7 +45,9 @@ bool write_deformation_problem(const std::string& path, const DeformationProblem
       std::fprintf(f, " %llu", static_cast<unsigned long long>(problem.place_ids[i - r.control_points]));
     std::fputc('\n', f);
   }
-  for (const RelativePoseEdge& e : problem.edges) {
+  const bool closure_ids = problem.closure_ids.size() == r.loop_closures;
+  for (std::size_t k = 0; k < problem.edges.size(); ++k) {
+    const RelativePoseEdge& e = problem.edges[k];
     const Pose3& m = e.measured_from_T_to;
     std::fprintf(f, "e %u %u %d %d %.17g %.17g %.17g %.17g %.17g %.17g %.17g", e.from, e.to, e.is_loop_closure ? 1 : 0,
                  e.has_information ? 1 : 0, m.t_m.x(), m.t_m.y(), m.t_m.z(), m.q.x(), m.q.y(), m.q.z(), m.q.w());
@@ -45,6 +57,8 @@ bool write_deformation_problem(const std::string& path, const DeformationProblem
       for (int i = 0; i < 3; ++i) std::fprintf(f, " %.17g", e.sigma_t_m[i]);
       for (int i = 0; i < 3; ++i) std::fprintf(f, " %.17g", e.sigma_rot_rad[i]);
     }
+    if (closure_ids && e.is_loop_closure)
+      std::fprintf(f, " %llu", static_cast<unsigned long long>(problem.closure_ids[k - problem.first_closure]));
     std::fputc('\n', f);
   }
   const bool with_q = truth && truth_q.size() == truth_m.size();
@@ -96,12 +110,20 @@ bool read_deformation_problem(const std::string& path, DeformationProblemFile* o
   p.first_closure = first;
   const std::size_t N = A + C + P;
   p.poses.resize(N);
-  for (Pose3& pose : p.poses) {
+  for (std::size_t k = 0; k < N; ++k) {
+    Pose3& pose = p.poses[k];
     double q[4];
     if (!next(&s) || !(s >> tag >> pose.t_m.x() >> pose.t_m.y() >> pose.t_m.z() >> q[0] >> q[1] >> q[2] >> q[3]) ||
         tag != "p")
       return fail("expected a pose line");
     pose.q = Eigen::Quaterniond(q[3], q[0], q[1], q[2]);
+    unsigned long long t = 0;
+    if (k < A && s >> t) {
+      if (p.agent_times_ns.size() != k) return fail("every agent line or none carries a time");
+      p.agent_times_ns.push_back(t);
+    } else if (k < A && !p.agent_times_ns.empty()) {
+      return fail("every agent line or none carries a time");
+    }
   }
   p.originals.resize(C + P);
   p.times_ns.resize(C + P);
@@ -141,6 +163,13 @@ bool read_deformation_problem(const std::string& path, DeformationProblemFile* o
         if (!(s >> e.sigma_t_m[i])) return fail("expected 6 sigmas");
       for (int i = 0; i < 3; ++i)
         if (!(s >> e.sigma_rot_rad[i])) return fail("expected 6 sigmas");
+    }
+    unsigned long long id = 0;
+    if (e.is_loop_closure && s >> id) {
+      if (p.closure_ids.size() != k - first) return fail("every loop closure line or none carries an id");
+      p.closure_ids.push_back(id);
+    } else if (e.is_loop_closure && !p.closure_ids.empty()) {
+      return fail("every loop closure line or none carries an id");
     }
   }
   out->truth_m.clear();

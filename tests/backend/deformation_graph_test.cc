@@ -188,7 +188,9 @@ TEST_F(DeformationGraphTest, AWrongLoopClosureSwitchesItselfOff) {
 TEST_F(DeformationGraphTest, AProblemFileReadsBackAndSolvesTheSame) {
   DeformationGraph d;
   const auto last = static_cast<std::uint32_t>(walk_.truth.size() - 1);
-  const DeformationProblem problem = d.build(layer_, {true_closure(0, last)}, control_, *graph_);
+  ChainLoopClosure named = true_closure(0, last);
+  named.id = 4'000'000'001ull;
+  const DeformationProblem problem = d.build(layer_, {named}, control_, *graph_);
   std::vector<Eigen::Vector3d> truth;
   std::vector<Eigen::Quaterniond> truth_q;
   for (const Eigen::Isometry3d& t : walk_.truth) {
@@ -212,6 +214,11 @@ TEST_F(DeformationGraphTest, AProblemFileReadsBackAndSolvesTheSame) {
   ASSERT_EQ(read.problem.edges.size(), problem.edges.size());
   ASSERT_FALSE(problem.place_ids.empty());
   EXPECT_EQ(read.problem.place_ids, problem.place_ids) << "places keep their node ids (dg_sequence matches by them)";
+  // Agents keep their times and closures their ids: a sequence of solves read back carries decisions by them.
+  ASSERT_EQ(problem.closure_ids, std::vector<std::uint64_t>{named.id});
+  EXPECT_EQ(read.problem.closure_ids, problem.closure_ids);
+  ASSERT_EQ(problem.agent_times_ns.size(), problem.result.agents);
+  EXPECT_EQ(read.problem.agent_times_ns, problem.agent_times_ns);
   EXPECT_EQ(read.problem.first_closure, problem.first_closure);
   EXPECT_EQ(read.truth_m.size(), truth.size());
   for (std::size_t k = 0; k < problem.poses.size(); ++k) {
@@ -244,6 +251,15 @@ TEST_F(DeformationGraphTest, AProblemFileReadsBackAndSolvesTheSame) {
                          "e 0 1 0 0 1 0 0 0 0 0 1 1 1 1 1 1 1\nt 0 0 0 0 0 0 1\nt 1 0 0\n";
   EXPECT_FALSE(read_deformation_problem(path, &read, &error));
   EXPECT_NE(error.find("every truth line or none"), std::string::npos) << error;
+  std::ofstream(path) << "qsg_deformation_problem 1\nsizes 2 0 0 1 0 1 0\np 0 0 0 0 0 0 1 5\np 1 0 0 0 0 0 1\n"
+                         "e 0 1 0 0 1 0 0 0 0 0 1 1 1 1 1 1 1\n";
+  EXPECT_FALSE(read_deformation_problem(path, &read, &error));
+  EXPECT_NE(error.find("every agent line or none"), std::string::npos) << error;
+  std::ofstream(path) << "qsg_deformation_problem 1\nsizes 2 0 0 1 2 3 0\np 0 0 0 0 0 0 1\np 1 0 0 0 0 0 1\n"
+                         "e 0 1 0 0 1 0 0 0 0 0 1 1 1 1 1 1 1\ne 0 1 1 0 1 0 0 0 0 0 1 1 1 1 1 1 1 7\n"
+                         "e 0 1 1 0 1 0 0 0 0 0 1 1 1 1 1 1 1\n";
+  EXPECT_FALSE(read_deformation_problem(path, &read, &error));
+  EXPECT_NE(error.find("every loop closure line or none"), std::string::npos) << error;
 }
 
 // build() keeps the control-point edges of points past the time horizon from one build to the next: a graph that
