@@ -381,6 +381,19 @@ bool BackendStage::solve_due(std::uint64_t time_ns) {
   return true;
 }
 
+namespace {
+
+// The odometry's random walk over distance_m (the agent graph's sigmas per sqrt(m)), added in quadrature.
+void add_odometry_walk(const AgentGraphConfig& walk, double distance_m, Eigen::Vector3d* sigma_t_m,
+                       Eigen::Vector3d* sigma_rot_rad) {
+  const double walk_t2 = walk.sigma_t_m_per_sqrt_m * walk.sigma_t_m_per_sqrt_m * distance_m;
+  const double walk_rot2 = walk.sigma_yaw_rad_per_sqrt_m * walk.sigma_yaw_rad_per_sqrt_m * distance_m;
+  *sigma_t_m = (sigma_t_m->array().square() + walk_t2).sqrt().matrix();
+  *sigma_rot_rad = (sigma_rot_rad->array().square() + walk_rot2).sqrt().matrix();
+}
+
+}  // namespace
+
 void closure_sigmas(const loop_closure::LoopClosure& lc, const LoopClosureConfig& config, Eigen::Vector3d* sigma_t_m,
                     Eigen::Vector3d* sigma_rot_rad) {
   // Appearance: depth-precise; objects: centroids of partial views, a decimetre and a degree or so.
@@ -395,12 +408,7 @@ void closure_sigmas(const loop_closure::LoopClosure& lc, const LoopClosureConfig
   // A local map is stitched from the keyframes within path_m of its anchor by the odometry between them, so it
   // carries the odometry's random walk over that path (both maps together: about the walk over path_m, added in
   // quadrature to the ICP's own).
-  const AgentGraphConfig& walk = config.deformation.agents;
-  const double path = config.detector.local_map.path_m;
-  const double walk_t = walk.sigma_t_m_per_sqrt_m * std::sqrt(path);
-  const double walk_rot = walk.sigma_yaw_rad_per_sqrt_m * std::sqrt(path);
-  *sigma_t_m = (sigma_t_m->array().square() + walk_t * walk_t).sqrt().matrix();
-  *sigma_rot_rad = (sigma_rot_rad->array().square() + walk_rot * walk_rot).sqrt().matrix();
+  add_odometry_walk(config.deformation.agents, config.detector.local_map.path_m, sigma_t_m, sigma_rot_rad);
 }
 
 bool chain_closure(const agents::ChainView& agents, const loop_closure::LoopClosure& lc, const LoopClosureConfig& config,
@@ -425,13 +433,7 @@ bool chain_closure(const agents::ChainView& agents, const loop_closure::LoopClos
   }
   out->a_T_b = Pose3{a_T_b.translation(), Eigen::Quaterniond(a_T_b.linear())};
   closure_sigmas(lc, config, &out->sigma_t_m, &out->sigma_rot_rad);
-  if (joined_m > 0.0) {
-    const AgentGraphConfig& walk = config.deformation.agents;
-    const double walk_t2 = walk.sigma_t_m_per_sqrt_m * walk.sigma_t_m_per_sqrt_m * joined_m;
-    const double walk_rot2 = walk.sigma_yaw_rad_per_sqrt_m * walk.sigma_yaw_rad_per_sqrt_m * joined_m;
-    out->sigma_t_m = (out->sigma_t_m.array().square() + walk_t2).sqrt().matrix();
-    out->sigma_rot_rad = (out->sigma_rot_rad.array().square() + walk_rot2).sqrt().matrix();
-  }
+  if (joined_m > 0.0) add_odometry_walk(config.deformation.agents, joined_m, &out->sigma_t_m, &out->sigma_rot_rad);
   out->id = lc.query_time_ns;  // one closure per query agent
   return true;
 }
