@@ -20,15 +20,17 @@ std::string IcpConfig::check() const {
   if (!(neighbour_m >= inlier_m && neighbour_m <= 5.0)) return "neighbour_m must be in [inlier_m, 5] m";
   if (!(min_constraint_ratio >= 0.0 && min_constraint_ratio <= 1.0)) return "min_constraint_ratio must be in [0, 1]";
   if (!(max_correction_m > 0.0 && max_correction_rad > 0.0)) return "max_correction_m and max_correction_rad must be positive";
+  if (!(max_normal_angle_rad > 0.0 && max_normal_angle_rad <= M_PI)) return "max_normal_angle_rad must be in (0, pi]";
   return "";
 }
 
 void IcpConfig::print(std::FILE* out) const {
   std::fprintf(out,
-               "icp refinement: %s, %u iterations, gate %.2f -> %.2f m, overlap >= %.2f, correction <= %.2f m and "
-               "%.3f rad, %s\n",
-               enabled ? "on" : "off", iterations, start_inlier_m, inlier_m, min_overlap, max_correction_m,
-               max_correction_rad, gravity_aligned ? "yaw + translation (gravity aligned)" : "full SE(3)");
+               "icp refinement: %s, %u iterations, gate %.2f -> %.2f m, normals within %.2f rad, overlap >= %.2f, "
+               "correction <= %.2f m and %.3f rad, %s\n",
+               enabled ? "on" : "off", iterations, start_inlier_m, inlier_m, max_normal_angle_rad, min_overlap,
+               max_correction_m, max_correction_rad,
+               gravity_aligned ? "yaw + translation (gravity aligned)" : "full SE(3)");
 }
 
 bool make_depth_cloud(const GreyDepthView& v, double max_depth_m, DepthCloud* out) {
@@ -121,11 +123,17 @@ double eigen_ratio(const Eigen::Matrix3d& m) {
 
 }  // namespace
 
-IcpResult point_to_plane_icp(const Eigen::Vector3d* qp, std::uint32_t query_count, const Eigen::Vector3d* mp,
-                             const Eigen::Vector3d* mn, const NearestIndex& index, const Eigen::Isometry3d& initial,
-                             const IcpConfig& config, double min_overlap, const GravityPrior* gravity) {
+IcpResult point_to_plane_icp(const Eigen::Vector3d* qp, const Eigen::Vector3d* qn, std::uint32_t query_count,
+                             const Eigen::Vector3d* mp, const Eigen::Vector3d* mn, const NearestIndex& index,
+                             const Eigen::Isometry3d& initial, const IcpConfig& config, double min_overlap,
+                             const GravityPrior* gravity) {
   IcpResult r;
   const bool four_dof = gravity != nullptr && config.gravity_aligned;
+  const double min_normal_cos = std::cos(config.max_normal_angle_rad);
+  const bool check_normals = qn != nullptr && config.max_normal_angle_rad < M_PI;
+  const auto agree = [&](const Eigen::Isometry3d& T, std::uint32_t i, std::uint32_t j) {
+    return !check_normals || (T.linear() * qn[i]).dot(mn[j]) >= min_normal_cos;
+  };
   const Eigen::Vector3d up = four_dof ? gravity->match_up.normalized() : Eigen::Vector3d::UnitZ();
   Eigen::Isometry3d T = four_dof ? with_gravity_tilt(initial, *gravity) : initial;
   for (std::uint32_t it = 0; it < config.iterations; ++it) {
@@ -136,7 +144,7 @@ IcpResult point_to_plane_icp(const Eigen::Vector3d* qp, std::uint32_t query_coun
     for (std::uint32_t i = 0; i < query_count; ++i) {
       const Eigen::Vector3d p = T * qp[i];
       std::uint32_t j = 0;
-      if (!index.nearest(p, gate * gate, &j)) continue;
+      if (!index.nearest(p, gate * gate, &j) || !agree(T, i, j)) continue;
       // Point to plane: r = n . (p - m), p = exp(xi) T q ~ p + w x p + v; 4 DOF: w = theta up, so the first
       // column is (p x n) . up and the next two are unused.
       const double res = mn[j].dot(p - mp[j]);
@@ -167,7 +175,7 @@ IcpResult point_to_plane_icp(const Eigen::Vector3d* qp, std::uint32_t query_coun
   for (std::uint32_t i = 0; i < query_count; ++i) {
     const Eigen::Vector3d p = T * qp[i];
     std::uint32_t j = 0;
-    if (!index.nearest(p, config.neighbour_m * config.neighbour_m, &j)) continue;
+    if (!index.nearest(p, config.neighbour_m * config.neighbour_m, &j) || !agree(T, i, j)) continue;
     const double d = mn[j].dot(p - mp[j]);
     if (std::abs(d) > config.inlier_m) continue;
     ++inliers;
@@ -192,13 +200,16 @@ IcpResult point_to_plane_icp(const Eigen::Vector3d* qp, std::uint32_t query_coun
 IcpResult refine_icp(const DepthCloud& query, const DepthCloud& match, const Eigen::Isometry3d& initial,
                      const IcpConfig& config, const GravityPrior* gravity) {
   if (query.count < 32 || match.count < 32) return IcpResult{};
-  Eigen::Vector3d mp[kMaxCloudPoints], mn[kMaxCloudPoints], qp[kMaxCloudPoints];
+  Eigen::Vector3d mp[kMaxCloudPoints], mn[kMaxCloudPoints], qp[kMaxCloudPoints], qn[kMaxCloudPoints];
   for (std::uint32_t j = 0; j < match.count; ++j) {
     mp[j] = point_of(match, j);
     mn[j] = normal_of(match, j);
   }
-  for (std::uint32_t i = 0; i < query.count; ++i) qp[i] = point_of(query, i);
-  return point_to_plane_icp(qp, query.count, mp, mn, BruteForceIndex(mp, match.count), initial, config,
+  for (std::uint32_t i = 0; i < query.count; ++i) {
+    qp[i] = point_of(query, i);
+    qn[i] = normal_of(query, i);
+  }
+  return point_to_plane_icp(qp, qn, query.count, mp, mn, BruteForceIndex(mp, match.count), initial, config,
                             config.min_overlap, gravity);
 }
 

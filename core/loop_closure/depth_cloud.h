@@ -36,6 +36,11 @@ struct IcpConfig {
   // The geometry must pin every direction: the smallest eigenvalue of the normal equations' rotation and
   // translation blocks over the largest at least this (a wall and a floor leave a translation free: ICP slides).
   double min_constraint_ratio = 0.05;
+  // A pair counts only when the query point's normal, as the estimate turns it, is within this angle of the match
+  // point's: a point of one surface paired with a point of another (a wall's foot with the floor, a chair's seat
+  // with its back, what one view sees and the other does not) pulls the estimate off by centimetres while the
+  // residual stays small. Pi: no check (the plain point-to-plane ICP).
+  double max_normal_angle_rad = 0.5;
   double max_correction_m = 0.5; // beyond these from the coarse estimate the refinement is not trusted
   double max_correction_rad = 0.15;
   // Odometry with an IMU observes roll and pitch, so two agents' relative tilt is the odometry's: ICP estimates
@@ -80,12 +85,14 @@ class NearestIndex {
   virtual bool nearest(const Eigen::Vector3d& p, double gate2, std::uint32_t* best) const = 0;
 };
 
-// The ICP itself, over any clouds: query points qp (query frame), match points mp with unit normals mn (match
-// frame) found through `index`. The result is trusted (ok) with at least min_overlap of the query's points on a
-// match plane, every direction it estimates constrained and the correction within the config's bounds. With
-// `gravity` (and config.gravity_aligned) it estimates yaw about the vertical and translation (GravityPrior).
-IcpResult point_to_plane_icp(const Eigen::Vector3d* qp, std::uint32_t query_count, const Eigen::Vector3d* mp,
-                             const Eigen::Vector3d* mn, const NearestIndex& index, const Eigen::Isometry3d& initial,
-                             const IcpConfig& config, double min_overlap, const GravityPrior* gravity = nullptr);
+// The ICP itself, over any clouds: query points qp with unit normals qn (query frame), match points mp with unit
+// normals mn (match frame) found through `index`; a pair counts when their normals agree (max_normal_angle_rad).
+// The result is trusted (ok) with at least min_overlap of the query's points on a match plane, every direction it
+// estimates constrained and the correction within the config's bounds. With `gravity` (and
+// config.gravity_aligned) it estimates yaw about the vertical and translation (GravityPrior).
+IcpResult point_to_plane_icp(const Eigen::Vector3d* qp, const Eigen::Vector3d* qn, std::uint32_t query_count,
+                             const Eigen::Vector3d* mp, const Eigen::Vector3d* mn, const NearestIndex& index,
+                             const Eigen::Isometry3d& initial, const IcpConfig& config, double min_overlap,
+                             const GravityPrior* gravity = nullptr);
 
 }  // namespace qsg::loop_closure

@@ -1,5 +1,7 @@
 #include "core/loop_closure/detector_params.h"
 
+#include <cmath>
+
 namespace qsg::loop_closure {
 
 namespace {
@@ -63,6 +65,8 @@ const params::Table<IcpConfig>& icp_params_table() {
     params::Table<IcpConfig> t;
     t.flag("icp_gravity_aligned", &IcpConfig::gravity_aligned, refinement,
            "ICP (keyframes and local maps) estimates yaw and translation and keeps the odometry's roll and pitch");
+    t.add("icp_max_normal_angle_rad", &IcpConfig::max_normal_angle_rad, "rad", above(0, M_PI), refinement,
+          "ICP pairs a point only with one whose normal is within this angle (pi: no check)");
     return t;
   }();
   return table;

@@ -162,9 +162,9 @@ IcpResult LocalMapVerifier::register_clouds(const LocalCloud& query, const Local
   std::sort(grid_.begin(), grid_.end());
   IcpConfig bounded = icp;
   bounded.max_correction_rad = std::min(icp.max_correction_rad, config_.max_correction_rad);
-  return point_to_plane_icp(query.points.data(), static_cast<std::uint32_t>(query.points.size()), match.points.data(),
-                            match.normals.data(), GridIndex(grid_, match.points.data(), cell), initial, bounded,
-                            config_.min_overlap, gravity);
+  return point_to_plane_icp(query.points.data(), query.normals.data(), static_cast<std::uint32_t>(query.points.size()),
+                            match.points.data(), match.normals.data(), GridIndex(grid_, match.points.data(), cell),
+                            initial, bounded, config_.min_overlap, gravity);
 }
 
 }  // namespace qsg::loop_closure
