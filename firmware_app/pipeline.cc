@@ -868,7 +868,7 @@ bool Pipeline::finish(std::string* error) {
     std::unique_lock<std::mutex> lock(graph_mutex_);
     if (backend_.loop_closure_enabled()) {
       extract_captured_frames();
-      backend_.detect_loop_closures(graph_, frontend_.agents(), latest_keyframe_ns_);
+      backend_.detect_at_finish(graph_, frontend_.agents(), latest_keyframe_ns_);  // the last horizon_s too
     }
     if (reconcile) {
       correct_outputs(&mesh, &odometric);

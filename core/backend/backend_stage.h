@@ -202,6 +202,13 @@ class BackendStage {
     describe_agents(graph, agents, time_ns);
     return detect_described();
   }
+  // Both, when the mission is over (graph lock held): its map is final, so the agents of the last horizon_s before
+  // last_keyframe_ns are described too (a tour's return to its start is among them).
+  bool detect_at_finish(const scene_graph::SceneGraph& graph, const agents::AgentLayer& agents,
+                        std::uint64_t last_keyframe_ns) {
+    const auto horizon_ns = static_cast<std::uint64_t>(config_.loop_closure.horizon_s * 1e9);
+    return detect_loop_closures(graph, agents, last_keyframe_ns + horizon_ns);
+  }
   // Called around each described agent's lookup and verification (begin, then end), with the agent's time:
   // the app's stage markers count the instructions per agent. None set: one branch per agent.
   using DetectHook = void (*)(void* user, bool begin, std::uint64_t agent_time_ns);

@@ -354,6 +354,40 @@ TEST(BackendStageTest, DetectHookBracketsEachDescribedAgentsLookup) {
   EXPECT_EQ(calls.seen.size(), 4u);
 }
 
+// While mapping, an agent is described once the robot is horizon_s past it; at the finish the map is final and the
+// last horizon_s's agents are described too (a tour's return to its start is among them).
+TEST(BackendStageTest, TheFinishDescribesTheAgentsOfTheLastHorizon) {
+  BackendStage stage;
+  BackendStage::Config c;
+  c.loop_closure.enabled = true;
+  c.loop_closure.horizon_s = 15.0;
+  std::string error, warning;
+  ASSERT_TRUE(stage.init(c, graph_capacities(), 64, 0, &error, &warning)) << error;
+  auto g = make_graph();
+  agents::AgentLayer agents;
+  ASSERT_TRUE(agents.init(agents::Config{}, agents::Capacities{64}, &error)) << error;
+  const int w = 32, h = 24;
+  std::vector<std::uint8_t> grey(w * h, 128);
+  std::vector<float> depth(w * h, 2.0f);
+  const loop_closure::GreyDepthView view{grey.data(), depth.data(), w, h, 30.0, 30.0, 15.5, 11.5};
+  for (int k = 0; k < 4; ++k) {  // agents at 20, 25, 30 and 35 s, each with its keyframe and a place
+    const Eigen::Isometry3d pose(Eigen::Translation3d(1.0 * k, 0.0, 0.0));
+    ASSERT_EQ(agents.add_keyframe(g.get(), 5'000'000'000ull * (k + 4), pose), agents::AddResult::kAdded);
+    const agents::ChainNode& n = agents.chain(static_cast<std::size_t>(k));
+    stage.add_appearance(n.id, n.time_ns, view);
+    const sg::NodeId place = sg::make_node_id(sg::kPlacePrefix, static_cast<std::uint64_t>(k));
+    sg::PlaceAttributes a;
+    a.position_m = n.t_m;
+    ASSERT_EQ(g->add_place(place, a), sg::Status::kOk);
+    ASSERT_EQ(g->add_edge(n.id, place), sg::Status::kOk);
+  }
+  const std::uint64_t last_ns = 35'000'000'000ull;
+  EXPECT_EQ(stage.describe_agents(*g, agents, last_ns), 1u) << "only the agent 15 s behind the robot";
+  stage.detect_described();
+  stage.detect_at_finish(*g, agents, last_ns);
+  EXPECT_EQ(stage.counters().agents_described.load(), 4u) << "the finish describes the last 15 s too";
+}
+
 TEST(BackendStageTest, StoresOverTheirArenaAreAClearError) {
   BackendStage stage;
   BackendStage::Config c;
