@@ -9,6 +9,7 @@
 
 #include "budgets/budget_table.h"
 #include "core/backend/backend_stage_params.h"
+#include "core/memory/prefault.h"
 
 namespace qsg::backend {
 
@@ -92,6 +93,9 @@ bool BackendStage::init_loop_closure(const scene_graph::Capacities& gc, std::siz
            false;
   closure_capacity_ = c.closure_capacity > 0 ? c.closure_capacity : loop_closures_.capacity();
   deformation_inputs_.reserve(gc.agent_nodes, lc::kControlPoints, gc.place_nodes, gc.edges);
+  memory::prefault_capacity(&pending_);
+  memory::prefault_capacity(&described_);
+  memory::prefault_capacity(&loop_closures_);
   const std::size_t bytes =
       detector_.bytes() + lc::kControlPoints * (sizeof(Eigen::Vector3d) + 8 + 16) + frame_bytes +
       pending_.capacity() * sizeof(PendingAppearance) + described_.capacity() * sizeof(loop_closure::AgentEntry) +

@@ -3,6 +3,7 @@
 
 #include "core/backend/backend_params.h"
 #include "core/backend/reduced_decisions.h"
+#include "core/memory/prefault.h"
 
 #include <algorithm>
 #include <cmath>
@@ -129,6 +130,8 @@ bool ControlPoints::init(std::size_t capacity, double spacing_m, std::string* er
   times_.clear();
   points_.reserve(capacity);
   times_.reserve(capacity);
+  memory::prefault_capacity(&points_);
+  memory::prefault_capacity(&times_);
   const std::size_t slots = decltype(cells_)::slots_for(capacity);
   cell_storage_.assign((decltype(cells_)::storage_bytes(slots) + 7) / 8, 0);
   cells_.bind(cell_storage_.data(), slots, capacity);

@@ -1,6 +1,8 @@
 // Copying the deformation problem's inputs under the graph lock (deformation_inputs.h).
 #include "core/backend/deformation_inputs.h"
 
+#include "core/memory/prefault.h"
+
 namespace qsg::backend {
 
 void DeformationInputs::reserve(std::size_t chain_nodes, std::size_t control, std::size_t place_nodes,
@@ -10,6 +12,11 @@ void DeformationInputs::reserve(std::size_t chain_nodes, std::size_t control, st
   control_times.reserve(control);
   places.reserve(place_nodes);
   edges.reserve(graph_edges);
+  memory::prefault_capacity(&chain);
+  memory::prefault_capacity(&control_points);
+  memory::prefault_capacity(&control_times);
+  memory::prefault_capacity(&places);
+  memory::prefault_capacity(&edges);
 }
 
 void DeformationInputs::copy(const agents::ChainView& agents, const ControlPointView& control,

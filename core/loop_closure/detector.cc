@@ -1,6 +1,7 @@
 #include "core/loop_closure/detector.h"
 
 #include "core/loop_closure/detector_params.h"
+#include "core/memory/prefault.h"
 
 #include <algorithm>
 #include <cmath>
@@ -69,6 +70,8 @@ bool LoopClosureDetector::init(std::size_t capacity, const LocalMapCapacities& l
   mu_.assign(capacity, 0.0f);
   scratch_.assign(capacity, 0.0f);
   candidates_.reserve(capacity);
+  memory::prefault_capacity(&entries_);
+  memory::prefault_capacity(&candidates_);
   indexed_ = 0;
   counters_ = {};
   return true;

@@ -1,6 +1,7 @@
 #include "core/loop_closure/local_map.h"
 
 #include "core/loop_closure/detector_params.h"
+#include "core/memory/prefault.h"
 
 #include <algorithm>
 #include <cmath>
@@ -91,6 +92,14 @@ bool LocalMapVerifier::init(const LocalMapConfig& config, const LocalMapCapaciti
     c->normals.reserve(capacities.points);
   }
   grid_.reserve(capacities.points);
+  memory::prefault_capacity(&gather_points_);
+  memory::prefault_capacity(&gather_normals_);
+  memory::prefault_capacity(&voxel_keys_);
+  for (LocalCloud* c : {&query_, &match_}) {
+    memory::prefault_capacity(&c->points);
+    memory::prefault_capacity(&c->normals);
+  }
+  memory::prefault_capacity(&grid_);
   return true;
 }
 

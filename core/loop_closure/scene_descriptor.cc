@@ -1,6 +1,7 @@
 #include "core/loop_closure/scene_descriptor.h"
 
 #include "core/loop_closure/detector_params.h"
+#include "core/memory/prefault.h"
 
 #include <algorithm>
 #include <cmath>
@@ -36,6 +37,8 @@ bool DescriptorBuilder::init(const DescriptorConfig& config, std::string* error)
   config_ = config;
   queue_.reserve(config.max_places);
   seen_.reserve(config.max_places);
+  memory::prefault_capacity(&queue_);
+  memory::prefault_capacity(&seen_);
   return true;
 }
 
