@@ -6,6 +6,9 @@
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
 
 #include "budgets/budget_table.h"
 #include "core/backend/deformation_io.h"
@@ -40,6 +43,15 @@ bool Pipeline::init_loop_closure(std::string* error) {
         },
         nullptr);
   return true;
+}
+
+// Backend thread, after a solve: Ceres builds each problem on the heap and frees it; glibc keeps the freed pages of
+// the thread's malloc arena resident, so a mission whose problems grow would grow its resident set with them. The
+// pages go back to the system here, and the resident set holds what is live.
+void Pipeline::release_solver_heap() {
+#if defined(__GLIBC__)
+  malloc_trim(0);
+#endif
 }
 
 // Loop thread: the keyframe of a new agent node, when it is describe_every_m from the last captured one, goes to
@@ -156,6 +168,7 @@ void Pipeline::run_loop_closure(std::uint64_t time_ns, pipeline::Host::Held* gra
   wall0_ns = wall_clock.now_ns();
   std::string why;
   r.ok = backend_.solve_deformation(std::move(problem), &why);
+  release_solver_heap();
   runtime::stage_end(runtime::kLoopClosureSolveStage, time_ns);
   if (runtime::stage_markers_on())  // the graph's size beside each marked solve (bench/arm/insn_counts.py)
     std::printf("loop_closure_solve %llu agents=%u control_points=%u places=%u loop_closures=%u\n",
