@@ -13,7 +13,8 @@ const params::Table<LoopClosureConfig>& loop_closure_params_table() {
   constexpr auto refinement = params::Origin::kRefinement;
   static const params::Table<C> table = [&] {
     params::Table<C> t;
-    t.flag("enabled", &C::enabled, paper, "the backend closes loops (off until it meets its target)");
+    t.flag("enabled", &C::enabled, paper,
+           "the backend closes loops and corrects the graph (off: the map as the odometry makes it)");
     t.add("horizon_s", &C::horizon_s, "s", in(0, 3600), project,
           "agents are described this long after the robot passed");
     t.add("describe_every_m", &C::describe_every_m, "m", params::above(0, 100), project,

@@ -195,6 +195,7 @@ TEST(BackendStageTest, RoomsAndTheirLabelsInOneUpdate) {
   BackendStage stage;
   BackendStage::Config c;
   c.doors_online = false;
+  c.loop_closure.enabled = false;
   std::string error, warning;
   ASSERT_TRUE(stage.init(c, graph_capacities(), 0, 0, &error, &warning)) << error;
   EXPECT_TRUE(warning.empty()) << warning;  // the shipped weights load
