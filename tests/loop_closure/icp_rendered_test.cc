@@ -42,14 +42,7 @@ class IcpRenderedTest : public ::testing::Test {
     auto frame = std::make_unique<messages::RgbdFrame>();
     std::string error;
     EXPECT_TRUE(renderer_.render(world_T_camera, k, 0, *frame, &error)) << error;
-    GreyDepthView v;
-    v.depth_m = frame->depth_m.data();
-    v.width = k.width;
-    v.height = k.height;
-    v.fx = k.fx;
-    v.fy = k.fy;
-    v.cx = k.cx;
-    v.cy = k.cy;
+    const GreyDepthView v{nullptr, frame->depth_m.data(), k.width, k.height, k.fx, k.fy, k.cx, k.cy};
     DepthCloud c;
     EXPECT_TRUE(make_depth_cloud(v, IcpConfig{}.max_depth_m, &c));
     return c;
