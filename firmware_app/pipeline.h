@@ -339,7 +339,6 @@ class Pipeline {
   void capture_agent_frame(const messages::RgbdFrame& frame, scene_graph::NodeId agent, std::uint64_t time_ns);
   void extract_captured_frames();
   void run_loop_closure(std::uint64_t time_ns, pipeline::Host::Held* graph_lock);
-  static void release_solver_heap();
   bool optimize_graph();  // the final solve (graph_mutex_ held)
   backend::DeformationProblem build_deformation();  // from the copied inputs; dumps it for QSG_DUMP_DEFORMATION
   // At the finish (graph_mutex_ held): the final solve over every loop closure, then agents and places to their

@@ -48,11 +48,13 @@ bool Pipeline::init_loop_closure(std::string* error) {
 // Backend thread, after a solve: Ceres builds each problem on the heap and frees it; glibc keeps the freed pages of
 // the thread's malloc arena resident, so a mission whose problems grow would grow its resident set with them. The
 // pages go back to the system here, and the resident set holds what is live.
-void Pipeline::release_solver_heap() {
+namespace {
+void release_solver_heap() {
 #if defined(__GLIBC__)
   malloc_trim(0);
 #endif
 }
+}  // namespace
 
 // Loop thread: the keyframe of a new agent node, when it is describe_every_m from the last captured one, goes to
 // the backend for its appearance. Copies into a preallocated slot; none free, it is dropped and counted.
