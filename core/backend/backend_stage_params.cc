@@ -28,6 +28,8 @@ const params::Table<LoopClosureConfig>& loop_closure_params_table() {
     t.include(loop_closure::detector_params_table(), [](C& c) -> loop_closure::DetectorConfig& { return c.detector; });
     t.include(loop_closure::local_map_params_table(),
               [](C& c) -> loop_closure::LocalMapConfig& { return c.detector.local_map; });
+    t.include(loop_closure::appearance_params_table(),
+              [](C& c) -> loop_closure::AppearanceConfig& { return c.detector.appearance; });
     t.include(loop_closure::icp_params_table(), [](C& c) -> loop_closure::IcpConfig& { return c.detector.icp; });
     t.include(loop_closure::registration_params_table(),
               [](C& c) -> loop_closure::RegistrationConfig& { return c.detector.registration; });

@@ -26,8 +26,9 @@ std::string AppearanceConfig::check() const {
 void AppearanceConfig::print(std::FILE* out) const {
   std::fprintf(out,
                "appearance: %u ORB features with depth in [%.1f, %.1f] m; matches at ratio %.2f, Hamming <= %u; RANSAC "
-               "%u iterations, inliers within %.3f m, at least %u\n",
-               max_features, min_depth_m, max_depth_m, ratio, max_hamming, iterations, inlier_m, min_inliers);
+               "%u iterations, inliers within %.3f m, at least %u; %s\n",
+               max_features, min_depth_m, max_depth_m, ratio, max_hamming, iterations, inlier_m, min_inliers,
+               gravity_aligned ? "yaw + translation (gravity aligned)" : "full SE(3)");
 }
 
 struct AppearanceExtractor::Impl {
@@ -109,10 +110,38 @@ Eigen::Isometry3d kabsch(const Eigen::Vector3d* src, const Eigen::Vector3d* dst,
   return T;
 }
 
+// The same with the tilt fixed: dst = T * src with T's rotation Rot(up, theta) * tilt, the angle about `up` (the
+// match's vertical) by least squares on the pairs' components across it.
+Eigen::Isometry3d kabsch_about(const Eigen::Vector3d* src, const Eigen::Vector3d* dst, const std::uint32_t* idx,
+                               std::size_t n, const Eigen::Quaterniond& tilt, const Eigen::Vector3d& up) {
+  Eigen::Vector3d cs = Eigen::Vector3d::Zero(), cd = Eigen::Vector3d::Zero();
+  for (std::size_t i = 0; i < n; ++i) {
+    cs += src[idx[i]];
+    cd += dst[idx[i]];
+  }
+  cs /= static_cast<double>(n);
+  cd /= static_cast<double>(n);
+  // Maximise sum b . Rot(up, theta) a over the centred pairs projected across up (a from the tilted source):
+  // cos(theta) sum a.b + sin(theta) sum up.(a x b).
+  double c = 0.0, s = 0.0;
+  for (std::size_t i = 0; i < n; ++i) {
+    Eigen::Vector3d a = tilt * (src[idx[i]] - cs), b = dst[idx[i]] - cd;
+    a -= up * up.dot(a);
+    b -= up * up.dot(b);
+    c += a.dot(b);
+    s += up.dot(a.cross(b));
+  }
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = (Eigen::AngleAxisd(std::atan2(s, c), up) * tilt).toRotationMatrix();
+  T.translation() = cd - T.linear() * cs;
+  return T;
+}
+
 }  // namespace
 
 AppearanceRegistration register_appearance(const AppearanceFeatures& query, const AppearanceFeatures& match,
-                                           const AppearanceConfig& config, std::uint32_t seed) {
+                                           const AppearanceConfig& config, std::uint32_t seed,
+                                           const GravityPrior* gravity) {
   AppearanceRegistration r;
   Eigen::Vector3d src[kMaxAppearanceFeatures], dst[kMaxAppearanceFeatures];
   std::uint32_t n = 0;
@@ -135,6 +164,12 @@ AppearanceRegistration register_appearance(const AppearanceFeatures& query, cons
   }
   r.matches = n;
   if (n < config.min_inliers) return r;
+  const bool four_dof = gravity != nullptr && config.gravity_aligned;
+  const Eigen::Vector3d up = four_dof ? gravity->match_up.normalized() : Eigen::Vector3d::UnitZ();
+  const Eigen::Quaterniond tilt = four_dof ? gravity->tilt() : Eigen::Quaterniond::Identity();
+  const auto fit = [&](const std::uint32_t* idx, std::size_t count) {
+    return four_dof ? kabsch_about(src, dst, idx, count, tilt, up) : kabsch(src, dst, idx, count);
+  };
   std::mt19937 rng(seed);
   std::uniform_int_distribution<std::uint32_t> pick(0, n - 1);
   std::uint32_t best_inliers[kMaxAppearanceFeatures], inliers[kMaxAppearanceFeatures];
@@ -151,7 +186,7 @@ AppearanceRegistration register_appearance(const AppearanceFeatures& query, cons
               (src[s[a]] - src[s[b]]).norm() > 0.1;
     }
     if (!rigid) continue;
-    const Eigen::Isometry3d T = kabsch(src, dst, s, 3);
+    const Eigen::Isometry3d T = fit(s, 3);
     std::uint32_t count = 0;
     for (std::uint32_t k = 0; k < n; ++k)
       if ((T * src[k] - dst[k]).squaredNorm() <= tol2) inliers[count++] = k;
@@ -165,11 +200,11 @@ AppearanceRegistration register_appearance(const AppearanceFeatures& query, cons
     return r;
   }
   // Refine on the inliers, then take the inliers of the refined transform once more.
-  Eigen::Isometry3d T = kabsch(src, dst, best_inliers, best_count);
+  Eigen::Isometry3d T = fit(best_inliers, best_count);
   std::uint32_t count = 0;
   for (std::uint32_t k = 0; k < n; ++k)
     if ((T * src[k] - dst[k]).squaredNorm() <= tol2) inliers[count++] = k;
-  if (count >= 3) T = kabsch(src, dst, inliers, count);
+  if (count >= 3) T = fit(inliers, count);
   double sum = 0.0;
   for (std::uint32_t k = 0; k < count; ++k) sum += (T * src[inliers[k]] - dst[inliers[k]]).squaredNorm();
   r.inliers = count;

@@ -16,6 +16,8 @@
 #include <random>
 #include <string>
 
+#include "core/loop_closure/gravity.h"
+
 namespace qsg::loop_closure {
 
 inline constexpr std::size_t kMaxAppearanceFeatures = 128;
@@ -29,6 +31,11 @@ struct AppearanceConfig {
   double inlier_m = 0.05;            // RANSAC: a correspondence agrees within this distance
   std::uint32_t iterations = 300;
   std::uint32_t min_inliers = 12;
+  // Given the two agents' verticals (a GravityPrior), RANSAC and its refit estimate yaw and translation only and
+  // keep the odometry's relative roll and pitch (as ICP does, IcpConfig::gravity_aligned): a pose from a dozen
+  // features is otherwise off by up to a degree or two in tilt, which no ICP corrects when the views do not
+  // constrain it.
+  bool gravity_aligned = true;
 
   std::string check() const;
   void print(std::FILE* out) const;
@@ -71,8 +78,9 @@ class AppearanceExtractor {
 };
 
 // Registers the query's features onto the match's: match_T_query maps a point of the query camera's frame into the
-// match camera's. Deterministic for a seed.
+// match camera's. 4 DOF about `gravity` when given and config.gravity_aligned, else 6 DOF. Deterministic for a seed.
 AppearanceRegistration register_appearance(const AppearanceFeatures& query, const AppearanceFeatures& match,
-                                           const AppearanceConfig& config, std::uint32_t seed = 1);
+                                           const AppearanceConfig& config, std::uint32_t seed = 1,
+                                           const GravityPrior* gravity = nullptr);
 
 }  // namespace qsg::loop_closure

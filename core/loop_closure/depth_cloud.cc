@@ -96,13 +96,6 @@ class BruteForceIndex final : public NearestIndex {
 
 }  // namespace
 
-GravityPrior GravityPrior::from_poses(const Eigen::Isometry3d& world_T_match, const Eigen::Isometry3d& world_T_query) {
-  GravityPrior g;
-  g.match_up = world_T_match.linear().transpose() * Eigen::Vector3d::UnitZ();
-  g.query_up = world_T_query.linear().transpose() * Eigen::Vector3d::UnitZ();
-  return g;
-}
-
 namespace {
 
 // The estimate with the odometry's tilt: the smallest rotation that takes the query's vertical, as the estimate

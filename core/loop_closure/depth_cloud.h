@@ -14,6 +14,7 @@
 #include <string>
 
 #include "core/loop_closure/appearance.h"
+#include "core/loop_closure/gravity.h"
 
 namespace qsg::loop_closure {
 
@@ -64,17 +65,9 @@ struct IcpResult {
   std::uint32_t iterations = 0;
 };
 
-// The world's vertical in the match's and the query's frames (from their odometric poses), for a gravity-aligned
-// ICP: the estimate's tilt is first set to the odometry's (the vertical of the query lands on the match's), then
-// only rotations about the vertical and translations are estimated.
-struct GravityPrior {
-  Eigen::Vector3d match_up = Eigen::Vector3d::UnitZ();
-  Eigen::Vector3d query_up = Eigen::Vector3d::UnitZ();
-  static GravityPrior from_poses(const Eigen::Isometry3d& world_T_match, const Eigen::Isometry3d& world_T_query);
-};
-
 // Refines `initial` (match_T_query, camera frames) by point-to-plane ICP of the query's cloud onto the match's;
-// 4 DOF about `gravity` when given and config.gravity_aligned, else 6 DOF.
+// 4 DOF about `gravity` when given and config.gravity_aligned (the estimate's tilt is first set to the odometry's,
+// then only rotations about the vertical and translations are estimated), else 6 DOF.
 IcpResult refine_icp(const DepthCloud& query, const DepthCloud& match, const Eigen::Isometry3d& initial,
                      const IcpConfig& config, const GravityPrior* gravity = nullptr);
 

@@ -299,8 +299,10 @@ bool LoopClosureDetector::add_and_detect(const AgentEntry& query, LoopClosure* o
         const AgentEntry& match = entries_[candidates_[k].entry];
         if (match.appearance.count == 0) continue;
         ++counters_.appearance_checks;
-        const AppearanceRegistration a = register_appearance(query.appearance, match.appearance, config_.appearance,
-                                                             static_cast<std::uint32_t>(counters_.appearance_checks));
+        const GravityPrior gravity = GravityPrior::from_poses(match.world_T_agent, query.world_T_agent);
+        const AppearanceRegistration a =
+            register_appearance(query.appearance, match.appearance, config_.appearance,
+                                static_cast<std::uint32_t>(counters_.appearance_checks), &gravity);
         if (!a.ok) continue;
         ++counters_.appearance_accepted;
         out->source = ClosureSource::kAppearance;
@@ -311,7 +313,6 @@ bool LoopClosureDetector::add_and_detect(const AgentEntry& query, LoopClosure* o
         // The refinement pass on the same pair: a RANSAC pose from a dozen features can be a few degrees off in
         // rotation; ICP on the two views' depth pins it where the views constrain every direction.
         if (config_.icp.enabled && query.cloud.count > 0 && match.cloud.count > 0) {
-          const GravityPrior gravity = GravityPrior::from_poses(match.world_T_agent, query.world_T_agent);
           const IcpResult r = refine_icp(query.cloud, match.cloud, a.match_T_query, config_.icp, &gravity);
           if (r.ok) {
             out->icp = r;

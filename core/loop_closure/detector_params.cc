@@ -60,6 +60,16 @@ const params::Table<LocalMapConfig>& local_map_params_table() {
   return table;
 }
 
+const params::Table<AppearanceConfig>& appearance_params_table() {
+  static const params::Table<AppearanceConfig> table = [] {
+    params::Table<AppearanceConfig> t;
+    t.flag("appearance_gravity_aligned", &AppearanceConfig::gravity_aligned, refinement,
+           "the appearance RANSAC estimates yaw and translation and keeps the odometry's roll and pitch");
+    return t;
+  }();
+  return table;
+}
+
 const params::Table<IcpConfig>& icp_params_table() {
   static const params::Table<IcpConfig> table = [] {
     params::Table<IcpConfig> t;

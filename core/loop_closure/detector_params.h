@@ -12,6 +12,7 @@ namespace qsg::loop_closure {
 const params::Table<DescriptorConfig>& descriptor_params_table();
 const params::Table<DetectorConfig>& detector_params_table();  // its own fields, not its sub-configs'
 const params::Table<LocalMapConfig>& local_map_params_table();
+const params::Table<AppearanceConfig>& appearance_params_table();  // the keys of its fields the app exposes
 const params::Table<IcpConfig>& icp_params_table();  // the keys of its fields the app exposes
 const params::Table<RegistrationConfig>& registration_params_table();
 
