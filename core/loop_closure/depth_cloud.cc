@@ -19,7 +19,8 @@ std::string IcpConfig::check() const {
   if (!(min_overlap > 0.0 && min_overlap <= 1.0)) return "min_overlap must be in (0, 1]";
   if (!(neighbour_m >= inlier_m && neighbour_m <= 5.0)) return "neighbour_m must be in [inlier_m, 5] m";
   if (!(min_constraint_ratio >= 0.0 && min_constraint_ratio <= 1.0)) return "min_constraint_ratio must be in [0, 1]";
-  if (!(max_correction_m > 0.0 && max_correction_rad > 0.0)) return "max_correction_m and max_correction_rad must be positive";
+  if (!(max_correction_m > 0.0 && max_correction_rad > 0.0))
+    return "max_correction_m and max_correction_rad must be positive";
   if (!(max_normal_angle_rad > 0.0 && max_normal_angle_rad <= M_PI)) return "max_normal_angle_rad must be in (0, pi]";
   return "";
 }
@@ -70,29 +71,6 @@ Eigen::Vector3d point_of(const DepthCloud& c, std::size_t i) {
 Eigen::Vector3d normal_of(const DepthCloud& c, std::size_t i) {
   return Eigen::Vector3d(c.normals[i][0], c.normals[i][1], c.normals[i][2]).normalized();
 }
-
-// A keyframe's cloud is small: every match point is tried.
-class BruteForceIndex final : public NearestIndex {
- public:
-  BruteForceIndex(const Eigen::Vector3d* points, std::uint32_t count) : points_(points), count_(count) {}
-  bool nearest(const Eigen::Vector3d& p, double gate2, std::uint32_t* best) const override {
-    double best_d2 = gate2;
-    bool found = false;
-    for (std::uint32_t j = 0; j < count_; ++j) {
-      const double d2 = (points_[j] - p).squaredNorm();
-      if (d2 < best_d2) {
-        best_d2 = d2;
-        *best = j;
-        found = true;
-      }
-    }
-    return found;
-  }
-
- private:
-  const Eigen::Vector3d* points_;
-  std::uint32_t count_;
-};
 
 }  // namespace
 
@@ -190,6 +168,73 @@ IcpResult point_to_plane_icp(const Eigen::Vector3d* qp, const Eigen::Vector3d* q
   return r;
 }
 
+bool BruteForceIndex::nearest(const Eigen::Vector3d& p, double gate2, std::uint32_t* best) const {
+  double best_d2 = gate2;
+  bool found = false;
+  for (std::uint32_t j = 0; j < count_; ++j) {
+    const double d2 = (points_[j] - p).squaredNorm();
+    if (d2 < best_d2) {
+      best_d2 = d2;
+      *best = j;
+      found = true;
+    }
+  }
+  return found;
+}
+
+namespace {
+constexpr std::int64_t kCellOffset = std::int64_t{1} << 20;  // cells per axis either side of the origin
+constexpr std::uint64_t kCellMask = (std::uint64_t{1} << 21) - 1;
+}  // namespace
+
+bool GridIndex::cell_key(const Eigen::Vector3d& p, double cell, std::uint64_t* key) {
+  std::uint64_t k = 0;
+  for (int a = 0; a < 3; ++a) {
+    const double c = std::floor(p[a] / cell);
+    if (!(c > -static_cast<double>(kCellOffset) && c < static_cast<double>(kCellOffset - 1))) return false;
+    k = (k << 21) | static_cast<std::uint64_t>(static_cast<std::int64_t>(c) + kCellOffset);
+  }
+  *key = k;
+  return true;
+}
+
+std::size_t GridIndex::build(const Eigen::Vector3d* points, std::uint32_t count, double cell, Cell* cells,
+                             std::size_t capacity) {
+  std::size_t n = 0;
+  for (std::uint32_t j = 0; j < count && n < capacity; ++j) {
+    std::uint64_t key = 0;
+    if (cell_key(points[j], cell, &key)) cells[n++] = Cell{key, j};
+  }
+  std::sort(cells, cells + n);
+  return n;
+}
+
+bool GridIndex::nearest(const Eigen::Vector3d& p, double gate2, std::uint32_t* best) const {
+  std::uint64_t centre = 0;
+  if (!cell_key(p, cell_, &centre)) return false;
+  double best_d2 = gate2;
+  bool found = false;
+  const std::int64_t cx = static_cast<std::int64_t>((centre >> 42) & kCellMask);
+  const std::int64_t cy = static_cast<std::int64_t>((centre >> 21) & kCellMask);
+  const std::int64_t cz = static_cast<std::int64_t>(centre & kCellMask);
+  const Cell* end = cells_ + num_cells_;
+  for (std::int64_t dx = -1; dx <= 1; ++dx)
+    for (std::int64_t dy = -1; dy <= 1; ++dy)
+      for (std::int64_t dz = -1; dz <= 1; ++dz) {
+        const std::uint64_t key = (static_cast<std::uint64_t>(cx + dx) << 42) |
+                                  (static_cast<std::uint64_t>(cy + dy) << 21) | static_cast<std::uint64_t>(cz + dz);
+        for (const Cell* it = std::lower_bound(cells_, end, Cell{key, 0}); it != end && it->first == key; ++it) {
+          const double d2 = (points_[it->second] - p).squaredNorm();
+          if (d2 < best_d2) {
+            best_d2 = d2;
+            *best = it->second;
+            found = true;
+          }
+        }
+      }
+  return found;
+}
+
 IcpResult refine_icp(const DepthCloud& query, const DepthCloud& match, const Eigen::Isometry3d& initial,
                      const IcpConfig& config, const GravityPrior* gravity) {
   if (query.count < 32 || match.count < 32) return IcpResult{};
@@ -202,7 +247,11 @@ IcpResult refine_icp(const DepthCloud& query, const DepthCloud& match, const Eig
     qp[i] = point_of(query, i);
     qn[i] = normal_of(query, i);
   }
-  return point_to_plane_icp(qp, qn, query.count, mp, mn, BruteForceIndex(mp, match.count), initial, config,
+  // The grid's cell is the largest gate ICP asks for, so its lookups are exact.
+  const double cell = std::max(config.start_inlier_m, config.neighbour_m);
+  GridIndex::Cell cells[kMaxCloudPoints];
+  const std::size_t num_cells = GridIndex::build(mp, match.count, cell, cells, kMaxCloudPoints);
+  return point_to_plane_icp(qp, qn, query.count, mp, mn, GridIndex(cells, num_cells, mp, cell), initial, config,
                             config.min_overlap, gravity);
 }
 

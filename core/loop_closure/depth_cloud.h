@@ -12,6 +12,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <string>
+#include <utility>
 
 #include "core/loop_closure/appearance.h"
 #include "core/loop_closure/gravity.h"
@@ -30,10 +31,10 @@ struct IcpConfig {
   bool enabled = true;
   double max_depth_m = 4.0;
   std::uint32_t iterations = 15;
-  double start_inlier_m = 0.3;   // correspondence gate of the first iteration, shrinking to inlier_m
-  double inlier_m = 0.05;        // final gate, and the point-to-plane distance of an overlapping point
-  double neighbour_m = 0.2;      // overlap: a query point with a match point this near (clouds are sparse) ...
-  double min_overlap = 0.3;      // ... within inlier_m of its plane; at least this share of the query's points
+  double start_inlier_m = 0.3;  // correspondence gate of the first iteration, shrinking to inlier_m
+  double inlier_m = 0.05;       // final gate, and the point-to-plane distance of an overlapping point
+  double neighbour_m = 0.2;     // overlap: a query point with a match point this near (clouds are sparse) ...
+  double min_overlap = 0.3;     // ... within inlier_m of its plane; at least this share of the query's points
   // The geometry must pin every direction: the smallest eigenvalue of the normal equations' rotation and
   // translation blocks over the largest at least this (a wall and a floor leave a translation free: ICP slides).
   double min_constraint_ratio = 0.05;
@@ -42,7 +43,7 @@ struct IcpConfig {
   // with its back, what one view sees and the other does not) pulls the estimate off by centimetres while the
   // residual stays small. Pi: no check (the plain point-to-plane ICP).
   double max_normal_angle_rad = 0.5;
-  double max_correction_m = 0.5; // beyond these from the coarse estimate the refinement is not trusted
+  double max_correction_m = 0.5;  // beyond these from the coarse estimate the refinement is not trusted
   double max_correction_rad = 0.15;
   // Odometry with an IMU observes roll and pitch, so two agents' relative tilt is the odometry's: ICP estimates
   // yaw and translation only (4 DOF) and leaves the tilt as the odometry has it (given a GravityPrior).
@@ -76,6 +77,39 @@ class NearestIndex {
  public:
   virtual ~NearestIndex() = default;
   virtual bool nearest(const Eigen::Vector3d& p, double gate2, std::uint32_t* best) const = 0;
+};
+
+// Every match point tried: the reference the grid below must agree with.
+class BruteForceIndex final : public NearestIndex {
+ public:
+  BruteForceIndex(const Eigen::Vector3d* points, std::uint32_t count) : points_(points), count_(count) {}
+  bool nearest(const Eigen::Vector3d& p, double gate2, std::uint32_t* best) const override;
+
+ private:
+  const Eigen::Vector3d* points_;
+  std::uint32_t count_;
+};
+
+// The match points by cubic cell of side `cell`: (cell key, point) pairs sorted by key, so that the 27 cells around
+// a query point hold every match point within one cell side. Exact for any gate up to the cell's side (ICP's gates
+// are start_inlier_m and neighbour_m at most); a keyframe's 512 points are looked up among a few dozen, not all.
+class GridIndex final : public NearestIndex {
+ public:
+  using Cell = std::pair<std::uint64_t, std::uint32_t>;
+  // A point's cell key (three 21-bit cell coordinates); false beyond +-2^20 cells of the origin.
+  static bool cell_key(const Eigen::Vector3d& p, double cell, std::uint64_t* key);
+  // Fills cells[0, n) from points (at most `capacity` of them) and sorts them; n.
+  static std::size_t build(const Eigen::Vector3d* points, std::uint32_t count, double cell, Cell* cells,
+                           std::size_t capacity);
+  GridIndex(const Cell* cells, std::size_t num_cells, const Eigen::Vector3d* points, double cell)
+      : cells_(cells), num_cells_(num_cells), points_(points), cell_(cell) {}
+  bool nearest(const Eigen::Vector3d& p, double gate2, std::uint32_t* best) const override;
+
+ private:
+  const Cell* cells_;
+  std::size_t num_cells_;
+  const Eigen::Vector3d* points_;
+  double cell_;
 };
 
 // The ICP itself, over any clouds: query points qp with unit normals qn (query frame), match points mp with unit

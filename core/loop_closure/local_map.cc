@@ -8,63 +8,6 @@
 
 namespace qsg::loop_closure {
 
-namespace {
-
-constexpr std::int64_t kKeyOffset = std::int64_t{1} << 20;  // cells per axis either side of the anchor
-
-// A cell's key: three 21-bit cell coordinates; false beyond +-2^20 cells of the origin.
-bool cell_key(const Eigen::Vector3d& p, double cell, std::uint64_t* key) {
-  std::uint64_t k = 0;
-  for (int a = 0; a < 3; ++a) {
-    const double c = std::floor(p[a] / cell);
-    if (!(c > -static_cast<double>(kKeyOffset) && c < static_cast<double>(kKeyOffset - 1))) return false;
-    k = (k << 21) | static_cast<std::uint64_t>(static_cast<std::int64_t>(c) + kKeyOffset);
-  }
-  *key = k;
-  return true;
-}
-
-// The match cloud's points by voxel cell: the 27 cells around a query point hold every point within one cell side.
-class GridIndex final : public NearestIndex {
- public:
-  GridIndex(const std::vector<std::pair<std::uint64_t, std::uint32_t>>& grid, const Eigen::Vector3d* points,
-            double cell)
-      : grid_(grid), points_(points), cell_(cell) {}
-  bool nearest(const Eigen::Vector3d& p, double gate2, std::uint32_t* best) const override {
-    std::uint64_t centre = 0;
-    if (!cell_key(p, cell_, &centre)) return false;
-    double best_d2 = gate2;
-    bool found = false;
-    constexpr std::uint64_t kMask = (std::uint64_t{1} << 21) - 1;
-    const std::int64_t cx = static_cast<std::int64_t>((centre >> 42) & kMask);
-    const std::int64_t cy = static_cast<std::int64_t>((centre >> 21) & kMask);
-    const std::int64_t cz = static_cast<std::int64_t>(centre & kMask);
-    for (std::int64_t dx = -1; dx <= 1; ++dx)
-      for (std::int64_t dy = -1; dy <= 1; ++dy)
-        for (std::int64_t dz = -1; dz <= 1; ++dz) {
-          const std::uint64_t key = (static_cast<std::uint64_t>(cx + dx) << 42) |
-                                    (static_cast<std::uint64_t>(cy + dy) << 21) | static_cast<std::uint64_t>(cz + dz);
-          auto it = std::lower_bound(grid_.begin(), grid_.end(), std::make_pair(key, std::uint32_t{0}));
-          for (; it != grid_.end() && it->first == key; ++it) {
-            const double d2 = (points_[it->second] - p).squaredNorm();
-            if (d2 < best_d2) {
-              best_d2 = d2;
-              *best = it->second;
-              found = true;
-            }
-          }
-        }
-    return found;
-  }
-
- private:
-  const std::vector<std::pair<std::uint64_t, std::uint32_t>>& grid_;
-  const Eigen::Vector3d* points_;
-  double cell_;
-};
-
-}  // namespace
-
 std::string LocalMapConfig::check() const {
   // Each field the app exposes within its declared range (detector_params.cc).
   if (std::string why = params::check(local_map_params_table(), *this); !why.empty()) return why;
@@ -135,7 +78,7 @@ void LocalMapVerifier::finish(LocalCloud* out) {
   voxel_keys_.clear();
   for (std::uint32_t i = 0; i < gather_points_.size(); ++i) {
     std::uint64_t key = 0;
-    if (cell_key(gather_points_[i], config_.voxel_m, &key)) voxel_keys_.emplace_back(key, i);
+    if (GridIndex::cell_key(gather_points_[i], config_.voxel_m, &key)) voxel_keys_.emplace_back(key, i);
   }
   std::sort(voxel_keys_.begin(), voxel_keys_.end());
   std::size_t voxels = 0;
@@ -163,17 +106,15 @@ IcpResult LocalMapVerifier::register_clouds(const LocalCloud& query, const Local
                                             const GravityPrior* gravity) {
   if (query.points.size() < 32 || match.points.size() < 32) return IcpResult{};
   const double cell = std::max(icp.start_inlier_m, icp.neighbour_m);
-  grid_.clear();
-  for (std::uint32_t j = 0; j < match.points.size(); ++j) {
-    std::uint64_t key = 0;
-    if (cell_key(match.points[j], cell, &key)) grid_.emplace_back(key, j);
-  }
-  std::sort(grid_.begin(), grid_.end());
+  grid_.resize(grid_.capacity());  // within the capacity reserved at init: no allocation
+  grid_.resize(GridIndex::build(match.points.data(), static_cast<std::uint32_t>(match.points.size()), cell,
+                                grid_.data(), grid_.size()));
   IcpConfig bounded = icp;
   bounded.max_correction_rad = std::min(icp.max_correction_rad, config_.max_correction_rad);
   return point_to_plane_icp(query.points.data(), query.normals.data(), static_cast<std::uint32_t>(query.points.size()),
-                            match.points.data(), match.normals.data(), GridIndex(grid_, match.points.data(), cell),
-                            initial, bounded, config_.min_overlap, gravity);
+                            match.points.data(), match.normals.data(),
+                            GridIndex(grid_.data(), grid_.size(), match.points.data(), cell), initial, bounded,
+                            config_.min_overlap, gravity);
 }
 
 }  // namespace qsg::loop_closure

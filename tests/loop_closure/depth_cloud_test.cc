@@ -43,6 +43,38 @@ Eigen::Isometry3d pose(double x, double y, double z, double yaw, double pitch) {
   return T;
 }
 
+// The grid ICP looks neighbours up in must find what trying every point finds, for every gate up to its cell
+// (including points on cell borders and query points far from any), or ICP's result would depend on the index.
+TEST(DepthCloudTest, TheGridIndexFindsWhatTryingEveryPointFinds) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(-2.0, 2.0);
+  const double cell = 0.3;
+  std::vector<Eigen::Vector3d> points(kMaxCloudPoints);
+  for (std::size_t j = 0; j < points.size(); ++j)
+    points[j] = j % 8 == 0 ? Eigen::Vector3d(std::round(u(rng) / cell) * cell, u(rng), 0.6)  // on a cell border
+                           : Eigen::Vector3d(u(rng), u(rng), 0.5 * u(rng) + 3.0);
+  GridIndex::Cell cells[kMaxCloudPoints];
+  const std::size_t n = GridIndex::build(points.data(), kMaxCloudPoints, cell, cells, kMaxCloudPoints);
+  ASSERT_EQ(n, kMaxCloudPoints);
+  const GridIndex grid(cells, n, points.data(), cell);
+  const BruteForceIndex brute(points.data(), kMaxCloudPoints);
+  std::size_t found = 0, missed = 0;
+  for (int i = 0; i < 4000; ++i) {
+    const Eigen::Vector3d p(u(rng), u(rng), 0.75 * u(rng) + 2.5);
+    for (const double gate : {0.05, 0.2, 0.3}) {
+      std::uint32_t a = 0, b = 0;
+      const bool in_grid = grid.nearest(p, gate * gate, &a);
+      ASSERT_EQ(in_grid, brute.nearest(p, gate * gate, &b)) << "query " << i << ", gate " << gate;
+      if (in_grid) {
+        ASSERT_EQ(a, b) << "query " << i << ", gate " << gate;
+      }
+      (in_grid ? found : missed) += 1;
+    }
+  }
+  EXPECT_GT(found, 1000u);  // both outcomes exercised
+  EXPECT_GT(missed, 1000u);
+}
+
 TEST(DepthCloudTest, IcpRefinesACoarseEstimateToTheDepthsPrecision) {
   const Eigen::Isometry3d world_T_match = pose(2.5, 2.5, 0.5, 3.9, 0.1), world_T_query = pose(2.2, 2.8, 0.5, 4.1, 0.1);
   const DepthCloud match = corner(world_T_match.inverse(), 1), query = corner(world_T_query.inverse(), 2);
