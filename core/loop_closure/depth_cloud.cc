@@ -218,20 +218,22 @@ bool GridIndex::nearest(const Eigen::Vector3d& p, double gate2, std::uint32_t* b
   const std::int64_t cy = static_cast<std::int64_t>((centre >> 21) & kCellMask);
   const std::int64_t cz = static_cast<std::int64_t>(centre & kCellMask);
   const Cell* end = cells_ + num_cells_;
+  // z is the key's lowest field, so a column's three cells (z - 1 to z + 1) are one run of keys: one search each.
   for (std::int64_t dx = -1; dx <= 1; ++dx)
-    for (std::int64_t dy = -1; dy <= 1; ++dy)
-      for (std::int64_t dz = -1; dz <= 1; ++dz) {
-        const std::uint64_t key = (static_cast<std::uint64_t>(cx + dx) << 42) |
-                                  (static_cast<std::uint64_t>(cy + dy) << 21) | static_cast<std::uint64_t>(cz + dz);
-        for (const Cell* it = std::lower_bound(cells_, end, Cell{key, 0}); it != end && it->first == key; ++it) {
-          const double d2 = (points_[it->second] - p).squaredNorm();
-          if (d2 < best_d2) {
-            best_d2 = d2;
-            *best = it->second;
-            found = true;
-          }
+    for (std::int64_t dy = -1; dy <= 1; ++dy) {
+      const std::uint64_t column =
+          (static_cast<std::uint64_t>(cx + dx) << 42) | (static_cast<std::uint64_t>(cy + dy) << 21);
+      const std::uint64_t first = column | static_cast<std::uint64_t>(cz - 1),
+                          last = column | static_cast<std::uint64_t>(cz + 1);
+      for (const Cell* it = std::lower_bound(cells_, end, Cell{first, 0}); it != end && it->first <= last; ++it) {
+        const double d2 = (points_[it->second] - p).squaredNorm();
+        if (d2 < best_d2) {
+          best_d2 = d2;
+          *best = it->second;
+          found = true;
         }
       }
+    }
   return found;
 }
 
