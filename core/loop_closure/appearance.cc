@@ -90,15 +90,24 @@ int hamming(const std::array<std::uint8_t, 32>& a, const std::array<std::uint8_t
   return d;
 }
 
-// Least-squares rigid transform dst = T * src over the given pairs (Kabsch).
-Eigen::Isometry3d kabsch(const Eigen::Vector3d* src, const Eigen::Vector3d* dst, const std::uint32_t* idx, std::size_t n) {
-  Eigen::Vector3d cs = Eigen::Vector3d::Zero(), cd = Eigen::Vector3d::Zero();
+// The means of the given pairs' sources and destinations.
+void centroids(const Eigen::Vector3d* src, const Eigen::Vector3d* dst, const std::uint32_t* idx, std::size_t n,
+               Eigen::Vector3d* cs, Eigen::Vector3d* cd) {
+  *cs = Eigen::Vector3d::Zero();
+  *cd = Eigen::Vector3d::Zero();
   for (std::size_t i = 0; i < n; ++i) {
-    cs += src[idx[i]];
-    cd += dst[idx[i]];
+    *cs += src[idx[i]];
+    *cd += dst[idx[i]];
   }
-  cs /= static_cast<double>(n);
-  cd /= static_cast<double>(n);
+  *cs /= static_cast<double>(n);
+  *cd /= static_cast<double>(n);
+}
+
+// Least-squares rigid transform dst = T * src over the given pairs (Kabsch).
+Eigen::Isometry3d kabsch(const Eigen::Vector3d* src, const Eigen::Vector3d* dst, const std::uint32_t* idx,
+                         std::size_t n) {
+  Eigen::Vector3d cs, cd;
+  centroids(src, dst, idx, n, &cs, &cd);
   Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
   for (std::size_t i = 0; i < n; ++i) H += (src[idx[i]] - cs) * (dst[idx[i]] - cd).transpose();
   const Eigen::JacobiSVD<Eigen::Matrix3d> svd(H, Eigen::ComputeFullU | Eigen::ComputeFullV);
@@ -114,13 +123,8 @@ Eigen::Isometry3d kabsch(const Eigen::Vector3d* src, const Eigen::Vector3d* dst,
 // match's vertical) by least squares on the pairs' components across it.
 Eigen::Isometry3d kabsch_about(const Eigen::Vector3d* src, const Eigen::Vector3d* dst, const std::uint32_t* idx,
                                std::size_t n, const Eigen::Quaterniond& tilt, const Eigen::Vector3d& up) {
-  Eigen::Vector3d cs = Eigen::Vector3d::Zero(), cd = Eigen::Vector3d::Zero();
-  for (std::size_t i = 0; i < n; ++i) {
-    cs += src[idx[i]];
-    cd += dst[idx[i]];
-  }
-  cs /= static_cast<double>(n);
-  cd /= static_cast<double>(n);
+  Eigen::Vector3d cs, cd;
+  centroids(src, dst, idx, n, &cs, &cd);
   // Maximise sum b . Rot(up, theta) a over the centred pairs projected across up (a from the tilted source):
   // cos(theta) sum a.b + sin(theta) sum up.(a x b).
   double c = 0.0, s = 0.0;
