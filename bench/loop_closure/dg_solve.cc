@@ -30,7 +30,8 @@ int usage(int status) {
       "                [--agent-spacing M]  (one agent node per M m of path: DeformationConfig::agent_spacing_m)\n"
       "                [--whole-tolerance F]  (the whole graph's stopping rule: whole_function_tolerance)\n"
       "                [--agent-turn RAD]  (with --agent-spacing: a node also per RAD of rotation, 0.2)\n"
-      "                [--hold-agents 0|1]  (the map solved around the agents' solution, held: DeformationConfig::hold_agents,\n"
+      "                [--hold-agents 0|1]  (the map solved around the agents' solution, held: "
+      "DeformationConfig::hold_agents,\n"
       "                                      on by default)\n"
       "                [--profile N]   (the error of N agents evenly spaced along the chain, before and after)\n"
       "                [--oracle-sigma M RAD] (the oracle closures' sigmas: 0.01 m, 0.002 rad)\n"
@@ -38,8 +39,11 @@ int usage(int status) {
       "                                 (tour) only, or between segments only)\n"
       "                [--oracle-min-path M] (oracle pairs at least M m of true path apart)\n"
       "                [--least-squares]  (every closure kept: no GNC)\n"
+      "                [--exact-closures]  (the app's closures, same pairs and sigmas, measuring the true relative\n"
+      "                                     pose: what their errors cost; needs the true orientations)\n"
       "                [--agents-only]  (the agent layer alone: no control points or places)\n"
-      "                [--reduced 0|1]  (on by default: GNC decides on the agent graph reduced to the closures, then the\n"
+      "                [--reduced 0|1]  (on by default: GNC decides on the agent graph reduced to the closures, then "
+      "the\n"
       "                                  chain is solved with the decisions: DeformationConfig::reduced_decisions)\n"
       "                [--segments N]  (ATE of N equal stretches of the chain, by agent index: one per tour)\n"
       "                [--odometry as_dumped|per_distance] [--sigma-t M] [--sigma-yaw RAD] [--sigma-tilt RAD]\n"
@@ -80,7 +84,7 @@ int main(int argc, char** argv) {
   double agent_spacing_m = 0.0, whole_tolerance = 0.0, agent_turn_rad = 0.2;
   bool hold_agents = backend::DeformationConfig{}.hold_agents;
   double max_sigma = 0.0, sigma_scale = 1.0, oracle_m = 0.0;
-  bool oracle_only = false, agents_only = false, least_squares = false;
+  bool oracle_only = false, agents_only = false, least_squares = false, exact_closures = false;
   bool reduced = backend::DeformationConfig{}.reduced_decisions;
   double oracle_sigma_t = 0.01, oracle_sigma_rot = 0.002;
   std::string oracle_pairs = "all";
@@ -109,6 +113,8 @@ int main(int argc, char** argv) {
     else if (a == "--agents-only") agents_only = true;
     else if (a == "--reduced" && has) reduced = std::atoi(argv[++i]) != 0;
     else if (a == "--least-squares") least_squares = true;
+    else if (a == "--exact-closures")
+      exact_closures = true;
     else if (a == "--oracle-pairs" && has) oracle_pairs = argv[++i];
     else if (a == "--oracle-min-path" && has) oracle_min_path_m = std::atof(argv[++i]);
     else if (a == "--oracle-sigma" && i + 2 < argc) {
@@ -150,6 +156,18 @@ int main(int argc, char** argv) {
     }
     p.edges = std::move(edges);
     p.result.loop_closures = kept;
+  }
+  // What-if: the app's closures measuring the truth (the same pairs and sigmas).
+  if (exact_closures) {
+    if (file.truth_q.size() != p.result.agents) {
+      std::fprintf(stderr, "dg_solve: --exact-closures needs the agents' true orientations in the file\n");
+      return 2;
+    }
+    for (std::size_t k = p.first_closure; k < p.first_closure + p.result.loop_closures; ++k) {
+      backend::RelativePoseEdge& e = p.edges[k];
+      e.measured_from_T_to = backend::between(backend::Pose3{file.truth_m[e.from], file.truth_q[e.from]},
+                                              backend::Pose3{file.truth_m[e.to], file.truth_q[e.to]});
+    }
   }
   // What-if: the odometry edges (the chain's, before the first closure, between consecutive agents) re-weighted.
   std::size_t reweighted = 0;
