@@ -30,8 +30,7 @@ int usage(int status) {
       "                [--agent-spacing M]  (one agent node per M m of path: DeformationConfig::agent_spacing_m)\n"
       "                [--whole-tolerance F]  (the whole graph's stopping rule: whole_function_tolerance)\n"
       "                [--agent-turn RAD]  (with --agent-spacing: a node also per RAD of rotation, 0.2)\n"
-      "                [--hold-agents 0|1]  (the map solved around the agents' solution, held: "
-      "DeformationConfig::hold_agents,\n"
+      "                [--hold-agents 0|1]  (the map solved around the agents' solution, held: DeformationConfig::hold_agents,\n"
       "                                      on by default)\n"
       "                [--profile N]   (the error of N agents evenly spaced along the chain, before and after)\n"
       "                [--oracle-sigma M RAD] (the oracle closures' sigmas: 0.01 m, 0.002 rad)\n"
@@ -42,8 +41,7 @@ int usage(int status) {
       "                [--exact-closures]  (the app's closures, same pairs and sigmas, measuring the true relative\n"
       "                                     pose: what their errors cost; needs the true orientations)\n"
       "                [--agents-only]  (the agent layer alone: no control points or places)\n"
-      "                [--reduced 0|1]  (on by default: GNC decides on the agent graph reduced to the closures, then "
-      "the\n"
+      "                [--reduced 0|1]  (on by default: GNC decides on the agent graph reduced to the closures, then the\n"
       "                                  chain is solved with the decisions: DeformationConfig::reduced_decisions)\n"
       "                [--segments N]  (ATE of N equal stretches of the chain, by agent index: one per tour)\n"
       "                [--odometry as_dumped|per_distance] [--sigma-t M] [--sigma-yaw RAD] [--sigma-tilt RAD]\n"
@@ -113,8 +111,7 @@ int main(int argc, char** argv) {
     else if (a == "--agents-only") agents_only = true;
     else if (a == "--reduced" && has) reduced = std::atoi(argv[++i]) != 0;
     else if (a == "--least-squares") least_squares = true;
-    else if (a == "--exact-closures")
-      exact_closures = true;
+    else if (a == "--exact-closures") exact_closures = true;
     else if (a == "--oracle-pairs" && has) oracle_pairs = argv[++i];
     else if (a == "--oracle-min-path" && has) oracle_min_path_m = std::atof(argv[++i]);
     else if (a == "--oracle-sigma" && i + 2 < argc) {
@@ -157,6 +154,11 @@ int main(int argc, char** argv) {
     p.edges = std::move(edges);
     p.result.loop_closures = kept;
   }
+  // The true relative pose of agents i and j (files that carry the true orientations).
+  const auto true_between = [&file](std::size_t i, std::size_t j) {
+    return backend::between(backend::Pose3{file.truth_m[i], file.truth_q[i]},
+                            backend::Pose3{file.truth_m[j], file.truth_q[j]});
+  };
   // What-if: the app's closures measuring the truth (the same pairs and sigmas).
   if (exact_closures) {
     if (file.truth_q.size() != p.result.agents) {
@@ -165,8 +167,7 @@ int main(int argc, char** argv) {
     }
     for (std::size_t k = p.first_closure; k < p.first_closure + p.result.loop_closures; ++k) {
       backend::RelativePoseEdge& e = p.edges[k];
-      e.measured_from_T_to = backend::between(backend::Pose3{file.truth_m[e.from], file.truth_q[e.from]},
-                                              backend::Pose3{file.truth_m[e.to], file.truth_q[e.to]});
+      e.measured_from_T_to = true_between(e.from, e.to);
     }
   }
   // What-if: the odometry edges (the chain's, before the first closure, between consecutive agents) re-weighted.
@@ -211,8 +212,7 @@ int main(int argc, char** argv) {
       backend::ChainLoopClosure c;
       c.a = static_cast<std::uint32_t>(best);
       c.b = static_cast<std::uint32_t>(j);
-      c.a_T_b = backend::between(backend::Pose3{file.truth_m[best], file.truth_q[best]},
-                                 backend::Pose3{file.truth_m[j], file.truth_q[j]});
+      c.a_T_b = true_between(best, j);
       c.sigma_t_m.setConstant(oracle_sigma_t);
       c.sigma_rot_rad.setConstant(oracle_sigma_rot);
       edges.push_back(backend::loop_closure_edge(c));
