@@ -1,0 +1,96 @@
+#!/usr/bin/env python3
+"""Figures from lc_eval's output folders (--output D) that lc_eval itself does not print, as figures JSON.
+
+scale RUN --scale-bias S: how much of the odometry's ATE a scale error of S alone makes. The truth scaled by 1 + S
+  about the start is what that error alone would give; its ATE against the truth, and the odometry's and the
+  optimized trajectory's ATE against the scaled truth (what a closure can still correct).
+objects TRUTH_RUN REF_RUN RUN: each object of TRUTH_RUN (the ground-truth-pose run, `--layers`) matched to the
+  nearest object of its label in REF_RUN and in RUN: the median distance for each, how many of RUN's are farther
+  than REF_RUN's, and each run's mean box footprint (x times y).
+
+RUN is a run's folder (trajectory_*.txt, scene_graph.json). Figures go to --out in the format of bench/figures.h
+(name, value, unit, conditions, commit).
+
+usage: lc_outputs.py scale RUN --scale-bias S --commit H --out F
+       lc_outputs.py objects TRUTH_RUN REF_RUN RUN --commit H --out F
+"""
+import argparse
+import json
+import math
+import os
+import statistics
+
+
+def trajectory(path):
+    with open(path) as f:
+        return [[float(v) for v in line.split()[1:4]] for line in f if line.strip() and not line.startswith("#")]
+
+
+def ate(a, b):
+    return math.sqrt(sum(math.dist(p, q) ** 2 for p, q in zip(a, b)) / len(a))
+
+
+def objects(run):
+    with open(os.path.join(run, "scene_graph.json")) as f:
+        graph = json.load(f)
+    out = []
+    for n in graph["nodes"]:
+        a = n["attributes"]
+        if n["layer"] == 2 and "semantic_label" in a:
+            out.append((a["semantic_label"], a["position"], a["bounding_box"]["dimensions"]))
+    return out
+
+
+def nearest(o, others):
+    d = [math.dist(o[1], p[1]) for p in others if p[0] == o[0]]
+    return min(d) if d else math.inf
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("what", choices=["scale", "objects"])
+    ap.add_argument("runs", nargs="+")
+    ap.add_argument("--scale-bias", type=float, default=0.0)
+    ap.add_argument("--commit", required=True)
+    ap.add_argument("--out", required=True)
+    args = ap.parse_args()
+    figures = []
+
+    def add(name, value, unit, conditions):
+        figures.append({"name": name, "value": value, "unit": unit, "conditions": conditions, "commit": args.commit})
+        print(f"{name}: {value:.4f} {unit}")
+
+    if args.what == "scale":
+        if len(args.runs) != 1:
+            ap.error("scale takes one run")
+        run = args.runs[0]
+        truth = trajectory(os.path.join(run, "trajectory_ground_truth.txt"))
+        odometry = trajectory(os.path.join(run, "trajectory_odometry.txt"))
+        optimized = trajectory(os.path.join(run, "trajectory_estimate.txt"))
+        s = 1.0 + args.scale_bias
+        scaled = [[truth[0][k] + s * (p[k] - truth[0][k]) for k in range(3)] for p in truth]
+        c = f"{run}, the truth scaled by {s} about the start"
+        add("scale.ate_scale_alone", ate(scaled, truth), "m", c)
+        add("scale.ate_odometry", ate(odometry, truth), "m", c)
+        add("scale.ate_optimized", ate(optimized, truth), "m", c)
+        add("scale.ate_odometry_to_scaled", ate(odometry, scaled), "m", c)
+        add("scale.ate_optimized_to_scaled", ate(optimized, scaled), "m", c)
+    else:
+        if len(args.runs) != 3:
+            ap.error("objects takes TRUTH_RUN REF_RUN RUN")
+        truth, ref, run = (objects(r) for r in args.runs)
+        c = f"objects of {args.runs[0]} matched by label in {args.runs[1]} (ref) and {args.runs[2]} (run)"
+        d_ref = [nearest(o, ref) for o in truth]
+        d_run = [nearest(o, run) for o in truth]
+        add("objects.truth_run", len(truth), "objects", c)
+        add("objects.ref_median_distance", statistics.median(d_ref), "m", c)
+        add("objects.run_median_distance", statistics.median(d_run), "m", c)
+        add("objects.run_farther_than_ref", sum(r > f + 0.005 for r, f in zip(d_run, d_ref)), "objects", c)
+        for name, objs in (("truth_run", truth), ("ref", ref), ("run", run)):
+            add(f"objects.{name}_mean_footprint", statistics.mean(d[0] * d[1] for _, _, d in objs), "m^2", c)
+    with open(args.out, "w") as f:
+        json.dump(figures, f, indent=1)
+
+
+if __name__ == "__main__":
+    main()
