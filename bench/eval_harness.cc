@@ -89,7 +89,12 @@ FrontendStep EvalPipeline::finish(const Eigen::Vector3d& robot_m, std::uint64_t 
     step.door_pass = step.pass.ran;
     step.pass_ms = host_.ms(pipeline::Step::kDoorPass);
   }
+  merge_object_visits();
   return step;
+}
+
+objects::RevisitMerge EvalPipeline::merge_object_visits() {
+  return objects::merge_revisits(frontend_->objects().config(), graph_, nullptr);
 }
 
 backend::BackendStage::FinalDoors EvalPipeline::close_doors(const reconstruction::Mesh& mesh,

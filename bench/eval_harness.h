@@ -28,6 +28,7 @@
 #include "budgets/budget_table.h"
 #include "core/backend/backend_stage.h"
 #include "core/frontend/frontend.h"
+#include "core/objects/revisit_merge.h"
 #include "core/pipeline/pipeline_steps.h"
 #include "core/reconstruction/semantic_tsdf.h"
 #include "core/rooms/room_finder.h"
@@ -99,6 +100,9 @@ class EvalPipeline {
   // The tour's end: frontend updates until a places cycle completes (finish_updates at most), then, with online
   // doors, a last pass on the latest places (as the app's last backend update sees them). Returns that pass.
   FrontendStep finish(const Eigen::Vector3d& robot_m, std::uint64_t time_ns);
+  // The object visits the frontend kept apart (objects::Config::archive_after_s) merged in the graph, as the app's
+  // finish does (objects::merge_revisits; here without a correction: in the map as mapped). finish() calls it last.
+  objects::RevisitMerge merge_object_visits();
 
   // The final door stage on the mesh's vertices (BackendStage::close_doors); *changed (optional): the place edges it
   // closed, as they were before, for a peer that runs on the graph without it.

@@ -21,6 +21,7 @@
 #include "budgets/budget_table.h"
 #include "core/backend/agent_pose_graph.h"
 #include "core/metrics/trajectory_error.h"
+#include "core/objects/revisit_merge.h"
 #include "core/reconstruction/mesh_cleanup.h"
 #include "core/reconstruction/ply_writer.h"
 #include "core/scene_graph/spark_dsg_json.h"
@@ -28,12 +29,12 @@
 #include "drivers/gpio/sim_gpio.h"
 #include "drivers/render/ray_scene.h"
 #include "drivers/world/top_down.h"
+#include "drivers/world/world_file.h"
+#include "drivers/world/world_query.h"
 #include "firmware_app/graph_outputs.h"
 #include "firmware_app/graph_picture.h"
-#include "drivers/world/world_file.h"
 #include "firmware_app/memory_lock.h"
 #include "firmware_app/runtime/stage_marker.h"
-#include "drivers/world/world_query.h"
 
 namespace qsg::app {
 
@@ -859,6 +860,13 @@ bool Pipeline::finish(std::string* error) {
   reconstruction::Mesh odometric;  // the mesh as mapped, when a correction moves the written one
   scene_graph::ObjectMeshIndices indices;
   const bool reconcile = backend_.loop_closure_enabled() && config_.loop_closure.reconcile;
+  // The visits the object layer kept apart (objects.archive_after_s), joined in the map as corrected (as mapped,
+  // without loop closure). Until then the live graph holds a revisited object once per visit.
+  const auto merge_revisited_objects = [&](scene_graph::ObjectMeshIndices* object_indices) {
+    const objects::RevisitMerge m = objects::merge_revisits(config_.frontend.objects, &graph_, object_indices);
+    counters_.objects_merged_at_finish = m.merged;
+    m.print(stdout);
+  };
   const auto match_object_keys = [&] {
     std::size_t unmatched = 0;
     indices = object_mesh_indices(frontend_.objects(), tsdf_, odometric.vertices.empty() ? mesh : odometric, &unmatched);
@@ -874,13 +882,14 @@ bool Pipeline::finish(std::string* error) {
       correct_outputs(&mesh, &odometric);
       match_object_keys();
       if (backend_.solved()) {
-        const backend::BackendStage::Reconciliation r = backend_.reconcile(mesh, &indices, &graph_);
+        const backend::BackendStage::Reconciliation r = backend_.reconcile(mesh, indices, &graph_);
         counters_.places_merged_after_correction = r.places_merged;
-        counters_.objects_merged_after_correction = r.objects_merged;
-        std::printf("reconciliation: %zu objects re-boxed from the corrected mesh, %zu merged; %zu places merged "
-                    "(%zu edges refused)\n",
-                    r.objects_from_mesh, r.objects_merged, r.places_merged, r.edges_refused);
+        std::printf(
+            "reconciliation: %zu objects re-boxed from the corrected mesh; %zu places merged (%zu edges "
+            "refused)\n",
+            r.objects_from_mesh, r.places_merged, r.edges_refused);
       }
+      merge_revisited_objects(&indices);
     }
   }
   // The backend's final stage (doors on the whole surface, rooms and labels once more), timed against its budget.
@@ -892,6 +901,7 @@ bool Pipeline::finish(std::string* error) {
     if (!reconcile) {
       correct_outputs(&mesh, &odometric);
       match_object_keys();
+      merge_revisited_objects(&indices);
     }
   }
   copy_backend_counters();

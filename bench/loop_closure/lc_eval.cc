@@ -320,7 +320,6 @@ int main(int argc, char** argv) {
   std::vector<std::string> sets;
   bool reconcile = app::AppConfig().loop_closure.reconcile;
   double merge_places_m = app::AppConfig().loop_closure.merge_places_within_m;
-  bool merge_objects = app::AppConfig().loop_closure.merge_objects;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     const bool has = i + 1 < argc;
@@ -336,7 +335,6 @@ int main(int argc, char** argv) {
     else if (a == "--set" && has) sets.push_back(argv[++i]);
     else if (a == "--reconcile" && has) reconcile = std::atoi(argv[++i]) != 0;
     else if (a == "--merge-places-m" && has) merge_places_m = std::atof(argv[++i]);
-    else if (a == "--merge-objects" && has) merge_objects = std::atoi(argv[++i]) != 0;
     else return usage(a == "--help" ? 0 : 2);
   }
   if (rooms < 2 || rooms > 64 || tours < 1 || tours > 1000 || duration_s < 0.0) return usage(2);
@@ -367,7 +365,6 @@ int main(int argc, char** argv) {
       c.loop_closure.enabled = true;
       c.loop_closure.reconcile = reconcile;
       c.loop_closure.merge_places_within_m = merge_places_m;
-      c.loop_closure.merge_objects = merge_objects;
       c.odometry.source = app::OdometrySourceKind::kSimDrift;
       c.odometry.seed = c.building.seed;
       c.odometry.translation_sigma_m_per_sqrt_m = drift.translation_sigma_m_per_sqrt_m;

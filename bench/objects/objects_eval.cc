@@ -204,16 +204,23 @@ bool run_building(std::uint64_t seed, const Options& opt, Score* score, std::vec
   const std::vector<int> mesh_vertices = bench::object_mesh_vertices(w, mesh);
   std::vector<bool> observed(w.objects.size(), false);
   for (std::size_t i = 0; i < w.objects.size(); ++i) observed[i] = mesh_vertices[i] >= bench::kObservedMinVertices;
-  // Score what the scene graph reports for each node (and, for comparison, the objects' vertex means).
+  // The visits kept apart merged, as at the app's finish; then score what the scene graph reports for each node (and,
+  // for comparison, the layer's vertex means: of a merged node, its surviving visit's).
+  const objects::RevisitMerge visits = pipeline.merge_object_visits();
+  visits.print(stdout);
   bool graph_consistent = true;
   std::vector<objects::ObjectView> views;
   std::vector<bench::EstimatedObject> reported, means;
-  layer.for_each_object([&](const objects::ObjectView& est) {
-    const scene_graph::ObjectAttributes* attr = graph->object(est.node);
-    if (attr == nullptr) {
+  graph->for_each_node([&](const scene_graph::NodeRecord& n) {
+    if (n.kind != scene_graph::NodeKind::kObject) return;
+    objects::ObjectView est;
+    if (!layer.find_object(n.id, &est)) {
       graph_consistent = false;
       return;
     }
+    const scene_graph::ObjectAttributes* attr = graph->object(n.id);
+    est.min_m = attr->bounding_box.min_m;  // the box the graph reports (a merged node's covers every visit)
+    est.max_m = attr->bounding_box.max_m;
     views.push_back(est);
     reported.push_back({est.label, attr->position_m});
     means.push_back({est.label, est.vertex_mean_m});
@@ -251,7 +258,7 @@ bool run_building(std::uint64_t seed, const Options& opt, Score* score, std::vec
                 est.max_m.x(), est.max_m.y(), est.max_m.z());
   }
   if (!graph_consistent) {
-    std::fprintf(stderr, "seed %llu: a listed object has no node in the scene graph\n",
+    std::fprintf(stderr, "seed %llu: an object node of the scene graph is not one of the layer's objects\n",
                  static_cast<unsigned long long>(seed));
     return false;
   }

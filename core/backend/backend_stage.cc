@@ -576,7 +576,8 @@ std::uint64_t cell_key(const Eigen::Vector3d& p, double cell_m) {
 }  // namespace
 
 BackendStage::Reconciliation BackendStage::reconcile(
-    const reconstruction::Mesh& mesh, std::unordered_map<scene_graph::NodeId, std::vector<std::uint32_t>>* indices,
+    const reconstruction::Mesh& mesh,
+    const std::unordered_map<scene_graph::NodeId, std::vector<std::uint32_t>>& indices,
     scene_graph::SceneGraph* graph) const {
   Reconciliation out;
   const LoopClosureConfig& c = config_.loop_closure;
@@ -586,53 +587,13 @@ BackendStage::Reconciliation BackendStage::reconcile(
     if (n.kind == scene_graph::NodeKind::kObject) objects.push_back(n.id);
   });
   for (scene_graph::NodeId id : objects) {
-    const auto it = indices->find(id);
+    const auto it = indices.find(id);
     Eigen::Vector3d centre, lo, hi;
-    if (it == indices->end() || !box_of(mesh, it->second, &centre, &lo, &hi)) continue;
+    if (it == indices.end() || !box_of(mesh, it->second, &centre, &lo, &hi)) continue;
     scene_graph::ObjectAttributes* o = graph->object(id);
     o->position_m = centre;
     o->bounding_box = scene_graph::BoundingBox::aabb(lo, hi);
     ++out.objects_from_mesh;
-  }
-  // Objects of one label, either's centre in the other's box: the smaller (fewer vertices) merges into the larger.
-  if (c.merge_objects) {
-    std::vector<bool> gone(objects.size(), false);
-    const auto size_of = [&](scene_graph::NodeId id) {
-      const auto it = indices->find(id);
-      return it == indices->end() ? std::size_t{0} : it->second.size();
-    };
-    for (std::size_t a = 0; a < objects.size(); ++a) {
-      for (std::size_t b = a + 1; b < objects.size() && !gone[a]; ++b) {
-        if (gone[b]) continue;
-        scene_graph::ObjectAttributes* oa = graph->object(objects[a]);
-        scene_graph::ObjectAttributes* ob = graph->object(objects[b]);
-        if (oa->semantic_label != ob->semantic_label) continue;
-        if (!oa->bounding_box.contains(ob->position_m) && !ob->bounding_box.contains(oa->position_m)) continue;
-        const bool keep_a = size_of(objects[a]) >= size_of(objects[b]);
-        const scene_graph::NodeId into = keep_a ? objects[a] : objects[b], from = keep_a ? objects[b] : objects[a];
-        scene_graph::ObjectAttributes* keep = graph->object(into);
-        const scene_graph::ObjectAttributes* drop = graph->object(from);
-        Eigen::Vector3d lo = keep->bounding_box.min_m.cwiseMin(drop->bounding_box.min_m);
-        Eigen::Vector3d hi = keep->bounding_box.max_m.cwiseMax(drop->bounding_box.max_m);
-        std::vector<std::uint32_t>& joined = (*indices)[into];
-        if (const auto it = indices->find(from); it != indices->end()) {
-          joined.insert(joined.end(), it->second.begin(), it->second.end());
-          std::sort(joined.begin(), joined.end());
-          joined.erase(std::unique(joined.begin(), joined.end()), joined.end());
-          indices->erase(from);
-        }
-        Eigen::Vector3d centre = 0.5 * (keep->position_m + drop->position_m);
-        Eigen::Vector3d vlo, vhi;
-        if (box_of(mesh, (*indices)[into], &centre, &vlo, &vhi)) lo = vlo, hi = vhi;
-        keep->position_m = centre;
-        keep->bounding_box = scene_graph::BoundingBox::aabb(lo, hi);
-        const scene_graph::SceneGraph::MergeResult m = graph->merge_into(into, from);
-        if (m.status != scene_graph::Status::kOk) continue;
-        out.edges_refused += m.refused;
-        ++out.objects_merged;
-        gone[keep_a ? b : a] = true;
-      }
-    }
   }
   // Places: a revisit mapped a second place where the correction now puts the first; the older one stays.
   if (c.merge_places_within_m > 0.0) {

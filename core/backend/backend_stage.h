@@ -55,10 +55,9 @@ struct LoopClosureConfig {
   // found on the corrected map. Off: they are found on the map as mapped and moved with the correction, which
   // scored better on the generated buildings (bench/results/loop_closure.md).
   bool reconcile = false;
-  // Places closer than this whose free-space spheres hold each other merge (0: none); objects of one label merge
-  // when either's centre lies in the other's box.
+  // Places closer than this whose free-space spheres hold each other merge (0: none). (Objects of different visits
+  // merge at the finish with or without reconciliation: objects::merge_revisits.)
   double merge_places_within_m = 0.4;
-  bool merge_objects = true;
   std::string check() const;
 };
 
@@ -245,13 +244,13 @@ class BackendStage {
   // After correct_graph and correct_mesh (graph lock held; off the real-time path: it allocates): the paper's
   // reconciliation. Each object's centre and box from its mesh vertices in the corrected mesh (indices: the
   // object's vertices in it; an object without any keeps its moved box); revisited places within
-  // merge_places_within_m merged; objects of one label merged when either's centre lies in the other's box (their
-  // vertices joined in *indices). Rooms and labels are the caller's next update_rooms().
+  // merge_places_within_m merged. The objects' visits are the caller's next objects::merge_revisits(), rooms and
+  // labels its next update_rooms().
   struct Reconciliation {
-    std::size_t objects_from_mesh = 0, objects_merged = 0, places_merged = 0, edges_refused = 0;
+    std::size_t objects_from_mesh = 0, places_merged = 0, edges_refused = 0;
   };
   Reconciliation reconcile(const reconstruction::Mesh& corrected_mesh,
-                           std::unordered_map<scene_graph::NodeId, std::vector<std::uint32_t>>* indices,
+                           const std::unordered_map<scene_graph::NodeId, std::vector<std::uint32_t>>& indices,
                            scene_graph::SceneGraph* graph) const;
   Eigen::Vector3d deform(const Eigen::Vector3d& p_m) const { return deformation_.deform(p_m); }
   // Where the latest solve puts a node mapped at p_m (seen last at time_ns): a place of the solved graph at its

@@ -37,12 +37,10 @@ const params::Table<LoopClosureConfig>& loop_closure_params_table() {
     t.flag("odometry_sigmas_from_source", &C::odometry_sigmas_from_source, refinement,
            "per_distance odometry edges take the source's own noise model when it has one (sim_drift's sigmas)");
     t.flag("reconcile", &C::reconcile, paper,
-           "after the final correction: objects re-boxed from the corrected mesh, revisits merged, final doors and "
-           "rooms on the corrected map (off: found as mapped and moved; bench/results/loop_closure.md)");
+           "after the final correction: objects re-boxed from the corrected mesh, revisited places merged, final doors "
+           "and rooms on the corrected map (off: found as mapped and moved; bench/results/loop_closure.md)");
     t.add("merge_places_within_m", &C::merge_places_within_m, "m", in(0, 5), paper,
           "after a correction, places closer than this whose free-space spheres hold each other merge (0: none)");
-    t.flag("merge_objects", &C::merge_objects, paper,
-           "after a correction, objects of one label merge when either's centre lies in the other's box");
     return t;
   }();
   return table;

@@ -224,24 +224,31 @@ std::uint32_t ObjectLayer::find_linked_objects(std::uint32_t begin, std::uint32_
 // surface and may leave the box of a part seen apart). Hydra's overlap: the boxes intersect. The size prior: the
 // joint box fits one instance and the heights meet. A new cluster is tested with the first two only (the prior
 // pairs fragments, which are objects by then).
-ObjectLayer::MergeRule ObjectLayer::merge_rule(semantics::Label label, const float* lo, const float* hi,
-                                               std::uint32_t other, bool cluster) const {
-  const Object& o = objects_[other];
+MergeRule merge_rule(const Config& config, semantics::Label label, const float* lo, const float* hi, const float* olo,
+                     const float* ohi, bool new_cluster) {
   float c[3], oc[3];
   box_centre(lo, hi, c);
-  box_centre(o.lo, o.hi, oc);
-  if (config_.merge_overlapping && (inside(c, o.lo, o.hi) || inside(oc, lo, hi))) return MergeRule::kCentreInBox;
+  box_centre(olo, ohi, oc);
+  if (config.merge_overlapping && (inside(c, olo, ohi) || inside(oc, lo, hi))) return MergeRule::kCentreInBox;
   bool intersect = true;
-  for (int i = 0; i < 3; ++i) intersect = intersect && lo[i] <= o.hi[i] && o.lo[i] <= hi[i];
-  if (config_.merge_intersecting && intersect) return MergeRule::kIntersect;
-  const LabelParams& p = config_.labels[label];
-  if (cluster || !config_.merge_by_size_prior || !(p.max_size_m > 0.0)) return MergeRule::kNone;
+  for (int i = 0; i < 3; ++i) intersect = intersect && lo[i] <= ohi[i] && olo[i] <= hi[i];
+  if (config.merge_intersecting && intersect) return MergeRule::kIntersect;
+  const LabelParams& p = config.labels[label];
+  if (new_cluster || !config.merge_by_size_prior || !(p.max_size_m > 0.0)) return MergeRule::kNone;
   const float tol = static_cast<float>(p.tolerance_m);
   const float size = static_cast<float>(p.max_size_m);
-  if (lo[2] > o.hi[2] + tol || o.lo[2] > hi[2] + tol) return MergeRule::kNone;
+  if (lo[2] > ohi[2] + tol || olo[2] > hi[2] + tol) return MergeRule::kNone;
   for (int i = 0; i < 2; ++i)
-    if (std::max(hi[i], o.hi[i]) - std::min(lo[i], o.lo[i]) > size) return MergeRule::kNone;
+    if (std::max(hi[i], ohi[i]) - std::min(lo[i], olo[i]) > size) return MergeRule::kNone;
   return MergeRule::kSizePrior;
+}
+
+// Every vertex left the active window, and no vertex changed it for more than Config::archive_after_s: a visit of
+// the past, which the frontend no longer merges into.
+bool ObjectLayer::archived(std::uint32_t h) const {
+  const Object& o = objects_[h];
+  return archive_after_ns_ > 0 && o.num_tracked == 0 && time_ns_ > o.last_update_ns &&
+         time_ns_ - o.last_update_ns > archive_after_ns_;
 }
 
 // The index cell of an object's box centre and its half-extent class (the largest half side, in cells, rounded up).
@@ -316,7 +323,11 @@ std::uint32_t ObjectLayer::find_mergeable(semantics::Label label, const float* l
     if (g == skip || !objects_.live(g) || objects_[g].label != label || objects_[g].num_vertices == 0) return false;
     if (new_cluster && !visible(g)) return false;
     ++counters_.index_visits;
-    *rule = merge_rule(label, lo, hi, g, new_cluster);
+    *rule = merge_rule(config_, label, lo, hi, objects_[g].lo, objects_[g].hi, new_cluster);
+    if (*rule != MergeRule::kNone && archived(g)) {
+      ++counters_.archived_kept_apart;
+      *rule = MergeRule::kNone;
+    }
     return *rule != MergeRule::kNone;
   };
   const LabelParams& p = config_.labels[label];

@@ -93,6 +93,7 @@ bool ObjectLayer::init(const Config& config, const Capacities& c, std::size_t bu
     inv_cluster_cell_[l] = std::sqrt(3.0 / (1.0 - kRoundingMargin)) / tol;
   }
   inv_index_cell_ = static_cast<float>(1.0 / config.index_cell_m);
+  archive_after_ns_ = static_cast<std::uint64_t>(std::llround(config.archive_after_s * 1e9));
   label_head_.fill(kInvalidHandle);
   const std::size_t tracked_slots = U64Map::slots_for(c.tracked_vertices);
   const std::size_t candidate_slots = U64Map::slots_for(c.cluster_vertices);
@@ -218,9 +219,9 @@ bool ObjectLayer::mesh_vertex_key(std::uint32_t connection, std::uint64_t* key) 
   return true;
 }
 
-void ObjectLayer::mark_changed(std::uint32_t h) {
+void ObjectLayer::mark_changed(std::uint32_t h, bool observed) {
   Object& o = objects_[h];
-  o.last_update_ns = time_ns_;
+  if (observed) o.last_update_ns = time_ns_;
   o.touched = stamp_;
   if (o.changed) return;
   // changed_ holds at most one entry per live object, plus stale handles of released ones: compact when full.
@@ -427,7 +428,8 @@ void ObjectLayer::detach_tracked(std::uint32_t slot, bool subtract_from_object) 
   }
   if (o.num_tracked == 0) {
     if (!visible(h)) delete_object(h);  // a tentative object that never grew: noise
-    else mark_changed(h);               // left the active window
+    else
+      mark_changed(h, false);  // left the active window: not an observation, its time stays
   }
 }
 

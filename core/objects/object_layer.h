@@ -35,6 +35,12 @@
 //     ground-truth box and the scene graph's bounding box describe. The vertex mean stays available.
 //   - The box follows the surface: when tracked vertices go stale or move, the box is recomputed (at the end of
 //     the update) from the tracked vertices plus the box of the vertices already released with their blocks.
+//   - Visits (Config::archive_after_s; Hydra's split between frontend and backend): an object whose vertices all
+//     left the active window and that no update's vertices changed for archive_after_s is archived. The rules above
+//     no longer merge anything into it, so a revisit made in other drift becomes an object of its own, with its own
+//     time, the loop-closure correction moves each visit with its own drift, and objects::merge_revisits() joins
+//     the visits at the finish, in the corrected map. (An object whose blocks never leave the window stays one
+//     object across visits: its surface is the TSDF's, which fuses every visit.)
 //   - Tracked vertices whose block was re-meshed without them are stale (the surface moved) and leave their
 //     object; tracked vertices of blocks that left the active window are released but stay in the object's
 //     summary (centroid sum, count, box) and in its list of vertex keys.
@@ -100,9 +106,21 @@ struct Config {
   // vertex_keys / max_keys_per_object objects at the cap (an 8-hour mission under drift with 2048 filled it;
   // bench/results/odometry.md). Vertices past the cap still shape the object (centroid, box).
   std::uint32_t max_keys_per_object = 512;
+  // Visits kept apart (Hydra's split: the frontend merges into objects of the active window, the backend merges
+  // revisits after the correction). An object whose vertices all left the active window more than this long ago is
+  // archived: a new cluster or a changed object no longer merges into it by the rules above, so a revisit made in
+  // other drift becomes an object of its own, with its own time, and the correction moves each visit with its own
+  // drift; merge_revisits() joins them at the finish, in the corrected map. 0: every visit merges as mapped.
+  double archive_after_s = 10.0;
   std::string check() const;      // empty when usable, else the bad field and why
   void print(std::FILE* out) const;
 };
+
+// The merge rules between two boxes of one label (lo/hi: min and max corners), as Config switches them: the paper's
+// centre-in-box, intersecting boxes, and (not for a new cluster) the label's size prior.
+enum class MergeRule : std::uint8_t { kNone, kCentreInBox, kIntersect, kSizePrior };
+MergeRule merge_rule(const Config& config, semantics::Label label, const float* lo, const float* hi,
+                     const float* other_lo, const float* other_hi, bool new_cluster);
 
 // Sizes of the layer's stores: the budget table's "objects" arena (capacities_from_budget()), or a test's own.
 struct Capacities {
@@ -128,6 +146,7 @@ struct Counters {
   std::uint64_t objects_overlap_merged = 0;   // objects merged by the centre-in-box rule (also in objects_merged)
   std::uint64_t objects_intersect_merged = 0;  // by intersecting boxes (also in objects_merged)
   std::uint64_t objects_size_merged = 0;       // by the label's size prior (also in objects_merged)
+  std::uint64_t archived_kept_apart = 0;       // merges a rule would have made into an archived object, not made
   std::uint64_t index_queries = 0;             // merge searches through the object index
   std::uint64_t index_scans = 0;               // of which walked the label's list (a box larger than the index reaches)
   std::uint64_t index_visits = 0;              // objects those searches tested against a rule
@@ -172,7 +191,7 @@ struct ObjectView {
   std::uint64_t num_vertices = 0;  // in the vertex mean (tracked now or released with their block)
   std::uint32_t num_tracked = 0;   // in the active window now
   std::uint32_t num_keys = 0;      // mesh-vertex references kept
-  std::uint64_t last_update_ns = 0;
+  std::uint64_t last_update_ns = 0;  // the last update whose vertices changed it (leaving the window does not)
 };
 
 // What one update did.
@@ -302,7 +321,8 @@ class ObjectLayer {
   std::uint32_t create_object(semantics::Label label);
   void merge_objects(std::uint32_t into, std::uint32_t from);
   void delete_object(std::uint32_t h);
-  void mark_changed(std::uint32_t h);
+  // To be synced. observed: by this update's vertices (its time becomes the update's), not by leaving the window.
+  void mark_changed(std::uint32_t h, bool observed = true);
   bool register_vertex(std::uint32_t object, const Candidate& c);
   bool append_key(std::uint32_t object, std::uint64_t key);
   void release_keys(std::uint32_t object);
@@ -315,9 +335,7 @@ class ObjectLayer {
   std::uint32_t find_linked_objects(std::uint32_t begin, std::uint32_t end, std::uint32_t* linked,
                                     std::uint32_t max_linked);
   void process_cluster(std::uint32_t begin, std::uint32_t end, const std::uint32_t* linked, std::uint32_t num_linked);
-  enum class MergeRule : std::uint8_t { kNone, kCentreInBox, kIntersect, kSizePrior };
-  MergeRule merge_rule(semantics::Label label, const float* lo, const float* hi, std::uint32_t other,
-                       bool clusters_rules) const;
+  bool archived(std::uint32_t h) const;
   std::uint32_t find_mergeable(semantics::Label label, const float* lo, const float* hi, std::uint32_t skip,
                                bool new_cluster, MergeRule* rule);
   std::uint64_t object_cell(std::uint32_t h, std::uint8_t* bucket) const;
@@ -379,6 +397,7 @@ class ObjectLayer {
   bool in_update_ = false;
   std::uint32_t last_mesh_stamp_ = 0;  // of the TSDF, at the previous update()
   std::uint64_t time_ns_ = 0;
+  std::uint64_t archive_after_ns_ = 0;  // Config::archive_after_s (0: never archived)
   std::uint64_t next_object_index_ = 0;
   UpdateResult result_;
   bool ready_ = false;

@@ -19,6 +19,10 @@ const params::Table<Config>& params_table() {
           "cell of the grid indexing box centres for the merge search (speed only)");
     t.add("max_keys_per_object", &Config::max_keys_per_object, "", in(1, 1000000), project,
           "mesh-vertex keys an object keeps at most (a reservoir sample of its surface)");
+    t.add("archive_after_s", &Config::archive_after_s, "s", in(0, 86400), paper,
+          "an object out of the active window that no vertex changed for this long is archived: a revisit stays "
+          "apart until the finish joins the visits in the corrected map (objects::merge_revisits; 0: merged as "
+          "mapped)");
     return t;
   }();
   return table;

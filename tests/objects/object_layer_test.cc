@@ -905,6 +905,47 @@ TEST(ObjectLayerTest, TheSizePriorKeepsObjectsThatDoNotFitOneInstanceApart) {
 
 // Hydra's overlap rule: two fragments of a sofa whose boxes intersect, though neither centre lies in the other's
 // box and no vertex of one is within the tolerance of the other (two L-shaped walls of vertices), merge.
+// Visits kept apart (Config::archive_after_s): a chair seen, left behind (its block released) and seen again in
+// other drift long after is a second object, so that a correction can move each visit with its own drift; seen
+// again soon after, or with archiving off, it is the same object as before.
+TEST(ObjectLayerTest, AnArchivedObjectDoesNotAbsorbARevisitMadeLongAfter) {
+  constexpr std::uint64_t kSecond = 1000000000ull;
+  std::uint64_t key = 1;
+  const auto first = box_surface({0.05, 0.05, 0.05}, {0.55, 0.55, 0.75}, semantics::kChair, &key);  // one block
+  // The revisit: 0.1 m off (drift), on new vertex keys; the boxes intersect and each centre lies in the other box.
+  const auto again = box_surface({0.15, 0.05, 0.05}, {0.65, 0.55, 0.75}, semantics::kChair, &key);
+  struct Case {
+    double archive_after_s;
+    std::uint64_t revisit_s;  // the chair was seen at 1 s; its block left the window at 2 s
+    std::size_t objects;
+  };
+  for (const Case& c : {Case{10.0, 30, 2}, Case{10.0, 5, 1}, Case{0.0, 30, 1}}) {
+    Config config = all_keys();
+    config.archive_after_s = c.archive_after_s;
+    auto layer = make_layer(config);
+    auto graph = scene_graph::testing::make_graph();
+    present(layer.get(), first, 1 * kSecond);
+    layer->begin_update(2 * kSecond);
+    layer->release_block(block_of(0.1, 0.1, 0.1));
+    layer->end_update();
+    ASSERT_EQ(layer->num_objects(), 1u);
+    present(layer.get(), again, c.revisit_s * kSecond);
+    const auto objs = objects_of(*layer);
+    ASSERT_EQ(objs.size(), c.objects) << "archive_after_s=" << c.archive_after_s << " revisit at " << c.revisit_s;
+    EXPECT_EQ(layer->counters().archived_kept_apart > 0, c.objects == 2u);
+    ASSERT_TRUE(layer->sync(graph.get()));
+    EXPECT_EQ(graph->num_nodes(scene_graph::NodeKind::kObject), c.objects);
+    if (c.objects != 2u) continue;
+    // Each visit keeps its own box and its own time, when its vertices were last seen (leaving the window at 2 s is
+    // not an observation).
+    EXPECT_NEAR(objs[0].min_m.x(), 0.05, 1e-6);
+    EXPECT_NEAR(objs[1].min_m.x(), 0.15, 1e-6);
+    EXPECT_EQ(objs[0].last_update_ns, 1 * kSecond);
+    EXPECT_EQ(objs[1].last_update_ns, c.revisit_s * kSecond);
+    EXPECT_EQ(objs[1].num_keys, again.size());
+  }
+}
+
 TEST(ObjectLayerTest, FragmentsWhoseBoxesIntersectMergeUnlessDisabled) {
   for (const bool intersect : {true, false}) {
     Config config;
