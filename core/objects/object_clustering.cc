@@ -325,8 +325,12 @@ std::uint32_t ObjectLayer::find_mergeable(semantics::Label label, const float* l
     ++counters_.index_visits;
     *rule = merge_rule(config_, label, lo, hi, objects_[g].lo, objects_[g].hi, new_cluster);
     if (*rule != MergeRule::kNone && archived(g)) {
-      ++counters_.archived_kept_apart;
-      *rule = MergeRule::kNone;
+      if (archive_full_) {
+        ++counters_.archived_merged_full;
+      } else {
+        ++counters_.archived_kept_apart;
+        *rule = MergeRule::kNone;
+      }
     }
     return *rule != MergeRule::kNone;
   };

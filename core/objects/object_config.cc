@@ -75,12 +75,12 @@ std::string Config::check() const {
 }
 
 void Config::print(std::FILE* out) const {
-  std::fprintf(
-      out,
-      "objects: merge_overlapping=%d merge_intersecting=%d merge_by_size_prior=%d index_cell_m=%.2f "
-      "max_keys_per_object=%u archive_after_s=%.1f; enabled labels (tolerance_m, min..max vertices[, max_size_m]):",
-      merge_overlapping ? 1 : 0, merge_intersecting ? 1 : 0, merge_by_size_prior ? 1 : 0, index_cell_m,
-      max_keys_per_object, archive_after_s);
+  std::fprintf(out,
+               "objects: merge_overlapping=%d merge_intersecting=%d merge_by_size_prior=%d index_cell_m=%.2f "
+               "max_keys_per_object=%u archive_after_s=%.1f archive_below_use=%.2f; enabled labels (tolerance_m, "
+               "min..max vertices[, max_size_m]):",
+               merge_overlapping ? 1 : 0, merge_intersecting ? 1 : 0, merge_by_size_prior ? 1 : 0, index_cell_m,
+               max_keys_per_object, archive_after_s, archive_below_use);
   for (semantics::Label l = 0; l < semantics::kNumObjectLabels; ++l) {
     const LabelParams& p = labels[l];
     if (!p.enabled) continue;
@@ -122,21 +122,22 @@ Capacities capacities_from_budget() {
 }
 
 void Counters::print(std::FILE* out) const {
-  std::fprintf(out,
-               "objects: updates=%" PRIu64 " presented=%" PRIu64 " candidates=%" PRIu64 " clusters=%" PRIu64
-               " (too_small=%" PRIu64 " too_large=%" PRIu64 " joined=%" PRIu64 " overlap_merged=%" PRIu64
-               ") objects created=%" PRIu64 " merged=%" PRIu64 " (overlap %" PRIu64 " intersect %" PRIu64
-               " size %" PRIu64 ") archived_kept_apart=%" PRIu64 " removed=%" PRIu64 " index queries=%" PRIu64
-               " (scans %" PRIu64 ", visits %" PRIu64 ") boxes_recomputed=%" PRIu64 " vertices stale=%" PRIu64
-               " released=%" PRIu64 " blocks released=%" PRIu64 " keys repeated=%" PRIu64 " capped=%" PRIu64
-               " resampled=%" PRIu64 " overflow: candidate=%" PRIu64 " tracked=%" PRIu64 " key=%" PRIu64
-               " block=%" PRIu64 " object=%" PRIu64 " graph_node=%" PRIu64 " graph_connection=%" PRIu64 "\n",
-               updates, vertices_presented, candidates, clusters, clusters_too_small, clusters_too_large,
-               clusters_joined, clusters_overlap_merged, objects_created, objects_merged, objects_overlap_merged,
-               objects_intersect_merged, objects_size_merged, archived_kept_apart, objects_removed, index_queries,
-               index_scans, index_visits, boxes_recomputed, vertices_stale, vertices_released, blocks_released,
-               keys_repeated, keys_capped, keys_resampled, candidate_overflow, tracked_overflow, key_overflow,
-               block_overflow, object_overflow, graph_node_failures, graph_connection_failures);
+  std::fprintf(
+      out,
+      "objects: updates=%" PRIu64 " presented=%" PRIu64 " candidates=%" PRIu64 " clusters=%" PRIu64
+      " (too_small=%" PRIu64 " too_large=%" PRIu64 " joined=%" PRIu64 " overlap_merged=%" PRIu64
+      ") objects created=%" PRIu64 " merged=%" PRIu64 " (overlap %" PRIu64 " intersect %" PRIu64 " size %" PRIu64
+      ") archived_kept_apart=%" PRIu64 " archived_merged_full=%" PRIu64 " removed=%" PRIu64 " index queries=%" PRIu64
+      " (scans %" PRIu64 ", visits %" PRIu64 ") boxes_recomputed=%" PRIu64 " vertices stale=%" PRIu64
+      " released=%" PRIu64 " blocks released=%" PRIu64 " keys repeated=%" PRIu64 " capped=%" PRIu64
+      " resampled=%" PRIu64 " overflow: candidate=%" PRIu64 " tracked=%" PRIu64 " key=%" PRIu64 " block=%" PRIu64
+      " object=%" PRIu64 " graph_node=%" PRIu64 " graph_connection=%" PRIu64 "\n",
+      updates, vertices_presented, candidates, clusters, clusters_too_small, clusters_too_large, clusters_joined,
+      clusters_overlap_merged, objects_created, objects_merged, objects_overlap_merged, objects_intersect_merged,
+      objects_size_merged, archived_kept_apart, archived_merged_full, objects_removed, index_queries, index_scans,
+      index_visits, boxes_recomputed, vertices_stale, vertices_released, blocks_released, keys_repeated, keys_capped,
+      keys_resampled, candidate_overflow, tracked_overflow, key_overflow, block_overflow, object_overflow,
+      graph_node_failures, graph_connection_failures);
 }
 
 }  // namespace qsg::objects

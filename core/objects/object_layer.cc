@@ -554,6 +554,9 @@ void ObjectLayer::begin_update(std::uint64_t time_ns) {
   in_block_ = false;
   if (++stamp_ == 0) stamp_ = 1;
   time_ns_ = time_ns;
+  const double share = config_.archive_below_use;
+  archive_full_ = static_cast<double>(objects_.size()) >= share * static_cast<double>(objects_.capacity()) ||
+                  static_cast<double>(key_chunks_.size()) >= share * static_cast<double>(key_chunks_.capacity());
   result_ = UpdateResult{};
   candidates_.clear();
   presented_blocks_.clear();

@@ -40,7 +40,9 @@
 //     no longer merge anything into it, so a revisit made in other drift becomes an object of its own, with its own
 //     time, the loop-closure correction moves each visit with its own drift, and objects::merge_revisits() joins
 //     the visits at the finish, in the corrected map. (An object whose blocks never leave the window stays one
-//     object across visits: its surface is the TSDF's, which fuses every visit.)
+//     object across visits: its surface is the TSDF's, which fuses every visit.) Each visit kept apart costs an
+//     object and a sample of keys, so visits are kept apart only while both stores are below
+//     Config::archive_below_use of their capacity; past it revisits merge as mapped, as before.
 //   - Tracked vertices whose block was re-meshed without them are stale (the surface moved) and leave their
 //     object; tracked vertices of blocks that left the active window are released but stay in the object's
 //     summary (centroid sum, count, box) and in its list of vertex keys.
@@ -112,6 +114,10 @@ struct Config {
   // other drift becomes an object of its own, with its own time, and the correction moves each visit with its own
   // drift; merge_revisits() joins them at the finish, in the corrected map. 0: every visit merges as mapped.
   double archive_after_s = 10.0;
+  // The policy when the stores fill: every visit kept apart is an object and a sample of keys more, so visits are
+  // kept apart only while the object store and the key store are both below this share of their capacity; past it a
+  // revisit merges as mapped, and a mission of any length stays within the stores (counted: archived_merged_full).
+  double archive_below_use = 0.5;
   std::string check() const;      // empty when usable, else the bad field and why
   void print(std::FILE* out) const;
 };
@@ -147,6 +153,7 @@ struct Counters {
   std::uint64_t objects_intersect_merged = 0;  // by intersecting boxes (also in objects_merged)
   std::uint64_t objects_size_merged = 0;       // by the label's size prior (also in objects_merged)
   std::uint64_t archived_kept_apart = 0;       // merges a rule would have made into an archived object, not made
+  std::uint64_t archived_merged_full = 0;      // ... made all the same: the stores past Config::archive_below_use
   std::uint64_t index_queries = 0;             // merge searches through the object index
   std::uint64_t index_scans = 0;               // of which walked the label's list (a box larger than the index reaches)
   std::uint64_t index_visits = 0;              // objects those searches tested against a rule
@@ -398,6 +405,7 @@ class ObjectLayer {
   std::uint32_t last_mesh_stamp_ = 0;  // of the TSDF, at the previous update()
   std::uint64_t time_ns_ = 0;
   std::uint64_t archive_after_ns_ = 0;  // Config::archive_after_s (0: never archived)
+  bool archive_full_ = false;           // the stores past Config::archive_below_use (set by begin_update)
   std::uint64_t next_object_index_ = 0;
   UpdateResult result_;
   bool ready_ = false;

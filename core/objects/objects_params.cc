@@ -23,6 +23,9 @@ const params::Table<Config>& params_table() {
           "an object out of the active window that no vertex changed for this long is archived: a revisit stays "
           "apart until the finish joins the visits in the corrected map (objects::merge_revisits; 0: merged as "
           "mapped)");
+    t.add("archive_below_use", &Config::archive_below_use, "", in(0, 1), project,
+          "revisits are kept apart only while the object and key stores are below this share of their capacity; "
+          "past it they merge as mapped (the stores' policy when filling)");
     return t;
   }();
   return table;

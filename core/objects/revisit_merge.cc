@@ -92,11 +92,13 @@ RevisitMerge merge_revisits(const Config& config, scene_graph::SceneGraph* graph
           keep->is_active = active;
           if (indices != nullptr) {
             if (const auto it = indices->find(from); it != indices->end()) {
+              // Taken out first: adding `into` to the map may rehash it and invalidate `it`.
+              const std::vector<std::uint32_t> taken = std::move(it->second);
+              indices->erase(it);
               std::vector<std::uint32_t>& joined = (*indices)[into];
-              joined.insert(joined.end(), it->second.begin(), it->second.end());
+              joined.insert(joined.end(), taken.begin(), taken.end());
               std::sort(joined.begin(), joined.end());
               joined.erase(std::unique(joined.begin(), joined.end()), joined.end());
-              indices->erase(from);
             }
           }
           out.edges_refused += m.refused;

@@ -907,7 +907,7 @@ TEST(ObjectLayerTest, TheSizePriorKeepsObjectsThatDoNotFitOneInstanceApart) {
 // box and no vertex of one is within the tolerance of the other (two L-shaped walls of vertices), merge.
 // Visits kept apart (Config::archive_after_s): a chair seen, left behind (its block released) and seen again in
 // other drift long after is a second object, so that a correction can move each visit with its own drift; seen
-// again soon after, or with archiving off, it is the same object as before.
+// again soon after, with archiving off, or with the stores past Config::archive_below_use, it is the same object.
 TEST(ObjectLayerTest, AnArchivedObjectDoesNotAbsorbARevisitMadeLongAfter) {
   constexpr std::uint64_t kSecond = 1000000000ull;
   std::uint64_t key = 1;
@@ -917,11 +917,14 @@ TEST(ObjectLayerTest, AnArchivedObjectDoesNotAbsorbARevisitMadeLongAfter) {
   struct Case {
     double archive_after_s;
     std::uint64_t revisit_s;  // the chair was seen at 1 s; its block left the window at 2 s
+    double below_use;         // one object is 1/64 of the object store
     std::size_t objects;
   };
-  for (const Case& c : {Case{10.0, 30, 2}, Case{10.0, 5, 1}, Case{0.0, 30, 1}}) {
+  for (const Case& c :
+       {Case{10.0, 30, 0.5, 2}, Case{10.0, 5, 0.5, 1}, Case{0.0, 30, 0.5, 1}, Case{10.0, 30, 0.01, 1}}) {
     Config config = all_keys();
     config.archive_after_s = c.archive_after_s;
+    config.archive_below_use = c.below_use;
     auto layer = make_layer(config);
     auto graph = scene_graph::testing::make_graph();
     present(layer.get(), first, 1 * kSecond);
@@ -933,6 +936,7 @@ TEST(ObjectLayerTest, AnArchivedObjectDoesNotAbsorbARevisitMadeLongAfter) {
     const auto objs = objects_of(*layer);
     ASSERT_EQ(objs.size(), c.objects) << "archive_after_s=" << c.archive_after_s << " revisit at " << c.revisit_s;
     EXPECT_EQ(layer->counters().archived_kept_apart > 0, c.objects == 2u);
+    EXPECT_EQ(layer->counters().archived_merged_full > 0, c.below_use < 0.5) << "the stores' policy when filling";
     ASSERT_TRUE(layer->sync(graph.get()));
     EXPECT_EQ(graph->num_nodes(scene_graph::NodeKind::kObject), c.objects);
     if (c.objects != 2u) continue;
