@@ -94,7 +94,8 @@ FrontendStep EvalPipeline::finish(const Eigen::Vector3d& robot_m, std::uint64_t 
 }
 
 objects::RevisitMerge EvalPipeline::merge_object_visits() {
-  return objects::merge_revisits(frontend_->objects().config(), graph_, nullptr);
+  const objects::Lifetimes lives = objects::lifetimes(frontend_->objects());
+  return objects::merge_revisits(frontend_->objects().config(), graph_, nullptr, &lives);
 }
 
 backend::BackendStage::FinalDoors EvalPipeline::close_doors(const reconstruction::Mesh& mesh,

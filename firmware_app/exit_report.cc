@@ -61,6 +61,7 @@ ReportGroup pipeline_group(const PipelineCounters& c) {
   g.add("loop_closures_by_appearance", U(c.loop_closures_by_appearance));
   g.add("places_merged_after_correction", U(c.places_merged_after_correction));
   g.add("objects_merged_at_finish", U(c.objects_merged_at_finish));
+  g.add("objects_held_at_once_kept_apart", U(c.objects_held_at_once_kept_apart));
   g.add("loop_closures_kept", U(c.loop_closures_kept));
   g.add("loop_closures_true", U(c.loop_closures_true));
   g.add("loop_closures_false", U(c.loop_closures_false));

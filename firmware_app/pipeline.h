@@ -105,6 +105,7 @@ struct PipelineCounters {
   std::uint64_t loop_closures_by_appearance = 0;
   std::uint64_t places_merged_after_correction = 0;   // reconciliation at the finish (BackendStage::reconcile)
   std::uint64_t objects_merged_at_finish = 0;  // visits the object layer kept apart, joined (objects::merge_revisits)
+  std::uint64_t objects_held_at_once_kept_apart = 0;  // pairs the finish's rule made that the layer held at once
   std::uint64_t graph_optimizations = 0;
   std::uint64_t graph_optimization_failures = 0;
   std::uint64_t graph_optimization_max_us = 0;  // the longest solve (backend thread; wall time)

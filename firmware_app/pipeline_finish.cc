@@ -85,8 +85,10 @@ bool Pipeline::finish(std::string* error) {
   // The visits the object layer kept apart (objects.archive_after_s), joined in the map as corrected (as mapped,
   // without loop closure). Until then the live graph holds a revisited object once per visit.
   const auto merge_revisited_objects = [&](scene_graph::ObjectMeshIndices* object_indices) {
-    const objects::RevisitMerge m = objects::merge_revisits(config_.frontend.objects, &graph_, object_indices);
+    const objects::Lifetimes lives = objects::lifetimes(frontend_.objects());
+    const objects::RevisitMerge m = objects::merge_revisits(config_.frontend.objects, &graph_, object_indices, &lives);
     counters_.objects_merged_at_finish = m.merged;
+    counters_.objects_held_at_once_kept_apart = m.concurrent_refused;
     m.print(stdout);
   };
   const auto match_object_keys = [&] {

@@ -77,10 +77,10 @@ std::string Config::check() const {
 void Config::print(std::FILE* out) const {
   std::fprintf(out,
                "objects: merge_overlapping=%d merge_intersecting=%d merge_by_size_prior=%d index_cell_m=%.2f "
-               "max_keys_per_object=%u archive_after_s=%.1f archive_below_use=%.2f; enabled labels (tolerance_m, "
-               "min..max vertices[, max_size_m]):",
+               "max_keys_per_object=%u archive_after_s=%.1f archive_below_use=%.2f finish_keeps_concurrent_apart=%d; "
+               "enabled labels (tolerance_m, min..max vertices[, max_size_m]):",
                merge_overlapping ? 1 : 0, merge_intersecting ? 1 : 0, merge_by_size_prior ? 1 : 0, index_cell_m,
-               max_keys_per_object, archive_after_s, archive_below_use);
+               max_keys_per_object, archive_after_s, archive_below_use, finish_keeps_concurrent_apart ? 1 : 0);
   for (semantics::Label l = 0; l < semantics::kNumObjectLabels; ++l) {
     const LabelParams& p = labels[l];
     if (!p.enabled) continue;

@@ -182,6 +182,7 @@ ObjectView ObjectLayer::view(std::uint32_t h) const {
   v.num_tracked = o.num_tracked;
   v.num_keys = o.num_keys;
   v.last_update_ns = o.last_update_ns;
+  v.first_update_ns = o.first_update_ns;
   return v;
 }
 
@@ -246,6 +247,7 @@ std::uint32_t ObjectLayer::create_object(semantics::Label label) {
   empty_box(o.released_lo, o.released_hi);
   o.box_dirty = false;
   o.keys_seen = 0;
+  o.first_update_ns = time_ns_;
   o.indexed = false;
   o.label_prev = kInvalidHandle;
   o.label_next = label_head_[label];
@@ -311,6 +313,7 @@ void ObjectLayer::merge_objects(std::uint32_t into, std::uint32_t from) {
   }
   a.box_dirty = a.box_dirty || b.box_dirty;
   a.num_vertices += b.num_vertices;
+  a.first_update_ns = std::min(a.first_update_ns, b.first_update_ns);
   // b's keys are offered to a one by one: a's sample stays within Config::max_keys_per_object (a concatenation would
   // let every merge exceed it, and drift merges a new cluster into its object every pass), and chunks stay full.
   for (std::uint32_t c = b.key_head; c != kInvalidHandle;) {

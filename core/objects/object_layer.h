@@ -118,6 +118,10 @@ struct Config {
   // kept apart only while the object store and the key store are both below this share of their capacity; past it a
   // revisit merges as mapped, and a mission of any length stays within the stores (counted: archived_merged_full).
   double archive_below_use = 0.5;
+  // At the finish (merge_revisits), objects that the layer held at the same time (their lives, first to last update,
+  // overlap) are never joined: the layer's own rules, wider than the finish's, saw both and kept them apart, and a
+  // correction moves them together. Without it a survivor's grown box joins a visit's neighbour of its label.
+  bool finish_keeps_concurrent_apart = true;
   std::string check() const;      // empty when usable, else the bad field and why
   void print(std::FILE* out) const;
 };
@@ -199,6 +203,7 @@ struct ObjectView {
   std::uint32_t num_tracked = 0;   // in the active window now
   std::uint32_t num_keys = 0;      // mesh-vertex references kept
   std::uint64_t last_update_ns = 0;  // the last update whose vertices changed it (leaving the window does not)
+  std::uint64_t first_update_ns = 0;  // the update that created it (of objects merged into it, the earliest)
 };
 
 // What one update did.

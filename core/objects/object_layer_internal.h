@@ -39,6 +39,7 @@ struct ObjectLayer::Object {
   std::uint32_t num_keys = 0;
   std::uint64_t keys_seen = 0;  // distinct keys ever offered (the reservoir's count)
   std::uint64_t last_update_ns = 0;
+  std::uint64_t first_update_ns = 0;  // the update that created it (the earliest of merged objects)
   // Entry in the merge index (object_cells_), kept in step with the box by index_object().
   std::uint64_t index_cell = 0;
   std::uint32_t index_next = kInvalidHandle;

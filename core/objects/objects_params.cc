@@ -26,6 +26,8 @@ const params::Table<Config>& params_table() {
     t.add("archive_below_use", &Config::archive_below_use, "", in(0, 1), project,
           "revisits are kept apart only while the object and key stores are below this share of their capacity; "
           "past it they merge as mapped (the stores' policy when filling)");
+    t.flag("finish_keeps_concurrent_apart", &Config::finish_keeps_concurrent_apart, refinement,
+           "the finish's merge never joins objects the layer held at the same time (it kept them apart itself)");
     return t;
   }();
   return table;

@@ -31,14 +31,21 @@ float volume(const Box& b) { return (b.hi[0] - b.lo[0]) * (b.hi[1] - b.lo[1]) * 
 
 void RevisitMerge::print(std::FILE* out) const {
   std::fprintf(out,
-               "objects: %zu revisits merged at the finish of %zu objects (one's centre in the other's box), %zu edges "
-               "refused\n",
-               merged, objects, edges_refused);
+               "objects: %zu revisits merged at the finish of %zu objects (one's centre in the other's box), %zu pairs "
+               "held at once kept apart, %zu edges refused\n",
+               merged, objects, concurrent_refused, edges_refused);
+}
+
+Lifetimes lifetimes(const ObjectLayer& layer) {
+  Lifetimes out;
+  layer.for_each_object([&](const ObjectView& v) { out[v.node] = {v.first_update_ns, v.last_update_ns}; });
+  return out;
 }
 
 RevisitMerge merge_revisits(const Config& config, scene_graph::SceneGraph* graph,
-                            scene_graph::ObjectMeshIndices* indices) {
+                            scene_graph::ObjectMeshIndices* indices, const Lifetimes* lifetimes) {
   RevisitMerge out;
+  if (!config.finish_keeps_concurrent_apart) lifetimes = nullptr;
   // The paper's rule alone (as Config::merge_overlapping switches it). The frontend's fragment rules (intersecting
   // boxes; the size prior, which merge_rule leaves out for a new cluster) join the pieces of one visit; between
   // whole visits they also joined a visit with a neighbour of its label.
@@ -61,8 +68,21 @@ RevisitMerge merge_revisits(const Config& config, scene_graph::SceneGraph* graph
     std::vector<scene_graph::NodeId>& ids = by_label[label];
     std::sort(ids.begin(), ids.end());  // deterministic whatever the graph's storage order
     std::vector<bool> gone(ids.size(), false);
+    // The lifetimes of the nodes merged into each (its own first).
+    std::vector<std::vector<Lifetime>> lives(ids.size());
+    if (lifetimes != nullptr)
+      for (std::size_t i = 0; i < ids.size(); ++i)
+        if (const auto it = lifetimes->find(ids[i]); it != lifetimes->end()) lives[i].push_back(it->second);
+    const auto held_at_once = [&](std::size_t a, std::size_t b) {
+      for (const Lifetime& x : lives[a])
+        for (const Lifetime& y : lives[b])
+          if (x.first_ns <= y.last_ns && y.first_ns <= x.last_ns) return true;
+      return false;
+    };
+    std::size_t refused = 0;  // in the last pass (the one that merged nothing): pairs left apart among the survivors
     for (bool again = true; again;) {
       again = false;
+      refused = 0;
       for (std::size_t a = 0; a < ids.size(); ++a) {
         for (std::size_t b = a + 1; b < ids.size() && !gone[a]; ++b) {
           if (gone[b]) continue;
@@ -71,6 +91,10 @@ RevisitMerge merge_revisits(const Config& config, scene_graph::SceneGraph* graph
           const Box ba = box_of(*oa), bb = box_of(*ob);
           const MergeRule rule = merge_rule(paper_rule, label, ba.lo, ba.hi, bb.lo, bb.hi, true);
           if (rule == MergeRule::kNone) continue;
+          if (held_at_once(a, b)) {
+            ++refused;
+            continue;
+          }
           const std::size_t na = size_of(ids[a]), nb = size_of(ids[b]);
           const bool keep_a = na != nb ? na > nb : volume(ba) >= volume(bb);
           const scene_graph::NodeId into = keep_a ? ids[a] : ids[b], from = keep_a ? ids[b] : ids[a];
@@ -103,11 +127,15 @@ RevisitMerge merge_revisits(const Config& config, scene_graph::SceneGraph* graph
           }
           out.edges_refused += m.refused;
           ++out.merged;
-          gone[keep_a ? b : a] = true;
+          const std::size_t kept = keep_a ? a : b, absorbed = keep_a ? b : a;
+          lives[kept].insert(lives[kept].end(), lives[absorbed].begin(), lives[absorbed].end());
+          lives[absorbed].clear();
+          gone[absorbed] = true;
           again = true;
         }
       }
     }
+    out.concurrent_refused += refused;
   }
   return out;
 }

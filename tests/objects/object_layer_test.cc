@@ -939,7 +939,10 @@ TEST(ObjectLayerTest, AnArchivedObjectDoesNotAbsorbARevisitMadeLongAfter) {
     EXPECT_EQ(layer->counters().archived_merged_full > 0, c.below_use < 0.5) << "the stores' policy when filling";
     ASSERT_TRUE(layer->sync(graph.get()));
     EXPECT_EQ(graph->num_nodes(scene_graph::NodeKind::kObject), c.objects);
+    // Its life (merge_revisits' Lifetime) starts with the update that created it; merged, with the earlier one's.
+    EXPECT_EQ(objs[0].first_update_ns, 1 * kSecond);
     if (c.objects != 2u) continue;
+    EXPECT_EQ(objs[1].first_update_ns, c.revisit_s * kSecond);
     // Each visit keeps its own box and its own time, when its vertices were last seen (leaving the window at 2 s is
     // not an observation).
     EXPECT_NEAR(objs[0].min_m.x(), 0.05, 1e-6);

@@ -91,5 +91,49 @@ TEST(RevisitMergeTest, AGrownBoxPairsAgainAndOnlyThePapersRuleMerges) {
   }
 }
 
+// Two chairs 0.83 m apart held at once in the first visit; the second visit saw one box over both. Merged with the
+// first visit's chair, that box would take the neighbour too: lifetimes keep the two chairs of the first visit apart.
+TEST(RevisitMergeTest, ObjectsTheLayerHeldAtOnceAreNotJoinedThroughAThird) {
+  struct Case {
+    bool with_lifetimes, keep_apart;
+    std::size_t nodes_left, merged, refused;
+  };
+  for (const Case c : {Case{true, true, 2, 1, 1}, Case{false, true, 1, 2, 0}, Case{true, false, 1, 2, 0}}) {
+    auto g = sg::testing::make_graph();
+    const sg::NodeId a1 = object(g.get(), 0, semantics::kChair, {0, 0, 0}, {0.5, 0.5, 0.8}, 20);
+    const sg::NodeId b1 = object(g.get(), 1, semantics::kChair, {0.83, 0, 0}, {1.33, 0.5, 0.8}, 22);
+    const sg::NodeId both = object(g.get(), 2, semantics::kChair, {0.1, 0, 0}, {1.2, 0.5, 0.8}, 310);
+    Lifetimes lives;
+    lives[a1] = {10, 20};
+    lives[b1] = {12, 22};  // overlaps a1's
+    lives[both] = {300, 310};
+    Config config;
+    config.finish_keeps_concurrent_apart = c.keep_apart;
+    const RevisitMerge m = merge_revisits(config, g.get(), nullptr, c.with_lifetimes ? &lives : nullptr);
+    std::size_t left = 0;
+    for (const sg::NodeId id : {a1, b1, both}) left += g->has_node(id) ? 1 : 0;
+    EXPECT_EQ(left, c.nodes_left) << c.with_lifetimes << c.keep_apart;
+    EXPECT_EQ(m.merged, c.merged);
+    EXPECT_EQ(m.concurrent_refused, c.refused) << "counted once, in the pass that merged nothing";
+    if (c.nodes_left == 2) {
+      EXPECT_TRUE(g->has_node(both)) << "the larger box survives and takes the first chair";
+      EXPECT_TRUE(g->has_node(b1)) << "the neighbour stays an object of its own";
+      EXPECT_NEAR(g->object(both)->bounding_box.min_m.x(), 0.0, 1e-6);
+    }
+  }
+}
+
+// A node the layer no longer holds (no lifetime) merges by the rule alone.
+TEST(RevisitMergeTest, ANodeWithoutALifetimeMergesByTheRuleAlone) {
+  auto g = sg::testing::make_graph();
+  const sg::NodeId a = object(g.get(), 0, semantics::kChair, {0, 0, 0}, {0.5, 0.5, 0.8}, 20);
+  const sg::NodeId b = object(g.get(), 1, semantics::kChair, {0.1, 0, 0}, {0.6, 0.5, 0.8}, 30);
+  Lifetimes lives;
+  lives[a] = {10, 20};
+  const RevisitMerge m = merge_revisits(Config{}, g.get(), nullptr, &lives);
+  EXPECT_EQ(m.merged, 1u);
+  EXPECT_NE(g->has_node(a), g->has_node(b));
+}
+
 }  // namespace
 }  // namespace qsg::objects
