@@ -7,12 +7,16 @@ scale RUN --scale-bias S: how much of the odometry's ATE a scale error of S alon
 objects TRUTH_RUN REF_RUN RUN: each object of TRUTH_RUN (the ground-truth-pose run, `--layers`) matched to the
   nearest object of its label in REF_RUN and in RUN: the median distance for each, how many of RUN's are farther
   than REF_RUN's, and each run's mean box footprint (x times y).
+strays TRUTH_RUN RUN [TRUTH_RUN RUN ...]: per label, summed over the pairs, RUN's objects with no object of their
+  label in TRUTH_RUN within 0.5 m (objects_eval's match radius: the estimates that cost objects correct, with the
+  truth run standing in for the world's objects), and TRUTH_RUN's with none in RUN.
 
 RUN is a run's folder (trajectory_*.txt, scene_graph.json). Figures go to --out in the format of bench/figures.h
 (name, value, unit, conditions, commit).
 
 usage: lc_outputs.py scale RUN --scale-bias S --commit H --out F
        lc_outputs.py objects TRUTH_RUN REF_RUN RUN --commit H --out F
+       lc_outputs.py strays TRUTH_RUN RUN [TRUTH_RUN RUN ...] --commit H --out F
 """
 import argparse
 import json
@@ -48,7 +52,7 @@ def nearest(o, others):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("what", choices=["scale", "objects"])
+    ap.add_argument("what", choices=["scale", "objects", "strays"])
     ap.add_argument("runs", nargs="+")
     ap.add_argument("--scale-bias", type=float, default=0.0)
     ap.add_argument("--commit", required=True)
@@ -75,6 +79,23 @@ def main():
         add("scale.ate_optimized", ate(optimized, truth), "m", c)
         add("scale.ate_odometry_to_scaled", ate(odometry, scaled), "m", c)
         add("scale.ate_optimized_to_scaled", ate(optimized, scaled), "m", c)
+    elif args.what == "strays":
+        if len(args.runs) % 2 != 0:
+            ap.error("strays takes pairs TRUTH_RUN RUN")
+        radius = 0.5
+        stray, missed, total = {}, {}, {}
+        for truth_dir, run_dir in zip(args.runs[0::2], args.runs[1::2]):
+            truth, run = objects(truth_dir), objects(run_dir)
+            for o in run:
+                total[o[0]] = total.get(o[0], 0) + 1
+                stray[o[0]] = stray.get(o[0], 0) + (nearest(o, truth) > radius)
+            for o in truth:
+                missed[o[0]] = missed.get(o[0], 0) + (nearest(o, run) > radius)
+        c = f"objects of {' '.join(args.runs[1::2])} against {' '.join(args.runs[0::2])}, same label within {radius} m"
+        for label in sorted(set(stray) | set(missed)):
+            add(f"strays.label{label}.objects", total.get(label, 0), "objects", c)
+            add(f"strays.label{label}.no_truth_run_object_near", stray.get(label, 0), "objects", c)
+            add(f"strays.label{label}.truth_run_objects_missed", missed.get(label, 0), "objects", c)
     else:
         if len(args.runs) != 3:
             ap.error("objects takes TRUTH_RUN REF_RUN RUN")
