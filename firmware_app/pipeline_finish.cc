@@ -77,11 +77,15 @@ bool Pipeline::finish(std::string* error) {
   reconstruction::clean_mesh(&mesh).print(stdout);
   // The persistent scene graph: the last loop closures, then the final solve and every layer corrected. With
   // loop_closure.reconcile the layers are corrected and reconciled first, and the final doors, rooms and labels are
-  // found on the corrected map; without it (the default: bench/results/loop_closure.md) they are found on the map as
-  // mapped and moved with it.
+  // found on the corrected map (with loop_closure.rooms_after_correction alone, corrected but not reconciled);
+  // without either (the default: bench/results/loop_closure.md) they are found on the map as mapped and moved with
+  // it.
   reconstruction::Mesh odometric;  // the mesh as mapped, when a correction moves the written one
   scene_graph::ObjectMeshIndices indices;
   const bool reconcile = backend_.loop_closure_enabled() && config_.loop_closure.reconcile;
+  // The final stage runs on the corrected map (reconcile, or loop_closure.rooms_after_correction alone).
+  const bool correct_first = backend_.loop_closure_enabled() &&
+                             (config_.loop_closure.reconcile || config_.loop_closure.rooms_after_correction);
   // The visits the object layer kept apart (objects.archive_after_s), joined in the map as corrected (as mapped,
   // without loop closure). Until then the live graph holds a revisited object once per visit.
   const auto merge_revisited_objects = [&](scene_graph::ObjectMeshIndices* object_indices) {
@@ -102,10 +106,10 @@ bool Pipeline::finish(std::string* error) {
       extract_captured_frames();
       backend_.detect_at_finish(graph_, frontend_.agents(), latest_keyframe_ns_);  // the last horizon_s too
     }
-    if (reconcile) {
+    if (correct_first) {
       correct_outputs(&mesh, &odometric);
       match_object_keys();
-      if (backend_.solved()) {
+      if (reconcile && backend_.solved()) {
         const backend::BackendStage::Reconciliation r = backend_.reconcile(mesh, indices, &graph_);
         counters_.places_merged_after_correction = r.places_merged;
         std::printf(
@@ -122,7 +126,7 @@ bool Pipeline::finish(std::string* error) {
   if (config_.doors_at_finish) report_final_doors(final_stage.doors);
   {
     std::lock_guard<std::mutex> lock(graph_mutex_);
-    if (!reconcile) {
+    if (!correct_first) {
       correct_outputs(&mesh, &odometric);
       match_object_keys();
       merge_revisited_objects(&indices);

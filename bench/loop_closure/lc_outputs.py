@@ -10,6 +10,10 @@ objects TRUTH_RUN REF_RUN RUN: each object of TRUTH_RUN (the ground-truth-pose r
 strays TRUTH_RUN RUN [TRUTH_RUN RUN ...]: per label, summed over the pairs, RUN's objects with no object of their
   label in TRUTH_RUN within 0.5 m (objects_eval's match radius: the estimates that cost objects correct, with the
   truth run standing in for the world's objects), and TRUTH_RUN's with none in RUN.
+rooms JSON [JSON ...]: from lc_eval's figures (--json of `--layers` runs, not folders), for each of the three runs
+  (gt: true poses, odometry, corrected) the mean over the runs of rooms precision, recall, their F1 (per run, then
+  averaged) and the number of rooms found: whether a recall below the truth run's is rooms missed or rooms the truth
+  run merges.
 
 RUN is a run's folder (trajectory_*.txt, scene_graph.json). Figures go to --out in the format of bench/figures.h
 (name, value, unit, conditions, commit).
@@ -17,6 +21,7 @@ RUN is a run's folder (trajectory_*.txt, scene_graph.json). Figures go to --out 
 usage: lc_outputs.py scale RUN --scale-bias S --commit H --out F
        lc_outputs.py objects TRUTH_RUN REF_RUN RUN --commit H --out F
        lc_outputs.py strays TRUTH_RUN RUN [TRUTH_RUN RUN ...] --commit H --out F
+       lc_outputs.py rooms LC_EVAL_JSON [LC_EVAL_JSON ...] --commit H --out F
 """
 import argparse
 import json
@@ -52,7 +57,7 @@ def nearest(o, others):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("what", choices=["scale", "objects", "strays"])
+    ap.add_argument("what", choices=["scale", "objects", "strays", "rooms"])
     ap.add_argument("runs", nargs="+")
     ap.add_argument("--scale-bias", type=float, default=0.0)
     ap.add_argument("--commit", required=True)
@@ -79,6 +84,24 @@ def main():
         add("scale.ate_optimized", ate(optimized, truth), "m", c)
         add("scale.ate_odometry_to_scaled", ate(odometry, scaled), "m", c)
         add("scale.ate_optimized_to_scaled", ate(optimized, scaled), "m", c)
+    elif args.what == "rooms":
+        values = {}
+        for path in args.runs:
+            with open(path) as f:
+                for e in json.load(f):
+                    values[e["name"]] = e["value"]
+        runs = sorted({n.split(".")[0] for n in values if n.endswith(".gt.rooms_precision")})
+        if not runs:
+            ap.error("rooms: no run with gt.rooms_precision in the files (lc_eval --layers)")
+        c = f"{len(runs)} runs ({' '.join(runs)}) of {' '.join(args.runs)}"
+        for kind in ("gt", "odometry", "corrected"):
+            p = [values[f"{r}.{kind}.rooms_precision"] for r in runs]
+            r_ = [values[f"{r}.{kind}.rooms_recall"] for r in runs]
+            f1 = [2 * a * b / (a + b) if a + b > 0 else 0.0 for a, b in zip(p, r_)]
+            add(f"rooms.{kind}.precision_mean", statistics.mean(p), "ratio", c)
+            add(f"rooms.{kind}.recall_mean", statistics.mean(r_), "ratio", c)
+            add(f"rooms.{kind}.f1_mean", statistics.mean(f1), "ratio", c)
+            add(f"rooms.{kind}.rooms_mean", statistics.mean(values[f"{r}.{kind}.rooms"] for r in runs), "rooms", c)
     elif args.what == "strays":
         if len(args.runs) % 2 != 0:
             ap.error("strays takes pairs TRUTH_RUN RUN")

@@ -39,6 +39,9 @@ const params::Table<LoopClosureConfig>& loop_closure_params_table() {
     t.flag("reconcile", &C::reconcile, paper,
            "after the final correction: objects re-boxed from the corrected mesh, revisited places merged, final doors "
            "and rooms on the corrected map (off: found as mapped and moved; bench/results/loop_closure.md)");
+    t.flag("rooms_after_correction", &C::rooms_after_correction, paper,
+           "after the final correction the final doors, rooms and labels are found on the corrected map, objects and "
+           "places only moved (reconcile implies it; off: found as mapped and moved)");
     t.add("merge_places_within_m", &C::merge_places_within_m, "m", in(0, 5), paper,
           "after a correction, places closer than this whose free-space spheres hold each other merge (0: none)");
     return t;

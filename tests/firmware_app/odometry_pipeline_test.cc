@@ -5,6 +5,7 @@
 #include <spawn.h>
 #include <sys/wait.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -76,6 +77,51 @@ TEST(OdometryPipelineTest, TheSimulatedRobotMapsFromDriftingOdometryByDefault) {
   EXPECT_TRUE(std::filesystem::exists(small_config("drift").output_dir + "/trajectory_odometry.txt"));
   EXPECT_TRUE(std::filesystem::exists(small_config("drift").output_dir + "/trajectory_estimate.txt"));
   EXPECT_TRUE(std::filesystem::exists(small_config("drift").output_dir + "/trajectory_ground_truth.txt"));
+}
+
+// The largest distance between a room node and the mean of its places in the final graph (-1: no room with places).
+double worst_room_off_its_places(const scene_graph::SceneGraph& g) {
+  double worst = -1.0;
+  g.for_each_node([&](const scene_graph::NodeRecord& n) {
+    if (n.kind != scene_graph::NodeKind::kRoom) return;
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    std::size_t count = 0;
+    g.for_each_child(n.id, [&](scene_graph::NodeId child) {
+      if (const scene_graph::PlaceAttributes* p = g.place(child)) {
+        sum += p->position_m;
+        ++count;
+      }
+    });
+    if (count == 0) return;
+    worst = std::max(worst, (g.room(n.id)->position_m - sum / static_cast<double>(count)).norm());
+  });
+  return worst;
+}
+
+// loop_closure.rooms_after_correction: the final rooms are found on the corrected places, so each room node sits at
+// the mean of its places as the correction put them. Off, the rooms are found as mapped and moved with the
+// deformation, which does not move them with their places exactly.
+TEST(OdometryPipelineTest, RoomsFoundAfterTheCorrectionSitOnTheirCorrectedPlaces) {
+  for (const bool after : {true, false}) {
+    SCOPED_TRACE(after ? "rooms after the correction" : "rooms as mapped, moved");
+    runtime::SteppedClock clock;
+    Pipeline p;
+    std::string error;
+    AppConfig config = small_config(after ? "rooms_after" : "rooms_moved");
+    config.loop_closure.enabled = true;
+    config.loop_closure.detector.propose_unrefined_objects = true;  // as above: closures on one short tour
+    config.loop_closure.reconcile = false;
+    config.loop_closure.rooms_after_correction = after;
+    ASSERT_TRUE(p.init(config, &clock, &error)) << error;
+    run_to_end(p);
+    ASSERT_GE(p.counters().graph_optimizations, 1u) << "no correction to test against";
+    const double worst = worst_room_off_its_places(p.graph());
+    ASSERT_GE(worst, 0.0) << "no room";
+    if (after)
+      EXPECT_LT(worst, 1e-6);
+    else
+      EXPECT_GT(worst, 1e-4);
+  }
 }
 
 TEST(OdometryPipelineTest, GroundTruthAndATumFileOfItMapWithoutError) {
