@@ -9,7 +9,9 @@ objects TRUTH_RUN REF_RUN RUN: each object of TRUTH_RUN (the ground-truth-pose r
   than REF_RUN's, and each run's mean box footprint (x times y).
 strays TRUTH_RUN RUN [TRUTH_RUN RUN ...]: per label, summed over the pairs, RUN's objects with no object of their
   label in TRUTH_RUN within 0.5 m (objects_eval's match radius: the estimates that cost objects correct, with the
-  truth run standing in for the world's objects), and TRUTH_RUN's with none in RUN.
+  truth run standing in for the world's objects), and TRUTH_RUN's with none in RUN; and, of each run, the objects
+  wider than --wide-m on a horizontal axis and those smaller than --piece-m on every axis (merged neighbours and
+  pieces).
 rooms JSON [JSON ...]: from lc_eval's figures (--json of `--layers` runs, not folders), for each of the three runs
   (gt: true poses, odometry, corrected) the mean over the runs of rooms precision, recall, their F1 (per run, then
   averaged) and the number of rooms found: whether a recall below the truth run's is rooms missed or rooms the truth
@@ -60,6 +62,8 @@ def main():
     ap.add_argument("what", choices=["scale", "objects", "strays", "rooms"])
     ap.add_argument("runs", nargs="+")
     ap.add_argument("--scale-bias", type=float, default=0.0)
+    ap.add_argument("--wide-m", type=float, default=1.0)
+    ap.add_argument("--piece-m", type=float, default=0.45)
     ap.add_argument("--commit", required=True)
     ap.add_argument("--out", required=True)
     args = ap.parse_args()
@@ -107,18 +111,31 @@ def main():
             ap.error("strays takes pairs TRUTH_RUN RUN")
         radius = 0.5
         stray, missed, total = {}, {}, {}
+        wide = {"run": {}, "truth_run": {}}
+        pieces = {"run": {}, "truth_run": {}}
+
+        def shape(which, o):
+            dims = o[2]
+            wide[which][o[0]] = wide[which].get(o[0], 0) + (max(dims[0], dims[1]) > args.wide_m)
+            pieces[which][o[0]] = pieces[which].get(o[0], 0) + (max(dims) < args.piece_m)
+
         for truth_dir, run_dir in zip(args.runs[0::2], args.runs[1::2]):
             truth, run = objects(truth_dir), objects(run_dir)
             for o in run:
                 total[o[0]] = total.get(o[0], 0) + 1
                 stray[o[0]] = stray.get(o[0], 0) + (nearest(o, truth) > radius)
+                shape("run", o)
             for o in truth:
                 missed[o[0]] = missed.get(o[0], 0) + (nearest(o, run) > radius)
+                shape("truth_run", o)
         c = f"objects of {' '.join(args.runs[1::2])} against {' '.join(args.runs[0::2])}, same label within {radius} m"
         for label in sorted(set(stray) | set(missed)):
             add(f"strays.label{label}.objects", total.get(label, 0), "objects", c)
             add(f"strays.label{label}.no_truth_run_object_near", stray.get(label, 0), "objects", c)
             add(f"strays.label{label}.truth_run_objects_missed", missed.get(label, 0), "objects", c)
+            for which in ("run", "truth_run"):
+                add(f"strays.label{label}.{which}_wider_than_{args.wide_m}m", wide[which].get(label, 0), "objects", c)
+                add(f"strays.label{label}.{which}_under_{args.piece_m}m", pieces[which].get(label, 0), "objects", c)
     else:
         if len(args.runs) != 3:
             ap.error("objects takes TRUTH_RUN REF_RUN RUN")
