@@ -16,6 +16,8 @@ rooms JSON [JSON ...]: from lc_eval's figures (--json of `--layers` runs, not fo
   (gt: true poses, odometry, corrected) the mean over the runs of rooms precision, recall, their F1 (per run, then
   averaged) and the number of rooms found: whether a recall below the truth run's is rooms missed or rooms the truth
   run merges.
+room_places RUN [RUN ...]: each room node of each run's scene_graph.json: its places, their extent in x and y and
+  their largest clearance (which rooms a run merged, and how small they are).
 
 RUN is a run's folder (trajectory_*.txt, scene_graph.json). Figures go to --out in the format of bench/figures.h
 (name, value, unit, conditions, commit).
@@ -24,6 +26,7 @@ usage: lc_outputs.py scale RUN --scale-bias S --commit H --out F
        lc_outputs.py objects TRUTH_RUN REF_RUN RUN --commit H --out F
        lc_outputs.py strays TRUTH_RUN RUN [TRUTH_RUN RUN ...] --commit H --out F
        lc_outputs.py rooms LC_EVAL_JSON [LC_EVAL_JSON ...] --commit H --out F
+       lc_outputs.py room_places RUN [RUN ...] --commit H --out F
 """
 import argparse
 import json
@@ -59,7 +62,7 @@ def nearest(o, others):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("what", choices=["scale", "objects", "strays", "rooms"])
+    ap.add_argument("what", choices=["scale", "objects", "strays", "rooms", "room_places"])
     ap.add_argument("runs", nargs="+")
     ap.add_argument("--scale-bias", type=float, default=0.0)
     ap.add_argument("--wide-m", type=float, default=1.0)
@@ -88,6 +91,30 @@ def main():
         add("scale.ate_optimized", ate(optimized, truth), "m", c)
         add("scale.ate_odometry_to_scaled", ate(odometry, scaled), "m", c)
         add("scale.ate_optimized_to_scaled", ate(optimized, scaled), "m", c)
+    elif args.what == "room_places":
+        for run in args.runs:
+            with open(os.path.join(run, "scene_graph.json")) as f:
+                graph = json.load(f)
+            kind = {n["id"]: n["attributes"].get("type") for n in graph["nodes"]}
+            places = {n["id"]: n["attributes"] for n in graph["nodes"] if kind[n["id"]] == "PlaceNodeAttributes"}
+            room_of = {}
+            for e in graph["edges"]:
+                for room, place in ((e["source"], e["target"]), (e["target"], e["source"])):
+                    if kind.get(room) == "RoomNodeAttributes" and place in places:
+                        room_of[place] = room
+            rooms = sorted(set(room_of.values()))
+            c = f"the room nodes of {run}/scene_graph.json and the places under each"
+            for k, room in enumerate(rooms):
+                ps = [places[p] for p, r in room_of.items() if r == room]
+                xs = [p["position"][0] for p in ps]
+                ys = [p["position"][1] for p in ps]
+                name = f"{os.path.basename(os.path.normpath(run))}.room{k}"
+                add(f"{name}.places", len(ps), "places", c)
+                add(f"{name}.x_extent", max(xs) - min(xs), "m", c)
+                add(f"{name}.y_extent", max(ys) - min(ys), "m", c)
+                add(f"{name}.x_min", min(xs), "m", c)
+                add(f"{name}.y_min", min(ys), "m", c)
+                add(f"{name}.largest_clearance", max(p["distance"] for p in ps), "m", c)
     elif args.what == "rooms":
         values = {}
         for path in args.runs:
