@@ -44,9 +44,13 @@ def ate(a, b):
     return math.sqrt(sum(math.dist(p, q) ** 2 for p, q in zip(a, b)) / len(a))
 
 
-def objects(run):
+def scene_graph(run):
     with open(os.path.join(run, "scene_graph.json")) as f:
-        graph = json.load(f)
+        return json.load(f)
+
+
+def objects(run):
+    graph = scene_graph(run)
     out = []
     for n in graph["nodes"]:
         a = n["attributes"]
@@ -93,8 +97,7 @@ def main():
         add("scale.ate_optimized_to_scaled", ate(optimized, scaled), "m", c)
     elif args.what == "room_places":
         for run in args.runs:
-            with open(os.path.join(run, "scene_graph.json")) as f:
-                graph = json.load(f)
+            graph = scene_graph(run)
             kind = {n["id"]: n["attributes"].get("type") for n in graph["nodes"]}
             places = {n["id"]: n["attributes"] for n in graph["nodes"] if kind[n["id"]] == "PlaceNodeAttributes"}
             room_of = {}
