@@ -38,23 +38,25 @@ void DetectorConfig::print(std::FILE* out) const {
 const char* to_string(ClosureSource s) { return s == ClosureSource::kAppearance ? "appearance" : "objects"; }
 
 void DetectorCounters::print(std::FILE* out) const {
-  std::fprintf(out,
-               "loop closures: %llu queries (%llu without enough objects), %llu places candidates, %llu objects "
-               "candidates, %llu ratio rejections, %llu appearance checks of which %llu registered, %llu verified by "
-               "objects of which %llu failed registration (%llu refined by ICP, %llu not, %llu then on local maps, %llu "
-               "refused there, %llu dropped), "
-               "%llu proposed; "
-               "%llu agents refused, %llu folds, %llu tree rebuilds\n",
-               static_cast<unsigned long long>(queries), static_cast<unsigned long long>(queries_without_objects),
-               static_cast<unsigned long long>(places_candidates), static_cast<unsigned long long>(objects_candidates),
-               static_cast<unsigned long long>(ratio_rejections), static_cast<unsigned long long>(appearance_checks),
-               static_cast<unsigned long long>(appearance_accepted), static_cast<unsigned long long>(verifications),
-               static_cast<unsigned long long>(registration_failures), static_cast<unsigned long long>(icp_refined),
-               static_cast<unsigned long long>(icp_refused), static_cast<unsigned long long>(local_map_refined),
-               static_cast<unsigned long long>(local_map_refused), static_cast<unsigned long long>(objects_unrefined),
-               static_cast<unsigned long long>(proposed),
-               static_cast<unsigned long long>(refused), static_cast<unsigned long long>(folds),
-               static_cast<unsigned long long>(tree_rebuilds));
+  std::fprintf(
+      out,
+      "loop closures: %llu queries (%llu without enough objects), %llu places candidates, %llu objects "
+      "candidates, %llu ratio rejections, %llu appearance checks of which %llu registered, %llu verified by "
+      "objects of which %llu failed registration (%llu refined by ICP, %llu not, %llu then on local maps, %llu "
+      "refused there (%llu no overlap, %llu degenerate, %llu too large a correction), %llu dropped), "
+      "%llu proposed; "
+      "%llu agents refused, %llu folds, %llu tree rebuilds\n",
+      static_cast<unsigned long long>(queries), static_cast<unsigned long long>(queries_without_objects),
+      static_cast<unsigned long long>(places_candidates), static_cast<unsigned long long>(objects_candidates),
+      static_cast<unsigned long long>(ratio_rejections), static_cast<unsigned long long>(appearance_checks),
+      static_cast<unsigned long long>(appearance_accepted), static_cast<unsigned long long>(verifications),
+      static_cast<unsigned long long>(registration_failures), static_cast<unsigned long long>(icp_refined),
+      static_cast<unsigned long long>(icp_refused), static_cast<unsigned long long>(local_map_refined),
+      static_cast<unsigned long long>(local_map_refused), static_cast<unsigned long long>(local_map_no_overlap),
+      static_cast<unsigned long long>(local_map_degenerate), static_cast<unsigned long long>(local_map_correction),
+      static_cast<unsigned long long>(objects_unrefined), static_cast<unsigned long long>(proposed),
+      static_cast<unsigned long long>(refused), static_cast<unsigned long long>(folds),
+      static_cast<unsigned long long>(tree_rebuilds));
 }
 
 bool LoopClosureDetector::init(std::size_t capacity, const LocalMapCapacities& local_map, const DetectorConfig& config,
@@ -241,6 +243,9 @@ bool LoopClosureDetector::refine_with_local_maps(const AgentEntry& query, std::u
                                                  config_.icp, &gravity);
   if (!r.ok) {
     ++counters_.local_map_refused;
+    if (r.refusal == IcpRefusal::kNoOverlap) ++counters_.local_map_no_overlap;
+    if (r.refusal == IcpRefusal::kDegenerate) ++counters_.local_map_degenerate;
+    if (r.refusal == IcpRefusal::kCorrection) ++counters_.local_map_correction;
     return false;
   }
   out->icp = r;

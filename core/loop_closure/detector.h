@@ -107,7 +107,10 @@ struct DetectorCounters {
   std::uint64_t icp_refined = 0;          // registrations (appearance or objects) refined by ICP
   std::uint64_t icp_refused = 0;          // ... where ICP was tried and not trusted (coarse estimate kept)
   std::uint64_t local_map_refined = 0;    // object registrations keyframe ICP could not refine, refined on local maps
-  std::uint64_t local_map_refused = 0;    // ... tried on local maps and not trusted
+  std::uint64_t local_map_refused = 0;    // ... tried on local maps and not trusted, of which (IcpRefusal):
+  std::uint64_t local_map_no_overlap = 0;  // ... too little overlap
+  std::uint64_t local_map_degenerate = 0;  // ... a direction left free
+  std::uint64_t local_map_correction = 0;  // ... too large a correction
   std::uint64_t objects_unrefined = 0;    // object registrations not refined, not proposed (propose_unrefined_objects)
   std::uint64_t proposed = 0;                 // verified loop closures handed to the optimizer
   std::uint64_t refused = 0;                  // agents not stored (a database of fewer than 4)
