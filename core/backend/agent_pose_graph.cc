@@ -54,8 +54,6 @@ RelativePoseEdge loop_closure_edge(const ChainLoopClosure& c) {
   e.measured_from_T_to = c.a_T_b;
   e.sigma_t_m = c.sigma_t_m;
   e.sigma_rot_rad = c.sigma_rot_rad;
-  e.has_information = c.has_information;
-  e.information = c.information;
   e.is_loop_closure = true;
   return e;
 }

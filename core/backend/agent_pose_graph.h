@@ -63,10 +63,6 @@ struct ChainLoopClosure {
   Pose3 a_T_b;
   Eigen::Vector3d sigma_t_m = Eigen::Vector3d::Constant(0.05);
   Eigen::Vector3d sigma_rot_rad = Eigen::Vector3d::Constant(0.01);
-  // A full information matrix instead of the sigmas (RelativePoseEdge's convention: translation in b's frame), for
-  // a closure whose precision differs by direction (a local map that pins all but a hallway's axis).
-  bool has_information = false;
-  Eigen::Matrix<double, 6, 6> information = Eigen::Matrix<double, 6, 6>::Identity();
   // Which closure this is, kept from one solve to the next (the backend uses the query agent's time; 0: unnamed,
   // then a closure is known by its index). The deformation graph carries a decision by it when the closure store
   // folded since (which shifts the indices).

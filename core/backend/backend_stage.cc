@@ -387,9 +387,6 @@ bool BackendStage::solve_due(std::uint64_t time_ns) {
 
 namespace {
 
-// An object registration's translation sigma floor: centroids of partial views are off by about a decimetre.
-constexpr double kObjectRegistrationSigmaM = 0.15;
-
 // The odometry's random walk over distance_m (the agent graph's sigmas per sqrt(m)), added in quadrature.
 void add_odometry_walk(const AgentGraphConfig& walk, double distance_m, Eigen::Vector3d* sigma_t_m,
                        Eigen::Vector3d* sigma_rot_rad) {
@@ -409,7 +406,7 @@ void closure_sigmas(const loop_closure::LoopClosure& lc, const LoopClosureConfig
   const double rmse = lc.refined                                              ? lc.icp.rmse_m
                       : lc.source == loop_closure::ClosureSource::kAppearance ? lc.appearance.inlier_rmse_m
                                                                               : lc.registration.inlier_rmse_m;
-  *sigma_t_m = Eigen::Vector3d::Constant(precise ? std::max(0.02, rmse) : std::max(kObjectRegistrationSigmaM, rmse));
+  *sigma_t_m = Eigen::Vector3d::Constant(precise ? std::max(0.02, rmse) : std::max(0.15, rmse));
   *sigma_rot_rad = Eigen::Vector3d::Constant(precise ? 0.005 : 0.03);
   if (!lc.local_map) return;
   // A local map is stitched from the keyframes within path_m of its anchor by the odometry between them, so it
@@ -441,35 +438,6 @@ bool chain_closure(const agents::ChainView& agents, const loop_closure::LoopClos
   out->a_T_b = Pose3{a_T_b.translation(), Eigen::Quaterniond(a_T_b.linear())};
   closure_sigmas(lc, config, &out->sigma_t_m, &out->sigma_rot_rad);
   if (joined_m > 0.0) add_odometry_walk(config.deformation.agents, joined_m, &out->sigma_t_m, &out->sigma_rot_rad);
-  out->has_information = false;
-  if (lc.refined && lc.local_map && lc.icp.free_translations > 0) {
-    // ICP pinned the translation but for its free directions (match frame), where the object registration's
-    // estimate stands: their sigma is an unrefined object registration's (closure_sigmas), with the same walks.
-    Eigen::Vector3d free_sigma_t =
-        Eigen::Vector3d::Constant(std::max(kObjectRegistrationSigmaM, lc.registration.inlier_rmse_m));
-    Eigen::Vector3d free_sigma_rot = out->sigma_rot_rad;  // unused: the rotation is ICP's
-    add_odometry_walk(config.deformation.agents, config.detector.local_map.path_m, &free_sigma_t, &free_sigma_rot);
-    if (joined_m > 0.0) add_odometry_walk(config.deformation.agents, joined_m, &free_sigma_t, &free_sigma_rot);
-    Eigen::Matrix3d cov_match = Eigen::Matrix3d::Zero();
-    for (int k = 0; k < 3; ++k) {
-      const double sigma =
-          static_cast<std::uint32_t>(k) < lc.icp.free_translations ? free_sigma_t.x() : out->sigma_t_m.x();
-      const Eigen::Vector3d u = lc.icp.translation_axes.col(k);
-      cov_match += sigma * sigma * u * u.transpose();
-    }
-    // The edge's translation error is in b's frame: match frame -> a's frame (the chain node the closure joined)
-    // -> b's frame through the measured rotation.
-    const Eigen::Matrix3d a_R_match = (isometry(a.t_m, a.q).inverse() * lc.world_T_match).linear();
-    const Eigen::Matrix3d b_R_a = a_T_b.linear().transpose();
-    const Eigen::Matrix3d cov_b = b_R_a * a_R_match * cov_match * a_R_match.transpose() * b_R_a.transpose();
-    out->information.setZero();
-    out->information.topLeftCorner<3, 3>() = cov_b.inverse();
-    out->information.topLeftCorner<3, 3>() =
-        0.5 *
-        (out->information.topLeftCorner<3, 3>() + Eigen::Matrix3d(out->information.topLeftCorner<3, 3>().transpose()));
-    out->information.bottomRightCorner<3, 3>() = out->sigma_rot_rad.cwiseInverse().cwiseAbs2().asDiagonal();
-    out->has_information = true;
-  }
   out->id = lc.query_time_ns;  // one closure per query agent
   return true;
 }

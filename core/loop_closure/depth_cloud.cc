@@ -97,7 +97,7 @@ double eigen_ratio(const Eigen::Matrix3d& m) {
 IcpResult point_to_plane_icp(const Eigen::Vector3d* qp, const Eigen::Vector3d* qn, std::uint32_t query_count,
                              const Eigen::Vector3d* mp, const Eigen::Vector3d* mn, const NearestIndex& index,
                              const Eigen::Isometry3d& initial, const IcpConfig& config, double min_overlap,
-                             const GravityPrior* gravity, std::uint32_t max_free_translations) {
+                             const GravityPrior* gravity) {
   IcpResult r;
   const bool four_dof = gravity != nullptr && config.gravity_aligned;
   const double min_normal_cos = std::cos(config.max_normal_angle_rad);
@@ -157,33 +157,17 @@ IcpResult point_to_plane_icp(const Eigen::Vector3d* qp, const Eigen::Vector3d* q
   }
   // Every direction pinned, the tilt's too at 4 DOF: a view that leaves a tilt free is one whose yaw and
   // translation are weak as well (a wall and a floor).
-  const double rotation_ratio = eigen_ratio(Hr);
-  r.constraint_ratio = std::min(rotation_ratio, eigen_ratio(Ht));
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> translation(Ht);
-  r.translation_axes = translation.eigenvectors();
-  const double largest = translation.eigenvalues()(2);
-  for (int k = 0; k < 3; ++k)
-    if (!(largest > 0.0) || translation.eigenvalues()(k) < config.min_constraint_ratio * largest) ++r.free_translations;
+  r.constraint_ratio = std::min(eigen_ratio(Hr), eigen_ratio(Ht));
   r.overlap = query_count > 0 ? static_cast<double>(inliers) / query_count : 0.0;
   r.rmse_m = inliers > 0 ? std::sqrt(sum / inliers) : 0.0;
-  const bool pinned = r.constraint_ratio >= config.min_constraint_ratio;
-  const bool free_allowed = !pinned && rotation_ratio >= config.min_constraint_ratio && r.free_translations > 0 &&
-                            r.free_translations <= max_free_translations;
-  if (free_allowed) {
-    // Along a free direction ICP's pairs pull by noise and clutter: the initial estimate stands there.
-    for (std::uint32_t k = 0; k < r.free_translations; ++k) {
-      const Eigen::Vector3d u = r.translation_axes.col(static_cast<int>(k));
-      T.translation() += u * u.dot(initial.translation() - T.translation());
-    }
-  }
   r.match_T_query = T;
   const Eigen::Isometry3d correction = initial.inverse() * T;
   const bool small_correction = correction.translation().norm() <= config.max_correction_m &&
                                 Eigen::AngleAxisd(correction.linear()).angle() <= config.max_correction_rad;
-  r.refusal = !(r.overlap >= min_overlap) ? IcpRefusal::kNoOverlap
-              : !(pinned || free_allowed) ? IcpRefusal::kDegenerate
-              : !small_correction         ? IcpRefusal::kCorrection
-                                          : IcpRefusal::kNone;
+  r.refusal = !(r.overlap >= min_overlap)                            ? IcpRefusal::kNoOverlap
+              : !(r.constraint_ratio >= config.min_constraint_ratio) ? IcpRefusal::kDegenerate
+              : !small_correction                                    ? IcpRefusal::kCorrection
+                                                                     : IcpRefusal::kNone;
   r.ok = r.refusal == IcpRefusal::kNone;
   return r;
 }

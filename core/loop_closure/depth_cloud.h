@@ -61,7 +61,7 @@ bool make_depth_cloud(const GreyDepthView& view, double max_depth_m, DepthCloud*
 enum class IcpRefusal : std::uint8_t {
   kNone,        // trusted
   kNoOverlap,   // too few points or pairs to estimate, or under min_overlap of the query's points on a match plane
-  kDegenerate,  // a direction the geometry leaves free (beyond the free translations allowed)
+  kDegenerate,  // a direction the geometry leaves free (min_constraint_ratio)
   kCorrection,  // the correction from the initial estimate beyond max_correction_m / _rad
 };
 
@@ -73,12 +73,6 @@ struct IcpResult {
   double rmse_m = 0.0;
   double constraint_ratio = 0.0;  // min over the rotation and translation blocks (see IcpConfig)
   std::uint32_t iterations = 0;
-  // The translation block's eigenvectors (match frame, columns by ascending eigenvalue) and how many of the first
-  // are free: an eigenvalue under min_constraint_ratio x the largest (a hallway's axis, seen on its walls and
-  // floor). A result is trusted with free directions only where the caller allows them (max_free_translations);
-  // its translation along them is then the initial estimate's, which the geometry could not correct.
-  Eigen::Matrix3d translation_axes = Eigen::Matrix3d::Identity();
-  std::uint32_t free_translations = 0;
 };
 
 // Refines `initial` (match_T_query, camera frames) by point-to-plane ICP of the query's cloud onto the match's;
@@ -131,13 +125,10 @@ class GridIndex final : public NearestIndex {
 // normals mn (match frame) found through `index`; a pair counts when their normals agree (max_normal_angle_rad).
 // The result is trusted (ok) with at least min_overlap of the query's points on a match plane, every direction it
 // estimates constrained and the correction within the config's bounds. With `gravity` (and
-// config.gravity_aligned) it estimates yaw about the vertical and translation (GravityPrior). With
-// max_free_translations above 0 a result whose rotation is pinned but whose translation leaves up to that many
-// directions free is trusted too, its translation along them reset to the initial estimate's
-// (IcpResult::free_translations; the local-map pass, LocalMapConfig::max_free_translations).
+// config.gravity_aligned) it estimates yaw about the vertical and translation (GravityPrior).
 IcpResult point_to_plane_icp(const Eigen::Vector3d* qp, const Eigen::Vector3d* qn, std::uint32_t query_count,
                              const Eigen::Vector3d* mp, const Eigen::Vector3d* mn, const NearestIndex& index,
                              const Eigen::Isometry3d& initial, const IcpConfig& config, double min_overlap,
-                             const GravityPrior* gravity = nullptr, std::uint32_t max_free_translations = 0);
+                             const GravityPrior* gravity = nullptr);
 
 }  // namespace qsg::loop_closure

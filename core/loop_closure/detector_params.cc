@@ -55,8 +55,6 @@ const params::Table<LocalMapConfig>& local_map_params_table() {
           "share of the query's local-map points on a match plane after ICP");
     t.add("local_map_max_correction_rad", &L::max_correction_rad, "rad", above(0, 3.2), refinement,
           "largest rotation the local-map ICP may apply to the object registration's estimate");
-    t.add("local_map_max_free_translations", &L::max_free_translations, "", in(0, 2), refinement,
-          "translation directions a local map may leave free (kept at the object registration's estimate)");
     return t;
   }();
   return table;

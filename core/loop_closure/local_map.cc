@@ -15,10 +15,8 @@ std::string LocalMapConfig::check() const {
 }
 
 void LocalMapConfig::print(std::FILE* out) const {
-  std::fprintf(out,
-               "local-map verification: %s, agents within %.1f m of path, %.2f m voxels, overlap >= %.2f, up to %u "
-               "translations free\n",
-               enabled ? "on" : "off", path_m, voxel_m, min_overlap, max_free_translations);
+  std::fprintf(out, "local-map verification: %s, agents within %.1f m of path, %.2f m voxels, overlap >= %.2f\n",
+               enabled ? "on" : "off", path_m, voxel_m, min_overlap);
 }
 
 bool LocalMapVerifier::init(const LocalMapConfig& config, const LocalMapCapacities& capacities, std::string* error) {
@@ -116,7 +114,7 @@ IcpResult LocalMapVerifier::register_clouds(const LocalCloud& query, const Local
   return point_to_plane_icp(query.points.data(), query.normals.data(), static_cast<std::uint32_t>(query.points.size()),
                             match.points.data(), match.normals.data(),
                             GridIndex(grid_.data(), grid_.size(), match.points.data(), cell), initial, bounded,
-                            config_.min_overlap, gravity, config_.max_free_translations);
+                            config_.min_overlap, gravity);
 }
 
 }  // namespace qsg::loop_closure

@@ -4,8 +4,7 @@
 // within path_m of it along the trajectory, put in its camera frame by the odometry between them (locally exact over
 // a few metres) and thinned to one point per voxel; the query's local cloud looks back along its path, the match's
 // both ways. The two are registered by point-to-plane ICP from the object registration's coarse estimate, with the
-// keyframe ICP's trust tests (overlap, every direction constrained, a bounded correction), except that with
-// max_free_translations a map whose translation the geometry leaves partly free is kept for what it does pin.
+// keyframe ICP's trust tests (overlap, every direction constrained, a bounded correction).
 // Backend thread only; every buffer is sized at init, nothing allocates afterwards.
 #pragma once
 
@@ -32,11 +31,6 @@ struct LocalMapConfig {
   // Largest rotation ICP may apply to the object registration's estimate (that estimate is within a degree or two;
   // a larger turn is ICP sliding on geometry that pins the rotation poorly).
   double max_correction_rad = 0.05;
-  // Degenerate local maps (a hallway's walls and floor pin the rotation and all but the hallway's axis): up to this
-  // many translation directions may be free, the rest pinned, and the closure is kept with the object
-  // registration's estimate and its loose sigma along them (the backend's information matrix), ICP's along the
-  // others. 0: every direction must be pinned, as the keyframe ICP's.
-  std::uint32_t max_free_translations = 0;
 
   std::string check() const;
   void print(std::FILE* out) const;

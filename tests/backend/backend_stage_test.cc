@@ -78,67 +78,6 @@ TEST(BackendStageTest, LocalMapClosuresCarryTheOdometryWalkOfTheirStitching) {
   EXPECT_NEAR(t_lm.y(), std::hypot(0.02, 0.02), 1e-12);
 }
 
-// A local map that pins all but one direction of translation (a hallway's axis) gives its edge a full information
-// matrix: along the free axis the object registration's sigma, across it the local-map ICP's, both carried into the
-// edge's frame (b's, through the chain node and the measured rotation).
-TEST(BackendStageTest, ALocalMapWithAFreeAxisIsLooseAlongItOnly) {
-  auto g = make_graph();
-  agents::AgentLayer agents;
-  std::string error;
-  ASSERT_TRUE(agents.init(agents::Config{}, agents::Capacities{64}, &error)) << error;
-  std::vector<Eigen::Isometry3d> poses;
-  for (int k = 0; k < 12; ++k) {
-    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
-    if (!poses.empty())
-      pose = poses.back() * Eigen::Translation3d(1.0, 0.0, 0.0) * Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitZ());
-    poses.push_back(pose);
-    ASSERT_NE(agents.add_keyframe(g.get(), 1'000'000'000ull * (k + 1), pose), agents::AddResult::kFull);
-  }
-  loop_closure::LoopClosure lc;
-  lc.match_time_ns = 1'000'000'000ull * 2;
-  lc.query_time_ns = 1'000'000'000ull * 11;
-  lc.world_T_match = poses[1];
-  lc.world_T_query = poses[10];
-  lc.match_T_query = poses[1].inverse() * poses[10];
-  lc.source = loop_closure::ClosureSource::kObjects;
-  lc.registration.inlier_rmse_m = 0.05;
-  lc.refined = true;
-  lc.local_map = true;
-  lc.icp.rmse_m = 0.01;
-  const LoopClosureConfig config;
-  ChainLoopClosure pinned;
-  ASSERT_TRUE(chain_closure(agents, lc, config, &pinned));
-  EXPECT_FALSE(pinned.has_information) << "every direction pinned: the sigmas";
-  // The free axis, in the match agent's frame: a unit vector off every coordinate axis.
-  const Eigen::Vector3d axis = Eigen::Vector3d(1.0, 2.0, 0.5).normalized();
-  lc.icp.free_translations = 1;
-  lc.icp.translation_axes.col(0) = axis;
-  lc.icp.translation_axes.col(1) = axis.unitOrthogonal();
-  lc.icp.translation_axes.col(2) = axis.cross(axis.unitOrthogonal());
-  ChainLoopClosure cc;
-  ASSERT_TRUE(chain_closure(agents, lc, config, &cc));
-  ASSERT_TRUE(cc.has_information);
-  EXPECT_EQ(cc.sigma_t_m, pinned.sigma_t_m);
-  const Eigen::Matrix3d info_t = cc.information.topLeftCorner<3, 3>();
-  const Eigen::Matrix3d b_R_match = cc.a_T_b.q.toRotationMatrix().transpose() *
-                                    (agents.chain(cc.a).q.toRotationMatrix().transpose() * poses[1].linear());
-  const Eigen::Vector3d free_b = b_R_match * axis;
-  // An unrefined object registration's 0.15 m floor with the walk over the local map's path.
-  const AgentGraphConfig& walk = config.deformation.agents;
-  const double free_var =
-      0.15 * 0.15 + walk.sigma_t_m_per_sqrt_m * walk.sigma_t_m_per_sqrt_m * config.detector.local_map.path_m;
-  EXPECT_NEAR(free_b.dot(info_t * free_b), 1.0 / free_var, 1e-6);
-  const Eigen::Vector3d across_b = b_R_match * lc.icp.translation_axes.col(1);
-  EXPECT_NEAR(across_b.dot(info_t * across_b), 1.0 / (pinned.sigma_t_m.x() * pinned.sigma_t_m.x()), 1e-6);
-  EXPECT_NEAR(free_b.dot(info_t * across_b), 0.0, 1e-6);
-  EXPECT_NEAR(cc.information(5, 5), 1.0 / (cc.sigma_rot_rad.z() * cc.sigma_rot_rad.z()), 1e-9);
-  EXPECT_TRUE((cc.information.topRightCorner<3, 3>().isZero()));
-  // The pose graph reads it: the edge carries the matrix.
-  const RelativePoseEdge e = loop_closure_edge(cc);
-  EXPECT_TRUE(e.has_information);
-  EXPECT_EQ(e.information, cc.information);
-}
-
 // A closure whose agent the chain folded away joins the nearest chain node through the odometry between them: an
 // exact closure between two keyframes gives the exact relative pose of the two chain nodes it lands on.
 TEST(BackendStageTest, AClosureToAFoldedAgentJoinsItsNodeThroughTheOdometry) {
