@@ -423,6 +423,13 @@ int main(int argc, char** argv) {
       figures.add(prefix + "loop_closures_false", static_cast<double>(k.loop_closures_false), "count");
       figures.add(prefix + "loop_closures_false_kept", static_cast<double>(k.loop_closures_false_kept), "count");
       figures.add(prefix + "loop_closures_by_appearance", static_cast<double>(k.loop_closures_by_appearance), "count");
+      // Object registrations that neither keyframe ICP nor the local maps could refine, by the local maps' reason.
+      const loop_closure::DetectorCounters& dc = p.backend_stage().detector().counters();
+      figures.add(prefix + "local_map_refined", static_cast<double>(dc.local_map_refined), "count");
+      figures.add(prefix + "local_map_refused", static_cast<double>(dc.local_map_refused), "count");
+      figures.add(prefix + "local_map_refused_no_overlap", static_cast<double>(dc.local_map_no_overlap), "count");
+      figures.add(prefix + "local_map_refused_degenerate", static_cast<double>(dc.local_map_degenerate), "count");
+      figures.add(prefix + "local_map_refused_correction", static_cast<double>(dc.local_map_correction), "count");
       figures.add(prefix + "agents_described", static_cast<double>(k.agents_described), "count");
       figures.add(prefix + "loop_closure_folds", static_cast<double>(k.loop_closure_folds), "count");
       figures.add(prefix + "loop_closures_folded", static_cast<double>(k.loop_closures_folded), "count");
