@@ -18,6 +18,12 @@ rooms JSON [JSON ...]: from lc_eval's figures (--json of `--layers` runs, not fo
   run merges.
 room_places RUN [RUN ...]: each room node of each run's scene_graph.json: its places, their extent in x and y and
   their largest clearance (which rooms a run merged, and how small they are).
+world_objects WORLD RUN [WORLD RUN ...]: each run's objects against the world's (WORLD: a world file,
+  drivers/world/WORLD_FORMAT.md; for a generated building `qsg_simulate --building --rooms N --seed S --no-render
+  --no-gt --out D` writes D/world.json), by objects_eval's metric (same label within 0.5 m of the world object's
+  centre), summed over the pairs: objects, correct, world objects found; and each incorrect object by kind: a set
+  (its box, grown 0.1 m, holds the centres of two or more world objects of its label), a piece (under --piece-m on
+  every axis), near (a world object of its label within 1 m: placed or sized off) or a stray (none within 1 m).
 
 RUN is a run's folder (trajectory_*.txt, scene_graph.json). Figures go to --out in the format of bench/figures.h
 (name, value, unit, conditions, commit).
@@ -27,11 +33,13 @@ usage: lc_outputs.py scale RUN --scale-bias S --commit H --out F
        lc_outputs.py strays TRUTH_RUN RUN [TRUTH_RUN RUN ...] --commit H --out F
        lc_outputs.py rooms LC_EVAL_JSON [LC_EVAL_JSON ...] --commit H --out F
        lc_outputs.py room_places RUN [RUN ...] --commit H --out F
+       lc_outputs.py world_objects WORLD RUN [WORLD RUN ...] --commit H --out F
 """
 import argparse
 import json
 import math
 import os
+import re
 import statistics
 
 
@@ -59,6 +67,13 @@ def objects(run):
     return out
 
 
+def label_ids():
+    """mpcat40 label name -> index, from the product's table (core/semantics/labels.cc)."""
+    path = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "core", "semantics", "labels.cc")
+    with open(path) as f:
+        return {m.group(2): int(m.group(1)) for m in re.finditer(r'\{(\d+), "(\w+)", \{', f.read())}
+
+
 def nearest(o, others):
     d = [math.dist(o[1], p[1]) for p in others if p[0] == o[0]]
     return min(d) if d else math.inf
@@ -66,7 +81,7 @@ def nearest(o, others):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("what", choices=["scale", "objects", "strays", "rooms", "room_places"])
+    ap.add_argument("what", choices=["scale", "objects", "strays", "rooms", "room_places", "world_objects"])
     ap.add_argument("runs", nargs="+")
     ap.add_argument("--scale-bias", type=float, default=0.0)
     ap.add_argument("--wide-m", type=float, default=1.0)
@@ -136,6 +151,49 @@ def main():
             add(f"rooms.{kind}.recall_mean", statistics.mean(r_), "ratio", c)
             add(f"rooms.{kind}.f1_mean", statistics.mean(f1), "ratio", c)
             add(f"rooms.{kind}.rooms_mean", statistics.mean(values[f"{r}.{kind}.rooms"] for r in runs), "rooms", c)
+    elif args.what == "world_objects":
+        if len(args.runs) % 2 != 0:
+            ap.error("world_objects takes pairs WORLD RUN")
+        ids = label_ids()
+        radius, near_m, grow = 0.5, 1.0, 0.1
+        count = {k: 0 for k in ("objects", "correct", "world", "found", "set", "piece", "near", "stray")}
+        by_label = {}
+        for world_path, run_dir in zip(args.runs[0::2], args.runs[1::2]):
+            with open(world_path) as f:
+                world = [(ids[o["label"]], o["center"]) for o in json.load(f)["objects"]]
+            run = objects(run_dir)
+            count["objects"] += len(run)
+            count["world"] += len(world)
+            found = set()
+            for label, pos, dims in run:
+                d = [(math.dist(pos, c), i) for i, (l, c) in enumerate(world) if l == label]
+                hits = [i for dist, i in d if dist <= radius]
+                found.update(hits)
+                if hits:
+                    count["correct"] += 1
+                    continue
+                inside = sum(1 for l, c in world if l == label and
+                             all(abs(c[k] - pos[k]) <= dims[k] / 2 + grow for k in range(2)))
+                dist = min(d)[0] if d else math.inf
+                kind = ("set" if inside >= 2 else "piece" if max(dims) < args.piece_m else
+                        "near" if dist <= near_m else "stray")
+                count[kind] += 1
+                by_label.setdefault(label, {}).setdefault(kind, 0)
+                by_label[label][kind] += 1
+            count["found"] += len(found)
+        c = (f"objects of {' '.join(args.runs[1::2])} against the world objects of {' '.join(args.runs[0::2])}: "
+             f"same label within {radius} m of the centre; incorrect ones by kind (set: box grown {grow} m holds two "
+             f"or more of the label's centres; piece: under {args.piece_m} m; near: one within {near_m} m; stray)")
+        add("world_objects.objects", count["objects"], "objects", c)
+        add("world_objects.correct", count["correct"], "objects", c)
+        add("world_objects.correct_share", 100.0 * count["correct"] / max(1, count["objects"]), "%", c)
+        add("world_objects.world", count["world"], "objects", c)
+        add("world_objects.found", count["found"], "objects", c)
+        for kind in ("set", "piece", "near", "stray"):
+            add(f"world_objects.incorrect_{kind}", count[kind], "objects", c)
+        for label in sorted(by_label):
+            for kind, n in sorted(by_label[label].items()):
+                add(f"world_objects.label{label}.incorrect_{kind}", n, "objects", c)
     elif args.what == "strays":
         if len(args.runs) % 2 != 0:
             ap.error("strays takes pairs TRUTH_RUN RUN")
