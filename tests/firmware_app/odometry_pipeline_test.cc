@@ -73,6 +73,10 @@ TEST(OdometryPipelineTest, TheSimulatedRobotMapsFromDriftingOdometryByDefault) {
   EXPECT_GE(p.counters().loop_closures_true, 1u);
   EXPECT_GE(p.counters().graph_optimizations, 1u);
   EXPECT_EQ(p.counters().graph_optimization_failures, 0u);
+  // Every local map refused is counted under one reason.
+  const loop_closure::DetectorCounters& dc = p.backend_stage().detector().counters();
+  EXPECT_GT(dc.local_map_refused, 0u);
+  EXPECT_EQ(dc.local_map_refused, dc.local_map_no_overlap + dc.local_map_degenerate + dc.local_map_correction);
   EXPECT_TRUE(p.odometry_trajectory_error().ok);
   EXPECT_TRUE(std::filesystem::exists(small_config("drift").output_dir + "/trajectory_odometry.txt"));
   EXPECT_TRUE(std::filesystem::exists(small_config("drift").output_dir + "/trajectory_estimate.txt"));
