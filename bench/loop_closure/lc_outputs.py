@@ -22,7 +22,7 @@ world_objects WORLD RUN [WORLD RUN ...]: each run's objects against the world's 
   drivers/world/WORLD_FORMAT.md; for a generated building `qsg_simulate --building --rooms N --seed S --no-render
   --no-gt --out D` writes D/world.json), by objects_eval's metric (same label within 0.5 m of the world object's
   centre), summed over the pairs: objects, correct, world objects found; and each incorrect object by kind: a set
-  (its box, grown 0.1 m, holds the centres of two or more world objects of its label), a piece (under --piece-m on
+  (its box, grown 0.1 m, holds in x and y the centres of two or more world objects of its label), a piece (under --piece-m on
   every axis), near (a world object of its label within 1 m: placed or sized off) or a stray (none within 1 m).
 
 RUN is a run's folder (trajectory_*.txt, scene_graph.json). Figures go to --out in the format of bench/figures.h
@@ -182,7 +182,7 @@ def main():
                 by_label[label][kind] += 1
             count["found"] += len(found)
         c = (f"objects of {' '.join(args.runs[1::2])} against the world objects of {' '.join(args.runs[0::2])}: "
-             f"same label within {radius} m of the centre; incorrect ones by kind (set: box grown {grow} m holds two "
+             f"same label within {radius} m of the centre; incorrect ones by kind (set: box grown {grow} m holds in x, y two "
              f"or more of the label's centres; piece: under {args.piece_m} m; near: one within {near_m} m; stray)")
         add("world_objects.objects", count["objects"], "objects", c)
         add("world_objects.correct", count["correct"], "objects", c)
