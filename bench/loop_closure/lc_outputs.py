@@ -22,8 +22,9 @@ world_objects WORLD RUN [WORLD RUN ...]: each run's objects against the world's 
   drivers/world/WORLD_FORMAT.md; for a generated building `qsg_simulate --building --rooms N --seed S --no-render
   --no-gt --out D` writes D/world.json), by objects_eval's metric (same label within 0.5 m of the world object's
   centre), summed over the pairs: objects, correct, world objects found; and each incorrect object by kind: a set
-  (its box, grown 0.1 m, holds in x and y the centres of two or more world objects of its label), a piece (under --piece-m on
-  every axis), near (a world object of its label within 1 m: placed or sized off) or a stray (none within 1 m).
+  (its box, grown 0.1 m, holds in x and y the centres of two or more world objects of its label), a piece (under
+  --piece-m on every axis), near (a world object of its label within 1 m: placed or sized off) or a stray (none
+  within 1 m).
 
 RUN is a run's folder (trajectory_*.txt, scene_graph.json). Figures go to --out in the format of bench/figures.h
 (name, value, unit, conditions, commit).
