@@ -36,18 +36,22 @@ bool AppConfig::load(const std::string& path, std::string* error) {
   std::stringstream text;
   text << in.rdbuf();
   // Every key, its type and its range come from the parameter tables (firmware_app/app_params.cc); a new camera
-  // size brings its focal length along (a 58 degree horizontal field of view, RealSense-like).
-  const int width = camera.intrinsics.width, height = camera.intrinsics.height;
+  // size brings its focal length along (sim_camera()).
   std::string why;
   if (!params::load_json(app_schema(), this, text.str(), &why)) return *error = "config '" + path + "': " + why, false;
-  if (camera.intrinsics.width != width || camera.intrinsics.height != height) {
-    const double f = 525.0 * camera.intrinsics.width / 640.0;
-    camera.intrinsics = {camera.intrinsics.width, camera.intrinsics.height, f, f, 0.5 * camera.intrinsics.width - 0.5,
-                         0.5 * camera.intrinsics.height - 0.5};
-  }
+  camera = sim_camera();
   const std::string bad = check();
   if (!bad.empty()) return *error = "config '" + path + "': " + bad, false;
   return true;
+}
+
+sim::SimCamera::Config AppConfig::sim_camera() const {
+  sim::SimCamera::Config c = camera;
+  const int w = c.intrinsics.width, h = c.intrinsics.height;
+  const double f = 525.0 * w / 640.0;
+  c.intrinsics = {w, h, f, f, 0.5 * w - 0.5, 0.5 * h - 0.5};
+  c.intrinsics = c.effective_intrinsics();  // hfov_deg, when set
+  return c;
 }
 
 const char* to_string(OdometrySourceKind k) {
@@ -96,7 +100,7 @@ std::string AppConfig::check() const {
     return "gpio: heartbeat_line, trigger_line and pause_line must differ";
   if (const std::string b = building.validate(); !b.empty()) return "building: " + b;
   if (const std::string e = exploration.check(); !e.empty()) return "exploration: " + e;
-  if (const std::string c = camera.check(); !c.empty()) return "camera: " + c;
+  if (const std::string c = sim_camera().check(); !c.empty()) return "camera: " + c;
   if (const std::string r = reconstruction.check(); !r.empty()) return "reconstruction: " + r;
   if (const std::string f = frontend.check(); !f.empty()) return "frontend: " + f;
   if (const std::string r = rooms.check(); !r.empty()) return r;

@@ -76,7 +76,7 @@ struct AppConfig {
     std::string colour_device = "/dev/video1";
     int width = 640;
     int height = 480;
-    double fx = 0.0, fy = 0.0, cx = 0.0, cy = 0.0;  // 0: 58 degree field of view, centred
+    double fx = 0.0, fy = 0.0, cx = 0.0, cy = 0.0;  // 0: 525 px per 640 px of width (63 degrees), centred
     double depth_scale_m = 0.001;
   } v4l2;
 
@@ -165,6 +165,10 @@ struct AppConfig {
   bool load(const std::string& path, std::string* error);
   std::string check() const;
   void print(std::FILE* out) const;
+  // The simulated camera as the sim driver builds it: its intrinsics follow camera.width and height (and
+  // camera.hfov_deg) however they were set (a file, --set, code): f = 525 px per 640 px of width (a 63 degree
+  // horizontal field of view, RealSense-like) unless hfov_deg sets the field; square pixels, centred.
+  sim::SimCamera::Config sim_camera() const;
 
  private:
   std::string check_odometry() const;

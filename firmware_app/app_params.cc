@@ -73,7 +73,8 @@ params::Table<sim::ExplorationConfig> exploration_table() {
 params::Table<messages::CameraIntrinsics> camera_size_table() {
   using C = messages::CameraIntrinsics;
   params::Table<C> t;
-  t.add("width", &C::width, "px", any(), project, "image width (the focal length follows: a 58 degree field of view)");
+  t.add("width", &C::width, "px", any(), project,
+        "image width (the focal length follows: a 63 degree field of view, or camera.hfov_deg)");
   t.add("height", &C::height, "px", any(), project, "image height");
   return t;
 }
@@ -84,6 +85,8 @@ params::Table<sim::SimCamera::Config> camera_table() {
   t.include(camera_size_table(), [](C& c) -> messages::CameraIntrinsics& { return c.intrinsics; });
   t.add("rate_hz", &C::rate_hz, "Hz", any(), project, "frames per second");
   t.add("pitch_rad", &C::pitch_rad, "rad", any(), project, "camera tilt about the body's y axis (positive: down)");
+  t.add("hfov_deg", &C::hfov_deg, "deg", in(0, 170), project,
+        "horizontal field of view (0: 525 px of focal length per 640 px of width, 63 degrees)");
   return t;
 }
 
@@ -134,7 +137,8 @@ params::Table<AppConfig::V4l2> v4l2_table() {
   t.add("colour_device", &C::colour_device, "", any(), project, "the colour node");
   t.add("width", &C::width, "px", in(16, 640), project, "image width");
   t.add("height", &C::height, "px", in(16, 480), project, "image height");
-  t.add("fx", &C::fx, "px", in(0, 100000), project, "0: a 58 degree field of view; else >= 1");
+  t.add("fx", &C::fx, "px", in(0, 100000), project,
+        "0: 525 px per 640 px of width (a 63 degree field of view); else >= 1");
   t.add("fy", &C::fy, "px", in(0, 100000), project, "0: as fx; else >= 1");
   t.add("cx", &C::cx, "px", in(0, 640), project, "0: centred; within the image");
   t.add("cy", &C::cy, "px", in(0, 480), project, "0: centred; within the image");

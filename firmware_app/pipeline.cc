@@ -177,7 +177,7 @@ bool Pipeline::init(const AppConfig& config, runtime::Clock* clock, std::string*
       render::Renderer::Config rc;
       rc.seed = config.building.seed;
       sim_camera_ = std::make_unique<sim::SimCamera>();
-      if (!sim_camera_->init(config.camera, rc, world_, tour.trajectory, error)) return false;
+      if (!sim_camera_->init(config.sim_camera(), rc, world_, tour.trajectory, error)) return false;
       ground_truth_ = tour.trajectory;
       camera_ = sim_camera_.get();
       prefetch_outside_tasks_ = true;

@@ -13,7 +13,14 @@ std::string SimCamera::Config::check() const {
   if (latency_ns < 0) return "latency_ns must not be negative";
   if (!(depth_scale_m > 0.0f)) return "depth_scale_m must be positive";
   if (!std::isfinite(pitch_rad)) return "pitch_rad must be finite";
+  if (!(hfov_deg == 0.0 || (hfov_deg >= 10.0 && hfov_deg <= 170.0))) return "hfov_deg must be 0 or in [10, 170]";
   return {};
+}
+
+messages::CameraIntrinsics SimCamera::Config::effective_intrinsics() const {
+  if (hfov_deg <= 0.0) return intrinsics;
+  const double f = 0.5 * intrinsics.width / std::tan(0.5 * hfov_deg * 3.14159265358979323846 / 180.0);
+  return {intrinsics.width, intrinsics.height, f, f, 0.5 * intrinsics.width - 0.5, 0.5 * intrinsics.height - 0.5};
 }
 
 void SimCamera::Config::print(std::FILE* out) const {
@@ -40,6 +47,7 @@ bool SimCamera::init(const Config& config, const render::Renderer::Config& rende
   }
   if (!renderer_.init(render_config, world, error)) return false;
   config_ = config;
+  config_.intrinsics = config.effective_intrinsics();
   trajectory_ = std::move(trajectory);
   const double span_s = 1e-9 * static_cast<double>(trajectory_.back().time_ns - trajectory_.front().time_ns);
   num_frames_ = static_cast<std::size_t>(std::floor(span_s * config.rate_hz + 1e-9)) + 1;

@@ -21,7 +21,12 @@ class SimCamera : public drivers::RgbdSource {
     std::int64_t latency_ns = 15'000'000;  // publish time = sample time + latency
     float depth_scale_m = 0.001f;          // a RealSense-style Z16 device
     double pitch_rad = 0.0;                // camera tilt about the body's y axis (positive looks down)
+    // Horizontal field of view: the focal length (square pixels, centred principal point) follows the image width so
+    // that the image spans it. 0: the intrinsics as given.
+    double hfov_deg = 0.0;
     std::string check() const;
+    // The intrinsics the camera renders with: `intrinsics`, or with hfov_deg > 0 those of that field at its size.
+    messages::CameraIntrinsics effective_intrinsics() const;
     void print(std::FILE* out) const;
   };
 

@@ -57,5 +57,27 @@ TEST(AppParamsTest, SetReachesEveryStageAndIsRangeChecked) {
   EXPECT_EQ(error, "places.voxel_factor: must be in [1, 2], got 3");
 }
 
+// The simulated camera's focal length follows its size however it is set (--set included), and its field of view
+// when camera.hfov_deg is set; a bad field is refused by name.
+TEST(AppParamsTest, TheSimulatedCameraFollowsItsSizeAndFieldOfView) {
+  AppConfig c;
+  EXPECT_NEAR(c.sim_camera().intrinsics.fx, 262.5, 1e-12);
+  std::string error;
+  ASSERT_TRUE(params::set(app_schema(), &c, "camera.width=640", &error)) << error;
+  ASSERT_TRUE(params::set(app_schema(), &c, "camera.height=480", &error)) << error;
+  messages::CameraIntrinsics k = c.sim_camera().intrinsics;
+  EXPECT_NEAR(k.fx, 525.0, 1e-12);
+  EXPECT_NEAR(k.fy, 525.0, 1e-12);
+  EXPECT_NEAR(k.cx, 319.5, 1e-12);
+  EXPECT_NEAR(k.cy, 239.5, 1e-12);
+  ASSERT_TRUE(params::set(app_schema(), &c, "camera.hfov_deg=90", &error)) << error;
+  k = c.sim_camera().intrinsics;
+  EXPECT_NEAR(k.fx, 320.0, 1e-9);
+  EXPECT_NEAR(k.fy, 320.0, 1e-9);
+  EXPECT_TRUE(c.check().empty()) << c.check();
+  ASSERT_TRUE(params::set(app_schema(), &c, "camera.hfov_deg=5", &error)) << error;
+  EXPECT_NE(c.check().find("hfov_deg"), std::string::npos) << c.check();
+}
+
 }  // namespace
 }  // namespace qsg::app

@@ -365,6 +365,40 @@ TEST(SimCameraTest, RendersTheWallAheadAtItsDistance) {
   EXPECT_EQ(camera.read(*frame, 0), drivers::ReadStatus::kEndOfStream);
 }
 
+// The field of view sets the focal length: the wall beside the camera enters the image's left edge where a ray at
+// that angle meets it (1.5 m to the side: 1.5 f / 159.5 m ahead), and the frames carry the intrinsics rendered with.
+TEST(SimCameraTest, TheFieldOfViewSetsTheFocalLength) {
+  const world::World w = box_room();
+  ExplorationConfig tc;
+  tc.rate_hz = 10;
+  tc.speed_m_s = 0.5;
+  const ExplorationResult r = scripted_trajectory({{1, 1.5, 1.0}, {2, 1.5, 1.0}}, tc);
+  ASSERT_TRUE(r.ok);
+  for (const double hfov_deg : {0.0, 90.0}) {
+    SCOPED_TRACE(::testing::Message() << "hfov_deg " << hfov_deg);
+    SimCamera camera;
+    SimCamera::Config config;  // 320 x 240, f 262.5 as given
+    config.hfov_deg = hfov_deg;
+    const double f = hfov_deg > 0.0 ? 160.0 : 262.5;
+    std::string error;
+    ASSERT_TRUE(camera.init(config, render::Renderer::Config{}, w, r.trajectory, &error)) << error;
+    EXPECT_NEAR(camera.intrinsics().fx, f, 1e-9);
+    EXPECT_NEAR(camera.intrinsics().fy, f, 1e-9);
+    EXPECT_NEAR(camera.intrinsics().cx, 159.5, 1e-12);
+    auto frame = std::make_unique<messages::RgbdFrame>();
+    ASSERT_EQ(camera.read(*frame, 0), drivers::ReadStatus::kOk);
+    EXPECT_NEAR(frame->intrinsics.fx, f, 1e-9);
+    const int row = config.intrinsics.height / 2;
+    const float edge = frame->depth_m[static_cast<std::size_t>(row * config.intrinsics.width)];
+    EXPECT_NEAR(edge, 1.5 * f / 159.5, 0.01);
+  }
+  SimCamera::Config bad;
+  for (const double hfov_deg : {5.0, 175.0, -30.0}) {
+    bad.hfov_deg = hfov_deg;
+    EXPECT_NE(bad.check().find("hfov_deg"), std::string::npos) << hfov_deg;
+  }
+}
+
 TEST(SimCameraTest, IsDeterministicAndDoesNotAllocatePerFrame) {
   const world::World w = small_building(false, 4);
   auto p = prepare(w);
