@@ -335,13 +335,18 @@ TEST(GroundTruthTest, WritesFilesOthersCanRead) {
   EXPECT_NE(error.find("coarser"), std::string::npos);
 }
 
-TEST(SimCameraTest, RendersTheWallAheadAtItsDistance) {
-  const world::World w = box_room();
+// Through box_room facing +x from x = 1, 1.5 m from each side wall: the wall at x = 4 is 3 m ahead, then 2 m at
+// the end.
+ExplorationResult towards_the_far_wall() {
   ExplorationConfig tc;
   tc.rate_hz = 10;
   tc.speed_m_s = 0.5;
-  // Facing +x from x = 1: the wall at x = 4 is 3 m ahead, then 2 m at the end.
-  const ExplorationResult r = scripted_trajectory({{1, 1.5, 1.0}, {2, 1.5, 1.0}}, tc);
+  return scripted_trajectory({{1, 1.5, 1.0}, {2, 1.5, 1.0}}, tc);
+}
+
+TEST(SimCameraTest, RendersTheWallAheadAtItsDistance) {
+  const world::World w = box_room();
+  const ExplorationResult r = towards_the_far_wall();
   ASSERT_TRUE(r.ok);
   SimCamera camera;
   SimCamera::Config config;
@@ -369,10 +374,7 @@ TEST(SimCameraTest, RendersTheWallAheadAtItsDistance) {
 // that angle meets it (1.5 m to the side: 1.5 f / 159.5 m ahead), and the frames carry the intrinsics rendered with.
 TEST(SimCameraTest, TheFieldOfViewSetsTheFocalLength) {
   const world::World w = box_room();
-  ExplorationConfig tc;
-  tc.rate_hz = 10;
-  tc.speed_m_s = 0.5;
-  const ExplorationResult r = scripted_trajectory({{1, 1.5, 1.0}, {2, 1.5, 1.0}}, tc);
+  const ExplorationResult r = towards_the_far_wall();
   ASSERT_TRUE(r.ok);
   for (const double hfov_deg : {0.0, 90.0}) {
     SCOPED_TRACE(::testing::Message() << "hfov_deg " << hfov_deg);
