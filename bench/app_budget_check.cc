@@ -101,8 +101,8 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "--size: expected WxH up to 640x480\n");
         return 2;
       }
-      const double f = 525.0 * w / 640.0;
-      config.camera.intrinsics = {w, h, f, f, 0.5 * w - 0.5, 0.5 * h - 0.5};
+      config.camera.intrinsics.width = w;  // the focal length follows (AppConfig::sim_camera)
+      config.camera.intrinsics.height = h;
     }
     else {
       std::printf("usage: app_budget_check [--duration S (120; 0 = whole tour)] [--rooms N] [--seed N] [--size WxH] "
