@@ -25,6 +25,12 @@ world_objects WORLD RUN [WORLD RUN ...]: each run's objects against the world's 
   (its box, grown 0.1 m, holds in x and y the centres of two or more world objects of its label), a piece (under
   --piece-m on every axis), near (a world object of its label within 1 m: placed or sized off) or a stray (none
   within 1 m).
+object_spread WORLD RUN [WORLD RUN ...] [--trim Q]: each object node's own mesh vertices (its mesh_connections into
+  the run's mesh.ply) against the world's objects, by the same metric: objects correct and found with the positions
+  as written, and with every centre re-taken from those vertices as the midrange of their Q..1-Q quantiles on each
+  axis (Q 0: their full box), which a sparse tail of vertices cannot stretch; and, summed over the incorrect
+  objects, their vertices' extent on each horizontal axis, all of them against the Q..1-Q quantiles (how much of a
+  box a tail makes). mesh_connections may be a sample of an object's vertices (objects.max_keys_per_object).
 
 RUN is a run's folder (trajectory_*.txt, scene_graph.json). Figures go to --out in the format of bench/figures.h
 (name, value, unit, conditions, commit).
@@ -35,6 +41,7 @@ usage: lc_outputs.py scale RUN --scale-bias S --commit H --out F
        lc_outputs.py rooms LC_EVAL_JSON [LC_EVAL_JSON ...] --commit H --out F
        lc_outputs.py room_places RUN [RUN ...] --commit H --out F
        lc_outputs.py world_objects WORLD RUN [WORLD RUN ...] --commit H --out F
+       lc_outputs.py object_spread WORLD RUN [WORLD RUN ...] [--trim Q] --commit H --out F
 """
 import argparse
 import json
@@ -42,6 +49,7 @@ import math
 import os
 import re
 import statistics
+import struct
 
 
 def trajectory(path):
@@ -68,6 +76,28 @@ def objects(run):
     return out
 
 
+def mesh_positions(run):
+    """The vertex positions of a run's mesh.ply (the app's binary layout: x y z float, r g b uchar, label int)."""
+    path = os.path.join(run, "mesh.ply")
+    if not os.path.isfile(path):
+        raise SystemExit(f"{path}: no mesh (object_spread reads the mesh an lc_eval --output folder holds)")
+    with open(path, "rb") as f:
+        data = f.read()
+    if b"end_header\n" not in data:
+        raise SystemExit(f"{path}: not a PLY file")
+    end = data.index(b"end_header\n") + len(b"end_header\n")
+    header = data[:end].decode()
+    if "property int label" not in header or "format binary_little_endian" not in header:
+        raise SystemExit(f"{run}/mesh.ply: not the app's binary mesh layout")
+    n = int(re.search(r"element vertex (\d+)", header).group(1))
+    return [struct.unpack_from("<fff", data, end + 19 * i) for i in range(n)]
+
+
+def quantile_range(values, q):
+    xs = sorted(values)
+    return xs[int(math.floor(q * (len(xs) - 1)))], xs[int(math.ceil((1.0 - q) * (len(xs) - 1)))]
+
+
 def label_ids():
     """mpcat40 label name -> index, from the product's table (core/semantics/labels.cc)."""
     path = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "core", "semantics", "labels.cc")
@@ -82,11 +112,13 @@ def nearest(o, others):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("what", choices=["scale", "objects", "strays", "rooms", "room_places", "world_objects"])
+    ap.add_argument("what", choices=["scale", "objects", "strays", "rooms", "room_places", "world_objects",
+                                     "object_spread"])
     ap.add_argument("runs", nargs="+")
     ap.add_argument("--scale-bias", type=float, default=0.0)
     ap.add_argument("--wide-m", type=float, default=1.0)
     ap.add_argument("--piece-m", type=float, default=0.45)
+    ap.add_argument("--trim", type=float, default=0.05)
     ap.add_argument("--commit", required=True)
     ap.add_argument("--out", required=True)
     args = ap.parse_args()
@@ -195,6 +227,64 @@ def main():
         for label in sorted(by_label):
             for kind, n in sorted(by_label[label].items()):
                 add(f"world_objects.label{label}.incorrect_{kind}", n, "objects", c)
+    elif args.what == "object_spread":
+        if len(args.runs) % 2 != 0:
+            ap.error("object_spread takes pairs WORLD RUN")
+        if not 0.0 <= args.trim < 0.5:
+            ap.error("--trim must be in [0, 0.5)")
+        ids = label_ids()
+        radius = 0.5
+        variants = ("as_written", "vertex_box", "trimmed")
+        count = {v: {"objects": 0, "correct": 0, "found": 0} for v in variants}
+        world_total = 0
+        spread = {"objects": 0, "all_m": 0.0, "trimmed_m": 0.0}
+        for world_path, run_dir in zip(args.runs[0::2], args.runs[1::2]):
+            with open(world_path) as f:
+                world = [(ids[o["label"]], o["center"]) for o in json.load(f)["objects"]]
+            world_total += len(world)
+            vertices = mesh_positions(run_dir)
+            centres = {v: [] for v in variants}
+            incorrect_points = []
+            for n in scene_graph(run_dir)["nodes"]:
+                a = n["attributes"]
+                if n["layer"] != 2 or "semantic_label" not in a:
+                    continue
+                label, pos = a["semantic_label"], a["position"]
+                links = a.get("mesh_connections", [])
+                links = json.loads(links) if isinstance(links, str) else links
+                points = [vertices[i] for i in links if 0 <= i < len(vertices)]
+                centres["as_written"].append((label, pos))
+                for v, q in (("vertex_box", 0.0), ("trimmed", args.trim)):
+                    c = [sum(quantile_range([p[k] for p in points], q)) / 2 for k in range(3)] if points else pos
+                    centres[v].append((label, c))
+                if points and not any(l == label and math.dist(pos, c) <= radius for l, c in world):
+                    incorrect_points.append(points)
+            for v in variants:
+                count[v]["objects"] += len(centres[v])
+                count[v]["correct"] += sum(1 for label, p in centres[v]
+                                           if any(l == label and math.dist(p, c) <= radius for l, c in world))
+                count[v]["found"] += sum(1 for l, c in world
+                                         if any(label == l and math.dist(p, c) <= radius for label, p in centres[v]))
+            for points in incorrect_points:
+                spread["objects"] += 1
+                for k in range(2):
+                    xs = [p[k] for p in points]
+                    lo, hi = quantile_range(xs, args.trim)
+                    spread["all_m"] += max(xs) - min(xs)
+                    spread["trimmed_m"] += hi - lo
+        c = (f"objects of {' '.join(args.runs[1::2])} against the world objects of {' '.join(args.runs[0::2])}: same "
+             f"label within {radius} m of the centre; as written, and with each centre re-taken from the node's own "
+             f"mesh vertices (mesh_connections into mesh.ply) as the midrange of their full range (vertex_box) or of "
+             f"their {args.trim}..{1 - args.trim} quantiles per axis (trimmed)")
+        add("object_spread.world", world_total, "objects", c)
+        for v in variants:
+            add(f"object_spread.{v}.objects", count[v]["objects"], "objects", c)
+            add(f"object_spread.{v}.correct", count[v]["correct"], "objects", c)
+            add(f"object_spread.{v}.correct_share", 100.0 * count[v]["correct"] / max(1, count[v]["objects"]), "%", c)
+            add(f"object_spread.{v}.found", count[v]["found"], "objects", c)
+        add("object_spread.incorrect.objects", spread["objects"], "objects", c)
+        add("object_spread.incorrect.horizontal_extent_all", spread["all_m"], "m", c)
+        add("object_spread.incorrect.horizontal_extent_trimmed", spread["trimmed_m"], "m", c)
     elif args.what == "strays":
         if len(args.runs) % 2 != 0:
             ap.error("strays takes pairs TRUTH_RUN RUN")
