@@ -86,10 +86,13 @@ def mesh_positions(run):
     if b"end_header\n" not in data:
         raise SystemExit(f"{path}: not a PLY file")
     end = data.index(b"end_header\n") + len(b"end_header\n")
-    header = data[:end].decode()
-    if "property int label" not in header or "format binary_little_endian" not in header:
-        raise SystemExit(f"{run}/mesh.ply: not the app's binary mesh layout")
-    n = int(re.search(r"element vertex (\d+)", header).group(1))
+    header = data[:end].decode(errors="replace")
+    vertices = re.search(r"element vertex (\d+)", header)
+    if vertices is None or "property int label" not in header or "format binary_little_endian" not in header:
+        raise SystemExit(f"{path}: not the app's binary mesh layout")
+    n = int(vertices.group(1))
+    if len(data) < end + 19 * n:
+        raise SystemExit(f"{path}: truncated ({n} vertices declared, {(len(data) - end) // 19} present)")
     return [struct.unpack_from("<fff", data, end + 19 * i) for i in range(n)]
 
 
