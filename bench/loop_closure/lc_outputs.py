@@ -101,6 +101,11 @@ def quantile_range(values, q):
     return xs[int(math.floor(q * (len(xs) - 1)))], xs[int(math.ceil((1.0 - q) * (len(xs) - 1)))]
 
 
+def near_world(label, p, world, radius):
+    """Whether a world object (label, centre) of this label lies within radius of p: objects_eval's metric."""
+    return any(l == label and math.dist(p, c) <= radius for l, c in world)
+
+
 def label_ids():
     """mpcat40 label name -> index, from the product's table (core/semantics/labels.cc)."""
     path = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "core", "semantics", "labels.cc")
@@ -260,14 +265,12 @@ def main():
                 for v, q in (("vertex_box", 0.0), ("trimmed", args.trim)):
                     c = [sum(quantile_range([p[k] for p in points], q)) / 2 for k in range(3)] if points else pos
                     centres[v].append((label, c))
-                if points and not any(l == label and math.dist(pos, c) <= radius for l, c in world):
+                if points and not near_world(label, pos, world, radius):
                     incorrect_points.append(points)
             for v in variants:
                 count[v]["objects"] += len(centres[v])
-                count[v]["correct"] += sum(1 for label, p in centres[v]
-                                           if any(l == label and math.dist(p, c) <= radius for l, c in world))
-                count[v]["found"] += sum(1 for l, c in world
-                                         if any(label == l and math.dist(p, c) <= radius for label, p in centres[v]))
+                count[v]["correct"] += sum(1 for label, p in centres[v] if near_world(label, p, world, radius))
+                count[v]["found"] += sum(1 for l, c in world if near_world(l, c, centres[v], radius))
             for points in incorrect_points:
                 spread["objects"] += 1
                 for k in range(2):
