@@ -20,18 +20,18 @@
 #include <string>
 #include <vector>
 
-#include "bench/figures.h"
 #include "bench/eval_harness.h"
+#include "bench/figures.h"
 #include "bench/objects/object_match.h"
 #include "bench/sim_tour.h"
 #include "budgets/budget_table.h"
 #include "core/objects/object_layer.h"
 #include "core/objects/objects_params.h"
 #include "core/params/params.h"
+#include "core/reconstruction/reconstruction_params.h"
 #include "core/reconstruction/semantic_tsdf.h"
 #include "core/scene_graph/scene_graph.h"
 #include "drivers/world/building_generator.h"
-
 
 namespace {
 
@@ -47,6 +47,8 @@ struct Options {
   std::string json_path;
   bench::OdometryOption odometry;  // --odometry gt|sim|vio, --odometry-seed N
   objects::Config objects;         // --set objects.KEY=VALUE, from its parameter table (core/objects/objects_params)
+  reconstruction::Config reconstruction;  // --set reconstruction.KEY=VALUE (core/reconstruction/reconstruction_params)
+  std::string settings;                   // the --set assignments, for the figures' conditions
 };
 
 const std::vector<params::Section>& objects_sections() {
@@ -54,15 +56,22 @@ const std::vector<params::Section>& objects_sections() {
   return sections;
 }
 
+const std::vector<params::Section>& reconstruction_sections() {
+  static const std::vector<params::Section> sections =
+      params::sections_of("reconstruction", reconstruction::params_table());
+  return sections;
+}
+
 void usage(const char* argv0) {
   std::fprintf(stderr,
                "usage: %s [--seeds 1,2,3 | --seeds 4 5 6] [--rooms N] [--size WxH] [--spacing-m S] [--tolerance-m T] "
-               "%s [--set objects.KEY=VALUE ...] [--json FILE]\n"
+               "%s [--set objects.KEY=VALUE | reconstruction.KEY=VALUE ...] [--json FILE]\n"
                "  Objects of the app's pipeline on generated buildings against the simulator's ground truth: found,\n"
                "  correct, merges, time (objects_eval.*). --odometry gt|sim|vio: drivers/sim/odometry_levels.h.\n",
                argv0, bench::odometry_usage());
-  std::fprintf(stderr, "Settings (--set objects.KEY=VALUE):\n");
+  std::fprintf(stderr, "Settings (--set objects.KEY=VALUE or reconstruction.KEY=VALUE):\n");
   params::print_help(objects_sections(), stderr);
+  params::print_help(reconstruction_sections(), stderr);
 }
 
 bool parse(int argc, char** argv, Options* o) {
@@ -116,11 +125,16 @@ bool parse(int argc, char** argv, Options* o) {
     } else if (a == "--set") {
       std::string error;
       const std::string assignment = v;
-      if (!params::set(objects_sections(), &o->objects,
-                       "objects." + assignment.substr(assignment.rfind("objects.", 0) == 0 ? 8 : 0), &error)) {
+      const bool ok =
+          assignment.rfind("reconstruction.", 0) == 0
+              ? params::set(reconstruction_sections(), &o->reconstruction, assignment, &error)
+              : params::set(objects_sections(), &o->objects,
+                            "objects." + assignment.substr(assignment.rfind("objects.", 0) == 0 ? 8 : 0), &error);
+      if (!ok) {
         std::fprintf(stderr, "--set %s\n", error.c_str());
         return false;
       }
+      o->settings += (o->settings.empty() ? "" : " ") + assignment;
       continue;
     } else {
       std::fprintf(stderr, "unknown option %s\n", a.c_str());
@@ -170,6 +184,7 @@ bool run_building(std::uint64_t seed, const Options& opt, Score* score, std::vec
 
   // The app's stages (bench/eval_harness.h): the frontend (objects, places, agents) on the TSDF every keyframe.
   bench::PipelineConfig config;
+  config.reconstruction = opt.reconstruction;
   objects::Config& oc = config.frontend.objects;
   oc = opt.objects;
   if (opt.tolerance_m > 0.0)
@@ -358,7 +373,7 @@ int main(int argc, char** argv) {
                   "one core",
                   opt.seeds.size(), opt.rooms, seeds.c_str(), opt.width, opt.height, opt.spacing_m, inputs.c_str(),
                   budgets::active::kBoard);
-    bench::Figures figures(cond);
+    bench::Figures figures(opt.settings.empty() ? std::string(cond) : std::string(cond) + ", set " + opt.settings);
     auto add = [&](const char* name, double value, const char* unit) { figures.add(name, value, unit); };
     add("objects_eval.found", found_pct, "%");
     add("objects_eval.found_of_observed", found_observed_pct, "%");
