@@ -342,7 +342,9 @@ int main(int argc, char** argv) {
   std::snprintf(conditions, sizeof conditions, "%s, %d tour(s), lockstep on %s, loop closure on",
                 world.empty() ? (std::to_string(rooms) + "-room generated buildings").c_str() : world.c_str(), tours,
                 budgets::active::kTable.board);
-  bench::Figures figures(conditions);
+  std::string settings;  // the --set assignments, so the figures say what they were run with
+  for (const std::string& kv : sets) settings += (settings.empty() ? ", set " : " ") + kv;
+  bench::Figures figures(conditions + settings);
   std::printf("ATE RMSE of the agents' camera positions: as mapped (no alignment), and after SE(3) alignment (se3)\n");
   std::printf("%-5s %5s %10s %10s %7s %10s %10s %7s %9s %6s %6s %6s %10s\n", "level", "seed", "ate_odo_m", "ate_opt_m",
               "ratio", "se3_odo_m", "se3_opt_m", "ratio", "proposed", "kept", "true", "false", "solve_ms");
