@@ -134,8 +134,10 @@ AddResult AgentLayer::add_keyframe(scene_graph::SceneGraph* graph, std::uint64_t
     return AddResult::kBadPose;
   }
   const Eigen::Quaterniond q(world_T_body.linear());
-  if (have_offered_) path_m_ += (world_T_body.translation() - last_offered_m_).norm();
-  last_offered_m_ = world_T_body.translation();
+  // The path in the odometry's own frame: a change of the frame correction is not motion.
+  const Eigen::Vector3d odometric_m = frame_.inverse() * world_T_body.translation();
+  if (have_offered_) path_m_ += (odometric_m - last_offered_m_).norm();
+  last_offered_m_ = odometric_m;
   have_offered_ = true;
   if (chain_size_ > 0) {
     const ChainNode& last = chain_[chain_size_ - 1];
@@ -185,6 +187,8 @@ AddResult AgentLayer::add_keyframe(scene_graph::SceneGraph* graph, std::uint64_t
   c.path_m = path_m_;
   c.after_odometry_step = step_pending_;
   step_pending_ = false;
+  c.frame_t_m = frame_.translation();
+  c.frame_q = Eigen::Quaterniond(frame_.linear()).normalized();
   if (chain_size_ > chain_high_water_) chain_high_water_ = chain_size_;
   ++next_index_;
   ++counters_.keyframes;

@@ -69,7 +69,28 @@ struct ChainNode {
   // The odometry stepped (a relocalization or a reset, AgentLayer::mark_odometry_step) between the previous node and
   // this one: the edge into this node does not measure the robot's motion.
   bool after_odometry_step = false;
+  // The correction the frontend mapped this node in (map_T_odom; LoopClosureConfig::map_in_corrected_frame): the
+  // pose above is this correction times the odometric pose. Identity when the frontend maps in the odometry frame.
+  Eigen::Vector3d frame_t_m = Eigen::Vector3d::Zero();
+  Eigen::Quaterniond frame_q = Eigen::Quaterniond::Identity();
+  bool frame_is_identity() const {
+    return frame_t_m.isZero(0.0) && frame_q.coeffs() == Eigen::Quaterniond::Identity().coeffs();
+  }
 };
+// A node's pose as mapped (frame correction included) and as the odometry gave it (the odometry edges' measurement).
+inline Eigen::Isometry3d mapped_pose(const ChainNode& n) {
+  Eigen::Isometry3d p = Eigen::Isometry3d::Identity();
+  p.linear() = n.q.toRotationMatrix();
+  p.translation() = n.t_m;
+  return p;
+}
+inline Eigen::Isometry3d odometric_pose(const ChainNode& n) {
+  if (n.frame_is_identity()) return mapped_pose(n);
+  Eigen::Isometry3d c = Eigen::Isometry3d::Identity();
+  c.linear() = n.frame_q.toRotationMatrix();
+  c.translation() = n.frame_t_m;
+  return c.inverse() * mapped_pose(n);
+}
 const char* to_string(AddResult r);
 
 class AgentLayer {
@@ -86,6 +107,9 @@ class AgentLayer {
   // The odometry source stepped (its pose buffer accepted a jump it kept): the next node added is marked
   // ChainNode::after_odometry_step. A node folded away passes its mark to the next one.
   void mark_odometry_step() { step_pending_ = true; }
+  // The correction (map_T_odom) the poses offered from now on already include: stamped on each node added, so that
+  // odometry edges measure the odometry alone (LoopClosureConfig::map_in_corrected_frame).
+  void set_frame_correction(const Eigen::Isometry3d& map_T_odom) { frame_ = map_T_odom; }
 
   scene_graph::NodeId last_node() const { return last_node_; }
   std::uint64_t last_timestamp_ns() const { return last_time_ns_; }
@@ -113,6 +137,7 @@ class AgentLayer {
   Eigen::Vector3d last_offered_m_ = Eigen::Vector3d::Zero();
   bool have_offered_ = false;
   bool step_pending_ = false;  // mark_odometry_step() since the last node added
+  Eigen::Isometry3d frame_ = Eigen::Isometry3d::Identity();  // set_frame_correction()
   bool ready_ = false;
   std::unique_ptr<ChainNode[]> chain_;
   std::size_t chain_size_ = 0;

@@ -83,6 +83,13 @@ RelativePoseEdge per_distance_odometry_edge(std::uint32_t a, std::uint32_t b, co
   return e;
 }
 
+namespace {
+Pose3 odometric(const agents::ChainNode& n) {
+  if (n.frame_is_identity()) return Pose3{n.t_m, n.q};
+  return Pose3{n.frame_t_m, n.frame_q}.inverse() * Pose3{n.t_m, n.q};
+}
+}  // namespace
+
 std::vector<RelativePoseEdge> chain_odometry_edges(const agents::ChainView& agents, const AgentGraphConfig& config) {
   std::vector<RelativePoseEdge> edges;
   const std::size_t n = agents.chain_size();
@@ -91,14 +98,16 @@ std::vector<RelativePoseEdge> chain_odometry_edges(const agents::ChainView& agen
   for (std::size_t k = 0; k + 1 < n; ++k) {
     const agents::ChainNode& a = agents.chain(k);
     const agents::ChainNode& b = agents.chain(k + 1);
+    // The odometry's own poses: a node mapped in a corrected frame carries the correction, which is not motion.
+    const Pose3 pa = odometric(a), pb = odometric(b);
     RelativePoseEdge e;
     if (config.odometry_weighting == OdometryWeighting::kPerDistance) {
-      e = per_distance_odometry_edge(static_cast<std::uint32_t>(k), static_cast<std::uint32_t>(k + 1),
-                                     Pose3{a.t_m, a.q}, Pose3{b.t_m, b.q}, b.path_m - a.path_m, config);
+      e = per_distance_odometry_edge(static_cast<std::uint32_t>(k), static_cast<std::uint32_t>(k + 1), pa, pb,
+                                     b.path_m - a.path_m, config);
     } else {
       e.from = static_cast<std::uint32_t>(k);
       e.to = static_cast<std::uint32_t>(k + 1);
-      e.measured_from_T_to = between(Pose3{a.t_m, a.q}, Pose3{b.t_m, b.q});
+      e.measured_from_T_to = between(pa, pb);
       // The odometry's covariance grows along the path: what it grew by between the two nodes is this edge's.
       const Eigen::Matrix<double, 6, 1> growth = (b.variance - a.variance).cwiseMax(0.0);
       for (int i = 0; i < 3; ++i) {

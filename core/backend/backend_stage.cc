@@ -328,6 +328,10 @@ std::size_t BackendStage::describe_agents(const scene_graph::SceneGraph& graph, 
     e.time_ns = n.time_ns;
     e.path_m = path_m_;
     e.world_T_agent = isometry(n.t_m, n.q);
+    if (!n.frame_is_identity()) {
+      e.frame_corrected = true;
+      e.map_T_odom = isometry(n.frame_t_m, n.frame_q);
+    }
     e.appearance = pending_.front().features;
     e.cloud = pending_.front().cloud;
     pending_.erase(pending_.begin());
@@ -470,14 +474,22 @@ bool BackendStage::solve_deformation(DeformationProblem problem, std::string* er
   return true;
 }
 
+Eigen::Isometry3d BackendStage::map_T_odom() const {
+  if (!deformation_.solved() || deformation_.num_agent_poses() == 0) return Eigen::Isometry3d::Identity();
+  const Pose3 c = deformation_.map_T_odom();
+  return isometry(c.t_m, c.q);
+}
+
 Eigen::Isometry3d BackendStage::corrected_pose(const agents::AgentLayer& agents, std::size_t k) const {
   const Eigen::Isometry3d odom = isometry(agents.chain(k).t_m, agents.chain(k).q);
   if (!deformation_.solved() || deformation_.num_agent_poses() == 0) return odom;
   // By the node's time: a fold of the chain since the solve shifts its indices.
   Pose3 p;
   if (deformation_.agent_pose_at(agents.chain(k).time_ns, &p)) return isometry(p.t_m, p.q);
-  const Pose3& tail = deformation_.tail_correction();  // a node added since: the last solved node's correction
-  return isometry(tail.t_m, tail.q) * odom;
+  // A node added since: the odometry frame onto the solution at the last solved node (a node mapped in a corrected
+  // frame, LoopClosureConfig::map_in_corrected_frame, from its odometric pose).
+  const Pose3 c = deformation_.map_T_odom();
+  return isometry(c.t_m, c.q) * (agents.chain(k).frame_is_identity() ? odom : agents::odometric_pose(agents.chain(k)));
 }
 
 void BackendStage::correct_graph(const agents::AgentLayer& agents, scene_graph::SceneGraph* graph) const {

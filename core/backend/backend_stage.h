@@ -50,6 +50,11 @@ struct LoopClosureConfig {
   // odometry source's own model when it has one (the simulator's drifting odometry: its sigmas per sqrt(m)), else the
   // configured ones. Applied by the app, which knows the source.
   bool odometry_sigmas_from_source = true;
+  // The frontend maps in the corrected frame: after each solve, the keyframes that follow are integrated (TSDF,
+  // agents, places, objects) at the odometric pose times the latest correction (map_T_odom: the last solved agent's
+  // optimized pose times its odometric one inverted), so that a revisit lands where the corrected map has its first
+  // visit. The agents keep the correction they were mapped in: the odometry edges measure the odometry alone.
+  bool map_in_corrected_frame = true;
   // Reconciliation after the final correction (paper: interpolation and merging; BackendStage::reconcile): objects
   // re-boxed from the corrected mesh, revisited places and objects merged, and the final doors, rooms and labels
   // found on the corrected map. Off: they are found on the map as mapped and moved with the correction, which
@@ -267,6 +272,8 @@ class BackendStage {
   // world_T_camera of chain node k after the latest optimization (nodes after the solved chain follow the
   // correction of the last solved one); the odometric pose before any.
   Eigen::Isometry3d corrected_pose(const agents::AgentLayer& agents, std::size_t k) const;
+  // The odometry frame onto the latest solution (DeformationGraph::map_T_odom); identity before any solve.
+  Eigen::Isometry3d map_T_odom() const;
   const std::vector<loop_closure::LoopClosure>& loop_closures() const { return loop_closures_; }
   const DeformationResult& deformation_result() const { return deformation_result_; }
   const loop_closure::LoopClosureDetector& detector() const { return detector_; }

@@ -36,6 +36,9 @@ const params::Table<LoopClosureConfig>& loop_closure_params_table() {
     t.include(deformation_params_table(), [](C& c) -> DeformationConfig& { return c.deformation; });
     t.flag("odometry_sigmas_from_source", &C::odometry_sigmas_from_source, refinement,
            "per_distance odometry edges take the source's own noise model when it has one (sim_drift's sigmas)");
+    t.flag("map_in_corrected_frame", &C::map_in_corrected_frame, refinement,
+           "after each solve the frontend maps the next keyframes at the odometric pose times the latest correction "
+           "(map_T_odom), so revisits land on the corrected map; off: the odometry frame");
     t.flag("reconcile", &C::reconcile, paper,
            "after the final correction: objects re-boxed from the corrected mesh, revisited places merged, final doors "
            "and rooms on the corrected map (off: found as mapped and moved; bench/results/loop_closure.md)");

@@ -244,6 +244,18 @@ std::vector<std::uint64_t> closure_ids(const std::vector<ChainLoopClosure>& clos
   return ids;
 }
 
+// DeformationProblem::frame_changes of a chain, and its last node's frame (last_frame).
+std::vector<std::uint32_t> frame_changes(const agents::ChainView& agents, Pose3* last_frame) {
+  std::vector<std::uint32_t> out;
+  const agents::ChainNode& last = agents.chain(agents.chain_size() - 1);
+  *last_frame = Pose3{last.frame_t_m, last.frame_q};
+  for (std::size_t k = 1; k < agents.chain_size(); ++k) {
+    const agents::ChainNode &a = agents.chain(k - 1), &b = agents.chain(k);
+    if (a.frame_t_m != b.frame_t_m || a.frame_q.coeffs() != b.frame_q.coeffs())
+      out.push_back(static_cast<std::uint32_t>(k));
+  }
+  return out;
+}
 }  // namespace
 
 DeformationProblem DeformationGraph::build(const agents::ChainView& agents,
@@ -283,6 +295,7 @@ DeformationProblem DeformationGraph::build(const DeformationInputs& in,
   for (std::size_t k = 0; k < A; ++k) poses.push_back(Pose3{agents.chain(k).t_m, agents.chain(k).q});
   problem.agent_times_ns.reserve(A);
   for (std::size_t k = 0; k < A; ++k) problem.agent_times_ns.push_back(agents.chain(k).time_ns);
+  problem.frame_changes = frame_changes(agents, &problem.last_frame);
   for (std::size_t i = 0; i < C; ++i) poses.push_back(Pose3{control.point(i), Eigen::Quaterniond::Identity()});
   for (const DeformationInputs::Place& p : in.places) poses.push_back(Pose3{p.position_m, Eigen::Quaterniond::Identity()});
 
@@ -496,6 +509,9 @@ DeformationProblem thin_agents(DeformationProblem in, double spacing_m, double t
     if (e.from < A) keep[e.from] = 1;
     if (e.to < A) keep[e.to] = 1;
   }
+  std::vector<char> frame_change(A, 0);
+  for (std::uint32_t k : in.frame_changes)
+    if (k < A) keep[k] = frame_change[k] = 1;
   double since = 0.0;
   std::size_t last = 0;
   for (std::size_t k = 1; k < A; ++k) {
@@ -525,15 +541,20 @@ DeformationProblem thin_agents(DeformationProblem in, double spacing_m, double t
   const std::size_t odometry = in.first_closure;  // edges_aa is not kept by every writer of a problem
   for (std::size_t j = 0; j + 1 < K; ++j) {
     const std::uint32_t a = (*kept)[j], b = (*kept)[j + 1];
+    // The poses of a..b in a's frame correction: b's, when it was mapped in another one (kept then, so only b can
+    // be), from the odometry edge into it.
+    Pose3 pose_b = in.poses[b];
+    if (frame_change[b] && b - 1 < odometry) pose_b = in.poses[b - 1] * in.edges[b - 1].measured_from_T_to;
+    const auto pose_at = [&](std::uint32_t k) -> const Pose3& { return k == b ? pose_b : in.poses[k]; };
     RelativePoseEdge e;
     e.from = static_cast<std::uint32_t>(j);
     e.to = static_cast<std::uint32_t>(j + 1);
-    e.measured_from_T_to = between(in.poses[a], in.poses[b]);
+    e.measured_from_T_to = between(in.poses[a], pose_b);
     // Each step's noise, a perturbation in its `to` frame k + 1, seen in b's frame through the adjoint of b_T_(k+1)
     // (first order): rotation noise moves b by its lever arm too.
     Matrix6d cov = Matrix6d::Zero();
     for (std::uint32_t k = a; k < b && k < odometry; ++k) {
-      const Matrix6d ad = adjoint(between(in.poses[b], in.poses[k + 1]));
+      const Matrix6d ad = adjoint(between(pose_b, pose_at(k + 1)));
       cov += ad * covariance_in_to_frame(in.edges[k]) * ad.transpose();
     }
     e.has_information = true;
@@ -560,6 +581,7 @@ DeformationProblem thin_agents(DeformationProblem in, double spacing_m, double t
   out.originals = std::move(in.originals);
   out.times_ns = std::move(in.times_ns);
   out.place_ids = std::move(in.place_ids);
+  out.frame_changes = std::move(in.frame_changes);  // chain indices, as agent_times_ns
   return out;
 }
 
@@ -575,9 +597,17 @@ DeformationResult DeformationGraph::solve(DeformationProblem problem) {
   const std::vector<std::uint64_t> chain_times = problem.agent_times_ns;  // before any thinning
   std::vector<std::uint64_t> ids = problem.closure_ids;
   if (ids.size() != problem.result.loop_closures) ids.clear();
+  const Pose3 last_frame = problem.last_frame;
   std::vector<Pose3> odometric;  // the chain's poses, when the solved graph thins them
+  std::vector<Pose3> as_ended;   // ... with each frame change's node in the frame before it (expand_agents)
   if (config_.agent_spacing_m > 0.0 && problem.result.agents > 2) {
     odometric.assign(problem.poses.begin(), problem.poses.begin() + static_cast<std::ptrdiff_t>(problem.result.agents));
+    if (!problem.frame_changes.empty()) {  // a node mapped in a new frame correction, as the interval before sees it
+      as_ended = odometric;
+      for (std::uint32_t k : problem.frame_changes)
+        if (k < odometric.size() && k - 1 < problem.first_closure)
+          as_ended[k] = odometric[k - 1] * problem.edges[k - 1].measured_from_T_to;
+    }
     problem = thin_agents(std::move(problem), config_.agent_spacing_m, config_.agent_turn_rad, &kept);
   }
   DeformationResult r = problem.result;
@@ -636,7 +666,8 @@ DeformationResult DeformationGraph::solve(DeformationProblem problem) {
   }
   for (double w : r.loop_closure_weight) r.loop_closures_kept += w > 0.5 ? 1 : 0;
   agent_poses_.assign(solved.begin(), solved.begin() + static_cast<std::ptrdiff_t>(A));
-  if (!kept.empty()) agent_poses_ = expand_agents(odometric, kept, agent_poses_);
+  if (!kept.empty())
+    agent_poses_ = expand_agents(odometric, kept, agent_poses_, as_ended.empty() ? nullptr : &as_ended);
   agent_times_ = chain_times.size() == agent_poses_.size() ? chain_times : std::vector<std::uint64_t>{};
   closure_ends_ = std::move(ends);
   closure_weights_ = r.loop_closure_weight;
@@ -646,6 +677,7 @@ DeformationResult DeformationGraph::solve(DeformationProblem problem) {
     std::sort(closure_by_id_.begin(), closure_by_id_.end());
   }
   tail_correction_ = agent_poses_.back() * (kept.empty() ? problem.poses[A - 1] : odometric.back()).inverse();
+  tail_frame_ = last_frame;
   nodes_.clear();
   nodes_.reserve(nodes);
   control_points_ = r.control_points;
@@ -723,10 +755,20 @@ bool DeformationGraph::decide_incrementally(const DeformationProblem& problem, c
   }
   if (num_carried == 0) return false;
   // From the last solution; chain nodes after it follow its last node's correction.
+  // A node mapped in a frame correction that changed after the last solve (the frontend following that solve's
+  // correction) has it already: it starts where it was mapped.
   std::vector<Pose3> agents(A);
+  bool corrected_since = false;
+  std::size_t next_change = 0;
   for (std::size_t j = 0; j < A; ++j) {
-    const std::int64_t last = last_agent(chain_times, kept.empty() ? j : kept[j]);
-    agents[j] = last >= 0 ? agent_poses_[static_cast<std::size_t>(last)] : tail_correction_ * problem.poses[j];
+    const std::size_t chain_j = kept.empty() ? j : kept[j];
+    const std::int64_t last = last_agent(chain_times, chain_j);
+    while (next_change < problem.frame_changes.size() && problem.frame_changes[next_change] <= chain_j) {
+      if (last < 0) corrected_since = true;
+      ++next_change;
+    }
+    agents[j] = last >= 0 ? agent_poses_[static_cast<std::size_t>(last)]
+                          : (corrected_since ? problem.poses[j] : tail_correction_ * problem.poses[j]);
   }
   // reduced_decisions: GNC on the reduced agent graph; the chain is solved once the decisions stand.
   ReducedDecision d;

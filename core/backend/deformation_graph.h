@@ -172,6 +172,12 @@ struct DeformationProblem {
   // folded (which shifts their indices). Empty for a problem read from a file: indices are then taken as they are.
   std::vector<std::uint64_t> agent_times_ns;
   std::vector<std::uint64_t> closure_ids;  // each closure's ChainLoopClosure::id (empty for a problem from a file)
+  // Chain nodes mapped in another frame correction than the node before them (agents::ChainNode::frame_t_m; the
+  // frontend following the backend's correction): their poses jump by the change, their odometry edges do not.
+  // Thinning keeps them, and composes the odometry into them from the edges. Empty in the odometry frame.
+  std::vector<std::uint32_t> frame_changes;
+  // The last chain node's frame correction (identity in the odometry frame): DeformationGraph::map_T_odom().
+  Pose3 last_frame;
 };
 
 class DeformationGraph {
@@ -202,6 +208,10 @@ class DeformationGraph {
   bool agent_pose_at(std::uint64_t time_ns, Pose3* out) const;
   // The last solved chain node's correction (optimized * odometric^-1), for the nodes added since.
   const Pose3& tail_correction() const { return tail_correction_; }
+  // The odometry frame onto the last solution, at the last solved chain node (optimized * odometric^-1): where
+  // the frontend maps the keyframes that follow (LoopClosureConfig::map_in_corrected_frame), and the correction of
+  // a node added since.
+  Pose3 map_T_odom() const { return tail_correction_ * tail_frame_; }
   std::size_t num_agent_poses() const { return agent_poses_.size(); }
   // The last solve's weight of the closure named `id` (ChainLoopClosure::id; above 0.5: kept), or false when it had
   // no closure of that name.
@@ -250,6 +260,7 @@ class DeformationGraph {
   std::vector<double> closure_weights_;
   std::vector<std::pair<std::uint64_t, std::uint32_t>> closure_by_id_;  // sorted (id, index); empty: by index
   Pose3 tail_correction_;
+  Pose3 tail_frame_;  // the last solved chain node's frame correction (DeformationProblem::last_frame)
   std::unordered_map<scene_graph::NodeId, std::uint32_t> place_node_;
   std::vector<std::pair<std::uint64_t, std::uint32_t>> cells_;  // sorted (cell, node)
   // build(): the E_mm neighbours of the control points that can gain none any more (seen more than the time horizon

@@ -90,15 +90,18 @@ bool reduce_agent_graph(std::size_t num_agents, const std::vector<RelativePoseEd
 }
 
 std::vector<Pose3> expand_agents(const std::vector<Pose3>& reference, const std::vector<std::uint32_t>& kept,
-                                 const std::vector<Pose3>& solved_kept) {
+                                 const std::vector<Pose3>& solved_kept, const std::vector<Pose3>* end_reference) {
   std::vector<Pose3> out(reference.size());
   for (std::size_t j = 0; j < kept.size(); ++j) {
     out[kept[j]] = solved_kept[j];
     if (j + 1 == kept.size()) break;
     const std::uint32_t a = kept[j], b = kept[j + 1];
-    const Pose3 ca = solved_kept[j] * reference[a].inverse(), cb = solved_kept[j + 1] * reference[b].inverse();
+    // b as the interval sees it: in a's frame correction (end_reference), when b was mapped in another one.
+    const Pose3& end = end_reference != nullptr ? (*end_reference)[b] : reference[b];
+    const Pose3 ca = solved_kept[j] * reference[a].inverse(), cb = solved_kept[j + 1] * end.inverse();
     double total = 0.0;
-    for (std::uint32_t k = a; k < b; ++k) total += (reference[k + 1].t_m - reference[k].t_m).norm();
+    for (std::uint32_t k = a; k < b; ++k)
+      total += ((k + 1 == b ? end : reference[k + 1]).t_m - reference[k].t_m).norm();
     double along = 0.0;
     for (std::uint32_t k = a + 1; k < b; ++k) {
       along += (reference[k].t_m - reference[k - 1].t_m).norm();

@@ -47,9 +47,12 @@ bool reduce_agent_graph(std::size_t num_agents, const std::vector<RelativePoseEd
 
 // Every chain node's pose from the kept agents' solution: a kept agent takes its own; one between kept a and b
 // takes its reference pose moved by a's and b's corrections (solved * reference^-1), interpolated along the
-// reference path between them (translation linearly, rotation by slerp).
+// reference path between them (translation linearly, rotation by slerp). end_reference (may be null: reference):
+// each interval's end b as the interval sees it, when b was mapped in another frame correction than a
+// (DeformationProblem::frame_changes).
 std::vector<Pose3> expand_agents(const std::vector<Pose3>& reference, const std::vector<std::uint32_t>& kept,
-                                 const std::vector<Pose3>& solved_kept);
+                                 const std::vector<Pose3>& solved_kept,
+                                 const std::vector<Pose3>* end_reference = nullptr);
 
 // One decision on the reduced graph and the chain's solve with it.
 struct ReducedDecision {

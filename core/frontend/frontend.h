@@ -97,6 +97,7 @@ class Frontend {
   const agents::AgentLayer& agents() const { return agents_; }
   // The odometry stepped (a relocalization or a reset): the next agent's odometry edge does not measure motion.
   void mark_odometry_step() { agents_.mark_odometry_step(); }
+  void set_frame_correction(const Eigen::Isometry3d& map_T_odom) { agents_.set_frame_correction(map_T_odom); }
   const Counters& counters() const { return counters_; }
   const Config& config() const { return config_; }
   template <typename Fn>

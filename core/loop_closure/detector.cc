@@ -161,8 +161,8 @@ const AgentEntry* LoopClosureDetector::refine_with_neighbours(const AgentEntry& 
                                                              LoopClosure* out) {
   const AgentEntry& match = entries_[match_entry];
   // The query's camera in the match's odometric frame, by the coarse estimate.
-  const Eigen::Isometry3d world_T_query = match.world_T_agent * out->match_T_query;
-  const Eigen::Vector3d axis = world_T_query.linear().col(2);
+  const Eigen::Isometry3d odom_T_query = match.odom_T_agent() * out->match_T_query;
+  const Eigen::Vector3d axis = odom_T_query.linear().col(2);
   std::uint32_t order[2 * kIcpNeighbours + 1];
   double score[2 * kIcpNeighbours + 1];
   std::uint32_t n = 0;
@@ -173,9 +173,10 @@ const AgentEntry* LoopClosureDetector::refine_with_neighbours(const AgentEntry& 
     const AgentEntry& m = entries_[e];
     if (m.cloud.count == 0 || m.time_ns + static_cast<std::uint64_t>(config_.min_time_separation_s * 1e9) > query.time_ns)
       continue;
-    if ((m.world_T_agent.translation() - match.world_T_agent.translation()).norm() > config_.icp_neighbour_m) continue;
+    if ((m.odom_T_agent().translation() - match.odom_T_agent().translation()).norm() > config_.icp_neighbour_m)
+      continue;
     order[n] = e;
-    score[n++] = -axis.dot(m.world_T_agent.linear().col(2));
+    score[n++] = -axis.dot(m.odom_T_agent().linear().col(2));
   }
   // Insertion sort by score (n <= 2 * kIcpNeighbours + 1).
   for (std::uint32_t i = 1; i < n; ++i)
@@ -185,8 +186,8 @@ const AgentEntry* LoopClosureDetector::refine_with_neighbours(const AgentEntry& 
     }
   for (std::uint32_t i = 0; i < n; ++i) {
     const AgentEntry& m = entries_[order[i]];
-    const Eigen::Isometry3d initial = m.world_T_agent.inverse() * world_T_query;
-    const GravityPrior gravity = GravityPrior::from_poses(m.world_T_agent, query.world_T_agent);
+    const Eigen::Isometry3d initial = m.odom_T_agent().inverse() * odom_T_query;
+    const GravityPrior gravity = GravityPrior::from_poses(m.odom_T_agent(), query.odom_T_agent());
     const IcpResult r = refine_icp(query.cloud, m.cloud, initial, config_.icp, &gravity);
     if (!r.ok) continue;
     out->icp = r;
@@ -206,17 +207,17 @@ bool LoopClosureDetector::refine_with_local_maps(const AgentEntry& query, std::u
   const double path = config_.local_map.path_m;
   const std::uint32_t max_keyframes = local_map_.capacities().keyframes;
   const auto separation_ns = static_cast<std::uint64_t>(config_.min_time_separation_s * 1e9);
-  local_map_.begin(query.world_T_agent);
-  std::uint32_t keyframes = local_map_.add(query.cloud, query.world_T_agent) ? 1 : 0;
+  local_map_.begin(query.odom_T_agent());
+  std::uint32_t keyframes = local_map_.add(query.cloud, query.odom_T_agent()) ? 1 : 0;
   for (std::size_t i = entries_.size(); i-- > 0 && keyframes < max_keyframes;) {
     const AgentEntry& e = entries_[i];
     if (query.path_m - e.path_m > path) break;
-    if (e.cloud.count > 0 && local_map_.add(e.cloud, e.world_T_agent)) ++keyframes;
+    if (e.cloud.count > 0 && local_map_.add(e.cloud, e.odom_T_agent())) ++keyframes;
   }
   local_map_.finish(&local_map_.query_cloud());
   const AgentEntry& match = entries_[match_entry];
-  local_map_.begin(match.world_T_agent);
-  keyframes = match.cloud.count > 0 && local_map_.add(match.cloud, match.world_T_agent) ? 1 : 0;
+  local_map_.begin(match.odom_T_agent());
+  keyframes = match.cloud.count > 0 && local_map_.add(match.cloud, match.odom_T_agent()) ? 1 : 0;
   // Outwards from the match, alternately behind and ahead, so a full buffer keeps the nearest.
   std::size_t back = match_entry, ahead = match_entry + 1;
   bool more_back = true, more_ahead = true;
@@ -225,7 +226,7 @@ bool LoopClosureDetector::refine_with_local_maps(const AgentEntry& query, std::u
       more_back = back > 0 && match.path_m - entries_[back - 1].path_m <= path;
       if (more_back) {
         const AgentEntry& e = entries_[--back];
-        if (e.cloud.count > 0 && local_map_.add(e.cloud, e.world_T_agent)) ++keyframes;
+        if (e.cloud.count > 0 && local_map_.add(e.cloud, e.odom_T_agent())) ++keyframes;
       }
     }
     if (more_ahead && keyframes < max_keyframes) {
@@ -233,12 +234,12 @@ bool LoopClosureDetector::refine_with_local_maps(const AgentEntry& query, std::u
                    entries_[ahead].time_ns + separation_ns <= query.time_ns;
       if (more_ahead) {
         const AgentEntry& e = entries_[ahead++];
-        if (e.cloud.count > 0 && local_map_.add(e.cloud, e.world_T_agent)) ++keyframes;
+        if (e.cloud.count > 0 && local_map_.add(e.cloud, e.odom_T_agent())) ++keyframes;
       }
     }
   }
   local_map_.finish(&local_map_.match_cloud());
-  const GravityPrior gravity = GravityPrior::from_poses(match.world_T_agent, query.world_T_agent);
+  const GravityPrior gravity = GravityPrior::from_poses(match.odom_T_agent(), query.odom_T_agent());
   const IcpResult r = local_map_.register_clouds(local_map_.query_cloud(), local_map_.match_cloud(), out->match_T_query,
                                                  config_.icp, &gravity);
   if (!r.ok) {
@@ -304,7 +305,7 @@ bool LoopClosureDetector::add_and_detect(const AgentEntry& query, LoopClosure* o
         const AgentEntry& match = entries_[candidates_[k].entry];
         if (match.appearance.count == 0) continue;
         ++counters_.appearance_checks;
-        const GravityPrior gravity = GravityPrior::from_poses(match.world_T_agent, query.world_T_agent);
+        const GravityPrior gravity = GravityPrior::from_poses(match.odom_T_agent(), query.odom_T_agent());
         const AppearanceRegistration a =
             register_appearance(query.appearance, match.appearance, config_.appearance,
                                 static_cast<std::uint32_t>(counters_.appearance_checks), &gravity);

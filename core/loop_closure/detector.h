@@ -60,12 +60,22 @@ struct DetectorConfig {
   void print(std::FILE* out) const;
 };
 
-// One described agent: its odometric pose, time, distance travelled to it, descriptor.
+// One described agent: its pose as mapped and as the odometry gave it, time, distance travelled to it, descriptor.
 struct AgentEntry {
   scene_graph::NodeId agent = scene_graph::kNoNode;
   std::uint64_t time_ns = 0;
   double path_m = 0.0;
-  Eigen::Isometry3d world_T_agent = Eigen::Isometry3d::Identity();  // odometric
+  // As mapped: the frame of the graph's objects and places (the odometry's, or the frontend's corrected frame,
+  // backend::LoopClosureConfig::map_in_corrected_frame); object registration and the closure's stored poses use it.
+  Eigen::Isometry3d world_T_agent = Eigen::Isometry3d::Identity();
+  // The frontend's frame correction world_T_agent includes (frame_corrected; identity otherwise).
+  Eigen::Isometry3d map_T_odom = Eigen::Isometry3d::Identity();
+  bool frame_corrected = false;
+  // As the odometry gave it: keyframes are stitched (local maps, ICP neighbours) and gravity read by it, so that a
+  // change of the frontend's frame between two keyframes is not taken for motion.
+  Eigen::Isometry3d odom_T_agent() const {
+    return frame_corrected ? map_T_odom.inverse() * world_T_agent : world_T_agent;
+  }
   AgentDescriptor descriptor;
   AppearanceFeatures appearance;  // count 0: none (verification by objects only)
   DepthCloud cloud;               // count 0: none (no ICP refinement)

@@ -216,6 +216,27 @@ TEST(AgentLayerTest, AnOdometryStepMarksTheNextNodeAndSurvivesFolding) {
   EXPECT_EQ(marked, 1u);
 }
 
+// LoopClosureConfig::map_in_corrected_frame: poses offered after set_frame_correction() include it. Each node keeps
+// the correction it was mapped in, its odometric pose is the offered one without it, and the path counts the
+// odometry's motion only (a change of correction is not travel).
+TEST(AgentLayerTest, ANodeKeepsTheFrameCorrectionItWasMappedIn) {
+  auto graph = scene_graph::testing::make_graph();
+  AgentLayer layer = make_layer();
+  ASSERT_EQ(layer.add_keyframe(graph.get(), 1, pose(0.0, 0.0)), AddResult::kAdded);
+  ASSERT_EQ(layer.add_keyframe(graph.get(), 2, pose(0.5, 0.0)), AddResult::kAdded);
+  Eigen::Isometry3d correction = Eigen::Isometry3d::Identity();
+  correction.linear() = Eigen::AngleAxisd(0.1, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  correction.translation() = Eigen::Vector3d(0.4, -0.3, 0.0);
+  layer.set_frame_correction(correction);
+  ASSERT_EQ(layer.add_keyframe(graph.get(), 3, correction * pose(1.0, 0.2)), AddResult::kAdded);
+  ASSERT_EQ(layer.chain_size(), 3u);
+  EXPECT_TRUE(layer.chain(1).frame_is_identity());
+  EXPECT_FALSE(layer.chain(2).frame_is_identity());
+  EXPECT_LT((odometric_pose(layer.chain(2)).matrix() - pose(1.0, 0.2).matrix()).norm(), 1e-12);
+  EXPECT_LT((mapped_pose(layer.chain(2)).matrix() - (correction * pose(1.0, 0.2)).matrix()).norm(), 1e-12);
+  EXPECT_NEAR(layer.chain(2).path_m, 1.0, 1e-12) << "the odometry moved 1 m; the correction is not path";
+}
+
 TEST(AgentLayerTest, BadConfigIsRejectedClearly) {
   AgentLayer layer;
   std::string error;

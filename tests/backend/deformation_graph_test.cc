@@ -773,3 +773,81 @@ TEST_F(DeformationGraphTest, AFoldedStoreStillCorrectsTheWalk) {
 
 }  // namespace
 }  // namespace qsg::backend
+
+namespace qsg::backend {
+namespace {
+
+// LoopClosureConfig::map_in_corrected_frame: the frontend maps the keyframes after a solve at the odometric pose
+// times the correction then in use. The same walk mapped so from node 20 or 21 on (a correction of 0.3 m and 4
+// degrees, stamped on the nodes: AgentLayer::set_frame_correction) must solve to the odometry frame's agent poses:
+// the odometry edges measure the odometry alone. Whole, to the solver's tolerance. Thinned, thinning keeps the node
+// where the frame changes and composes the odometry into it from the edges; the kept set then differs from the
+// odometry frame's by a node or two, and the poses interpolated between kept nodes by a few millimetres (the
+// thinned test above allows 0.05 m against the whole chain). Without the stamp the edge into the node holds the
+// correction as if it were motion, and the solution moves by a good part of it. (No control points: mesh edges
+// across the change would join surfaces mapped in two frames, which is the mapping's own error, not the solve's.)
+TEST_F(DeformationGraphTest, AWalkMappedInACorrectedFrameSolvesToTheOdometryFramesPoses) {
+  const auto last = static_cast<std::uint32_t>(walk_.truth.size() - 1);
+  const std::vector<ChainLoopClosure> closures = {true_closure(0, last), true_closure(1, last - 1)};
+  const Eigen::Isometry3d correction = planar(0.3, -0.2, 4.0 * M_PI / 180.0);
+  const auto mapped = [&](std::size_t from, const Eigen::Isometry3d& correction_from, bool stamp,
+                          agents::AgentLayer* layer, ControlPoints* control,
+                          std::unique_ptr<scene_graph::SceneGraph>* graph) {
+    *graph = scene_graph::testing::make_graph();
+    agents::Config c;
+    c.min_translation_m = 0.0;
+    std::string error;
+    ASSERT_TRUE(layer->init(c, agents::Capacities{100}, &error)) << error;
+    ASSERT_TRUE(control->init(1000, 1.0, &error)) << error;
+    for (std::size_t i = 0; i < walk_.odometry.size(); ++i) {
+      const Eigen::Isometry3d frame = i >= from ? correction_from : Eigen::Isometry3d::Identity();
+      if (stamp) layer->set_frame_correction(frame);
+      Eigen::Matrix<double, 6, 1> variance;
+      variance << 1e-4 * i, 1e-4 * i, 1e-6 * i, 1e-7 * i, 1e-7 * i, 1.2e-4 * i;
+      const std::uint64_t t = 1'000'000'000ull + 2'000'000'000ull * i;
+      ASSERT_EQ(layer->add_keyframe(graph->get(), t, frame * walk_.odometry[i], 0, variance),
+                agents::AddResult::kAdded);
+    }
+  };
+  struct Case {
+    std::size_t from;
+    double spacing_m, within_m;
+  };
+  for (const Case& k : {Case{20, 0.0, 1e-4}, Case{21, 0.0, 1e-4}, Case{20, 1.5, 0.02}, Case{21, 1.5, 0.02}}) {
+    SCOPED_TRACE("from node " + std::to_string(k.from) + (k.spacing_m > 0.0 ? ", thinned" : ", whole chain"));
+    DeformationConfig c = strategy(true);
+    c.agent_spacing_m = k.spacing_m;
+    c.agent_turn_rad = 3.0;
+    agents::AgentLayer odometric_layer;
+    ControlPoints no_control;
+    std::unique_ptr<scene_graph::SceneGraph> odometric_graph;
+    mapped(k.from, Eigen::Isometry3d::Identity(), false, &odometric_layer, &no_control, &odometric_graph);
+    DeformationGraph reference(c);
+    ASSERT_TRUE(reference.optimize(odometric_layer, closures, no_control, *odometric_graph).solve.poses_updated());
+    double moved_m[2] = {0.0, 0.0};
+    for (int stamp = 0; stamp < 2; ++stamp) {
+      agents::AgentLayer layer;
+      ControlPoints control;
+      std::unique_ptr<scene_graph::SceneGraph> graph;
+      mapped(k.from, correction, stamp == 1, &layer, &control, &graph);
+      if (stamp == 1) {
+        EXPECT_NEAR(layer.chain(last).path_m, odometric_layer.chain(last).path_m, 1e-9)
+            << "a change of frame is not path";
+      }
+      DeformationGraph d(c);
+      const DeformationResult r = d.optimize(layer, closures, control, *graph);
+      ASSERT_TRUE(r.solve.poses_updated()) << r.solve.message;
+      if (k.spacing_m > 0.0) {
+        EXPECT_LT(r.agents_solved, walk_.truth.size() / 2);
+      }
+      ASSERT_EQ(d.num_agent_poses(), walk_.truth.size());
+      for (std::size_t n = 0; n < walk_.truth.size(); ++n)
+        moved_m[stamp] = std::max(moved_m[stamp], (d.agent_pose(n).t_m - reference.agent_pose(n).t_m).norm());
+    }
+    EXPECT_LT(moved_m[1], k.within_m) << "stamped: the odometry frame's solution";
+    EXPECT_GT(moved_m[0], 0.05) << "unstamped: the correction taken for motion";
+  }
+}
+
+}  // namespace
+}  // namespace qsg::backend
