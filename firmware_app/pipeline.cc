@@ -701,12 +701,24 @@ void Pipeline::telemetry_task(void* self, const runtime::TaskContext&) {
   p.telemetry_.commit();
 }
 
+Eigen::Isometry3d Pipeline::mapped_pose(const Eigen::Isometry3d& odometric) {
+  if (!config_.loop_closure.map_in_corrected_frame) return odometric;
+  Eigen::Isometry3d map_T_odom;
+  {
+    std::lock_guard<std::mutex> lock(frame_mutex_);
+    map_T_odom = map_T_odom_;
+  }
+  frontend_.set_frame_correction(map_T_odom);  // stamped on the agent node this keyframe adds
+  return map_T_odom * odometric;
+}
+
 // The reconstruction task: the keyframe through pipeline::integrate_keyframe (TSDF, wall map, free space, agent node).
 void Pipeline::integrate_keyframe(const runtime::TaskContext& c) {
   if (current_keyframe_ < 0) return;
   const auto slot = static_cast<std::size_t>(current_keyframe_);
   const messages::RgbdFrame& frame = frames_[slot];
-  const Eigen::Isometry3d& world_T_camera = frame_poses_[slot];
+  // loop_closure.map_in_corrected_frame: the odometric pose moved by the latest correction (map_T_odom).
+  const Eigen::Isometry3d world_T_camera = mapped_pose(frame_poses_[slot]);
   cast_label_votes();  // labels that came back since the last keyframe; their blocks re-mesh in process()
   const auto time_ns = static_cast<std::uint64_t>(frame.sample_time_ns);
   // A step the odometry kept (odometry.steps): the next agent's edge measures the step, not motion.

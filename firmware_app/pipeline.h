@@ -209,6 +209,15 @@ class Pipeline {
   const backend::AgentGraphResult& pose_graph() const { return pose_graph_; }
   const metrics::TrajectoryError& trajectory_error() const { return ate_unaligned_; }
   const metrics::TrajectoryError& odometry_trajectory_error() const { return ate_odometry_; }
+  // loop_closure.map_in_corrected_frame: the corrections the frontend followed, and the one it maps in now.
+  std::uint64_t frame_corrections() {
+    std::lock_guard<std::mutex> lock(frame_mutex_);
+    return frame_corrections_;
+  }
+  Eigen::Isometry3d map_T_odom() {
+    std::lock_guard<std::mutex> lock(frame_mutex_);
+    return map_T_odom_;
+  }
   void set_run_observer(runtime::Scheduler::RunObserver observer, void* user) {
     scheduler_.set_run_observer(observer, user);
   }
@@ -250,6 +259,8 @@ class Pipeline {
   void copy_backend_counters();
   bool init_gpio(std::string* error);
   void integrate_keyframe(const runtime::TaskContext& c);
+  // The pose a keyframe is mapped at: odometric, or moved by map_T_odom_ (loop_closure.map_in_corrected_frame).
+  Eigen::Isometry3d mapped_pose(const Eigen::Isometry3d& odometric);
   void update_frontend(const runtime::TaskContext& c);
   std::int64_t data_to_loop_ns(std::int64_t sample_time_ns) const { return sample_time_ns + data_offset_ns_; }
   bool init_odometry(std::string* error);
@@ -307,6 +318,11 @@ class Pipeline {
   // closure under graph_mutex_ (the door detection and the deformation solve without it).
   backend::BackendStage backend_;
   std::mutex wall_mutex_;
+  // loop_closure.map_in_corrected_frame: the correction the frontend maps in, updated by the backend thread after
+  // each solve, read by the reconstruction task per keyframe.
+  std::mutex frame_mutex_;
+  Eigen::Isometry3d map_T_odom_ = Eigen::Isometry3d::Identity();
+  std::uint64_t frame_corrections_ = 0;
   std::mutex deformation_mutex_;  // the backend thread's deformation solve against a snapshot reading its solution
   // The app's side of the pipeline's steps (core/pipeline/pipeline_steps.h, where their order is written once): its
   // mutexes, the door passes' and the final stage's timing against their budgets and stage markers, the keyframe's

@@ -180,17 +180,20 @@ bool Pipeline::finish_trajectory(std::string* error) {
     const auto t_ns = static_cast<std::int64_t>(n.time_ns);
     const Eigen::Isometry3d corrected = backend_.corrected_pose(agents, k);  // odometric without loop closures
     estimate.push_back(replay::StampedPose::from_isometry(t_ns, corrected));
+    // As the odometry gave it (loop_closure.map_in_corrected_frame maps it moved by a correction).
+    const Eigen::Isometry3d odom = agents::odometric_pose(n);
+    const Eigen::Quaterniond odom_q = n.frame_is_identity() ? n.q : Eigen::Quaterniond(odom.linear());
     replay::StampedPose p;
     p.time_ns = t_ns;
-    p.world_t_body_m = n.t_m;
-    p.world_R_body = n.q;
+    p.world_t_body_m = odom.translation();
+    p.world_R_body = odom_q;
     odometric.push_back(p);
     replay::StampedPose g;
     if (ground_truth_.empty() || !replay::interpolate_pose(ground_truth_, t_ns, INT64_MAX, &g)) continue;
     const Eigen::Isometry3d world_T_camera = g.world_T_body() * mount;
     truth.push_back(replay::StampedPose::from_isometry(t_ns, world_T_camera));
     est.push_back({t_ns, corrected.translation(), Eigen::Quaterniond(corrected.linear())});
-    odo.push_back({t_ns, n.t_m, n.q});
+    odo.push_back({t_ns, odom.translation(), odom_q});
     ref.push_back({t_ns, world_T_camera.translation(), Eigen::Quaterniond(world_T_camera.linear())});
   }
   const std::string dir = config_.output_dir;

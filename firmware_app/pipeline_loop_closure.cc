@@ -186,6 +186,13 @@ void Pipeline::run_loop_closure(std::uint64_t time_ns, pipeline::Host::Held* gra
     r.closures_carried = static_cast<std::uint32_t>(d.closures_carried);
     r.decided_again = d.decided_again;
   }
+  if (r.ok && config_.loop_closure.map_in_corrected_frame) {
+    // The keyframes from now on are mapped where this solution puts the odometry frame.
+    const Eigen::Isometry3d map_T_odom = backend_.map_T_odom();
+    std::lock_guard<std::mutex> lock(frame_mutex_);
+    map_T_odom_ = map_T_odom;
+    ++frame_corrections_;
+  }
   solve_cpu_in_update_us_ += r.cpu_us;
   solve_wall_in_update_us_ += r.wall_us;
   if (static_cast<std::uint64_t>(r.wall_us) > graph_optimization_max_us_.load())
@@ -281,6 +288,14 @@ void Pipeline::correct_outputs(reconstruction::Mesh* mesh, reconstruction::Mesh*
               static_cast<unsigned long long>(backend_.control_points().stats().failed),
               static_cast<unsigned long long>(backend_.control_points().folded()),
               static_cast<unsigned long long>(backend_.control_points().folds()), backend_.loop_closures().size());
+  if (config_.loop_closure.map_in_corrected_frame) {
+    std::lock_guard<std::mutex> lock(frame_mutex_);
+    std::printf(
+        "loop closure: the frontend mapped in the corrected frame, %llu corrections followed (the last: "
+        "%.3f m, %.2f degrees from the odometry)\n",
+        static_cast<unsigned long long>(frame_corrections_), map_T_odom_.translation().norm(),
+        Eigen::AngleAxisd(map_T_odom_.linear()).angle() * 180.0 / M_PI);
+  }
   // A copy under the graph lock that found a buffer short allocated there: its reservation missed a store.
   const backend::DeformationInputs& in = backend_.deformation_inputs();
   std::printf("loop closure: %llu solve inputs copied under the graph lock, %llu of them grew a buffer%s\n",
