@@ -42,7 +42,8 @@ void DetectorCounters::print(std::FILE* out) const {
       out,
       "loop closures: %llu queries (%llu without enough objects), %llu places candidates, %llu objects "
       "candidates, %llu ratio rejections, %llu appearance checks of which %llu registered, %llu verified by "
-      "objects of which %llu failed registration (%llu refined by ICP, %llu not, %llu then on local maps, %llu "
+      "objects (%llu skipped as near one verified) of which %llu failed registration (%llu refined by ICP, %llu not, "
+      "%llu then on local maps, %llu "
       "refused there (%llu no overlap, %llu degenerate, %llu too large a correction), %llu dropped), "
       "%llu proposed; "
       "%llu agents refused, %llu folds, %llu tree rebuilds\n",
@@ -50,13 +51,13 @@ void DetectorCounters::print(std::FILE* out) const {
       static_cast<unsigned long long>(places_candidates), static_cast<unsigned long long>(objects_candidates),
       static_cast<unsigned long long>(ratio_rejections), static_cast<unsigned long long>(appearance_checks),
       static_cast<unsigned long long>(appearance_accepted), static_cast<unsigned long long>(verifications),
-      static_cast<unsigned long long>(registration_failures), static_cast<unsigned long long>(icp_refined),
-      static_cast<unsigned long long>(icp_refused), static_cast<unsigned long long>(local_map_refined),
-      static_cast<unsigned long long>(local_map_refused), static_cast<unsigned long long>(local_map_no_overlap),
-      static_cast<unsigned long long>(local_map_degenerate), static_cast<unsigned long long>(local_map_correction),
-      static_cast<unsigned long long>(objects_unrefined), static_cast<unsigned long long>(proposed),
-      static_cast<unsigned long long>(refused), static_cast<unsigned long long>(folds),
-      static_cast<unsigned long long>(tree_rebuilds));
+      static_cast<unsigned long long>(verifications_skipped), static_cast<unsigned long long>(registration_failures),
+      static_cast<unsigned long long>(icp_refined), static_cast<unsigned long long>(icp_refused),
+      static_cast<unsigned long long>(local_map_refined), static_cast<unsigned long long>(local_map_refused),
+      static_cast<unsigned long long>(local_map_no_overlap), static_cast<unsigned long long>(local_map_degenerate),
+      static_cast<unsigned long long>(local_map_correction), static_cast<unsigned long long>(objects_unrefined),
+      static_cast<unsigned long long>(proposed), static_cast<unsigned long long>(refused),
+      static_cast<unsigned long long>(folds), static_cast<unsigned long long>(tree_rebuilds));
 }
 
 bool LoopClosureDetector::init(std::size_t capacity, const LocalMapCapacities& local_map, const DetectorConfig& config,
@@ -330,8 +331,18 @@ bool LoopClosureDetector::add_and_detect(const AgentEntry& query, LoopClosure* o
         propose(candidates_[k], match);
       }
     }
-    for (std::size_t k = 0; k < n && k < config_.max_verifications && !found; ++k) {
+    double verified_path[64];  // the path of the candidates verified for this query (max_verifications <= 64)
+    std::uint32_t verified = 0;
+    for (std::size_t k = 0; k < n && verified < config_.max_verifications && !found; ++k) {
       const AgentEntry& match = entries_[candidates_[k].entry];
+      bool near_verified = false;
+      for (std::uint32_t v = 0; v < verified && !near_verified; ++v)
+        near_verified = std::abs(match.path_m - verified_path[v]) <= config_.distinct_verification_m;
+      if (near_verified) {
+        ++counters_.verifications_skipped;
+        continue;
+      }
+      verified_path[verified++] = match.path_m;
       ++counters_.verifications;
       const Registration r = registration_.register_sets(query.descriptor.points.data(), query.descriptor.num_points,
                                                          match.descriptor.points.data(), match.descriptor.num_points);

@@ -6,8 +6,9 @@
 //            candidate elsewhere (perceptual aliasing);
 //   verification, bottom-up: the appearance of the two agents' keyframes (appearance.h: ORB matches and RANSAC
 //                 on their 3D points) for the best max_appearance_checks candidates, precise where it succeeds; else
-//                 object-based registration (object_registration.h) of the best max_verifications; the first
-//                 candidate that registers gives the loop closure.
+//                 object-based registration (object_registration.h) of the best max_verifications, one per
+//                 stretch of the trajectory (distinct_verification_m); the first candidate that registers gives
+//                 the loop closure.
 // Candidates must be at least min_time_separation_s and min_path_separation_m (along the trajectory) older than
 // the query. Capacity is fixed at init; when full, every second agent of the older half is dropped (folds, counted).
 // Backend thread only; nothing allocates after init.
@@ -42,6 +43,10 @@ struct DetectorConfig {
   double ratio = 0.95;
   double ratio_distance_m = 4.0;
   std::uint32_t max_verifications = 3;  // candidates registered by their objects per query at most, best first
+  // A verification covers a stretch of the trajectory, not one agent: ICP tries the match's neighbours and the
+  // local maps its path. A candidate within this much path of one already verified for the query is skipped
+  // (counted), so the max_verifications go to distinct places. 0: by rank only.
+  double distinct_verification_m = 3.0;
   std::uint32_t max_appearance_checks = 8;  // candidates registered by appearance first (agents with features)
   std::uint32_t rebuild_batch = 64;     // agents scanned linearly before the tree is rebuilt over them
   RegistrationConfig registration;
@@ -113,6 +118,7 @@ struct DetectorCounters {
   std::uint64_t appearance_checks = 0;
   std::uint64_t appearance_accepted = 0;
   std::uint64_t verifications = 0;        // by objects
+  std::uint64_t verifications_skipped = 0;  // candidates within distinct_verification_m of path of one verified
   std::uint64_t registration_failures = 0;
   std::uint64_t icp_refined = 0;          // registrations (appearance or objects) refined by ICP
   std::uint64_t icp_refused = 0;          // ... where ICP was tried and not trusted (coarse estimate kept)

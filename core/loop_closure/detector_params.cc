@@ -34,6 +34,8 @@ const params::Table<DetectorConfig>& detector_params_table() {
     t.add("min_path_separation_m", &D::min_path_separation_m, "m", in(0, 1000), project,
           "candidates at least this much path behind");
     t.add("ratio", &D::ratio, "", above(0, 1), project, "ratio test against the best candidate");
+    t.add("distinct_verification_m", &D::distinct_verification_m, "m", in(0, 1000), refinement,
+          "a candidate within this much path of one already verified for the query is skipped (0: by rank only)");
     t.flag("propose_unrefined_objects", &D::propose_unrefined_objects, project,
            "object registrations ICP could not refine are proposed too");
     return t;

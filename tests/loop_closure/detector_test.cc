@@ -139,6 +139,54 @@ TEST_F(DetectorTest, AnUnrefinedObjectRegistrationIsNotProposedByDefault) {
   EXPECT_EQ(detector.counters().proposed, 0u);
 }
 
+// Three agents described one after another in a room whose objects have the query's labels but not its layout
+// rank above the true match (one object more, so a lower objects similarity). The verification of the first
+// covers its stretch of the trajectory; the budget of two goes to the next stretch, where the true match is.
+// Verified by rank only, both verifications go to the look-alike and nothing is found.
+TEST_F(DetectorTest, VerificationsGoToDistinctStretchesOfTheTrajectory) {
+  const std::vector<Furniture> look_alike = {{{0.5, 4.0}, 10}, {{4.0, 0.5}, 10}, {{2.5, 2.5}, 5},
+                                             {{0.8, 1.9}, 3},  {{5.0, 2.2}, 3},  {{1.0, 0.3}, 14}};
+  std::vector<Furniture> living_plus = kLiving;
+  living_plus.push_back({{3.8, 3.0}, 7});
+  const NodeId a = draw_room(graph_.get(), &places_, &objects_, pose(0, 0, 0), living_plus);
+  const NodeId d = draw_room(graph_.get(), &places_, &objects_, pose(30, 0, 0.5), look_alike);
+  const NodeId c = draw_room(graph_.get(), &places_, &objects_, pose(0.6, -0.4, 0.07), kLiving);
+  for (const double distinct_m : {3.0, 0.0}) {
+    SCOPED_TRACE(distinct_m);
+    DetectorConfig config;
+    config.propose_unrefined_objects = true;  // no depth here: registrations are proposed unrefined
+    config.ratio = 1.0;                       // the look-alike would make the place ambiguous
+    config.max_verifications = 2;
+    config.distinct_verification_m = distinct_m;
+    LoopClosureDetector detector;
+    std::string error;
+    ASSERT_TRUE(detector.init(64, kLocalMap, config, &error)) << error;
+    LoopClosure lc;
+    EXPECT_FALSE(detector.add_and_detect(describe(&builder_, *graph_, a, 0, 0, 0, pose(2, 2, 0.1)), &lc));
+    for (std::uint64_t i = 1; i <= 3; ++i) {
+      const Eigen::Isometry3d at = pose(30, 0, 0.5) * pose(1.5 + 0.5 * i, 2, 0);
+      EXPECT_FALSE(detector.add_and_detect(describe(&builder_, *graph_, d, i, 30 + i, 10 + i, at), &lc));
+    }
+    const DetectorCounters before = detector.counters();  // the look-alike's agents were queries too
+    const bool found = detector.add_and_detect(describe(&builder_, *graph_, c, 4, 120, 50, pose(2.5, 1.5, 2.0)), &lc);
+    const DetectorCounters& after = detector.counters();
+    EXPECT_EQ(after.objects_candidates - before.objects_candidates, 4u);
+    EXPECT_EQ(after.verifications - before.verifications, 2u);
+    const std::uint64_t skipped = after.verifications_skipped - before.verifications_skipped;
+    const std::uint64_t failed = after.registration_failures - before.registration_failures;
+    if (distinct_m > 0.0) {
+      ASSERT_TRUE(found);
+      EXPECT_EQ(lc.match, make_node_id('a', 0));
+      EXPECT_EQ(skipped, 2u);
+      EXPECT_EQ(failed, 1u);
+    } else {
+      EXPECT_FALSE(found);
+      EXPECT_EQ(skipped, 0u);
+      EXPECT_EQ(failed, 2u);
+    }
+  }
+}
+
 TEST_F(DetectorTest, TheRecentPastIsNotACandidate) {
   const NodeId a = draw_room(graph_.get(), &places_, &objects_, pose(0, 0, 0), kLiving);
   LoopClosure lc;
