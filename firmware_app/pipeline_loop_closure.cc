@@ -62,7 +62,8 @@ void Pipeline::capture_agent_frame(const messages::RgbdFrame& frame, scene_graph
   if (!config_.loop_closure.enabled) return;
   const agents::AgentLayer& agents = frontend_.agents();
   if (agents.chain_size() == 0) return;
-  const Eigen::Vector3d p = agents.chain(agents.chain_size() - 1).t_m;
+  // Spaced by the odometry's path: a change of the frontend's frame (map_in_corrected_frame) is not motion.
+  const Eigen::Vector3d p = agents::odometric_pose(agents.chain(agents.chain_size() - 1)).translation();
   if (lc_have_captured_ && (p - lc_captured_m_).norm() < config_.loop_closure.describe_every_m) return;
   int slot = -1;
   if (!lc_free_frames_.try_pop(&slot)) {

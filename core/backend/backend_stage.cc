@@ -307,8 +307,10 @@ std::size_t BackendStage::describe_agents(const scene_graph::SceneGraph& graph, 
          described_.size() < described_.capacity();
        ++k) {
     const agents::ChainNode& n = agents.chain(k);
-    if (have_last_) path_m_ += (n.t_m - last_m_).norm();
-    last_m_ = n.t_m;
+    // The path the odometry travelled: a change of the frontend's frame between two nodes is not motion.
+    const Eigen::Vector3d odometric_m = agents::odometric_pose(n).translation();
+    if (have_last_) path_m_ += (odometric_m - last_m_).norm();
+    last_m_ = odometric_m;
     have_last_ = true;
     described_until_ns_ = n.time_ns;
     // Described: the agents whose keyframe was captured (one per describe_every_m of path).

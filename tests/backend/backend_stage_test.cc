@@ -389,6 +389,44 @@ TEST(BackendStageTest, TheFinishDescribesTheAgentsOfTheLastHorizon) {
   EXPECT_EQ(stage.counters().agents_described.load(), 4u) << "the finish describes the last 15 s too";
 }
 
+// The path an agent is described at is the odometry's: when the frontend changes frame (a solve's correction,
+// map_in_corrected_frame) the mapped positions jump, and the jump is not travel. Agents 1 m apart along x, the
+// last two mapped in a frame moved 5 m sideways: the path to the last is 3 m, not 3 + 5.
+TEST(BackendStageTest, TheDescribedPathIsTheOdometrysNotTheMappedJump) {
+  BackendStage stage;
+  BackendStage::Config c;
+  c.loop_closure.enabled = true;
+  c.loop_closure.horizon_s = 1.0;
+  std::string error, warning;
+  ASSERT_TRUE(stage.init(c, graph_capacities(), 64, 0, &error, &warning)) << error;
+  auto g = make_graph();
+  agents::AgentLayer agents;
+  ASSERT_TRUE(agents.init(agents::Config{}, agents::Capacities{64}, &error)) << error;
+  const int w = 32, h = 24;
+  std::vector<std::uint8_t> grey(w * h, 128);
+  std::vector<float> depth(w * h, 2.0f);
+  const loop_closure::GreyDepthView view{grey.data(), depth.data(), w, h, 30.0, 30.0, 15.5, 11.5};
+  const Eigen::Isometry3d shifted(Eigen::Translation3d(0.0, 5.0, 0.0));
+  for (int k = 0; k < 4; ++k) {
+    if (k == 2) agents.set_frame_correction(shifted);
+    const Eigen::Isometry3d odometric(Eigen::Translation3d(1.0 * k, 0.0, 0.0));
+    const Eigen::Isometry3d mapped = k >= 2 ? shifted * odometric : odometric;
+    ASSERT_EQ(agents.add_keyframe(g.get(), 5'000'000'000ull * (k + 1), mapped), agents::AddResult::kAdded);
+    const agents::ChainNode& n = agents.chain(static_cast<std::size_t>(k));
+    stage.add_appearance(n.id, n.time_ns, view);
+    const sg::NodeId place = sg::make_node_id(sg::kPlacePrefix, static_cast<std::uint64_t>(k));
+    sg::PlaceAttributes a;
+    a.position_m = n.t_m;
+    ASSERT_EQ(g->add_place(place, a), sg::Status::kOk);
+    ASSERT_EQ(g->add_edge(n.id, place), sg::Status::kOk);
+  }
+  ASSERT_NEAR(agents.chain(3).t_m.y(), 5.0, 1e-12) << "the last agents are mapped in the shifted frame";
+  EXPECT_EQ(stage.describe_agents(*g, agents, 100'000'000'000ull), 4u);
+  stage.detect_described();
+  ASSERT_EQ(stage.detector().size(), 4u);
+  for (std::size_t i = 0; i < 4; ++i) EXPECT_NEAR(stage.detector().entry(i).path_m, 1.0 * i, 1e-9) << i;
+}
+
 TEST(BackendStageTest, StoresOverTheirArenaAreAClearError) {
   BackendStage stage;
   BackendStage::Config c;
