@@ -355,6 +355,24 @@ TEST(BackendStageTest, DetectHookBracketsEachDescribedAgentsLookup) {
   EXPECT_EQ(calls.seen.size(), 4u);
 }
 
+// Adds a keyframe agent at `pose` and `time_ns` with a flat grey keyframe for its appearance and a place it hangs
+// from (index `k`): an agent describe_agents() describes once it is past the horizon.
+void add_described_agent(BackendStage* stage, sg::SceneGraph* g, agents::AgentLayer* agents, std::uint64_t time_ns,
+                         const Eigen::Isometry3d& pose, std::uint64_t k) {
+  constexpr int w = 32, h = 24;
+  static const std::vector<std::uint8_t> grey(w * h, 128);
+  static const std::vector<float> depth(w * h, 2.0f);
+  const loop_closure::GreyDepthView view{grey.data(), depth.data(), w, h, 30.0, 30.0, 15.5, 11.5};
+  ASSERT_EQ(agents->add_keyframe(g, time_ns, pose), agents::AddResult::kAdded);
+  const agents::ChainNode& n = agents->chain(agents->chain_size() - 1);
+  stage->add_appearance(n.id, n.time_ns, view);
+  const sg::NodeId place = sg::make_node_id(sg::kPlacePrefix, k);
+  sg::PlaceAttributes a;
+  a.position_m = n.t_m;
+  ASSERT_EQ(g->add_place(place, a), sg::Status::kOk);
+  ASSERT_EQ(g->add_edge(n.id, place), sg::Status::kOk);
+}
+
 // While mapping, an agent is described once the robot is horizon_s past it; at the finish the map is final and the
 // last horizon_s's agents are described too (a tour's return to its start is among them).
 TEST(BackendStageTest, TheFinishDescribesTheAgentsOfTheLastHorizon) {
@@ -367,20 +385,10 @@ TEST(BackendStageTest, TheFinishDescribesTheAgentsOfTheLastHorizon) {
   auto g = make_graph();
   agents::AgentLayer agents;
   ASSERT_TRUE(agents.init(agents::Config{}, agents::Capacities{64}, &error)) << error;
-  const int w = 32, h = 24;
-  std::vector<std::uint8_t> grey(w * h, 128);
-  std::vector<float> depth(w * h, 2.0f);
-  const loop_closure::GreyDepthView view{grey.data(), depth.data(), w, h, 30.0, 30.0, 15.5, 11.5};
   for (int k = 0; k < 4; ++k) {  // agents at 20, 25, 30 and 35 s, each with its keyframe and a place
     const Eigen::Isometry3d pose(Eigen::Translation3d(1.0 * k, 0.0, 0.0));
-    ASSERT_EQ(agents.add_keyframe(g.get(), 5'000'000'000ull * (k + 4), pose), agents::AddResult::kAdded);
-    const agents::ChainNode& n = agents.chain(static_cast<std::size_t>(k));
-    stage.add_appearance(n.id, n.time_ns, view);
-    const sg::NodeId place = sg::make_node_id(sg::kPlacePrefix, static_cast<std::uint64_t>(k));
-    sg::PlaceAttributes a;
-    a.position_m = n.t_m;
-    ASSERT_EQ(g->add_place(place, a), sg::Status::kOk);
-    ASSERT_EQ(g->add_edge(n.id, place), sg::Status::kOk);
+    add_described_agent(&stage, g.get(), &agents, 5'000'000'000ull * (k + 4), pose, static_cast<std::uint64_t>(k));
+    ASSERT_FALSE(::testing::Test::HasFatalFailure());
   }
   const std::uint64_t last_ns = 35'000'000'000ull;
   EXPECT_EQ(stage.describe_agents(*g, agents, last_ns), 1u) << "only the agent 15 s behind the robot";
@@ -402,23 +410,13 @@ TEST(BackendStageTest, TheDescribedPathIsTheOdometrysNotTheMappedJump) {
   auto g = make_graph();
   agents::AgentLayer agents;
   ASSERT_TRUE(agents.init(agents::Config{}, agents::Capacities{64}, &error)) << error;
-  const int w = 32, h = 24;
-  std::vector<std::uint8_t> grey(w * h, 128);
-  std::vector<float> depth(w * h, 2.0f);
-  const loop_closure::GreyDepthView view{grey.data(), depth.data(), w, h, 30.0, 30.0, 15.5, 11.5};
   const Eigen::Isometry3d shifted(Eigen::Translation3d(0.0, 5.0, 0.0));
   for (int k = 0; k < 4; ++k) {
     if (k == 2) agents.set_frame_correction(shifted);
     const Eigen::Isometry3d odometric(Eigen::Translation3d(1.0 * k, 0.0, 0.0));
     const Eigen::Isometry3d mapped = k >= 2 ? shifted * odometric : odometric;
-    ASSERT_EQ(agents.add_keyframe(g.get(), 5'000'000'000ull * (k + 1), mapped), agents::AddResult::kAdded);
-    const agents::ChainNode& n = agents.chain(static_cast<std::size_t>(k));
-    stage.add_appearance(n.id, n.time_ns, view);
-    const sg::NodeId place = sg::make_node_id(sg::kPlacePrefix, static_cast<std::uint64_t>(k));
-    sg::PlaceAttributes a;
-    a.position_m = n.t_m;
-    ASSERT_EQ(g->add_place(place, a), sg::Status::kOk);
-    ASSERT_EQ(g->add_edge(n.id, place), sg::Status::kOk);
+    add_described_agent(&stage, g.get(), &agents, 5'000'000'000ull * (k + 1), mapped, static_cast<std::uint64_t>(k));
+    ASSERT_FALSE(::testing::Test::HasFatalFailure());
   }
   ASSERT_NEAR(agents.chain(3).t_m.y(), 5.0, 1e-12) << "the last agents are mapped in the shifted frame";
   EXPECT_EQ(stage.describe_agents(*g, agents, 100'000'000'000ull), 4u);
