@@ -91,6 +91,8 @@ bool parse(int argc, char** argv, Options* o) {
       o->diagnose = v == "1";
     } else if (a == "--solvers") {
       o->solvers = split(v);
+    } else if (a == "--gnc-refine") {
+      o->robust.gnc_tls_refine_rounds = std::atoi(v.c_str());
     } else if (a == "--gnc-max-outer") {
       o->robust.gnc_max_outer_iterations = std::atoi(v.c_str());
     } else if (a == "--seed") {
@@ -167,7 +169,7 @@ int main(int argc, char** argv) {
     std::fprintf(
         stderr,
         "usage: %s [--data-dir DIR] [--graphs a,b,...] [--outliers 0.1,0.3,0.5] [--seed N] [--json OUT]\n"
-        "          [--threshold-sigma C] [--gnc-inner N] [--gnc-mu-factor F] [--gnc-max-outer N]\n"
+        "          [--threshold-sigma C] [--gnc-inner N] [--gnc-mu-factor F] [--gnc-max-outer N] [--gnc-refine N]\n"
         "          [--solvers gnc_tls,pcm_gnc_tls,cauchy] [--pcm-threshold-sigma G] [--pcm-max-clique-nodes N]\n"
         "          [--diagnose 1] [--function-tolerance T] [--max-iterations N] [--noise-bound Q]\n"
         "  DIR holds NAME.g2o (default ../shared/data/pose_graphs); an outlier fraction f injects\n"
@@ -190,10 +192,11 @@ int main(int argc, char** argv) {
     std::snprintf(settings, sizeof settings,
                   "; function tolerance %g, up to %d iterations a solve; robust threshold %g sigma of the stated noise",
                   opt.function_tolerance, opt.max_iterations, opt.robust.loop_closure_loss_scale_sigma);
+  const std::string refine = "; GNC-TLS refine rounds " + std::to_string(opt.robust.gnc_tls_refine_rounds);
   bench::Figures figures(
       "pgo_eval: g2o pose graphs from the file's initial guess, Ceres sparse normal Cholesky, 1 "
       "thread; wrong closures seed " +
-      std::to_string(opt.seed) + settings);
+      std::to_string(opt.seed) + settings + refine);
   int failures = 0;
   for (const std::string& name : opt.graphs) {
     backend::G2oPoseGraph g;
@@ -299,14 +302,18 @@ int main(int argc, char** argv) {
           if (k >= g.edges.size() && !off) ++wrong_kept;
           if (k < g.edges.size() && off) ++right_dropped;
         }
-        std::printf("  %2.0f %% wrong (%zu), %-11s: %.4f m from the outlier-free solution (%.3f %% of its radius); "
-                    "%zu wrong kept, %zu right dropped; %d iterations%s, %.2f s [%s]\n",
-                    100.0 * f, count, solver.c_str(), e, 100.0 * e / radius, wrong_kept, right_dropped,
-                    r.iterations,
-                    r.gnc_outer_iterations > 0 ? (" (" + std::to_string(r.gnc_outer_iterations) + " GNC)").c_str() : "",
-                    s, r.message.c_str());
+        std::printf(
+            "  %2.0f %% wrong (%zu), %-11s: %.4f m from the outlier-free solution (%.3f %% of its radius); "
+            "%zu wrong kept, %zu right dropped; %d iterations%s, %.2f s [%s]\n",
+            100.0 * f, count, solver.c_str(), e, 100.0 * e / radius, wrong_kept, right_dropped, r.iterations,
+            r.gnc_outer_iterations > 0 ? (" (" + std::to_string(r.gnc_outer_iterations) + " GNC, " +
+                                          std::to_string(r.gnc_refine_rounds) + " TLS rounds)")
+                                             .c_str()
+                                       : "",
+            s, r.message.c_str());
         const std::string q = p + "outliers_" + std::to_string(static_cast<int>(std::lround(100.0 * f))) + "." +
-                              solver + (opt.noise_bound_quantile > 0.0 ? "_noise_bound." : ".");
+                              solver + (opt.noise_bound_quantile > 0.0 ? "_noise_bound" : "") +
+                              (opt.robust.gnc_tls_refine_rounds > 0 ? "_tls_refined." : ".");
         figures.add(q + "rmse_to_outlier_free", e, "m");
         figures.add(q + "rmse_to_outlier_free_share", e / radius, "fraction of the RMS radius");
         figures.add(q + "wrong_kept", static_cast<double>(wrong_kept), "edges");

@@ -131,7 +131,8 @@ std::string check_config(const PoseGraphConfig& config) {
       return format("gnc_mu_factor is %g, must be in (1, 10]", config.gnc_mu_factor);
     if (config.gnc_inner_iterations < 1)
       return format("gnc_inner_iterations is %d, must be >= 1", config.gnc_inner_iterations);
-
+    if (config.gnc_tls_refine_rounds < 0)
+      return format("gnc_tls_refine_rounds is %d, must be >= 0", config.gnc_tls_refine_rounds);
   }
   return {};
 }
@@ -420,7 +421,27 @@ class GraphSolve {
     if (!summary.IsSolutionUsable()) return summary;
     state_ = initial_state_;
     solve(options_, &summary, result);
+    refine_tls(&summary, result);
     return summary;
+  }
+
+  // The truncated least-squares fixed point from GNC's solution (PoseGraphConfig::gnc_tls_refine_rounds).
+  void refine_tls(ceres::Solver::Summary* summary, PoseGraphResult* result) {
+    const double c = config_.loop_closure_loss_scale_sigma;
+    std::vector<double> r;
+    for (int round = 0; round < config_.gnc_tls_refine_rounds && summary->IsSolutionUsable(); ++round) {
+      loop_closure_residuals(&r);
+      bool changed = false;
+      for (std::size_t k = 0; k < edges_.size(); ++k) {
+        if (!edges_[k].is_loop_closure || excluded_[k]) continue;
+        const double w = r[k] <= c ? 1.0 : 0.0;
+        changed = changed || w != weights_[k];
+        weights_[k] = w;
+      }
+      if (!changed) return;
+      solve(options_, summary, result);
+      ++result->gnc_refine_rounds;
+    }
   }
 
   const PoseGraphConfig& config_;
@@ -473,9 +494,9 @@ void PoseGraphConfig::print(std::FILE* out) const {
   std::fprintf(out,
                "pose_graph: loop_closure_loss=%s loop_closure_loss_scale_sigma=%g huber_warm_start=%s "
                "max_iterations=%d gnc_max_outer_iterations=%d gnc_mu_factor=%g gnc_inner_iterations=%d "
-               "fix_first_pose=%s num_threads=%d prefilter_pairwise_consistency=%s\n",
+               "gnc_tls_refine_rounds=%d fix_first_pose=%s num_threads=%d prefilter_pairwise_consistency=%s\n",
                to_string(loop_closure_loss), loop_closure_loss_scale_sigma, huber_warm_start ? "true" : "false",
-               max_iterations, gnc_max_outer_iterations, gnc_mu_factor, gnc_inner_iterations,
+               max_iterations, gnc_max_outer_iterations, gnc_mu_factor, gnc_inner_iterations, gnc_tls_refine_rounds,
                fix_first_pose ? "true" : "false", num_threads, prefilter_pairwise_consistency ? "true" : "false");
   if (prefilter_pairwise_consistency) pairwise_consistency.print(out);
 }

@@ -45,6 +45,12 @@ struct PoseGraphConfig {
   int gnc_max_outer_iterations = 100;
   double gnc_mu_factor = 1.4;
   int gnc_inner_iterations = 10;
+  // kGncTls, a refinement: after GNC's last solve, rounds of the truncated least-squares fixed point. The closures
+  // the solution fits within the threshold are kept, the others dropped, and the graph is solved again from there,
+  // until no decision changes. GNC decides from its last annealing state, whose short inner solves can leave a right
+  // closure just past the threshold; the final solve then fits it, and it stays dropped. Each round can only lower
+  // the TLS cost. 0: GNC's decisions as they are (bench/results/pose_graph.md).
+  int gnc_tls_refine_rounds = 0;
   // Removes the gauge freedom: holds poses[0], and the lowest-index pose of any component not connected to it.
   bool fix_first_pose = true;
   // Poses [0, hold_first_poses) stay where they are (constant in the solve): the rest is solved around them.
@@ -83,6 +89,7 @@ struct PoseGraphResult {
   // kept or 0 rejected); kGncTls: the outer iterations run. Otherwise empty and 0.
   std::vector<double> edge_weight;
   int gnc_outer_iterations = 0;
+  int gnc_refine_rounds = 0;  // kGncTls with gnc_tls_refine_rounds: the rounds that changed a decision and re-solved
   // Where a solve's time goes: Ceres' own wall-clock time over its solves, or PoseGraphConfig::clock_s's.
   double solver_time_s = 0.0;
   // With prefilter_pairwise_consistency: the prefilter's tallies (its rejected closures are downweighted too).

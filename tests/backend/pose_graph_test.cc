@@ -244,6 +244,46 @@ TEST(PoseGraph, GncTlsSwitchesOffHalfTheLoopClosuresWhenWrong) {
   EXPECT_GT(r.gnc_outer_iterations, 0);
 }
 
+// GNC stopped early (one inner iteration, three outer ones) decides from a state that still bends under the wrong
+// closures, and drops right ones that its final solve then fits. The TLS rounds keep what the solution fits and drop
+// what it does not, until nothing changes: every right closure back, every wrong one off, and each decision agrees
+// with its residual.
+TEST(PoseGraph, TlsRoundsReadmitTheRightClosuresAnEarlyStoppedGncDropped) {
+  const HalfOutliers h = half_outliers();
+  PoseGraphConfig gnc;
+  gnc.loop_closure_loss = RobustLoss::kGncTls;
+  gnc.gnc_inner_iterations = 1;
+  gnc.gnc_max_outer_iterations = 3;
+  const auto right_dropped = [&h](const PoseGraphResult& r) {
+    std::size_t n = 0;
+    for (std::size_t k = 0; k < h.clean.size(); ++k) n += h.clean[k].is_loop_closure && r.edge_weight[k] == 0.0;
+    return n;
+  };
+  std::vector<Pose3> early = h.initial;
+  const PoseGraphResult without = optimize_pose_graph(gnc, early, h.corrupt);
+  ASSERT_TRUE(without.poses_updated()) << without.message;
+  ASSERT_GT(right_dropped(without), 0u) << "the early stop must drop a right closure, else this tests nothing";
+  EXPECT_EQ(without.gnc_refine_rounds, 0);
+
+  gnc.gnc_tls_refine_rounds = 10;
+  std::vector<Pose3> refined = h.initial;
+  const PoseGraphResult with = optimize_pose_graph(gnc, refined, h.corrupt);
+  ASSERT_TRUE(with.poses_updated()) << with.message;
+  EXPECT_GT(with.gnc_refine_rounds, 0);
+  EXPECT_LT(with.gnc_refine_rounds, 10) << "the rounds stop when no decision changes";
+  EXPECT_EQ(right_dropped(with), 0u);
+  for (std::size_t k = 0; k < h.corrupt.size(); ++k) {
+    if (!h.corrupt[k].is_loop_closure) continue;
+    EXPECT_EQ(with.edge_weight[k] == 1.0, with.edge_residual_sigma[k] <= gnc.loop_closure_loss_scale_sigma)
+        << "closure " << k << ": the decision must agree with the residual at the solution";
+    if (k >= h.clean.size()) {
+      EXPECT_EQ(with.edge_weight[k], 0.0) << "wrong closure " << k;
+    }
+  }
+  std::printf("[ pose graph ] GNC stopped after 3 outer iterations: %zu right closures dropped; %d TLS rounds: %zu\n",
+              right_dropped(without), with.gnc_refine_rounds, right_dropped(with));
+}
+
 // An information matrix diag(1 / sigma^2) weighs as the sigmas do (translation in the `to` frame instead of the
 // `from` frame changes nothing for an isotropic translation sigma).
 TEST(PoseGraph, ADiagonalInformationMatrixEqualsItsSigmas) {
