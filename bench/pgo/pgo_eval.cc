@@ -325,6 +325,8 @@ int main(int argc, char** argv) {
           figures.add(q + "pcm_kept", r.pairwise.kept, "edges");
           figures.add(q + "pcm_clique_truncated", r.pairwise.clique_truncated ? 1.0 : 0.0, "flag");
         }
+        // Written after every solve: a run of the large graphs takes hours, and one stopped keeps what it measured.
+        if (!opt.json_path.empty() && !figures.write(opt.json_path)) return 1;
       }
     }
   }
