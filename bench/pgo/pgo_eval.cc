@@ -233,6 +233,11 @@ int main(int argc, char** argv) {
     const double threshold =
         opt.noise_bound_quantile > 0.0 ? quantile(opt.noise_bound_quantile) : opt.robust.loop_closure_loss_scale_sigma;
     std::printf(
+        "%-15s %5zu poses %6zu edges (%zu loop closures): least squares cost %.6g -> %.6g (chi2 %.6g) in %d "
+        "iterations, %.2f s; trajectory RMS radius %.2f m\n",
+        name.c_str(), g.poses.size(), g.edges.size(), g.num_loop_closures, ref.initial_cost, ref.final_cost,
+        2.0 * ref.final_cost, ref.iterations, ref_s, radius);
+    std::printf(
         "%-15s real noise / stated: sqrt(chi2 / dof) %.4g (%.0f dof); right closures' residuals (stated sigma) "
         "median %.3g, 90 %% %.3g, 99 %% %.3g, largest %.3g; robust threshold %.4g\n",
         name.c_str(), noise_scale, dof, quantile(0.5), quantile(0.9), quantile(0.99), quantile(1.0), threshold);
