@@ -43,6 +43,7 @@ struct Options {
   // within it), as a user calibrates a front end's noise model on clean data. 0: --threshold-sigma in the stated
   // sigmas. The public files state noise up to hundreds of times their residuals.
   double noise_bound_quantile = 0.0;
+  double noise_margin = 1.0;  // with noise_bound_quantile: the threshold is this many times the quantile
 };
 
 std::vector<std::string> split(const std::string& text) {
@@ -87,6 +88,11 @@ bool parse(int argc, char** argv, Options* o) {
     } else if (a == "--noise-bound") {
       o->noise_bound_quantile = std::strtod(v.c_str(), nullptr);
       if (!(o->noise_bound_quantile >= 0.0 && o->noise_bound_quantile <= 1.0)) return false;
+    } else if (a == "--gnc-chordal") {
+      o->robust.gnc_chordal_solves = v == "1";
+    } else if (a == "--noise-margin") {
+      o->noise_margin = std::strtod(v.c_str(), nullptr);
+      if (!(o->noise_margin > 0.0)) return false;
     } else if (a == "--diagnose") {
       o->diagnose = v == "1";
     } else if (a == "--solvers") {
@@ -172,12 +178,14 @@ int main(int argc, char** argv) {
         "          [--threshold-sigma C] [--gnc-inner N] [--gnc-mu-factor F] [--gnc-max-outer N] [--gnc-refine N]\n"
         "          [--solvers gnc_tls,pcm_gnc_tls,cauchy] [--pcm-threshold-sigma G] [--pcm-max-clique-nodes N]\n"
         "          [--diagnose 1] [--function-tolerance T] [--max-iterations N] [--noise-bound Q]\n"
+        "          [--noise-margin M] [--gnc-chordal 1]\n"
         "  DIR holds NAME.g2o (default ../shared/data/pose_graphs); an outlier fraction f injects\n"
         "  f / (1 - f) x (the file's loop closures) wrong ones, so they are f of all closures.\n"
         "  The backend's pose-graph optimizer on the public g2o benchmarks: least-squares cost, iterations\n"
         "  and time from the file's guess (one thread), then with wrong loop closures injected: RMSE to the\n"
         "  outlier-free solution for GNC-TLS, pairwise consistency (PCM) then GNC-TLS, and Cauchy; wrong closures\n"
-        "  kept and right ones dropped. --diagnose 1: the dropped closures' residuals, the clean graph re-solved.\n"
+        "  kept and right ones dropped. --diagnose 1: the dropped closures' residuals, the TLS cost there and at the\n"
+        "  outlier-free solution, the clean graph re-solved from there.\n"
         "  JSON: pgo_eval.<graph>.*; results in bench/results/pose_graph.md.\n",
         argv[0]);
     return 2;
@@ -185,14 +193,15 @@ int main(int argc, char** argv) {
   char settings[256];
   if (opt.noise_bound_quantile > 0.0)
     std::snprintf(settings, sizeof settings,
-                  "; function tolerance %g, up to %d iterations a solve; robust threshold the %g-quantile of the right "
-                  "closures' residuals at the outlier-free solution",
-                  opt.function_tolerance, opt.max_iterations, opt.noise_bound_quantile);
+                  "; function tolerance %g, up to %d iterations a solve; robust threshold %g x the %g-quantile of the "
+                  "right closures' residuals at the outlier-free solution",
+                  opt.function_tolerance, opt.max_iterations, opt.noise_margin, opt.noise_bound_quantile);
   else
     std::snprintf(settings, sizeof settings,
                   "; function tolerance %g, up to %d iterations a solve; robust threshold %g sigma of the stated noise",
                   opt.function_tolerance, opt.max_iterations, opt.robust.loop_closure_loss_scale_sigma);
-  const std::string refine = "; GNC-TLS refine rounds " + std::to_string(opt.robust.gnc_tls_refine_rounds);
+  const std::string refine = "; GNC-TLS refine rounds " + std::to_string(opt.robust.gnc_tls_refine_rounds) +
+                             (opt.robust.gnc_chordal_solves ? "; GNC's weighted solves from the chordal estimate" : "");
   bench::Figures figures(
       "pgo_eval: g2o pose graphs from the file's initial guess, Ceres sparse normal Cholesky, 1 "
       "thread; wrong closures seed " +
@@ -230,8 +239,8 @@ int main(int argc, char** argv) {
       return right.empty() ? 0.0
                            : right[static_cast<std::size_t>(std::lround(q * static_cast<double>(right.size() - 1)))];
     };
-    const double threshold =
-        opt.noise_bound_quantile > 0.0 ? quantile(opt.noise_bound_quantile) : opt.robust.loop_closure_loss_scale_sigma;
+    const double threshold = opt.noise_bound_quantile > 0.0 ? opt.noise_margin * quantile(opt.noise_bound_quantile)
+                                                            : opt.robust.loop_closure_loss_scale_sigma;
     std::printf(
         "%-15s %5zu poses %6zu edges (%zu loop closures): least squares cost %.6g -> %.6g (chi2 %.6g) in %d "
         "iterations, %.2f s; trajectory RMS radius %.2f m\n",
@@ -292,6 +301,29 @@ int main(int argc, char** argv) {
           std::printf("\n");
         }
         if (opt.diagnose) {
+          // Is the truncated least-squares optimum itself off, or did GNC miss it? The TLS cost (half the sum of
+          // squared whitened residuals, a closure's capped at the threshold) at this solution and at the
+          // outlier-free solution, over every edge, wrong closures included.
+          const double c2 = config.loop_closure_loss_scale_sigma * config.loop_closure_loss_scale_sigma;
+          const auto tls_cost = [&](const std::vector<double>& residual) {
+            double cost = 0.0;
+            for (std::size_t k = 0; k < edges.size(); ++k)
+              cost += 0.5 *
+                      (edges[k].is_loop_closure ? std::min(residual[k] * residual[k], c2) : residual[k] * residual[k]);
+            return cost;
+          };
+          backend::PoseGraphConfig hold = plain;
+          hold.hold_first_poses = reference.size();  // every pose constant: residuals at the reference, no solve
+          std::vector<Pose3> at_reference = reference;
+          const backend::PoseGraphResult h = backend::optimize_pose_graph(hold, at_reference, edges);
+          if (h.poses_updated())
+            std::printf("    TLS cost (threshold %.3g): this solution %.6g, the outlier-free solution %.6g\n",
+                        config.loop_closure_loss_scale_sigma, tls_cost(r.edge_residual_sigma),
+                        tls_cost(h.edge_residual_sigma));
+          else
+            std::printf("    TLS cost at the outlier-free solution: %s\n", h.message.c_str());
+        }
+        if (opt.diagnose) {
           std::vector<Pose3> again = poses;
           const backend::PoseGraphResult c = backend::optimize_pose_graph(plain, again, g.edges);
           std::printf("    clean graph re-solved from this solution: cost %.6g (reference %.6g), %.4f m from the reference\n",
@@ -318,6 +350,10 @@ int main(int argc, char** argv) {
             s, r.message.c_str());
         const std::string q = p + "outliers_" + std::to_string(static_cast<int>(std::lround(100.0 * f))) + "." +
                               solver + (opt.noise_bound_quantile > 0.0 ? "_noise_bound" : "") +
+                              (opt.noise_bound_quantile > 0.0 && opt.noise_margin != 1.0
+                                   ? "_" + std::to_string(std::lround(100.0 * opt.noise_margin)) + "pct"
+                                   : "") +
+                              (opt.robust.gnc_chordal_solves ? "_chordal" : "") +
                               (opt.robust.gnc_tls_refine_rounds > 0 ? "_tls_refined." : ".");
         figures.add(q + "rmse_to_outlier_free", e, "m");
         figures.add(q + "rmse_to_outlier_free_share", e / radius, "fraction of the RMS radius");

@@ -15,6 +15,7 @@
 #include <utility>
 
 #include "core/backend/ceres_compat.h"
+#include "core/backend/chordal_init.h"
 
 namespace qsg::backend {
 namespace {
@@ -314,6 +315,7 @@ class GraphSolve {
     std::vector<std::uint32_t> parent(num_poses);
     std::iota(parent.begin(), parent.end(), 0u);
     std::vector<bool> in_problem(num_poses, false);
+    anchored_.assign(num_poses, false);
     auto add_pose = [&](std::uint32_t i) {
       if (in_problem[i]) return;
       in_problem[i] = true;
@@ -343,6 +345,7 @@ class GraphSolve {
       // The smaller index becomes the root, so each root is its component's lowest-index pose.
       if (a != b) parent[std::max(a, b)] = std::min(a, b);
     }
+    for (std::uint32_t i = 0; i < num_poses; ++i) anchored_[i] = !in_problem[i] || i < config_.hold_first_poses;
     for (std::uint32_t i = 0; i < num_poses && i < config_.hold_first_poses; ++i) {
       if (!in_problem[i]) continue;
       problem_.SetParameterBlockConstant(t_block(i));
@@ -358,6 +361,7 @@ class GraphSolve {
     for (std::uint32_t i = 0; i < num_poses; ++i) {
       if (i < config_.hold_first_poses) continue;
       if (in_problem[i] && find_root(parent, i) == i) {
+        anchored_[i] = true;
         problem_.SetParameterBlockConstant(t_block(i));
         problem_.SetParameterBlockConstant(q_block(i));
       }
@@ -392,6 +396,7 @@ class GraphSolve {
   ceres::Solver::Summary solve_gnc(PoseGraphResult* result) {
     const double c = config_.loop_closure_loss_scale_sigma;
     ceres::Solver::Summary summary;
+    chordal_reset();
     solve(options_, &summary, result);
     std::vector<double> r;
     loop_closure_residuals(&r);
@@ -407,6 +412,7 @@ class GraphSolve {
         weights_[k] = gnc_tls_weight(r[k], c, mu);
         undecided += weights_[k] * (1.0 - weights_[k]);
       }
+      chordal_reset();
       solve(inner, &summary, result);
       ++result->gnc_outer_iterations;
       if (!summary.IsSolutionUsable()) break;
@@ -420,9 +426,27 @@ class GraphSolve {
     // states bent by the outliers, from which least squares can settle in another basin.
     if (!summary.IsSolutionUsable()) return summary;
     state_ = initial_state_;
+    chordal_reset();
     solve(options_, &summary, result);
     refine_tls(&summary, result);
     return summary;
+  }
+
+  // PoseGraphConfig::gnc_chordal_solves: the free poses to the chordal estimate under the current weights (kept as
+  // they are when the linear solve fails).
+  void chordal_reset() {
+    if (!config_.gnc_chordal_solves) return;
+    const std::size_t n = state_.size() / kStateDim;
+    std::vector<Pose3> p(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      p[i].t_m = Eigen::Map<const Eigen::Vector3d>(t_block(i));
+      p[i].q = Eigen::Map<const Eigen::Quaterniond>(q_block(i));
+    }
+    if (!chordal_initialize(edges_, weights_, anchored_, &p)) return;
+    for (std::size_t i = 0; i < n; ++i) {
+      Eigen::Map<Eigen::Vector3d>(t_block(i)) = p[i].t_m;
+      Eigen::Map<Eigen::Quaterniond>(q_block(i)) = p[i].q.normalized();
+    }
   }
 
   // The truncated least-squares fixed point from GNC's solution (PoseGraphConfig::gnc_tls_refine_rounds).
@@ -457,6 +481,7 @@ class GraphSolve {
   ceres::Solver::Options options_;
   std::vector<double> state_;
   std::vector<double> initial_state_;
+  std::vector<bool> anchored_;  // per pose: held in the solve, or in no edge (the chordal estimate keeps it)
   std::vector<double> weights_;
   std::vector<RelativePoseResidual> residuals_;
 };
@@ -494,10 +519,12 @@ void PoseGraphConfig::print(std::FILE* out) const {
   std::fprintf(out,
                "pose_graph: loop_closure_loss=%s loop_closure_loss_scale_sigma=%g huber_warm_start=%s "
                "max_iterations=%d gnc_max_outer_iterations=%d gnc_mu_factor=%g gnc_inner_iterations=%d "
-               "gnc_tls_refine_rounds=%d fix_first_pose=%s num_threads=%d prefilter_pairwise_consistency=%s\n",
+               "gnc_tls_refine_rounds=%d gnc_chordal_solves=%s fix_first_pose=%s num_threads=%d "
+               "prefilter_pairwise_consistency=%s\n",
                to_string(loop_closure_loss), loop_closure_loss_scale_sigma, huber_warm_start ? "true" : "false",
                max_iterations, gnc_max_outer_iterations, gnc_mu_factor, gnc_inner_iterations, gnc_tls_refine_rounds,
-               fix_first_pose ? "true" : "false", num_threads, prefilter_pairwise_consistency ? "true" : "false");
+               gnc_chordal_solves ? "true" : "false", fix_first_pose ? "true" : "false", num_threads,
+               prefilter_pairwise_consistency ? "true" : "false");
   if (prefilter_pairwise_consistency) pairwise_consistency.print(out);
 }
 

@@ -51,6 +51,11 @@ struct PoseGraphConfig {
   // closure just past the threshold; the final solve then fits it, and it stays dropped. Each round can only lower
   // the TLS cost. 0: GNC's decisions as they are (bench/results/pose_graph.md).
   int gnc_tls_refine_rounds = 0;
+  // kGncTls, a refinement: each of GNC's weighted solves (the first, every outer iteration's, the last) starts from
+  // the chordal estimate under the current weights (chordal_init.h: global and linear, as GNC's inner solver is meant
+  // to be) instead of from the previous solve's poses, so the annealing's decisions do not follow a path bent by
+  // the outliers. Off: warm starts.
+  bool gnc_chordal_solves = false;
   // Removes the gauge freedom: holds poses[0], and the lowest-index pose of any component not connected to it.
   bool fix_first_pose = true;
   // Poses [0, hold_first_poses) stay where they are (constant in the solve): the rest is solved around them.

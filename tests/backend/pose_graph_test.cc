@@ -244,6 +244,38 @@ TEST(PoseGraph, GncTlsSwitchesOffHalfTheLoopClosuresWhenWrong) {
   EXPECT_GT(r.gnc_outer_iterations, 0);
 }
 
+// GNC's weighted solves from the chordal estimate (PoseGraphConfig::gnc_chordal_solves) need no initial guess: from
+// every pose at the origin they land on the outlier-free solution with the same decisions, where warm-started GNC
+// from there does not.
+TEST(PoseGraph, GncFromChordalEstimatesNeedsNoInitialGuess) {
+  const HalfOutliers h = half_outliers();
+  PoseGraphConfig plain;
+  plain.loop_closure_loss = RobustLoss::kNone;
+  std::vector<Pose3> reference = h.initial;
+  ASSERT_TRUE(optimize_pose_graph(plain, reference, h.clean).poses_updated());
+  std::vector<Pose3> origin(h.initial.size());
+  origin[0] = h.initial[0];
+
+  PoseGraphConfig gnc;
+  gnc.loop_closure_loss = RobustLoss::kGncTls;
+  std::vector<Pose3> warm = origin;
+  ASSERT_TRUE(optimize_pose_graph(gnc, warm, h.corrupt).poses_updated());
+  gnc.gnc_chordal_solves = true;
+  std::vector<Pose3> chordal = origin;
+  const PoseGraphResult r = optimize_pose_graph(gnc, chordal, h.corrupt);
+  ASSERT_TRUE(r.poses_updated()) << r.message;
+  std::printf(
+      "[ pose graph ] from every pose at the origin: warm-started GNC %.3f m from the outlier-free solution, "
+      "GNC from chordal estimates %.5f m\n",
+      ate_rmse_m(warm, reference), ate_rmse_m(chordal, reference));
+  EXPECT_GT(ate_rmse_m(warm, reference), 0.1) << "warm starts from the origin must fail, else this tests nothing";
+  EXPECT_LT(ate_rmse_m(chordal, reference), 0.01);
+  for (std::size_t k = 0; k < h.corrupt.size(); ++k) {
+    const double expected = k < h.clean.size() ? 1.0 : 0.0;
+    EXPECT_EQ(r.edge_weight[k], expected) << "edge " << k;
+  }
+}
+
 // GNC stopped early (one inner iteration, three outer ones) decides from a state that still bends under the wrong
 // closures, and drops right ones that its final solve then fits. The TLS rounds keep what the solution fits and drop
 // what it does not, until nothing changes: every right closure back, every wrong one off, and each decision agrees
