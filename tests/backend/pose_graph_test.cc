@@ -215,13 +215,29 @@ HalfOutliers half_outliers() {
   return h;
 }
 
-TEST(PoseGraph, GncTlsSwitchesOffHalfTheLoopClosuresWhenWrong) {
-  const HalfOutliers h = half_outliers();
+// Least squares over the odometry and the correct closures only, from the odometry.
+std::vector<Pose3> outlier_free_solution(const HalfOutliers& h) {
   PoseGraphConfig plain;
   plain.loop_closure_loss = RobustLoss::kNone;
   std::vector<Pose3> reference = h.initial;
-  ASSERT_TRUE(optimize_pose_graph(plain, reference, h.clean).poses_updated());
+  EXPECT_TRUE(optimize_pose_graph(plain, reference, h.clean).poses_updated());
+  return reference;
+}
 
+// Every correct closure kept (weight 1), every wrong one off (0).
+void expect_every_decision_right(const PoseGraphResult& r, const HalfOutliers& h) {
+  ASSERT_EQ(r.edge_weight.size(), h.corrupt.size());
+  for (std::size_t k = 0; k < h.corrupt.size(); ++k) {
+    const double expected = k < h.clean.size() ? 1.0 : 0.0;
+    EXPECT_EQ(r.edge_weight[k], expected) << "edge " << k;
+  }
+}
+
+TEST(PoseGraph, GncTlsSwitchesOffHalfTheLoopClosuresWhenWrong) {
+  const HalfOutliers h = half_outliers();
+  const std::vector<Pose3> reference = outlier_free_solution(h);
+  PoseGraphConfig plain;
+  plain.loop_closure_loss = RobustLoss::kNone;
   std::vector<Pose3> least_squares = h.initial;
   ASSERT_TRUE(optimize_pose_graph(plain, least_squares, h.corrupt).poses_updated());
   PoseGraphConfig gnc;
@@ -235,11 +251,7 @@ TEST(PoseGraph, GncTlsSwitchesOffHalfTheLoopClosuresWhenWrong) {
               ate_rmse_m(robust, reference), r.gnc_outer_iterations, r.num_loop_closures_downweighted);
   EXPECT_GT(ate_rmse_m(least_squares, reference), 0.5) << "the wrong closures must bend a plain solution";
   EXPECT_LT(ate_rmse_m(robust, reference), 0.01);
-  ASSERT_EQ(r.edge_weight.size(), h.corrupt.size());
-  for (std::size_t k = 0; k < h.corrupt.size(); ++k) {
-    const double expected = k < h.clean.size() ? 1.0 : 0.0;
-    EXPECT_EQ(r.edge_weight[k], expected) << "edge " << k;
-  }
+  expect_every_decision_right(r, h);
   EXPECT_EQ(r.num_loop_closures_downweighted, h.corrupt.size() - h.clean.size());
   EXPECT_GT(r.gnc_outer_iterations, 0);
 }
@@ -249,10 +261,7 @@ TEST(PoseGraph, GncTlsSwitchesOffHalfTheLoopClosuresWhenWrong) {
 // from there does not.
 TEST(PoseGraph, GncFromChordalEstimatesNeedsNoInitialGuess) {
   const HalfOutliers h = half_outliers();
-  PoseGraphConfig plain;
-  plain.loop_closure_loss = RobustLoss::kNone;
-  std::vector<Pose3> reference = h.initial;
-  ASSERT_TRUE(optimize_pose_graph(plain, reference, h.clean).poses_updated());
+  const std::vector<Pose3> reference = outlier_free_solution(h);
   std::vector<Pose3> origin(h.initial.size());
   origin[0] = h.initial[0];
 
@@ -270,10 +279,7 @@ TEST(PoseGraph, GncFromChordalEstimatesNeedsNoInitialGuess) {
       ate_rmse_m(warm, reference), ate_rmse_m(chordal, reference));
   EXPECT_GT(ate_rmse_m(warm, reference), 0.1) << "warm starts from the origin must fail, else this tests nothing";
   EXPECT_LT(ate_rmse_m(chordal, reference), 0.01);
-  for (std::size_t k = 0; k < h.corrupt.size(); ++k) {
-    const double expected = k < h.clean.size() ? 1.0 : 0.0;
-    EXPECT_EQ(r.edge_weight[k], expected) << "edge " << k;
-  }
+  expect_every_decision_right(r, h);
 }
 
 // GNC stopped early (one inner iteration, three outer ones) decides from a state that still bends under the wrong
