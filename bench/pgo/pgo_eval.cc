@@ -200,8 +200,11 @@ int main(int argc, char** argv) {
     std::snprintf(settings, sizeof settings,
                   "; function tolerance %g, up to %d iterations a solve; robust threshold %g sigma of the stated noise",
                   opt.function_tolerance, opt.max_iterations, opt.robust.loop_closure_loss_scale_sigma);
-  const std::string refine = "; GNC-TLS refine rounds " + std::to_string(opt.robust.gnc_tls_refine_rounds) +
-                             (opt.robust.gnc_chordal_solves ? "; GNC's weighted solves from the chordal estimate" : "");
+  const std::string refine =
+      "; GNC-TLS refine rounds " + std::to_string(opt.robust.gnc_tls_refine_rounds) +
+      (opt.robust.gnc_chordal_solves ? "; GNC's weighted solves from the chordal estimate" : "") +
+      "; GNC inner iterations " + std::to_string(opt.robust.gnc_inner_iterations) +
+      (opt.robust.gnc_inner_iterations == 0 ? " (the chordal estimate alone)" : "");
   bench::Figures figures(
       "pgo_eval: g2o pose graphs from the file's initial guess, Ceres sparse normal Cholesky, 1 "
       "thread; wrong closures seed " +
@@ -348,13 +351,15 @@ int main(int argc, char** argv) {
                                              .c_str()
                                        : "",
             s, r.message.c_str());
-        const std::string q = p + "outliers_" + std::to_string(static_cast<int>(std::lround(100.0 * f))) + "." +
-                              solver + (opt.noise_bound_quantile > 0.0 ? "_noise_bound" : "") +
-                              (opt.noise_bound_quantile > 0.0 && opt.noise_margin != 1.0
-                                   ? "_" + std::to_string(std::lround(100.0 * opt.noise_margin)) + "pct"
-                                   : "") +
-                              (opt.robust.gnc_chordal_solves ? "_chordal" : "") +
-                              (opt.robust.gnc_tls_refine_rounds > 0 ? "_tls_refined." : ".");
+        const std::string q =
+            p + "outliers_" + std::to_string(static_cast<int>(std::lround(100.0 * f))) + "." + solver +
+            (opt.noise_bound_quantile > 0.0 ? "_noise_bound" : "") +
+            (opt.noise_bound_quantile > 0.0 && opt.noise_margin != 1.0
+                 ? "_" + std::to_string(std::lround(100.0 * opt.noise_margin)) + "pct"
+                 : "") +
+            (opt.robust.gnc_chordal_solves ? (opt.robust.gnc_inner_iterations == 0 ? "_chordal_only" : "_chordal")
+                                           : "") +
+            (opt.robust.gnc_tls_refine_rounds > 0 ? "_tls_refined." : ".");
         figures.add(q + "rmse_to_outlier_free", e, "m");
         figures.add(q + "rmse_to_outlier_free_share", e / radius, "fraction of the RMS radius");
         figures.add(q + "wrong_kept", static_cast<double>(wrong_kept), "edges");

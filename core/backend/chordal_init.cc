@@ -116,27 +116,38 @@ bool chordal_initialize(const std::vector<RelativePoseEdge>& edges, const std::v
   for (std::size_t i = 0; i < n; ++i)
     if (free_index[i] >= 0) solved[i] = nearest_rotation(x.middleRows<3>(3 * free_index[i]).transpose());
 
-  // Translations with those rotations: t_j - t_i = R_i t_ij. One column carries them (the other two stay zero).
+  // Translations with those rotations: t_j - t_i = R_i t_ij. The precisions are isotropic, so the normal equations
+  // are the weighted graph Laplacian over the free poses (one scalar per pose) with the three axes as columns.
   h.clear();
-  b = Eigen::MatrixXd::Zero(3 * num_free, 3);
-  const auto as_block = [](const Eigen::Vector3d& v) {
-    Eigen::Matrix3d m = Eigen::Matrix3d::Zero();
-    m.col(0) = v;
-    return m;
-  };
+  b = Eigen::MatrixXd::Zero(num_free, 3);
   for (std::size_t k = 0; k < edges.size(); ++k) {
     const RelativePoseEdge& e = edges[k];
     if (!(weights[k] > 0.0) || e.from >= n || e.to >= n) continue;
     double kt = 0.0, kr = 0.0;
     precisions(e, &kt, &kr);
-    add_equation(-Eigen::Matrix3d::Identity(), Eigen::Matrix3d::Identity(),
-                 as_block(solved[e.from] * e.measured_from_T_to.t_m), weights[k] * kt, free_index[e.from],
-                 free_index[e.to], as_block((*poses)[e.from].t_m), as_block((*poses)[e.to].t_m), &h, &b);
+    const double w = weights[k] * kt;
+    // Residual t_j - t_i - d: a known end moves to the right-hand side.
+    Eigen::RowVector3d rhs = (solved[e.from] * e.measured_from_T_to.t_m).transpose();
+    const int fi = free_index[e.from], fj = free_index[e.to];
+    if (fi < 0) rhs += (*poses)[e.from].t_m.transpose();
+    if (fj < 0) rhs -= (*poses)[e.to].t_m.transpose();
+    if (fi >= 0) {
+      h.emplace_back(fi, fi, w);
+      b.row(fi) -= w * rhs;
+    }
+    if (fj >= 0) {
+      h.emplace_back(fj, fj, w);
+      b.row(fj) += w * rhs;
+    }
+    if (fi >= 0 && fj >= 0) {
+      h.emplace_back(fi, fj, -w);
+      h.emplace_back(fj, fi, -w);
+    }
   }
   if (!solve(h, b, &x)) return false;
   for (std::size_t i = 0; i < n; ++i) {
     if (free_index[i] < 0) continue;
-    (*poses)[i].t_m = x.block<3, 1>(3 * free_index[i], 0);
+    (*poses)[i].t_m = x.row(free_index[i]).transpose();
     (*poses)[i].q = Eigen::Quaterniond(solved[i]);
   }
   return true;

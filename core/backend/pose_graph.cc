@@ -130,8 +130,9 @@ std::string check_config(const PoseGraphConfig& config) {
       return format("gnc_max_outer_iterations is %d, must be >= 1", config.gnc_max_outer_iterations);
     if (!(config.gnc_mu_factor > 1.0 && config.gnc_mu_factor <= 10.0))
       return format("gnc_mu_factor is %g, must be in (1, 10]", config.gnc_mu_factor);
-    if (config.gnc_inner_iterations < 1)
-      return format("gnc_inner_iterations is %d, must be >= 1", config.gnc_inner_iterations);
+    if (config.gnc_inner_iterations < (config.gnc_chordal_solves ? 0 : 1))
+      return format("gnc_inner_iterations is %d, must be >= 1 (>= 0 with gnc_chordal_solves)",
+                    config.gnc_inner_iterations);
     if (config.gnc_tls_refine_rounds < 0)
       return format("gnc_tls_refine_rounds is %d, must be >= 0", config.gnc_tls_refine_rounds);
   }
@@ -303,6 +304,7 @@ class GraphSolve {
   static ceres::Problem::Options problem_options() {
     ceres::Problem::Options o;
     o.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+    o.enable_fast_removal = true;  // GNC takes the closures it switched off out of each solve
     return o;
   }
   double* t_block(std::size_t i) { return &state_[i * kStateDim]; }
@@ -323,8 +325,8 @@ class GraphSolve {
       problem_.AddParameterBlock(q_block(i), kQuaternionDim);
       ceres_compat::set_quaternion_manifold(problem_, q_block(i));
     };
-    ceres::LossFunction* const rho = config_.loop_closure_loss == RobustLoss::kNone ? nullptr : &loop_closure_loss_;
     residuals_.reserve(edges_.size());
+    blocks_.assign(edges_.size(), nullptr);
     for (std::size_t k = 0; k < edges_.size(); ++k) {
       const RelativePoseEdge& edge = edges_[k];
       Pose3 measured = edge.measured_from_T_to;
@@ -335,11 +337,7 @@ class GraphSolve {
       has_loop_closure_ = has_loop_closure_ || edge.is_loop_closure;
       add_pose(edge.from);
       add_pose(edge.to);
-      using Cost = ceres::AutoDiffCostFunction<RelativePoseResidual, kResidualDim, kTranslationDim, kQuaternionDim,
-                                               kTranslationDim, kQuaternionDim>;
-      problem_.AddResidualBlock(new Cost(new RelativePoseResidual(residuals_.back())),
-                                edge.is_loop_closure ? rho : nullptr, t_block(edge.from), q_block(edge.from),
-                                t_block(edge.to), q_block(edge.to));
+      blocks_[k] = add_edge_block(k);
       const std::uint32_t a = find_root(parent, edge.from);
       const std::uint32_t b = find_root(parent, edge.to);
       // The smaller index becomes the root, so each root is its component's lowest-index pose.
@@ -368,10 +366,38 @@ class GraphSolve {
     }
   }
 
+  // Edge k's residual block (its functor is residuals_[k]); a loop closure's under the configured loss.
+  ceres::ResidualBlockId add_edge_block(std::size_t k) {
+    const RelativePoseEdge& e = edges_[k];
+    using Cost = ceres::AutoDiffCostFunction<RelativePoseResidual, kResidualDim, kTranslationDim, kQuaternionDim,
+                                             kTranslationDim, kQuaternionDim>;
+    ceres::LossFunction* const rho =
+        e.is_loop_closure && config_.loop_closure_loss != RobustLoss::kNone ? &loop_closure_loss_ : nullptr;
+    return problem_.AddResidualBlock(new Cost(new RelativePoseResidual(residuals_[k])), rho, t_block(e.from),
+                                     q_block(e.from), t_block(e.to), q_block(e.to));
+  }
+
   void solve(const ceres::Solver::Options& options, ceres::Solver::Summary* summary, PoseGraphResult* result) {
+    if (gnc_) match_blocks_to_weights();
     ceres::Solve(options, &problem_, summary);
     result->iterations += summary->num_successful_steps + summary->num_unsuccessful_steps;
     result->solver_time_s += summary->total_time_in_seconds;  // replaced by the injected clock's, when given
+  }
+
+  // GNC: a closure of weight 0 adds nothing to the cost or the gradient, but its block still joins two poses in the
+  // normal equations; random wrong closures join far-apart poses and fill the sparse factorization in. It leaves the
+  // problem while its weight is 0 and comes back when the weight does (its functor is kept in residuals_).
+  void match_blocks_to_weights() {
+    for (std::size_t k = 0; k < edges_.size(); ++k) {
+      const RelativePoseEdge& e = edges_[k];
+      if (!e.is_loop_closure || excluded_[k]) continue;
+      if (weights_[k] == 0.0 && blocks_[k] != nullptr) {
+        problem_.RemoveResidualBlock(blocks_[k]);
+        blocks_[k] = nullptr;
+      } else if (weights_[k] != 0.0 && blocks_[k] == nullptr) {
+        blocks_[k] = add_edge_block(k);
+      }
+    }
   }
 
   // Whitened residual norm of edge k at the current state, without its GNC weight.
@@ -395,27 +421,27 @@ class GraphSolve {
   // rounded to 0 or 1.
   ceres::Solver::Summary solve_gnc(PoseGraphResult* result) {
     const double c = config_.loop_closure_loss_scale_sigma;
+    const bool chordal = config_.gnc_chordal_solves;
     ceres::Solver::Summary summary;
-    chordal_reset();
-    solve(options_, &summary, result);
+    // From the chordal estimate the first solve only has to give the residuals GNC starts from: it is one of the
+    // weighted solves. Without it, least squares to convergence from the caller's poses.
+    if (!weighted_solve(chordal ? config_.gnc_inner_iterations : config_.max_iterations, &summary, result))
+      return summary;
     std::vector<double> r;
     loop_closure_residuals(&r);
     const double r_max = *std::max_element(r.begin(), r.end());
-    if (!summary.IsSolutionUsable() || r_max <= c) return summary;
+    if (r_max <= c && !chordal) return summary;
     double mu = c * c / std::max(2.0 * r_max * r_max - c * c, 1e-12);
-    ceres::Solver::Options inner = options_;
-    inner.max_num_iterations = config_.gnc_inner_iterations;
-    for (int outer = 0; outer < config_.gnc_max_outer_iterations; ++outer) {
+    for (int outer = 0; outer < config_.gnc_max_outer_iterations && r_max > c; ++outer) {
       double undecided = 0.0;
       for (std::size_t k = 0; k < edges_.size(); ++k) {
         if (!edges_[k].is_loop_closure || excluded_[k]) continue;
         weights_[k] = gnc_tls_weight(r[k], c, mu);
         undecided += weights_[k] * (1.0 - weights_[k]);
       }
-      chordal_reset();
-      solve(inner, &summary, result);
+      const bool usable = weighted_solve(config_.gnc_inner_iterations, &summary, result);
       ++result->gnc_outer_iterations;
-      if (!summary.IsSolutionUsable()) break;
+      if (!usable) return summary;
       loop_closure_residuals(&r);
       if (undecided < 1e-6 && outer > 0) break;  // every weight 0 or 1: the surrogate is the TLS loss here
       mu *= config_.gnc_mu_factor;
@@ -424,7 +450,6 @@ class GraphSolve {
       if (edges_[k].is_loop_closure && !excluded_[k]) weights_[k] = r[k] <= c ? 1.0 : 0.0;
     // The inliers decided, the last solve starts again from the caller's poses: the annealing's path went through
     // states bent by the outliers, from which least squares can settle in another basin.
-    if (!summary.IsSolutionUsable()) return summary;
     state_ = initial_state_;
     chordal_reset();
     solve(options_, &summary, result);
@@ -432,21 +457,33 @@ class GraphSolve {
     return summary;
   }
 
+  // One of GNC's weighted solves: Ceres for at most `iterations`, from the chordal estimate under the current
+  // weights with gnc_chordal_solves. With none (gnc_inner_iterations 0), the chordal estimate is the solve; should
+  // it fail, a full Ceres solve stands in. False when the solve's result is not usable.
+  bool weighted_solve(int iterations, ceres::Solver::Summary* summary, PoseGraphResult* result) {
+    if (chordal_reset() && iterations == 0) return state_finite();
+    ceres::Solver::Options options = options_;
+    options.max_num_iterations = iterations > 0 ? iterations : config_.max_iterations;
+    solve(options, summary, result);
+    return summary->IsSolutionUsable();
+  }
+
   // PoseGraphConfig::gnc_chordal_solves: the free poses to the chordal estimate under the current weights (kept as
-  // they are when the linear solve fails).
-  void chordal_reset() {
-    if (!config_.gnc_chordal_solves) return;
+  // they are when the linear solve fails). True when they were moved.
+  bool chordal_reset() {
+    if (!config_.gnc_chordal_solves) return false;
     const std::size_t n = state_.size() / kStateDim;
     std::vector<Pose3> p(n);
     for (std::size_t i = 0; i < n; ++i) {
       p[i].t_m = Eigen::Map<const Eigen::Vector3d>(t_block(i));
       p[i].q = Eigen::Map<const Eigen::Quaterniond>(q_block(i));
     }
-    if (!chordal_initialize(edges_, weights_, anchored_, &p)) return;
+    if (!chordal_initialize(edges_, weights_, anchored_, &p)) return false;
     for (std::size_t i = 0; i < n; ++i) {
       Eigen::Map<Eigen::Vector3d>(t_block(i)) = p[i].t_m;
       Eigen::Map<Eigen::Quaterniond>(q_block(i)) = p[i].q.normalized();
     }
+    return true;
   }
 
   // The truncated least-squares fixed point from GNC's solution (PoseGraphConfig::gnc_tls_refine_rounds).
@@ -484,6 +521,7 @@ class GraphSolve {
   std::vector<bool> anchored_;  // per pose: held in the solve, or in no edge (the chordal estimate keeps it)
   std::vector<double> weights_;
   std::vector<RelativePoseResidual> residuals_;
+  std::vector<ceres::ResidualBlockId> blocks_;  // per edge: its block in the problem, or null (excluded, weight 0)
 };
 }  // namespace
 

@@ -41,7 +41,8 @@ struct PoseGraphConfig {
   // Ceres' stopping rule: |cost change| / cost below this ends a solve (Ceres' default 1e-6).
   double function_tolerance = 1e-6;
   // kGncTls: outer iterations at most (each a weighted solve of gnc_inner_iterations), the surrogate's growth per
-  // outer iteration, and the Ceres iterations of each weighted solve (the first and the last get max_iterations).
+  // outer iteration, and the Ceres iterations of each weighted solve (the last gets max_iterations, and so does the
+  // first unless gnc_chordal_solves; with it, 0 makes the chordal estimate alone each weighted solve).
   int gnc_max_outer_iterations = 100;
   double gnc_mu_factor = 1.4;
   int gnc_inner_iterations = 10;
@@ -54,7 +55,8 @@ struct PoseGraphConfig {
   // kGncTls, a refinement: each of GNC's weighted solves (the first, every outer iteration's, the last) starts from
   // the chordal estimate under the current weights (chordal_init.h: global and linear, as GNC's inner solver is meant
   // to be) instead of from the previous solve's poses, so the annealing's decisions do not follow a path bent by
-  // the outliers. Off: warm starts.
+  // the outliers. The first solve is then one of the weighted solves (gnc_inner_iterations): it only has to give the
+  // residuals the annealing starts from. Off: warm starts.
   bool gnc_chordal_solves = false;
   // Removes the gauge freedom: holds poses[0], and the lowest-index pose of any component not connected to it.
   bool fix_first_pose = true;

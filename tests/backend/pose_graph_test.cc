@@ -282,6 +282,29 @@ TEST(PoseGraph, GncFromChordalEstimatesNeedsNoInitialGuess) {
   expect_every_decision_right(r, h);
 }
 
+// With gnc_chordal_solves, gnc_inner_iterations 0 makes each weighted solve the chordal estimate alone (a linear
+// solve, no Ceres): GNC decides from those, and only its last solve runs Ceres. Without chordal solves 0 is refused.
+TEST(PoseGraph, GncWithChordalEstimatesAloneAsItsWeightedSolves) {
+  const HalfOutliers h = half_outliers();
+  const std::vector<Pose3> reference = outlier_free_solution(h);
+  PoseGraphConfig gnc;
+  gnc.loop_closure_loss = RobustLoss::kGncTls;
+  gnc.gnc_inner_iterations = 0;
+  std::vector<Pose3> poses = h.initial;
+  const PoseGraphResult refused = optimize_pose_graph(gnc, poses, h.corrupt);
+  EXPECT_EQ(refused.status, PoseGraphStatus::kInvalidInput);
+  EXPECT_NE(refused.message.find("gnc_inner_iterations"), std::string::npos) << refused.message;
+
+  gnc.gnc_chordal_solves = true;
+  const PoseGraphResult r = optimize_pose_graph(gnc, poses, h.corrupt);
+  ASSERT_TRUE(r.poses_updated()) << r.message;
+  EXPECT_GT(r.gnc_outer_iterations, 1);
+  // Each weighted solve through Ceres would add at least one iteration per outer iteration.
+  EXPECT_LE(r.iterations, gnc.max_iterations) << "only the last solve may run Ceres";
+  EXPECT_LT(ate_rmse_m(poses, reference), 0.01);
+  expect_every_decision_right(r, h);
+}
+
 // GNC stopped early (one inner iteration, three outer ones) decides from a state that still bends under the wrong
 // closures, and drops right ones that its final solve then fits. The TLS rounds keep what the solution fits and drop
 // what it does not, until nothing changes: every right closure back, every wrong one off, and each decision agrees
