@@ -44,6 +44,7 @@ struct Options {
   // sigmas. The public files state noise up to hundreds of times their residuals.
   double noise_bound_quantile = 0.0;
   double noise_margin = 1.0;  // with noise_bound_quantile: the threshold is this many times the quantile
+  backend::G2oReadOptions read;  // --drop-indefinite-coupling 1 (cubicle)
 };
 
 std::vector<std::string> split(const std::string& text) {
@@ -88,6 +89,8 @@ bool parse(int argc, char** argv, Options* o) {
     } else if (a == "--noise-bound") {
       o->noise_bound_quantile = std::strtod(v.c_str(), nullptr);
       if (!(o->noise_bound_quantile >= 0.0 && o->noise_bound_quantile <= 1.0)) return false;
+    } else if (a == "--drop-indefinite-coupling") {
+      o->read.drop_indefinite_coupling = v == "1";
     } else if (a == "--gnc-chordal") {
       o->robust.gnc_chordal_solves = v == "1";
     } else if (a == "--noise-margin") {
@@ -178,14 +181,16 @@ int main(int argc, char** argv) {
         "          [--threshold-sigma C] [--gnc-inner N] [--gnc-mu-factor F] [--gnc-max-outer N] [--gnc-refine N]\n"
         "          [--solvers gnc_tls,pcm_gnc_tls,cauchy] [--pcm-threshold-sigma G] [--pcm-max-clique-nodes N]\n"
         "          [--diagnose 1] [--function-tolerance T] [--max-iterations N] [--noise-bound Q]\n"
-        "          [--noise-margin M] [--gnc-chordal 1]\n"
+        "          [--noise-margin M] [--gnc-chordal 1] [--drop-indefinite-coupling 1]\n"
         "  DIR holds NAME.g2o (default ../shared/data/pose_graphs); an outlier fraction f injects\n"
         "  f / (1 - f) x (the file's loop closures) wrong ones, so they are f of all closures.\n"
         "  The backend's pose-graph optimizer on the public g2o benchmarks: least-squares cost, iterations\n"
         "  and time from the file's guess (one thread), then with wrong loop closures injected: RMSE to the\n"
         "  outlier-free solution for GNC-TLS, pairwise consistency (PCM) then GNC-TLS, and Cauchy; wrong closures\n"
         "  kept and right ones dropped. --diagnose 1: the dropped closures' residuals, the TLS cost there and at the\n"
-        "  outlier-free solution, the clean graph re-solved from there.\n"
+        "  outlier-free solution, the clean graph re-solved from there. --drop-indefinite-coupling 1: an edge\n"
+        "  whose information is indefinite only through its translation-rotation coupling is read with the\n"
+        "  coupling zeroed, and counted (cubicle), instead of refusing the file.\n"
         "  JSON: pgo_eval.<graph>.*; results in bench/results/pose_graph.md.\n",
         argv[0]);
     return 2;
@@ -213,10 +218,15 @@ int main(int argc, char** argv) {
   for (const std::string& name : opt.graphs) {
     backend::G2oPoseGraph g;
     std::string error;
-    if (!backend::read_g2o_pose_graph(opt.data_dir + "/" + name + ".g2o", &g, &error)) {
+    if (!backend::read_g2o_pose_graph(opt.data_dir + "/" + name + ".g2o", &g, &error, opt.read)) {
       std::fprintf(stderr, "%s\n", error.c_str());
       ++failures;
       continue;
+    }
+    if (g.couplings_dropped > 0) {
+      std::printf("%-15s %zu edges read with their indefinite translation-rotation coupling zeroed\n", name.c_str(),
+                  g.couplings_dropped);
+      figures.add("pgo_eval." + name + ".couplings_dropped", static_cast<double>(g.couplings_dropped), "edges");
     }
     backend::PoseGraphConfig plain;
     plain.loop_closure_loss = backend::RobustLoss::kNone;

@@ -24,9 +24,12 @@ bool finite_all(const double* v, int n) {
   return true;
 }
 
+bool positive_definite(const Eigen::MatrixXd& m) { return Eigen::LLT<Eigen::MatrixXd>(m).info() == Eigen::Success; }
+
 }  // namespace
 
-bool read_g2o_pose_graph(const std::string& path, G2oPoseGraph* graph, std::string* error) {
+bool read_g2o_pose_graph(const std::string& path, G2oPoseGraph* graph, std::string* error,
+                         const G2oReadOptions& options) {
   *graph = G2oPoseGraph{};
   std::ifstream in(path);
   if (!in) return fail(error, path, 0, "cannot open");
@@ -80,8 +83,19 @@ bool read_g2o_pose_graph(const std::string& path, G2oPoseGraph* graph, std::stri
       s << 1.0, 1.0, 1.0, 0.5, 0.5, 0.5;
       e.edge.information = s.asDiagonal() * omega * s.asDiagonal();
       e.edge.has_information = true;
-      if (Eigen::LLT<Eigen::Matrix<double, 6, 6>>(e.edge.information).info() != Eigen::Success)
-        return fail(error, path, line_number, "information matrix is not positive definite");
+      Eigen::Matrix<double, 6, 6>& m = e.edge.information;
+      if (!positive_definite(m)) {
+        const bool blocks =
+            positive_definite(m.topLeftCorner<3, 3>()) && positive_definite(m.bottomRightCorner<3, 3>());
+        if (!options.drop_indefinite_coupling || !blocks)
+          return fail(error, path, line_number,
+                      blocks ? "information matrix is not positive definite (its translation and rotation blocks "
+                               "are: G2oReadOptions::drop_indefinite_coupling would zero their coupling)"
+                             : "information matrix is not positive definite");
+        m.topRightCorner<3, 3>().setZero();
+        m.bottomLeftCorner<3, 3>().setZero();
+        ++graph->couplings_dropped;
+      }
       pending.push_back(e);
     } else {
       ++graph->lines_skipped;

@@ -65,5 +65,49 @@ TEST(G2oFile, MalformedFilesNameTheLine) {
   EXPECT_NE(error.find("positive definite"), std::string::npos) << error;
 }
 
+// Translation and rotation blocks each positive definite, their coupling too large (x with roll: 3 against
+// sqrt(1 * 1)): refused by default, read with the coupling zeroed and counted when asked. An indefinite block is
+// refused either way.
+TEST(G2oFile, AnIndefiniteCouplingIsRefusedOrDroppedWhenAsked) {
+  qsg::testing::TempDir dir("qsg_g2o_coupling");
+  const std::string v0 = "VERTEX_SE3:QUAT 0 0 0 0 0 0 0 1\n", v1 = "VERTEX_SE3:QUAT 1 1 0 0 0 0 0 1\n";
+  const std::string coupled = "EDGE_SE3:QUAT 0 1 1 0 0 0 0 0 1 1 0 0 3 0 0 1 0 0 0 0 1 0 0 0 1 0 0 1 0 1\n";
+  const std::string bad_block = "EDGE_SE3:QUAT 0 1 1 0 0 0 0 0 1 1 2 0 0 0 0 1 0 0 0 0 1 0 0 0 1 0 0 1 0 1\n";
+  std::ofstream(dir.file("coupled.g2o")) << v0 << v1 << coupled;
+  std::ofstream(dir.file("block.g2o")) << v0 << v1 << bad_block;
+  G2oPoseGraph g;
+  std::string error;
+  EXPECT_FALSE(read_g2o_pose_graph(dir.file("coupled.g2o"), &g, &error));
+  EXPECT_NE(error.find("drop_indefinite_coupling"), std::string::npos) << error;
+
+  G2oReadOptions options;
+  options.drop_indefinite_coupling = true;
+  ASSERT_TRUE(read_g2o_pose_graph(dir.file("coupled.g2o"), &g, &error, options)) << error;
+  ASSERT_EQ(g.edges.size(), 1u);
+  EXPECT_EQ(g.couplings_dropped, 1u);
+  const Eigen::Matrix<double, 6, 6>& m = g.edges[0].information;
+  EXPECT_TRUE((m.topRightCorner<3, 3>().isZero()));
+  EXPECT_TRUE((m.bottomLeftCorner<3, 3>().isZero()));
+  EXPECT_DOUBLE_EQ(m(0, 0), 1.0);
+  EXPECT_DOUBLE_EQ(m(3, 3), 0.25) << "the rotation block keeps its precision (halved rows and columns)";
+
+  EXPECT_FALSE(read_g2o_pose_graph(dir.file("block.g2o"), &g, &error, options));
+  EXPECT_NE(error.find("block.g2o:3:"), std::string::npos) << error;
+}
+
+// cubicle, the real one: every edge refused is one whose coupling is what makes it indefinite.
+TEST(G2oFile, CubicleReadsWithItsIndefiniteCouplingsDropped) {
+  QSG_REQUIRE_SHARED_DATA(path, "pose_graphs/cubicle.g2o");
+  G2oPoseGraph g;
+  std::string error;
+  EXPECT_FALSE(read_g2o_pose_graph(path, &g, &error));
+  G2oReadOptions options;
+  options.drop_indefinite_coupling = true;
+  ASSERT_TRUE(read_g2o_pose_graph(path, &g, &error, options)) << error;
+  EXPECT_EQ(g.poses.size(), 5750u);
+  EXPECT_EQ(g.edges.size(), 16869u);
+  EXPECT_EQ(g.couplings_dropped, 5021u);
+}
+
 }  // namespace
 }  // namespace qsg::backend
