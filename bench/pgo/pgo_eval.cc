@@ -94,6 +94,10 @@ bool parse(int argc, char** argv, Options* o) {
       o->read.drop_indefinite_coupling = v == "1";
     } else if (a == "--gnc-chordal") {
       o->robust.gnc_chordal_solves = v == "1";
+    } else if (a == "--chordal-weighting") {
+      if (v != "isotropic" && v != "anisotropic") return false;
+      o->robust.chordal_weighting =
+          v == "isotropic" ? backend::ChordalWeighting::kIsotropic : backend::ChordalWeighting::kAnisotropic;
     } else if (a == "--noise-margin") {
       o->noise_margin = std::strtod(v.c_str(), nullptr);
       if (!(o->noise_margin > 0.0)) return false;
@@ -182,7 +186,8 @@ int main(int argc, char** argv) {
         "          [--threshold-sigma C] [--gnc-inner N] [--gnc-mu-factor F] [--gnc-max-outer N] [--gnc-refine N]\n"
         "          [--solvers gnc_tls,pcm_gnc_tls,cauchy] [--pcm-threshold-sigma G] [--pcm-max-clique-nodes N]\n"
         "          [--diagnose 1] [--function-tolerance T] [--max-iterations N] [--noise-bound Q]\n"
-        "          [--noise-margin M] [--gnc-chordal 1] [--drop-indefinite-coupling 1]\n"
+        "          [--noise-margin M] [--gnc-chordal 1] [--chordal-weighting isotropic|anisotropic]\n"
+        "          [--drop-indefinite-coupling 1]\n"
         "  DIR holds NAME.g2o (default ../shared/data/pose_graphs); an outlier fraction f injects\n"
         "  f / (1 - f) x (the file's loop closures) wrong ones, so they are f of all closures.\n"
         "  The backend's pose-graph optimizer on the public g2o benchmarks: least-squares cost, iterations\n"
@@ -191,7 +196,9 @@ int main(int argc, char** argv) {
         "  kept and right ones dropped. --diagnose 1: the dropped closures' residuals, the TLS cost there and at the\n"
         "  outlier-free solution, the clean graph re-solved from there. --drop-indefinite-coupling 1: an edge\n"
         "  whose information is indefinite only through its translation-rotation coupling is read with the\n"
-        "  coupling zeroed, and counted (cubicle), instead of refusing the file.\n"
+        "  coupling zeroed, and counted (cubicle), instead of refusing the file. --chordal-weighting: the\n"
+        "  chordal estimates (the reference's second solve, GNC's with --gnc-chordal 1) by each edge's axes\n"
+        "  (anisotropic, the default) or its mean precision.\n"
         "  JSON: pgo_eval.<graph>.*; results in bench/results/pose_graph.md.\n",
         argv[0]);
     return 2;
@@ -208,7 +215,11 @@ int main(int argc, char** argv) {
                   opt.function_tolerance, opt.max_iterations, opt.robust.loop_closure_loss_scale_sigma);
   const std::string refine =
       "; GNC-TLS refine rounds " + std::to_string(opt.robust.gnc_tls_refine_rounds) +
-      (opt.robust.gnc_chordal_solves ? "; GNC's weighted solves from the chordal estimate" : "") +
+      (opt.robust.gnc_chordal_solves
+           ? std::string("; GNC's weighted solves from the chordal estimate (") +
+                 (opt.robust.chordal_weighting == backend::ChordalWeighting::kIsotropic ? "isotropic" : "anisotropic") +
+                 " weights)"
+           : "") +
       "; GNC inner iterations " + std::to_string(opt.robust.gnc_inner_iterations) +
       (opt.robust.gnc_inner_iterations == 0 ? " (the chordal estimate alone)" : "");
   bench::Figures figures(
@@ -249,7 +260,8 @@ int main(int argc, char** argv) {
     anchored[0] = true;
     t0 = std::chrono::steady_clock::now();
     backend::PoseGraphResult chordal_ref;
-    if (backend::chordal_initialize(g.edges, std::vector<double>(g.edges.size(), 1.0), anchored, &from_chordal))
+    if (backend::chordal_initialize(g.edges, std::vector<double>(g.edges.size(), 1.0), anchored, &from_chordal,
+                                    opt.robust.chordal_weighting))
       chordal_ref = backend::optimize_pose_graph(plain, from_chordal, g.edges);
     else
       chordal_ref.message = "the chordal estimate failed";
@@ -394,6 +406,9 @@ int main(int argc, char** argv) {
                  : "") +
             (opt.robust.gnc_chordal_solves ? (opt.robust.gnc_inner_iterations == 0 ? "_chordal_only" : "_chordal")
                                            : "") +
+            (opt.robust.gnc_chordal_solves && opt.robust.chordal_weighting == backend::ChordalWeighting::kIsotropic
+                 ? "_isotropic"
+                 : "") +
             (opt.robust.gnc_tls_refine_rounds > 0 ? "_tls_refined." : ".");
         figures.add(q + "rmse_to_outlier_free", e, "m");
         figures.add(q + "rmse_to_outlier_free_share", e / radius, "fraction of the RMS radius");

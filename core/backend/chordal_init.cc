@@ -1,9 +1,13 @@
-// Weighted chordal initialization: two sparse linear least-squares solves (rotations, then translations).
+// Weighted chordal initialization: sparse linear least-squares solves (rotations, then translations), with
+// Gauss-Newton steps on the rotations between them when anisotropic.
 #include "core/backend/chordal_init.h"
 
+#include <Eigen/Geometry>
 #include <Eigen/SVD>
 #include <Eigen/SparseCholesky>
 
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
 
 namespace qsg::backend {
@@ -11,16 +15,22 @@ namespace {
 
 using Triplets = std::vector<Eigen::Triplet<double>>;
 
-// Isotropic precisions of an edge's translation and rotation: the mean of the information's diagonal blocks' traces,
-// or of 1 / sigma^2.
-void precisions(const RelativePoseEdge& e, double* kt, double* kr) {
+// kAnisotropic: Gauss-Newton steps on the rotations after the relaxation. From the relaxation's estimate they
+// converge in two or three (tests/backend/chordal_init_test.cc); the cap bounds the cost on a graph that does not.
+constexpr int kRotationRefineIterations = 5;
+
+// An edge's rotation and translation precisions: the information's diagonal blocks (its translation-rotation
+// coupling is left out: the two solves are separate), or 1 / sigma^2 on the diagonal. In the residual's frames
+// (pose3.h): rotation in the `to` frame, translation in the `from` frame or, with an information matrix, the `to`
+// frame.
+void precisions(const RelativePoseEdge& e, Eigen::Matrix3d* lambda_t, Eigen::Matrix3d* lambda_r) {
   if (e.has_information) {
-    *kt = e.information.topLeftCorner<3, 3>().trace() / 3.0;
-    *kr = e.information.bottomRightCorner<3, 3>().trace() / 3.0;
+    *lambda_t = 0.5 * (e.information.topLeftCorner<3, 3>() + e.information.topLeftCorner<3, 3>().transpose());
+    *lambda_r = 0.5 * (e.information.bottomRightCorner<3, 3>() + e.information.bottomRightCorner<3, 3>().transpose());
     return;
   }
-  *kt = e.sigma_t_m.cwiseInverse().squaredNorm() / 3.0;
-  *kr = e.sigma_rot_rad.cwiseInverse().squaredNorm() / 3.0;
+  *lambda_t = e.sigma_t_m.cwiseInverse().cwiseAbs2().asDiagonal();
+  *lambda_r = e.sigma_rot_rad.cwiseInverse().cwiseAbs2().asDiagonal();
 }
 
 // Adds one 3-block equation A_i x_i + A_j x_j = c (weight k) to the normal equations H x = B over the free poses;
@@ -67,10 +77,70 @@ Eigen::Matrix3d nearest_rotation(const Eigen::Matrix3d& m) {
   return svd.matrixU() * d * svd.matrixV().transpose();
 }
 
+// Gauss-Newton on the rotations alone with each edge's full rotation precision: residual theta = log(R_ij^T R_i^T
+// R_j), perturbations R <- R exp([delta]), Jacobians -R_j^T R_i and I (small residuals). The chordal relaxation
+// solves each column of R on its own, so an edge sure of one axis and vague on the others cannot be weighted as it
+// states; these steps from its estimate can. Stops after `iterations` or when no pose moves by 1e-9 rad. False when a
+// solve fails (rotations as they were before the failing step).
+bool refine_rotations(const std::vector<RelativePoseEdge>& edges, const std::vector<double>& weights,
+                      const std::vector<int>& free_index, int num_free, int iterations,
+                      std::vector<Eigen::Matrix3d>* rotation) {
+  const std::size_t n = rotation->size();
+  Triplets h;
+  Eigen::MatrixXd b, x;
+  Eigen::Matrix3d lambda_t, lambda_r;
+  for (int it = 0; it < iterations; ++it) {
+    h.clear();
+    b = Eigen::MatrixXd::Zero(3 * num_free, 1);
+    for (std::size_t k = 0; k < edges.size(); ++k) {
+      const RelativePoseEdge& e = edges[k];
+      if (!(weights[k] > 0.0) || e.from >= n || e.to >= n) continue;
+      const int fi = free_index[e.from], fj = free_index[e.to];
+      if (fi < 0 && fj < 0) continue;
+      precisions(e, &lambda_t, &lambda_r);
+      lambda_r *= weights[k];
+      const Eigen::Matrix3d& r_i = (*rotation)[e.from];
+      const Eigen::Matrix3d& r_j = (*rotation)[e.to];
+      const Eigen::AngleAxisd err(e.measured_from_T_to.q.normalized().toRotationMatrix().transpose() * r_i.transpose() *
+                                  r_j);
+      const Eigen::Vector3d theta = err.angle() * err.axis();
+      const Eigen::Matrix3d j_i = -r_j.transpose() * r_i;
+      const auto block = [&h](int r, int c, const Eigen::Matrix3d& m) {
+        for (int u = 0; u < 3; ++u)
+          for (int v = 0; v < 3; ++v) h.emplace_back(3 * r + u, 3 * c + v, m(u, v));
+      };
+      if (fi >= 0) {
+        block(fi, fi, j_i.transpose() * lambda_r * j_i);
+        b.middleRows<3>(3 * fi) -= j_i.transpose() * lambda_r * theta;
+      }
+      if (fj >= 0) {
+        block(fj, fj, lambda_r);
+        b.middleRows<3>(3 * fj) -= lambda_r * theta;
+      }
+      if (fi >= 0 && fj >= 0) {
+        block(fi, fj, j_i.transpose() * lambda_r);
+        block(fj, fi, lambda_r * j_i);
+      }
+    }
+    if (!solve(h, b, &x)) return false;
+    double largest = 0.0;
+    for (std::size_t i = 0; i < n; ++i) {
+      if (free_index[i] < 0) continue;
+      const Eigen::Vector3d d = x.middleRows<3>(3 * free_index[i]);
+      largest = std::max(largest, d.norm());
+      if (d.norm() > 0.0)
+        (*rotation)[i] =
+            nearest_rotation((*rotation)[i] * Eigen::AngleAxisd(d.norm(), d.normalized()).toRotationMatrix());
+    }
+    if (largest < 1e-9) break;
+  }
+  return true;
+}
+
 }  // namespace
 
 bool chordal_initialize(const std::vector<RelativePoseEdge>& edges, const std::vector<double>& weights,
-                        const std::vector<bool>& anchored, std::vector<Pose3>* poses) {
+                        const std::vector<bool>& anchored, std::vector<Pose3>* poses, ChordalWeighting weighting) {
   const std::size_t n = poses->size();
   if (anchored.size() != n || weights.size() != edges.size()) return false;
   // Components of the weighted edges: a pose is free when its component holds an anchor (the gauge); one in a
@@ -98,56 +168,71 @@ bool chordal_initialize(const std::vector<RelativePoseEdge>& edges, const std::v
   std::vector<Eigen::Matrix3d> rotation(n);
   for (std::size_t i = 0; i < n; ++i) rotation[i] = (*poses)[i].q.normalized().toRotationMatrix();
 
-  // Rotations: R_j = R_i R_ij, one row of R at a time: R_j^T = R_ij^T R_i^T, unknowns X_i = R_i^T.
+  // Rotations: R_j = R_i R_ij at the edge's mean rotation precision, one row of R at a time: R_j^T = R_ij^T R_i^T,
+  // unknowns X_i = R_i^T. Each column of R is solved on its own, so no per-axis weight fits here: kAnisotropic
+  // refines the projected estimate with the full precisions instead.
   Triplets h;
   Eigen::MatrixXd b = Eigen::MatrixXd::Zero(3 * num_free, 3), x;
+  Eigen::Matrix3d lambda_t, lambda_r;
   for (std::size_t k = 0; k < edges.size(); ++k) {
     const RelativePoseEdge& e = edges[k];
     if (!(weights[k] > 0.0) || e.from >= n || e.to >= n) continue;
-    double kt = 0.0, kr = 0.0;
-    precisions(e, &kt, &kr);
+    precisions(e, &lambda_t, &lambda_r);
     const Eigen::Matrix3d r_ij = e.measured_from_T_to.q.normalized().toRotationMatrix();
-    add_equation(-r_ij.transpose(), Eigen::Matrix3d::Identity(), Eigen::Matrix3d::Zero(), weights[k] * kr,
-                 free_index[e.from], free_index[e.to], rotation[e.from].transpose(), rotation[e.to].transpose(), &h,
-                 &b);
+    add_equation(-r_ij.transpose(), Eigen::Matrix3d::Identity(), Eigen::Matrix3d::Zero(),
+                 weights[k] * lambda_r.trace() / 3.0, free_index[e.from], free_index[e.to],
+                 rotation[e.from].transpose(), rotation[e.to].transpose(), &h, &b);
   }
   if (!solve(h, b, &x)) return false;
   std::vector<Eigen::Matrix3d> solved = rotation;
   for (std::size_t i = 0; i < n; ++i)
     if (free_index[i] >= 0) solved[i] = nearest_rotation(x.middleRows<3>(3 * free_index[i]).transpose());
+  if (weighting == ChordalWeighting::kAnisotropic &&
+      !refine_rotations(edges, weights, free_index, num_free, kRotationRefineIterations, &solved))
+    return false;
 
-  // Translations with those rotations: t_j - t_i = R_i t_ij. The precisions are isotropic, so the normal equations
-  // are the weighted graph Laplacian over the free poses (one scalar per pose) with the three axes as columns.
+  // Translations with those rotations: (t_j - t_i - R_i t_ij)^T P (t_j - t_i - R_i t_ij), P the edge's translation
+  // precision in the world frame (M^T lambda_t M, M the residual frame's rotation R_ij^T R_i^T or R_i^T), or its
+  // mean times I when isotropic: 3x3 blocks of a weighted Laplacian.
   h.clear();
-  b = Eigen::MatrixXd::Zero(num_free, 3);
+  b = Eigen::MatrixXd::Zero(3 * num_free, 1);
+  const auto add_block = [&h](int r, int c, const Eigen::Matrix3d& m) {
+    for (int u = 0; u < 3; ++u)
+      for (int v = 0; v < 3; ++v) h.emplace_back(3 * r + u, 3 * c + v, m(u, v));
+  };
   for (std::size_t k = 0; k < edges.size(); ++k) {
     const RelativePoseEdge& e = edges[k];
     if (!(weights[k] > 0.0) || e.from >= n || e.to >= n) continue;
-    double kt = 0.0, kr = 0.0;
-    precisions(e, &kt, &kr);
-    const double w = weights[k] * kt;
+    precisions(e, &lambda_t, &lambda_r);
+    Eigen::Matrix3d p = (lambda_t.trace() / 3.0) * Eigen::Matrix3d::Identity();
+    if (weighting == ChordalWeighting::kAnisotropic) {
+      Eigen::Matrix3d m = solved[e.from].transpose();
+      if (e.has_information) m = e.measured_from_T_to.q.normalized().toRotationMatrix().transpose() * m;
+      p = m.transpose() * lambda_t * m;
+    }
+    p *= weights[k];
     // Residual t_j - t_i - d: a known end moves to the right-hand side.
-    Eigen::RowVector3d rhs = (solved[e.from] * e.measured_from_T_to.t_m).transpose();
+    Eigen::Vector3d rhs = solved[e.from] * e.measured_from_T_to.t_m;
     const int fi = free_index[e.from], fj = free_index[e.to];
-    if (fi < 0) rhs += (*poses)[e.from].t_m.transpose();
-    if (fj < 0) rhs -= (*poses)[e.to].t_m.transpose();
+    if (fi < 0) rhs += (*poses)[e.from].t_m;
+    if (fj < 0) rhs -= (*poses)[e.to].t_m;
     if (fi >= 0) {
-      h.emplace_back(fi, fi, w);
-      b.row(fi) -= w * rhs;
+      add_block(fi, fi, p);
+      b.middleRows<3>(3 * fi) -= p * rhs;
     }
     if (fj >= 0) {
-      h.emplace_back(fj, fj, w);
-      b.row(fj) += w * rhs;
+      add_block(fj, fj, p);
+      b.middleRows<3>(3 * fj) += p * rhs;
     }
     if (fi >= 0 && fj >= 0) {
-      h.emplace_back(fi, fj, -w);
-      h.emplace_back(fj, fi, -w);
+      add_block(fi, fj, -p);
+      add_block(fj, fi, -p);
     }
   }
   if (!solve(h, b, &x)) return false;
   for (std::size_t i = 0; i < n; ++i) {
     if (free_index[i] < 0) continue;
-    (*poses)[i].t_m = x.row(free_index[i]).transpose();
+    (*poses)[i].t_m = x.middleRows<3>(3 * free_index[i]);
     (*poses)[i].q = Eigen::Quaterniond(solved[i]);
   }
   return true;

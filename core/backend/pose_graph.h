@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "core/backend/chordal_init.h"
 #include "core/backend/pairwise_consistency.h"
 #include "core/backend/pose3.h"
 
@@ -58,6 +59,9 @@ struct PoseGraphConfig {
   // the outliers. The first solve is then one of the weighted solves (gnc_inner_iterations): it only has to give the
   // residuals the annealing starts from. Off: warm starts.
   bool gnc_chordal_solves = false;
+  // With gnc_chordal_solves: the chordal estimate weighs each edge by its own axes (kAnisotropic) or by its mean
+  // precision (kIsotropic, the papers' form), chordal_init.h.
+  ChordalWeighting chordal_weighting = ChordalWeighting::kAnisotropic;
   // Removes the gauge freedom: holds poses[0], and the lowest-index pose of any component not connected to it.
   bool fix_first_pose = true;
   // Poses [0, hold_first_poses) stay where they are (constant in the solve): the rest is solved around them.
