@@ -77,11 +77,48 @@ Eigen::Matrix3d nearest_rotation(const Eigen::Matrix3d& m) {
   return svd.matrixU() * d * svd.matrixV().transpose();
 }
 
+// An edge's rotation residual theta = log(R_ij^T R_i^T R_j) (the `to` frame, as pose_graph's residual).
+Eigen::Vector3d rotation_residual(const RelativePoseEdge& e, const std::vector<Eigen::Matrix3d>& rotation) {
+  const Eigen::AngleAxisd err(e.measured_from_T_to.q.normalized().toRotationMatrix().transpose() *
+                              rotation[e.from].transpose() * rotation[e.to]);
+  return err.angle() * err.axis();
+}
+
+// sum_k w_k theta_k^T lambda_r theta_k over the weighted edges with a free end.
+double rotation_cost(const std::vector<RelativePoseEdge>& edges, const std::vector<double>& weights,
+                     const std::vector<int>& free_index, const std::vector<Eigen::Matrix3d>& rotation) {
+  const std::size_t n = rotation.size();
+  double cost = 0.0;
+  Eigen::Matrix3d lambda_t, lambda_r;
+  for (std::size_t k = 0; k < edges.size(); ++k) {
+    const RelativePoseEdge& e = edges[k];
+    if (!(weights[k] > 0.0) || e.from >= n || e.to >= n || (free_index[e.from] < 0 && free_index[e.to] < 0)) continue;
+    precisions(e, &lambda_t, &lambda_r);
+    const Eigen::Vector3d theta = rotation_residual(e, rotation);
+    cost += weights[k] * theta.dot(lambda_r * theta);
+  }
+  return cost;
+}
+
+// R exp([d]) for every free pose, d its 3 entries of x scaled by `step`.
+void retract(const Eigen::MatrixXd& x, double step, const std::vector<int>& free_index,
+             const std::vector<Eigen::Matrix3d>& from, std::vector<Eigen::Matrix3d>* to) {
+  *to = from;
+  for (std::size_t i = 0; i < from.size(); ++i) {
+    if (free_index[i] < 0) continue;
+    const Eigen::Vector3d d = step * x.middleRows<3>(3 * free_index[i]);
+    if (d.norm() > 0.0)
+      (*to)[i] = nearest_rotation(from[i] * Eigen::AngleAxisd(d.norm(), d.normalized()).toRotationMatrix());
+  }
+}
+
 // Gauss-Newton on the rotations alone with each edge's full rotation precision: residual theta = log(R_ij^T R_i^T
 // R_j), perturbations R <- R exp([delta]), Jacobians -R_j^T R_i and I (small residuals). The chordal relaxation
 // solves each column of R on its own, so an edge sure of one axis and vague on the others cannot be weighted as it
-// states; these steps from its estimate can. Stops after `iterations` or when no pose moves by 1e-9 rad. False when a
-// solve fails (rotations as they were before the failing step).
+// states; these steps from its estimate can. A step is taken only where it lowers the weighted rotation cost
+// (halved up to 4 times, else the refinement stops): with wrong closures still weighted, their large residuals
+// break the small-residual model, and unguarded steps of several radians followed. Stops after `iterations` or a
+// step under 1e-6 rad. False when a solve fails (the rotations as they were before the failing step).
 bool refine_rotations(const std::vector<RelativePoseEdge>& edges, const std::vector<double>& weights,
                       const std::vector<int>& free_index, int num_free, int iterations,
                       std::vector<Eigen::Matrix3d>* rotation) {
@@ -89,6 +126,12 @@ bool refine_rotations(const std::vector<RelativePoseEdge>& edges, const std::vec
   Triplets h;
   Eigen::MatrixXd b, x;
   Eigen::Matrix3d lambda_t, lambda_r;
+  std::vector<Eigen::Matrix3d> candidate;
+  double cost = rotation_cost(edges, weights, free_index, *rotation);
+  const auto block = [&h](int r, int c, const Eigen::Matrix3d& m) {
+    for (int u = 0; u < 3; ++u)
+      for (int v = 0; v < 3; ++v) h.emplace_back(3 * r + u, 3 * c + v, m(u, v));
+  };
   for (int it = 0; it < iterations; ++it) {
     h.clear();
     b = Eigen::MatrixXd::Zero(3 * num_free, 1);
@@ -99,16 +142,8 @@ bool refine_rotations(const std::vector<RelativePoseEdge>& edges, const std::vec
       if (fi < 0 && fj < 0) continue;
       precisions(e, &lambda_t, &lambda_r);
       lambda_r *= weights[k];
-      const Eigen::Matrix3d& r_i = (*rotation)[e.from];
-      const Eigen::Matrix3d& r_j = (*rotation)[e.to];
-      const Eigen::AngleAxisd err(e.measured_from_T_to.q.normalized().toRotationMatrix().transpose() * r_i.transpose() *
-                                  r_j);
-      const Eigen::Vector3d theta = err.angle() * err.axis();
-      const Eigen::Matrix3d j_i = -r_j.transpose() * r_i;
-      const auto block = [&h](int r, int c, const Eigen::Matrix3d& m) {
-        for (int u = 0; u < 3; ++u)
-          for (int v = 0; v < 3; ++v) h.emplace_back(3 * r + u, 3 * c + v, m(u, v));
-      };
+      const Eigen::Vector3d theta = rotation_residual(e, *rotation);
+      const Eigen::Matrix3d j_i = -(*rotation)[e.to].transpose() * (*rotation)[e.from];
       if (fi >= 0) {
         block(fi, fi, j_i.transpose() * lambda_r * j_i);
         b.middleRows<3>(3 * fi) -= j_i.transpose() * lambda_r * theta;
@@ -123,16 +158,18 @@ bool refine_rotations(const std::vector<RelativePoseEdge>& edges, const std::vec
       }
     }
     if (!solve(h, b, &x)) return false;
-    double largest = 0.0;
-    for (std::size_t i = 0; i < n; ++i) {
-      if (free_index[i] < 0) continue;
-      const Eigen::Vector3d d = x.middleRows<3>(3 * free_index[i]);
-      largest = std::max(largest, d.norm());
-      if (d.norm() > 0.0)
-        (*rotation)[i] =
-            nearest_rotation((*rotation)[i] * Eigen::AngleAxisd(d.norm(), d.normalized()).toRotationMatrix());
+    double step = 1.0, candidate_cost = cost;
+    for (int halving = 0; halving <= 4; ++halving, step *= 0.5) {
+      retract(x, step, free_index, *rotation, &candidate);
+      candidate_cost = rotation_cost(edges, weights, free_index, candidate);
+      if (candidate_cost < cost) break;
     }
-    if (largest < 1e-9) break;
+    if (!(candidate_cost < cost)) break;
+    rotation->swap(candidate);
+    cost = candidate_cost;
+    double largest = 0.0;
+    for (int i = 0; i < num_free; ++i) largest = std::max(largest, step * x.middleRows<3>(3 * i).norm());
+    if (largest < 1e-6) break;
   }
   return true;
 }
