@@ -33,6 +33,30 @@ void precisions(const RelativePoseEdge& e, Eigen::Matrix3d* lambda_t, Eigen::Mat
   *lambda_r = e.sigma_rot_rad.cwiseInverse().cwiseAbs2().asDiagonal();
 }
 
+// H's 3x3 block (r, c) += m.
+void add_block(int r, int c, const Eigen::Matrix3d& m, Triplets* h) {
+  for (int u = 0; u < 3; ++u)
+    for (int v = 0; v < 3; ++v) h->emplace_back(3 * r + u, 3 * c + v, m(u, v));
+}
+
+// Adds the normal equations of |r + J_i x_i + J_j x_j|^2_lambda (3-vectors x) to H x = b over the free poses; a
+// fixed end (index < 0) contributes nothing.
+void add_weighted(const Eigen::Matrix3d& j_i, const Eigen::Matrix3d& j_j, const Eigen::Matrix3d& lambda,
+                  const Eigen::Vector3d& r, int free_i, int free_j, Triplets* h, Eigen::MatrixXd* b) {
+  if (free_i >= 0) {
+    add_block(free_i, free_i, j_i.transpose() * lambda * j_i, h);
+    b->middleRows<3>(3 * free_i) -= j_i.transpose() * lambda * r;
+  }
+  if (free_j >= 0) {
+    add_block(free_j, free_j, j_j.transpose() * lambda * j_j, h);
+    b->middleRows<3>(3 * free_j) -= j_j.transpose() * lambda * r;
+  }
+  if (free_i >= 0 && free_j >= 0) {
+    add_block(free_i, free_j, j_i.transpose() * lambda * j_j, h);
+    add_block(free_j, free_i, j_j.transpose() * lambda * j_i, h);
+  }
+}
+
 // Adds one 3-block equation A_i x_i + A_j x_j = c (weight k) to the normal equations H x = B over the free poses;
 // an anchored pose's term moves to the right-hand side. x_i, c and B have 3 columns (rotations: one per row of R).
 void add_equation(const Eigen::Matrix3d& a_i, const Eigen::Matrix3d& a_j, const Eigen::Matrix3d& c, double k,
@@ -41,21 +65,17 @@ void add_equation(const Eigen::Matrix3d& a_i, const Eigen::Matrix3d& a_j, const 
   Eigen::Matrix3d rhs = c;
   if (free_i < 0) rhs -= a_i * known_i;
   if (free_j < 0) rhs -= a_j * known_j;
-  const auto block = [&](int r, int col, const Eigen::Matrix3d& m) {
-    for (int x = 0; x < 3; ++x)
-      for (int y = 0; y < 3; ++y) h->emplace_back(3 * r + x, 3 * col + y, k * m(x, y));
-  };
   if (free_i >= 0) {
-    block(free_i, free_i, a_i.transpose() * a_i);
+    add_block(free_i, free_i, k * a_i.transpose() * a_i, h);
     b->middleRows<3>(3 * free_i) += k * a_i.transpose() * rhs;
   }
   if (free_j >= 0) {
-    block(free_j, free_j, a_j.transpose() * a_j);
+    add_block(free_j, free_j, k * a_j.transpose() * a_j, h);
     b->middleRows<3>(3 * free_j) += k * a_j.transpose() * rhs;
   }
   if (free_i >= 0 && free_j >= 0) {
-    block(free_i, free_j, a_i.transpose() * a_j);
-    block(free_j, free_i, a_j.transpose() * a_i);
+    add_block(free_i, free_j, k * a_i.transpose() * a_j, h);
+    add_block(free_j, free_i, k * a_j.transpose() * a_i, h);
   }
 }
 
@@ -128,10 +148,6 @@ bool refine_rotations(const std::vector<RelativePoseEdge>& edges, const std::vec
   Eigen::Matrix3d lambda_t, lambda_r;
   std::vector<Eigen::Matrix3d> candidate;
   double cost = rotation_cost(edges, weights, free_index, *rotation);
-  const auto block = [&h](int r, int c, const Eigen::Matrix3d& m) {
-    for (int u = 0; u < 3; ++u)
-      for (int v = 0; v < 3; ++v) h.emplace_back(3 * r + u, 3 * c + v, m(u, v));
-  };
   for (int it = 0; it < iterations; ++it) {
     h.clear();
     b = Eigen::MatrixXd::Zero(3 * num_free, 1);
@@ -144,18 +160,7 @@ bool refine_rotations(const std::vector<RelativePoseEdge>& edges, const std::vec
       lambda_r *= weights[k];
       const Eigen::Vector3d theta = rotation_residual(e, *rotation);
       const Eigen::Matrix3d j_i = -(*rotation)[e.to].transpose() * (*rotation)[e.from];
-      if (fi >= 0) {
-        block(fi, fi, j_i.transpose() * lambda_r * j_i);
-        b.middleRows<3>(3 * fi) -= j_i.transpose() * lambda_r * theta;
-      }
-      if (fj >= 0) {
-        block(fj, fj, lambda_r);
-        b.middleRows<3>(3 * fj) -= lambda_r * theta;
-      }
-      if (fi >= 0 && fj >= 0) {
-        block(fi, fj, j_i.transpose() * lambda_r);
-        block(fj, fi, lambda_r * j_i);
-      }
+      add_weighted(j_i, Eigen::Matrix3d::Identity(), lambda_r, theta, fi, fj, &h, &b);
     }
     if (!solve(h, b, &x)) return false;
     double step = 1.0, candidate_cost = cost;
@@ -233,10 +238,6 @@ bool chordal_initialize(const std::vector<RelativePoseEdge>& edges, const std::v
   // mean times I when isotropic: 3x3 blocks of a weighted Laplacian.
   h.clear();
   b = Eigen::MatrixXd::Zero(3 * num_free, 1);
-  const auto add_block = [&h](int r, int c, const Eigen::Matrix3d& m) {
-    for (int u = 0; u < 3; ++u)
-      for (int v = 0; v < 3; ++v) h.emplace_back(3 * r + u, 3 * c + v, m(u, v));
-  };
   for (std::size_t k = 0; k < edges.size(); ++k) {
     const RelativePoseEdge& e = edges[k];
     if (!(weights[k] > 0.0) || e.from >= n || e.to >= n) continue;
@@ -253,18 +254,7 @@ bool chordal_initialize(const std::vector<RelativePoseEdge>& edges, const std::v
     const int fi = free_index[e.from], fj = free_index[e.to];
     if (fi < 0) rhs += (*poses)[e.from].t_m;
     if (fj < 0) rhs -= (*poses)[e.to].t_m;
-    if (fi >= 0) {
-      add_block(fi, fi, p);
-      b.middleRows<3>(3 * fi) -= p * rhs;
-    }
-    if (fj >= 0) {
-      add_block(fj, fj, p);
-      b.middleRows<3>(3 * fj) += p * rhs;
-    }
-    if (fi >= 0 && fj >= 0) {
-      add_block(fi, fj, -p);
-      add_block(fj, fi, -p);
-    }
+    add_weighted(-Eigen::Matrix3d::Identity(), Eigen::Matrix3d::Identity(), p, -rhs, fi, fj, &h, &b);
   }
   if (!solve(h, b, &x)) return false;
   for (std::size_t i = 0; i < n; ++i) {
