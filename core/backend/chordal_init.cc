@@ -15,8 +15,9 @@ namespace {
 
 using Triplets = std::vector<Eigen::Triplet<double>>;
 
-// kAnisotropic: Gauss-Newton steps on the rotations after the relaxation. From the relaxation's estimate they
-// converge in two or three (tests/backend/chordal_init_test.cc); the cap bounds the cost on a graph that does not.
+// kAnisotropic: Gauss-Newton steps on the rotations after the relaxation. On a graph without wrong closures they
+// converge to a step under 1e-6 rad in 2-4 (cubicle: 4); with wrong closures still weighted they may not, and the
+// cap bounds each estimate's cost at 1 + 5 factorizations of the rotation system.
 constexpr int kRotationRefineIterations = 5;
 
 // An edge's rotation and translation precisions: the information's diagonal blocks (its translation-rotation

@@ -5,10 +5,11 @@
 // project each onto SO(3). Then translations: sum_k w_k |t_j - t_i - R_i t_ij|^2_P with those rotations, linear
 // again. The papers weigh each edge by its mean precisions (kIsotropic: kr_k for rotations, P = kt_k I), which
 // misleads on a graph whose edges are sure of some axes and vague on others (cubicle.g2o: planar odometry sure of
-// height, roll and pitch, scan-match closures sure of x, y and heading, 5 orders of magnitude apart): the odometry's
+// height, roll and pitch, scan matches sure of x, y and heading, 5 orders of magnitude apart): the odometry's
 // sure axes lend it weight on its vague heading. kAnisotropic, the default, keeps each axis's own precision: a few
 // Gauss-Newton steps on the rotations alone with the full rotation precision after the relaxation (which solves
-// each column of R on its own and so cannot), and P the edge's translation precision rotated into the world frame.
+// each column of R on its own and so cannot; a step is kept only where it lowers that cost), and P the edge's
+// translation precision rotated into the world frame.
 // Anchored poses keep their values and hold the gauge; a pose no weighted edge ties to an anchor keeps its value
 // too. Runs on the backend thread: it allocates.
 #pragma once
