@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <random>
@@ -107,6 +108,12 @@ bool parse(int argc, char** argv, Options* o) {
       o->solvers = split(v);
     } else if (a == "--gnc-refine") {
       o->robust.gnc_tls_refine_rounds = std::atoi(v.c_str());
+    } else if (a == "--gnc-cluster-trials") {
+      o->robust.gnc_cluster_trials = std::atoi(v.c_str());
+    } else if (a == "--gnc-cluster-gap") {
+      o->robust.gnc_cluster_gap_poses = static_cast<std::uint32_t>(std::atoi(v.c_str()));
+    } else if (a == "--gnc-cluster-min") {
+      o->robust.gnc_cluster_min_closures = static_cast<std::uint32_t>(std::atoi(v.c_str()));
     } else if (a == "--gnc-max-outer") {
       o->robust.gnc_max_outer_iterations = std::atoi(v.c_str());
     } else if (a == "--seed") {
@@ -187,7 +194,8 @@ int main(int argc, char** argv) {
         "          [--solvers gnc_tls,pcm_gnc_tls,cauchy] [--pcm-threshold-sigma G] [--pcm-max-clique-nodes N]\n"
         "          [--diagnose 1] [--function-tolerance T] [--max-iterations N] [--noise-bound Q]\n"
         "          [--noise-margin M] [--gnc-chordal 1] [--chordal-weighting isotropic|anisotropic]\n"
-        "          [--drop-indefinite-coupling 1]\n"
+        "          [--drop-indefinite-coupling 1] [--gnc-cluster-trials N] [--gnc-cluster-gap P]\n"
+        "          [--gnc-cluster-min K]\n"
         "  DIR holds NAME.g2o (default ../shared/data/pose_graphs); an outlier fraction f injects\n"
         "  f / (1 - f) x (the file's loop closures) wrong ones, so they are f of all closures.\n"
         "  The backend's pose-graph optimizer on the public g2o benchmarks: least-squares cost, iterations\n"
@@ -198,7 +206,9 @@ int main(int argc, char** argv) {
         "  whose information is indefinite only through its translation-rotation coupling is read with the\n"
         "  coupling zeroed, and counted (cubicle), instead of refusing the file. --chordal-weighting: the\n"
         "  chordal estimates (the reference's second solve, GNC's with --gnc-chordal 1) by each edge's axes\n"
-        "  (anisotropic, the default) or its mean precision.\n"
+        "  (anisotropic, the default) or its mean precision. --gnc-cluster-trials N: after GNC, up to N trials\n"
+        "  switching a run of dropped closures (ends within P poses, at least K dropped) back on, each kept\n"
+        "  only if it lowers the TLS cost (pose_graph.h).\n"
         "  JSON: pgo_eval.<graph>.*; results in bench/results/pose_graph.md.\n",
         argv[0]);
     return 2;
@@ -213,13 +223,17 @@ int main(int argc, char** argv) {
     std::snprintf(settings, sizeof settings,
                   "; function tolerance %g, up to %d iterations a solve; robust threshold %g sigma of the stated noise",
                   opt.function_tolerance, opt.max_iterations, opt.robust.loop_closure_loss_scale_sigma);
+  const char* const weighting =
+      opt.robust.chordal_weighting == backend::ChordalWeighting::kIsotropic ? "isotropic" : "anisotropic";
   const std::string refine =
       "; GNC-TLS refine rounds " + std::to_string(opt.robust.gnc_tls_refine_rounds) +
-      (opt.robust.gnc_chordal_solves
-           ? std::string("; GNC's weighted solves from the chordal estimate (") +
-                 (opt.robust.chordal_weighting == backend::ChordalWeighting::kIsotropic ? "isotropic" : "anisotropic") +
-                 " weights)"
+      (opt.robust.gnc_cluster_trials > 0
+           ? "; cluster trials up to " + std::to_string(opt.robust.gnc_cluster_trials) + " (gap " +
+                 std::to_string(opt.robust.gnc_cluster_gap_poses) + " poses, at least " +
+                 std::to_string(opt.robust.gnc_cluster_min_closures) + " dropped)"
            : "") +
+      "; chordal estimates with " + weighting + " weights" +
+      (opt.robust.gnc_chordal_solves ? "; GNC's weighted solves from the chordal estimate" : "") +
       "; GNC inner iterations " + std::to_string(opt.robust.gnc_inner_iterations) +
       (opt.robust.gnc_inner_iterations == 0 ? " (the chordal estimate alone)" : "");
   bench::Figures figures(
@@ -393,10 +407,12 @@ int main(int argc, char** argv) {
             "  %2.0f %% wrong (%zu), %-11s: %.4f m from the outlier-free solution (%.3f %% of its radius); "
             "%zu wrong kept, %zu right dropped; %d iterations%s, %.2f s [%s]\n",
             100.0 * f, count, solver.c_str(), e, 100.0 * e / radius, wrong_kept, right_dropped, r.iterations,
-            r.gnc_outer_iterations > 0 ? (" (" + std::to_string(r.gnc_outer_iterations) + " GNC, " +
-                                          std::to_string(r.gnc_refine_rounds) + " TLS rounds)")
-                                             .c_str()
-                                       : "",
+            r.gnc_outer_iterations > 0
+                ? (" (" + std::to_string(r.gnc_outer_iterations) + " GNC, " + std::to_string(r.gnc_refine_rounds) +
+                   " TLS rounds, " + std::to_string(r.gnc_clusters_readmitted) + " of " +
+                   std::to_string(r.gnc_cluster_trials) + " cluster trials kept)")
+                      .c_str()
+                : "",
             s, r.message.c_str());
         const std::string q =
             p + "outliers_" + std::to_string(static_cast<int>(std::lround(100.0 * f))) + "." + solver +
@@ -409,12 +425,17 @@ int main(int argc, char** argv) {
             (opt.robust.gnc_chordal_solves && opt.robust.chordal_weighting == backend::ChordalWeighting::kIsotropic
                  ? "_isotropic"
                  : "") +
+            (opt.robust.gnc_cluster_trials > 0 ? "_clusters" : "") +
             (opt.robust.gnc_tls_refine_rounds > 0 ? "_tls_refined." : ".");
         figures.add(q + "rmse_to_outlier_free", e, "m");
         figures.add(q + "rmse_to_outlier_free_share", e / radius, "fraction of the RMS radius");
         figures.add(q + "wrong_kept", static_cast<double>(wrong_kept), "edges");
         figures.add(q + "right_dropped", static_cast<double>(right_dropped), "edges");
         figures.add(q + "solve_time", s, "s");
+        if (config.gnc_cluster_trials > 0) {
+          figures.add(q + "cluster_trials", r.gnc_cluster_trials, "trials");
+          figures.add(q + "clusters_readmitted", r.gnc_clusters_readmitted, "trials kept");
+        }
         if (config.prefilter_pairwise_consistency) {
           std::printf("    ");
           r.pairwise.print(stdout);

@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdarg>
+#include <cstdint>
 #include <numeric>
 #include <string>
 #include <utility>
@@ -135,6 +136,10 @@ std::string check_config(const PoseGraphConfig& config) {
                     config.gnc_inner_iterations);
     if (config.gnc_tls_refine_rounds < 0)
       return format("gnc_tls_refine_rounds is %d, must be >= 0", config.gnc_tls_refine_rounds);
+    if (config.gnc_cluster_trials < 0)
+      return format("gnc_cluster_trials is %d, must be >= 0", config.gnc_cluster_trials);
+    if (config.gnc_cluster_trials > 0 && config.gnc_cluster_min_closures < 1)
+      return "gnc_cluster_min_closures is 0, must be >= 1";
   }
   return {};
 }
@@ -213,6 +218,40 @@ std::uint32_t find_root(std::vector<std::uint32_t>& parent, std::uint32_t i) {
   return i;
 }
 
+// Loop closures grouped into runs (PoseGraphConfig::gnc_cluster_trials): closures a and b are linked when both their
+// lower and their higher pose indices are within `gap` of each other's; clusters are the linked components. Sorted
+// by lower index, each closure is compared only with those whose lower index is within the gap.
+std::vector<std::vector<std::size_t>> closure_clusters(const std::vector<RelativePoseEdge>& edges,
+                                                       const std::vector<bool>& excluded, std::uint32_t gap) {
+  std::vector<std::size_t> order;
+  for (std::size_t k = 0; k < edges.size(); ++k)
+    if (edges[k].is_loop_closure && !excluded[k]) order.push_back(k);
+  const auto lo = [&edges](std::size_t k) { return std::min(edges[k].from, edges[k].to); };
+  const auto hi = [&edges](std::size_t k) { return std::max(edges[k].from, edges[k].to); };
+  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return lo(a) < lo(b); });
+  std::vector<std::uint32_t> parent(order.size());
+  std::iota(parent.begin(), parent.end(), 0u);
+  for (std::size_t a = 0; a < order.size(); ++a) {
+    for (std::size_t b = a + 1; b < order.size() && lo(order[b]) - lo(order[a]) <= gap; ++b) {
+      const std::uint32_t ha = hi(order[a]), hb = hi(order[b]);
+      if ((ha > hb ? ha - hb : hb - ha) > gap) continue;
+      const std::uint32_t ra = find_root(parent, static_cast<std::uint32_t>(a));
+      const std::uint32_t rb = find_root(parent, static_cast<std::uint32_t>(b));
+      if (ra != rb) parent[std::max(ra, rb)] = std::min(ra, rb);
+    }
+  }
+  std::vector<std::vector<std::size_t>> clusters;
+  std::vector<std::size_t> index_of_root(order.size(), SIZE_MAX);
+  for (std::size_t a = 0; a < order.size(); ++a) {
+    const std::uint32_t r = find_root(parent, static_cast<std::uint32_t>(a));
+    if (index_of_root[r] == SIZE_MAX) {
+      index_of_root[r] = clusters.size();
+      clusters.emplace_back();
+    }
+    clusters[index_of_root[r]].push_back(order[a]);
+  }
+  return clusters;
+}
 
 // One solve of optimize_pose_graph's input: the state (a copy of the poses), the Ceres problem over it, and GNC's
 // loop-closure weights, which the residuals read at every evaluation. Closures in `excluded` (rejected by the
@@ -454,6 +493,7 @@ class GraphSolve {
     chordal_reset();
     solve(options_, &summary, result);
     refine_tls(&summary, result);
+    if (config_.gnc_cluster_trials > 0 && summary.IsSolutionUsable()) search_clusters(&summary, result);
     return summary;
   }
 
@@ -503,6 +543,83 @@ class GraphSolve {
       solve(options_, summary, result);
       ++result->gnc_refine_rounds;
     }
+  }
+
+  // The truncated least-squares cost at the current state: every edge's half squared whitened residual, a loop
+  // closure's capped at the threshold (weights aside), plus the rotation priors'.
+  double tls_cost() {
+    match_blocks_to_weights();
+    double cost = 0.0;  // the problem's: odometry, priors and the closures of weight 1
+    problem_.Evaluate(ceres::Problem::EvaluateOptions(), &cost, nullptr, nullptr, nullptr);
+    const double c2 = config_.loop_closure_loss_scale_sigma * config_.loop_closure_loss_scale_sigma;
+    for (std::size_t k = 0; k < edges_.size(); ++k) {
+      if (!edges_[k].is_loop_closure || excluded_[k]) continue;
+      const double r = unweighted_residual(k);
+      cost += 0.5 * std::min(r * r, c2) - 0.5 * weights_[k] * r * r;
+    }
+    return cost;
+  }
+
+  // PoseGraphConfig::gnc_cluster_trials: the local search over clusters of switched-off closures, from the rounded
+  // TLS solution. `summary` stays the last kept solve's.
+  void search_clusters(ceres::Solver::Summary* summary, PoseGraphResult* result) {
+    const std::vector<std::vector<std::size_t>> clusters =
+        closure_clusters(edges_, excluded_, config_.gnc_cluster_gap_poses);
+    const auto switched_off = [this](const std::vector<std::size_t>& cluster) {
+      return static_cast<std::size_t>(
+          std::count_if(cluster.begin(), cluster.end(), [this](std::size_t k) { return weights_[k] == 0.0; }));
+    };
+    std::vector<std::size_t> order(clusters.size());
+    std::iota(order.begin(), order.end(), 0u);
+    std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+      return switched_off(clusters[a]) > switched_off(clusters[b]);
+    });
+    double cost = tls_cost();
+    // Sweeps over the clusters until one keeps nothing: a kept trial moves the graph, and a cluster tried before it
+    // may fit now.
+    for (bool kept = true; kept && result->gnc_cluster_trials < config_.gnc_cluster_trials;) {
+      kept = false;
+      for (const std::size_t index : order) {
+        if (result->gnc_cluster_trials >= config_.gnc_cluster_trials) break;
+        const std::vector<std::size_t>& cluster = clusters[index];
+        if (switched_off(cluster) < config_.gnc_cluster_min_closures) continue;  // also: an earlier trial took it
+        ++result->gnc_cluster_trials;
+        if (try_cluster(cluster, &cost, summary, result)) {
+          kept = true;
+          ++result->gnc_clusters_readmitted;
+        }
+      }
+      if (kept) refine_tls(summary, result);
+      if (kept) cost = tls_cost();
+    }
+  }
+
+  // One cluster trial: its switched-off closures on, solve, every closure re-decided by its residual, solve again.
+  // Kept (true, `cost` and `summary` updated) when the TLS cost falls; otherwise the state before it is restored.
+  bool try_cluster(const std::vector<std::size_t>& cluster, double* cost, ceres::Solver::Summary* summary,
+                   PoseGraphResult* result) {
+    const double c = config_.loop_closure_loss_scale_sigma;
+    const std::vector<double> state = state_;
+    const std::vector<double> weights = weights_;
+    for (const std::size_t k : cluster) weights_[k] = 1.0;
+    ceres::Solver::Summary trial;
+    solve(options_, &trial, result);
+    if (trial.IsSolutionUsable()) {
+      std::vector<double> r;
+      loop_closure_residuals(&r);
+      for (std::size_t k = 0; k < edges_.size(); ++k)
+        if (edges_[k].is_loop_closure && !excluded_[k]) weights_[k] = r[k] <= c ? 1.0 : 0.0;
+      solve(options_, &trial, result);
+    }
+    const double trial_cost = trial.IsSolutionUsable() && state_finite() ? tls_cost() : *cost;
+    if (trial_cost < *cost * (1.0 - 1e-9)) {
+      *cost = trial_cost;
+      *summary = trial;
+      return true;
+    }
+    state_ = state;
+    weights_ = weights;
+    return false;
   }
 
   const PoseGraphConfig& config_;
@@ -557,10 +674,12 @@ void PoseGraphConfig::print(std::FILE* out) const {
   std::fprintf(out,
                "pose_graph: loop_closure_loss=%s loop_closure_loss_scale_sigma=%g huber_warm_start=%s "
                "max_iterations=%d gnc_max_outer_iterations=%d gnc_mu_factor=%g gnc_inner_iterations=%d "
-               "gnc_tls_refine_rounds=%d gnc_chordal_solves=%s chordal_weighting=%s fix_first_pose=%s num_threads=%d "
+               "gnc_tls_refine_rounds=%d gnc_cluster_trials=%d gnc_cluster_gap_poses=%u gnc_cluster_min_closures=%u "
+               "gnc_chordal_solves=%s chordal_weighting=%s fix_first_pose=%s num_threads=%d "
                "prefilter_pairwise_consistency=%s\n",
                to_string(loop_closure_loss), loop_closure_loss_scale_sigma, huber_warm_start ? "true" : "false",
                max_iterations, gnc_max_outer_iterations, gnc_mu_factor, gnc_inner_iterations, gnc_tls_refine_rounds,
+               gnc_cluster_trials, gnc_cluster_gap_poses, gnc_cluster_min_closures,
                gnc_chordal_solves ? "true" : "false",
                chordal_weighting == ChordalWeighting::kAnisotropic ? "anisotropic" : "isotropic",
                fix_first_pose ? "true" : "false", num_threads, prefilter_pairwise_consistency ? "true" : "false");

@@ -59,6 +59,17 @@ struct PoseGraphConfig {
   // the outliers. The first solve is then one of the weighted solves (gnc_inner_iterations): it only has to give the
   // residuals the annealing starts from. Off: warm starts.
   bool gnc_chordal_solves = false;
+  // kGncTls, a refinement after the TLS rounds: a local search on the truncated least-squares cost over clusters of
+  // closures. Right closures come in runs (a revisit closes many consecutive poses against many consecutive poses),
+  // and where the odometry holds little, GNC can bend a stretch to fit a few wrong closures and drop a whole run of
+  // right ones with it. Closures whose two ends are each within gnc_cluster_gap_poses of another's form a cluster;
+  // for each cluster with at least gnc_cluster_min_closures switched off (the most first, up to this many trials),
+  // they are switched on, the graph solved, every closure re-decided by its residual and the graph solved again;
+  // the trial stays only if it lowers the TLS cost, else the state before it is restored. Sweeps repeat while one
+  // keeps a trial; the trials in all are capped at this many (each costs two solves). 0: off.
+  int gnc_cluster_trials = 0;
+  std::uint32_t gnc_cluster_gap_poses = 10;
+  std::uint32_t gnc_cluster_min_closures = 3;
   // With gnc_chordal_solves: the chordal estimate weighs each edge by its own axes (kAnisotropic) or by its mean
   // precision (kIsotropic, the papers' form), chordal_init.h.
   ChordalWeighting chordal_weighting = ChordalWeighting::kAnisotropic;
@@ -101,6 +112,9 @@ struct PoseGraphResult {
   std::vector<double> edge_weight;
   int gnc_outer_iterations = 0;
   int gnc_refine_rounds = 0;  // kGncTls with gnc_tls_refine_rounds: the rounds that changed a decision and re-solved
+  // kGncTls with gnc_cluster_trials: the cluster trials run, and those kept (they lowered the TLS cost).
+  int gnc_cluster_trials = 0;
+  int gnc_clusters_readmitted = 0;
   // Where a solve's time goes: Ceres' own wall-clock time over its solves, or PoseGraphConfig::clock_s's.
   double solver_time_s = 0.0;
   // With prefilter_pairwise_consistency: the prefilter's tallies (its rejected closures are downweighted too).

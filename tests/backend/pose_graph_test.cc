@@ -345,6 +345,72 @@ TEST(PoseGraph, TlsRoundsReadmitTheRightClosuresAnEarlyStoppedGncDropped) {
               right_dropped(without), with.gnc_refine_rounds, right_dropped(with));
 }
 
+// GNC stopped after its first outer iteration decides from a state bent by every closure at once and drops the
+// right closures with the wrong ones; the TLS rounds cannot bring them back (the solution without them does not fit
+// them). The right closures form one run (every third pose of the second lap against the first). Beside them, a run
+// of four aliased closures that agree with each other: the second lap's third side claims to be where the first
+// lap's second side is. The cluster trials switch the right run back on and keep it (the TLS cost falls), and try
+// the aliased run and reject it.
+TEST(PoseGraph, ClusterTrialsReadmitARunOfRightClosuresTheTlsRoundsCannot) {
+  HalfOutliers h = half_outliers();
+  const std::vector<Pose3> reference = outlier_free_solution(h);
+  for (std::uint32_t j = 0; j < 4; ++j) {
+    const std::uint32_t from = kNumPoses + 2 * kPosesPerSide + 5 + 3 * j, to = 5 + 3 * j;
+    h.corrupt.push_back(make_edge(from, to, between(reference[from - kPosesPerSide], reference[to]), true));
+  }
+  PoseGraphConfig gnc;
+  gnc.loop_closure_loss = RobustLoss::kGncTls;
+  gnc.gnc_inner_iterations = 1;
+  gnc.gnc_max_outer_iterations = 1;
+  gnc.gnc_tls_refine_rounds = 10;
+  gnc.gnc_cluster_gap_poses = 4;  // the runs' spacing is 3; at 10 the aliased run would join the right one
+  const auto count = [&h](const PoseGraphResult& r, bool right, double weight) {
+    std::size_t n = 0;
+    for (std::size_t k = 0; k < h.corrupt.size(); ++k)
+      n += h.corrupt[k].is_loop_closure && (k < h.clean.size()) == right && r.edge_weight[k] == weight;
+    return n;
+  };
+  std::vector<Pose3> rounds_only = h.initial;
+  const PoseGraphResult without = optimize_pose_graph(gnc, rounds_only, h.corrupt);
+  ASSERT_TRUE(without.poses_updated()) << without.message;
+  ASSERT_GT(count(without, true, 0.0), 3u) << "the early stop must drop the right run, else this tests nothing";
+  EXPECT_EQ(without.gnc_cluster_trials, 0);
+
+  gnc.gnc_cluster_trials = 32;
+  std::vector<Pose3> searched = h.initial;
+  const PoseGraphResult with = optimize_pose_graph(gnc, searched, h.corrupt);
+  ASSERT_TRUE(with.poses_updated()) << with.message;
+  std::printf(
+      "[ pose graph ] GNC stopped after 1 outer iteration, then TLS rounds: %zu right closures dropped, %.3f m from "
+      "the outlier-free solution; cluster trials (%d kept of %d): %zu dropped, %.5f m\n",
+      count(without, true, 0.0), ate_rmse_m(rounds_only, reference), with.gnc_clusters_readmitted,
+      with.gnc_cluster_trials, count(with, true, 0.0), ate_rmse_m(searched, reference));
+  EXPECT_EQ(count(with, true, 0.0), 0u);
+  EXPECT_EQ(count(with, false, 1.0), 0u) << "no wrong closure, aliased or random, may be kept";
+  EXPECT_GE(with.gnc_cluster_trials, 2) << "the aliased run must be tried too";
+  EXPECT_EQ(with.gnc_clusters_readmitted, 1);
+  EXPECT_LT(ate_rmse_m(searched, reference), 0.01);
+}
+
+// Cluster trials are bounded by gnc_cluster_trials and refused when negative.
+TEST(PoseGraph, ClusterTrialsAreBoundedAndChecked) {
+  const HalfOutliers h = half_outliers();
+  PoseGraphConfig gnc;
+  gnc.loop_closure_loss = RobustLoss::kGncTls;
+  gnc.gnc_inner_iterations = 1;
+  gnc.gnc_max_outer_iterations = 1;
+  gnc.gnc_cluster_trials = -1;
+  std::vector<Pose3> poses = h.initial;
+  const PoseGraphResult refused = optimize_pose_graph(gnc, poses, h.corrupt);
+  EXPECT_EQ(refused.status, PoseGraphStatus::kInvalidInput);
+  EXPECT_NE(refused.message.find("gnc_cluster_trials"), std::string::npos) << refused.message;
+  gnc.gnc_cluster_trials = 1;
+  gnc.gnc_cluster_min_closures = 1;  // every dropped closure a candidate: many more than one trial's worth
+  const PoseGraphResult r = optimize_pose_graph(gnc, poses, h.corrupt);
+  ASSERT_TRUE(r.poses_updated()) << r.message;
+  EXPECT_EQ(r.gnc_cluster_trials, 1);
+}
+
 // An information matrix diag(1 / sigma^2) weighs as the sigmas do (translation in the `to` frame instead of the
 // `from` frame changes nothing for an isotropic translation sigma).
 TEST(PoseGraph, ADiagonalInformationMatrixEqualsItsSigmas) {
