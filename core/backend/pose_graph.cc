@@ -565,26 +565,23 @@ class GraphSolve {
   void search_clusters(ceres::Solver::Summary* summary, PoseGraphResult* result) {
     const std::vector<std::vector<std::size_t>> clusters =
         closure_clusters(edges_, excluded_, config_.gnc_cluster_gap_poses);
-    const auto switched_off = [this](const std::vector<std::size_t>& cluster) {
-      return static_cast<std::size_t>(
-          std::count_if(cluster.begin(), cluster.end(), [this](std::size_t k) { return weights_[k] == 0.0; }));
-    };
-    std::vector<std::size_t> order(clusters.size());
-    std::iota(order.begin(), order.end(), 0u);
-    std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
-      return switched_off(clusters[a]) > switched_off(clusters[b]);
-    });
     double cost = tls_cost();
-    // Sweeps over the clusters until one keeps nothing: a kept trial moves the graph, and a cluster tried before it
-    // may fit now.
+    // Sweeps over the clusters (the largest agreeing runs first) until one keeps nothing: a kept trial moves the
+    // graph, and a cluster tried before it may fit now.
     for (bool kept = true; kept && result->gnc_cluster_trials < config_.gnc_cluster_trials;) {
       kept = false;
-      for (const std::size_t index : order) {
+      std::vector<std::pair<std::size_t, std::size_t>> order;  // (run size, cluster)
+      for (std::size_t i = 0; i < clusters.size(); ++i) {
+        const std::size_t n = agreeing_run(clusters[i]).size();
+        if (n >= config_.gnc_cluster_min_closures) order.emplace_back(n, i);
+      }
+      std::stable_sort(order.begin(), order.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+      for (const auto& [size, index] : order) {
         if (result->gnc_cluster_trials >= config_.gnc_cluster_trials) break;
-        const std::vector<std::size_t>& cluster = clusters[index];
-        if (switched_off(cluster) < config_.gnc_cluster_min_closures) continue;  // also: an earlier trial took it
+        const std::vector<std::size_t> run = agreeing_run(clusters[index]);  // an earlier trial may have moved it
+        if (run.size() < config_.gnc_cluster_min_closures) continue;
         ++result->gnc_cluster_trials;
-        if (try_cluster(cluster, &cost, summary, result)) {
+        if (try_cluster(run, &cost, summary, result)) {
           kept = true;
           ++result->gnc_clusters_readmitted;
         }
@@ -594,7 +591,54 @@ class GraphSolve {
     }
   }
 
-  // One cluster trial: its switched-off closures on, solve, every closure re-decided by its residual, solve again.
+  Pose3 pose_at(std::uint32_t i) {
+    return {Eigen::Map<const Eigen::Vector3d>(t_block(i)), Eigen::Map<const Eigen::Quaterniond>(q_block(i))};
+  }
+  // The rigid motion of the world that, applied to closure k's later pose (the higher index), makes the closure
+  // exact with its earlier pose held.
+  Pose3 later_end_correction(std::size_t k) {
+    const RelativePoseEdge& e = edges_[k];
+    Pose3 z = e.measured_from_T_to;
+    z.q.normalize();
+    const Pose3 from = pose_at(e.from), to = pose_at(e.to);
+    return e.to > e.from ? from * z * to.inverse() : to * z.inverse() * from.inverse();
+  }
+  // Closure k's whitened residual were its later pose moved by `correction`.
+  double residual_with_later_end_moved(std::size_t k, const Pose3& correction) {
+    const RelativePoseEdge& e = edges_[k];
+    Pose3 from = pose_at(e.from), to = pose_at(e.to);
+    if (e.to > e.from)
+      to = correction * to;
+    else
+      from = correction * from;
+    const double w = weights_[k];
+    weights_[k] = 1.0;
+    Vector6d v;
+    residuals_[k](from.t_m.data(), from.q.coeffs().data(), to.t_m.data(), to.q.coeffs().data(), v.data());
+    weights_[k] = w;
+    return v.norm();
+  }
+  // A cluster's switched-off closures that agree on one rigid correction: a run of right closures between two
+  // stretches of the trajectory says the same thing (the later stretch moved by one rigid motion), random wrong
+  // closures do not. Each switched-off closure's correction is a hypothesis; its run is the switched-off closures it
+  // brings within the threshold; the largest run.
+  std::vector<std::size_t> agreeing_run(const std::vector<std::size_t>& cluster) {
+    std::vector<std::size_t> off;
+    for (const std::size_t k : cluster)
+      if (weights_[k] == 0.0) off.push_back(k);
+    std::vector<std::size_t> best, run;
+    if (off.size() < config_.gnc_cluster_min_closures) return best;
+    for (const std::size_t k : off) {
+      const Pose3 correction = later_end_correction(k);
+      run.clear();
+      for (const std::size_t l : off)
+        if (residual_with_later_end_moved(l, correction) <= config_.loop_closure_loss_scale_sigma) run.push_back(l);
+      if (run.size() > best.size()) best = run;
+    }
+    return best;
+  }
+
+  // One cluster trial: the run's closures on, solve, every closure re-decided by its residual, solve again.
   // Kept (true, `cost` and `summary` updated) when the TLS cost falls; otherwise the state before it is restored.
   bool try_cluster(const std::vector<std::size_t>& cluster, double* cost, ceres::Solver::Summary* summary,
                    PoseGraphResult* result) {

@@ -59,14 +59,15 @@ struct PoseGraphConfig {
   // the outliers. The first solve is then one of the weighted solves (gnc_inner_iterations): it only has to give the
   // residuals the annealing starts from. Off: warm starts.
   bool gnc_chordal_solves = false;
-  // kGncTls, a refinement after the TLS rounds: a local search on the truncated least-squares cost over clusters of
+  // kGncTls, a refinement after the TLS rounds: a local search on the truncated least-squares cost over runs of
   // closures. Right closures come in runs (a revisit closes many consecutive poses against many consecutive poses),
   // and where the odometry holds little, GNC can bend a stretch to fit a few wrong closures and drop a whole run of
   // right ones with it. Closures whose two ends are each within gnc_cluster_gap_poses of another's form a cluster;
-  // for each cluster with at least gnc_cluster_min_closures switched off (the most first, up to this many trials),
-  // they are switched on, the graph solved, every closure re-decided by its residual and the graph solved again;
-  // the trial stays only if it lowers the TLS cost, else the state before it is restored. Sweeps repeat while one
-  // keeps a trial; the trials in all are capped at this many (each costs two solves). 0: off.
+  // in each, the switched-off closures that agree on one rigid correction of the later stretch (within the
+  // threshold) form its run. Each run of at least gnc_cluster_min_closures (the largest first) is switched on, the
+  // graph solved, every closure re-decided by its residual and the graph solved again; the trial stays only if it
+  // lowers the TLS cost, else the state before it is restored. Sweeps repeat while one keeps a trial; the trials in
+  // all are capped at this many (each costs two solves). 0: off.
   int gnc_cluster_trials = 0;
   std::uint32_t gnc_cluster_gap_poses = 10;
   std::uint32_t gnc_cluster_min_closures = 3;
