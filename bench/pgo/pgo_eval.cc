@@ -112,6 +112,8 @@ bool parse(int argc, char** argv, Options* o) {
       o->robust.gnc_cluster_trials = std::atoi(v.c_str());
     } else if (a == "--gnc-cluster-gap") {
       o->robust.gnc_cluster_gap_poses = static_cast<std::uint32_t>(std::atoi(v.c_str()));
+    } else if (a == "--gnc-lone-trials") {
+      o->robust.gnc_cluster_lone_trials = static_cast<std::uint32_t>(std::atoi(v.c_str()));
     } else if (a == "--gnc-cluster-min") {
       o->robust.gnc_cluster_min_closures = static_cast<std::uint32_t>(std::atoi(v.c_str()));
     } else if (a == "--gnc-max-outer") {
@@ -195,7 +197,7 @@ int main(int argc, char** argv) {
         "          [--diagnose 1] [--function-tolerance T] [--max-iterations N] [--noise-bound Q]\n"
         "          [--noise-margin M] [--gnc-chordal 1] [--chordal-weighting isotropic|anisotropic]\n"
         "          [--drop-indefinite-coupling 1] [--gnc-cluster-trials N] [--gnc-cluster-gap P]\n"
-        "          [--gnc-cluster-min K]\n"
+        "          [--gnc-cluster-min K] [--gnc-lone-trials L]\n"
         "  DIR holds NAME.g2o (default ../shared/data/pose_graphs); an outlier fraction f injects\n"
         "  f / (1 - f) x (the file's loop closures) wrong ones, so they are f of all closures.\n"
         "  The backend's pose-graph optimizer on the public g2o benchmarks: least-squares cost, iterations\n"
@@ -207,8 +209,8 @@ int main(int argc, char** argv) {
         "  coupling zeroed, and counted (cubicle), instead of refusing the file. --chordal-weighting: the\n"
         "  chordal estimates (the reference's second solve, GNC's with --gnc-chordal 1) by each edge's axes\n"
         "  (anisotropic, the default) or its mean precision. --gnc-cluster-trials N: after GNC, up to N trials\n"
-        "  switching a run of dropped closures (ends within P poses, at least K dropped) back on, each kept\n"
-        "  only if it lowers the TLS cost (pose_graph.h).\n"
+        "  switching a run of dropped closures (ends within P poses, at least K agreeing) back on, and up to L\n"
+        "  lone kept closures a sweep off, each kept only if it lowers the TLS cost (pose_graph.h).\n"
         "  JSON: pgo_eval.<graph>.*; results in bench/results/pose_graph.md.\n",
         argv[0]);
     return 2;
@@ -230,7 +232,8 @@ int main(int argc, char** argv) {
       (opt.robust.gnc_cluster_trials > 0
            ? "; cluster trials up to " + std::to_string(opt.robust.gnc_cluster_trials) + " (gap " +
                  std::to_string(opt.robust.gnc_cluster_gap_poses) + " poses, at least " +
-                 std::to_string(opt.robust.gnc_cluster_min_closures) + " dropped)"
+                 std::to_string(opt.robust.gnc_cluster_min_closures) + " dropped in a run, up to " +
+                 std::to_string(opt.robust.gnc_cluster_lone_trials) + " lone closures a sweep)"
            : "") +
       "; chordal estimates with " + weighting + " weights" +
       (opt.robust.gnc_chordal_solves ? "; GNC's weighted solves from the chordal estimate" : "") +
@@ -409,8 +412,9 @@ int main(int argc, char** argv) {
             100.0 * f, count, solver.c_str(), e, 100.0 * e / radius, wrong_kept, right_dropped, r.iterations,
             r.gnc_outer_iterations > 0
                 ? (" (" + std::to_string(r.gnc_outer_iterations) + " GNC, " + std::to_string(r.gnc_refine_rounds) +
-                   " TLS rounds, " + std::to_string(r.gnc_clusters_readmitted) + " of " +
-                   std::to_string(r.gnc_cluster_trials) + " cluster trials kept)")
+                   " TLS rounds, " + std::to_string(r.gnc_clusters_readmitted) + " runs on and " +
+                   std::to_string(r.gnc_lone_dropped) + " lone off in " + std::to_string(r.gnc_cluster_trials) +
+                   " trials)")
                       .c_str()
                 : "",
             s, r.message.c_str());
@@ -434,7 +438,8 @@ int main(int argc, char** argv) {
         figures.add(q + "solve_time", s, "s");
         if (config.gnc_cluster_trials > 0) {
           figures.add(q + "cluster_trials", r.gnc_cluster_trials, "trials");
-          figures.add(q + "clusters_readmitted", r.gnc_clusters_readmitted, "trials kept");
+          figures.add(q + "clusters_readmitted", r.gnc_clusters_readmitted, "runs switched on");
+          figures.add(q + "lone_dropped", r.gnc_lone_dropped, "lone closures switched off");
         }
         if (config.prefilter_pairwise_consistency) {
           std::printf("    ");

@@ -565,25 +565,53 @@ class GraphSolve {
   void search_clusters(ceres::Solver::Summary* summary, PoseGraphResult* result) {
     const std::vector<std::vector<std::size_t>> clusters =
         closure_clusters(edges_, excluded_, config_.gnc_cluster_gap_poses);
+    const auto switched_off = [this](const std::vector<std::size_t>& cluster) {
+      std::vector<std::size_t> off;
+      for (const std::size_t k : cluster)
+        if (weights_[k] == 0.0) off.push_back(k);
+      return off;
+    };
     double cost = tls_cost();
-    // Sweeps over the clusters (the largest agreeing runs first) until one keeps nothing: a kept trial moves the
+    // Sweeps over the clusters (the most closures switched off first) until one keeps nothing: a kept trial moves the
     // graph, and a cluster tried before it may fit now.
     for (bool kept = true; kept && result->gnc_cluster_trials < config_.gnc_cluster_trials;) {
       kept = false;
-      std::vector<std::pair<std::size_t, std::size_t>> order;  // (run size, cluster)
+      std::vector<std::pair<std::size_t, std::size_t>> order;  // (closures switched off, cluster)
       for (std::size_t i = 0; i < clusters.size(); ++i) {
-        const std::size_t n = agreeing_run(clusters[i]).size();
+        const std::size_t n = switched_off(clusters[i]).size();
         if (n >= config_.gnc_cluster_min_closures) order.emplace_back(n, i);
       }
       std::stable_sort(order.begin(), order.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
       for (const auto& [size, index] : order) {
         if (result->gnc_cluster_trials >= config_.gnc_cluster_trials) break;
-        const std::vector<std::size_t> run = agreeing_run(clusters[index]);  // an earlier trial may have moved it
-        if (run.size() < config_.gnc_cluster_min_closures) continue;
+        const std::vector<std::size_t> off = switched_off(clusters[index]);  // an earlier trial may have taken some
+        if (off.size() < config_.gnc_cluster_min_closures) continue;
         ++result->gnc_cluster_trials;
-        if (try_cluster(run, &cost, summary, result)) {
+        if (try_cluster(off, 1.0, &cost, summary, result)) {
           kept = true;
           ++result->gnc_clusters_readmitted;
+        }
+      }
+      // Lone closures: the only one kept in their cluster, the largest residual first. A wrong closure the graph
+      // bent to fit has nothing beside it; switched off, the bend relaxes.
+      std::vector<std::pair<double, std::size_t>> lone;  // (residual, closure)
+      for (const std::vector<std::size_t>& cluster : clusters) {
+        std::size_t on = 0, last = 0;
+        for (const std::size_t k : cluster) {
+          if (weights_[k] == 0.0) continue;
+          ++on;
+          last = k;
+        }
+        if (on == 1) lone.emplace_back(unweighted_residual(last), last);
+      }
+      std::sort(lone.begin(), lone.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+      for (std::size_t i = 0; i < lone.size() && i < config_.gnc_cluster_lone_trials; ++i) {
+        if (result->gnc_cluster_trials >= config_.gnc_cluster_trials) break;
+        if (weights_[lone[i].second] == 0.0) continue;  // an earlier trial dropped it
+        ++result->gnc_cluster_trials;
+        if (try_cluster({lone[i].second}, 0.0, &cost, summary, result)) {
+          kept = true;
+          ++result->gnc_lone_dropped;
         }
       }
       if (kept) refine_tls(summary, result);
@@ -591,61 +619,14 @@ class GraphSolve {
     }
   }
 
-  Pose3 pose_at(std::uint32_t i) {
-    return {Eigen::Map<const Eigen::Vector3d>(t_block(i)), Eigen::Map<const Eigen::Quaterniond>(q_block(i))};
-  }
-  // The rigid motion of the world that, applied to closure k's later pose (the higher index), makes the closure
-  // exact with its earlier pose held.
-  Pose3 later_end_correction(std::size_t k) {
-    const RelativePoseEdge& e = edges_[k];
-    Pose3 z = e.measured_from_T_to;
-    z.q.normalize();
-    const Pose3 from = pose_at(e.from), to = pose_at(e.to);
-    return e.to > e.from ? from * z * to.inverse() : to * z.inverse() * from.inverse();
-  }
-  // Closure k's whitened residual were its later pose moved by `correction`.
-  double residual_with_later_end_moved(std::size_t k, const Pose3& correction) {
-    const RelativePoseEdge& e = edges_[k];
-    Pose3 from = pose_at(e.from), to = pose_at(e.to);
-    if (e.to > e.from)
-      to = correction * to;
-    else
-      from = correction * from;
-    const double w = weights_[k];
-    weights_[k] = 1.0;
-    Vector6d v;
-    residuals_[k](from.t_m.data(), from.q.coeffs().data(), to.t_m.data(), to.q.coeffs().data(), v.data());
-    weights_[k] = w;
-    return v.norm();
-  }
-  // A cluster's switched-off closures that agree on one rigid correction: a run of right closures between two
-  // stretches of the trajectory says the same thing (the later stretch moved by one rigid motion), random wrong
-  // closures do not. Each switched-off closure's correction is a hypothesis; its run is the switched-off closures it
-  // brings within the threshold; the largest run.
-  std::vector<std::size_t> agreeing_run(const std::vector<std::size_t>& cluster) {
-    std::vector<std::size_t> off;
-    for (const std::size_t k : cluster)
-      if (weights_[k] == 0.0) off.push_back(k);
-    std::vector<std::size_t> best, run;
-    if (off.size() < config_.gnc_cluster_min_closures) return best;
-    for (const std::size_t k : off) {
-      const Pose3 correction = later_end_correction(k);
-      run.clear();
-      for (const std::size_t l : off)
-        if (residual_with_later_end_moved(l, correction) <= config_.loop_closure_loss_scale_sigma) run.push_back(l);
-      if (run.size() > best.size()) best = run;
-    }
-    return best;
-  }
-
-  // One cluster trial: the run's closures on, solve, every closure re-decided by its residual, solve again.
-  // Kept (true, `cost` and `summary` updated) when the TLS cost falls; otherwise the state before it is restored.
-  bool try_cluster(const std::vector<std::size_t>& cluster, double* cost, ceres::Solver::Summary* summary,
-                   PoseGraphResult* result) {
+  // One trial: the closures switched on (weight 1) or off (0), solve, every closure re-decided by its residual,
+  // solve again. Kept (true, `cost` and `summary` updated) when the TLS cost falls; otherwise the state before it is restored.
+  bool try_cluster(const std::vector<std::size_t>& cluster, double weight, double* cost,
+                   ceres::Solver::Summary* summary, PoseGraphResult* result) {
     const double c = config_.loop_closure_loss_scale_sigma;
     const std::vector<double> state = state_;
     const std::vector<double> weights = weights_;
-    for (const std::size_t k : cluster) weights_[k] = 1.0;
+    for (const std::size_t k : cluster) weights_[k] = weight;
     ceres::Solver::Summary trial;
     solve(options_, &trial, result);
     if (trial.IsSolutionUsable()) {
@@ -653,6 +634,8 @@ class GraphSolve {
       loop_closure_residuals(&r);
       for (std::size_t k = 0; k < edges_.size(); ++k)
         if (edges_[k].is_loop_closure && !excluded_[k]) weights_[k] = r[k] <= c ? 1.0 : 0.0;
+      if (weight == 0.0)  // a closure switched off stays off: the graph may not have relaxed past it in one solve
+        for (const std::size_t k : cluster) weights_[k] = 0.0;
       solve(options_, &trial, result);
     }
     const double trial_cost = trial.IsSolutionUsable() && state_finite() ? tls_cost() : *cost;
@@ -719,11 +702,12 @@ void PoseGraphConfig::print(std::FILE* out) const {
                "pose_graph: loop_closure_loss=%s loop_closure_loss_scale_sigma=%g huber_warm_start=%s "
                "max_iterations=%d gnc_max_outer_iterations=%d gnc_mu_factor=%g gnc_inner_iterations=%d "
                "gnc_tls_refine_rounds=%d gnc_cluster_trials=%d gnc_cluster_gap_poses=%u gnc_cluster_min_closures=%u "
+               "gnc_cluster_lone_trials=%u "
                "gnc_chordal_solves=%s chordal_weighting=%s fix_first_pose=%s num_threads=%d "
                "prefilter_pairwise_consistency=%s\n",
                to_string(loop_closure_loss), loop_closure_loss_scale_sigma, huber_warm_start ? "true" : "false",
                max_iterations, gnc_max_outer_iterations, gnc_mu_factor, gnc_inner_iterations, gnc_tls_refine_rounds,
-               gnc_cluster_trials, gnc_cluster_gap_poses, gnc_cluster_min_closures,
+               gnc_cluster_trials, gnc_cluster_gap_poses, gnc_cluster_min_closures, gnc_cluster_lone_trials,
                gnc_chordal_solves ? "true" : "false",
                chordal_weighting == ChordalWeighting::kAnisotropic ? "anisotropic" : "isotropic",
                fix_first_pose ? "true" : "false", num_threads, prefilter_pairwise_consistency ? "true" : "false");

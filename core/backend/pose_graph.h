@@ -62,15 +62,18 @@ struct PoseGraphConfig {
   // kGncTls, a refinement after the TLS rounds: a local search on the truncated least-squares cost over runs of
   // closures. Right closures come in runs (a revisit closes many consecutive poses against many consecutive poses),
   // and where the odometry holds little, GNC can bend a stretch to fit a few wrong closures and drop a whole run of
-  // right ones with it. Closures whose two ends are each within gnc_cluster_gap_poses of another's form a cluster;
-  // in each, the switched-off closures that agree on one rigid correction of the later stretch (within the
-  // threshold) form its run. Each run of at least gnc_cluster_min_closures (the largest first) is switched on, the
+  // right ones with it. Closures whose two ends are each within gnc_cluster_gap_poses of another's form a cluster.
+  // Each cluster with at least gnc_cluster_min_closures switched off (the most first) has them switched on, the
   // graph solved, every closure re-decided by its residual and the graph solved again; the trial stays only if it
   // lowers the TLS cost, else the state before it is restored. Sweeps repeat while one keeps a trial; the trials in
   // all are capped at this many (each costs two solves). 0: off.
   int gnc_cluster_trials = 0;
   std::uint32_t gnc_cluster_gap_poses = 10;
   std::uint32_t gnc_cluster_min_closures = 3;
+  // With gnc_cluster_trials, the other move: a lone closure (the only one kept in its cluster) switched off, the
+  // same two solves, kept only if the TLS cost falls; in each sweep up to this many, the largest residual first. A
+  // wrong closure the graph bent to fit has no run beside it.
+  std::uint32_t gnc_cluster_lone_trials = 8;
   // With gnc_chordal_solves: the chordal estimate weighs each edge by its own axes (kAnisotropic) or by its mean
   // precision (kIsotropic, the papers' form), chordal_init.h.
   ChordalWeighting chordal_weighting = ChordalWeighting::kAnisotropic;
@@ -113,9 +116,10 @@ struct PoseGraphResult {
   std::vector<double> edge_weight;
   int gnc_outer_iterations = 0;
   int gnc_refine_rounds = 0;  // kGncTls with gnc_tls_refine_rounds: the rounds that changed a decision and re-solved
-  // kGncTls with gnc_cluster_trials: the cluster trials run, and those kept (they lowered the TLS cost).
+  // kGncTls with gnc_cluster_trials: the trials run (runs switched on, lone closures off), the runs kept.
   int gnc_cluster_trials = 0;
   int gnc_clusters_readmitted = 0;
+  int gnc_lone_dropped = 0;  // lone closures switched off by a kept trial
   // Where a solve's time goes: Ceres' own wall-clock time over its solves, or PoseGraphConfig::clock_s's.
   double solver_time_s = 0.0;
   // With prefilter_pairwise_consistency: the prefilter's tallies (its rejected closures are downweighted too).
