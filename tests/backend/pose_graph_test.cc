@@ -305,16 +305,22 @@ TEST(PoseGraph, GncWithChordalEstimatesAloneAsItsWeightedSolves) {
   expect_every_decision_right(r, h);
 }
 
+// GNC-TLS stopped early: `outer` outer iterations of one Ceres iteration each.
+PoseGraphConfig early_stopped_gnc(int outer) {
+  PoseGraphConfig gnc;
+  gnc.loop_closure_loss = RobustLoss::kGncTls;
+  gnc.gnc_inner_iterations = 1;
+  gnc.gnc_max_outer_iterations = outer;
+  return gnc;
+}
+
 // GNC stopped early (one inner iteration, three outer ones) decides from a state that still bends under the wrong
 // closures, and drops right ones that its final solve then fits. The TLS rounds keep what the solution fits and drop
 // what it does not, until nothing changes: every right closure back, every wrong one off, and each decision agrees
 // with its residual.
 TEST(PoseGraph, TlsRoundsReadmitTheRightClosuresAnEarlyStoppedGncDropped) {
   const HalfOutliers h = half_outliers();
-  PoseGraphConfig gnc;
-  gnc.loop_closure_loss = RobustLoss::kGncTls;
-  gnc.gnc_inner_iterations = 1;
-  gnc.gnc_max_outer_iterations = 3;
+  PoseGraphConfig gnc = early_stopped_gnc(3);
   const auto right_dropped = [&h](const PoseGraphResult& r) {
     std::size_t n = 0;
     for (std::size_t k = 0; k < h.clean.size(); ++k) n += h.clean[k].is_loop_closure && r.edge_weight[k] == 0.0;
@@ -358,10 +364,7 @@ TEST(PoseGraph, ClusterTrialsReadmitARunOfRightClosuresTheTlsRoundsCannot) {
     const std::uint32_t from = kNumPoses + 2 * kPosesPerSide + 5 + 3 * j, to = 5 + 3 * j;
     h.corrupt.push_back(make_edge(from, to, between(reference[from - kPosesPerSide], reference[to]), true));
   }
-  PoseGraphConfig gnc;
-  gnc.loop_closure_loss = RobustLoss::kGncTls;
-  gnc.gnc_inner_iterations = 1;
-  gnc.gnc_max_outer_iterations = 1;
+  PoseGraphConfig gnc = early_stopped_gnc(1);
   gnc.gnc_tls_refine_rounds = 10;
   gnc.gnc_cluster_gap_poses = 4;  // the runs' spacing is 3; at 10 the aliased run would join the right one
   const auto count = [&h](const PoseGraphResult& r, bool right, double weight) {
@@ -440,10 +443,7 @@ TEST(PoseGraph, ClusterTrialsSwitchOffALoneClosureTheGraphBentToFit) {
 // Cluster trials are bounded by gnc_cluster_trials and refused when negative.
 TEST(PoseGraph, ClusterTrialsAreBoundedAndChecked) {
   const HalfOutliers h = half_outliers();
-  PoseGraphConfig gnc;
-  gnc.loop_closure_loss = RobustLoss::kGncTls;
-  gnc.gnc_inner_iterations = 1;
-  gnc.gnc_max_outer_iterations = 1;
+  PoseGraphConfig gnc = early_stopped_gnc(1);
   gnc.gnc_cluster_trials = -1;
   std::vector<Pose3> poses = h.initial;
   const PoseGraphResult refused = optimize_pose_graph(gnc, poses, h.corrupt);
