@@ -614,13 +614,16 @@ class GraphSolve {
           ++result->gnc_lone_dropped;
         }
       }
-      if (kept) refine_tls(summary, result);
-      if (kept) cost = tls_cost();
+      if (kept) {
+        refine_tls(summary, result);
+        cost = tls_cost();
+      }
     }
   }
 
   // One trial: the closures switched on (weight 1) or off (0), solve, every closure re-decided by its residual,
-  // solve again. Kept (true, `cost` and `summary` updated) when the TLS cost falls; otherwise the state before it is restored.
+  // solve again. Kept (true, `cost` and `summary` updated) when the TLS cost falls; otherwise the state before it
+  // is restored.
   bool try_cluster(const std::vector<std::size_t>& cluster, double weight, double* cost,
                    ceres::Solver::Summary* summary, PoseGraphResult* result) {
     const double c = config_.loop_closure_loss_scale_sigma;
