@@ -209,7 +209,7 @@ int main(int argc, char** argv) {
         "  coupling zeroed, and counted (cubicle), instead of refusing the file. --chordal-weighting: the\n"
         "  chordal estimates (the reference's second solve, GNC's with --gnc-chordal 1) by each edge's axes\n"
         "  (anisotropic, the default) or its mean precision. --gnc-cluster-trials N: after GNC, up to N trials\n"
-        "  switching a run of dropped closures (ends within P poses, at least K agreeing) back on, and up to L\n"
+        "  switching a run of dropped closures (ends within P poses, at least K dropped) back on, and up to L\n"
         "  lone kept closures a sweep off, each kept only if it lowers the TLS cost (pose_graph.h).\n"
         "  JSON: pgo_eval.<graph>.*; results in bench/results/pose_graph.md.\n",
         argv[0]);

@@ -485,8 +485,7 @@ class GraphSolve {
       if (undecided < 1e-6 && outer > 0) break;  // every weight 0 or 1: the surrogate is the TLS loss here
       mu *= config_.gnc_mu_factor;
     }
-    for (std::size_t k = 0; k < edges_.size(); ++k)
-      if (edges_[k].is_loop_closure && !excluded_[k]) weights_[k] = r[k] <= c ? 1.0 : 0.0;
+    decide_by_residuals(r);
     // The inliers decided, the last solve starts again from the caller's poses: the annealing's path went through
     // states bent by the outliers, from which least squares can settle in another basin.
     state_ = initial_state_;
@@ -526,20 +525,25 @@ class GraphSolve {
     return true;
   }
 
+  // Each closure's weight rounded by its residual `r` (loop_closure_residuals): 1 within the threshold, else 0.
+  // True when a weight changed.
+  bool decide_by_residuals(const std::vector<double>& r) {
+    bool changed = false;
+    for (std::size_t k = 0; k < edges_.size(); ++k) {
+      if (!edges_[k].is_loop_closure || excluded_[k]) continue;
+      const double w = r[k] <= config_.loop_closure_loss_scale_sigma ? 1.0 : 0.0;
+      changed = changed || w != weights_[k];
+      weights_[k] = w;
+    }
+    return changed;
+  }
+
   // The truncated least-squares fixed point from GNC's solution (PoseGraphConfig::gnc_tls_refine_rounds).
   void refine_tls(ceres::Solver::Summary* summary, PoseGraphResult* result) {
-    const double c = config_.loop_closure_loss_scale_sigma;
     std::vector<double> r;
     for (int round = 0; round < config_.gnc_tls_refine_rounds && summary->IsSolutionUsable(); ++round) {
       loop_closure_residuals(&r);
-      bool changed = false;
-      for (std::size_t k = 0; k < edges_.size(); ++k) {
-        if (!edges_[k].is_loop_closure || excluded_[k]) continue;
-        const double w = r[k] <= c ? 1.0 : 0.0;
-        changed = changed || w != weights_[k];
-        weights_[k] = w;
-      }
-      if (!changed) return;
+      if (!decide_by_residuals(r)) return;
       solve(options_, summary, result);
       ++result->gnc_refine_rounds;
     }
@@ -626,7 +630,6 @@ class GraphSolve {
   // is restored.
   bool try_cluster(const std::vector<std::size_t>& cluster, double weight, double* cost,
                    ceres::Solver::Summary* summary, PoseGraphResult* result) {
-    const double c = config_.loop_closure_loss_scale_sigma;
     const std::vector<double> state = state_;
     const std::vector<double> weights = weights_;
     for (const std::size_t k : cluster) weights_[k] = weight;
@@ -635,8 +638,7 @@ class GraphSolve {
     if (trial.IsSolutionUsable()) {
       std::vector<double> r;
       loop_closure_residuals(&r);
-      for (std::size_t k = 0; k < edges_.size(); ++k)
-        if (edges_[k].is_loop_closure && !excluded_[k]) weights_[k] = r[k] <= c ? 1.0 : 0.0;
+      decide_by_residuals(r);
       if (weight == 0.0)  // a closure switched off stays off: the graph may not have relaxed past it in one solve
         for (const std::size_t k : cluster) weights_[k] = 0.0;
       solve(options_, &trial, result);
