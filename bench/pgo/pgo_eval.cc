@@ -114,6 +114,8 @@ bool parse(int argc, char** argv, Options* o) {
       o->robust.gnc_cluster_gap_poses = static_cast<std::uint32_t>(std::atoi(v.c_str()));
     } else if (a == "--gnc-lone-trials") {
       o->robust.gnc_cluster_lone_trials = static_cast<std::uint32_t>(std::atoi(v.c_str()));
+    } else if (a == "--gnc-trial-iterations") {
+      o->robust.gnc_cluster_trial_iterations = std::atoi(v.c_str());
     } else if (a == "--gnc-cluster-min") {
       o->robust.gnc_cluster_min_closures = static_cast<std::uint32_t>(std::atoi(v.c_str()));
     } else if (a == "--gnc-max-outer") {
@@ -197,7 +199,7 @@ int main(int argc, char** argv) {
         "          [--diagnose 1] [--function-tolerance T] [--max-iterations N] [--noise-bound Q]\n"
         "          [--noise-margin M] [--gnc-chordal 1] [--chordal-weighting isotropic|anisotropic]\n"
         "          [--drop-indefinite-coupling 1] [--gnc-cluster-trials N] [--gnc-cluster-gap P]\n"
-        "          [--gnc-cluster-min K] [--gnc-lone-trials L]\n"
+        "          [--gnc-cluster-min K] [--gnc-lone-trials L] [--gnc-trial-iterations I]\n"
         "  DIR holds NAME.g2o (default ../shared/data/pose_graphs); an outlier fraction f injects\n"
         "  f / (1 - f) x (the file's loop closures) wrong ones, so they are f of all closures.\n"
         "  The backend's pose-graph optimizer on the public g2o benchmarks: least-squares cost, iterations\n"
@@ -210,7 +212,8 @@ int main(int argc, char** argv) {
         "  chordal estimates (the reference's second solve, GNC's with --gnc-chordal 1) by each edge's axes\n"
         "  (anisotropic, the default) or its mean precision. --gnc-cluster-trials N: after GNC, up to N trials\n"
         "  switching a run of dropped closures (ends within P poses, at least K dropped) back on, and up to L\n"
-        "  lone kept closures a sweep off, each kept only if it lowers the TLS cost (pose_graph.h).\n"
+        "  lone kept closures a sweep off, each kept only if it lowers the TLS cost (pose_graph.h); each trial's\n"
+        "  two solves up to I iterations (0: --max-iterations).\n"
         "  JSON: pgo_eval.<graph>.*; results in bench/results/pose_graph.md.\n",
         argv[0]);
     return 2;
@@ -233,7 +236,10 @@ int main(int argc, char** argv) {
            ? "; cluster trials up to " + std::to_string(opt.robust.gnc_cluster_trials) + " (gap " +
                  std::to_string(opt.robust.gnc_cluster_gap_poses) + " poses, at least " +
                  std::to_string(opt.robust.gnc_cluster_min_closures) + " dropped in a run, up to " +
-                 std::to_string(opt.robust.gnc_cluster_lone_trials) + " lone closures a sweep)"
+                 std::to_string(opt.robust.gnc_cluster_lone_trials) + " lone closures a sweep, " +
+                 (opt.robust.gnc_cluster_trial_iterations > 0 ? std::to_string(opt.robust.gnc_cluster_trial_iterations)
+                                                              : std::to_string(opt.max_iterations)) +
+                 " iterations a trial solve)"
            : "") +
       "; chordal estimates with " + weighting + " weights" +
       (opt.robust.gnc_chordal_solves ? "; GNC's weighted solves from the chordal estimate" : "") +

@@ -140,6 +140,9 @@ std::string check_config(const PoseGraphConfig& config) {
       return format("gnc_cluster_trials is %d, must be >= 0", config.gnc_cluster_trials);
     if (config.gnc_cluster_trials > 0 && config.gnc_cluster_min_closures < 1)
       return "gnc_cluster_min_closures is 0, must be >= 1";
+    if (config.gnc_cluster_trial_iterations < 0)
+      return format("gnc_cluster_trial_iterations is %d, must be >= 0 (0: max_iterations)",
+                    config.gnc_cluster_trial_iterations);
   }
   return {};
 }
@@ -633,15 +636,17 @@ class GraphSolve {
     const std::vector<double> state = state_;
     const std::vector<double> weights = weights_;
     for (const std::size_t k : cluster) weights_[k] = weight;
+    ceres::Solver::Options options = options_;
+    if (config_.gnc_cluster_trial_iterations > 0) options.max_num_iterations = config_.gnc_cluster_trial_iterations;
     ceres::Solver::Summary trial;
-    solve(options_, &trial, result);
+    solve(options, &trial, result);
     if (trial.IsSolutionUsable()) {
       std::vector<double> r;
       loop_closure_residuals(&r);
       decide_by_residuals(r);
       if (weight == 0.0)  // a closure switched off stays off: the graph may not have relaxed past it in one solve
         for (const std::size_t k : cluster) weights_[k] = 0.0;
-      solve(options_, &trial, result);
+      solve(options, &trial, result);
     }
     const double trial_cost = trial.IsSolutionUsable() && state_finite() ? tls_cost() : *cost;
     if (trial_cost < *cost * (1.0 - 1e-9)) {
@@ -707,13 +712,13 @@ void PoseGraphConfig::print(std::FILE* out) const {
                "pose_graph: loop_closure_loss=%s loop_closure_loss_scale_sigma=%g huber_warm_start=%s "
                "max_iterations=%d gnc_max_outer_iterations=%d gnc_mu_factor=%g gnc_inner_iterations=%d "
                "gnc_tls_refine_rounds=%d gnc_cluster_trials=%d gnc_cluster_gap_poses=%u gnc_cluster_min_closures=%u "
-               "gnc_cluster_lone_trials=%u "
+               "gnc_cluster_lone_trials=%u gnc_cluster_trial_iterations=%d "
                "gnc_chordal_solves=%s chordal_weighting=%s fix_first_pose=%s num_threads=%d "
                "prefilter_pairwise_consistency=%s\n",
                to_string(loop_closure_loss), loop_closure_loss_scale_sigma, huber_warm_start ? "true" : "false",
                max_iterations, gnc_max_outer_iterations, gnc_mu_factor, gnc_inner_iterations, gnc_tls_refine_rounds,
                gnc_cluster_trials, gnc_cluster_gap_poses, gnc_cluster_min_closures, gnc_cluster_lone_trials,
-               gnc_chordal_solves ? "true" : "false",
+               gnc_cluster_trial_iterations, gnc_chordal_solves ? "true" : "false",
                chordal_weighting == ChordalWeighting::kAnisotropic ? "anisotropic" : "isotropic",
                fix_first_pose ? "true" : "false", num_threads, prefilter_pairwise_consistency ? "true" : "false");
   if (prefilter_pairwise_consistency) pairwise_consistency.print(out);

@@ -74,6 +74,10 @@ struct PoseGraphConfig {
   // same two solves, kept only if the TLS cost falls; in each sweep up to this many, the largest residual first. A
   // wrong closure the graph bent to fit has no run beside it.
   std::uint32_t gnc_cluster_lone_trials = 8;
+  // With gnc_cluster_trials: Ceres iterations of each of a trial's two solves (0: max_iterations). A trial is kept
+  // only when the state it reached lowers the TLS cost, so a solve cut short can only reject a trial that a longer
+  // one would have kept, never keep a wrong one; the TLS rounds after a kept trial solve in full.
+  int gnc_cluster_trial_iterations = 0;
   // With gnc_chordal_solves: the chordal estimate weighs each edge by its own axes (kAnisotropic) or by its mean
   // precision (kIsotropic, the papers' form), chordal_init.h.
   ChordalWeighting chordal_weighting = ChordalWeighting::kAnisotropic;

@@ -454,6 +454,22 @@ TEST(PoseGraph, ClusterTrialsAreBoundedAndChecked) {
   const PoseGraphResult r = optimize_pose_graph(gnc, poses, h.corrupt);
   ASSERT_TRUE(r.poses_updated()) << r.message;
   EXPECT_EQ(r.gnc_cluster_trials, 1);
+  // A trial's two solves capped at one iteration each: the rejected trial adds four at most to GNC's count (Ceres
+  // counts its initial evaluation among the successful steps).
+  gnc.gnc_cluster_trial_iterations = -1;
+  const PoseGraphResult refused_cap = optimize_pose_graph(gnc, poses, h.corrupt);
+  EXPECT_EQ(refused_cap.status, PoseGraphStatus::kInvalidInput);
+  EXPECT_NE(refused_cap.message.find("gnc_cluster_trial_iterations"), std::string::npos) << refused_cap.message;
+  gnc.gnc_cluster_trial_iterations = 1;
+  std::vector<Pose3> capped_poses = h.initial, none_poses = h.initial;  // poses holds r's solution
+  const PoseGraphResult capped = optimize_pose_graph(gnc, capped_poses, h.corrupt);
+  gnc.gnc_cluster_trials = 0;
+  const PoseGraphResult none = optimize_pose_graph(gnc, none_poses, h.corrupt);
+  ASSERT_TRUE(capped.poses_updated() && none.poses_updated()) << capped.message << none.message;
+  ASSERT_EQ(capped.gnc_cluster_trials, 1);
+  ASSERT_EQ(capped.gnc_clusters_readmitted + capped.gnc_lone_dropped, 0);
+  EXPECT_LE(capped.iterations, none.iterations + 4);
+  EXPECT_GT(r.iterations, none.iterations + 4);  // uncapped, the same trial solves longer
 }
 
 // An information matrix diag(1 / sigma^2) weighs as the sigmas do (translation in the `to` frame instead of the
