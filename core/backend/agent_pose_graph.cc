@@ -26,6 +26,7 @@ std::string AgentGraphConfig::check() const {
   if (!positive(min_sigma_t_m) || !positive(min_sigma_rot_rad)) return "odometry sigma floors must be in (0, 10]";
   if (!positive(floor_t_m) || !positive(floor_rot_rad)) return "odometry floors must be in (0, 10]";
   if (!positive(step_sigma_t_m) || !positive(step_sigma_rot_rad)) return "odometry step sigmas must be in (0, 10]";
+  if (std::string why = solver.check(); !why.empty()) return "solver: " + why;
   return "";
 }
 

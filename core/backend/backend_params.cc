@@ -2,6 +2,50 @@
 
 namespace qsg::backend {
 
+// The agent layer's solver (PoseGraphConfig): how GNC decides the loop closures. The refinements that the public
+// pose graphs with many wrong closures need (bench/results/pose_graph.md) are off here: the app's detector proposes
+// few wrong closures, and its figures (bench/results/loop_closure.md) are measured without them.
+const params::Table<PoseGraphConfig>& pose_graph_solver_params_table() {
+  using P = PoseGraphConfig;
+  constexpr auto refinement = params::Origin::kRefinement;
+  static const params::Table<P> table = [&] {
+    params::Table<P> t;
+    t.add("solver_threshold_sigma", &P::loop_closure_loss_scale_sigma, "sigma", params::above(0, 1000),
+          params::Origin::kPaper,
+          "GNC-TLS: a loop closure whose whitened residual ends beyond this is an outlier, switched off");
+    t.add("solver_max_iterations", &P::max_iterations, "iterations", params::in(1, 10000), params::Origin::kProject,
+          "Ceres iterations of each full solve");
+    t.add("solver_gnc_inner_iterations", &P::gnc_inner_iterations, "iterations", params::in(0, 1000),
+          params::Origin::kProject,
+          "Ceres iterations of each of GNC's weighted solves (0 only with solver_gnc_chordal_solves: the chordal "
+          "estimate alone)");
+    t.add("solver_gnc_max_outer_iterations", &P::gnc_max_outer_iterations, "iterations", params::in(1, 1000),
+          params::Origin::kPaper, "GNC's outer iterations at most");
+    t.add("solver_gnc_mu_factor", &P::gnc_mu_factor, "", params::above(1, 10), params::Origin::kPaper,
+          "GNC: the surrogate's growth per outer iteration");
+    t.add("solver_gnc_tls_refine_rounds", &P::gnc_tls_refine_rounds, "rounds", params::in(0, 100), refinement,
+          "after GNC, rounds of the TLS fixed point (keep what the solution fits, drop the rest, solve); 0: none");
+    t.flag("solver_gnc_chordal_solves", &P::gnc_chordal_solves, refinement,
+           "each of GNC's weighted solves starts from the chordal estimate under its weights, not the last solve");
+    t.choice("solver_chordal_weighting", &P::chordal_weighting,
+             {{"anisotropic", ChordalWeighting::kAnisotropic}, {"isotropic", ChordalWeighting::kIsotropic}}, refinement,
+             "the chordal estimate weighs each edge by its own axes, or by its mean precision");
+    t.add("solver_gnc_cluster_trials", &P::gnc_cluster_trials, "trials", params::in(0, 100000), refinement,
+          "after GNC, trials of runs of dropped closures switched on and lone kept ones off, each kept only if "
+          "the TLS cost falls; 0: none");
+    t.add("solver_gnc_cluster_gap_poses", &P::gnc_cluster_gap_poses, "poses", params::in(1, 100000), refinement,
+          "cluster trials: closures whose two ends are each within this many poses of another's form a run");
+    t.add("solver_gnc_cluster_min_closures", &P::gnc_cluster_min_closures, "closures", params::in(1, 100000),
+          refinement, "cluster trials: a run is tried with at least this many closures dropped");
+    t.add("solver_gnc_cluster_lone_trials", &P::gnc_cluster_lone_trials, "trials", params::in(0, 100000), refinement,
+          "cluster trials: lone kept closures tried off per sweep, the largest residual first");
+    t.add("solver_gnc_cluster_trial_iterations", &P::gnc_cluster_trial_iterations, "iterations", params::in(0, 10000),
+          refinement, "cluster trials: Ceres iterations of a trial's solves; 0: max");
+    return t;
+  }();
+  return table;
+}
+
 const params::Table<AgentGraphConfig>& agent_graph_params_table() {
   using G = AgentGraphConfig;
   constexpr auto refinement = params::Origin::kRefinement;
@@ -23,6 +67,7 @@ const params::Table<AgentGraphConfig>& agent_graph_params_table() {
           "the edge across a step the odometry kept (odometry.steps): at least this translation sigma");
     t.add("odometry_step_sigma_rot_rad", &G::step_sigma_rot_rad, "rad", params::above(0, 10), params::Origin::kProject,
           "... and this rotation sigma");
+    t.include(pose_graph_solver_params_table(), [](AgentGraphConfig& g) -> PoseGraphConfig& { return g.solver; });
     return t;
   }();
   return table;

@@ -9,7 +9,8 @@
 
 namespace qsg::backend {
 
-const params::Table<AgentGraphConfig>& agent_graph_params_table();
+const params::Table<PoseGraphConfig>& pose_graph_solver_params_table();  // the agent layer's solver ("solver_*")
+const params::Table<AgentGraphConfig>& agent_graph_params_table();       // its own fields and its solver's
 const params::Table<DeformationConfig>& deformation_params_table();  // its own fields and its agents graph's
 
 }  // namespace qsg::backend

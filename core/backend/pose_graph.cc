@@ -707,6 +707,8 @@ const char* to_string(PoseGraphStatus status) {
   return "?";
 }
 
+std::string PoseGraphConfig::check() const { return check_config(*this); }
+
 void PoseGraphConfig::print(std::FILE* out) const {
   std::fprintf(out,
                "pose_graph: loop_closure_loss=%s loop_closure_loss_scale_sigma=%g huber_warm_start=%s "

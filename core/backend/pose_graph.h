@@ -94,6 +94,8 @@ struct PoseGraphConfig {
   bool prefilter_pairwise_consistency = false;
   PairwiseConsistencyConfig pairwise_consistency;
 
+  // Empty when usable, else which setting is wrong (optimize_pose_graph refuses such a config the same way).
+  std::string check() const;
   void print(std::FILE* out) const;
 };
 

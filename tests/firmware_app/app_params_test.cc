@@ -57,6 +57,28 @@ TEST(AppParamsTest, SetReachesEveryStageAndIsRangeChecked) {
   EXPECT_EQ(error, "places.voxel_factor: must be in [1, 2], got 3");
 }
 
+// The agent layer's solver is set like any stage's field, and a combination the solver refuses is refused at load
+// time by name, not at the first loop closure.
+TEST(AppParamsTest, TheLoopClosureSolverIsSetAndChecked) {
+  AppConfig c;
+  std::string error;
+  const backend::PoseGraphConfig& solver = c.loop_closure.deformation.agents.solver;
+  EXPECT_EQ(solver.loop_closure_loss, backend::RobustLoss::kGncTls);
+  EXPECT_FALSE(solver.gnc_chordal_solves) << "the app's figures are measured without it";
+  ASSERT_TRUE(params::set(app_schema(), &c, "loop_closure.solver_gnc_inner_iterations=0", &error)) << error;
+  EXPECT_NE(c.check().find("loop_closure: solver: gnc_inner_iterations is 0"), std::string::npos) << c.check();
+  ASSERT_TRUE(params::set(app_schema(), &c, "loop_closure.solver_gnc_chordal_solves=true", &error)) << error;
+  ASSERT_TRUE(params::set(app_schema(), &c, "loop_closure.solver_gnc_cluster_trials=16", &error)) << error;
+  ASSERT_TRUE(params::set(app_schema(), &c, "loop_closure.solver_chordal_weighting=isotropic", &error)) << error;
+  EXPECT_EQ(c.check(), "");
+  EXPECT_TRUE(solver.gnc_chordal_solves);
+  EXPECT_EQ(solver.gnc_inner_iterations, 0);
+  EXPECT_EQ(solver.gnc_cluster_trials, 16);
+  EXPECT_EQ(solver.chordal_weighting, backend::ChordalWeighting::kIsotropic);
+  EXPECT_FALSE(params::set(app_schema(), &c, "loop_closure.solver_threshold_sigma=0", &error));
+  EXPECT_EQ(error, "loop_closure.solver_threshold_sigma: must be in (0, 1e3] sigma, got 0");
+}
+
 // The simulated camera's focal length follows its size however it is set (--set included), and its field of view
 // when camera.hfov_deg is set; a bad field is refused by name.
 TEST(AppParamsTest, TheSimulatedCameraFollowsItsSizeAndFieldOfView) {
