@@ -116,6 +116,8 @@ bool parse(int argc, char** argv, Options* o) {
       o->robust.gnc_cluster_lone_trials = static_cast<std::uint32_t>(std::atoi(v.c_str()));
     } else if (a == "--gnc-trial-iterations") {
       o->robust.gnc_cluster_trial_iterations = std::atoi(v.c_str());
+    } else if (a == "--gnc-cluster-screen") {
+      o->robust.gnc_cluster_screen = v == "1";
     } else if (a == "--gnc-cluster-min") {
       o->robust.gnc_cluster_min_closures = static_cast<std::uint32_t>(std::atoi(v.c_str()));
     } else if (a == "--gnc-max-outer") {
@@ -200,6 +202,7 @@ int main(int argc, char** argv) {
         "          [--noise-margin M] [--gnc-chordal 1] [--chordal-weighting isotropic|anisotropic]\n"
         "          [--drop-indefinite-coupling 1] [--gnc-cluster-trials N] [--gnc-cluster-gap P]\n"
         "          [--gnc-cluster-min K] [--gnc-lone-trials L] [--gnc-trial-iterations I]\n"
+        "          [--gnc-cluster-screen 0|1]\n"
         "  DIR holds NAME.g2o (default ../shared/data/pose_graphs); an outlier fraction f injects\n"
         "  f / (1 - f) x (the file's loop closures) wrong ones, so they are f of all closures.\n"
         "  The backend's pose-graph optimizer on the public g2o benchmarks: least-squares cost, iterations\n"
@@ -213,7 +216,9 @@ int main(int argc, char** argv) {
         "  (anisotropic, the default) or its mean precision. --gnc-cluster-trials N: after GNC, up to N trials\n"
         "  switching a run of dropped closures (ends within P poses, at least K dropped) back on, and up to L\n"
         "  lone kept closures a sweep off, each kept only if it lowers the TLS cost (pose_graph.h); each trial's\n"
-        "  two solves up to I iterations (0: --max-iterations).\n"
+        "  two solves up to I iterations (0: --max-iterations); with --gnc-cluster-screen 1 (the default) a run\n"
+        "  is tried only when K of its dropped closures pass the pairwise test with each other (the gate of\n"
+        "  --pcm-threshold-sigma).\n"
         "  JSON: pgo_eval.<graph>.*; results in bench/results/pose_graph.md.\n",
         argv[0]);
     return 2;
@@ -239,7 +244,8 @@ int main(int argc, char** argv) {
                  std::to_string(opt.robust.gnc_cluster_lone_trials) + " lone closures a sweep, " +
                  (opt.robust.gnc_cluster_trial_iterations > 0 ? std::to_string(opt.robust.gnc_cluster_trial_iterations)
                                                               : std::to_string(opt.max_iterations)) +
-                 " iterations a trial solve)"
+                 " iterations a trial solve" +
+                 (opt.robust.gnc_cluster_screen ? ", runs screened by pairwise consistency" : "") + ")"
            : "") +
       "; chordal estimates with " + weighting + " weights" +
       (opt.robust.gnc_chordal_solves ? "; GNC's weighted solves from the chordal estimate" : "") +
@@ -420,7 +426,7 @@ int main(int argc, char** argv) {
                 ? (" (" + std::to_string(r.gnc_outer_iterations) + " GNC, " + std::to_string(r.gnc_refine_rounds) +
                    " TLS rounds, " + std::to_string(r.gnc_clusters_readmitted) + " runs on and " +
                    std::to_string(r.gnc_lone_dropped) + " lone off in " + std::to_string(r.gnc_cluster_trials) +
-                   " trials)")
+                   " trials, " + std::to_string(r.gnc_clusters_screened_out) + " screened out)")
                       .c_str()
                 : "",
             s, r.message.c_str());
@@ -435,7 +441,8 @@ int main(int argc, char** argv) {
             (opt.robust.gnc_chordal_solves && opt.robust.chordal_weighting == backend::ChordalWeighting::kIsotropic
                  ? "_isotropic"
                  : "") +
-            (opt.robust.gnc_cluster_trials > 0 ? "_clusters" : "") +
+            (opt.robust.gnc_cluster_trials > 0 ? (opt.robust.gnc_cluster_screen ? "_clusters_screened" : "_clusters")
+                                               : "") +
             (opt.robust.gnc_tls_refine_rounds > 0 ? "_tls_refined." : ".");
         figures.add(q + "rmse_to_outlier_free", e, "m");
         figures.add(q + "rmse_to_outlier_free_share", e / radius, "fraction of the RMS radius");
@@ -446,6 +453,7 @@ int main(int argc, char** argv) {
           figures.add(q + "cluster_trials", r.gnc_cluster_trials, "trials");
           figures.add(q + "clusters_readmitted", r.gnc_clusters_readmitted, "runs switched on");
           figures.add(q + "lone_dropped", r.gnc_lone_dropped, "lone closures switched off");
+          figures.add(q + "clusters_screened_out", r.gnc_clusters_screened_out, "trials skipped");
         }
         if (config.prefilter_pairwise_consistency) {
           std::printf("    ");

@@ -41,6 +41,8 @@ const params::Table<PoseGraphConfig>& pose_graph_solver_params_table() {
           "cluster trials: lone kept closures tried off per sweep, the largest residual first");
     t.add("solver_gnc_cluster_trial_iterations", &P::gnc_cluster_trial_iterations, "iterations", params::in(0, 10000),
           refinement, "cluster trials: Ceres iterations of a trial's solves; 0: max");
+    t.flag("solver_gnc_cluster_screen", &P::gnc_cluster_screen, refinement,
+           "cluster trials: a run is tried only when that many of its dropped closures pass the pairwise test");
     return t;
   }();
   return table;

@@ -294,4 +294,44 @@ PairwiseConsistencyResult select_consistent_loop_closures(const PairwiseConsiste
   return result;
 }
 
+struct PairwiseConsistencyScreen::Impl {
+  Impl(const PairwiseConsistencyConfig& c, std::size_t n, const std::vector<RelativePoseEdge>& e)
+      : config(c), num_poses(n), edges(e), chain(n, e) {}
+  PairwiseConsistencyConfig config;
+  std::size_t num_poses;
+  const std::vector<RelativePoseEdge>& edges;
+  OdometryChain chain;
+};
+
+PairwiseConsistencyScreen::PairwiseConsistencyScreen(const PairwiseConsistencyConfig& config, std::size_t num_poses,
+                                                     const std::vector<RelativePoseEdge>& edges)
+    : impl_(std::make_unique<Impl>(config, num_poses, edges)) {}
+
+PairwiseConsistencyScreen::~PairwiseConsistencyScreen() = default;
+
+std::size_t PairwiseConsistencyScreen::largest_consistent_subset(const std::vector<std::size_t>& group) const {
+  if (group.size() < 2) return group.size();
+  std::vector<Closure> closures;
+  for (const std::size_t k : group) {
+    if (k >= impl_->edges.size()) return group.size();
+    const RelativePoseEdge& e = impl_->edges[k];
+    if (e.from >= impl_->num_poses || e.to >= impl_->num_poses) return group.size();
+    Closure c{e.from, e.to, e.measured_from_T_to, edge_variance(e)};
+    c.z.q.normalize();
+    closures.push_back(c);
+  }
+  const std::size_t n = closures.size();
+  std::vector<Row> adjacency(n, Row((n + 63) / 64, 0));
+  for (std::size_t a = 0; a < n; ++a) {
+    for (std::size_t b = a + 1; b < n; ++b) {
+      if (test_pair(impl_->chain, closures[a], closures[b], impl_->config.threshold_sigma) == PairTest::kInconsistent)
+        continue;
+      set_bit(adjacency[a], b);
+      set_bit(adjacency[b], a);
+    }
+  }
+  MaxClique search(adjacency, impl_->config.max_clique_nodes);
+  return search.solve().size();
+}
+
 }  // namespace qsg::backend

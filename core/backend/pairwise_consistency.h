@@ -15,6 +15,7 @@
 
 #include <cstdint>
 #include <cstdio>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -57,5 +58,26 @@ std::string check(const PairwiseConsistencyConfig& config);
 PairwiseConsistencyResult select_consistent_loop_closures(const PairwiseConsistencyConfig& config,
                                                           std::size_t num_poses,
                                                           const std::vector<RelativePoseEdge>& edges);
+
+// The same pairwise test over chosen groups of closures, for a search that wants to know whether a group agrees
+// with itself (PoseGraphConfig::gnc_cluster_screen): built once over a graph's odometry, then asked for the size of
+// any group's largest mutually consistent subset. Allocates (backend thread, not the real-time path).
+class PairwiseConsistencyScreen {
+ public:
+  // `edges` must outlive the screen; their indices must be below num_poses (optimize_pose_graph checks them).
+  PairwiseConsistencyScreen(const PairwiseConsistencyConfig& config, std::size_t num_poses,
+                            const std::vector<RelativePoseEdge>& edges);
+  ~PairwiseConsistencyScreen();
+  PairwiseConsistencyScreen(const PairwiseConsistencyScreen&) = delete;
+  PairwiseConsistencyScreen& operator=(const PairwiseConsistencyScreen&) = delete;
+
+  // The size of the largest pairwise-consistent subset of `group` (indices into the edges; loop closures). A pair
+  // that cannot be tested counts as consistent; a group with an index out of range is returned whole.
+  std::size_t largest_consistent_subset(const std::vector<std::size_t>& group) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
 
 }  // namespace qsg::backend

@@ -11,6 +11,7 @@
 #include <cmath>
 #include <cstdarg>
 #include <cstdint>
+#include <memory>
 #include <numeric>
 #include <string>
 #include <utility>
@@ -118,7 +119,7 @@ std::string check_config(const PoseGraphConfig& config) {
   if (config.max_iterations < 1) return format("max_iterations is %d, must be >= 1", config.max_iterations);
   if (!(config.function_tolerance > 0.0 && config.function_tolerance < 1.0))
     return format("function_tolerance is %g, must be in (0, 1)", config.function_tolerance);
-  if (config.prefilter_pairwise_consistency) {
+  if (config.prefilter_pairwise_consistency || (config.gnc_cluster_trials > 0 && config.gnc_cluster_screen)) {
     if (std::string error = check(config.pairwise_consistency); !error.empty()) return error;
   }
   if (config.num_threads < 1) return format("num_threads is %d, must be >= 1", config.num_threads);
@@ -572,6 +573,10 @@ class GraphSolve {
   void search_clusters(ceres::Solver::Summary* summary, PoseGraphResult* result) {
     const std::vector<std::vector<std::size_t>> clusters =
         closure_clusters(edges_, excluded_, config_.gnc_cluster_gap_poses);
+    std::unique_ptr<PairwiseConsistencyScreen> screen;
+    if (config_.gnc_cluster_screen)
+      screen =
+          std::make_unique<PairwiseConsistencyScreen>(config_.pairwise_consistency, state_.size() / kStateDim, edges_);
     const auto switched_off = [this](const std::vector<std::size_t>& cluster) {
       std::vector<std::size_t> off;
       for (const std::size_t k : cluster)
@@ -593,6 +598,10 @@ class GraphSolve {
         if (result->gnc_cluster_trials >= config_.gnc_cluster_trials) break;
         const std::vector<std::size_t> off = switched_off(clusters[index]);  // an earlier trial may have taken some
         if (off.size() < config_.gnc_cluster_min_closures) continue;
+        if (screen && screen->largest_consistent_subset(off) < config_.gnc_cluster_min_closures) {
+          ++result->gnc_clusters_screened_out;
+          continue;
+        }
         ++result->gnc_cluster_trials;
         if (try_cluster(off, 1.0, &cost, summary, result)) {
           kept = true;
@@ -714,16 +723,17 @@ void PoseGraphConfig::print(std::FILE* out) const {
                "pose_graph: loop_closure_loss=%s loop_closure_loss_scale_sigma=%g huber_warm_start=%s "
                "max_iterations=%d gnc_max_outer_iterations=%d gnc_mu_factor=%g gnc_inner_iterations=%d "
                "gnc_tls_refine_rounds=%d gnc_cluster_trials=%d gnc_cluster_gap_poses=%u gnc_cluster_min_closures=%u "
-               "gnc_cluster_lone_trials=%u gnc_cluster_trial_iterations=%d "
+               "gnc_cluster_lone_trials=%u gnc_cluster_trial_iterations=%d gnc_cluster_screen=%s "
                "gnc_chordal_solves=%s chordal_weighting=%s fix_first_pose=%s num_threads=%d "
                "prefilter_pairwise_consistency=%s\n",
                to_string(loop_closure_loss), loop_closure_loss_scale_sigma, huber_warm_start ? "true" : "false",
                max_iterations, gnc_max_outer_iterations, gnc_mu_factor, gnc_inner_iterations, gnc_tls_refine_rounds,
                gnc_cluster_trials, gnc_cluster_gap_poses, gnc_cluster_min_closures, gnc_cluster_lone_trials,
-               gnc_cluster_trial_iterations, gnc_chordal_solves ? "true" : "false",
+               gnc_cluster_trial_iterations, gnc_cluster_screen ? "true" : "false",
+               gnc_chordal_solves ? "true" : "false",
                chordal_weighting == ChordalWeighting::kAnisotropic ? "anisotropic" : "isotropic",
                fix_first_pose ? "true" : "false", num_threads, prefilter_pairwise_consistency ? "true" : "false");
-  if (prefilter_pairwise_consistency) pairwise_consistency.print(out);
+  if (prefilter_pairwise_consistency || (gnc_cluster_trials > 0 && gnc_cluster_screen)) pairwise_consistency.print(out);
 }
 
 void PoseGraphResult::print(std::FILE* out) const {

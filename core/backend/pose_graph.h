@@ -78,6 +78,11 @@ struct PoseGraphConfig {
   // only when the state it reached lowers the TLS cost, so a solve cut short can only reject a trial that a longer
   // one would have kept, never keep a wrong one; the TLS rounds after a kept trial solve in full.
   int gnc_cluster_trial_iterations = 0;
+  // With gnc_cluster_trials: a cluster is tried only when at least gnc_cluster_min_closures of its switched-off
+  // closures agree with each other through the odometry (the pairwise test of pairwise_consistency.h, its gate
+  // from `pairwise_consistency`). Random wrong closures that fall near each other agree with nothing; a run of right
+  // ones does. It only skips trials, it never changes what a trial switches on. Off: every cluster is tried.
+  bool gnc_cluster_screen = true;
   // With gnc_chordal_solves: the chordal estimate weighs each edge by its own axes (kAnisotropic) or by its mean
   // precision (kIsotropic, the papers' form), chordal_init.h.
   ChordalWeighting chordal_weighting = ChordalWeighting::kAnisotropic;
@@ -126,6 +131,7 @@ struct PoseGraphResult {
   int gnc_cluster_trials = 0;
   int gnc_clusters_readmitted = 0;
   int gnc_lone_dropped = 0;  // lone closures switched off by a kept trial
+  int gnc_clusters_screened_out = 0;  // with gnc_cluster_screen: trials skipped, their closures not agreeing
   // Where a solve's time goes: Ceres' own wall-clock time over its solves, or PoseGraphConfig::clock_s's.
   double solver_time_s = 0.0;
   // With prefilter_pairwise_consistency: the prefilter's tallies (its rejected closures are downweighted too).

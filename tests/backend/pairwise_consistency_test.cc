@@ -135,6 +135,27 @@ TEST(PairwiseConsistencyTest, TheCliqueBudgetStillGivesTheGreedyClique) {
   EXPECT_GE(r.kept, kRight * 9 / 10);  // the greedy start alone finds nearly every right closure here
 }
 
+// The screen answers for any group: the right closures agree with each other, a wrong one added to them does not
+// join their subset, two wrong ones agree with neither each other nor the right ones, and a group with an index
+// beyond the edges comes back whole (nothing to screen it with).
+TEST(PairwiseConsistencyTest, TheScreenFindsTheAgreeingSubsetOfAGroup) {
+  const std::vector<Pose3> gt = truth();
+  const std::vector<RelativePoseEdge> edges = make_graph(gt, 8, 7);
+  const PairwiseConsistencyScreen screen({}, gt.size(), edges);
+  const std::size_t first_closure = gt.size() - 1, first_wrong = first_closure + kRight;
+  std::vector<std::size_t> right;
+  for (std::size_t k = first_closure; k < first_wrong; ++k) right.push_back(k);
+  EXPECT_EQ(screen.largest_consistent_subset(right), kRight);
+  std::vector<std::size_t> mixed = right;
+  mixed.push_back(first_wrong);
+  EXPECT_EQ(screen.largest_consistent_subset(mixed), kRight);
+  EXPECT_EQ(screen.largest_consistent_subset({first_wrong, first_wrong + 1}), 1u);
+  EXPECT_EQ(screen.largest_consistent_subset({first_wrong, first_wrong + 1, first_wrong + 2, first_closure}), 1u);
+  EXPECT_EQ(screen.largest_consistent_subset({first_closure}), 1u);
+  EXPECT_EQ(screen.largest_consistent_subset({}), 0u);
+  EXPECT_EQ(screen.largest_consistent_subset({first_wrong, edges.size()}), 2u);
+}
+
 // Through the optimizer: with the prefilter, GNC-TLS on the half-wrong graph ends where the outlier-free solve does.
 TEST(PairwiseConsistencyTest, PrefilterThenGncMatchesTheOutlierFreeSolution) {
   const std::vector<Pose3> gt = truth();

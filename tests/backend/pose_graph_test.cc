@@ -395,6 +395,44 @@ TEST(PoseGraph, ClusterTrialsReadmitARunOfRightClosuresTheTlsRoundsCannot) {
   EXPECT_LT(ate_rmse_m(searched, reference), 0.01);
 }
 
+// The screen (gnc_cluster_screen) skips a cluster whose dropped closures do not agree with each other: beside the
+// right run and the aliased run above, three wrong closures with ends next to each other but wildly different
+// measurements. Unscreened, their cluster costs a trial that is rejected; screened, it is skipped and counted, and
+// every decision is the same.
+TEST(PoseGraph, TheClusterScreenSkipsRunsThatDisagreeWithThemselves) {
+  HalfOutliers h = half_outliers();
+  const std::vector<Pose3> reference = outlier_free_solution(h);
+  for (std::uint32_t j = 0; j < 4; ++j) {
+    const std::uint32_t from = kNumPoses + 2 * kPosesPerSide + 5 + 3 * j, to = 5 + 3 * j;
+    h.corrupt.push_back(make_edge(from, to, between(reference[from - kPosesPerSide], reference[to]), true));
+  }
+  const Eigen::Vector3d offsets[3] = {{3.0, 0.0, 0.0}, {-2.0, 2.5, 0.0}, {0.5, -3.0, 0.5}};
+  for (std::uint32_t j = 0; j < 3; ++j)
+    h.corrupt.push_back(
+        make_edge(kNumPoses + kPosesPerSide + 25 + j, 25 + j, make_pose(offsets[j], yaw(2.0 * j)), true));
+  PoseGraphConfig gnc = early_stopped_gnc(1);
+  gnc.gnc_tls_refine_rounds = 10;
+  gnc.gnc_cluster_gap_poses = 4;
+  gnc.gnc_cluster_trials = 32;
+  gnc.gnc_cluster_screen = false;
+  std::vector<Pose3> unscreened_poses = h.initial, screened_poses = h.initial;
+  const PoseGraphResult unscreened = optimize_pose_graph(gnc, unscreened_poses, h.corrupt);
+  gnc.gnc_cluster_screen = true;
+  const PoseGraphResult screened = optimize_pose_graph(gnc, screened_poses, h.corrupt);
+  ASSERT_TRUE(unscreened.poses_updated() && screened.poses_updated()) << unscreened.message << screened.message;
+  const std::size_t triple = h.corrupt.size() - 3;
+  for (std::size_t k = triple; k < h.corrupt.size(); ++k)
+    ASSERT_EQ(unscreened.edge_weight[k], 0.0) << "GNC must drop the disagreeing three, else this tests nothing";
+  std::printf("[ pose graph ] cluster trials unscreened %d, screened %d (%d skipped)\n", unscreened.gnc_cluster_trials,
+              screened.gnc_cluster_trials, screened.gnc_clusters_screened_out);
+  EXPECT_EQ(unscreened.gnc_clusters_screened_out, 0);
+  EXPECT_GE(screened.gnc_clusters_screened_out, 1);
+  EXPECT_LT(screened.gnc_cluster_trials, unscreened.gnc_cluster_trials);
+  EXPECT_EQ(screened.gnc_clusters_readmitted, unscreened.gnc_clusters_readmitted);
+  EXPECT_EQ(screened.edge_weight, unscreened.edge_weight);
+  EXPECT_LT(ate_rmse_m(screened_poses, reference), 0.01);
+}
+
 // A straight walk of 40 poses with exact odometry that holds rotation hard and translation loosely, and one wrong
 // closure that claims pose 35 is 0.9 m (18 sigma) to the side of where pose 25 puts it. The odometry gives way to it
 // (a quarter as stiff over the 10 steps): least squares leaves it 3.6 sigma, within the threshold of 5, so GNC

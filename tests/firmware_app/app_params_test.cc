@@ -70,6 +70,9 @@ TEST(AppParamsTest, TheLoopClosureSolverIsSetAndChecked) {
   ASSERT_TRUE(params::set(app_schema(), &c, "loop_closure.solver_gnc_chordal_solves=true", &error)) << error;
   ASSERT_TRUE(params::set(app_schema(), &c, "loop_closure.solver_gnc_cluster_trials=16", &error)) << error;
   ASSERT_TRUE(params::set(app_schema(), &c, "loop_closure.solver_chordal_weighting=isotropic", &error)) << error;
+  EXPECT_TRUE(solver.gnc_cluster_screen);
+  ASSERT_TRUE(params::set(app_schema(), &c, "loop_closure.solver_gnc_cluster_screen=false", &error)) << error;
+  EXPECT_FALSE(solver.gnc_cluster_screen);
   EXPECT_EQ(c.check(), "");
   EXPECT_TRUE(solver.gnc_chordal_solves);
   EXPECT_EQ(solver.gnc_inner_iterations, 0);
