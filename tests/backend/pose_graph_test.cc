@@ -351,6 +351,15 @@ TEST(PoseGraph, TlsRoundsReadmitTheRightClosuresAnEarlyStoppedGncDropped) {
               right_dropped(without), with.gnc_refine_rounds, right_dropped(with));
 }
 
+// Four aliased closures that agree with each other: the second lap's third side claims to be where the first lap's
+// second side is (every third pose, spaced as the right run).
+void add_aliased_run(const std::vector<Pose3>& reference, HalfOutliers* h) {
+  for (std::uint32_t j = 0; j < 4; ++j) {
+    const std::uint32_t from = kNumPoses + 2 * kPosesPerSide + 5 + 3 * j, to = 5 + 3 * j;
+    h->corrupt.push_back(make_edge(from, to, between(reference[from - kPosesPerSide], reference[to]), true));
+  }
+}
+
 // GNC stopped after its first outer iteration decides from a state bent by every closure at once and drops the
 // right closures with the wrong ones; the TLS rounds cannot bring them back (the solution without them does not fit
 // them). The right closures form one run (every third pose of the second lap against the first). Beside them, a run
@@ -360,10 +369,7 @@ TEST(PoseGraph, TlsRoundsReadmitTheRightClosuresAnEarlyStoppedGncDropped) {
 TEST(PoseGraph, ClusterTrialsReadmitARunOfRightClosuresTheTlsRoundsCannot) {
   HalfOutliers h = half_outliers();
   const std::vector<Pose3> reference = outlier_free_solution(h);
-  for (std::uint32_t j = 0; j < 4; ++j) {
-    const std::uint32_t from = kNumPoses + 2 * kPosesPerSide + 5 + 3 * j, to = 5 + 3 * j;
-    h.corrupt.push_back(make_edge(from, to, between(reference[from - kPosesPerSide], reference[to]), true));
-  }
+  add_aliased_run(reference, &h);
   PoseGraphConfig gnc = early_stopped_gnc(1);
   gnc.gnc_tls_refine_rounds = 10;
   gnc.gnc_cluster_gap_poses = 4;  // the runs' spacing is 3; at 10 the aliased run would join the right one
@@ -402,10 +408,7 @@ TEST(PoseGraph, ClusterTrialsReadmitARunOfRightClosuresTheTlsRoundsCannot) {
 TEST(PoseGraph, TheClusterScreenSkipsRunsThatDisagreeWithThemselves) {
   HalfOutliers h = half_outliers();
   const std::vector<Pose3> reference = outlier_free_solution(h);
-  for (std::uint32_t j = 0; j < 4; ++j) {
-    const std::uint32_t from = kNumPoses + 2 * kPosesPerSide + 5 + 3 * j, to = 5 + 3 * j;
-    h.corrupt.push_back(make_edge(from, to, between(reference[from - kPosesPerSide], reference[to]), true));
-  }
+  add_aliased_run(reference, &h);
   const Eigen::Vector3d offsets[3] = {{3.0, 0.0, 0.0}, {-2.0, 2.5, 0.0}, {0.5, -3.0, 0.5}};
   for (std::uint32_t j = 0; j < 3; ++j)
     h.corrupt.push_back(
