@@ -3,6 +3,7 @@
 #include "core/backend/chordal_init.h"
 
 #include <Eigen/Geometry>
+#include <Eigen/IterativeLinearSolvers>
 #include <Eigen/SVD>
 #include <Eigen/SparseCholesky>
 
@@ -80,11 +81,22 @@ void add_equation(const Eigen::Matrix3d& a_i, const Eigen::Matrix3d& a_j, const 
   }
 }
 
-// Solves H X = B. False when the factorization fails (a singular system).
-bool solve(const Triplets& h, const Eigen::MatrixXd& b, Eigen::MatrixXd* x) {
+// Solves H X = B (ChordalSolver). False when the factorization fails (a singular system).
+bool solve(const Triplets& h, const Eigen::MatrixXd& b, ChordalSolver solver, Eigen::MatrixXd* x, ChordalStats* stats) {
+  ++stats->systems;
   const auto n = static_cast<int>(b.rows());
   Eigen::SparseMatrix<double> m(n, n);
   m.setFromTriplets(h.begin(), h.end());
+  if (solver == ChordalSolver::kIterative) {
+    Eigen::ConjugateGradient<Eigen::SparseMatrix<double>, Eigen::Lower | Eigen::Upper> cg(m);
+    cg.setTolerance(1e-10);
+    *x = cg.solve(b);
+    if (cg.info() == Eigen::Success && x->allFinite()) {
+      ++stats->iterative;
+      return true;
+    }
+    ++stats->direct_fallbacks;
+  }
   Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(m);
   if (ldlt.info() != Eigen::Success) return false;
   *x = ldlt.solve(b);
@@ -141,8 +153,8 @@ void retract(const Eigen::MatrixXd& x, double step, const std::vector<int>& free
 // break the small-residual model, and unguarded steps of several radians followed. Stops after `iterations` or a
 // step under 1e-6 rad. False when a solve fails (the rotations as they were before the failing step).
 bool refine_rotations(const std::vector<RelativePoseEdge>& edges, const std::vector<double>& weights,
-                      const std::vector<int>& free_index, int num_free, int iterations,
-                      std::vector<Eigen::Matrix3d>* rotation) {
+                      const std::vector<int>& free_index, int num_free, int iterations, ChordalSolver solver,
+                      ChordalStats* stats, std::vector<Eigen::Matrix3d>* rotation) {
   const std::size_t n = rotation->size();
   Triplets h;
   Eigen::MatrixXd b, x;
@@ -163,7 +175,7 @@ bool refine_rotations(const std::vector<RelativePoseEdge>& edges, const std::vec
       const Eigen::Matrix3d j_i = -(*rotation)[e.to].transpose() * (*rotation)[e.from];
       add_weighted(j_i, Eigen::Matrix3d::Identity(), lambda_r, theta, fi, fj, &h, &b);
     }
-    if (!solve(h, b, &x)) return false;
+    if (!solve(h, b, solver, &x, stats)) return false;
     double step = 1.0, candidate_cost = cost;
     for (int halving = 0; halving <= 4; ++halving, step *= 0.5) {
       retract(x, step, free_index, *rotation, &candidate);
@@ -183,7 +195,10 @@ bool refine_rotations(const std::vector<RelativePoseEdge>& edges, const std::vec
 }  // namespace
 
 bool chordal_initialize(const std::vector<RelativePoseEdge>& edges, const std::vector<double>& weights,
-                        const std::vector<bool>& anchored, std::vector<Pose3>* poses, ChordalWeighting weighting) {
+                        const std::vector<bool>& anchored, std::vector<Pose3>* poses, ChordalWeighting weighting,
+                        ChordalSolver solver, ChordalStats* stats) {
+  ChordalStats local;
+  if (stats == nullptr) stats = &local;
   const std::size_t n = poses->size();
   if (anchored.size() != n || weights.size() != edges.size()) return false;
   // Components of the weighted edges: a pose is free when its component holds an anchor (the gauge); one in a
@@ -226,12 +241,12 @@ bool chordal_initialize(const std::vector<RelativePoseEdge>& edges, const std::v
                  weights[k] * lambda_r.trace() / 3.0, free_index[e.from], free_index[e.to],
                  rotation[e.from].transpose(), rotation[e.to].transpose(), &h, &b);
   }
-  if (!solve(h, b, &x)) return false;
+  if (!solve(h, b, solver, &x, stats)) return false;
   std::vector<Eigen::Matrix3d> solved = rotation;
   for (std::size_t i = 0; i < n; ++i)
     if (free_index[i] >= 0) solved[i] = nearest_rotation(x.middleRows<3>(3 * free_index[i]).transpose());
   if (weighting == ChordalWeighting::kAnisotropic &&
-      !refine_rotations(edges, weights, free_index, num_free, kRotationRefineIterations, &solved))
+      !refine_rotations(edges, weights, free_index, num_free, kRotationRefineIterations, solver, stats, &solved))
     return false;
 
   // Translations with those rotations: (t_j - t_i - R_i t_ij)^T P (t_j - t_i - R_i t_ij), P the edge's translation
@@ -257,7 +272,7 @@ bool chordal_initialize(const std::vector<RelativePoseEdge>& edges, const std::v
     if (fj < 0) rhs -= (*poses)[e.to].t_m;
     add_weighted(-Eigen::Matrix3d::Identity(), Eigen::Matrix3d::Identity(), p, -rhs, fi, fj, &h, &b);
   }
-  if (!solve(h, b, &x)) return false;
+  if (!solve(h, b, solver, &x, stats)) return false;
   for (std::size_t i = 0; i < n; ++i) {
     if (free_index[i] < 0) continue;
     (*poses)[i].t_m = x.middleRows<3>(3 * free_index[i]);

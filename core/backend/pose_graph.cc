@@ -521,7 +521,8 @@ class GraphSolve {
       p[i].t_m = Eigen::Map<const Eigen::Vector3d>(t_block(i));
       p[i].q = Eigen::Map<const Eigen::Quaterniond>(q_block(i));
     }
-    if (!chordal_initialize(edges_, weights_, anchored_, &p, config_.chordal_weighting)) return false;
+    if (!chordal_initialize(edges_, weights_, anchored_, &p, config_.chordal_weighting, config_.chordal_solver))
+      return false;
     for (std::size_t i = 0; i < n; ++i) {
       Eigen::Map<Eigen::Vector3d>(t_block(i)) = p[i].t_m;
       Eigen::Map<Eigen::Quaterniond>(q_block(i)) = p[i].q.normalized();
@@ -724,7 +725,7 @@ void PoseGraphConfig::print(std::FILE* out) const {
                "max_iterations=%d gnc_max_outer_iterations=%d gnc_mu_factor=%g gnc_inner_iterations=%d "
                "gnc_tls_refine_rounds=%d gnc_cluster_trials=%d gnc_cluster_gap_poses=%u gnc_cluster_min_closures=%u "
                "gnc_cluster_lone_trials=%u gnc_cluster_trial_iterations=%d gnc_cluster_screen=%s "
-               "gnc_chordal_solves=%s chordal_weighting=%s fix_first_pose=%s num_threads=%d "
+               "gnc_chordal_solves=%s chordal_weighting=%s chordal_solver=%s fix_first_pose=%s num_threads=%d "
                "prefilter_pairwise_consistency=%s\n",
                to_string(loop_closure_loss), loop_closure_loss_scale_sigma, huber_warm_start ? "true" : "false",
                max_iterations, gnc_max_outer_iterations, gnc_mu_factor, gnc_inner_iterations, gnc_tls_refine_rounds,
@@ -732,7 +733,8 @@ void PoseGraphConfig::print(std::FILE* out) const {
                gnc_cluster_trial_iterations, gnc_cluster_screen ? "true" : "false",
                gnc_chordal_solves ? "true" : "false",
                chordal_weighting == ChordalWeighting::kAnisotropic ? "anisotropic" : "isotropic",
-               fix_first_pose ? "true" : "false", num_threads, prefilter_pairwise_consistency ? "true" : "false");
+               chordal_solver == ChordalSolver::kIterative ? "iterative" : "direct", fix_first_pose ? "true" : "false",
+               num_threads, prefilter_pairwise_consistency ? "true" : "false");
   if (prefilter_pairwise_consistency || (gnc_cluster_trials > 0 && gnc_cluster_screen)) pairwise_consistency.print(out);
 }
 

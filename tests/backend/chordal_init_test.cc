@@ -156,6 +156,56 @@ TEST(ChordalInit, NoisyMeasurementsLandNearTheLeastSquaresSolution) {
   EXPECT_LT(max_error_rad(poses, solution), 0.01);
 }
 
+// The iterative solver lands where the direct one does, on the noisy helix with as many random wrong closures
+// weighted as right edges (the case it is for) and on the helix alone, both weightings.
+TEST(ChordalInit, ConjugateGradientsMatchTheDirectSolve) {
+  const std::vector<Pose3> truth = helix(60);
+  std::vector<RelativePoseEdge> edges = helix_edges(truth);
+  std::mt19937 rng(9u);
+  std::normal_distribution<double> noise(0.0, 0.01);
+  for (RelativePoseEdge& e : edges) {
+    Eigen::Vector3d dt, w;
+    for (int k = 0; k < 3; ++k) dt[k] = noise(rng);
+    for (int k = 0; k < 3; ++k) w[k] = noise(rng);
+    e.measured_from_T_to.t_m += dt;
+    e.measured_from_T_to.q = e.measured_from_T_to.q * Eigen::AngleAxisd(w.norm(), w.normalized());
+  }
+  std::vector<RelativePoseEdge> corrupt = edges;
+  std::uniform_int_distribution<std::uint32_t> pick(0, static_cast<std::uint32_t>(truth.size() - 1));
+  std::uniform_real_distribution<double> offset(-5.0, 5.0);
+  while (corrupt.size() < 2 * edges.size()) {
+    std::uint32_t a = pick(rng), b = pick(rng);
+    if (a > b) std::swap(a, b);
+    if (b - a < 2) continue;
+    RelativePoseEdge e;
+    e.from = a;
+    e.to = b;
+    e.is_loop_closure = true;
+    e.measured_from_T_to.t_m = Eigen::Vector3d(offset(rng), offset(rng), offset(rng));
+    e.measured_from_T_to.q =
+        Eigen::AngleAxisd(offset(rng), Eigen::Vector3d(offset(rng), offset(rng), 1.0).normalized());
+    corrupt.push_back(e);
+  }
+  std::vector<bool> anchored(truth.size(), false);
+  anchored[0] = true;
+  for (const std::vector<RelativePoseEdge>* graph : {&edges, &corrupt}) {
+    for (const ChordalWeighting weighting : {ChordalWeighting::kIsotropic, ChordalWeighting::kAnisotropic}) {
+      const std::vector<double> weights(graph->size(), 1.0);
+      std::vector<Pose3> direct = no_guess(truth), iterative = no_guess(truth);
+      ASSERT_TRUE(chordal_initialize(*graph, weights, anchored, &direct, weighting, ChordalSolver::kDirect));
+      ChordalStats stats;
+      ASSERT_TRUE(
+          chordal_initialize(*graph, weights, anchored, &iterative, weighting, ChordalSolver::kIterative, &stats));
+      EXPECT_GT(stats.systems, 1);
+      EXPECT_EQ(stats.iterative, stats.systems) << "conjugate gradients must converge here, else this tests nothing";
+      EXPECT_EQ(stats.direct_fallbacks, 0);
+      EXPECT_LT(max_error_m(direct, iterative), 1e-6) << graph->size() << " edges";
+      EXPECT_LT(max_error_rad(direct, iterative), 1e-7) << graph->size() << " edges";
+      EXPECT_GT(max_error_m(direct, no_guess(truth)), 1.0) << "the estimate must move the poses";
+    }
+  }
+}
+
 // A planar robot in the way cubicle.g2o states its edges: odometry sure of height, roll and pitch (it knows it drives
 // on a floor) and vague in x, y and heading; closures (scan matches) the reverse. Noise drawn to match, at a fifth of
 // the stated sigma as cubicle's residuals are (bench/results/pose_graph.md). The anisotropic estimate weighs each

@@ -73,6 +73,8 @@ TEST(AppParamsTest, TheLoopClosureSolverIsSetAndChecked) {
   EXPECT_TRUE(solver.gnc_cluster_screen);
   ASSERT_TRUE(params::set(app_schema(), &c, "loop_closure.solver_gnc_cluster_screen=false", &error)) << error;
   EXPECT_FALSE(solver.gnc_cluster_screen);
+  ASSERT_TRUE(params::set(app_schema(), &c, "loop_closure.solver_chordal_solver=iterative", &error)) << error;
+  EXPECT_EQ(solver.chordal_solver, backend::ChordalSolver::kIterative);
   EXPECT_EQ(c.check(), "");
   EXPECT_TRUE(solver.gnc_chordal_solves);
   EXPECT_EQ(solver.gnc_inner_iterations, 0);
