@@ -67,6 +67,19 @@ double max_error_rad(const std::vector<Pose3>& a, const std::vector<Pose3>& b) {
   return e;
 }
 
+// Gaussian noise of `sigma` (metres and radians) on every axis of every measurement.
+void add_noise(double sigma, std::mt19937* rng, std::vector<RelativePoseEdge>* edges) {
+  std::normal_distribution<double> noise(0.0, sigma);
+  for (RelativePoseEdge& e : *edges) {
+    // One draw per statement: argument evaluation order differs between GCC and clang.
+    Eigen::Vector3d dt, w;
+    for (int k = 0; k < 3; ++k) dt[k] = noise(*rng);
+    for (int k = 0; k < 3; ++k) w[k] = noise(*rng);
+    e.measured_from_T_to.t_m += dt;
+    e.measured_from_T_to.q = e.measured_from_T_to.q * Eigen::AngleAxisd(w.norm(), w.normalized());
+  }
+}
+
 TEST(ChordalInit, RecoversAConsistentGraphWithoutAGuess) {
   const std::vector<Pose3> truth = helix(40);
   const std::vector<RelativePoseEdge> edges = helix_edges(truth);
@@ -129,15 +142,7 @@ TEST(ChordalInit, NoisyMeasurementsLandNearTheLeastSquaresSolution) {
   const std::vector<Pose3> truth = helix(40);
   std::vector<RelativePoseEdge> edges = helix_edges(truth);
   std::mt19937 rng(5u);
-  std::normal_distribution<double> noise(0.0, 0.01);
-  for (RelativePoseEdge& e : edges) {
-    // One draw per statement: argument evaluation order differs between GCC and clang.
-    Eigen::Vector3d dt, w;
-    for (int k = 0; k < 3; ++k) dt[k] = noise(rng);
-    for (int k = 0; k < 3; ++k) w[k] = noise(rng);
-    e.measured_from_T_to.t_m += dt;
-    e.measured_from_T_to.q = e.measured_from_T_to.q * Eigen::AngleAxisd(w.norm(), w.normalized());
-  }
+  add_noise(0.01, &rng, &edges);
   PoseGraphConfig plain;
   plain.loop_closure_loss = RobustLoss::kNone;
   plain.function_tolerance = 1e-12;
@@ -162,14 +167,7 @@ TEST(ChordalInit, ConjugateGradientsMatchTheDirectSolve) {
   const std::vector<Pose3> truth = helix(60);
   std::vector<RelativePoseEdge> edges = helix_edges(truth);
   std::mt19937 rng(9u);
-  std::normal_distribution<double> noise(0.0, 0.01);
-  for (RelativePoseEdge& e : edges) {
-    Eigen::Vector3d dt, w;
-    for (int k = 0; k < 3; ++k) dt[k] = noise(rng);
-    for (int k = 0; k < 3; ++k) w[k] = noise(rng);
-    e.measured_from_T_to.t_m += dt;
-    e.measured_from_T_to.q = e.measured_from_T_to.q * Eigen::AngleAxisd(w.norm(), w.normalized());
-  }
+  add_noise(0.01, &rng, &edges);
   std::vector<RelativePoseEdge> corrupt = edges;
   std::uniform_int_distribution<std::uint32_t> pick(0, static_cast<std::uint32_t>(truth.size() - 1));
   std::uniform_real_distribution<double> offset(-5.0, 5.0);
