@@ -219,6 +219,28 @@ class MaxClique {
   bool truncated_ = false;
 };
 
+// The consistency graph over `closures` as bit rows (an untestable pair counts as consistent); the pair tallies
+// go to `tallies` when given.
+std::vector<Row> consistency_graph(const OdometryChain& chain, const std::vector<Closure>& closures, double gate,
+                                   PairwiseConsistencyResult* tallies) {
+  const std::size_t n = closures.size();
+  std::vector<Row> adjacency(n, Row((n + 63) / 64, 0));
+  for (std::size_t a = 0; a < n; ++a) {
+    for (std::size_t b = a + 1; b < n; ++b) {
+      const PairTest t = test_pair(chain, closures[a], closures[b], gate);
+      if (tallies != nullptr) {
+        ++tallies->pairs_tested;
+        tallies->pairs_untestable += t == PairTest::kUntestable ? 1 : 0;
+        tallies->pairs_consistent += t == PairTest::kInconsistent ? 0 : 1;
+      }
+      if (t == PairTest::kInconsistent) continue;
+      set_bit(adjacency[a], b);
+      set_bit(adjacency[b], a);
+    }
+  }
+  return adjacency;
+}
+
 }  // namespace
 
 std::string check(const PairwiseConsistencyConfig& config) {
@@ -270,18 +292,7 @@ PairwiseConsistencyResult select_consistent_loop_closures(const PairwiseConsiste
 
   const OdometryChain chain(num_poses, edges);
   const std::size_t n = closures.size();
-  std::vector<Row> adjacency(n, Row((n + 63) / 64, 0));
-  for (std::size_t a = 0; a < n; ++a) {
-    for (std::size_t b = a + 1; b < n; ++b) {
-      ++result.pairs_tested;
-      const PairTest t = test_pair(chain, closures[a], closures[b], config.threshold_sigma);
-      if (t == PairTest::kInconsistent) continue;
-      if (t == PairTest::kUntestable) ++result.pairs_untestable;
-      ++result.pairs_consistent;
-      set_bit(adjacency[a], b);
-      set_bit(adjacency[b], a);
-    }
-  }
+  const std::vector<Row> adjacency = consistency_graph(chain, closures, config.threshold_sigma, &result);
   MaxClique search(adjacency, config.max_clique_nodes);
   const std::vector<std::size_t> clique = search.solve();
   result.clique_nodes = search.nodes();
@@ -320,16 +331,7 @@ std::size_t PairwiseConsistencyScreen::largest_consistent_subset(const std::vect
     c.z.q.normalize();
     closures.push_back(c);
   }
-  const std::size_t n = closures.size();
-  std::vector<Row> adjacency(n, Row((n + 63) / 64, 0));
-  for (std::size_t a = 0; a < n; ++a) {
-    for (std::size_t b = a + 1; b < n; ++b) {
-      if (test_pair(impl_->chain, closures[a], closures[b], impl_->config.threshold_sigma) == PairTest::kInconsistent)
-        continue;
-      set_bit(adjacency[a], b);
-      set_bit(adjacency[b], a);
-    }
-  }
+  const std::vector<Row> adjacency = consistency_graph(impl_->chain, closures, impl_->config.threshold_sigma, nullptr);
   MaxClique search(adjacency, impl_->config.max_clique_nodes);
   return search.solve().size();
 }
