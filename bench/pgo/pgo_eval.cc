@@ -367,8 +367,8 @@ int main(int argc, char** argv) {
         const double chordal_all_s = seconds_since(t0);
         std::printf(
             "  %2.0f %% wrong (%zu): the chordal estimate with every closure weighted %s in %.2f s (%d linear "
-            "systems, %d by conjugate gradients, %d direct after they did not converge)\n",
-            100.0 * f, count, ok ? "solved" : "failed", chordal_all_s, stats.systems, stats.iterative,
+            "systems, %d by conjugate gradients in %lld iterations, %d direct after they did not converge)\n",
+            100.0 * f, count, ok ? "solved" : "failed", chordal_all_s, stats.systems, stats.iterative, stats.iterations,
             stats.direct_fallbacks);
         figures.add(p + "outliers_" + std::to_string(static_cast<int>(std::lround(100.0 * f))) +
                         ".chordal_all_weighted_time" +
@@ -456,7 +456,13 @@ int main(int argc, char** argv) {
                 ? (" (" + std::to_string(r.gnc_outer_iterations) + " GNC, " + std::to_string(r.gnc_refine_rounds) +
                    " TLS rounds, " + std::to_string(r.gnc_clusters_readmitted) + " runs on and " +
                    std::to_string(r.gnc_lone_dropped) + " lone off in " + std::to_string(r.gnc_cluster_trials) +
-                   " trials, " + std::to_string(r.gnc_clusters_screened_out) + " screened out)")
+                   " trials, " + std::to_string(r.gnc_clusters_screened_out) + " screened out)" +
+                   (r.chordal.systems > 0
+                        ? "; chordal: " + std::to_string(r.chordal.systems) + " systems, " +
+                              std::to_string(r.chordal.iterative) + " by CG, " + std::to_string(r.chordal.truncated) +
+                              " truncated, " + std::to_string(r.chordal.direct_fallbacks) + " direct fallbacks, " +
+                              std::to_string(r.chordal.iterations) + " CG iterations"
+                        : ""))
                       .c_str()
                 : "",
             s, r.message.c_str());
@@ -485,6 +491,13 @@ int main(int argc, char** argv) {
           figures.add(q + "clusters_readmitted", r.gnc_clusters_readmitted, "runs switched on");
           figures.add(q + "lone_dropped", r.gnc_lone_dropped, "lone closures switched off");
           figures.add(q + "clusters_screened_out", r.gnc_clusters_screened_out, "trials skipped");
+        }
+        if (r.chordal.systems > 0) {
+          figures.add(q + "chordal_systems", r.chordal.systems, "linear systems");
+          figures.add(q + "chordal_cg_converged", r.chordal.iterative, "systems");
+          figures.add(q + "chordal_cg_truncated", r.chordal.truncated, "Gauss-Newton steps");
+          figures.add(q + "chordal_direct_fallbacks", r.chordal.direct_fallbacks, "systems");
+          figures.add(q + "chordal_cg_iterations", static_cast<double>(r.chordal.iterations), "iterations");
         }
         if (config.prefilter_pairwise_consistency) {
           std::printf("    ");

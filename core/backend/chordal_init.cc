@@ -3,7 +3,6 @@
 #include "core/backend/chordal_init.h"
 
 #include <Eigen/Geometry>
-#include <Eigen/IterativeLinearSolvers>
 #include <Eigen/SVD>
 #include <Eigen/SparseCholesky>
 
@@ -14,12 +13,21 @@
 namespace qsg::backend {
 namespace {
 
-using Triplets = std::vector<Eigen::Triplet<double>>;
-
 // kAnisotropic: Gauss-Newton steps on the rotations after the relaxation. On a graph without wrong closures they
 // converge to a step under 1e-6 rad in 2-4 (cubicle: 4); with wrong closures still weighted they may not, and the
-// cap bounds each estimate's cost at 1 + 5 factorizations of the rotation system.
+// cap bounds each estimate's cost at 1 + 5 solves of the rotation system.
 constexpr int kRotationRefineIterations = 5;
+
+// kIterative: the relative residual |b - H x| / |b| conjugate gradients stop at. Gauss-Newton steps on the
+// rotations too: solved loosely, their 5 steps from a relaxation under GNC's intermediate weights end metres from
+// where exact ones do (bench/results/pose_graph.md).
+constexpr double kIterativeTolerance = 1e-10;
+
+// kIterative's preconditioner keeps whole the edges between poses at most this far apart in the graph's numbering
+// (a pose graph is numbered along its trajectory: odometry and the scan matches between nearby poses). They
+// factor with fill-in bounded by the band; the edges beyond it (revisits, wrong closures) are the random ones that
+// conjugate gradients handle in few iterations.
+constexpr std::uint32_t kPreconditionerBand = 10;
 
 // An edge's rotation and translation precisions: the information's diagonal blocks (its translation-rotation
 // coupling is left out: the two solves are separate), or 1 / sigma^2 on the diagonal. In the residual's frames
@@ -35,73 +43,170 @@ void precisions(const RelativePoseEdge& e, Eigen::Matrix3d* lambda_t, Eigen::Mat
   *lambda_r = e.sigma_rot_rad.cwiseInverse().cwiseAbs2().asDiagonal();
 }
 
-// H's 3x3 block (r, c) += m.
-void add_block(int r, int c, const Eigen::Matrix3d& m, Triplets* h) {
-  for (int u = 0; u < 3; ++u)
-    for (int v = 0; v < 3; ++v) h->emplace_back(3 * r + u, 3 * c + v, m(u, v));
-}
-
-// Adds the normal equations of |r + J_i x_i + J_j x_j|^2_lambda (3-vectors x) to H x = b over the free poses; a
-// fixed end (index < 0) contributes nothing.
-void add_weighted(const Eigen::Matrix3d& j_i, const Eigen::Matrix3d& j_j, const Eigen::Matrix3d& lambda,
-                  const Eigen::Vector3d& r, int free_i, int free_j, Triplets* h, Eigen::MatrixXd* b) {
-  if (free_i >= 0) {
-    add_block(free_i, free_i, j_i.transpose() * lambda * j_i, h);
-    b->middleRows<3>(3 * free_i) -= j_i.transpose() * lambda * r;
+// The weighted edges kIterative's preconditioner keeps whole: those within kPreconditionerBand, and a maximum
+// spanning forest of the free poses (the anchored ones counted as one node) by each edge's strength in one system,
+// its weight times the trace of its precision there (Kruskal's order, the strongest first), so that the
+// preconditioner reaches every free pose whatever the numbering.
+std::vector<bool> preconditioner_edges(const std::vector<RelativePoseEdge>& edges, const std::vector<double>& weights,
+                                       const std::vector<int>& free_index, std::size_t n, bool rotation) {
+  std::vector<std::uint32_t> order;
+  std::vector<double> strength(edges.size(), 0.0);
+  Eigen::Matrix3d lambda_t, lambda_r;
+  for (std::size_t k = 0; k < edges.size(); ++k) {
+    if (!(weights[k] > 0.0) || edges[k].from >= n || edges[k].to >= n ||
+        (free_index[edges[k].from] < 0 && free_index[edges[k].to] < 0))
+      continue;
+    precisions(edges[k], &lambda_t, &lambda_r);
+    strength[k] = weights[k] * (rotation ? lambda_r : lambda_t).trace();
+    order.push_back(static_cast<std::uint32_t>(k));
   }
-  if (free_j >= 0) {
-    add_block(free_j, free_j, j_j.transpose() * lambda * j_j, h);
-    b->middleRows<3>(3 * free_j) -= j_j.transpose() * lambda * r;
-  }
-  if (free_i >= 0 && free_j >= 0) {
-    add_block(free_i, free_j, j_i.transpose() * lambda * j_j, h);
-    add_block(free_j, free_i, j_j.transpose() * lambda * j_i, h);
-  }
-}
-
-// Adds one 3-block equation A_i x_i + A_j x_j = c (weight k) to the normal equations H x = B over the free poses;
-// an anchored pose's term moves to the right-hand side. x_i, c and B have 3 columns (rotations: one per row of R).
-void add_equation(const Eigen::Matrix3d& a_i, const Eigen::Matrix3d& a_j, const Eigen::Matrix3d& c, double k,
-                  int free_i, int free_j, const Eigen::Matrix3d& known_i, const Eigen::Matrix3d& known_j, Triplets* h,
-                  Eigen::MatrixXd* b) {
-  Eigen::Matrix3d rhs = c;
-  if (free_i < 0) rhs -= a_i * known_i;
-  if (free_j < 0) rhs -= a_j * known_j;
-  if (free_i >= 0) {
-    add_block(free_i, free_i, k * a_i.transpose() * a_i, h);
-    b->middleRows<3>(3 * free_i) += k * a_i.transpose() * rhs;
-  }
-  if (free_j >= 0) {
-    add_block(free_j, free_j, k * a_j.transpose() * a_j, h);
-    b->middleRows<3>(3 * free_j) += k * a_j.transpose() * rhs;
-  }
-  if (free_i >= 0 && free_j >= 0) {
-    add_block(free_i, free_j, k * a_i.transpose() * a_j, h);
-    add_block(free_j, free_i, k * a_j.transpose() * a_i, h);
-  }
-}
-
-// Solves H X = B (ChordalSolver). False when the factorization fails (a singular system).
-bool solve(const Triplets& h, const Eigen::MatrixXd& b, ChordalSolver solver, Eigen::MatrixXd* x, ChordalStats* stats) {
-  ++stats->systems;
-  const auto n = static_cast<int>(b.rows());
-  Eigen::SparseMatrix<double> m(n, n);
-  m.setFromTriplets(h.begin(), h.end());
-  if (solver == ChordalSolver::kIterative) {
-    Eigen::ConjugateGradient<Eigen::SparseMatrix<double>, Eigen::Lower | Eigen::Upper> cg(m);
-    cg.setTolerance(1e-10);
-    *x = cg.solve(b);
-    if (cg.info() == Eigen::Success && x->allFinite()) {
-      ++stats->iterative;
-      return true;
+  std::stable_sort(order.begin(), order.end(),
+                   [&strength](std::uint32_t a, std::uint32_t b) { return strength[a] > strength[b]; });
+  // Union-find over the poses plus one node (n) for all the anchored ones.
+  std::vector<std::uint32_t> parent(n + 1);
+  for (std::size_t i = 0; i <= n; ++i) parent[i] = static_cast<std::uint32_t>(i);
+  const auto root = [&parent](std::uint32_t i) {
+    while (parent[i] != i) i = parent[i] = parent[parent[i]];
+    return i;
+  };
+  const auto node = [&](std::uint32_t pose) { return free_index[pose] >= 0 ? pose : static_cast<std::uint32_t>(n); };
+  std::vector<bool> kept(edges.size(), false);
+  for (const bool band : {true, false}) {
+    for (const std::uint32_t k : order) {
+      const std::uint32_t span =
+          edges[k].from > edges[k].to ? edges[k].from - edges[k].to : edges[k].to - edges[k].from;
+      if (kept[k] || (band && span > kPreconditionerBand)) continue;
+      const std::uint32_t a = root(node(edges[k].from)), b = root(node(edges[k].to));
+      if (!band && a == b) continue;
+      parent[a] = b;
+      kept[k] = true;
     }
-    ++stats->direct_fallbacks;
   }
-  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(m);
-  if (ldlt.info() != Eigen::Success) return false;
-  *x = ldlt.solve(b);
-  return ldlt.info() == Eigen::Success && x->allFinite();
+  return kept;
 }
+
+// The normal equations H X = B of a sum of 3-block equations over the free poses (3 unknowns each), and, for
+// kIterative, the preconditioner M: the equations of the edges preconditioner_edges keeps whole plus the block
+// diagonal of the others, a subgraph preconditioner (Dellaert, Carlson, Ila, Ni, Thorpe, IROS 2010). M is SPD (H
+// restricted to a subgraph that reaches every free pose, plus positive semidefinite blocks) and factors with
+// little fill-in. It carries the odometry chain and its nearby scan matches, whose long thin shape is what makes a
+// diagonal preconditioner need tens of thousands of iterations, and each pose's anisotropic 3x3 block, which a
+// diagonal one sees only along the axes of the world.
+class NormalEquations {
+ public:
+  NormalEquations(int num_free, int columns) : b_(Eigen::MatrixXd::Zero(3 * num_free, columns)) {}
+
+  // Adds the normal equations of |r + J_i x_i + J_j x_j|^2_lambda (one column) to H x = b; a fixed end
+  // (index < 0) contributes nothing.
+  void add_weighted(const Eigen::Matrix3d& j_i, const Eigen::Matrix3d& j_j, const Eigen::Matrix3d& lambda,
+                    const Eigen::Vector3d& r, int free_i, int free_j, bool whole) {
+    if (free_i >= 0) b_.middleRows<3>(3 * free_i) -= j_i.transpose() * lambda * r;
+    if (free_j >= 0) b_.middleRows<3>(3 * free_j) -= j_j.transpose() * lambda * r;
+    add_blocks(j_i.transpose() * lambda * j_i, j_j.transpose() * lambda * j_j, j_i.transpose() * lambda * j_j, free_i,
+               free_j, whole);
+  }
+
+  // Adds one 3-block equation A_i x_i + A_j x_j = c (weight k) to the normal equations; an anchored pose's term
+  // moves to the right-hand side. x_i, c and B have 3 columns (rotations: one per row of R).
+  void add_equation(const Eigen::Matrix3d& a_i, const Eigen::Matrix3d& a_j, const Eigen::Matrix3d& c, double k,
+                    int free_i, int free_j, const Eigen::Matrix3d& known_i, const Eigen::Matrix3d& known_j,
+                    bool whole) {
+    Eigen::Matrix3d rhs = c;
+    if (free_i < 0) rhs -= a_i * known_i;
+    if (free_j < 0) rhs -= a_j * known_j;
+    if (free_i >= 0) b_.middleRows<3>(3 * free_i) += k * a_i.transpose() * rhs;
+    if (free_j >= 0) b_.middleRows<3>(3 * free_j) += k * a_j.transpose() * rhs;
+    add_blocks(k * a_i.transpose() * a_i, k * a_j.transpose() * a_j, k * a_i.transpose() * a_j, free_i, free_j, whole);
+  }
+
+  // Solves H X = B (ChordalSolver). `step`: X is a Gauss-Newton step, for which conjugate gradients stopped at
+  // their iteration cap still give a descent direction (a truncated Newton step, which the caller's line search
+  // guards): kept instead of a direct solve. False when a factorization fails (a singular system).
+  bool solve(ChordalSolver solver, bool step, Eigen::MatrixXd* x, ChordalStats* stats) const {
+    ++stats->systems;
+    const auto n = static_cast<int>(b_.rows());
+    Eigen::SparseMatrix<double> h(n, n);
+    h.setFromTriplets(h_.begin(), h_.end());
+    if (solver == ChordalSolver::kIterative) {
+      Eigen::SparseMatrix<double> m(n, n);
+      m.setFromTriplets(m_.begin(), m_.end());
+      const Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> preconditioner(m);
+      if (preconditioner.info() == Eigen::Success) {
+        const Outcome outcome = conjugate_gradients(h, preconditioner, x, stats);
+        if (outcome == Outcome::kConverged || (outcome == Outcome::kCapped && step)) {
+          ++(outcome == Outcome::kConverged ? stats->iterative : stats->truncated);
+          return true;
+        }
+      }
+      ++stats->direct_fallbacks;
+    }
+    const Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(h);
+    if (ldlt.info() != Eigen::Success) return false;
+    *x = ldlt.solve(b_);
+    return ldlt.info() == Eigen::Success && x->allFinite();
+  }
+
+ private:
+  using Triplets = std::vector<Eigen::Triplet<double>>;
+  enum class Outcome { kConverged, kCapped, kFailed };
+
+  static void add_block(int r, int c, const Eigen::Matrix3d& m, Triplets* h) {
+    for (int u = 0; u < 3; ++u)
+      for (int v = 0; v < 3; ++v) h->emplace_back(3 * r + u, 3 * c + v, m(u, v));
+  }
+
+  void add_blocks(const Eigen::Matrix3d& ii, const Eigen::Matrix3d& jj, const Eigen::Matrix3d& ij, int free_i,
+                  int free_j, bool whole) {
+    for (Triplets* t : {&h_, &m_}) {
+      if (free_i >= 0) add_block(free_i, free_i, ii, t);
+      if (free_j >= 0) add_block(free_j, free_j, jj, t);
+      if (free_i >= 0 && free_j >= 0 && (t == &h_ || whole)) {
+        add_block(free_i, free_j, ij, t);
+        add_block(free_j, free_i, ij.transpose(), t);
+      }
+    }
+  }
+
+  // Preconditioned conjugate gradients from X = 0, column by column, to kIterativeTolerance within 2 * unknowns
+  // iterations. kFailed on a curvature p^T H p <= 0 or a non-finite value (H not positive definite).
+  Outcome conjugate_gradients(const Eigen::SparseMatrix<double>& h,
+                              const Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>>& m, Eigen::MatrixXd* x,
+                              ChordalStats* stats) const {
+    const Eigen::Index n = b_.rows();
+    const Eigen::Index cap = 2 * n;
+    *x = Eigen::MatrixXd::Zero(n, b_.cols());
+    Outcome outcome = Outcome::kConverged;
+    Eigen::VectorXd r, z, p, hp;
+    for (Eigen::Index c = 0; c < b_.cols(); ++c) {
+      r = b_.col(c);
+      const double stop = kIterativeTolerance * r.norm();
+      if (!(r.norm() > stop)) continue;
+      z = m.solve(r);
+      p = z;
+      double rz = r.dot(z);
+      Eigen::Index it = 0;
+      for (; it < cap && r.norm() > stop; ++it) {
+        hp = h * p;
+        const double curvature = p.dot(hp);
+        if (!(curvature > 0.0) || !std::isfinite(rz)) return Outcome::kFailed;
+        const double alpha = rz / curvature;
+        x->col(c) += alpha * p;
+        r -= alpha * hp;
+        z = m.solve(r);
+        const double rz_next = r.dot(z);
+        p = z + (rz_next / rz) * p;
+        rz = rz_next;
+      }
+      stats->iterations += it;
+      if (!x->col(c).allFinite()) return Outcome::kFailed;
+      if (r.norm() > stop) outcome = Outcome::kCapped;
+    }
+    return outcome;
+  }
+
+  Triplets h_, m_;
+  Eigen::MatrixXd b_;
+};
 
 Eigen::Matrix3d nearest_rotation(const Eigen::Matrix3d& m) {
   const Eigen::JacobiSVD<Eigen::Matrix3d> svd(m, Eigen::ComputeFullU | Eigen::ComputeFullV);
@@ -153,17 +258,15 @@ void retract(const Eigen::MatrixXd& x, double step, const std::vector<int>& free
 // break the small-residual model, and unguarded steps of several radians followed. Stops after `iterations` or a
 // step under 1e-6 rad. False when a solve fails (the rotations as they were before the failing step).
 bool refine_rotations(const std::vector<RelativePoseEdge>& edges, const std::vector<double>& weights,
-                      const std::vector<int>& free_index, int num_free, int iterations, ChordalSolver solver,
-                      ChordalStats* stats, std::vector<Eigen::Matrix3d>* rotation) {
+                      const std::vector<int>& free_index, const std::vector<bool>& whole, int num_free, int iterations,
+                      ChordalSolver solver, ChordalStats* stats, std::vector<Eigen::Matrix3d>* rotation) {
   const std::size_t n = rotation->size();
-  Triplets h;
-  Eigen::MatrixXd b, x;
+  Eigen::MatrixXd x;
   Eigen::Matrix3d lambda_t, lambda_r;
   std::vector<Eigen::Matrix3d> candidate;
   double cost = rotation_cost(edges, weights, free_index, *rotation);
   for (int it = 0; it < iterations; ++it) {
-    h.clear();
-    b = Eigen::MatrixXd::Zero(3 * num_free, 1);
+    NormalEquations system(num_free, 1);
     for (std::size_t k = 0; k < edges.size(); ++k) {
       const RelativePoseEdge& e = edges[k];
       if (!(weights[k] > 0.0) || e.from >= n || e.to >= n) continue;
@@ -173,9 +276,9 @@ bool refine_rotations(const std::vector<RelativePoseEdge>& edges, const std::vec
       lambda_r *= weights[k];
       const Eigen::Vector3d theta = rotation_residual(e, *rotation);
       const Eigen::Matrix3d j_i = -(*rotation)[e.to].transpose() * (*rotation)[e.from];
-      add_weighted(j_i, Eigen::Matrix3d::Identity(), lambda_r, theta, fi, fj, &h, &b);
+      system.add_weighted(j_i, Eigen::Matrix3d::Identity(), lambda_r, theta, fi, fj, whole[k]);
     }
-    if (!solve(h, b, solver, &x, stats)) return false;
+    if (!system.solve(solver, true, &x, stats)) return false;
     double step = 1.0, candidate_cost = cost;
     for (int halving = 0; halving <= 4; ++halving, step *= 0.5) {
       retract(x, step, free_index, *rotation, &candidate);
@@ -229,31 +332,32 @@ bool chordal_initialize(const std::vector<RelativePoseEdge>& edges, const std::v
   // Rotations: R_j = R_i R_ij at the edge's mean rotation precision, one row of R at a time: R_j^T = R_ij^T R_i^T,
   // unknowns X_i = R_i^T. Each column of R is solved on its own, so no per-axis weight fits here: kAnisotropic
   // refines the projected estimate with the full precisions instead.
-  Triplets h;
-  Eigen::MatrixXd b = Eigen::MatrixXd::Zero(3 * num_free, 3), x;
+  const std::vector<bool> whole = preconditioner_edges(edges, weights, free_index, n, true);
+  NormalEquations relaxation(num_free, 3);
+  Eigen::MatrixXd x;
   Eigen::Matrix3d lambda_t, lambda_r;
   for (std::size_t k = 0; k < edges.size(); ++k) {
     const RelativePoseEdge& e = edges[k];
     if (!(weights[k] > 0.0) || e.from >= n || e.to >= n) continue;
     precisions(e, &lambda_t, &lambda_r);
     const Eigen::Matrix3d r_ij = e.measured_from_T_to.q.normalized().toRotationMatrix();
-    add_equation(-r_ij.transpose(), Eigen::Matrix3d::Identity(), Eigen::Matrix3d::Zero(),
-                 weights[k] * lambda_r.trace() / 3.0, free_index[e.from], free_index[e.to],
-                 rotation[e.from].transpose(), rotation[e.to].transpose(), &h, &b);
+    relaxation.add_equation(-r_ij.transpose(), Eigen::Matrix3d::Identity(), Eigen::Matrix3d::Zero(),
+                            weights[k] * lambda_r.trace() / 3.0, free_index[e.from], free_index[e.to],
+                            rotation[e.from].transpose(), rotation[e.to].transpose(), whole[k]);
   }
-  if (!solve(h, b, solver, &x, stats)) return false;
+  if (!relaxation.solve(solver, false, &x, stats)) return false;
   std::vector<Eigen::Matrix3d> solved = rotation;
   for (std::size_t i = 0; i < n; ++i)
     if (free_index[i] >= 0) solved[i] = nearest_rotation(x.middleRows<3>(3 * free_index[i]).transpose());
   if (weighting == ChordalWeighting::kAnisotropic &&
-      !refine_rotations(edges, weights, free_index, num_free, kRotationRefineIterations, solver, stats, &solved))
+      !refine_rotations(edges, weights, free_index, whole, num_free, kRotationRefineIterations, solver, stats, &solved))
     return false;
 
   // Translations with those rotations: (t_j - t_i - R_i t_ij)^T P (t_j - t_i - R_i t_ij), P the edge's translation
   // precision in the world frame (M^T lambda_t M, M the residual frame's rotation R_ij^T R_i^T or R_i^T), or its
   // mean times I when isotropic: 3x3 blocks of a weighted Laplacian.
-  h.clear();
-  b = Eigen::MatrixXd::Zero(3 * num_free, 1);
+  const std::vector<bool> translation_whole = preconditioner_edges(edges, weights, free_index, n, false);
+  NormalEquations translation(num_free, 1);
   for (std::size_t k = 0; k < edges.size(); ++k) {
     const RelativePoseEdge& e = edges[k];
     if (!(weights[k] > 0.0) || e.from >= n || e.to >= n) continue;
@@ -270,9 +374,10 @@ bool chordal_initialize(const std::vector<RelativePoseEdge>& edges, const std::v
     const int fi = free_index[e.from], fj = free_index[e.to];
     if (fi < 0) rhs += (*poses)[e.from].t_m;
     if (fj < 0) rhs -= (*poses)[e.to].t_m;
-    add_weighted(-Eigen::Matrix3d::Identity(), Eigen::Matrix3d::Identity(), p, -rhs, fi, fj, &h, &b);
+    translation.add_weighted(-Eigen::Matrix3d::Identity(), Eigen::Matrix3d::Identity(), p, -rhs, fi, fj,
+                             translation_whole[k]);
   }
-  if (!solve(h, b, solver, &x, stats)) return false;
+  if (!translation.solve(solver, false, &x, stats)) return false;
   for (std::size_t i = 0; i < n; ++i) {
     if (free_index[i] < 0) continue;
     (*poses)[i].t_m = x.middleRows<3>(3 * free_index[i]);

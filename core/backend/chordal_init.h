@@ -24,17 +24,24 @@ enum class ChordalWeighting { kIsotropic, kAnisotropic };
 
 // How the linear systems are solved. kDirect: sparse LDL^T (Eigen's simplicial factorization), exact, and fast
 // while the graph is nearly a chain; wrong closures still weighted join random far-apart poses and fill the factor
-// in (cubicle with 50 % wrong closures: minutes a system). kIterative: conjugate gradients with a diagonal
-// preconditioner to a relative residual of 1e-10, which such well-connected graphs make converge in few
-// iterations; a system it does not solve within its iteration cap (twice the unknowns) is solved directly.
+// in (cubicle with 50 % wrong closures: minutes a system). kIterative: conjugate gradients to a relative residual
+// of 1e-10, preconditioned by a subgraph of the weighted edges factored whole (those between poses near each other
+// in the numbering, and a spanning tree) plus the block diagonal of the rest (Dellaert, Carlson, Ila, Ni, Thorpe,
+// IROS 2010): the subgraph carries the long chain that a diagonal preconditioner cannot, the far edges' random
+// links (revisits, wrong closures) converge fast. A system not solved within the iteration cap (twice the
+// unknowns) is solved directly, except a Gauss-Newton step on the rotations, which keeps the truncated iterate
+// (still a descent direction; its line search guards it).
 enum class ChordalSolver { kDirect, kIterative };
 
-// What one chordal_initialize did: linear systems solved, by conjugate gradients (kIterative, converged) and
-// directly after conjugate gradients did not converge.
+// What one chordal_initialize did: linear systems solved; by conjugate gradients (kIterative) converged, stopped
+// at the cap as a truncated Gauss-Newton step, or solved directly after they did not converge; and the conjugate
+// gradient iterations, over all systems and columns.
 struct ChordalStats {
   int systems = 0;
   int iterative = 0;
+  int truncated = 0;
   int direct_fallbacks = 0;
+  long long iterations = 0;
 };
 
 // Overwrites the poses that are not anchored with the chordal estimate. weights: per edge (0 switches it off, e.g. a

@@ -493,7 +493,7 @@ class GraphSolve {
     // The inliers decided, the last solve starts again from the caller's poses: the annealing's path went through
     // states bent by the outliers, from which least squares can settle in another basin.
     state_ = initial_state_;
-    chordal_reset();
+    chordal_reset(result);
     solve(options_, &summary, result);
     refine_tls(&summary, result);
     if (config_.gnc_cluster_trials > 0 && summary.IsSolutionUsable()) search_clusters(&summary, result);
@@ -504,7 +504,7 @@ class GraphSolve {
   // weights with gnc_chordal_solves. With none (gnc_inner_iterations 0), the chordal estimate is the solve; should
   // it fail, a full Ceres solve stands in. False when the solve's result is not usable.
   bool weighted_solve(int iterations, ceres::Solver::Summary* summary, PoseGraphResult* result) {
-    if (chordal_reset() && iterations == 0) return state_finite();
+    if (chordal_reset(result) && iterations == 0) return state_finite();
     ceres::Solver::Options options = options_;
     options.max_num_iterations = iterations > 0 ? iterations : config_.max_iterations;
     solve(options, summary, result);
@@ -513,7 +513,7 @@ class GraphSolve {
 
   // PoseGraphConfig::gnc_chordal_solves: the free poses to the chordal estimate under the current weights (kept as
   // they are when the linear solve fails). True when they were moved.
-  bool chordal_reset() {
+  bool chordal_reset(PoseGraphResult* result) {
     if (!config_.gnc_chordal_solves) return false;
     const std::size_t n = state_.size() / kStateDim;
     std::vector<Pose3> p(n);
@@ -521,8 +521,15 @@ class GraphSolve {
       p[i].t_m = Eigen::Map<const Eigen::Vector3d>(t_block(i));
       p[i].q = Eigen::Map<const Eigen::Quaterniond>(q_block(i));
     }
-    if (!chordal_initialize(edges_, weights_, anchored_, &p, config_.chordal_weighting, config_.chordal_solver))
-      return false;
+    ChordalStats stats;
+    const bool ok =
+        chordal_initialize(edges_, weights_, anchored_, &p, config_.chordal_weighting, config_.chordal_solver, &stats);
+    result->chordal.systems += stats.systems;
+    result->chordal.iterative += stats.iterative;
+    result->chordal.truncated += stats.truncated;
+    result->chordal.direct_fallbacks += stats.direct_fallbacks;
+    result->chordal.iterations += stats.iterations;
+    if (!ok) return false;
     for (std::size_t i = 0; i < n; ++i) {
       Eigen::Map<Eigen::Vector3d>(t_block(i)) = p[i].t_m;
       Eigen::Map<Eigen::Quaterniond>(q_block(i)) = p[i].q.normalized();

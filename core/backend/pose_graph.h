@@ -135,6 +135,7 @@ struct PoseGraphResult {
   int gnc_clusters_readmitted = 0;
   int gnc_lone_dropped = 0;  // lone closures switched off by a kept trial
   int gnc_clusters_screened_out = 0;  // with gnc_cluster_screen: trials skipped, their closures not agreeing
+  ChordalStats chordal;               // with gnc_chordal_solves: the chordal estimates' linear systems, summed
   // Where a solve's time goes: Ceres' own wall-clock time over its solves, or PoseGraphConfig::clock_s's.
   double solver_time_s = 0.0;
   // With prefilter_pairwise_consistency: the prefilter's tallies (its rejected closures are downweighted too).
