@@ -227,8 +227,8 @@ int main(int argc, char** argv) {
         "  is tried only when K of its dropped closures pass the pairwise test with each other (the gate of\n"
         "  --pcm-threshold-sigma). --chordal-timing 1: per outlier level, the time of one chordal estimate\n"
         "  with every closure weighted (GNC's first weighted solve); --solvers none skips the solvers.\n"
-        "  --chordal-solver iterative: GNC's chordal estimates by conjugate gradients (the outlier-free\n"
-        "  reference stays direct).\n"
+        "  --chordal-solver direct|iterative: GNC's chordal estimates by sparse LDLT or by conjugate gradients\n"
+        "  (PoseGraphConfig's default; the outlier-free reference stays direct).\n"
         "  JSON: pgo_eval.<graph>.*; results in bench/results/pose_graph.md.\n",
         argv[0]);
     return 2;

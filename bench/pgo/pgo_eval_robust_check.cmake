@@ -1,8 +1,9 @@
 # ctest: GNC-TLS on smallGrid3D with 50 % wrong loop closures (outlier seed 2, the hardest of the three measured), its
 # threshold 1.5 times the right closures' largest residual (--noise-bound 1 --noise-margin 1.5) and its weighted
-# solves from the chordal estimate (--gnc-chordal 1), keeps no wrong closure and ends within 5 % of the outlier-free
-# solution's RMS radius, the issue's target (bench/results/pose_graph.md: 2.6 %; warm-started GNC there ends 55 %
-# away). cmake -P with PGO_EVAL, GRAPH, WORK_DIR. Skips when ../shared/data is absent.
+# solves from the chordal estimate (--gnc-chordal 1; by conjugate gradients, the default), keeps no wrong closure
+# and ends within 5 % of the outlier-free solution's RMS radius, the issue's target (bench/results/pose_graph.md:
+# 2.6 %; warm-started GNC there ends 55 % away). cmake -P with PGO_EVAL, GRAPH, WORK_DIR. Skips when ../shared/data
+# is absent.
 if(NOT EXISTS ${GRAPH})
   message("SKIP: ${GRAPH} not found (the shared data is not beside this checkout)")
   return()
@@ -20,7 +21,7 @@ string(JSON n LENGTH "${json}")
 math(EXPR last "${n} - 1")
 set(share "")
 set(wrong_kept "")
-set(prefix "pgo_eval.smallGrid3D.outliers_50.gnc_tls_noise_bound_150pct_chordal")
+set(prefix "pgo_eval.smallGrid3D.outliers_50.gnc_tls_noise_bound_150pct_cg_chordal")
 foreach(i RANGE ${last})
   string(JSON name GET "${json}" ${i} name)
   if(name STREQUAL "${prefix}.rmse_to_outlier_free_share")

@@ -32,7 +32,7 @@ const params::Table<PoseGraphConfig>& pose_graph_solver_params_table() {
              "the chordal estimate weighs each edge by its own axes, or by its mean precision");
     t.choice("solver_chordal_solver", &P::chordal_solver,
              {{"direct", ChordalSolver::kDirect}, {"iterative", ChordalSolver::kIterative}}, refinement,
-             "the chordal estimate's linear systems: sparse LDLT, or conjugate gradients (many wrong closures)");
+             "the chordal estimate's linear systems: sparse LDLT, or preconditioned conjugate gradients");
     t.add("solver_gnc_cluster_trials", &P::gnc_cluster_trials, "trials", params::in(0, 100000), refinement,
           "after GNC, trials of runs of dropped closures switched on and lone kept ones off, each kept only if "
           "the TLS cost falls; 0: none");
