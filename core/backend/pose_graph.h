@@ -87,8 +87,9 @@ struct PoseGraphConfig {
   // precision (kIsotropic, the papers' form), chordal_init.h.
   ChordalWeighting chordal_weighting = ChordalWeighting::kAnisotropic;
   // With gnc_chordal_solves: how the chordal estimate's linear systems are solved (chordal_init.h): kIterative,
-  // preconditioned conjugate gradients, faster than a factorization on cubicle even without wrong closures and by
-  // hundreds of times with them (still-weighted wrong closures fill a factorization in); kDirect, sparse LDLT.
+  // preconditioned conjugate gradients, about as fast as a factorization on a graph without wrong closures and 9 to
+  // hundreds of times faster with them (still-weighted wrong closures fill a factorization in); kDirect, sparse
+  // LDLT (bench/results/pose_graph.md).
   ChordalSolver chordal_solver = ChordalSolver::kIterative;
   // Removes the gauge freedom: holds poses[0], and the lowest-index pose of any component not connected to it.
   bool fix_first_pose = true;
