@@ -94,7 +94,9 @@ std::vector<bool> preconditioner_edges(const std::vector<RelativePoseEdge>& edge
 // diagonal one sees only along the axes of the world.
 class NormalEquations {
  public:
-  NormalEquations(int num_free, int columns) : b_(Eigen::MatrixXd::Zero(3 * num_free, columns)) {}
+  // `solver`: kDirect builds H alone, kIterative its preconditioner M too.
+  NormalEquations(int num_free, int columns, ChordalSolver solver)
+      : preconditioned_(solver == ChordalSolver::kIterative), b_(Eigen::MatrixXd::Zero(3 * num_free, columns)) {}
 
   // Adds the normal equations of |r + J_i x_i + J_j x_j|^2_lambda (one column) to H x = b; a fixed end
   // (index < 0) contributes nothing.
@@ -122,12 +124,12 @@ class NormalEquations {
   // Solves H X = B (ChordalSolver). `step`: X is a Gauss-Newton step, for which conjugate gradients stopped at
   // their iteration cap still give a descent direction (a truncated Newton step, which the caller's line search
   // guards): kept instead of a direct solve. False when a factorization fails (a singular system).
-  bool solve(ChordalSolver solver, bool step, Eigen::MatrixXd* x, ChordalStats* stats) const {
+  bool solve(bool step, Eigen::MatrixXd* x, ChordalStats* stats) const {
     ++stats->systems;
     const auto n = static_cast<int>(b_.rows());
     Eigen::SparseMatrix<double> h(n, n);
     h.setFromTriplets(h_.begin(), h_.end());
-    if (solver == ChordalSolver::kIterative) {
+    if (preconditioned_) {
       Eigen::SparseMatrix<double> m(n, n);
       m.setFromTriplets(m_.begin(), m_.end());
       const Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> preconditioner(m);
@@ -158,6 +160,7 @@ class NormalEquations {
   void add_blocks(const Eigen::Matrix3d& ii, const Eigen::Matrix3d& jj, const Eigen::Matrix3d& ij, int free_i,
                   int free_j, bool whole) {
     for (Triplets* t : {&h_, &m_}) {
+      if (t == &m_ && !preconditioned_) break;
       if (free_i >= 0) add_block(free_i, free_i, ii, t);
       if (free_j >= 0) add_block(free_j, free_j, jj, t);
       if (free_i >= 0 && free_j >= 0 && (t == &h_ || whole)) {
@@ -204,6 +207,7 @@ class NormalEquations {
     return outcome;
   }
 
+  bool preconditioned_;
   Triplets h_, m_;
   Eigen::MatrixXd b_;
 };
@@ -266,7 +270,7 @@ bool refine_rotations(const std::vector<RelativePoseEdge>& edges, const std::vec
   std::vector<Eigen::Matrix3d> candidate;
   double cost = rotation_cost(edges, weights, free_index, *rotation);
   for (int it = 0; it < iterations; ++it) {
-    NormalEquations system(num_free, 1);
+    NormalEquations system(num_free, 1, solver);
     for (std::size_t k = 0; k < edges.size(); ++k) {
       const RelativePoseEdge& e = edges[k];
       if (!(weights[k] > 0.0) || e.from >= n || e.to >= n) continue;
@@ -278,7 +282,7 @@ bool refine_rotations(const std::vector<RelativePoseEdge>& edges, const std::vec
       const Eigen::Matrix3d j_i = -(*rotation)[e.to].transpose() * (*rotation)[e.from];
       system.add_weighted(j_i, Eigen::Matrix3d::Identity(), lambda_r, theta, fi, fj, whole[k]);
     }
-    if (!system.solve(solver, true, &x, stats)) return false;
+    if (!system.solve(true, &x, stats)) return false;
     double step = 1.0, candidate_cost = cost;
     for (int halving = 0; halving <= 4; ++halving, step *= 0.5) {
       retract(x, step, free_index, *rotation, &candidate);
@@ -332,8 +336,10 @@ bool chordal_initialize(const std::vector<RelativePoseEdge>& edges, const std::v
   // Rotations: R_j = R_i R_ij at the edge's mean rotation precision, one row of R at a time: R_j^T = R_ij^T R_i^T,
   // unknowns X_i = R_i^T. Each column of R is solved on its own, so no per-axis weight fits here: kAnisotropic
   // refines the projected estimate with the full precisions instead.
-  const std::vector<bool> whole = preconditioner_edges(edges, weights, free_index, n, true);
-  NormalEquations relaxation(num_free, 3);
+  const std::vector<bool> whole = solver == ChordalSolver::kIterative
+                                      ? preconditioner_edges(edges, weights, free_index, n, true)
+                                      : std::vector<bool>(edges.size(), false);
+  NormalEquations relaxation(num_free, 3, solver);
   Eigen::MatrixXd x;
   Eigen::Matrix3d lambda_t, lambda_r;
   for (std::size_t k = 0; k < edges.size(); ++k) {
@@ -345,7 +351,7 @@ bool chordal_initialize(const std::vector<RelativePoseEdge>& edges, const std::v
                             weights[k] * lambda_r.trace() / 3.0, free_index[e.from], free_index[e.to],
                             rotation[e.from].transpose(), rotation[e.to].transpose(), whole[k]);
   }
-  if (!relaxation.solve(solver, false, &x, stats)) return false;
+  if (!relaxation.solve(false, &x, stats)) return false;
   std::vector<Eigen::Matrix3d> solved = rotation;
   for (std::size_t i = 0; i < n; ++i)
     if (free_index[i] >= 0) solved[i] = nearest_rotation(x.middleRows<3>(3 * free_index[i]).transpose());
@@ -356,8 +362,10 @@ bool chordal_initialize(const std::vector<RelativePoseEdge>& edges, const std::v
   // Translations with those rotations: (t_j - t_i - R_i t_ij)^T P (t_j - t_i - R_i t_ij), P the edge's translation
   // precision in the world frame (M^T lambda_t M, M the residual frame's rotation R_ij^T R_i^T or R_i^T), or its
   // mean times I when isotropic: 3x3 blocks of a weighted Laplacian.
-  const std::vector<bool> translation_whole = preconditioner_edges(edges, weights, free_index, n, false);
-  NormalEquations translation(num_free, 1);
+  const std::vector<bool> translation_whole = solver == ChordalSolver::kIterative
+                                                  ? preconditioner_edges(edges, weights, free_index, n, false)
+                                                  : std::vector<bool>(edges.size(), false);
+  NormalEquations translation(num_free, 1, solver);
   for (std::size_t k = 0; k < edges.size(); ++k) {
     const RelativePoseEdge& e = edges[k];
     if (!(weights[k] > 0.0) || e.from >= n || e.to >= n) continue;
@@ -377,7 +385,7 @@ bool chordal_initialize(const std::vector<RelativePoseEdge>& edges, const std::v
     translation.add_weighted(-Eigen::Matrix3d::Identity(), Eigen::Matrix3d::Identity(), p, -rhs, fi, fj,
                              translation_whole[k]);
   }
-  if (!translation.solve(solver, false, &x, stats)) return false;
+  if (!translation.solve(false, &x, stats)) return false;
   for (std::size_t i = 0; i < n; ++i) {
     if (free_index[i] < 0) continue;
     (*poses)[i].t_m = x.middleRows<3>(3 * free_index[i]);

@@ -42,6 +42,14 @@ struct ChordalStats {
   int truncated = 0;
   int direct_fallbacks = 0;
   long long iterations = 0;
+  ChordalStats& operator+=(const ChordalStats& o) {
+    systems += o.systems;
+    iterative += o.iterative;
+    truncated += o.truncated;
+    direct_fallbacks += o.direct_fallbacks;
+    iterations += o.iterations;
+    return *this;
+  }
 };
 
 // Overwrites the poses that are not anchored with the chordal estimate. weights: per edge (0 switches it off, e.g. a

@@ -524,11 +524,7 @@ class GraphSolve {
     ChordalStats stats;
     const bool ok =
         chordal_initialize(edges_, weights_, anchored_, &p, config_.chordal_weighting, config_.chordal_solver, &stats);
-    result->chordal.systems += stats.systems;
-    result->chordal.iterative += stats.iterative;
-    result->chordal.truncated += stats.truncated;
-    result->chordal.direct_fallbacks += stats.direct_fallbacks;
-    result->chordal.iterations += stats.iterations;
+    result->chordal += stats;
     if (!ok) return false;
     for (std::size_t i = 0; i < n; ++i) {
       Eigen::Map<Eigen::Vector3d>(t_block(i)) = p[i].t_m;
