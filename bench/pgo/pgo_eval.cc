@@ -115,8 +115,6 @@ bool parse(int argc, char** argv, Options* o) {
       o->solvers = split(v);
     } else if (a == "--gnc-refine") {
       o->robust.gnc_tls_refine_rounds = std::atoi(v.c_str());
-    } else if (a == "--gnc-lone-restarts") {
-      o->robust.gnc_lone_restarts = std::atoi(v.c_str());
     } else if (a == "--gnc-cluster-trials") {
       o->robust.gnc_cluster_trials = std::atoi(v.c_str());
     } else if (a == "--gnc-cluster-gap") {
@@ -212,7 +210,6 @@ int main(int argc, char** argv) {
         "          [--drop-indefinite-coupling 1] [--gnc-cluster-trials N] [--gnc-cluster-gap P]\n"
         "          [--gnc-cluster-min K] [--gnc-lone-trials L] [--gnc-trial-iterations I]\n"
         "          [--gnc-cluster-screen 0|1] [--chordal-timing 1] [--chordal-solver direct|iterative]\n"
-        "          [--gnc-lone-restarts R]\n"
         "  DIR holds NAME.g2o (default ../shared/data/pose_graphs); an outlier fraction f injects\n"
         "  f / (1 - f) x (the file's loop closures) wrong ones, so they are f of all closures.\n"
         "  The backend's pose-graph optimizer on the public g2o benchmarks: least-squares cost, iterations\n"
@@ -232,8 +229,6 @@ int main(int argc, char** argv) {
         "  with every closure weighted (GNC's first weighted solve); --solvers none skips the solvers.\n"
         "  --chordal-solver direct|iterative: GNC's chordal estimates by sparse LDLT or by conjugate gradients\n"
         "  (PoseGraphConfig's default; the outlier-free reference stays direct).\n"
-        "  --gnc-lone-restarts R: after the TLS rounds, up to R more annealings with the lone kept closures (the\n"
-        "  only one kept in their run) held off, each kept only if it lowers the TLS cost.\n"
         "  JSON: pgo_eval.<graph>.*; results in bench/results/pose_graph.md.\n",
         argv[0]);
     return 2;
@@ -252,9 +247,6 @@ int main(int argc, char** argv) {
       opt.robust.chordal_weighting == backend::ChordalWeighting::kIsotropic ? "isotropic" : "anisotropic";
   const std::string refine =
       "; GNC-TLS refine rounds " + std::to_string(opt.robust.gnc_tls_refine_rounds) +
-      (opt.robust.gnc_lone_restarts > 0 ? "; up to " + std::to_string(opt.robust.gnc_lone_restarts) +
-                                              " restarts with the lone kept closures held off"
-                                        : "") +
       (opt.robust.gnc_cluster_trials > 0
            ? "; cluster trials up to " + std::to_string(opt.robust.gnc_cluster_trials) + " (gap " +
                  std::to_string(opt.robust.gnc_cluster_gap_poses) + " poses, at least " +
@@ -464,12 +456,7 @@ int main(int argc, char** argv) {
                 ? (" (" + std::to_string(r.gnc_outer_iterations) + " GNC, " + std::to_string(r.gnc_refine_rounds) +
                    " TLS rounds, " + std::to_string(r.gnc_clusters_readmitted) + " runs on and " +
                    std::to_string(r.gnc_lone_dropped) + " lone off in " + std::to_string(r.gnc_cluster_trials) +
-                   " trials, " + std::to_string(r.gnc_clusters_screened_out) + " screened out" +
-                   (r.gnc_lone_restarts > 0 ? ", " + std::to_string(r.gnc_lone_restarts_kept) + " of " +
-                                                  std::to_string(r.gnc_lone_restarts) + " restarts kept (" +
-                                                  std::to_string(r.gnc_lone_held) + " lone closures held off)"
-                                            : "") +
-                   ")" +
+                   " trials, " + std::to_string(r.gnc_clusters_screened_out) + " screened out)" +
                    (r.chordal.systems > 0
                         ? "; chordal: " + std::to_string(r.chordal.systems) + " systems, " +
                               std::to_string(r.chordal.iterative) + " by CG, " + std::to_string(r.chordal.truncated) +
@@ -493,7 +480,6 @@ int main(int argc, char** argv) {
                  : "") +
             (opt.robust.gnc_cluster_trials > 0 ? (opt.robust.gnc_cluster_screen ? "_clusters_screened" : "_clusters")
                                                : "") +
-            (opt.robust.gnc_lone_restarts > 0 ? "_lone_restarts" : "") +
             (opt.robust.gnc_tls_refine_rounds > 0 ? "_tls_refined." : ".");
         figures.add(q + "rmse_to_outlier_free", e, "m");
         figures.add(q + "rmse_to_outlier_free_share", e / radius, "fraction of the RMS radius");
@@ -505,11 +491,6 @@ int main(int argc, char** argv) {
           figures.add(q + "clusters_readmitted", r.gnc_clusters_readmitted, "runs switched on");
           figures.add(q + "lone_dropped", r.gnc_lone_dropped, "lone closures switched off");
           figures.add(q + "clusters_screened_out", r.gnc_clusters_screened_out, "trials skipped");
-        }
-        if (config.gnc_lone_restarts > 0) {
-          figures.add(q + "lone_restarts", r.gnc_lone_restarts, "annealings");
-          figures.add(q + "lone_restarts_kept", r.gnc_lone_restarts_kept, "annealings");
-          figures.add(q + "lone_held", r.gnc_lone_held, "closures held off");
         }
         if (r.chordal.systems > 0) {
           figures.add(q + "chordal_systems", r.chordal.systems, "linear systems");

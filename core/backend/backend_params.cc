@@ -25,9 +25,6 @@ const params::Table<PoseGraphConfig>& pose_graph_solver_params_table() {
           "GNC: the surrogate's growth per outer iteration");
     t.add("solver_gnc_tls_refine_rounds", &P::gnc_tls_refine_rounds, "rounds", params::in(0, 100), refinement,
           "after GNC, rounds of the TLS fixed point (keep what the solution fits, drop the rest, solve); 0: none");
-    t.add("solver_gnc_lone_restarts", &P::gnc_lone_restarts, "restarts", params::in(0, 100), refinement,
-          "after the TLS rounds, GNC again with the lone kept closures held off, kept only if the TLS cost falls; "
-          "0: none");
     t.flag("solver_gnc_chordal_solves", &P::gnc_chordal_solves, refinement,
            "each of GNC's weighted solves starts from the chordal estimate under its weights, not the last solve");
     t.choice("solver_chordal_weighting", &P::chordal_weighting,

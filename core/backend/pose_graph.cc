@@ -137,7 +137,6 @@ std::string check_config(const PoseGraphConfig& config) {
                     config.gnc_inner_iterations);
     if (config.gnc_tls_refine_rounds < 0)
       return format("gnc_tls_refine_rounds is %d, must be >= 0", config.gnc_tls_refine_rounds);
-    if (config.gnc_lone_restarts < 0) return format("gnc_lone_restarts is %d, must be >= 0", config.gnc_lone_restarts);
     if (config.gnc_cluster_trials < 0)
       return format("gnc_cluster_trials is %d, must be >= 0", config.gnc_cluster_trials);
     if (config.gnc_cluster_trials > 0 && config.gnc_cluster_min_closures < 1)
@@ -258,9 +257,6 @@ std::vector<std::vector<std::size_t>> closure_clusters(const std::vector<Relativ
   return clusters;
 }
 
-// A trial's TLS cost is a gain over `cost` beyond rounding: relatively, and absolutely when the cost is near 0.
-bool lowers(double trial_cost, double cost) { return trial_cost < cost - std::max(1e-9 * cost, 1e-9); }
-
 // One solve of optimize_pose_graph's input: the state (a copy of the poses), the Ceres problem over it, and GNC's
 // loop-closure weights, which the residuals read at every evaluation. Closures in `excluded` (rejected by the
 // pairwise-consistency prefilter) get weight 0 and no residual block.
@@ -277,8 +273,7 @@ class GraphSolve {
                            ceres::TAKE_OWNERSHIP),
         problem_(problem_options()),
         state_(poses.size() * kStateDim),
-        weights_(edges.size(), 1.0),
-        held_(edges.size(), false) {
+        weights_(edges.size(), 1.0) {
     for (std::size_t i = 0; i < poses.size(); ++i) {
       Eigen::Map<Eigen::Vector3d>(t_block(i)) = poses[i].t_m;
       Eigen::Map<Eigen::Quaterniond>(q_block(i)) = poses[i].q.normalized();
@@ -466,43 +461,30 @@ class GraphSolve {
 
   // Graduated non-convexity: least squares with every closure first, then the TLS surrogate from convex (mu small)
   // to the truncated loss, re-weighting the closures after each weighted solve; last, one solve with the weights
-  // rounded to 0 or 1. Then the refinements: the TLS rounds, the lone restarts, the cluster trials.
+  // rounded to 0 or 1.
   ceres::Solver::Summary solve_gnc(PoseGraphResult* result) {
-    ceres::Solver::Summary summary;
-    if (!anneal(&summary, result)) return summary;
-    refine_tls(&summary, result);
-    for (int i = 0; i < config_.gnc_lone_restarts && summary.IsSolutionUsable(); ++i)
-      if (!restart_without_lone(&summary, result)) break;
-    if (config_.gnc_cluster_trials > 0 && summary.IsSolutionUsable()) search_clusters(&summary, result);
-    return summary;
-  }
-
-  // GNC's annealing from the current weights (1, or 0 for the closures held off) and its last solve, with the
-  // closures decided. False when the refinements have nothing to start from: a solve's result was not usable, or
-  // (warm starts) least squares already fitted every closure within the threshold.
-  bool anneal(ceres::Solver::Summary* summary, PoseGraphResult* result) {
     const double c = config_.loop_closure_loss_scale_sigma;
     const bool chordal = config_.gnc_chordal_solves;
+    ceres::Solver::Summary summary;
     // From the chordal estimate the first solve only has to give the residuals GNC starts from: it is one of the
     // weighted solves. Without it, least squares to convergence from the caller's poses.
-    if (!weighted_solve(chordal ? config_.gnc_inner_iterations : config_.max_iterations, summary, result)) return false;
+    if (!weighted_solve(chordal ? config_.gnc_inner_iterations : config_.max_iterations, &summary, result))
+      return summary;
     std::vector<double> r;
     loop_closure_residuals(&r);
-    double r_max = 0.0;
-    for (std::size_t k = 0; k < r.size(); ++k)
-      if (!held_[k]) r_max = std::max(r_max, r[k]);
-    if (r_max <= c && !chordal) return false;
+    const double r_max = *std::max_element(r.begin(), r.end());
+    if (r_max <= c && !chordal) return summary;
     double mu = c * c / std::max(2.0 * r_max * r_max - c * c, 1e-12);
     for (int outer = 0; outer < config_.gnc_max_outer_iterations && r_max > c; ++outer) {
       double undecided = 0.0;
       for (std::size_t k = 0; k < edges_.size(); ++k) {
         if (!edges_[k].is_loop_closure || excluded_[k]) continue;
-        weights_[k] = held_[k] ? 0.0 : gnc_tls_weight(r[k], c, mu);
+        weights_[k] = gnc_tls_weight(r[k], c, mu);
         undecided += weights_[k] * (1.0 - weights_[k]);
       }
-      const bool usable = weighted_solve(config_.gnc_inner_iterations, summary, result);
+      const bool usable = weighted_solve(config_.gnc_inner_iterations, &summary, result);
       ++result->gnc_outer_iterations;
-      if (!usable) return false;
+      if (!usable) return summary;
       loop_closure_residuals(&r);
       if (undecided < 1e-6 && outer > 0) break;  // every weight 0 or 1: the surrogate is the TLS loss here
       mu *= config_.gnc_mu_factor;
@@ -512,47 +494,10 @@ class GraphSolve {
     // states bent by the outliers, from which least squares can settle in another basin.
     state_ = initial_state_;
     chordal_reset(result);
-    solve(options_, summary, result);
-    return true;
-  }
-
-  // PoseGraphConfig::gnc_lone_restarts: the annealing again from the caller's poses, the lone kept closures (the
-  // only one kept in their run) held off through it and released to the TLS rounds after. Kept (true, `summary`
-  // updated) when the TLS cost falls; otherwise the state before it is restored.
-  bool restart_without_lone(ceres::Solver::Summary* summary, PoseGraphResult* result) {
-    std::vector<std::size_t> lone;
-    for (const std::vector<std::size_t>& cluster : closure_clusters(edges_, excluded_, config_.gnc_cluster_gap_poses)) {
-      std::size_t on = 0, last = 0;
-      for (const std::size_t k : cluster) {
-        if (weights_[k] == 0.0) continue;
-        ++on;
-        last = k;
-      }
-      if (on == 1) lone.push_back(last);
-    }
-    if (lone.empty()) return false;
-    const double cost = tls_cost();
-    const std::vector<double> state = state_;
-    const std::vector<double> weights = weights_;
-    for (const std::size_t k : lone) held_[k] = true;
-    for (std::size_t k = 0; k < edges_.size(); ++k)
-      if (edges_[k].is_loop_closure && !excluded_[k]) weights_[k] = held_[k] ? 0.0 : 1.0;
-    state_ = initial_state_;
-    ++result->gnc_lone_restarts;
-    result->gnc_lone_held += static_cast<std::uint32_t>(lone.size());
-    ceres::Solver::Summary trial;
-    const bool annealed = anneal(&trial, result);
-    std::fill(held_.begin(), held_.end(), false);
-    if (annealed && trial.IsSolutionUsable()) refine_tls(&trial, result);
-    const double trial_cost = annealed && trial.IsSolutionUsable() && state_finite() ? tls_cost() : cost;
-    if (lowers(trial_cost, cost)) {
-      *summary = trial;
-      ++result->gnc_lone_restarts_kept;
-      return true;
-    }
-    state_ = state;
-    weights_ = weights;
-    return false;
+    solve(options_, &summary, result);
+    refine_tls(&summary, result);
+    if (config_.gnc_cluster_trials > 0 && summary.IsSolutionUsable()) search_clusters(&summary, result);
+    return summary;
   }
 
   // One of GNC's weighted solves: Ceres for at most `iterations`, from the chordal estimate under the current
@@ -594,7 +539,7 @@ class GraphSolve {
     bool changed = false;
     for (std::size_t k = 0; k < edges_.size(); ++k) {
       if (!edges_[k].is_loop_closure || excluded_[k]) continue;
-      const double w = !held_[k] && r[k] <= config_.loop_closure_loss_scale_sigma ? 1.0 : 0.0;
+      const double w = r[k] <= config_.loop_closure_loss_scale_sigma ? 1.0 : 0.0;
       changed = changed || w != weights_[k];
       weights_[k] = w;
     }
@@ -717,7 +662,7 @@ class GraphSolve {
       solve(options, &trial, result);
     }
     const double trial_cost = trial.IsSolutionUsable() && state_finite() ? tls_cost() : *cost;
-    if (lowers(trial_cost, *cost)) {
+    if (trial_cost < *cost * (1.0 - 1e-9)) {
       *cost = trial_cost;
       *summary = trial;
       return true;
@@ -742,7 +687,6 @@ class GraphSolve {
   std::vector<double> initial_state_;
   std::vector<bool> anchored_;  // per pose: held in the solve, or in no edge (the chordal estimate keeps it)
   std::vector<double> weights_;
-  std::vector<bool> held_;  // per edge: held at weight 0 through an annealing (PoseGraphConfig::gnc_lone_restarts)
   std::vector<RelativePoseResidual> residuals_;
   std::vector<ceres::ResidualBlockId> blocks_;  // per edge: its block in the problem, or null (excluded, weight 0)
 };
@@ -782,15 +726,14 @@ void PoseGraphConfig::print(std::FILE* out) const {
   std::fprintf(out,
                "pose_graph: loop_closure_loss=%s loop_closure_loss_scale_sigma=%g huber_warm_start=%s "
                "max_iterations=%d gnc_max_outer_iterations=%d gnc_mu_factor=%g gnc_inner_iterations=%d "
-               "gnc_tls_refine_rounds=%d gnc_lone_restarts=%d gnc_cluster_trials=%d gnc_cluster_gap_poses=%u "
-               "gnc_cluster_min_closures=%u "
+               "gnc_tls_refine_rounds=%d gnc_cluster_trials=%d gnc_cluster_gap_poses=%u gnc_cluster_min_closures=%u "
                "gnc_cluster_lone_trials=%u gnc_cluster_trial_iterations=%d gnc_cluster_screen=%s "
                "gnc_chordal_solves=%s chordal_weighting=%s chordal_solver=%s fix_first_pose=%s num_threads=%d "
                "prefilter_pairwise_consistency=%s\n",
                to_string(loop_closure_loss), loop_closure_loss_scale_sigma, huber_warm_start ? "true" : "false",
                max_iterations, gnc_max_outer_iterations, gnc_mu_factor, gnc_inner_iterations, gnc_tls_refine_rounds,
-               gnc_lone_restarts, gnc_cluster_trials, gnc_cluster_gap_poses, gnc_cluster_min_closures,
-               gnc_cluster_lone_trials, gnc_cluster_trial_iterations, gnc_cluster_screen ? "true" : "false",
+               gnc_cluster_trials, gnc_cluster_gap_poses, gnc_cluster_min_closures, gnc_cluster_lone_trials,
+               gnc_cluster_trial_iterations, gnc_cluster_screen ? "true" : "false",
                gnc_chordal_solves ? "true" : "false",
                chordal_weighting == ChordalWeighting::kAnisotropic ? "anisotropic" : "isotropic",
                chordal_solver == ChordalSolver::kIterative ? "iterative" : "direct", fix_first_pose ? "true" : "false",

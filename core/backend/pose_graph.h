@@ -53,14 +53,6 @@ struct PoseGraphConfig {
   // closure just past the threshold; the final solve then fits it, and it stays dropped. Each round can only lower
   // the TLS cost. 0: GNC's decisions as they are (bench/results/pose_graph.md).
   int gnc_tls_refine_rounds = 0;
-  // kGncTls, a refinement after the TLS rounds (before any cluster trials): GNC started again from the caller's
-  // poses with every lone kept closure (the only one kept in its run: closure_clusters with gnc_cluster_gap_poses)
-  // held off through the annealing and released to the TLS rounds after; kept only if it lowers the TLS cost, else
-  // the state before it is restored; up to this many times while one is kept. Where the odometry holds little, GNC
-  // can bend a stretch to fit a wrong closure and drop the right ones around it; a lone trial cannot undo that
-  // (the right ones still off, nothing pulls the stretch back), a new annealing without it can. Each costs one
-  // annealing. 0: off.
-  int gnc_lone_restarts = 0;
   // kGncTls, a refinement: each of GNC's weighted solves (the first, every outer iteration's, the last) starts from
   // the chordal estimate under the current weights (chordal_init.h: global and linear, as GNC's inner solver is meant
   // to be) instead of from the previous solve's poses, so the annealing's decisions do not follow a path bent by
@@ -144,10 +136,6 @@ struct PoseGraphResult {
   int gnc_cluster_trials = 0;
   int gnc_clusters_readmitted = 0;
   int gnc_lone_dropped = 0;  // lone closures switched off by a kept trial
-  // kGncTls with gnc_lone_restarts: the restarts run, those kept, and the lone closures held off in all of them.
-  int gnc_lone_restarts = 0;
-  int gnc_lone_restarts_kept = 0;
-  std::uint32_t gnc_lone_held = 0;
   int gnc_clusters_screened_out = 0;  // with gnc_cluster_screen: trials skipped, their closures not agreeing
   ChordalStats chordal;               // with gnc_chordal_solves: the chordal estimates' linear systems, summed
   // Where a solve's time goes: Ceres' own wall-clock time over its solves, or PoseGraphConfig::clock_s's.
